@@ -1,0 +1,285 @@
+//! The mesh as a reader found it: mixed volume cells, structured blocks and
+//! named fields, before tetrahedralization and validation.
+//!
+//! Every input reader in `tet_io` produces a [`SourceMesh`]; everything after
+//! that (splitting, scalar selection, validation, adjacency) is format-blind.
+
+use serde::{Deserialize, Serialize};
+
+/// A linear volume cell type. Node orders follow VTK's (see `vtkCellType.h`):
+/// a hexahedron is the bottom quad 0-1-2-3 then the top quad 4-5-6-7 with
+/// 0-4, 1-5, 2-6, 3-7 edges; a voxel is a hexahedron with VTK's voxel order
+/// (0,1,3,2,4,5,7,6 in hexahedron terms); a wedge is triangles 0-1-2 and
+/// 3-4-5 with 0-3, 1-4, 2-5 edges; a pyramid is the base quad 0-1-2-3 and
+/// apex 4. Orientation is not required: validation re-orients inverted tets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum CellType {
+    Tetra,
+    Hexahedron,
+    Voxel,
+    Wedge,
+    Pyramid,
+}
+
+impl CellType {
+    /// Number of nodes of the linear cell.
+    pub fn num_nodes(self) -> usize {
+        match self {
+            CellType::Tetra => 4,
+            CellType::Hexahedron | CellType::Voxel => 8,
+            CellType::Wedge => 6,
+            CellType::Pyramid => 5,
+        }
+    }
+
+    /// Maps a VTK cell type id to the linear volume cell it stands for and
+    /// the number of nodes the file stores for it. Quadratic and
+    /// higher-order cells list their corner nodes first, so keeping the first
+    /// `num_nodes()` nodes reduces them to the linear cell.
+    ///
+    /// Returns `None` for non-volume cells (vertices, lines, polygons) and
+    /// for volume cell types tetkit cannot reduce (polyhedra, Lagrange cells
+    /// with variable node counts); readers skip those and say so in a note.
+    pub fn from_vtk_id(id: u32) -> Option<(CellType, usize)> {
+        Some(match id {
+            10 => (CellType::Tetra, 4),
+            11 => (CellType::Voxel, 8),
+            12 => (CellType::Hexahedron, 8),
+            13 => (CellType::Wedge, 6),
+            14 => (CellType::Pyramid, 5),
+            24 => (CellType::Tetra, 10),      // VTK_QUADRATIC_TETRA
+            25 => (CellType::Hexahedron, 20), // VTK_QUADRATIC_HEXAHEDRON
+            26 => (CellType::Wedge, 15),      // VTK_QUADRATIC_WEDGE
+            27 => (CellType::Pyramid, 13),    // VTK_QUADRATIC_PYRAMID
+            29 => (CellType::Hexahedron, 27), // VTK_TRIQUADRATIC_HEXAHEDRON
+            32 => (CellType::Wedge, 18),      // VTK_BIQUADRATIC_QUADRATIC_WEDGE
+            33 => (CellType::Hexahedron, 24), // VTK_BIQUADRATIC_QUADRATIC_HEXAHEDRON
+            37 => (CellType::Pyramid, 14),    // VTK_TRIQUADRATIC_PYRAMID
+            _ => return None,
+        })
+    }
+
+    /// True for VTK ids of cells that have no volume (vertex, line, polygon
+    /// families); readers skip them silently except for a count in a note.
+    pub fn vtk_id_is_surface_or_lower(id: u32) -> bool {
+        matches!(id, 1..=9 | 21 | 22 | 23 | 28 | 30 | 31 | 34 | 35 | 36 | 68 | 69 | 70)
+    }
+}
+
+/// Unstructured cells in compressed-row form: cell `c` has type `types[c]`
+/// and nodes `connectivity[offsets[c]..offsets[c + 1]]`, exactly
+/// `types[c].num_nodes()` of them (readers drop higher-order nodes).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Cells {
+    pub types: Vec<CellType>,
+    pub offsets: Vec<usize>,
+    pub connectivity: Vec<u32>,
+}
+
+impl Cells {
+    /// An empty cell list ready for [`Cells::push`].
+    pub fn new() -> Self {
+        Cells { types: Vec::new(), offsets: vec![0], connectivity: Vec::new() }
+    }
+
+    /// Appends one cell. `nodes` must hold at least `cell_type.num_nodes()`
+    /// entries; only that many leading entries are kept.
+    pub fn push(&mut self, cell_type: CellType, nodes: &[u32]) {
+        let n = cell_type.num_nodes();
+        self.types.push(cell_type);
+        self.connectivity.extend_from_slice(&nodes[..n]);
+        self.offsets.push(self.connectivity.len());
+    }
+
+    pub fn len(&self) -> usize {
+        self.types.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.types.is_empty()
+    }
+
+    /// Nodes of cell `c`.
+    pub fn nodes(&self, c: usize) -> &[u32] {
+        &self.connectivity[self.offsets[c]..self.offsets[c + 1]]
+    }
+}
+
+/// A group of cells sharing one topology description.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Block {
+    /// Explicit cells referring to global point indices.
+    Unstructured(Cells),
+    /// A structured (curvilinear, rectilinear or uniform) block of
+    /// `dims[0] × dims[1] × dims[2]` points stored i-fastest starting at
+    /// global point index `first_point`. Its hexahedral cells are ordered
+    /// i-fastest too; cell (i,j,k) has nodes (i,j,k), (i+1,j,k), (i+1,j+1,k),
+    /// (i,j+1,k) and the same at k+1 (VTK hexahedron order).
+    Structured { dims: [usize; 3], first_point: usize },
+}
+
+impl Block {
+    /// Number of volume cells in the block (a structured block with any
+    /// dimension below 2 has none).
+    pub fn num_cells(&self) -> usize {
+        match self {
+            Block::Unstructured(cells) => cells.len(),
+            Block::Structured { dims, .. } => {
+                dims.iter().map(|&d| d.saturating_sub(1)).product()
+            }
+        }
+    }
+}
+
+/// A named field with `num_components` values per tuple, stored
+/// tuple-major (`values[t * num_components + c]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    pub name: String,
+    pub num_components: usize,
+    pub values: Vec<f64>,
+}
+
+impl Field {
+    pub fn new(name: impl Into<String>, num_components: usize, values: Vec<f64>) -> Self {
+        Field { name: name.into(), num_components, values }
+    }
+
+    pub fn num_tuples(&self) -> usize {
+        if self.num_components == 0 {
+            0
+        } else {
+            self.values.len() / self.num_components
+        }
+    }
+}
+
+/// What a reader produced. Invariants a reader must uphold (checked by
+/// [`SourceMesh::check`]): every cell node and structured block lies inside
+/// `points`; point fields have one tuple per point; cell fields have one
+/// tuple per cell over all blocks in order; `point_blanked`, when present,
+/// has one entry per point.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SourceMesh {
+    pub points: Vec<[f64; 3]>,
+    pub blocks: Vec<Block>,
+    pub point_fields: Vec<Field>,
+    pub cell_fields: Vec<Field>,
+    /// PLOT3D IBLANK: `true` marks a blanked point (IBLANK = 0); cells
+    /// touching a blanked point are dropped.
+    pub point_blanked: Option<Vec<bool>>,
+    /// Human-readable facts the reader wants the summary to show, e.g.
+    /// "reduced 120 quadratic tetrahedra to their corner nodes".
+    pub notes: Vec<String>,
+    /// Short name of the format read, e.g. "legacy VTK (binary)".
+    pub format: String,
+}
+
+impl SourceMesh {
+    /// Total number of volume cells over all blocks.
+    pub fn num_cells(&self) -> usize {
+        self.blocks.iter().map(Block::num_cells).sum()
+    }
+
+    /// Checks the invariants listed on the type; readers call this before
+    /// returning so a malformed file becomes an error, not a later panic.
+    pub fn check(&self) -> Result<(), String> {
+        let n = self.points.len();
+        for (b, block) in self.blocks.iter().enumerate() {
+            match block {
+                Block::Unstructured(cells) => {
+                    if cells.offsets.len() != cells.types.len() + 1 {
+                        return Err(format!("block {b}: offsets do not match cell count"));
+                    }
+                    for c in 0..cells.len() {
+                        let (lo, hi) = (cells.offsets[c], cells.offsets[c + 1]);
+                        if lo > hi || hi > cells.connectivity.len() || hi - lo != cells.types[c].num_nodes() {
+                            return Err(format!("block {b}: cell {c} has a bad node range"));
+                        }
+                    }
+                    if let Some((i, &p)) =
+                        cells.connectivity.iter().enumerate().find(|(_, &p)| p as usize >= n)
+                    {
+                        return Err(format!(
+                            "block {b}: connectivity entry {i} refers to point {p}, but there are {n} points"
+                        ));
+                    }
+                }
+                Block::Structured { dims, first_point } => {
+                    let count = dims.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
+                    match count.and_then(|c| c.checked_add(*first_point)) {
+                        Some(end) if end <= n => {}
+                        _ => {
+                            return Err(format!(
+                                "block {b}: structured dims {dims:?} at point {first_point} exceed the {n} points"
+                            ))
+                        }
+                    }
+                }
+            }
+        }
+        for f in &self.point_fields {
+            if f.num_components == 0 || f.values.len() != n * f.num_components {
+                return Err(format!(
+                    "point field '{}' has {} values, expected {} points × {} components",
+                    f.name,
+                    f.values.len(),
+                    n,
+                    f.num_components
+                ));
+            }
+        }
+        let nc = self.num_cells();
+        for f in &self.cell_fields {
+            if f.num_components == 0 || f.values.len() != nc * f.num_components {
+                return Err(format!(
+                    "cell field '{}' has {} values, expected {} cells × {} components",
+                    f.name,
+                    f.values.len(),
+                    nc,
+                    f.num_components
+                ));
+            }
+        }
+        if let Some(bl) = &self.point_blanked {
+            if bl.len() != n {
+                return Err(format!("IBLANK has {} entries for {} points", bl.len(), n));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn check_catches_out_of_range_node() {
+        let mut cells = Cells::new();
+        cells.push(CellType::Tetra, &[0, 1, 2, 7]);
+        let m = SourceMesh {
+            points: vec![[0.0; 3]; 4],
+            blocks: vec![Block::Unstructured(cells)],
+            ..Default::default()
+        };
+        let e = m.check().unwrap_err();
+        assert!(e.contains("point 7"), "{e}");
+    }
+
+    #[test]
+    fn quadratic_cells_reduce_to_corners() {
+        assert_eq!(CellType::from_vtk_id(24), Some((CellType::Tetra, 10)));
+        assert_eq!(CellType::from_vtk_id(25), Some((CellType::Hexahedron, 20)));
+        assert_eq!(CellType::from_vtk_id(5), None);
+        assert!(CellType::vtk_id_is_surface_or_lower(5));
+    }
+
+    #[test]
+    fn structured_block_cell_count() {
+        let b = Block::Structured { dims: [40, 32, 32], first_point: 0 };
+        assert_eq!(b.num_cells(), 37_479);
+        let flat = Block::Structured { dims: [4, 4, 1], first_point: 0 };
+        assert_eq!(flat.num_cells(), 0);
+    }
+}

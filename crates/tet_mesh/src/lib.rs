@@ -1,5 +1,49 @@
-//! Tetrahedral mesh core (overview filled in as modules land).
+//! Tetrahedral mesh core: everything between "a reader parsed a file" and
+//! "a validated tet mesh with adjacency".
+//!
+//! - [`SourceMesh`] — what readers produce: mixed cells, structured blocks, fields.
+//! - [`tetrahedralize`] — splits cells into conforming tets ([`SplitMode`]),
+//!   selects the scalar, merges duplicates, orients, drops degenerate cells
+//!   and returns a [`TetMesh`] with a [`ConversionReport`] of typed [`Finding`]s.
+//! - [`build_adjacency`] — face neighbours, boundary faces and convexity
+//!   ([`Adjacency`]), what MPVO sorting needs.
+//! - [`mesh_stats`] — bounds, volumes, edge lengths, max cell diameter.
+//! - [`predicates`] — exact orientation tests every geometric decision uses.
+//!
+//! ```
+//! use tet_mesh::{tetrahedralize, build_adjacency, Block, ConvertOptions, Field, SourceMesh, SplitMode};
+//! // One unit cube as a 2×2×2 structured block with a linear scalar.
+//! let mut points = Vec::new();
+//! for k in 0..2 { for j in 0..2 { for i in 0..2 { points.push([i as f64, j as f64, k as f64]); } } }
+//! let scalar = points.iter().map(|p| p[0] + p[1] + p[2]).collect();
+//! let source = SourceMesh {
+//!     points,
+//!     blocks: vec![Block::Structured { dims: [2, 2, 2], first_point: 0 }],
+//!     point_fields: vec![Field::new("s", 1, scalar)],
+//!     ..Default::default()
+//! };
+//! let opts = ConvertOptions { split: SplitMode::Five, ..Default::default() };
+//! let (mesh, _report) = tetrahedralize(&source, &opts, &mut |_| {}).unwrap();
+//! assert_eq!(mesh.tets.len(), 5);
+//! let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+//! assert_eq!(adj.boundary_faces.len(), 12);
+//! assert!(adj.convex);
+//! ```
 #![forbid(unsafe_code)]
 
+pub mod adjacency;
+pub mod convert;
+mod error;
+pub mod merge;
+pub mod predicates;
+pub mod scalar;
 pub mod source;
+pub mod split;
+pub mod stats;
+
+pub use adjacency::{build_adjacency, check_adjacency, Adjacency, FACE_OUTWARD, NO_NEIGHBOR};
+pub use convert::{check_tet_mesh, tetrahedralize, ConversionReport, ConvertOptions, Finding, NanPolicy, Step, TetMesh};
+pub use error::MeshError;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
+pub use split::SplitMode;
+pub use stats::{mesh_stats, MeshStats, Spread};

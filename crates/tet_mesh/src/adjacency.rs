@@ -1,0 +1,314 @@
+//! Face adjacency of a tetrahedral mesh: what MPVO visibility sorting walks.
+//!
+//! Face `f` of a tet is the face opposite its vertex `f`. [`FACE_OUTWARD`]
+//! lists each face's vertices in the order whose right-hand normal points out
+//! of a positively oriented tet.
+
+use crate::error::MeshError;
+use crate::predicates::{tet_orientation, TetOrientation};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Marks a face with no neighbour (on the boundary).
+pub const NO_NEIGHBOR: u32 = u32::MAX;
+
+/// Local vertex indices of face `f` (opposite vertex `f`), ordered so that
+/// the right-hand normal points outward for a positive tet.
+pub const FACE_OUTWARD: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+
+/// Neighbours across each face plus the boundary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Adjacency {
+    /// `neighbors[t][f]` is the tet across face `f` of tet `t`, or [`NO_NEIGHBOR`].
+    pub neighbors: Vec<[u32; 4]>,
+    /// Boundary faces as `tet * 4 + face`, sorted.
+    pub boundary_faces: Vec<u32>,
+    /// Whether the boundary is one closed, locally convex surface, which
+    /// makes the mesh's domain convex (and plain MPVO exact).
+    pub convex: bool,
+}
+
+/// Builds face adjacency. A face shared by more than two tets is an error
+/// naming them. Tets must be positively oriented for `convex` to be right.
+pub fn build_adjacency(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Adjacency, MeshError> {
+    let n_tets = tets.len();
+    if n_tets > (u32::MAX / 4) as usize {
+        return Err(MeshError::TooLarge { what: "tets", count: n_tets, limit: (u32::MAX / 4) as usize });
+    }
+    // Bucket every face by its smallest vertex (CSR), then match faces within
+    // each bucket: buckets hold ~24 faces, so the matching is cache-local and
+    // the whole build is linear.
+    let n_points = points.len();
+    let mut start = vec![0u32; n_points + 1];
+    for t in tets {
+        for f in 0..4 {
+            let k = face_key(t, f);
+            start[k.0 as usize + 1] += 1;
+        }
+    }
+    for i in 0..n_points {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut entries = vec![(0u32, 0u32, 0u32); n_tets * 4];
+    for (ti, t) in tets.iter().enumerate() {
+        for f in 0..4 {
+            let (a, b, c) = face_key(t, f);
+            let slot = &mut fill[a as usize];
+            entries[*slot as usize] = (b, c, (ti * 4 + f) as u32);
+            *slot += 1;
+        }
+    }
+    drop(fill);
+
+    // Split `entries` into per-chunk slices along bucket boundaries.
+    let chunk_vertices = (n_points / (rayon::current_num_threads() * 8)).max(1024);
+    let mut slices: Vec<(&mut [(u32, u32, u32)], usize)> = Vec::new();
+    {
+        let mut rest: &mut [(u32, u32, u32)] = &mut entries;
+        let mut v = 0usize;
+        while v < n_points {
+            let v_end = (v + chunk_vertices).min(n_points);
+            let len = (start[v_end] - start[v]) as usize;
+            let (head, tail) = rest.split_at_mut(len);
+            slices.push((head, v));
+            rest = tail;
+            v = v_end;
+        }
+    }
+    let results: Vec<Result<Vec<(u32, u32)>, MeshError>> = slices
+        .into_par_iter()
+        .map(|(slice, v0)| {
+            let mut pairs = Vec::with_capacity(slice.len() / 2);
+            let mut offset = 0usize;
+            let mut v = v0;
+            while offset < slice.len() {
+                let len = (start[v + 1] - start[v]) as usize;
+                let bucket = &mut slice[offset..offset + len];
+                bucket.sort_unstable();
+                let mut i = 0;
+                while i < bucket.len() {
+                    let mut j = i + 1;
+                    while j < bucket.len() && bucket[j].0 == bucket[i].0 && bucket[j].1 == bucket[i].1 {
+                        j += 1;
+                    }
+                    match j - i {
+                        1 => pairs.push((bucket[i].2, NO_NEIGHBOR)),
+                        2 => pairs.push((bucket[i].2, bucket[i + 1].2)),
+                        _ => {
+                            return Err(MeshError::NonManifoldFace {
+                                face: [v as u32, bucket[i].0, bucket[i].1],
+                                tets: bucket[i..j].iter().map(|e| e.2 / 4).collect(),
+                            })
+                        }
+                    }
+                    i = j;
+                }
+                offset += len;
+                v += 1;
+            }
+            Ok(pairs)
+        })
+        .collect();
+
+    let mut neighbors = vec![[NO_NEIGHBOR; 4]; n_tets];
+    let mut boundary_faces = Vec::new();
+    for r in results {
+        for (fa, fb) in r? {
+            let (ta, la) = ((fa / 4) as usize, (fa % 4) as usize);
+            if fb == NO_NEIGHBOR {
+                boundary_faces.push(fa);
+            } else {
+                let (tb, lb) = ((fb / 4) as usize, (fb % 4) as usize);
+                neighbors[ta][la] = tb as u32;
+                neighbors[tb][lb] = ta as u32;
+            }
+        }
+    }
+    boundary_faces.sort_unstable();
+    let convex = boundary_is_convex(points, tets, &boundary_faces);
+    Ok(Adjacency { neighbors, boundary_faces, convex })
+}
+
+#[inline]
+fn face_key(t: &[u32; 4], f: usize) -> (u32, u32, u32) {
+    let [i, j, k] = FACE_OUTWARD[f];
+    let mut v = [t[i], t[j], t[k]];
+    v.sort_unstable();
+    (v[0], v[1], v[2])
+}
+
+/// Outward-ordered vertex ids of boundary face `tet * 4 + face`.
+pub fn boundary_face_vertices(tets: &[[u32; 4]], packed: u32) -> [u32; 3] {
+    let t = &tets[(packed / 4) as usize];
+    let [i, j, k] = FACE_OUTWARD[(packed % 4) as usize];
+    [t[i], t[j], t[k]]
+}
+
+/// A closed, connected surface that is locally convex at every edge bounds a
+/// convex body. Each boundary edge must join exactly two boundary faces, and
+/// the far vertex of one face must not lie strictly outside the other's
+/// plane (exact predicate; coplanar is allowed, e.g. a box's flat sides).
+fn boundary_is_convex(points: &[[f64; 3]], tets: &[[u32; 4]], boundary: &[u32]) -> bool {
+    if boundary.is_empty() {
+        return false;
+    }
+    let faces: Vec<[u32; 3]> = boundary.iter().map(|&b| boundary_face_vertices(tets, b)).collect();
+    // Directed edge (a→b) of face i; its twin (b→a) belongs to the neighbour face.
+    let mut edge_face: HashMap<(u32, u32), usize> = HashMap::with_capacity(faces.len() * 3);
+    for (i, f) in faces.iter().enumerate() {
+        for e in 0..3 {
+            if edge_face.insert((f[e], f[(e + 1) % 3]), i).is_some() {
+                return false; // non-manifold boundary
+            }
+        }
+    }
+    let mut parent: Vec<usize> = (0..faces.len()).collect();
+    fn find(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for (i, f) in faces.iter().enumerate() {
+        for e in 0..3 {
+            let (a, b) = (f[e], f[(e + 1) % 3]);
+            let Some(&j) = edge_face.get(&(b, a)) else { return false };
+            let g = faces[j];
+            let far = g.iter().copied().find(|&v| v != a && v != b).expect("triangle has a third vertex");
+            let p = |v: u32| &points[v as usize];
+            if tet_orientation(p(f[0]), p(f[1]), p(f[2]), p(far)) == TetOrientation::Positive {
+                return false; // `far` is outside face i's plane: a reflex edge
+            }
+            let (ri, rj) = (find(&mut parent, i), find(&mut parent, j));
+            parent[ri] = rj;
+        }
+    }
+    let root = find(&mut parent, 0);
+    (0..faces.len()).all(|i| find(&mut parent, i) == root)
+}
+
+/// Invariant checker for tests and fuzzing: neighbours are symmetric, share
+/// exactly the face's three vertices, and boundary faces are exactly the
+/// faces without a neighbour.
+pub fn check_adjacency(tets: &[[u32; 4]], adj: &Adjacency) -> Result<(), String> {
+    let mut boundary = Vec::new();
+    for (t, nb) in adj.neighbors.iter().enumerate() {
+        for f in 0..4 {
+            let n = nb[f];
+            if n == NO_NEIGHBOR {
+                boundary.push((t * 4 + f) as u32);
+                continue;
+            }
+            let back = adj.neighbors[n as usize].iter().filter(|&&x| x == t as u32).count();
+            if back == 0 {
+                return Err(format!("tet {t} face {f} → tet {n}, but not back"));
+            }
+            let k = face_key(&tets[t], f);
+            let shared = (0..4).any(|g| face_key(&tets[n as usize], g) == k);
+            if !shared {
+                return Err(format!("tet {t} face {f} and tet {n} do not share that face"));
+            }
+        }
+    }
+    if boundary != adj.boundary_faces {
+        return Err("boundary face list does not match the faces without neighbours".into());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::split::split_hexahedron;
+
+    fn cube_mesh(offset: f64) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+        let p = vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0., 1., 0.],
+            [0., 0., 1.],
+            [1., 0., 1.],
+            [1., 1., 1.],
+            [0., 1., 1.],
+        ]
+        .into_iter()
+        .map(|q: [f64; 3]| [q[0] + offset, q[1] + offset, q[2] + offset])
+        .collect::<Vec<_>>();
+        let mut tets = vec![];
+        split_hexahedron(&[0, 1, 2, 3, 4, 5, 6, 7], &mut |t| tets.push(t));
+        // Orient positively.
+        for t in &mut tets {
+            if tet_orientation(&p[t[0] as usize], &p[t[1] as usize], &p[t[2] as usize], &p[t[3] as usize])
+                == TetOrientation::Negative
+            {
+                t.swap(0, 1);
+            }
+        }
+        (p, tets)
+    }
+
+    #[test]
+    fn cube_is_convex_with_twelve_boundary_faces() {
+        let (p, tets) = cube_mesh(1e6);
+        let adj = build_adjacency(&p, &tets).unwrap();
+        assert_eq!(adj.boundary_faces.len(), 12);
+        assert!(adj.convex);
+        check_adjacency(&tets, &adj).unwrap();
+    }
+
+    #[test]
+    fn l_shape_is_not_convex() {
+        // Two cubes sharing an edge only through a third: an L of three cubes.
+        let mut pts = vec![];
+        let mut tets = vec![];
+        let cubes = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]];
+        let mut id = std::collections::HashMap::new();
+        for c in cubes {
+            let corners = [
+                [0., 0., 0.],
+                [1., 0., 0.],
+                [1., 1., 0.],
+                [0., 1., 0.],
+                [0., 0., 1.],
+                [1., 0., 1.],
+                [1., 1., 1.],
+                [0., 1., 1.],
+            ];
+            let mut h = [0u32; 8];
+            for (k, q) in corners.iter().enumerate() {
+                let pos = [c[0] + q[0], c[1] + q[1], c[2] + q[2]];
+                let key = pos.map(|x| (x * 2.0) as i64);
+                h[k] = *id.entry(key).or_insert_with(|| {
+                    pts.push(pos);
+                    (pts.len() - 1) as u32
+                });
+            }
+            split_hexahedron(&h, &mut |t| tets.push(t));
+        }
+        for t in &mut tets {
+            if tet_orientation(&pts[t[0] as usize], &pts[t[1] as usize], &pts[t[2] as usize], &pts[t[3] as usize])
+                == TetOrientation::Negative
+            {
+                t.swap(0, 1);
+            }
+        }
+        let adj = build_adjacency(&pts, &tets).unwrap();
+        check_adjacency(&tets, &adj).unwrap();
+        assert!(!adj.convex);
+        // 3 cubes × 12 boundary triangles, less both sides of the 2 shared squares.
+        assert_eq!(adj.boundary_faces.len(), 3 * 12 - 2 * 2 * 2);
+    }
+
+    #[test]
+    fn face_shared_by_three_tets_is_an_error_naming_them() {
+        let p = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [0., 0., -1.], [0.2, 0.2, 2.0]];
+        let tets = vec![[0, 1, 2, 3], [0, 2, 1, 4], [0, 1, 2, 5]];
+        match build_adjacency(&p, &tets) {
+            Err(MeshError::NonManifoldFace { tets, .. }) => assert_eq!(tets, vec![0, 1, 2]),
+            other => panic!("expected a non-manifold error, got {other:?}"),
+        }
+    }
+}

@@ -1,0 +1,375 @@
+//! From a [`SourceMesh`] to a validated [`TetMesh`]: scalar selection,
+//! duplicate merging, cell splitting, orientation, dropping of degenerate
+//! and non-finite cells, cell→point averaging and compaction. Every repair
+//! becomes a [`Finding`] in the [`ConversionReport`].
+
+use crate::error::MeshError;
+use crate::merge::merge_duplicate_points;
+use crate::predicates::{signed_tet_volume, tet_orientation, TetOrientation};
+use crate::scalar::{select_scalar, ScalarLocation};
+use crate::source::{Field, SourceMesh};
+use crate::split::{split_blocks, SplitMode};
+use rayon::prelude::*;
+use std::fmt;
+
+/// What to do with non-finite scalars or coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NanPolicy {
+    /// Fail, naming the first offending vertex or cell.
+    #[default]
+    Error,
+    /// Drop every tet touching a non-finite value, and report how many.
+    Drop,
+}
+
+/// Options for [`tetrahedralize`].
+#[derive(Debug, Clone)]
+pub struct ConvertOptions {
+    pub split: SplitMode,
+    /// Scalar selector (see [`crate::scalar`]); `None` picks the first field.
+    pub scalar: Option<String>,
+    pub nan: NanPolicy,
+    /// Points closer than this fraction of the bounding-box diagonal (L∞)
+    /// are merged. 0 merges only identical coordinates.
+    pub merge_tolerance_rel: f64,
+    /// Carry the source's point fields (other than the scalar) along, for
+    /// export and later scalar choices.
+    pub keep_point_fields: bool,
+}
+
+impl Default for ConvertOptions {
+    fn default() -> Self {
+        ConvertOptions {
+            split: SplitMode::Five,
+            scalar: None,
+            nan: NanPolicy::Error,
+            merge_tolerance_rel: 1e-10,
+            keep_point_fields: true,
+        }
+    }
+}
+
+/// A validated tetrahedral mesh: every tet positively oriented and of
+/// non-zero volume, every point used, every scalar finite.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TetMesh {
+    pub points: Vec<[f64; 3]>,
+    pub tets: Vec<[u32; 4]>,
+    /// Name of the scalar (e.g. `density`, `Momentum:mag`, `x`, `zero`).
+    pub scalar_name: String,
+    /// One finite value per point.
+    pub scalar: Vec<f64>,
+    /// Other per-point fields carried from the source.
+    pub point_fields: Vec<Field>,
+}
+
+/// One repair or fact found while converting; `Display` is the summary line.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Finding {
+    MergedDuplicatePoints { count: usize, tolerance: f64, with_different_scalar: usize },
+    DroppedBlankedCells { count: usize },
+    DroppedNonFinite { tets: usize, first_source_point: Option<usize> },
+    ReorientedTets { count: usize },
+    DroppedZeroVolumeTets { count: usize, first_source_cell: usize },
+    RemovedUnusedPoints { count: usize },
+    CellScalarAveragedToPoints { name: String },
+    NoScalarField,
+    ReaderNote(String),
+}
+
+impl fmt::Display for Finding {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Finding::MergedDuplicatePoints { count, tolerance, with_different_scalar } => {
+                write!(f, "merged {count} duplicate points (tolerance {tolerance:.3e})")?;
+                if *with_different_scalar > 0 {
+                    write!(f, "; {with_different_scalar} of them had a different scalar (the first point's value was kept)")?;
+                }
+                Ok(())
+            }
+            Finding::DroppedBlankedCells { count } => write!(f, "dropped {count} cells touching IBLANK = 0 points"),
+            Finding::DroppedNonFinite { tets, first_source_point } => {
+                write!(f, "dropped {tets} tets touching non-finite values (--nan drop)")?;
+                if let Some(p) = first_source_point {
+                    write!(f, "; first such source point: {p}")?;
+                }
+                Ok(())
+            }
+            Finding::ReorientedTets { count } => write!(f, "re-oriented {count} inverted tets"),
+            Finding::DroppedZeroVolumeTets { count, first_source_cell } => {
+                write!(f, "dropped {count} zero-volume tets (first from source cell {first_source_cell})")
+            }
+            Finding::RemovedUnusedPoints { count } => write!(f, "removed {count} unused points"),
+            Finding::CellScalarAveragedToPoints { name } => {
+                write!(f, "cell scalar '{name}' became point data by volume-weighted averaging")
+            }
+            Finding::NoScalarField => write!(f, "warning: the input has no field; the scalar is a constant 0 (use --scalar x|y|z for a coordinate)"),
+            Finding::ReaderNote(s) => f.write_str(s),
+        }
+    }
+}
+
+/// Counts and findings of one conversion.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ConversionReport {
+    pub source_points: usize,
+    pub source_cells: usize,
+    /// Tets produced by splitting, before any were dropped.
+    pub split_tets: usize,
+    pub findings: Vec<Finding>,
+}
+
+/// Steps reported to the progress callback.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    Merge,
+    Split,
+    Validate,
+}
+
+/// Converts and validates. `progress` is told when each step starts.
+pub fn tetrahedralize(
+    source: &SourceMesh,
+    opts: &ConvertOptions,
+    progress: &mut dyn FnMut(Step),
+) -> Result<(TetMesh, ConversionReport), MeshError> {
+    source.check().map_err(MeshError::BadSource)?;
+    if source.num_cells() == 0 {
+        return Err(MeshError::NoCells { points: source.points.len() });
+    }
+    if source.points.len() >= u32::MAX as usize {
+        return Err(MeshError::TooLarge { what: "points", count: source.points.len(), limit: u32::MAX as usize - 1 });
+    }
+    let mut report = ConversionReport {
+        source_points: source.points.len(),
+        source_cells: source.num_cells(),
+        ..Default::default()
+    };
+    report.findings.extend(source.notes.iter().cloned().map(Finding::ReaderNote));
+    let scalar = select_scalar(source, opts.scalar.as_deref())?;
+    if scalar.location == ScalarLocation::Constant {
+        report.findings.push(Finding::NoScalarField);
+    }
+
+    // Non-finite input: error early (naming the source index) unless dropping.
+    let bad_point = |i: usize| {
+        let p = &source.points[i];
+        !p.iter().all(|c| c.is_finite()) || (scalar.location == ScalarLocation::Point && !scalar.values[i].is_finite())
+    };
+    if opts.nan == NanPolicy::Error {
+        if let Some(i) = (0..source.points.len()).find(|&i| !source.points[i].iter().all(|c| c.is_finite())) {
+            return Err(MeshError::NonFinitePoint { point: i, coords: source.points[i] });
+        }
+        if scalar.location != ScalarLocation::Constant {
+            if let Some((i, &v)) = scalar.values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(if scalar.location == ScalarLocation::Point {
+                    MeshError::NonFiniteScalar { name: scalar.name.clone(), vertex: i, value: v }
+                } else {
+                    MeshError::NonFiniteCellScalar { name: scalar.name.clone(), cell: i, value: v }
+                });
+            }
+        }
+    }
+
+    // 1. Merge duplicates (tolerance relative to the bounding-box diagonal).
+    progress(Step::Merge);
+    let diag = bbox_diagonal(&source.points);
+    let tolerance = opts.merge_tolerance_rel * diag;
+    let rep = merge_duplicate_points(&source.points, tolerance);
+    let merged = rep.iter().enumerate().filter(|&(i, &r)| r as usize != i).count();
+    if merged > 0 {
+        let with_different_scalar = if scalar.location == ScalarLocation::Point {
+            rep.iter().enumerate().filter(|&(i, &r)| scalar.values[i] != scalar.values[r as usize]).count()
+        } else {
+            0
+        };
+        report.findings.push(Finding::MergedDuplicatePoints { count: merged, tolerance, with_different_scalar });
+    }
+
+    // 2. Split cells on merged ids (so the min-id rule conforms across
+    //    duplicates) and drop IBLANKed cells.
+    progress(Step::Split);
+    let (split, blanked) = split_blocks(&source.blocks, opts.split, &rep, source.point_blanked.as_deref());
+    report.split_tets = split.tets.len();
+    if blanked > 0 {
+        report.findings.push(Finding::DroppedBlankedCells { count: blanked });
+    }
+
+    // 3. Orient exactly, drop flat tets and (with --nan drop) non-finite ones.
+    progress(Step::Validate);
+    let cell_bad = |c: u32| scalar.location == ScalarLocation::Cell && !scalar.values[c as usize].is_finite();
+    #[derive(Clone, Copy, PartialEq)]
+    enum Verdict {
+        Keep,
+        Flipped,
+        Flat,
+        NonFinite,
+    }
+    let verdicts: Vec<Verdict> = split
+        .tets
+        .par_iter()
+        .zip(split.source_cell.par_iter())
+        .map(|(t, &c)| {
+            if opts.nan == NanPolicy::Drop && (t.iter().any(|&v| bad_point(v as usize)) || cell_bad(c)) {
+                return Verdict::NonFinite;
+            }
+            let p = |k: usize| &source.points[t[k] as usize];
+            match tet_orientation(p(0), p(1), p(2), p(3)) {
+                TetOrientation::Positive => Verdict::Keep,
+                TetOrientation::Negative => Verdict::Flipped,
+                TetOrientation::Flat => Verdict::Flat,
+            }
+        })
+        .collect();
+    let mut tets = Vec::with_capacity(split.tets.len());
+    let mut tet_cell = Vec::with_capacity(split.tets.len());
+    let (mut flipped, mut flat, mut nonfinite) = (0usize, 0usize, 0usize);
+    let mut first_flat_cell = None;
+    for ((t, &c), v) in split.tets.iter().zip(&split.source_cell).zip(&verdicts) {
+        match v {
+            Verdict::Keep => tets.push(*t),
+            Verdict::Flipped => {
+                flipped += 1;
+                tets.push([t[1], t[0], t[2], t[3]]);
+            }
+            Verdict::Flat => {
+                flat += 1;
+                first_flat_cell.get_or_insert(c as usize);
+                continue;
+            }
+            Verdict::NonFinite => {
+                nonfinite += 1;
+                continue;
+            }
+        }
+        tet_cell.push(c);
+    }
+    drop(verdicts);
+    if nonfinite > 0 {
+        let first_source_point = (0..source.points.len()).find(|&i| bad_point(i));
+        report.findings.push(Finding::DroppedNonFinite { tets: nonfinite, first_source_point });
+    }
+    if flipped > 0 {
+        report.findings.push(Finding::ReorientedTets { count: flipped });
+    }
+    if flat > 0 {
+        report.findings.push(Finding::DroppedZeroVolumeTets { count: flat, first_source_cell: first_flat_cell.unwrap_or(0) });
+    }
+    if tets.is_empty() {
+        return Err(MeshError::Empty {
+            reason: format!("{} tets from splitting: {flat} flat, {nonfinite} non-finite", split.tets.len()),
+        });
+    }
+    drop(split);
+
+    // 4. Per-point scalar: point data as is; cell data by volume-weighted
+    //    averaging over the kept tets (the tets of a cell sum to its volume).
+    let n_src = source.points.len();
+    let point_scalar: Vec<f64> = match scalar.location {
+        ScalarLocation::Point => scalar.values.clone(),
+        ScalarLocation::Constant => vec![0.0; n_src],
+        ScalarLocation::Cell => {
+            let mut sum = vec![0.0f64; n_src];
+            let mut weight = vec![0.0f64; n_src];
+            for (t, &c) in tets.iter().zip(&tet_cell) {
+                let p = |k: usize| &source.points[t[k] as usize];
+                let vol = signed_tet_volume(p(0), p(1), p(2), p(3)).abs();
+                let val = scalar.values[c as usize];
+                for &v in t {
+                    sum[v as usize] += vol * val;
+                    weight[v as usize] += vol;
+                }
+            }
+            report.findings.push(Finding::CellScalarAveragedToPoints { name: scalar.name.clone() });
+            sum.iter().zip(&weight).map(|(s, w)| if *w > 0.0 { s / w } else { 0.0 }).collect()
+        }
+    };
+
+    // 5. Compact: keep only used points, in source order.
+    let mut new_index = vec![u32::MAX; n_src];
+    for t in &tets {
+        for &v in t {
+            new_index[v as usize] = 0;
+        }
+    }
+    let mut kept: Vec<usize> = Vec::new();
+    for (i, slot) in new_index.iter_mut().enumerate() {
+        if *slot == 0 {
+            *slot = kept.len() as u32;
+            kept.push(i);
+        }
+    }
+    let unused = n_src - kept.len() - merged;
+    if unused > 0 {
+        report.findings.push(Finding::RemovedUnusedPoints { count: unused });
+    }
+    tets.par_iter_mut().for_each(|t| {
+        for v in t.iter_mut() {
+            *v = new_index[*v as usize];
+        }
+    });
+    let points: Vec<[f64; 3]> = kept.iter().map(|&i| source.points[i]).collect();
+    let scalar_values: Vec<f64> = kept.iter().map(|&i| point_scalar[i]).collect();
+    let point_fields = if opts.keep_point_fields {
+        source
+            .point_fields
+            .iter()
+            .map(|f| {
+                let nc = f.num_components;
+                let mut values = Vec::with_capacity(kept.len() * nc);
+                for &i in &kept {
+                    values.extend_from_slice(&f.values[i * nc..(i + 1) * nc]);
+                }
+                Field { name: f.name.clone(), num_components: nc, values }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Ok((TetMesh { points, tets, scalar_name: scalar.name, scalar: scalar_values, point_fields }, report))
+}
+
+fn bbox_diagonal(points: &[[f64; 3]]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points.iter().filter(|p| p.iter().all(|c| c.is_finite())) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let d2: f64 = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum();
+    if d2.is_finite() {
+        d2.sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// Invariant checker for tests and fuzzing: indices in range, every tet
+/// exactly positive, every point used, scalars finite.
+pub fn check_tet_mesh(m: &TetMesh) -> Result<(), String> {
+    if m.scalar.len() != m.points.len() {
+        return Err(format!("{} scalars for {} points", m.scalar.len(), m.points.len()));
+    }
+    let mut used = vec![false; m.points.len()];
+    for (i, t) in m.tets.iter().enumerate() {
+        if t.iter().any(|&v| v as usize >= m.points.len()) {
+            return Err(format!("tet {i} refers to a missing point"));
+        }
+        let p = |k: usize| &m.points[t[k] as usize];
+        if tet_orientation(p(0), p(1), p(2), p(3)) != TetOrientation::Positive {
+            return Err(format!("tet {i} is not positively oriented"));
+        }
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    if let Some(i) = used.iter().position(|u| !u) {
+        return Err(format!("point {i} is unused"));
+    }
+    if let Some(i) = m.scalar.iter().position(|s| !s.is_finite()) {
+        return Err(format!("scalar at point {i} is not finite"));
+    }
+    Ok(())
+}

@@ -1,0 +1,28 @@
+use thiserror::Error;
+
+/// Why a source mesh could not become a valid tetrahedral mesh.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum MeshError {
+    #[error("the input is inconsistent: {0}")]
+    BadSource(String),
+    #[error("no volume cells to convert (the input has {points} points and no tetrahedra, hexahedra, wedges or pyramids)")]
+    NoCells { points: usize },
+    #[error("no scalar named '{name}'; this file has: {available}")]
+    UnknownScalar { name: String, available: String },
+    #[error("scalar '{name}' is {value} at vertex {vertex} (source point index); pass --nan drop to drop the cells touching such vertices")]
+    NonFiniteScalar { name: String, vertex: usize, value: f64 },
+    #[error("scalar '{name}' is {value} in cell {cell} (source cell index); pass --nan drop to drop such cells")]
+    NonFiniteCellScalar { name: String, cell: usize, value: f64 },
+    #[error("point {point} (source index) has a non-finite coordinate {coords:?}; pass --nan drop to drop the cells touching it")]
+    NonFinitePoint { point: usize, coords: [f64; 3] },
+    #[error("face ({}, {}, {}) is shared by {} tets ({}), but a face can bound at most two; the mesh overlaps itself there", face[0], face[1], face[2], tets.len(), join(tets))]
+    NonManifoldFace { face: [u32; 3], tets: Vec<u32> },
+    #[error("every cell was dropped ({reason}); nothing is left to convert")]
+    Empty { reason: String },
+    #[error("the mesh has {count} {what}, more than the {limit} the bundle format can index")]
+    TooLarge { what: &'static str, count: usize, limit: usize },
+}
+
+fn join(v: &[u32]) -> String {
+    v.iter().map(|t| format!("tet {t}")).collect::<Vec<_>>().join(", ")
+}

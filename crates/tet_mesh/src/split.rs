@@ -1,0 +1,327 @@
+//! Splitting hexahedra, voxels, wedges and pyramids into tetrahedra so that
+//! neighbouring cells agree on every shared face.
+//!
+//! The conforming rule: every quadrilateral face is cut along the diagonal
+//! through its smallest (global, after duplicate merging) vertex id, and
+//! each cell is coned from its own smallest vertex over the faces that do
+//! not contain it. Two cells sharing a quad see the same four ids and so pick
+//! the same diagonal, whatever their types or orientations; faces containing
+//! the cone apex are cut through it, which is that face's smallest id too.
+//! A hexahedron gives 6 tets, a wedge 3, a pyramid 2.
+//!
+//! Structured blocks may instead use the classic alternating 5-tet split:
+//! cells of even and odd parity (i+j+k) use the two mirror-image 5-tet
+//! decompositions, whose face diagonals match across every shared face of
+//! one block. (Across the interface of two blocks the parities need not
+//! agree; the min-id rule conforms everywhere.)
+
+use crate::source::{Block, CellType};
+use rayon::prelude::*;
+
+/// How structured blocks are split; unstructured hexahedra always use the
+/// conforming min-id rule (6 tets).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SplitMode {
+    /// Alternating 5-tet split for structured blocks.
+    #[default]
+    Five,
+    /// Min-id 6-tet split everywhere.
+    Six,
+}
+
+/// Tets and, for each tet, the index of the source cell it came from
+/// (counted over all blocks in order, as cell fields are).
+#[derive(Debug, Clone, Default)]
+pub struct SplitCells {
+    pub tets: Vec<[u32; 4]>,
+    pub source_cell: Vec<u32>,
+}
+
+const HEX_FACES: [[usize; 4]; 6] =
+    [[0, 1, 2, 3], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+const WEDGE_QUADS: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
+const WEDGE_TRIS: [[usize; 3]; 2] = [[0, 1, 2], [3, 4, 5]];
+/// VTK voxel node i sits at hexahedron node VOXEL_TO_HEX[i]'s place.
+const VOXEL_AS_HEX: [usize; 8] = [0, 1, 3, 2, 4, 5, 7, 6];
+
+/// Cuts quad (a, b, c, d) (cyclic order) along the diagonal through its
+/// smallest id.
+#[inline]
+fn split_quad(q: [u32; 4]) -> [[u32; 3]; 2] {
+    let [a, b, c, d] = q;
+    if a.min(c) < b.min(d) {
+        [[a, b, c], [a, c, d]]
+    } else {
+        [[a, b, d], [b, c, d]]
+    }
+}
+
+#[inline]
+fn argmin(ids: &[u32]) -> usize {
+    let mut best = 0;
+    for (i, &v) in ids.iter().enumerate() {
+        if v < ids[best] {
+            best = i;
+        }
+    }
+    best
+}
+
+/// Splits one hexahedron (VTK order, global ids) by the min-id rule.
+pub fn split_hexahedron(h: &[u32; 8], out: &mut impl FnMut([u32; 4])) {
+    let apex = argmin(h);
+    for f in HEX_FACES.iter().filter(|f| !f.contains(&apex)) {
+        for t in split_quad([h[f[0]], h[f[1]], h[f[2]], h[f[3]]]) {
+            out([h[apex], t[0], t[1], t[2]]);
+        }
+    }
+}
+
+/// Splits one wedge (VTK order, global ids) by the min-id rule.
+pub fn split_wedge(w: &[u32; 6], out: &mut impl FnMut([u32; 4])) {
+    let apex = argmin(w);
+    for f in WEDGE_TRIS.iter().filter(|f| !f.contains(&apex)) {
+        out([w[apex], w[f[0]], w[f[1]], w[f[2]]]);
+    }
+    for f in WEDGE_QUADS.iter().filter(|f| !f.contains(&apex)) {
+        for t in split_quad([w[f[0]], w[f[1]], w[f[2]], w[f[3]]]) {
+            out([w[apex], t[0], t[1], t[2]]);
+        }
+    }
+}
+
+/// Splits one pyramid (base quad 0-3, apex 4) along its base's min-id diagonal.
+pub fn split_pyramid(p: &[u32; 5], out: &mut impl FnMut([u32; 4])) {
+    for t in split_quad([p[0], p[1], p[2], p[3]]) {
+        out([p[4], t[0], t[1], t[2]]);
+    }
+}
+
+/// Splits one structured hexahedron (VTK order) with the alternating 5-tet
+/// pattern; `odd` is the parity of i+j+k.
+pub fn split_hexahedron_five(h: &[u32; 8], odd: bool, out: &mut impl FnMut([u32; 4])) {
+    const EVEN: [[usize; 4]; 5] = [[1, 3, 4, 6], [0, 1, 3, 4], [2, 1, 3, 6], [5, 1, 4, 6], [7, 3, 4, 6]];
+    const ODD: [[usize; 4]; 5] = [[0, 2, 5, 7], [1, 0, 2, 5], [3, 0, 2, 7], [4, 0, 5, 7], [6, 2, 5, 7]];
+    for t in if odd { &ODD } else { &EVEN } {
+        out([h[t[0]], h[t[1]], h[t[2]], h[t[3]]]);
+    }
+}
+
+/// Splits a single cell of any type (nodes in VTK order, already mapped to
+/// global merged ids) with the min-id rule.
+pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32; 4])) {
+    match cell_type {
+        CellType::Tetra => out([nodes[0], nodes[1], nodes[2], nodes[3]]),
+        CellType::Hexahedron => {
+            let h: [u32; 8] = nodes[..8].try_into().expect("8 nodes");
+            split_hexahedron(&h, out)
+        }
+        CellType::Voxel => {
+            let mut h = [0u32; 8];
+            for (i, &hi) in VOXEL_AS_HEX.iter().enumerate() {
+                h[hi] = nodes[i];
+            }
+            split_hexahedron(&h, out)
+        }
+        CellType::Wedge => split_wedge(&nodes[..6].try_into().expect("6 nodes"), out),
+        CellType::Pyramid => split_pyramid(&nodes[..5].try_into().expect("5 nodes"), out),
+    }
+}
+
+/// Node ids (VTK hexahedron order) of structured cell (i, j, k).
+#[inline]
+fn structured_hex(dims: [usize; 3], first_point: usize, i: usize, j: usize, k: usize) -> [usize; 8] {
+    let id = |i: usize, j: usize, k: usize| first_point + i + dims[0] * (j + dims[1] * k);
+    [
+        id(i, j, k),
+        id(i + 1, j, k),
+        id(i + 1, j + 1, k),
+        id(i, j + 1, k),
+        id(i, j, k + 1),
+        id(i + 1, j, k + 1),
+        id(i + 1, j + 1, k + 1),
+        id(i, j + 1, k + 1),
+    ]
+}
+
+/// Splits every block into tets.
+///
+/// `point_id` maps a source point index to the id the tets should use (the
+/// duplicate-merged id); the min-id rule is evaluated on those ids so that
+/// cells meeting only through merged duplicates still conform. Cells with a
+/// node where `skip_point` is true (PLOT3D IBLANK = 0) are left out; the
+/// number of such cells is returned beside the tets.
+pub fn split_blocks(
+    blocks: &[Block],
+    mode: SplitMode,
+    point_id: &[u32],
+    skip_point: Option<&[bool]>,
+) -> (SplitCells, usize) {
+    let mut out = SplitCells::default();
+    let mut skipped = 0usize;
+    let mut cell_base = 0usize;
+    let skipped_cell = |nodes: &[usize]| skip_point.is_some_and(|s| nodes.iter().any(|&n| s[n]));
+    for block in blocks {
+        match block {
+            Block::Unstructured(cells) => {
+                let mut buf = [0u32; 8];
+                for c in 0..cells.len() {
+                    let nodes = cells.nodes(c);
+                    if let Some(s) = skip_point {
+                        if nodes.iter().any(|&n| s[n as usize]) {
+                            skipped += 1;
+                            continue;
+                        }
+                    }
+                    for (b, &n) in buf.iter_mut().zip(nodes) {
+                        *b = point_id[n as usize];
+                    }
+                    let src = (cell_base + c) as u32;
+                    split_cell(cells.types[c], &buf[..nodes.len()], &mut |t| {
+                        out.tets.push(t);
+                        out.source_cell.push(src);
+                    });
+                }
+            }
+            &Block::Structured { dims, first_point } => {
+                let [ni, nj, nk] = [dims[0].saturating_sub(1), dims[1].saturating_sub(1), dims[2].saturating_sub(1)];
+                let per_cell = match mode {
+                    SplitMode::Five => 5,
+                    SplitMode::Six => 6,
+                };
+                // One k-layer of cells per parallel task: layers are independent.
+                let layers: Vec<(Vec<[u32; 4]>, Vec<u32>, usize)> = (0..nk)
+                    .into_par_iter()
+                    .map(|k| {
+                        let mut tets = Vec::with_capacity(ni * nj * per_cell);
+                        let mut src = Vec::with_capacity(ni * nj * per_cell);
+                        let mut skipped = 0usize;
+                        for j in 0..nj {
+                            for i in 0..ni {
+                                let nodes = structured_hex(dims, first_point, i, j, k);
+                                if skipped_cell(&nodes) {
+                                    skipped += 1;
+                                    continue;
+                                }
+                                let h = nodes.map(|n| point_id[n]);
+                                let cell = (cell_base + i + ni * (j + nj * k)) as u32;
+                                let mut push = |t| {
+                                    tets.push(t);
+                                    src.push(cell);
+                                };
+                                match mode {
+                                    SplitMode::Five => split_hexahedron_five(&h, (i + j + k) % 2 == 1, &mut push),
+                                    SplitMode::Six => split_hexahedron(&h, &mut push),
+                                }
+                            }
+                        }
+                        (tets, src, skipped)
+                    })
+                    .collect();
+                for (t, s, sk) in layers {
+                    out.tets.extend_from_slice(&t);
+                    out.source_cell.extend_from_slice(&s);
+                    skipped += sk;
+                }
+            }
+        }
+        cell_base += block.num_cells();
+    }
+    (out, skipped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::predicates::signed_tet_volume;
+
+    fn cube_points() -> Vec<[f64; 3]> {
+        // VTK hexahedron order for the unit cube.
+        vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0., 1., 0.],
+            [0., 0., 1.],
+            [1., 0., 1.],
+            [1., 1., 1.],
+            [0., 1., 1.],
+        ]
+    }
+
+    fn total_abs_volume(p: &[[f64; 3]], tets: &[[u32; 4]]) -> f64 {
+        tets.iter()
+            .map(|t| signed_tet_volume(&p[t[0] as usize], &p[t[1] as usize], &p[t[2] as usize], &p[t[3] as usize]).abs())
+            .sum()
+    }
+
+    #[test]
+    fn every_hex_labelling_gives_six_tets_filling_the_cube() {
+        let p = cube_points();
+        // All 8 choices of which corner holds the smallest id, plus shuffled ids.
+        let perms: [[u32; 8]; 4] =
+            [[0, 1, 2, 3, 4, 5, 6, 7], [7, 6, 5, 4, 3, 2, 1, 0], [3, 0, 6, 1, 7, 2, 5, 4], [5, 7, 0, 2, 6, 1, 4, 3]];
+        for ids in perms {
+            // Points indexed by id: place cube corner c at index ids[c].
+            let mut pts = vec![[0.0; 3]; 8];
+            for c in 0..8 {
+                pts[ids[c] as usize] = p[c];
+            }
+            let mut tets = vec![];
+            split_hexahedron(&ids, &mut |t| tets.push(t));
+            assert_eq!(tets.len(), 6);
+            assert!((total_abs_volume(&pts, &tets) - 1.0).abs() < 1e-12, "{ids:?}");
+        }
+    }
+
+    #[test]
+    fn five_split_fills_the_cube_for_both_parities() {
+        let p = cube_points();
+        let ids = [0, 1, 2, 3, 4, 5, 6, 7];
+        for odd in [false, true] {
+            let mut tets = vec![];
+            split_hexahedron_five(&ids, odd, &mut |t| tets.push(t));
+            assert_eq!(tets.len(), 5);
+            assert!((total_abs_volume(&p, &tets) - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn wedge_and_pyramid_fill_their_volume() {
+        let p = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [0., 1., 1.]];
+        for ids in [[0u32, 1, 2, 3, 4, 5], [5, 4, 3, 2, 1, 0], [2, 4, 0, 5, 1, 3]] {
+            let mut pts = vec![[0.0; 3]; 6];
+            for c in 0..6 {
+                pts[ids[c] as usize] = p[c];
+            }
+            let mut tets = vec![];
+            split_wedge(&ids, &mut |t| tets.push(t));
+            assert_eq!(tets.len(), 3);
+            assert!((total_abs_volume(&pts, &tets) - 0.5).abs() < 1e-12);
+        }
+        let p = vec![[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.], [0.5, 0.5, 1.]];
+        let mut tets = vec![];
+        split_pyramid(&[0, 1, 2, 3, 4], &mut |t| tets.push(t));
+        assert_eq!(tets.len(), 2);
+        assert!((total_abs_volume(&p, &tets) - 1.0 / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn voxel_is_reordered_before_splitting() {
+        // Voxel order: x fastest, then y, then z.
+        let p = vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [0., 1., 0.],
+            [1., 1., 0.],
+            [0., 0., 1.],
+            [1., 0., 1.],
+            [0., 1., 1.],
+            [1., 1., 1.],
+        ];
+        let mut tets = vec![];
+        split_cell(CellType::Voxel, &[0, 1, 2, 3, 4, 5, 6, 7], &mut |t| tets.push(t));
+        assert_eq!(tets.len(), 6);
+        assert!((total_abs_volume(&p, &tets) - 1.0).abs() < 1e-12);
+    }
+}

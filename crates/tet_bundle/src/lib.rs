@@ -1,1 +1,249 @@
-//! (in progress)
+//! The tetkit bundle (`.tetb`): one validated tetrahedral mesh with its
+//! scalar, point fields, face adjacency and the facts later stages need.
+//!
+//! Main types: [`Bundle`] (what is stored), [`BundleMeta`] (the bincode
+//! header section), [`BundleError`]. [`Bundle::write`] writes atomically
+//! (temporary file in the same directory, fsync, rename), so an interrupted
+//! run never leaves a truncated file under the final name; [`Bundle::read`]
+//! rejects a wrong magic, a newer format version, a bad section checksum or
+//! inconsistent arrays with an error naming the section and the path.
+//!
+//! The byte layout is specified in `formats/bundle.md`.
+//!
+//! ```
+//! use tet_bundle::{Bundle, BundleMeta};
+//! use tet_mesh::{build_adjacency, TetMesh};
+//! let mesh = TetMesh {
+//!     points: vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]],
+//!     tets: vec![[0, 1, 2, 3]],
+//!     scalar_name: "s".into(),
+//!     scalar: vec![0.0, 1.0, 2.0, 3.0],
+//!     point_fields: vec![],
+//! };
+//! let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+//! let bundle = Bundle::new(mesh, adjacency, BundleMeta::default());
+//! let dir = tempfile::tempdir().unwrap();
+//! let path = dir.path().join("one.tetb");
+//! bundle.write(&path).unwrap();
+//! let back = Bundle::read(&path).unwrap();
+//! assert_eq!(back.mesh, bundle.mesh);
+//! assert!(back.adjacency.convex);
+//! ```
+
+#![forbid(unsafe_code)]
+
+mod layout;
+
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use tet_mesh::{Adjacency, Field, MeshStats, TetMesh, NO_NEIGHBOR};
+
+pub use layout::{SectionEntry, FORMAT_VERSION, MAGIC};
+
+/// Failures reading or writing a bundle; the path comes last.
+#[derive(Debug, thiserror::Error)]
+pub enum BundleError {
+    #[error("cannot {action} {}: {source}", path.display())]
+    Io {
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+        path: PathBuf,
+    },
+    #[error("not a tetkit bundle (the file does not start with the .tetb magic): {}", path.display())]
+    BadMagic { path: PathBuf },
+    #[error("bundle format version {found} is newer than this tetkit reads (up to {supported}); upgrade tetkit: {}", path.display())]
+    NewerVersion { found: u32, supported: u32, path: PathBuf },
+    #[error("section '{section}' is corrupt (checksum {found:08x}, expected {expected:08x}): {}", path.display())]
+    BadChecksum { section: String, expected: u32, found: u32, path: PathBuf },
+    #[error("bundle is damaged: {what}: {}", path.display())]
+    Damaged { what: String, path: PathBuf },
+    #[error("bundle is missing required section '{section}': {}", path.display())]
+    MissingSection { section: &'static str, path: PathBuf },
+}
+
+/// Facts about the mesh and how it was made, stored in the `META` section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct BundleMeta {
+    /// tetkit version that wrote the bundle.
+    pub writer: String,
+    /// Input path and format as given to `tetprep convert`.
+    pub source_path: String,
+    pub source_format: String,
+    pub source_points: u64,
+    pub source_cells: u64,
+    /// Tets produced by splitting, before degenerate ones were dropped.
+    pub split_tets: u64,
+    /// `"5"`, `"6"` or `"delaunay"`.
+    pub split: String,
+    /// True when the tets are a Delaunay tetrahedralization of their convex
+    /// hull (MPVO is exact on them).
+    pub delaunay: bool,
+    /// The conversion report, one finding per line.
+    pub findings: Vec<String>,
+    pub stats: MeshStats,
+}
+
+/// Everything a bundle holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bundle {
+    pub meta: BundleMeta,
+    pub mesh: TetMesh,
+    pub adjacency: Adjacency,
+}
+
+/// Field descriptors stored in `META`'s companion `FIELDS` section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct FieldInfo {
+    name: String,
+    num_components: u32,
+}
+
+/// What `META` holds on disk: the meta plus what is needed to decode arrays.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct MetaRecord {
+    meta: BundleMeta,
+    scalar_name: String,
+    convex: bool,
+    fields: Vec<FieldInfo>,
+}
+
+impl Bundle {
+    /// A bundle from a validated mesh; `meta.stats` is recomputed here so it
+    /// always describes the stored mesh.
+    pub fn new(mesh: TetMesh, adjacency: Adjacency, mut meta: BundleMeta) -> Bundle {
+        meta.stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
+        if meta.writer.is_empty() {
+            meta.writer = format!("tetkit {}", env!("CARGO_PKG_VERSION"));
+        }
+        Bundle { meta, mesh, adjacency }
+    }
+
+    /// Serializes to bytes (the exact file content).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let record = MetaRecord {
+            meta: self.meta.clone(),
+            scalar_name: self.mesh.scalar_name.clone(),
+            convex: self.adjacency.convex,
+            fields: self
+                .mesh
+                .point_fields
+                .iter()
+                .map(|f| FieldInfo { name: f.name.clone(), num_components: f.num_components as u32 })
+                .collect(),
+        };
+        let meta_bytes =
+            bincode::serde::encode_to_vec(&record, bincode::config::standard()).expect("meta always encodes");
+        let mut sections: Vec<(String, Vec<u8>)> = vec![
+            ("META".into(), meta_bytes),
+            ("POINTS".into(), layout::f64s_to_le(self.mesh.points.as_flattened())),
+            ("TETS".into(), layout::u32s_to_le(self.mesh.tets.as_flattened())),
+            ("SCALAR".into(), layout::f64s_to_le(&self.mesh.scalar)),
+            ("NEIGHBOR".into(), layout::u32s_to_le(self.adjacency.neighbors.as_flattened())),
+            ("BOUNDARY".into(), layout::u32s_to_le(&self.adjacency.boundary_faces)),
+        ];
+        for (i, f) in self.mesh.point_fields.iter().enumerate() {
+            sections.push((format!("FLD{i:05}"), layout::f64s_to_le(&f.values)));
+        }
+        layout::assemble(&sections)
+    }
+
+    /// Writes atomically: a temporary file beside `path` is written, synced
+    /// and renamed over `path`.
+    pub fn write(&self, path: &Path) -> Result<(), BundleError> {
+        let io = |action: &'static str| move |source| BundleError::Io { action, source, path: path.to_path_buf() };
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let mut tmp = tempfile::Builder::new()
+            .prefix(".tetb-")
+            .suffix(".tmp")
+            .tempfile_in(dir)
+            .map_err(io("create a temporary file beside"))?;
+        tmp.write_all(&self.to_bytes()).map_err(io("write"))?;
+        tmp.as_file().sync_all().map_err(io("sync"))?;
+        tmp.persist(path).map_err(|e| BundleError::Io { action: "rename into place", source: e.error, path: path.to_path_buf() })?;
+        Ok(())
+    }
+
+    /// Reads and verifies a bundle file.
+    pub fn read(path: &Path) -> Result<Bundle, BundleError> {
+        let bytes = std::fs::read(path).map_err(|source| BundleError::Io { action: "read", source, path: path.to_path_buf() })?;
+        Bundle::from_bytes(&bytes, path)
+    }
+
+    /// Parses and verifies bundle bytes; `path` is only used in errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Bundle, BundleError> {
+        let damaged = |what: String| BundleError::Damaged { what, path: path.to_path_buf() };
+        let table = layout::parse(bytes, path)?;
+        let get = |name: &'static str| -> Result<&[u8], BundleError> {
+            table
+                .iter()
+                .find(|e| e.name == name)
+                .map(|e| &bytes[e.offset as usize..(e.offset + e.length) as usize])
+                .ok_or(BundleError::MissingSection { section: name, path: path.to_path_buf() })
+        };
+        let (record, _): (MetaRecord, usize) =
+            bincode::serde::decode_from_slice(get("META")?, bincode::config::standard().with_limit::<{ 1 << 26 }>())
+                .map_err(|e| damaged(format!("META section does not decode ({e})")))?;
+        let points: Vec<[f64; 3]> = layout::le_to_f64s(get("POINTS")?, 3).map_err(|e| damaged(format!("POINTS: {e}")))?
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        let tets: Vec<[u32; 4]> = layout::le_to_u32s(get("TETS")?, 4).map_err(|e| damaged(format!("TETS: {e}")))?
+            .chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect();
+        let scalar = layout::le_to_f64s(get("SCALAR")?, 1).map_err(|e| damaged(format!("SCALAR: {e}")))?;
+        let neighbors: Vec<[u32; 4]> = layout::le_to_u32s(get("NEIGHBOR")?, 4)
+            .map_err(|e| damaged(format!("NEIGHBOR: {e}")))?
+            .chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect();
+        let boundary_faces = layout::le_to_u32s(get("BOUNDARY")?, 1).map_err(|e| damaged(format!("BOUNDARY: {e}")))?;
+
+        let np = points.len();
+        if let Some(i) = tets.iter().position(|t| t.iter().any(|&v| v as usize >= np)) {
+            return Err(damaged(format!("tet {i} refers to a point beyond the {np} points")));
+        }
+        if scalar.len() != np {
+            return Err(damaged(format!("{} scalars for {np} points", scalar.len())));
+        }
+        if neighbors.len() != tets.len() {
+            return Err(damaged(format!("{} neighbour entries for {} tets", neighbors.len(), tets.len())));
+        }
+        if let Some(i) = neighbors.iter().position(|n| n.iter().any(|&t| t != NO_NEIGHBOR && t as usize >= tets.len())) {
+            return Err(damaged(format!("tet {i} has a neighbour beyond the {} tets", tets.len())));
+        }
+        if let Some(b) = boundary_faces.iter().find(|&&b| (b / 4) as usize >= tets.len()) {
+            return Err(damaged(format!("boundary face {b} refers to a missing tet")));
+        }
+        let mut point_fields = Vec::with_capacity(record.fields.len());
+        for (i, info) in record.fields.iter().enumerate() {
+            let tag = format!("FLD{i:05}");
+            let sec = table
+                .iter()
+                .find(|e| e.name == tag)
+                .map(|e| &bytes[e.offset as usize..(e.offset + e.length) as usize])
+                .ok_or_else(|| damaged(format!("field '{}' has no section {tag}", info.name)))?;
+            let nc = info.num_components as usize;
+            let values = layout::le_to_f64s(sec, nc.max(1)).map_err(|e| damaged(format!("{tag}: {e}")))?;
+            if nc == 0 || values.len() != np * nc {
+                return Err(damaged(format!("field '{}' has {} values for {np} points × {nc}", info.name, values.len())));
+            }
+            point_fields.push(Field { name: info.name.clone(), num_components: nc, values });
+        }
+        Ok(Bundle {
+            meta: record.meta,
+            mesh: TetMesh { points, tets, scalar_name: record.scalar_name, scalar, point_fields },
+            adjacency: Adjacency { neighbors, boundary_faces, convex: record.convex },
+        })
+    }
+
+    /// Lists the sections of a bundle file without decoding them (for `info`).
+    pub fn sections(bytes: &[u8], path: &Path) -> Result<Vec<SectionEntry>, BundleError> {
+        layout::parse(bytes, path)
+    }
+}

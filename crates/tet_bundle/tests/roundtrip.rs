@@ -1,0 +1,109 @@
+use std::path::Path;
+use tet_bundle::{Bundle, BundleError, BundleMeta, FORMAT_VERSION};
+use tet_mesh::{build_adjacency, tetrahedralize, Block, ConvertOptions, Field, SourceMesh};
+
+/// A 3×3×3-point structured block with a scalar and a vector field.
+fn sample_bundle() -> Bundle {
+    let mut points = Vec::new();
+    for k in 0..3 {
+        for j in 0..3 {
+            for i in 0..3 {
+                points.push([i as f64, j as f64 * 0.5, k as f64 * 2.0]);
+            }
+        }
+    }
+    let s = points.iter().map(|p| p[0] * p[1] - p[2]).collect();
+    let v = points.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+    let source = SourceMesh {
+        points,
+        blocks: vec![Block::Structured { dims: [3, 3, 3], first_point: 0 }],
+        point_fields: vec![Field::new("s", 1, s), Field::new("v", 3, v)],
+        ..Default::default()
+    };
+    let (mesh, report) = tetrahedralize(&source, &ConvertOptions::default(), &mut |_| {}).unwrap();
+    let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let meta = BundleMeta {
+        source_format: "test".into(),
+        split_tets: report.split_tets as u64,
+        split: "5".into(),
+        findings: report.findings.iter().map(|f| f.to_string()).collect(),
+        ..Default::default()
+    };
+    Bundle::new(mesh, adj, meta)
+}
+
+#[test]
+fn write_then_read_gives_the_same_bundle() {
+    let b = sample_bundle();
+    assert_eq!(b.mesh.tets.len(), 8 * 5);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.tetb");
+    b.write(&path).unwrap();
+    let back = Bundle::read(&path).unwrap();
+    assert_eq!(back, b);
+    // Atomic write leaves no temporary files behind.
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+}
+
+#[test]
+fn rejects_wrong_magic_newer_version_and_bad_checksum() {
+    let bytes = sample_bundle().to_bytes();
+    let p = Path::new("x.tetb");
+
+    let mut wrong = bytes.clone();
+    wrong[1] = b'X';
+    assert!(matches!(Bundle::from_bytes(&wrong, p), Err(BundleError::BadMagic { .. })));
+    assert!(matches!(Bundle::from_bytes(b"# vtk DataFile", p), Err(BundleError::BadMagic { .. })));
+
+    let mut newer = bytes.clone();
+    newer[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
+    let e = Bundle::from_bytes(&newer, p).unwrap_err();
+    assert!(matches!(e, BundleError::NewerVersion { found, .. } if found == FORMAT_VERSION + 1), "{e}");
+
+    // Flip one byte in the middle of the POINTS payload.
+    let sections = Bundle::sections(&bytes, p).unwrap();
+    let pts = sections.iter().find(|s| s.name == "POINTS").unwrap();
+    let mut corrupt = bytes.clone();
+    corrupt[(pts.offset + pts.length / 2) as usize] ^= 0x40;
+    let e = Bundle::from_bytes(&corrupt, p).unwrap_err();
+    assert!(matches!(&e, BundleError::BadChecksum { section, .. } if section == "POINTS"), "{e}");
+    assert!(e.to_string().contains("x.tetb"));
+}
+
+#[test]
+fn every_truncation_and_byte_flip_is_an_error_not_a_panic() {
+    let bytes = sample_bundle().to_bytes();
+    let p = Path::new("t.tetb");
+    for len in (0..bytes.len()).step_by(7) {
+        assert!(Bundle::from_bytes(&bytes[..len], p).is_err(), "truncated at {len} was accepted");
+    }
+    let good = Bundle::from_bytes(&bytes, p).unwrap();
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    for _ in 0..2000 {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        let i = (seed % bytes.len() as u64) as usize;
+        let mut b = bytes.clone();
+        b[i] ^= 1 << (seed >> 60 & 7);
+        // Either detected, or the flip hit padding and changed nothing.
+        if let Ok(x) = Bundle::from_bytes(&b, p) {
+            assert_eq!(x, good, "flip at byte {i} changed the content undetected");
+        }
+    }
+}
+
+#[test]
+fn sample_in_formats_reads() {
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/samples/cube5.tetb"));
+    let b = Bundle::read(path).unwrap();
+    assert_eq!(b.mesh.points.len(), 8);
+    assert_eq!(b.mesh.tets.len(), 5);
+    assert_eq!(b.mesh.scalar_name, "s");
+    assert_eq!(b.adjacency.boundary_faces.len(), 12);
+    assert!(b.adjacency.convex);
+    assert!((b.meta.stats.total_volume - 1.0).abs() < 1e-12);
+    tet_mesh::check_tet_mesh(&b.mesh).unwrap();
+    tet_mesh::check_adjacency(&b.mesh.tets, &b.adjacency).unwrap();
+}

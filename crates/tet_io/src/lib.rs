@@ -21,6 +21,13 @@
 #![forbid(unsafe_code)]
 
 pub mod cursor;
+pub mod gmsh;
+pub mod nrrd;
+pub mod plot3d;
+pub mod raw;
+pub mod tetgen;
+pub mod vtk_legacy;
+pub mod vtk_xml;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -160,9 +167,141 @@ impl fmt::Display for Format {
     }
 }
 
+
+/// Options for [`read_file`] beyond the path.
+#[derive(Debug, Clone, Default)]
+pub struct ReadOptions {
+    /// Force a format instead of detecting it.
+    pub format: Option<Format>,
+    /// PLOT3D Q (solution) file.
+    pub q_path: Option<PathBuf>,
+    pub plot3d: plot3d::Plot3dOptions,
+    /// Layout of a raw volume (required for [`Format::Raw`]).
+    pub raw: Option<raw::RawSpec>,
+}
+
 /// Reads a single in-memory file of a format that needs no companion file or
-/// options (legacy VTK, VTK XML, Gmsh). Used by tests and fuzz targets.
+/// options (legacy VTK, VTK XML, Gmsh, NRRD with attached data). Used by
+/// tests and fuzz targets.
 pub fn read_bytes(bytes: &[u8], format: Format) -> Result<SourceMesh, FormatError> {
-    let _ = (bytes, format);
-    Err(FormatError::new(Location::Whole, "reader not merged yet"))
+    match format {
+        Format::VtkLegacy => vtk_legacy::read(bytes),
+        Format::VtkXml => vtk_xml::read(bytes),
+        Format::Gmsh => gmsh::read(bytes),
+        Format::Nrrd => nrrd::read(bytes, &mut |name: &str| {
+            Err(std::io::Error::new(std::io::ErrorKind::NotFound, format!("detached data file '{name}' not available")))
+        }),
+        Format::Plot3d => plot3d::read(bytes, None, &plot3d::Plot3dOptions::default()),
+        Format::Pvtu | Format::TetGen | Format::Raw => Err(FormatError::new(
+            Location::Whole,
+            format!("{format} input needs companion files or options; use read_file"),
+        )),
+    }
+}
+
+fn lower_ext(path: &Path) -> String {
+    path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase()
+}
+
+/// Detects the format from the first bytes, then the extension.
+pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<Format> {
+    let ext = lower_ext(path);
+    if matches!(ext.as_str(), "pvtu" | "pvts" | "pvti") {
+        return Some(Format::Pvtu);
+    }
+    let text = String::from_utf8_lossy(&head[..head.len().min(4096)]);
+    if text.starts_with("# vtk DataFile") {
+        return Some(Format::VtkLegacy);
+    }
+    if text.contains("<VTKFile") {
+        return Some(if text.contains("type=\"PUnstructuredGrid\"") { Format::Pvtu } else { Format::VtkXml });
+    }
+    if text.trim_start().starts_with("$MeshFormat") {
+        return Some(Format::Gmsh);
+    }
+    if text.starts_with("NRRD000") {
+        return Some(Format::Nrrd);
+    }
+    match ext.as_str() {
+        "vtk" => Some(Format::VtkLegacy),
+        "vtu" | "vts" | "vti" | "vtr" => Some(Format::VtkXml),
+        "msh" => Some(Format::Gmsh),
+        "node" | "ele" => Some(Format::TetGen),
+        "nrrd" | "nhdr" => Some(Format::Nrrd),
+        "raw" if opts.raw.is_some() => Some(Format::Raw),
+        _ if opts.raw.is_some() => Some(Format::Raw),
+        "xyz" | "x" | "g" | "p3d" | "grd" | "bin" | "q" | "fmt" => Some(Format::Plot3d),
+        _ if opts.q_path.is_some() => Some(Format::Plot3d),
+        _ => None,
+    }
+}
+
+fn read_all(path: &Path) -> Result<Vec<u8>, ReadError> {
+    std::fs::read(path).map_err(|source| ReadError::Io { source, path: path.to_path_buf() })
+}
+
+/// Reads any supported input file (with its companions) into a [`SourceMesh`].
+pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadError> {
+    let format = match opts.format {
+        Some(f) => f,
+        None => {
+            if lower_ext(path) == "ele" {
+                Format::TetGen
+            } else {
+                let bytes = read_all(path)?;
+                let head = &bytes[..bytes.len().min(4096)];
+                detect_format(path, head, opts).ok_or_else(|| ReadError::UnknownFormat {
+                    hint: "the content matches no known header and the extension is not recognised".into(),
+                    path: path.to_path_buf(),
+                })?
+            }
+        }
+    };
+    let malformed = |e: FormatError, main: &Path, companion: Option<&Path>| ReadError::Malformed {
+        format,
+        message: e.message,
+        at: e.at,
+        path: if e.in_companion { companion.unwrap_or(main).to_path_buf() } else { main.to_path_buf() },
+    };
+    match format {
+        Format::Pvtu => vtk_xml::read_pvtu(path),
+        Format::TetGen => {
+            let (node, ele) = tetgen::companion_paths(path);
+            let node_bytes = read_all(&node)?;
+            let ele_bytes = read_all(&ele)?;
+            tetgen::read(&node_bytes, &ele_bytes).map_err(|e| malformed(e, &node, Some(&ele)))
+        }
+        Format::Plot3d => {
+            let xyz = read_all(path)?;
+            let q = match &opts.q_path {
+                Some(q) => Some(read_all(q)?),
+                None => None,
+            };
+            plot3d::read(&xyz, q.as_deref(), &opts.plot3d).map_err(|e| malformed(e, path, opts.q_path.as_deref()))
+        }
+        Format::Raw => {
+            let spec = opts.raw.as_ref().ok_or_else(|| ReadError::MissingOption {
+                format,
+                what: "--dims, --type and --endian".into(),
+                path: path.to_path_buf(),
+            })?;
+            let bytes = read_all(path)?;
+            raw::read(&bytes, spec).map_err(|e| malformed(e, path, None))
+        }
+        Format::Nrrd => {
+            let bytes = read_all(path)?;
+            let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+            let mut detached: Option<PathBuf> = None;
+            let result = nrrd::read(&bytes, &mut |name: &str| {
+                let p = dir.join(name);
+                detached = Some(p.clone());
+                std::fs::read(p)
+            });
+            result.map_err(|e| malformed(e, path, detached.as_deref()))
+        }
+        Format::VtkLegacy | Format::VtkXml | Format::Gmsh => {
+            let bytes = read_all(path)?;
+            read_bytes(&bytes, format).map_err(|e| malformed(e, path, None))
+        }
+    }
 }

@@ -1,0 +1,184 @@
+//! Command-line definition and dispatch.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// Convert meshes, curvilinear grids and volumes into validated tetrahedral
+/// bundles (.tetb) for tetlut and tetview.
+///
+/// Exit codes: 0 success, 1 unexpected failure, 2 bad command line,
+/// 3 unreadable or malformed input, 4 the mesh cannot be made valid,
+/// 5 the output cannot be written or a bundle cannot be read.
+#[derive(Debug, Parser)]
+#[command(name = "tetprep", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Convert an input mesh, grid or volume into a bundle.
+    ///
+    /// Formats (detected from content or extension; --format to force):
+    /// legacy VTK (.vtk), VTK XML (.vtu .vts .vti .pvtu), PLOT3D grid (+ --q
+    /// solution), Gmsh (.msh 2.2/4.1), TetGen (.node/.ele), NRRD (.nrrd
+    /// .nhdr), raw volumes (--format raw --dims --type --endian).
+    ///
+    /// Example: tetprep convert bluntfinxyz.bin --q bluntfinq.bin --scalar density -o bluntfin.tetb
+    Convert(ConvertArgs),
+    /// Print a bundle's counts, bounds, scalar range, cell sizes and boundary facts.
+    Info {
+        bundle: PathBuf,
+        /// Machine-readable JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write a bundle's tets and every per-vertex field to VTK XML (.vtu) for ParaView.
+    Export {
+        bundle: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SplitArg {
+    #[value(name = "5")]
+    Five,
+    #[value(name = "6")]
+    Six,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum NanArg {
+    Error,
+    Drop,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum EndianArg {
+    Little,
+    Big,
+}
+
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// Input file (for TetGen either the .node or the .ele).
+    pub input: PathBuf,
+    /// Output bundle.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Input format: vtk, vtk-xml, pvtu, plot3d, gmsh, tetgen, raw, nrrd.
+    #[arg(long, value_parser = parse_format)]
+    pub format: Option<tet_io::Format>,
+    /// Scalar to keep: a field name (a vector gives its magnitude), NAME:x|y|z|N
+    /// for a component, NAME:mag, or x|y|z for a coordinate. Default: the first
+    /// point field, else the first cell field. A wrong name lists what the file has.
+    #[arg(long)]
+    pub scalar: Option<String>,
+    /// Structured grids: alternating 5-tet split or conforming 6-tet split.
+    /// Unstructured hexahedra always use the conforming 6-tet split.
+    #[arg(long, value_enum, default_value = "5")]
+    pub split: SplitArg,
+    /// Non-finite scalars or coordinates: fail (naming the first), or drop the tets touching them.
+    #[arg(long, value_enum, default_value = "error")]
+    pub nan: NanArg,
+    /// Merge points closer than this fraction of the bounding-box diagonal.
+    #[arg(long, default_value_t = 1e-10)]
+    pub merge_tolerance: f64,
+    /// Do not carry the input's other point fields into the bundle.
+    #[arg(long)]
+    pub scalar_only: bool,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bars or summary (errors are still printed).
+    #[arg(short, long)]
+    pub quiet: bool,
+
+    #[command(flatten, next_help_heading = "PLOT3D")]
+    pub plot3d: Plot3dArgs,
+    #[command(flatten, next_help_heading = "Raw volumes")]
+    pub raw: RawArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct Plot3dArgs {
+    /// PLOT3D Q (solution) file.
+    #[arg(long)]
+    pub q: Option<PathBuf>,
+    /// Byte order (default: detected).
+    #[arg(long, value_enum)]
+    pub plot3d_endian: Option<EndianArg>,
+    /// Planes layout instead of whole (cannot be detected).
+    #[arg(long)]
+    pub plot3d_planes: bool,
+    /// Ratio of specific heats for derived fields.
+    #[arg(long, default_value_t = 1.4)]
+    pub gamma: f64,
+}
+
+#[derive(Debug, Args)]
+pub struct RawArgs {
+    /// Raw volume size in voxels: NX,NY,NZ.
+    #[arg(long, value_parser = parse_usize3)]
+    pub dims: Option<[usize; 3]>,
+    /// Raw voxel type: i8 u8 i16 u16 i32 u32 i64 u64 f32 f64.
+    #[arg(long = "type")]
+    pub voxel_type: Option<String>,
+    /// Raw byte order.
+    #[arg(long, value_enum)]
+    pub endian: Option<EndianArg>,
+    /// Raw voxel spacing: SX,SY,SZ.
+    #[arg(long, value_parser = parse_f64x3, default_value = "1,1,1")]
+    pub spacing: [f64; 3],
+    /// Raw volume origin: OX,OY,OZ.
+    #[arg(long, value_parser = parse_f64x3, default_value = "0,0,0")]
+    pub origin: [f64; 3],
+    /// Bytes to skip at the start of a raw file.
+    #[arg(long, default_value_t = 0)]
+    pub header_bytes: usize,
+}
+
+fn parse_format(s: &str) -> Result<tet_io::Format, String> {
+    tet_io::Format::from_name(s).ok_or_else(|| {
+        let names: Vec<_> = tet_io::Format::ALL.iter().map(|f| f.name()).collect();
+        format!("unknown format '{s}'; known: {}", names.join(", "))
+    })
+}
+
+fn parse_usize3(s: &str) -> Result<[usize; 3], String> {
+    let v: Vec<usize> = s.split(',').map(|t| t.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    v.try_into().map_err(|_| format!("expected three comma-separated integers, got '{s}'"))
+}
+
+fn parse_f64x3(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    v.try_into().map_err(|_| format!("expected three comma-separated numbers, got '{s}'"))
+}
+
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Convert(args) => crate::convert::run(args),
+        Command::Info { bundle, json } => crate::info::run(&bundle, json),
+        Command::Export { bundle, output } => crate::info::export(&bundle, &output),
+    }
+}
+
+/// Maps an error chain to the documented exit code.
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        if cause.downcast_ref::<tet_io::ReadError>().is_some() {
+            return 3;
+        }
+        if cause.downcast_ref::<tet_mesh::MeshError>().is_some() {
+            return 4;
+        }
+        if cause.downcast_ref::<tet_bundle::BundleError>().is_some() || cause.downcast_ref::<std::io::Error>().is_some() {
+            return 5;
+        }
+    }
+    1
+}

@@ -1,0 +1,161 @@
+//! `tetprep convert`: read → tetrahedralize → validate → adjacency → write.
+
+use crate::cli::{ConvertArgs, EndianArg, NanArg, SplitArg};
+use anyhow::{bail, Context};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use std::time::{Duration, Instant};
+use tet_bundle::{Bundle, BundleMeta};
+use tet_io::cursor::Endian;
+use tet_io::{plot3d::Plot3dOptions, raw::RawSpec, ReadOptions};
+use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions, NanPolicy, SplitMode, Step};
+
+fn endian(e: EndianArg) -> Endian {
+    match e {
+        EndianArg::Little => Endian::Little,
+        EndianArg::Big => Endian::Big,
+    }
+}
+
+fn read_options(args: &ConvertArgs) -> anyhow::Result<ReadOptions> {
+    let raw = match (&args.raw.dims, &args.raw.voxel_type) {
+        (Some(dims), Some(ty)) => {
+            let Some(scalar_type) = tet_io::raw::parse_scalar_type(ty) else {
+                bail!("unknown --type '{ty}'; use one of i8 u8 i16 u16 i32 u32 i64 u64 f32 f64");
+            };
+            Some(RawSpec {
+                dims: *dims,
+                scalar_type,
+                endian: args.raw.endian.map(endian).unwrap_or(Endian::Little),
+                spacing: args.raw.spacing,
+                origin: args.raw.origin,
+                header_bytes: args.raw.header_bytes,
+                name: "value".into(),
+            })
+        }
+        (None, None) => None,
+        _ => bail!("a raw volume needs both --dims NX,NY,NZ and --type T (and --endian for multi-byte types)"),
+    };
+    let plot3d = Plot3dOptions {
+        byte_order: args.plot3d.plot3d_endian.map(endian),
+        planes: args.plot3d.plot3d_planes,
+        gamma: args.plot3d.gamma,
+        ..Plot3dOptions::default()
+    };
+    Ok(ReadOptions { format: args.format, q_path: args.plot3d.q.clone(), plot3d, raw })
+}
+
+/// A spinner that appears only for steps that take over a second.
+struct Progress {
+    bar: Option<ProgressBar>,
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Progress {
+        if quiet {
+            return Progress { bar: None };
+        }
+        let bar = ProgressBar::new_spinner();
+        bar.set_style(ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("valid template"));
+        bar.enable_steady_tick(Duration::from_millis(1000));
+        Progress { bar: Some(bar) }
+    }
+
+    fn step(&self, msg: &'static str) {
+        if let Some(b) = &self.bar {
+            b.set_message(msg);
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
+    let opts = read_options(&args)?;
+    let progress = Progress::new(args.quiet || args.json);
+    let mut timings: Vec<(&str, f64)> = Vec::new();
+    let t_all = Instant::now();
+
+    progress.step("reading");
+    let t = Instant::now();
+    let source = tet_io::read_file(&args.input, &opts).context("reading the input failed")?;
+    timings.push(("read", t.elapsed().as_secs_f64()));
+
+    let convert_opts = ConvertOptions {
+        split: match args.split {
+            SplitArg::Five => SplitMode::Five,
+            SplitArg::Six => SplitMode::Six,
+        },
+        scalar: args.scalar.clone(),
+        nan: match args.nan {
+            NanArg::Error => NanPolicy::Error,
+            NanArg::Drop => NanPolicy::Drop,
+        },
+        merge_tolerance_rel: args.merge_tolerance,
+        keep_point_fields: !args.scalar_only,
+    };
+    let t = Instant::now();
+    let (mesh, report) = tetrahedralize(&source, &convert_opts, &mut |s| {
+        progress.step(match s {
+            Step::Merge => "merging duplicate points",
+            Step::Split => "splitting cells into tets",
+            Step::Validate => "validating tets",
+        })
+    })
+    .with_context(|| format!("converting {} failed", args.input.display()))?;
+    timings.push(("convert_validate", t.elapsed().as_secs_f64()));
+
+    progress.step("building face adjacency");
+    let t = Instant::now();
+    let adjacency = build_adjacency(&mesh.points, &mesh.tets).context("the tets do not form a valid mesh")?;
+    timings.push(("adjacency", t.elapsed().as_secs_f64()));
+
+    let split = if source.blocks.iter().any(|b| matches!(b, tet_mesh::Block::Structured { .. })) {
+        match convert_opts.split {
+            SplitMode::Five => "5",
+            SplitMode::Six => "6",
+        }
+    } else {
+        "6"
+    };
+    let meta = BundleMeta {
+        source_path: args.input.display().to_string(),
+        source_format: source.format.clone(),
+        source_points: report.source_points as u64,
+        source_cells: report.source_cells as u64,
+        split_tets: report.split_tets as u64,
+        split: split.into(),
+        findings: report.findings.iter().map(|f| f.to_string()).collect(),
+        ..Default::default()
+    };
+    drop(source);
+    progress.step("writing the bundle");
+    let t = Instant::now();
+    let bundle = Bundle::new(mesh, adjacency, meta);
+    bundle.write(&args.output).context("writing the bundle failed")?;
+    timings.push(("stats_write", t.elapsed().as_secs_f64()));
+    let total = t_all.elapsed().as_secs_f64();
+    progress.finish();
+
+    if args.json {
+        let mut v = crate::info::summary_json(&bundle);
+        v["output"] = json!(args.output.display().to_string());
+        v["timings_s"] = timings.iter().map(|(k, s)| (k.to_string(), json!(s))).collect::<serde_json::Map<_, _>>().into();
+        v["timings_s"]["total"] = json!(total);
+        v["tets_per_s"] = json!(bundle.mesh.tets.len() as f64 / total);
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else if !args.quiet {
+        println!("wrote {}", args.output.display());
+        print!("{}", crate::info::summary_text(&bundle));
+        println!(
+            "time        {total:.3} s ({}), {:.2} M tets/s",
+            timings.iter().map(|(k, s)| format!("{k} {s:.3}")).collect::<Vec<_>>().join(", "),
+            bundle.mesh.tets.len() as f64 / total / 1e6
+        );
+    }
+    Ok(())
+}

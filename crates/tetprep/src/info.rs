@@ -1,0 +1,84 @@
+//! `tetprep info` and `tetprep export`.
+
+use anyhow::Context;
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::Path;
+use tet_bundle::{Bundle, FORMAT_VERSION};
+use tet_mesh::Field;
+
+pub fn run(path: &Path, as_json: bool) -> anyhow::Result<()> {
+    let bundle = Bundle::read(path)?;
+    if as_json {
+        let mut v = summary_json(&bundle);
+        v["bundle"] = json!(path.display().to_string());
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("bundle      {} (format v{FORMAT_VERSION}, written by {})", path.display(), bundle.meta.writer);
+        print!("{}", summary_text(&bundle));
+    }
+    Ok(())
+}
+
+pub fn export(path: &Path, output: &Path) -> anyhow::Result<()> {
+    let bundle = Bundle::read(path)?;
+    let mesh = &bundle.mesh;
+    let mut fields = vec![Field::new(mesh.scalar_name.clone(), 1, mesh.scalar.clone())];
+    fields.extend(mesh.point_fields.iter().filter(|f| f.name != mesh.scalar_name).cloned());
+    let file = std::fs::File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
+    tet_io::vtk_xml::write_vtu(std::io::BufWriter::new(file), &mesh.points, &mesh.tets, &fields, &[])
+        .with_context(|| format!("writing {} failed", output.display()))?;
+    println!("wrote {} ({} points, {} tets, {} point fields)", output.display(), mesh.points.len(), mesh.tets.len(), fields.len());
+    Ok(())
+}
+
+/// The JSON summary shared by `info --json` and `convert --json`.
+pub fn summary_json(b: &Bundle) -> Value {
+    let s = &b.meta.stats;
+    json!({
+        "format_version": FORMAT_VERSION,
+        "points": b.mesh.points.len(),
+        "tets": b.mesh.tets.len(),
+        "total_volume": s.total_volume,
+        "min_tet_volume": s.tet_volume.min,
+        "tet_volume": { "min": s.tet_volume.min, "median": s.tet_volume.median, "max": s.tet_volume.max },
+        "edge_length": { "min": s.edge_length.min, "median": s.edge_length.median, "max": s.edge_length.max },
+        "max_cell_diameter": s.max_cell_diameter,
+        "bounds": { "min": s.bounds_min, "max": s.bounds_max },
+        "scalar": { "name": b.mesh.scalar_name, "min": s.scalar_min, "max": s.scalar_max },
+        "point_fields": b.mesh.point_fields.iter().map(|f| json!({"name": f.name, "components": f.num_components})).collect::<Vec<_>>(),
+        "boundary_faces": b.adjacency.boundary_faces.len(),
+        "convex": b.adjacency.convex,
+        "delaunay": b.meta.delaunay,
+        "split": b.meta.split,
+        "split_tets": b.meta.split_tets,
+        "source": { "path": b.meta.source_path, "format": b.meta.source_format, "points": b.meta.source_points, "cells": b.meta.source_cells },
+        "findings": b.meta.findings,
+    })
+}
+
+pub fn summary_text(b: &Bundle) -> String {
+    let s = &b.meta.stats;
+    let mut o = String::new();
+    let m = &b.meta;
+    let _ = writeln!(o, "source      {} ({}): {} points, {} cells", m.source_path, m.source_format, m.source_points, m.source_cells);
+    let _ = writeln!(o, "split       {} → {} tets before validation", m.split, m.split_tets);
+    let _ = writeln!(o, "points      {}", b.mesh.points.len());
+    let _ = writeln!(o, "tets        {}", b.mesh.tets.len());
+    let _ = writeln!(o, "scalar      {}  [{:.6e}, {:.6e}]", b.mesh.scalar_name, s.scalar_min, s.scalar_max);
+    if !b.mesh.point_fields.is_empty() {
+        let names: Vec<_> = b.mesh.point_fields.iter().map(|f| if f.num_components == 1 { f.name.clone() } else { format!("{}[{}]", f.name, f.num_components) }).collect();
+        let _ = writeln!(o, "fields      {}", names.join(", "));
+    }
+    let _ = writeln!(o, "bounds      [{:.6}, {:.6}, {:.6}] – [{:.6}, {:.6}, {:.6}]", s.bounds_min[0], s.bounds_min[1], s.bounds_min[2], s.bounds_max[0], s.bounds_max[1], s.bounds_max[2]);
+    let _ = writeln!(o, "volume      total {:.9e}; per tet min {:.3e} / median {:.3e} / max {:.3e}", s.total_volume, s.tet_volume.min, s.tet_volume.median, s.tet_volume.max);
+    let _ = writeln!(o, "edge length min {:.3e} / median {:.3e} / max {:.3e}; max cell diameter {:.6e}", s.edge_length.min, s.edge_length.median, s.edge_length.max, s.max_cell_diameter);
+    let _ = writeln!(o, "boundary    {} faces; domain {}{}", b.adjacency.boundary_faces.len(), if b.adjacency.convex { "convex" } else { "not convex" }, if m.delaunay { " (Delaunay)" } else { "" });
+    if !m.findings.is_empty() {
+        let _ = writeln!(o, "findings:");
+        for f in &m.findings {
+            let _ = writeln!(o, "  - {f}");
+        }
+    }
+    o
+}

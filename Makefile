@@ -27,7 +27,7 @@ demo:
 
 ## Criterion benchmarks (conversion pipeline on Blunt Fin and a generated 1M+-tet grid).
 bench:
-	$(CARGO) bench -p tet_mesh
+	$(CARGO) bench -p tetkit --bench convert
 
 ## Build (not run) the cargo-fuzz targets; needs a nightly toolchain and cargo-fuzz.
 fuzz-build:

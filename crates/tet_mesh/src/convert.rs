@@ -117,6 +117,9 @@ pub struct ConversionReport {
     /// Tets produced by splitting, before any were dropped.
     pub split_tets: usize,
     pub findings: Vec<Finding>,
+    /// For each tet of the resulting mesh, the source cell it came from, so
+    /// later errors (e.g. a face shared by three tets) can name input cells.
+    pub tet_source_cell: Vec<u32>,
 }
 
 /// Steps reported to the progress callback.
@@ -326,6 +329,7 @@ pub fn tetrahedralize(
     } else {
         Vec::new()
     };
+    report.tet_source_cell = tet_cell;
     Ok((TetMesh { points, tets, scalar_name: scalar.name, scalar: scalar_values, point_fields }, report))
 }
 

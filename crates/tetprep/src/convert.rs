@@ -111,7 +111,16 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
 
     progress.step("building face adjacency");
     let t = Instant::now();
-    let adjacency = build_adjacency(&mesh.points, &mesh.tets).context("the tets do not form a valid mesh")?;
+    let adjacency = build_adjacency(&mesh.points, &mesh.tets).map_err(|e| {
+        let cells = match &e {
+            tet_mesh::MeshError::NonManifoldFace { tets, .. } => {
+                let cells: Vec<String> = tets.iter().map(|&t| report.tet_source_cell[t as usize].to_string()).collect();
+                format!(" (they come from input cells {})", cells.join(", "))
+            }
+            _ => String::new(),
+        };
+        anyhow::Error::new(e).context(format!("the tets do not form a valid mesh{cells}"))
+    })?;
     timings.push(("adjacency", t.elapsed().as_secs_f64()));
 
     let split = if source.blocks.iter().any(|b| matches!(b, tet_mesh::Block::Structured { .. })) {

@@ -1,0 +1,156 @@
+//! The tetprep binary as users run it: outputs, JSON keys, exit codes and
+//! error messages on bad input.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn data(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(p)
+}
+
+fn tetprep(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tetprep")).args(args).output().expect("tetprep runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "failed: {}", stderr(o));
+    serde_json::from_slice(&o.stdout).expect("valid JSON")
+}
+
+#[test]
+fn bluntfin_convert_info_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bf.tetb");
+    let o = tetprep(&[
+        "convert",
+        data("plot3d/bluntfinxyz.bin").to_str().unwrap(),
+        "--q",
+        data("plot3d/bluntfinq.bin").to_str().unwrap(),
+        "--scalar",
+        "density",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let v = json(&o);
+    assert_eq!(v["split_tets"], 187_395);
+    assert_eq!(v["source"]["cells"], 37_479);
+    assert!(v["timings_s"]["total"].as_f64().unwrap() > 0.0);
+
+    let info = json(&tetprep(&["info", out.to_str().unwrap(), "--json"]));
+    for key in ["points", "tets", "total_volume", "min_tet_volume", "bounds", "boundary_faces", "convex", "max_cell_diameter"] {
+        assert!(!info[key].is_null(), "info --json lacks '{key}'");
+    }
+    assert_eq!(info["scalar"]["name"], "density");
+    assert!(info["scalar"]["min"].as_f64().unwrap() > 0.18);
+    assert_eq!(info["convex"], false);
+    assert_eq!(info["points"], 40_960 - 39);
+
+    let text = tetprep(&["info", out.to_str().unwrap()]);
+    assert!(text.status.success());
+    assert!(String::from_utf8_lossy(&text.stdout).contains("merged 39 duplicate points"));
+
+    let vtu = dir.path().join("bf.vtu");
+    let e = tetprep(&["export", out.to_str().unwrap(), "-o", vtu.to_str().unwrap()]);
+    assert!(e.status.success(), "{}", stderr(&e));
+    let back = tet_io::read_file(&vtu, &Default::default()).unwrap();
+    assert_eq!(back.num_cells() as u64, info["tets"].as_u64().unwrap());
+    assert!(back.point_fields.iter().any(|f| f.name == "density"));
+    assert!(back.point_fields.iter().any(|f| f.name == "momentum" && f.num_components == 3));
+}
+
+#[test]
+fn wrong_scalar_lists_the_fields_and_exits_4() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.tetb");
+    let o = tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(4));
+    let e = stderr(&o);
+    assert!(e.contains("no scalar named 'Nope'") && e.contains("Pressure"), "{e}");
+    assert!(!out.exists(), "a failed conversion must not leave an output");
+}
+
+#[test]
+fn missing_and_garbage_inputs_exit_3_naming_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.tetb");
+    let o = tetprep(&["convert", "/nonexistent/mesh.vtu", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3));
+    assert!(stderr(&o).contains("/nonexistent/mesh.vtu"));
+
+    let garbage = dir.path().join("garbage.vtk");
+    std::fs::write(&garbage, b"# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 99999999999 float\n\x01\x02").unwrap();
+    let o = tetprep(&["convert", garbage.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("garbage.vtk"));
+
+    let unknown = dir.path().join("data.unknown");
+    std::fs::write(&unknown, b"hello").unwrap();
+    let o = tetprep(&["convert", unknown.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3));
+    assert!(stderr(&o).contains("--format"));
+}
+
+#[test]
+fn a_failed_conversion_keeps_the_previous_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("keep.tetb");
+    std::fs::write(&out, b"previous").unwrap();
+    let o = tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous");
+}
+
+#[test]
+fn non_manifold_input_names_tets_and_source_cells() {
+    let dir = tempfile::tempdir().unwrap();
+    let vtk = dir.path().join("fan.vtk");
+    // Three tets on one triangle (0,1,2): a face bounding three cells.
+    std::fs::write(
+        &vtk,
+        "# vtk DataFile Version 3.0\nfan\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 6 float\n\
+         0 0 0 1 0 0 0 1 0 0 0 1 0 0 -1 0.2 0.2 2\nCELLS 3 15\n4 0 1 2 3\n4 0 1 2 4\n4 0 1 2 5\n\
+         CELL_TYPES 3\n10 10 10\n",
+    )
+    .unwrap();
+    let out = dir.path().join("fan.tetb");
+    let o = tetprep(&["convert", vtk.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(4));
+    let e = stderr(&o);
+    assert!(e.contains("shared by 3 tets") && e.contains("input cells 0, 1, 2"), "{e}");
+}
+
+#[test]
+fn nan_scalar_is_an_error_unless_dropped() {
+    let dir = tempfile::tempdir().unwrap();
+    let vtk = dir.path().join("nan.vtk");
+    std::fs::write(
+        &vtk,
+        "# vtk DataFile Version 3.0\nnan\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 5 float\n\
+         0 0 0 1 0 0 0 1 0 0 0 1 1 1 1\nCELLS 2 10\n4 0 1 2 3\n4 1 2 3 4\nCELL_TYPES 2\n10 10\n\
+         POINT_DATA 5\nSCALARS t float 1\nLOOKUP_TABLE default\n0 1 2 3 nan\n",
+    )
+    .unwrap();
+    let out = dir.path().join("nan.tetb");
+    let o = tetprep(&["convert", vtk.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(4));
+    assert!(stderr(&o).contains("vertex 4"), "{}", stderr(&o));
+    let o = tetprep(&["convert", vtk.to_str().unwrap(), "--nan", "drop", "-o", out.to_str().unwrap(), "--json"]);
+    let v = json(&o);
+    assert_eq!(v["tets"], 1);
+    assert_eq!(v["points"], 4);
+}
+
+#[test]
+fn sample_bundle_info() {
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/cube5.tetb");
+    let v = json(&tetprep(&["info", sample.to_str().unwrap(), "--json"]));
+    assert_eq!(v["tets"], 5);
+    assert_eq!(v["convex"], true);
+    let o = tetprep(&["info", data("vtk/post.vtk").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(5));
+    assert!(stderr(&o).contains("not a tetkit bundle"));
+}

@@ -21,6 +21,9 @@
 #![forbid(unsafe_code)]
 
 pub mod cursor;
+pub mod nrrd;
+pub mod plot3d;
+pub mod raw;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

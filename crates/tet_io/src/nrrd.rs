@@ -424,7 +424,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
         let err = |msg: String| FormatError::new(at, msg);
         // Key/value pairs ("key:=value") carry no geometry: skip them.
         if let Some(kv) = line.find(":=") {
-            if line.find(": ").map_or(true, |field| kv < field) {
+            if !matches!(line.find(": "), Some(field) if field < kv) {
                 continue;
             }
         }
@@ -487,12 +487,10 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
                     }
                 }
             }
-            "space dimension" => {
-                if value != "3" {
-                    return Err(err(format!(
-                        "space dimension {value} is not supported (only 3)"
-                    )));
-                }
+            "space dimension" if value != "3" => {
+                return Err(err(format!(
+                    "space dimension {value} is not supported (only 3)"
+                )));
             }
             "data file" | "datafile" => h.data_file = Some(value.to_string()),
             "line skip" | "lineskip" => {

@@ -309,7 +309,7 @@ fn encode(grids: &[Grid], enc: Enc) -> (Vec<u8>, Vec<u8>) {
         let spans: Vec<std::ops::Range<usize>> = if enc.planes {
             (0..g.dims[2]).map(|k| k * plane..(k + 1) * plane).collect()
         } else {
-            vec![0..g.xyz[0].len()]
+            std::iter::once(0..g.xyz[0].len()).collect()
         };
         for span in spans {
             let mut p = Vec::new();
@@ -334,7 +334,7 @@ fn encode(grids: &[Grid], enc: Enc) -> (Vec<u8>, Vec<u8>) {
         let spans: Vec<std::ops::Range<usize>> = if enc.planes {
             (0..g.dims[2]).map(|k| k * plane..(k + 1) * plane).collect()
         } else {
-            vec![0..g.q[0].len()]
+            std::iter::once(0..g.q[0].len()).collect()
         };
         for span in spans {
             let mut p = Vec::new();

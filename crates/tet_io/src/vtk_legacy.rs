@@ -270,7 +270,7 @@ impl<'a> Parser<'a> {
         })?;
         let binary = if mode.to_ascii_lowercase().starts_with("ascii") {
             false
-        } else if mode.eq_ignore_ascii_case("binary") {
+        } else if mode.to_ascii_lowercase().starts_with("binary") {
             true
         } else {
             return Err(FormatError::new(

@@ -21,6 +21,7 @@
 #![forbid(unsafe_code)]
 
 pub mod cursor;
+pub mod vtk_xml;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

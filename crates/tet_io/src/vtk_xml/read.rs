@@ -204,10 +204,7 @@ fn append_piece(
     label: &str,
 ) -> Result<(), String> {
     let base = mesh.points.len();
-    if base
-        .checked_add(piece.points.len())
-        .map_or(true, |t| t > u32::MAX as usize)
-    {
+    if !matches!(base.checked_add(piece.points.len()), Some(t) if t <= u32::MAX as usize) {
         return Err(format!("{label}: more than {} points in all", u32::MAX));
     }
     // Checked just above: every global index fits u32.
@@ -373,6 +370,9 @@ struct Element {
     text: Vec<Range<usize>>,
     /// Byte offset of the `<` that opens the element.
     pos: usize,
+    /// 1-based line of `pos`, counted once while parsing (error messages
+    /// must not rescan a large file).
+    line: usize,
 }
 
 fn line_at(bytes: &[u8], pos: usize) -> Location {
@@ -417,6 +417,7 @@ fn element_from(e: &BytesStart, pos: usize, bytes: &[u8]) -> Result<Element, For
         children: Vec::new(),
         text: Vec::new(),
         pos,
+        line: 0,
     })
 }
 
@@ -427,6 +428,7 @@ fn parse_tree(xml: &[u8], bytes: &[u8]) -> Result<Vec<Element>, FormatError> {
     let mut els: Vec<Element> = Vec::new();
     let mut stack: Vec<usize> = Vec::new();
     let mut root_done = false;
+    let (mut line, mut counted_to) = (1usize, 0usize);
     loop {
         let before = reader.buffer_position() as usize;
         let event = reader.read_event().map_err(|e| {
@@ -446,7 +448,13 @@ fn parse_tree(xml: &[u8], bytes: &[u8]) -> Result<Vec<Element>, FormatError> {
                     }
                     continue;
                 }
-                let el = element_from(e, before, bytes)?;
+                line += xml[counted_to..before]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count();
+                counted_to = before;
+                let mut el = element_from(e, before, bytes)?;
+                el.line = line;
                 let idx = els.len();
                 els.push(el);
                 if let Some(&parent) = stack.last() {
@@ -684,7 +692,7 @@ impl<'a> Ctx<'a> {
 
     fn err_at(&self, el: usize, message: impl Into<String>) -> FormatError {
         FormatError::new(
-            line_at(self.bytes, self.els.get(el).map_or(0, |e| e.pos)),
+            Location::Line(self.els.get(el).map_or(1, |e| e.line)),
             message,
         )
     }
@@ -1047,7 +1055,7 @@ impl<'a> Ctx<'a> {
         let expected_bytes = expected.and_then(|n| n.checked_mul(ty.size()));
         let what = format!("DataArray '{}'", self.attr(el, "Name").unwrap_or(""));
         let values = self.with_payload(el, expected_bytes, |payload| match payload {
-            Payload::Ascii(ranges) => self.ascii_values(ranges, expected, &what, |t| parse_f64(t)),
+            Payload::Ascii(ranges) => self.ascii_values(ranges, expected, &what, parse_f64),
             Payload::Binary(bytes, loc) => {
                 check_byte_count(bytes.len(), ty, expected, loc, &what)?;
                 let mut out = Vec::new();
@@ -1508,7 +1516,7 @@ fn check_byte_count(
     loc: Location,
     what: &str,
 ) -> Result<(), FormatError> {
-    if len % ty.size() != 0 {
+    if len / ty.size() * ty.size() != len {
         return Err(FormatError::new(
             loc,
             format!(

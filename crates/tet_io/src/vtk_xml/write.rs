@@ -326,7 +326,9 @@ mod tests {
     use super::*;
     use tet_mesh::{Block, CellType};
 
-    fn sample() -> (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<Field>, Vec<Field>) {
+    type Sample = (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<Field>, Vec<Field>);
+
+    fn sample() -> Sample {
         let points = vec![
             [0.0, 0.0, 0.0],
             [1.0, 0.0, 0.0],

@@ -24,7 +24,7 @@ const MAX_DEFLATE_RATIO: usize = 1032;
 /// file, so their count is bounded by nothing the file holds. Above this
 /// many, the piece must carry a point or cell array of that size (which the
 /// file does have to hold) before the points are materialized.
-const MAX_UNBACKED_GRID_POINTS: usize = 1 << 24;
+const MAX_UNBACKED_GRID_POINTS: usize = 1 << 20;
 
 /// Base64 as VTK writes it: standard alphabet, padded, but a header and the
 /// data after it may each carry their own padding, so decoding goes segment

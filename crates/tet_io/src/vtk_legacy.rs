@@ -1260,13 +1260,13 @@ fn assemble_cells(
             }
             cells.push(cell_type, nodes);
             mask.push(true);
-        } else if CellType::vtk_id_is_surface_or_lower(id) || is_other_lower_dim(id) {
+        } else if CellType::vtk_id_is_surface_or_lower(id) {
             lower += 1;
             if !lower_ids.contains(&id) {
                 lower_ids.push(id);
             }
             mask.push(false);
-        } else if is_unreducible_volume(id) {
+        } else if CellType::vtk_id_is_unreducible_volume(id) {
             unsupported += 1;
             if !unsupported_ids.contains(&id) {
                 unsupported_ids.push(id);
@@ -1305,20 +1305,6 @@ fn assemble_cells(
         Some(mask)
     };
     Ok((cells, mask))
-}
-
-/// VTK ids of cells without volume that `CellType::vtk_id_is_surface_or_lower`
-/// does not list: empty cell, parametric curves and surfaces, higher-order
-/// and Bézier curves and surfaces.
-fn is_other_lower_dim(id: u32) -> bool {
-    matches!(id, 0 | 51..=54 | 60..=63 | 75..=77)
-}
-
-/// VTK volume cells tetkit cannot reduce to a linear cell: pentagonal and
-/// hexagonal prisms, convex point sets, polyhedra, parametric regions and
-/// the variable-order higher-order, Lagrange and Bézier volumes.
-fn is_unreducible_volume(id: u32) -> bool {
-    matches!(id, 15 | 16 | 41 | 42 | 55 | 56 | 64..=67 | 71..=74 | 78..=81)
 }
 
 fn uniform_points(dims: [usize; 3], origin: [f64; 3], spacing: [f64; 3]) -> Vec<[f64; 3]> {

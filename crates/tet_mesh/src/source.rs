@@ -52,9 +52,10 @@ impl CellType {
             26 => (CellType::Wedge, 15),      // VTK_QUADRATIC_WEDGE
             27 => (CellType::Pyramid, 13),    // VTK_QUADRATIC_PYRAMID
             29 => (CellType::Hexahedron, 27), // VTK_TRIQUADRATIC_HEXAHEDRON
+            31 => (CellType::Wedge, 12),      // VTK_QUADRATIC_LINEAR_WEDGE
             32 => (CellType::Wedge, 18),      // VTK_BIQUADRATIC_QUADRATIC_WEDGE
             33 => (CellType::Hexahedron, 24), // VTK_BIQUADRATIC_QUADRATIC_HEXAHEDRON
-            37 => (CellType::Pyramid, 14),    // VTK_TRIQUADRATIC_PYRAMID
+            37 => (CellType::Pyramid, 19),    // VTK_TRIQUADRATIC_PYRAMID
             _ => return None,
         })
     }
@@ -62,7 +63,19 @@ impl CellType {
     /// True for VTK ids of cells that have no volume (vertex, line, polygon
     /// families); readers skip them silently except for a count in a note.
     pub fn vtk_id_is_surface_or_lower(id: u32) -> bool {
-        matches!(id, 1..=9 | 21 | 22 | 23 | 28 | 30 | 31 | 34 | 35 | 36 | 68 | 69 | 70)
+        // empty, vertex…polygon families, quadratic/biquadratic 1D-2D cells,
+        // parametric curves/surfaces, higher-order, Lagrange and Bézier 1D-2D.
+        matches!(id, 0..=9 | 21 | 22 | 23 | 28 | 30 | 34 | 35 | 36 | 51..=54 | 60..=63 | 68..=70 | 75..=77)
+    }
+}
+
+impl CellType {
+    /// True for VTK volume cells tetkit cannot reduce to a linear cell:
+    /// pentagonal and hexagonal prisms, convex point sets, polyhedra,
+    /// parametric regions and the variable-order higher-order, Lagrange and
+    /// Bézier volumes. Readers skip them with a counted note.
+    pub fn vtk_id_is_unreducible_volume(id: u32) -> bool {
+        matches!(id, 15 | 16 | 41 | 42 | 55 | 56 | 64..=67 | 71..=74 | 78..=81)
     }
 }
 

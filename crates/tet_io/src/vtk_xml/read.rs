@@ -352,12 +352,6 @@ impl Stats {
     }
 }
 
-/// VTK volume cell ids that [`CellType::from_vtk_id`] cannot reduce: skipped
-/// with a note rather than rejected as unknown.
-fn is_unreducible_volume(id: u32) -> bool {
-    matches!(id, 15 | 16 | 42 | 71..=74 | 78..=81)
-}
-
 // ---------------------------------------------------------------------------
 // XML tree
 
@@ -1347,7 +1341,7 @@ impl<'a> Ctx<'a> {
                     stats.skipped_without_volume += 1;
                     false
                 }
-                None if is_unreducible_volume(id) => {
+                None if CellType::vtk_id_is_unreducible_volume(id) => {
                     *stats.skipped_unreducible.entry(id).or_insert(0) += 1;
                     false
                 }

@@ -21,6 +21,8 @@
 #![forbid(unsafe_code)]
 
 pub mod cursor;
+pub mod gmsh;
+pub mod tetgen;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -1,0 +1,1 @@
+//! TetGen reader (in progress).

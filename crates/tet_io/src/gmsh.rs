@@ -3,7 +3,8 @@
 //!
 //! What is kept: all nodes (in file order), the volume elements reduced to
 //! their corner nodes, `$NodeData` as point fields and `$ElementData` as cell
-//! fields (last time step of each name), and the physical / elementary
+//! fields (of each name, the time step that comes last in the file; sections
+//! of one step, as partitioned files write them, are merged), and the physical / elementary
 //! entity tag of each volume element as the cell fields `gmsh:physical` and
 //! `gmsh:geometrical` (the former only when the file has physical volumes).
 //! Lower-dimensional elements are counted and dropped.
@@ -52,8 +53,7 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
     }
     let header = read_mesh_format(&mut t)?;
     let mut state = State::new(header);
-    loop {
-        let Some(section) = t.token() else { break };
+    while let Some(section) = t.token() {
         let loc = t.location();
         match section {
             "$MeshFormat" => {
@@ -1638,7 +1638,7 @@ mod tests {
             (3, [0., 1., 0.]),
             (4, [0., 0., 1.]),
         ] {
-            out.extend_from_slice(&(tag as i32).to_be_bytes());
+            out.extend_from_slice(&i32::to_be_bytes(tag));
             for c in p {
                 out.extend_from_slice(&f64::to_be_bytes(c));
             }
@@ -1646,7 +1646,7 @@ mod tests {
         out.extend_from_slice(b"\n$EndNodes\n$Elements\n2\n");
         // A triangle block, then a tetrahedron block; 2 tags each.
         for v in [2, 1, 2, 10, 5, 9, 1, 2, 3, 4, 1, 2, 11, 6, 3, 1, 2, 3, 4] {
-            out.extend_from_slice(&(v as i32).to_be_bytes());
+            out.extend_from_slice(&i32::to_be_bytes(v));
         }
         out.extend_from_slice(b"\n$EndElements\n");
         let m = read(&out).unwrap();

@@ -87,13 +87,14 @@ impl<'a> Lines<'a> {
         }
     }
 
-    /// The next data line, or an error saying what was missing.
-    fn expect(&mut self, what: &str) -> Result<(usize, &'a str), FormatError> {
+    /// The next data line, or an error saying what was missing (`what` is
+    /// only called on failure, so the hot path builds no message).
+    fn expect(&mut self, what: impl FnOnce() -> String) -> Result<(usize, &'a str), FormatError> {
         let at = self.t.line();
         self.next_data().ok_or_else(|| {
             FormatError::new(
                 Location::Line(at),
-                format!("unexpected end of file, expected {what}"),
+                format!("unexpected end of file, expected {}", what()),
             )
         })
     }
@@ -188,7 +189,8 @@ struct NodeFile {
 
 fn read_node(bytes: &[u8]) -> Result<NodeFile, FormatError> {
     let mut lines = Lines::new(bytes);
-    let (line, header) = lines.expect("the .node header (npoints dim nattributes nmarkers)")?;
+    let (line, header) =
+        lines.expect(|| "the .node header (npoints dim nattributes nmarkers)".into())?;
     let mut tok = header.split_ascii_whitespace();
     let count = parse_int(tok.next(), "the number of points", line)?;
     if count == 0 {
@@ -225,7 +227,7 @@ fn read_node(bytes: &[u8]) -> Result<NodeFile, FormatError> {
     let mut boundary = Vec::new();
     let mut first_index = 0;
     for i in 0..count {
-        let (line, data) = lines.expect(&format!("point {} of {count}", i + 1))?;
+        let (line, data) = lines.expect(|| format!("point {} of {count}", i + 1))?;
         let mut tok = data.split_ascii_whitespace();
         let index = parse_int(tok.next(), "a point index", line)?;
         if i == 0 {
@@ -268,7 +270,8 @@ fn read_ele(
     num_points: usize,
 ) -> Result<(Cells, Vec<Field>, usize), FormatError> {
     let mut lines = Lines::new(bytes);
-    let (line, header) = lines.expect("the .ele header (ntets nodes_per_tet nattributes)")?;
+    let (line, header) =
+        lines.expect(|| "the .ele header (ntets nodes_per_tet nattributes)".into())?;
     let mut tok = header.split_ascii_whitespace();
     let count = parse_int(tok.next(), "the number of tetrahedra", line)?;
     let count = u64::try_from(count).map_err(|_| {
@@ -303,7 +306,7 @@ fn read_ele(
     let mut first_tet = 0;
     let mut corners = [0u32; 4];
     for i in 0..count {
-        let (line, data) = lines.expect(&format!("tetrahedron {} of {count}", i + 1))?;
+        let (line, data) = lines.expect(|| format!("tetrahedron {} of {count}", i + 1))?;
         let mut tok = data.split_ascii_whitespace();
         let index = parse_int(tok.next(), "a tetrahedron index", line)?;
         if i == 0 {

@@ -220,8 +220,8 @@ fn mixed_prisms_pyramids_and_orders() {
                 }
                 // Pyramids sit on the hexahedra's top quads (z = 0.5), apex above.
                 CellType::Pyramid => {
-                    for k in 0..4 {
-                        assert!((p[k][2] - 0.5).abs() < 1e-12, "{name} cell {i}");
+                    for corner in &p[..4] {
+                        assert!((corner[2] - 0.5).abs() < 1e-12, "{name} cell {i}");
                     }
                     assert!(p[4][2] > 0.5, "{name} cell {i}");
                 }

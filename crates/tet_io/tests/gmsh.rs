@@ -1,0 +1,314 @@
+//! Gmsh reader on meshes written by Gmsh 4.8.4 (see tests/data/gmsh/LICENSE.md).
+//! Expected counts are Gmsh's own (its VTK export of each file).
+
+use std::collections::BTreeMap;
+
+use tet_io::gmsh;
+use tet_mesh::{Block, CellType, Cells, SourceMesh};
+
+const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/gmsh/");
+
+const ALL: [&str; 14] = [
+    "boxcyl_22_ascii.msh",
+    "boxcyl_22_bin.msh",
+    "boxcyl_41_ascii.msh",
+    "boxcyl_41_bin.msh",
+    "boxcyl_o2_41_bin.msh",
+    "hexbox_22_ascii.msh",
+    "hexbox_41_bin.msh",
+    "hexbox_param_41_ascii.msh",
+    "hexbox_o3_41_ascii.msh",
+    "mixed_22_ascii.msh",
+    "mixed_41_ascii.msh",
+    "mixed_o2_41_ascii.msh",
+    "mixed_o2i_22_bin.msh",
+    "mixed_o3_41_bin.msh",
+];
+
+fn load(name: &str) -> Vec<u8> {
+    std::fs::read(format!("{DIR}{name}")).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn read(name: &str) -> SourceMesh {
+    gmsh::read(&load(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn cells(m: &SourceMesh) -> &Cells {
+    assert_eq!(m.blocks.len(), 1);
+    match &m.blocks[0] {
+        Block::Unstructured(c) => c,
+        Block::Structured { .. } => panic!("structured block"),
+    }
+}
+
+/// Cell counts as (tets, hexes, wedges, pyramids).
+fn counts(m: &SourceMesh) -> (usize, usize, usize, usize) {
+    let mut by_type = BTreeMap::new();
+    for t in &cells(m).types {
+        *by_type.entry(format!("{t:?}")).or_insert(0usize) += 1;
+    }
+    let get = |k: &str| by_type.get(k).copied().unwrap_or(0);
+    (
+        get("Tetra"),
+        get("Hexahedron"),
+        get("Wedge"),
+        get("Pyramid"),
+    )
+}
+
+fn field<'a>(fields: &'a [tet_mesh::Field], name: &str) -> &'a tet_mesh::Field {
+    fields
+        .iter()
+        .find(|f| f.name == name)
+        .unwrap_or_else(|| panic!("no field {name}"))
+}
+
+fn has_note(m: &SourceMesh, text: &str) -> bool {
+    m.notes.iter().any(|n| n.contains(text))
+}
+
+#[test]
+fn boxcyl_all_four_encodings_agree() {
+    let reference = read("boxcyl_22_ascii.msh");
+    for (name, format) in [
+        ("boxcyl_22_ascii.msh", "Gmsh 2.2 (ASCII)"),
+        ("boxcyl_22_bin.msh", "Gmsh 2.2 (binary)"),
+        ("boxcyl_41_ascii.msh", "Gmsh 4.1 (ASCII)"),
+        ("boxcyl_41_bin.msh", "Gmsh 4.1 (binary)"),
+    ] {
+        let m = read(name);
+        assert_eq!(m.format, format);
+        assert_eq!(m.points.len(), 419, "{name}");
+        assert_eq!(counts(&m), (1333, 0, 0, 0), "{name}");
+        assert!(
+            has_note(&m, "skipped 728 lower-dimensional elements"),
+            "{name}: {:?}",
+            m.notes
+        );
+        assert!(
+            has_note(&m, "kept the last of 2 time steps"),
+            "{name}: {:?}",
+            m.notes
+        );
+        assert!(has_note(&m, "7 \"solid\""), "{name}: {:?}", m.notes);
+        assert!(
+            has_note(&m, "$InterpolationScheme"),
+            "{name}: {:?}",
+            m.notes
+        );
+        assert_eq!(cells(&m), cells(&reference), "{name}");
+        for (p, q) in m.points.iter().zip(&reference.points) {
+            for k in 0..3 {
+                assert!((p[k] - q[k]).abs() <= 1e-12, "{name}: {p:?} vs {q:?}");
+            }
+        }
+
+        // pressure = 1000 + x + 10 y + 100 z in the last time step, at every node.
+        let pressure = field(&m.point_fields, "pressure_Combine");
+        assert_eq!(pressure.num_components, 1);
+        for (p, &v) in m.points.iter().zip(&pressure.values) {
+            let expected = 1000.0 + p[0] + 10.0 * p[1] + 100.0 * p[2];
+            assert!((v - expected).abs() < 1e-9, "{name}: pressure {v} at {p:?}");
+        }
+        let velocity = field(&m.point_fields, "velocity");
+        assert_eq!(velocity.num_components, 3);
+        for (p, v) in m.points.iter().zip(velocity.values.chunks(3)) {
+            for k in 0..3 {
+                assert!(
+                    (v[k] - p[k]).abs() < 1e-12,
+                    "{name}: velocity {v:?} at {p:?}"
+                );
+            }
+        }
+        let icn = field(&m.cell_fields, "ICN 3D");
+        assert_eq!(icn.values.len(), 1333);
+        let (lo, hi) = icn
+            .values
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(
+            (lo - 0.390106224220188).abs() < 1e-12 && (hi - 1.0).abs() < 1e-12,
+            "{name}: {lo} {hi}"
+        );
+        assert!(field(&m.cell_fields, "gmsh:physical")
+            .values
+            .iter()
+            .all(|&v| v == 7.0));
+        assert!(field(&m.cell_fields, "gmsh:geometrical")
+            .values
+            .iter()
+            .all(|&v| v == 3.0));
+    }
+}
+
+#[test]
+fn hexahedra_are_in_vtk_order() {
+    for name in [
+        "hexbox_22_ascii.msh",
+        "hexbox_41_bin.msh",
+        "hexbox_param_41_ascii.msh",
+    ] {
+        let m = read(name);
+        assert_eq!(m.points.len(), 270, "{name}");
+        assert_eq!(counts(&m), (0, 160, 0, 0), "{name}");
+        assert!(
+            has_note(&m, "skipped 260 lower-dimensional"),
+            "{name}: {:?}",
+            m.notes
+        );
+        // No physical groups in hexbox.geo: no gmsh:physical field.
+        assert!(m.cell_fields.iter().all(|f| f.name != "gmsh:physical"));
+        let c = cells(&m);
+        for i in 0..c.len() {
+            let p: Vec<[f64; 3]> = c.nodes(i).iter().map(|&n| m.points[n as usize]).collect();
+            // Bottom quad at one z, top quad above it, vertical edges i -> i + 4,
+            // consecutive bottom corners along one axis (a quad, not a bow tie).
+            let differ = |a: f64, b: f64| (a - b).abs() > 1e-9;
+            for k in 0..4 {
+                assert!(!differ(p[k][2], p[0][2]), "{name} cell {i}");
+                assert!(p[k + 4][2] > p[k][2], "{name} cell {i}");
+                assert!(
+                    !differ(p[k + 4][0], p[k][0]) && !differ(p[k + 4][1], p[k][1]),
+                    "{name} cell {i}"
+                );
+                let next = p[(k + 1) % 4];
+                let moved = differ(p[k][0], next[0]) as u8 + differ(p[k][1], next[1]) as u8;
+                assert_eq!(moved, 1, "{name} cell {i}");
+            }
+        }
+    }
+    let param = read("hexbox_param_41_ascii.msh");
+    assert_eq!(param.points, read("hexbox_22_ascii.msh").points);
+}
+
+#[test]
+fn mixed_prisms_pyramids_and_orders() {
+    for (name, points) in [
+        ("mixed_22_ascii.msh", 280),
+        ("mixed_41_ascii.msh", 280),
+        ("mixed_o2_41_ascii.msh", 1738),
+        ("mixed_o2i_22_bin.msh", 1305),
+    ] {
+        let m = read(name);
+        assert_eq!(m.points.len(), points, "{name}");
+        assert_eq!(counts(&m), (286, 48, 126, 16), "{name}");
+        assert!(
+            has_note(&m, "skipped 444 lower-dimensional"),
+            "{name}: {:?}",
+            m.notes
+        );
+        assert_eq!(
+            has_note(&m, "reduced 476 higher-order"),
+            points > 280,
+            "{name}: {:?}",
+            m.notes
+        );
+        let c = cells(&m);
+        for i in 0..c.len() {
+            let p: Vec<[f64; 3]> = c.nodes(i).iter().map(|&n| m.points[n as usize]).collect();
+            match c.types[i] {
+                // Extruded prisms: triangle 0-1-2 below 3-4-5, edges k -> k + 3 vertical.
+                CellType::Wedge => {
+                    for k in 0..3 {
+                        assert_eq!(
+                            (p[k + 3][0], p[k + 3][1]),
+                            (p[k][0], p[k][1]),
+                            "{name} cell {i}"
+                        );
+                        assert!(p[k + 3][2] > p[k][2], "{name} cell {i}");
+                    }
+                }
+                // Pyramids sit on the hexahedra's top quads (z = 0.5), apex above.
+                CellType::Pyramid => {
+                    for corner in &p[..4] {
+                        assert!((corner[2] - 0.5).abs() < 1e-12, "{name} cell {i}");
+                    }
+                    assert!(p[4][2] > 0.5, "{name} cell {i}");
+                }
+                _ => {}
+            }
+        }
+    }
+    let linear = read("mixed_41_ascii.msh");
+    let quadratic = read("mixed_o2_41_ascii.msh");
+    // Corner nodes come first in Gmsh's numbering too, so corners match the linear mesh.
+    let lc = cells(&linear);
+    let qc = cells(&quadratic);
+    for i in 0..lc.len() {
+        let a: Vec<[f64; 3]> = lc
+            .nodes(i)
+            .iter()
+            .map(|&n| linear.points[n as usize])
+            .collect();
+        let b: Vec<[f64; 3]> = qc
+            .nodes(i)
+            .iter()
+            .map(|&n| quadratic.points[n as usize])
+            .collect();
+        assert_eq!(a, b, "cell {i}");
+    }
+}
+
+#[test]
+fn higher_orders() {
+    let m = read("boxcyl_o2_41_bin.msh");
+    assert_eq!((m.points.len(), counts(&m)), (2195, (1133, 0, 0, 0)));
+    assert!(
+        has_note(&m, "reduced 1133 higher-order") && has_note(&m, "skipped 656 lower"),
+        "{:?}",
+        m.notes
+    );
+
+    let m = read("hexbox_o3_41_ascii.msh");
+    assert_eq!((m.points.len(), counts(&m)), (490, (0, 12, 0, 0)));
+    assert!(has_note(&m, "skipped 68 lower"), "{:?}", m.notes);
+
+    let m = read("mixed_o3_41_bin.msh");
+    assert_eq!((m.points.len(), counts(&m)), (3573, (189, 48, 54, 16)));
+    assert!(
+        has_note(&m, "reduced 307 higher-order") && has_note(&m, "skipped 278 lower"),
+        "{:?}",
+        m.notes
+    );
+}
+
+/// Fixed-seed LCG so the damage is the same on every run.
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> u64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        self.0 >> 33
+    }
+}
+
+#[test]
+fn truncated_and_corrupted_files_never_panic() {
+    let mut rng = Lcg(0x5eed_6d73);
+    for name in ALL {
+        let bytes = load(name);
+        for _ in 0..200 {
+            let cut = rng.next() as usize % bytes.len();
+            let _ = gmsh::read(&bytes[..cut]);
+        }
+        let mut damaged = bytes.clone();
+        for _ in 0..200 {
+            let at = rng.next() as usize % damaged.len();
+            let original = damaged[at];
+            damaged[at] = (rng.next() & 0xff) as u8;
+            let _ = gmsh::read(&damaged);
+            damaged[at] = original;
+        }
+    }
+}
+
+#[test]
+fn truncated_binary_reports_a_byte_offset() {
+    let bytes = load("boxcyl_41_bin.msh");
+    let e = gmsh::read(&bytes[..bytes.len() / 2]).unwrap_err();
+    assert!(matches!(e.at, tet_io::Location::Byte(_)), "{e}");
+    let e = gmsh::read(&load("boxcyl_41_ascii.msh")[..60_000]).unwrap_err();
+    assert!(matches!(e.at, tet_io::Location::Line(_)), "{e}");
+}

@@ -69,7 +69,9 @@ pub enum Finding {
     MergedDuplicatePoints { count: usize, tolerance: f64, with_different_scalar: usize },
     DroppedBlankedCells { count: usize },
     DroppedNonFinite { tets: usize, first_source_point: Option<usize> },
-    ReorientedTets { count: usize },
+    /// Tets re-oriented because their source cells list nodes in mirrored
+    /// order (e.g. a left-handed structured grid).
+    ReorientedTets { count: usize, cells: usize },
     DroppedZeroVolumeTets { count: usize, first_source_cell: usize },
     RemovedUnusedPoints { count: usize },
     CellScalarAveragedToPoints { name: String },
@@ -95,7 +97,10 @@ impl fmt::Display for Finding {
                 }
                 Ok(())
             }
-            Finding::ReorientedTets { count } => write!(f, "re-oriented {count} inverted tets"),
+            Finding::ReorientedTets { count, cells } => write!(
+                f,
+                "re-oriented {count} inverted tets from {cells} cells whose node order is mirrored (e.g. a left-handed grid)"
+            ),
             Finding::DroppedZeroVolumeTets { count, first_source_cell } => {
                 write!(f, "dropped {count} zero-volume tets (first from source cell {first_source_cell})")
             }
@@ -227,12 +232,17 @@ pub fn tetrahedralize(
     let mut tets = Vec::with_capacity(split.tets.len());
     let mut tet_cell = Vec::with_capacity(split.tets.len());
     let (mut flipped, mut flat, mut nonfinite) = (0usize, 0usize, 0usize);
+    let (mut flipped_cells, mut last_flipped_cell) = (0usize, u32::MAX);
     let mut first_flat_cell = None;
     for ((t, &c), v) in split.tets.iter().zip(&split.source_cell).zip(&verdicts) {
         match v {
             Verdict::Keep => tets.push(*t),
             Verdict::Flipped => {
                 flipped += 1;
+                if c != last_flipped_cell {
+                    flipped_cells += 1;
+                    last_flipped_cell = c;
+                }
                 tets.push([t[1], t[0], t[2], t[3]]);
             }
             Verdict::Flat => {
@@ -253,7 +263,7 @@ pub fn tetrahedralize(
         report.findings.push(Finding::DroppedNonFinite { tets: nonfinite, first_source_point });
     }
     if flipped > 0 {
-        report.findings.push(Finding::ReorientedTets { count: flipped });
+        report.findings.push(Finding::ReorientedTets { count: flipped, cells: flipped_cells });
     }
     if flat > 0 {
         report.findings.push(Finding::DroppedZeroVolumeTets { count: flat, first_source_cell: first_flat_cell.unwrap_or(0) });

@@ -37,10 +37,16 @@ pub struct SplitCells {
     pub source_cell: Vec<u32>,
 }
 
+// Faces are listed outward (right-hand normal pointing out) for cells in
+// VTK's orientation (a hexahedron's bottom quad turns counter-clockwise seen
+// from its top; a wedge's first triangle likewise; a pyramid's base seen
+// from its apex). Splitting a quad keeps its turning sense, so a cone from
+// the apex over outward triangles gives positively oriented tets: only cells
+// whose node order is mirrored need re-orientation later.
 const HEX_FACES: [[usize; 4]; 6] =
-    [[0, 1, 2, 3], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+    [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
 const WEDGE_QUADS: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
-const WEDGE_TRIS: [[usize; 3]; 2] = [[0, 1, 2], [3, 4, 5]];
+const WEDGE_TRIS: [[usize; 3]; 2] = [[0, 2, 1], [3, 4, 5]];
 /// VTK voxel node i sits at hexahedron node VOXEL_TO_HEX[i]'s place.
 const VOXEL_AS_HEX: [usize; 8] = [0, 1, 3, 2, 4, 5, 7, 6];
 
@@ -92,7 +98,7 @@ pub fn split_wedge(w: &[u32; 6], out: &mut impl FnMut([u32; 4])) {
 
 /// Splits one pyramid (base quad 0-3, apex 4) along its base's min-id diagonal.
 pub fn split_pyramid(p: &[u32; 5], out: &mut impl FnMut([u32; 4])) {
-    for t in split_quad([p[0], p[1], p[2], p[3]]) {
+    for t in split_quad([p[0], p[3], p[2], p[1]]) {
         out([p[4], t[0], t[1], t[2]]);
     }
 }
@@ -100,8 +106,10 @@ pub fn split_pyramid(p: &[u32; 5], out: &mut impl FnMut([u32; 4])) {
 /// Splits one structured hexahedron (VTK order) with the alternating 5-tet
 /// pattern; `odd` is the parity of i+j+k.
 pub fn split_hexahedron_five(h: &[u32; 8], odd: bool, out: &mut impl FnMut([u32; 4])) {
-    const EVEN: [[usize; 4]; 5] = [[1, 3, 4, 6], [0, 1, 3, 4], [2, 1, 3, 6], [5, 1, 4, 6], [7, 3, 4, 6]];
-    const ODD: [[usize; 4]; 5] = [[0, 2, 5, 7], [1, 0, 2, 5], [3, 0, 2, 7], [4, 0, 5, 7], [6, 2, 5, 7]];
+    // Central tet first, then the four corner tets; all positive for a cell
+    // in VTK orientation.
+    const EVEN: [[usize; 4]; 5] = [[1, 3, 4, 6], [0, 1, 3, 4], [1, 2, 3, 6], [5, 1, 4, 6], [3, 7, 4, 6]];
+    const ODD: [[usize; 4]; 5] = [[2, 0, 5, 7], [0, 1, 2, 5], [3, 0, 2, 7], [0, 4, 5, 7], [6, 2, 5, 7]];
     for t in if odd { &ODD } else { &EVEN } {
         out([h[t[0]], h[t[1]], h[t[2]], h[t[3]]]);
     }
@@ -249,9 +257,15 @@ mod tests {
         ]
     }
 
+    /// Sum of signed volumes, asserting each tet is positive: cells in VTK
+    /// orientation must split into positive tets.
     fn total_abs_volume(p: &[[f64; 3]], tets: &[[u32; 4]]) -> f64 {
         tets.iter()
-            .map(|t| signed_tet_volume(&p[t[0] as usize], &p[t[1] as usize], &p[t[2] as usize], &p[t[3] as usize]).abs())
+            .map(|t| {
+                let v = signed_tet_volume(&p[t[0] as usize], &p[t[1] as usize], &p[t[2] as usize], &p[t[3] as usize]);
+                assert!(v > 0.0, "tet {t:?} has volume {v}");
+                v
+            })
             .sum()
     }
 

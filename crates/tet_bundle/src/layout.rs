@@ -2,6 +2,8 @@
 //! See `formats/bundle.md` for the specification this implements.
 
 use crate::BundleError;
+use std::borrow::Cow;
+use std::io::{self, Write};
 use std::path::Path;
 
 /// First 8 bytes of every bundle. The high byte and CR/LF pair catch
@@ -26,40 +28,44 @@ pub struct SectionEntry {
     pub crc32: u32,
 }
 
-pub(crate) fn assemble(sections: &[(String, Vec<u8>)]) -> Vec<u8> {
+/// Writes header, table and payloads. Payloads are borrowed (on
+/// little-endian hosts straight from the mesh arrays), so a bundle is
+/// streamed to disk without an in-memory copy of the file.
+pub(crate) fn write_sections<W: Write>(out: &mut W, sections: &[(String, Cow<'_, [u8]>)]) -> io::Result<()> {
     let table_len = sections.len() * ENTRY_LEN;
     let mut offset = align(HEADER_LEN + table_len);
-    let mut entries = Vec::with_capacity(sections.len());
-    for (name, data) in sections {
-        entries.push((name, offset, data.len(), crc32fast::hash(data)));
-        offset = align(offset + data.len());
-    }
-    let mut out = Vec::with_capacity(offset);
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&(sections.len() as u32).to_le_bytes());
     let mut table = Vec::with_capacity(table_len);
-    for (name, off, len, crc) in &entries {
+    let mut offsets = Vec::with_capacity(sections.len());
+    for (name, data) in sections {
         let mut n = [0u8; NAME_LEN];
         n[..name.len()].copy_from_slice(name.as_bytes());
         table.extend_from_slice(&n);
-        table.extend_from_slice(&(*off as u64).to_le_bytes());
-        table.extend_from_slice(&(*len as u64).to_le_bytes());
-        table.extend_from_slice(&crc.to_le_bytes());
+        table.extend_from_slice(&(offset as u64).to_le_bytes());
+        table.extend_from_slice(&(data.len() as u64).to_le_bytes());
+        table.extend_from_slice(&crc32fast::hash(data).to_le_bytes());
         table.extend_from_slice(&0u32.to_le_bytes());
+        offsets.push(offset);
+        offset = align(offset + data.len());
     }
-    out.extend_from_slice(&(table_len as u64).to_le_bytes());
-    out.extend_from_slice(&crc32fast::hash(&table).to_le_bytes());
-    out.extend_from_slice(&0u32.to_le_bytes());
-    debug_assert_eq!(out.len(), HEADER_LEN);
-    out.extend_from_slice(&table);
-    for ((_, data), (_, off, _, _)) in sections.iter().zip(&entries) {
-        out.resize(*off, 0);
-        out.extend_from_slice(data);
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    header.extend_from_slice(&MAGIC);
+    header.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    header.extend_from_slice(&(sections.len() as u32).to_le_bytes());
+    header.extend_from_slice(&(table_len as u64).to_le_bytes());
+    header.extend_from_slice(&crc32fast::hash(&table).to_le_bytes());
+    header.extend_from_slice(&0u32.to_le_bytes());
+    debug_assert_eq!(header.len(), HEADER_LEN);
+    out.write_all(&header)?;
+    out.write_all(&table)?;
+    let mut pos = HEADER_LEN + table_len;
+    for ((_, data), off) in sections.iter().zip(offsets) {
+        out.write_all(&[0u8; ALIGN][..off - pos])?;
+        out.write_all(data)?;
+        pos = off + data.len();
     }
     // No padding after the last section: any truncation cuts into a section
     // and so fails its bounds check or checksum.
-    out
+    Ok(())
 }
 
 fn align(n: usize) -> usize {
@@ -122,19 +128,28 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Vec<SectionEntry>, Bund
     Ok(entries)
 }
 
-pub(crate) fn f64s_to_le(v: &[f64]) -> Vec<u8> {
+/// Little-endian bytes of a POD slice: borrowed on little-endian hosts.
+pub(crate) fn le_bytes<T: bytemuck::Pod + ToLeBytes>(v: &[T]) -> Cow<'_, [u8]> {
     if cfg!(target_endian = "little") {
-        bytemuck::cast_slice(v).to_vec()
+        Cow::Borrowed(bytemuck::cast_slice(v))
     } else {
-        v.iter().flat_map(|x| x.to_le_bytes()).collect()
+        Cow::Owned(v.iter().flat_map(|x| x.to_le_vec()).collect())
     }
 }
 
-pub(crate) fn u32s_to_le(v: &[u32]) -> Vec<u8> {
-    if cfg!(target_endian = "little") {
-        bytemuck::cast_slice(v).to_vec()
-    } else {
-        v.iter().flat_map(|x| x.to_le_bytes()).collect()
+pub(crate) trait ToLeBytes {
+    fn to_le_vec(&self) -> Vec<u8>;
+}
+
+impl ToLeBytes for f64 {
+    fn to_le_vec(&self) -> Vec<u8> {
+        self.to_le_bytes().to_vec()
+    }
+}
+
+impl ToLeBytes for u32 {
+    fn to_le_vec(&self) -> Vec<u8> {
+        self.to_le_bytes().to_vec()
     }
 }
 

@@ -35,6 +35,7 @@
 mod layout;
 
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use tet_mesh::{Adjacency, Field, MeshStats, TetMesh, NO_NEIGHBOR};
@@ -120,8 +121,8 @@ impl Bundle {
         Bundle { meta, mesh, adjacency }
     }
 
-    /// Serializes to bytes (the exact file content).
-    pub fn to_bytes(&self) -> Vec<u8> {
+    /// The sections in file order, payloads borrowed where possible.
+    fn sections_out(&self) -> Vec<(String, Cow<'_, [u8]>)> {
         let record = MetaRecord {
             meta: self.meta.clone(),
             scalar_name: self.mesh.scalar_name.clone(),
@@ -135,18 +136,25 @@ impl Bundle {
         };
         let meta_bytes =
             bincode::serde::encode_to_vec(&record, bincode::config::standard()).expect("meta always encodes");
-        let mut sections: Vec<(String, Vec<u8>)> = vec![
-            ("META".into(), meta_bytes),
-            ("POINTS".into(), layout::f64s_to_le(self.mesh.points.as_flattened())),
-            ("TETS".into(), layout::u32s_to_le(self.mesh.tets.as_flattened())),
-            ("SCALAR".into(), layout::f64s_to_le(&self.mesh.scalar)),
-            ("NEIGHBOR".into(), layout::u32s_to_le(self.adjacency.neighbors.as_flattened())),
-            ("BOUNDARY".into(), layout::u32s_to_le(&self.adjacency.boundary_faces)),
+        let mut sections: Vec<(String, Cow<'_, [u8]>)> = vec![
+            ("META".into(), Cow::Owned(meta_bytes)),
+            ("POINTS".into(), layout::le_bytes(self.mesh.points.as_flattened())),
+            ("TETS".into(), layout::le_bytes(self.mesh.tets.as_flattened())),
+            ("SCALAR".into(), layout::le_bytes(&self.mesh.scalar)),
+            ("NEIGHBOR".into(), layout::le_bytes(self.adjacency.neighbors.as_flattened())),
+            ("BOUNDARY".into(), layout::le_bytes(&self.adjacency.boundary_faces)),
         ];
         for (i, f) in self.mesh.point_fields.iter().enumerate() {
-            sections.push((format!("FLD{i:05}"), layout::f64s_to_le(&f.values)));
+            sections.push((format!("FLD{i:05}"), layout::le_bytes(&f.values)));
         }
-        layout::assemble(&sections)
+        sections
+    }
+
+    /// Serializes to bytes (the exact file content).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        layout::write_sections(&mut out, &self.sections_out()).expect("writing to a Vec cannot fail");
+        out
     }
 
     /// Writes atomically: a temporary file beside `path` is written, synced
@@ -157,12 +165,23 @@ impl Bundle {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
         };
-        let mut tmp = tempfile::Builder::new()
-            .prefix(".tetb-")
-            .suffix(".tmp")
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(".tetb-").suffix(".tmp");
+        // Temporary files are private (0600); the bundle is an ordinary
+        // output file, readable like any other the user creates.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            builder.permissions(std::fs::Permissions::from_mode(0o644));
+        }
+        let mut tmp = builder
             .tempfile_in(dir)
             .map_err(io("create a temporary file beside"))?;
-        tmp.write_all(&self.to_bytes()).map_err(io("write"))?;
+        {
+            let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
+            layout::write_sections(&mut w, &self.sections_out()).map_err(io("write"))?;
+            w.flush().map_err(io("write"))?;
+        }
         tmp.as_file().sync_all().map_err(io("sync"))?;
         tmp.persist(path).map_err(|e| BundleError::Io { action: "rename into place", source: e.error, path: path.to_path_buf() })?;
         Ok(())

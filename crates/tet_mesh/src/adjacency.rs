@@ -5,9 +5,9 @@
 //! of a positively oriented tet.
 
 use crate::error::MeshError;
+use crate::merge::FastMap;
 use crate::predicates::{tet_orientation, TetOrientation};
 use rayon::prelude::*;
-use std::collections::HashMap;
 
 /// Marks a face with no neighbour (on the boundary).
 pub const NO_NEIGHBOR: u32 = u32::MAX;
@@ -155,7 +155,8 @@ fn boundary_is_convex(points: &[[f64; 3]], tets: &[[u32; 4]], boundary: &[u32]) 
     }
     let faces: Vec<[u32; 3]> = boundary.iter().map(|&b| boundary_face_vertices(tets, b)).collect();
     // Directed edge (a→b) of face i; its twin (b→a) belongs to the neighbour face.
-    let mut edge_face: HashMap<(u32, u32), usize> = HashMap::with_capacity(faces.len() * 3);
+    let mut edge_face: FastMap<(u32, u32), usize> = FastMap::default();
+    edge_face.reserve(faces.len() * 3);
     for (i, f) in faces.iter().enumerate() {
         for e in 0..3 {
             if edge_face.insert((f[e], f[(e + 1) % 3]), i).is_some() {

@@ -98,16 +98,21 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         merge_tolerance_rel: args.merge_tolerance,
         keep_point_fields: !args.scalar_only,
     };
-    let t = Instant::now();
+    let mut step_start = (Instant::now(), "select_scalar");
+    let mut step_times: Vec<(&str, f64)> = Vec::new();
     let (mesh, report) = tetrahedralize(&source, &convert_opts, &mut |s| {
-        progress.step(match s {
-            Step::Merge => "merging duplicate points",
-            Step::Split => "splitting cells into tets",
-            Step::Validate => "validating tets",
-        })
+        let (msg, key) = match s {
+            Step::Merge => ("merging duplicate points", "merge"),
+            Step::Split => ("splitting cells into tets", "split"),
+            Step::Validate => ("validating tets", "validate"),
+        };
+        step_times.push((step_start.1, step_start.0.elapsed().as_secs_f64()));
+        step_start = (Instant::now(), key);
+        progress.step(msg)
     })
     .with_context(|| format!("converting {} failed", args.input.display()))?;
-    timings.push(("convert_validate", t.elapsed().as_secs_f64()));
+    step_times.push((step_start.1, step_start.0.elapsed().as_secs_f64()));
+    timings.extend(step_times);
 
     progress.step("building face adjacency");
     let t = Instant::now();
@@ -145,8 +150,10 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     progress.step("writing the bundle");
     let t = Instant::now();
     let bundle = Bundle::new(mesh, adjacency, meta);
+    timings.push(("stats", t.elapsed().as_secs_f64()));
+    let t = Instant::now();
     bundle.write(&args.output).context("writing the bundle failed")?;
-    timings.push(("stats_write", t.elapsed().as_secs_f64()));
+    timings.push(("write", t.elapsed().as_secs_f64()));
     let total = t_all.elapsed().as_secs_f64();
     progress.finish();
 

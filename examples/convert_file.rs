@@ -14,8 +14,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mesh, report) = tetrahedralize(&source, &opts, &mut |step| eprintln!("  {step:?}…"))?;
     let adjacency = build_adjacency(&mesh.points, &mesh.tets)?;
     let stats = mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
-    println!("{} tets, {} points, scalar {} in [{}, {}]", mesh.tets.len(), mesh.points.len(), mesh.scalar_name, stats.scalar_min, stats.scalar_max);
-    println!("total volume {}, {} boundary faces, convex: {}", stats.total_volume, adjacency.boundary_faces.len(), adjacency.convex);
+    println!(
+        "{} tets, {} points, scalar {} in [{}, {}]",
+        mesh.tets.len(),
+        mesh.points.len(),
+        mesh.scalar_name,
+        stats.scalar_min,
+        stats.scalar_max
+    );
+    println!(
+        "total volume {}, {} boundary faces, convex: {}",
+        stats.total_volume,
+        adjacency.boundary_faces.len(),
+        adjacency.convex
+    );
     for f in &report.findings {
         println!("  - {f}");
     }

@@ -17,16 +17,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    let scalar: Vec<f64> = points
-        .iter()
-        .map(|p| (6.0 * p[0]).sin() * (4.0 * p[1]).cos() + p[2] * p[2])
-        .collect();
+    let scalar: Vec<f64> = points.iter().map(|p| (6.0 * p[0]).sin() * (4.0 * p[1]).cos() + p[2] * p[2]).collect();
     let id = |i: usize, j: usize, k: usize| (i + n * (j + n * k)) as u32;
     let mut tets = Vec::with_capacity((n - 1).pow(3) * 6);
     for k in 0..n - 1 {
         for j in 0..n - 1 {
             for i in 0..n - 1 {
-                let hex = [id(i, j, k), id(i + 1, j, k), id(i + 1, j + 1, k), id(i, j + 1, k), id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)];
+                let hex = [
+                    id(i, j, k),
+                    id(i + 1, j, k),
+                    id(i + 1, j + 1, k),
+                    id(i, j + 1, k),
+                    id(i, j, k + 1),
+                    id(i + 1, j, k + 1),
+                    id(i + 1, j + 1, k + 1),
+                    id(i, j + 1, k + 1),
+                ];
                 split_hexahedron(&hex, &mut |t| tets.push(t));
             }
         }

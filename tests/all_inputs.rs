@@ -23,7 +23,11 @@ fn convert(path: &Path, opts: &ReadOptions, scalar: Option<&str>) -> (usize, usi
     // Compared as bytes: carried fields may hold NaN (e.g. PLOT3D Mach where
     // the pressure is negative), and NaN != NaN.
     let bytes = b.to_bytes();
-    assert!(Bundle::from_bytes(&bytes, path).unwrap().to_bytes() == bytes, "{}: bundle round trip differs", path.display());
+    assert!(
+        Bundle::from_bytes(&bytes, path).unwrap().to_bytes() == bytes,
+        "{}: bundle round trip differs",
+        path.display()
+    );
     (tets, points, convex)
 }
 
@@ -100,9 +104,13 @@ fn volume_inputs() {
 #[test]
 fn format_is_detected_from_content_when_the_extension_lies() {
     let dir = tempfile::tempdir().unwrap();
-    for (src, name) in [("vtk/tetraMesh.vtk", "a.dat"), ("vtu/can.vtu", "b.xml"), ("gmsh/mixed_22_ascii.msh", "c.txt")] {
+    for (src, name) in [("vtk/tetraMesh.vtk", "a.dat"), ("vtu/can.vtu", "b.xml"), ("gmsh/mixed_22_ascii.msh", "c.txt")]
+    {
         let p = dir.path().join(name);
         std::fs::copy(data(src), &p).unwrap();
-        assert_eq!(read_file(&p, &ReadOptions::default()).unwrap().points.len(), read_file(&data(src), &ReadOptions::default()).unwrap().points.len());
+        assert_eq!(
+            read_file(&p, &ReadOptions::default()).unwrap().points.len(),
+            read_file(&data(src), &ReadOptions::default()).unwrap().points.len()
+        );
     }
 }

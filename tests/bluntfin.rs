@@ -23,7 +23,16 @@ fn bluntfin() -> SourceMesh {
 /// Exact volume of a trilinear hexahedron (VTK order): det J is at most
 /// quadratic per axis, so 2×2×2 Gauss points integrate it exactly.
 fn trilinear_hex_volume(p: &[[f64; 3]; 8]) -> f64 {
-    let corners = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0., 1., 1.]];
+    let corners = [
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0., 1., 1.],
+    ];
     let g = [0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt()];
     let mut vol = 0.0;
     for &u in &g {
@@ -33,14 +42,19 @@ fn trilinear_hex_volume(p: &[[f64; 3]; 8]) -> f64 {
                 for (c, q) in corners.iter().zip(p) {
                     let f = |t: f64, s: f64| if s == 1.0 { t } else { 1.0 - t };
                     let df = |s: f64| if s == 1.0 { 1.0 } else { -1.0 };
-                    let d = [df(c[0]) * f(v, c[1]) * f(w, c[2]), f(u, c[0]) * df(c[1]) * f(w, c[2]), f(u, c[0]) * f(v, c[1]) * df(c[2])];
+                    let d = [
+                        df(c[0]) * f(v, c[1]) * f(w, c[2]),
+                        f(u, c[0]) * df(c[1]) * f(w, c[2]),
+                        f(u, c[0]) * f(v, c[1]) * df(c[2]),
+                    ];
                     for a in 0..3 {
                         for x in 0..3 {
                             j[a][x] += d[a] * q[x];
                         }
                     }
                 }
-                let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1]) - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
+                let det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1])
+                    - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0])
                     + j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
                 vol += det / 8.0;
             }
@@ -56,7 +70,16 @@ fn hex_volume_total(src: &SourceMesh) -> f64 {
     for k in 0..dims[2] - 1 {
         for j in 0..dims[1] - 1 {
             for i in 0..dims[0] - 1 {
-                let n = [id(i, j, k), id(i + 1, j, k), id(i + 1, j + 1, k), id(i, j + 1, k), id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)];
+                let n = [
+                    id(i, j, k),
+                    id(i + 1, j, k),
+                    id(i + 1, j + 1, k),
+                    id(i, j + 1, k),
+                    id(i, j, k + 1),
+                    id(i + 1, j, k + 1),
+                    id(i + 1, j + 1, k + 1),
+                    id(i, j + 1, k + 1),
+                ];
                 total += trilinear_hex_volume(&n.map(|x| src.points[x])).abs();
             }
         }
@@ -128,9 +151,8 @@ fn assert_no_interior_boundary_faces(src: &SourceMesh, points: &[[f64; 3]], tets
     for &b in boundary {
         let f = tetkit::mesh::adjacency::boundary_face_vertices(tets, b);
         let cands: Vec<&Vec<[usize; 3]>> = f.iter().map(|&v| &ijk[&points[v as usize].map(f64::to_bits)]).collect();
-        let on_side = (0..3).any(|axis| {
-            [0, dims[axis] - 1].iter().any(|&end| cands.iter().all(|c| c.iter().any(|q| q[axis] == end)))
-        });
+        let on_side = (0..3)
+            .any(|axis| [0, dims[axis] - 1].iter().any(|&end| cands.iter().all(|c| c.iter().any(|q| q[axis] == end))));
         assert!(on_side, "boundary face {b} ({f:?}) is inside the grid: a crack");
     }
 }

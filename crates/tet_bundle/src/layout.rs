@@ -96,12 +96,20 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Vec<SectionEntry>, Bund
     }
     let table_end = HEADER_LEN + table_len as usize;
     if bytes.len() < table_end {
-        return Err(damaged(format!("truncated: the section table ends at byte {table_end}, the file has {}", bytes.len())));
+        return Err(damaged(format!(
+            "truncated: the section table ends at byte {table_end}, the file has {}",
+            bytes.len()
+        )));
     }
     let table = &bytes[HEADER_LEN..table_end];
     let (expected, found) = (u32_at(24), crc32fast::hash(table));
     if expected != found {
-        return Err(BundleError::BadChecksum { section: "section table".into(), expected, found, path: path.to_path_buf() });
+        return Err(BundleError::BadChecksum {
+            section: "section table".into(),
+            expected,
+            found,
+            path: path.to_path_buf(),
+        });
     }
     let mut entries = Vec::with_capacity(count as usize);
     for e in table.chunks_exact(ENTRY_LEN) {
@@ -155,14 +163,14 @@ impl ToLeBytes for u32 {
 
 /// Decodes little-endian f64s; the count must be a multiple of `group`.
 pub(crate) fn le_to_f64s(b: &[u8], group: usize) -> Result<Vec<f64>, String> {
-    if b.len() % (8 * group) != 0 {
+    if !b.len().is_multiple_of(8 * group) {
         return Err(format!("{} bytes is not a whole number of {group}×f64 records", b.len()));
     }
     Ok(b.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect())
 }
 
 pub(crate) fn le_to_u32s(b: &[u8], group: usize) -> Result<Vec<u32>, String> {
-    if b.len() % (4 * group) != 0 {
+    if !b.len().is_multiple_of(4 * group) {
         return Err(format!("{} bytes is not a whole number of {group}×u32 records", b.len()));
     }
     Ok(b.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())

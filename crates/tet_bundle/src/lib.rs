@@ -174,22 +174,28 @@ impl Bundle {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o644));
         }
-        let mut tmp = builder
-            .tempfile_in(dir)
-            .map_err(io("create a temporary file beside"))?;
+        let mut tmp = builder.tempfile_in(dir).map_err(io("create a temporary file beside"))?;
         {
             let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
             layout::write_sections(&mut w, &self.sections_out()).map_err(io("write"))?;
             w.flush().map_err(io("write"))?;
         }
         tmp.as_file().sync_all().map_err(io("sync"))?;
-        tmp.persist(path).map_err(|e| BundleError::Io { action: "rename into place", source: e.error, path: path.to_path_buf() })?;
+        tmp.persist(path).map_err(|e| BundleError::Io {
+            action: "rename into place",
+            source: e.error,
+            path: path.to_path_buf(),
+        })?;
         Ok(())
     }
 
     /// Reads and verifies a bundle file.
     pub fn read(path: &Path) -> Result<Bundle, BundleError> {
-        let bytes = std::fs::read(path).map_err(|source| BundleError::Io { action: "read", source, path: path.to_path_buf() })?;
+        let bytes = std::fs::read(path).map_err(|source| BundleError::Io {
+            action: "read",
+            source,
+            path: path.to_path_buf(),
+        })?;
         Bundle::from_bytes(&bytes, path)
     }
 
@@ -207,11 +213,13 @@ impl Bundle {
         let (record, _): (MetaRecord, usize) =
             bincode::serde::decode_from_slice(get("META")?, bincode::config::standard().with_limit::<{ 1 << 26 }>())
                 .map_err(|e| damaged(format!("META section does not decode ({e})")))?;
-        let points: Vec<[f64; 3]> = layout::le_to_f64s(get("POINTS")?, 3).map_err(|e| damaged(format!("POINTS: {e}")))?
+        let points: Vec<[f64; 3]> = layout::le_to_f64s(get("POINTS")?, 3)
+            .map_err(|e| damaged(format!("POINTS: {e}")))?
             .chunks_exact(3)
             .map(|c| [c[0], c[1], c[2]])
             .collect();
-        let tets: Vec<[u32; 4]> = layout::le_to_u32s(get("TETS")?, 4).map_err(|e| damaged(format!("TETS: {e}")))?
+        let tets: Vec<[u32; 4]> = layout::le_to_u32s(get("TETS")?, 4)
+            .map_err(|e| damaged(format!("TETS: {e}")))?
             .chunks_exact(4)
             .map(|c| [c[0], c[1], c[2], c[3]])
             .collect();
@@ -233,7 +241,8 @@ impl Bundle {
         if neighbors.len() != tets.len() {
             return Err(damaged(format!("{} neighbour entries for {} tets", neighbors.len(), tets.len())));
         }
-        if let Some(i) = neighbors.iter().position(|n| n.iter().any(|&t| t != NO_NEIGHBOR && t as usize >= tets.len())) {
+        if let Some(i) = neighbors.iter().position(|n| n.iter().any(|&t| t != NO_NEIGHBOR && t as usize >= tets.len()))
+        {
             return Err(damaged(format!("tet {i} has a neighbour beyond the {} tets", tets.len())));
         }
         if let Some(b) = boundary_faces.iter().find(|&&b| (b / 4) as usize >= tets.len()) {
@@ -250,7 +259,11 @@ impl Bundle {
             let nc = info.num_components as usize;
             let values = layout::le_to_f64s(sec, nc.max(1)).map_err(|e| damaged(format!("{tag}: {e}")))?;
             if nc == 0 || values.len() != np * nc {
-                return Err(damaged(format!("field '{}' has {} values for {np} points × {nc}", info.name, values.len())));
+                return Err(damaged(format!(
+                    "field '{}' has {} values for {np} points × {nc}",
+                    info.name,
+                    values.len()
+                )));
             }
             point_fields.push(Field { name: info.name.clone(), num_components: nc, values });
         }

@@ -65,10 +65,7 @@ impl<'a> ByteCursor<'a> {
         if n > self.remaining() {
             return Err(FormatError::new(
                 self.location(),
-                format!(
-                    "truncated {what}: needs {n} bytes, only {} remain",
-                    self.remaining()
-                ),
+                format!("truncated {what}: needs {n} bytes, only {} remain", self.remaining()),
             ));
         }
         let s = &self.bytes[self.pos..self.pos + n];
@@ -239,22 +236,19 @@ impl<'a> TextCursor<'a> {
     /// Next token or an error naming what was expected.
     pub fn expect_token(&mut self, what: &str) -> Result<&'a str, FormatError> {
         let loc = self.location();
-        self.token()
-            .ok_or_else(|| FormatError::new(loc, format!("unexpected end of file, expected {what}")))
+        self.token().ok_or_else(|| FormatError::new(loc, format!("unexpected end of file, expected {what}")))
     }
 
     pub fn parse<T: std::str::FromStr>(&mut self, what: &str) -> Result<T, FormatError> {
         let tok = self.expect_token(what)?;
-        tok.parse::<T>().map_err(|_| {
-            FormatError::new(self.location(), format!("expected {what}, found '{}'", truncate(tok)))
-        })
+        tok.parse::<T>()
+            .map_err(|_| FormatError::new(self.location(), format!("expected {what}, found '{}'", truncate(tok))))
     }
 
     pub fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
         let tok = self.expect_token(what)?;
-        parse_f64(tok).ok_or_else(|| {
-            FormatError::new(self.location(), format!("expected {what}, found '{}'", truncate(tok)))
-        })
+        parse_f64(tok)
+            .ok_or_else(|| FormatError::new(self.location(), format!("expected {what}, found '{}'", truncate(tok))))
     }
 
     /// The rest of the current line (without the newline), consuming it.

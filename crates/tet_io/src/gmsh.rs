@@ -60,16 +60,11 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
                 // Gmsh accepts several files concatenated; the layout must not change midway.
                 let again = read_mesh_format(&mut t)?;
                 if again != state.header {
-                    return Err(FormatError::new(
-                        loc,
-                        "a second $MeshFormat section changes the version or encoding",
-                    ));
+                    return Err(FormatError::new(loc, "a second $MeshFormat section changes the version or encoding"));
                 }
             }
             "$PhysicalNames" => read_physical_names(&mut t, &mut state)?,
-            "$Entities" if state.header.version == Version::V41 => {
-                state.section_41(&mut t, Section41::Entities)?
-            }
+            "$Entities" if state.header.version == Version::V41 => state.section_41(&mut t, Section41::Entities)?,
             "$Nodes" => {
                 if state.header.version == Version::V41 {
                     state.section_41(&mut t, Section41::Nodes)?;
@@ -97,10 +92,7 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
                 ));
             }
             s if s.starts_with("$End") => {
-                return Err(FormatError::new(
-                    loc,
-                    format!("{s} without a matching opening section"),
-                ));
+                return Err(FormatError::new(loc, format!("{s} without a matching opening section")));
             }
             s if s.starts_with('$') && s.len() > 1 => {
                 let name = &s[1..];
@@ -113,10 +105,7 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
             other => {
                 return Err(FormatError::new(
                     loc,
-                    format!(
-                        "expected a section header such as $Nodes, found '{}'",
-                        clip(other)
-                    ),
+                    format!("expected a section header such as $Nodes, found '{}'", clip(other)),
                 ))
             }
         }
@@ -152,7 +141,9 @@ fn read_mesh_format(t: &mut TextCursor) -> Result<Header, FormatError> {
                 "MSH 4.0 is not supported (its layout differs from 4.1); re-save the mesh as MSH 4.1 or 2.2",
             ))
         }
-        v => return Err(FormatError::new(loc, format!("unsupported MSH version '{}' (2.2 and 4.1 are read)", clip(v)))),
+        v => {
+            return Err(FormatError::new(loc, format!("unsupported MSH version '{}' (2.2 and 4.1 are read)", clip(v))))
+        }
     };
     let file_type: i64 = t.parse("the file type (0 = ASCII, 1 = binary)")?;
     let data_size: i64 = t.parse("the data size")?;
@@ -172,14 +163,10 @@ fn read_mesh_format(t: &mut TextCursor) -> Result<Header, FormatError> {
             eat_line_end(t)?;
             let at = t.offset() as u64;
             let one = t.rest().get(..4).ok_or_else(|| {
-                FormatError::new(
-                    Location::Byte(at),
-                    "truncated $MeshFormat: the byte-order integer is missing",
-                )
+                FormatError::new(Location::Byte(at), "truncated $MeshFormat: the byte-order integer is missing")
             })?;
-            let one: [u8; 4] = one
-                .try_into()
-                .map_err(|_| FormatError::new(Location::Byte(at), "truncated $MeshFormat"))?;
+            let one: [u8; 4] =
+                one.try_into().map_err(|_| FormatError::new(Location::Byte(at), "truncated $MeshFormat"))?;
             let endian = if u32::from_le_bytes(one) == 1 {
                 Endian::Little
             } else if u32::from_be_bytes(one) == 1 {
@@ -193,19 +180,10 @@ fn read_mesh_format(t: &mut TextCursor) -> Result<Header, FormatError> {
             t.advance(4);
             Some((endian, size_bytes))
         }
-        f => {
-            return Err(FormatError::new(
-                loc,
-                format!("file type must be 0 (ASCII) or 1 (binary), found {f}"),
-            ))
-        }
+        f => return Err(FormatError::new(loc, format!("file type must be 0 (ASCII) or 1 (binary), found {f}"))),
     };
     expect_end(t, "MeshFormat")?;
-    Ok(Header {
-        version,
-        version_text,
-        binary,
-    })
+    Ok(Header { version, version_text, binary })
 }
 
 /// Consumes the end of the current line exactly (spaces, optional CR, LF):
@@ -220,10 +198,7 @@ fn eat_line_end(t: &mut TextCursor) -> Result<(), FormatError> {
         n += 1;
     }
     if rest.get(n) != Some(&b'\n') {
-        return Err(FormatError::new(
-            t.location(),
-            "expected the end of the line before binary data",
-        ));
+        return Err(FormatError::new(t.location(), "expected the end of the line before binary data"));
     }
     t.advance(n + 1);
     Ok(())
@@ -235,7 +210,10 @@ fn expect_end(t: &mut TextCursor, name: &str) -> Result<(), FormatError> {
         Some(tok) if tok.len() == name.len() + 4 && tok.starts_with("$End") && &tok[4..] == name => Ok(()),
         Some(tok) => Err(FormatError::new(
             t.location(),
-            format!("expected $End{name} (byte {at}), found '{}': the section holds more or other data than declared", clip(tok)),
+            format!(
+                "expected $End{name} (byte {at}), found '{}': the section holds more or other data than declared",
+                clip(tok)
+            ),
         )),
         None => Err(FormatError::new(t.location(), format!("unexpected end of file, expected $End{name}"))),
     }
@@ -250,10 +228,7 @@ fn skip_section(t: &mut TextCursor, name: &str, opened_at: Location) -> Result<(
             t.advance(i + pattern.len());
             Ok(())
         }
-        None => Err(FormatError::new(
-            opened_at,
-            format!("section ${name} is not closed by {pattern}"),
-        )),
+        None => Err(FormatError::new(opened_at, format!("section ${name} is not closed by {pattern}"))),
     }
 }
 
@@ -338,9 +313,7 @@ struct Binary<'a> {
 
 impl Binary<'_> {
     fn to_count(&self, n: u64, what: &str) -> Result<usize, FormatError> {
-        usize::try_from(n).map_err(|_| {
-            FormatError::new(self.c.location(), format!("{what}: count {n} is too large"))
-        })
+        usize::try_from(n).map_err(|_| FormatError::new(self.c.location(), format!("{what}: count {n} is too large")))
     }
 }
 
@@ -368,11 +341,7 @@ impl Values for Binary<'_> {
         let n = self.to_count(n, what)?;
         let bytes = self.c.take_array(n, 8, what)?;
         out.reserve(n);
-        out.extend(
-            bytes
-                .chunks_exact(8)
-                .map(|ch| f64::from_bits(word64(ch, self.endian))),
-        );
+        out.extend(bytes.chunks_exact(8).map(|ch| f64::from_bits(word64(ch, self.endian))));
         Ok(())
     }
     fn location(&self) -> Location {
@@ -622,11 +591,7 @@ impl State {
             Some((endian, size_bytes)) => {
                 eat_line_end(t)?;
                 let base = t.offset() as u64;
-                let mut v = Binary {
-                    c: ByteCursor::with_base(t.rest(), base),
-                    endian,
-                    size_bytes,
-                };
+                let mut v = Binary { c: ByteCursor::with_base(t.rest(), base), endian, size_bytes };
                 dispatch_41(&mut v, self, which)?;
                 let used = v.c.offset() - base;
                 t.advance(used as usize);
@@ -635,21 +600,13 @@ impl State {
         expect_end(t, which.name())
     }
 
-    fn push_cell(
-        &mut self,
-        cell_type: CellType,
-        nodes: &[u64],
-        tag: u64,
-        physical: f64,
-        entity: f64,
-    ) {
+    fn push_cell(&mut self, cell_type: CellType, nodes: &[u64], tag: u64, physical: f64, entity: f64) {
         let corners = cell_type.num_nodes();
         if nodes.len() > corners {
             self.higher_order += 1;
         }
         self.cell_types.push(cell_type);
-        self.cell_node_tags
-            .extend_from_slice(&nodes[..corners.min(nodes.len())]);
+        self.cell_node_tags.extend_from_slice(&nodes[..corners.min(nodes.len())]);
         self.cell_tags.push(tag);
         self.cell_physical.push(physical);
         self.cell_entity.push(entity);
@@ -676,16 +633,10 @@ impl State {
             ..
         } = self;
         if points.is_empty() && node_tags.is_empty() {
-            return Err(FormatError::new(
-                Location::Whole,
-                "the file has no nodes ($Nodes section missing or empty)",
-            ));
+            return Err(FormatError::new(Location::Whole, "the file has no nodes ($Nodes section missing or empty)"));
         }
         if elements_sections == 0 {
-            return Err(FormatError::new(
-                Location::Whole,
-                "the file has no $Elements section",
-            ));
+            return Err(FormatError::new(Location::Whole, "the file has no $Elements section"));
         }
         if cell_types.is_empty() {
             return Err(FormatError::new(
@@ -694,17 +645,10 @@ impl State {
             ));
         }
         if u32::try_from(points.len()).is_err() {
-            return Err(FormatError::new(
-                Location::Whole,
-                "more than 2^32 - 1 nodes",
-            ));
+            return Err(FormatError::new(Location::Whole, "more than 2^32 - 1 nodes"));
         }
-        let node_map = TagMap::build(&node_tags).map_err(|t| {
-            FormatError::new(
-                Location::Whole,
-                format!("node tag {t} appears twice in $Nodes"),
-            )
-        })?;
+        let node_map = TagMap::build(&node_tags)
+            .map_err(|t| FormatError::new(Location::Whole, format!("node tag {t} appears twice in $Nodes")))?;
 
         let mut cells = Cells::new();
         cells.types.reserve(cell_types.len());
@@ -715,10 +659,7 @@ impl State {
         for (c, &ty) in cell_types.iter().enumerate() {
             let n = ty.num_nodes();
             let tags = cell_node_tags.get(at..at + n).ok_or_else(|| {
-                FormatError::new(
-                    Location::Whole,
-                    "internal: element node list shorter than its type",
-                )
+                FormatError::new(Location::Whole, "internal: element node list shorter than its type")
             })?;
             for (slot, &tag) in resolved.iter_mut().zip(tags) {
                 *slot = node_map.get(tag).ok_or_else(|| {
@@ -739,21 +680,15 @@ impl State {
             format: format!(
                 "Gmsh {} ({})",
                 header.version_text,
-                if header.binary.is_some() {
-                    "binary"
-                } else {
-                    "ASCII"
-                }
+                if header.binary.is_some() { "binary" } else { "ASCII" }
             ),
             ..Default::default()
         };
         // All zeros means the file defines no physical volumes: leave the field out.
         if physical_known && cell_physical.iter().any(|&p| p != 0.0) {
-            mesh.cell_fields
-                .push(Field::new(PHYSICAL_FIELD, 1, cell_physical));
+            mesh.cell_fields.push(Field::new(PHYSICAL_FIELD, 1, cell_physical));
         }
-        mesh.cell_fields
-            .push(Field::new(GEOMETRICAL_FIELD, 1, cell_entity));
+        mesh.cell_fields.push(Field::new(GEOMETRICAL_FIELD, 1, cell_entity));
 
         let num_points = points.len();
         let num_cells = cells.len();
@@ -765,10 +700,7 @@ impl State {
                 DataKind::Element => {
                     if cell_map.is_none() {
                         cell_map = Some(TagMap::build(&cell_tags).map_err(|t| {
-                            FormatError::new(
-                                Location::Whole,
-                                format!("element tag {t} is used by two volume elements"),
-                            )
+                            FormatError::new(Location::Whole, format!("element tag {t} is used by two volume elements"))
                         })?);
                     }
                     match &cell_map {
@@ -777,9 +709,7 @@ impl State {
                     }
                 }
             };
-            let len = count
-                .checked_mul(comps)
-                .ok_or_else(|| FormatError::new(f.at, "field size overflows"))?;
+            let len = count.checked_mul(comps).ok_or_else(|| FormatError::new(f.at, "field size overflows"))?;
             let mut values = vec![f64::NAN; len];
             let mut covered = vec![false; count];
             let mut outside = 0usize;
@@ -788,10 +718,7 @@ impl State {
                     if f.kind == DataKind::Node {
                         return Err(FormatError::new(
                             f.at,
-                            format!(
-                                "$NodeData '{}' refers to node tag {tag}, which is not in $Nodes",
-                                f.name
-                            ),
+                            format!("$NodeData '{}' refers to node tag {tag}, which is not in $Nodes", f.name),
                         ));
                     }
                     outside += 1;
@@ -808,11 +735,7 @@ impl State {
                 }
             }
             let n_covered = covered.iter().filter(|&&c| c).count();
-            let what = if f.kind == DataKind::Node {
-                "point"
-            } else {
-                "cell"
-            };
+            let what = if f.kind == DataKind::Node { "point" } else { "cell" };
             if f.steps_seen > 1 {
                 notes.push(format!(
                     "{what} field '{}': kept the last of {} time steps (step {}, time {})",
@@ -820,16 +743,10 @@ impl State {
                 ));
             }
             if outside > 0 {
-                notes.push(format!(
-                    "{what} field '{}': ignored {outside} values on non-volume elements",
-                    f.name
-                ));
+                notes.push(format!("{what} field '{}': ignored {outside} values on non-volume elements", f.name));
             }
             if n_covered == 0 {
-                notes.push(format!(
-                    "{what} field '{}' dropped: it has no values on the volume {what}s",
-                    f.name
-                ));
+                notes.push(format!("{what} field '{}' dropped: it has no values on the volume {what}s", f.name));
                 continue;
             }
             if n_covered < count {
@@ -846,26 +763,15 @@ impl State {
         }
 
         if lower_dim > 0 {
-            notes.insert(
-                0,
-                format!("skipped {lower_dim} lower-dimensional elements (points, lines, surfaces)"),
-            );
+            notes.insert(0, format!("skipped {lower_dim} lower-dimensional elements (points, lines, surfaces)"));
         }
         if higher_order > 0 {
-            notes.insert(
-                0,
-                format!("reduced {higher_order} higher-order elements to their corner nodes"),
-            );
+            notes.insert(0, format!("reduced {higher_order} higher-order elements to their corner nodes"));
         }
         if !physical_volume_names.is_empty() {
-            let list: Vec<String> = physical_volume_names
-                .iter()
-                .map(|(tag, name)| format!("{tag} \"{name}\""))
-                .collect();
-            notes.push(format!(
-                "physical volumes ({PHYSICAL_FIELD}): {}",
-                list.join(", ")
-            ));
+            let list: Vec<String> =
+                physical_volume_names.iter().map(|(tag, name)| format!("{tag} \"{name}\"")).collect();
+            notes.push(format!("physical volumes ({PHYSICAL_FIELD}): {}", list.join(", ")));
         }
         if !skipped_sections.is_empty() {
             notes.push(format!("skipped sections: {}", skipped_sections.join(", ")));
@@ -873,8 +779,7 @@ impl State {
         mesh.points = points;
         mesh.blocks.push(Block::Unstructured(cells));
         mesh.notes = notes;
-        mesh.check()
-            .map_err(|e| FormatError::new(Location::Whole, e))?;
+        mesh.check().map_err(|e| FormatError::new(Location::Whole, e))?;
         Ok(mesh)
     }
 }
@@ -912,11 +817,9 @@ impl TagMap {
 
     fn get(&self, tag: u64) -> Option<u32> {
         match self {
-            TagMap::Dense(table) => usize::try_from(tag)
-                .ok()
-                .and_then(|i| table.get(i))
-                .copied()
-                .filter(|&v| v != u32::MAX),
+            TagMap::Dense(table) => {
+                usize::try_from(tag).ok().and_then(|i| table.get(i)).copied().filter(|&v| v != u32::MAX)
+            }
             TagMap::Sparse(map) => map.get(&tag).copied(),
         }
     }
@@ -928,13 +831,9 @@ fn read_physical_names(t: &mut TextCursor, state: &mut State) -> Result<(), Form
         let dim: i64 = t.parse("a physical name's dimension")?;
         let tag: i64 = t.parse("a physical name's tag")?;
         let loc = t.location();
-        let rest = t
-            .line_str()
-            .ok_or_else(|| FormatError::new(loc, "unexpected end of file in $PhysicalNames"))?;
+        let rest = t.line_str().ok_or_else(|| FormatError::new(loc, "unexpected end of file in $PhysicalNames"))?;
         if dim == 3 {
-            state
-                .physical_volume_names
-                .push((tag, rest.trim().trim_matches('"').to_string()));
+            state.physical_volume_names.push((tag, rest.trim().trim_matches('"').to_string()));
         }
     }
     expect_end(t, "PhysicalNames")
@@ -972,12 +871,7 @@ fn read_entities_41<V: Values>(v: &mut V, s: &mut State) -> Result<(), FormatErr
     let mut counts = [0u64; 4];
     for (dim, count) in counts.iter_mut().enumerate() {
         *count = v.size(
-            [
-                "the number of points",
-                "the number of curves",
-                "the number of surfaces",
-                "the number of volumes",
-            ][dim],
+            ["the number of points", "the number of curves", "the number of surfaces", "the number of volumes"][dim],
         )?;
     }
     let mut volume_physical = HashMap::new();
@@ -1024,30 +918,21 @@ fn read_nodes_41<V: Values>(v: &mut V, s: &mut State) -> Result<(), FormatError>
         let parametric = v.int("the parametric flag of a node block")?;
         let count = v.size("the number of nodes in a block")?;
         if !(0..=3).contains(&dim) {
-            return Err(FormatError::new(
-                loc,
-                format!("node block entity dimension must be 0 to 3, found {dim}"),
-            ));
+            return Err(FormatError::new(loc, format!("node block entity dimension must be 0 to 3, found {dim}")));
         }
         let per_node = match parametric {
             0 => 3,
             1 => 3 + dim as u64,
-            p => {
-                return Err(FormatError::new(
-                    loc,
-                    format!("node block parametric flag must be 0 or 1, found {p}"),
-                ))
-            }
+            p => return Err(FormatError::new(loc, format!("node block parametric flag must be 0 or 1, found {p}"))),
         };
         v.sizes(count, "node tags", &mut s.node_tags)?;
-        let num_values = count.checked_mul(per_node).ok_or_else(|| {
-            FormatError::new(loc, format!("node block of {count} nodes overflows"))
-        })?;
+        let num_values = count
+            .checked_mul(per_node)
+            .ok_or_else(|| FormatError::new(loc, format!("node block of {count} nodes overflows")))?;
         coords.clear();
         v.reals(num_values, "node coordinates", &mut coords)?;
         let per_node = per_node as usize;
-        s.points
-            .extend(coords.chunks_exact(per_node).map(|c| [c[0], c[1], c[2]]));
+        s.points.extend(coords.chunks_exact(per_node).map(|c| [c[0], c[1], c[2]]));
     }
     Ok(())
 }
@@ -1068,11 +953,7 @@ fn read_elements_41<V: Values>(v: &mut V, s: &mut State) -> Result<(), FormatErr
         let type_id = v.int("the element type of a block")?;
         let count = v.size("the number of elements in a block")?;
         let Some(kind) = element_kind(type_id) else {
-            let first = if count > 0 {
-                v.size("an element tag").ok()
-            } else {
-                None
-            };
+            let first = if count > 0 { v.size("an element tag").ok() } else { None };
             let which = match first {
                 Some(tag) => format!("element {tag}"),
                 None => "an element block".to_string(),
@@ -1083,26 +964,17 @@ fn read_elements_41<V: Values>(v: &mut V, s: &mut State) -> Result<(), FormatErr
             ));
         };
         let per_element = element_nodes(kind) + 1;
-        let num_values = count.checked_mul(per_element as u64).ok_or_else(|| {
-            FormatError::new(loc, format!("element block of {count} elements overflows"))
-        })?;
+        let num_values = count
+            .checked_mul(per_element as u64)
+            .ok_or_else(|| FormatError::new(loc, format!("element block of {count} elements overflows")))?;
         buf.clear();
         v.sizes(num_values, "element tags and nodes", &mut buf)?;
         match kind {
             ElementKind::Lower(_) => s.lower_dim += buf.len() / per_element,
             ElementKind::Volume(cell_type, _) => {
-                let physical = s
-                    .volume_physical
-                    .as_ref()
-                    .map_or(0, |m| m.get(&entity).copied().unwrap_or(0));
+                let physical = s.volume_physical.as_ref().map_or(0, |m| m.get(&entity).copied().unwrap_or(0));
                 for element in buf.chunks_exact(per_element) {
-                    s.push_cell(
-                        cell_type,
-                        &element[1..],
-                        element[0],
-                        physical as f64,
-                        entity as f64,
-                    );
+                    s.push_cell(cell_type, &element[1..], element[0], physical as f64, entity as f64);
                 }
             }
         }
@@ -1111,8 +983,7 @@ fn read_elements_41<V: Values>(v: &mut V, s: &mut State) -> Result<(), FormatErr
 }
 
 fn nonnegative(value: i64, what: &str, loc: Location) -> Result<u64, FormatError> {
-    u64::try_from(value)
-        .map_err(|_| FormatError::new(loc, format!("{what} must not be negative, found {value}")))
+    u64::try_from(value).map_err(|_| FormatError::new(loc, format!("{what} must not be negative, found {value}")))
 }
 
 /// `$Nodes` (2.x): a count, then `tag x y z` per node (binary: int + 3 doubles).
@@ -1134,17 +1005,15 @@ fn read_nodes_2(t: &mut TextCursor, s: &mut State) -> Result<(), FormatError> {
             eat_line_end(t)?;
             let base = t.offset() as u64;
             let mut c = ByteCursor::with_base(t.rest(), base);
-            let count = usize::try_from(count).map_err(|_| {
-                FormatError::new(c.location(), format!("node count {count} is too large"))
-            })?;
+            let count = usize::try_from(count)
+                .map_err(|_| FormatError::new(c.location(), format!("node count {count} is too large")))?;
             let bytes = c.take_array(count, 4 + 3 * 8, "node list")?;
             s.node_tags.reserve(count);
             s.points.reserve(count);
             for (i, node) in bytes.chunks_exact(28).enumerate() {
                 let tag = word32(node, endian) as i32;
                 let loc = Location::Byte(base + (i * 28) as u64);
-                s.node_tags
-                    .push(nonnegative(i64::from(tag), "a node tag", loc)?);
+                s.node_tags.push(nonnegative(i64::from(tag), "a node tag", loc)?);
                 let coord = |k: usize| f64::from_bits(word64(&node[4 + 8 * k..], endian));
                 s.points.push([coord(0), coord(1), coord(2)]);
             }
@@ -1155,10 +1024,7 @@ fn read_nodes_2(t: &mut TextCursor, s: &mut State) -> Result<(), FormatError> {
 }
 
 fn unknown_type_error(loc: Location, element: u64, type_id: i64) -> FormatError {
-    FormatError::new(
-        loc,
-        format!("element {element} has unknown or unsupported Gmsh element type {type_id}"),
-    )
+    FormatError::new(loc, format!("element {element} has unknown or unsupported Gmsh element type {type_id}"))
 }
 
 /// `$Elements` (2.x, ASCII): `tag type ntags tag... node...` per element;
@@ -1225,9 +1091,7 @@ fn read_elements_2_binary(t: &mut TextCursor, s: &mut State) -> Result<(), Forma
         if in_block > count - done {
             return Err(FormatError::new(
                 loc,
-                format!(
-                    "element block of {in_block} elements overruns the {count} elements declared"
-                ),
+                format!("element block of {in_block} elements overruns the {count} elements declared"),
             ));
         }
         let Some(kind) = element_kind(i64::from(type_id)) else {
@@ -1236,9 +1100,9 @@ fn read_elements_2_binary(t: &mut TextCursor, s: &mut State) -> Result<(), Forma
         };
         let num_tags = num_tags as usize;
         let per_element = 1 + num_tags + element_nodes(kind);
-        let record = per_element.checked_mul(4).ok_or_else(|| {
-            FormatError::new(loc, format!("element block with {num_tags} tags overflows"))
-        })?;
+        let record = per_element
+            .checked_mul(4)
+            .ok_or_else(|| FormatError::new(loc, format!("element block with {num_tags} tags overflows")))?;
         let bytes = c.take_array(in_block as usize, record, "element block")?;
         match kind {
             ElementKind::Lower(_) => s.lower_dim += in_block as usize,
@@ -1254,13 +1118,7 @@ fn read_elements_2_binary(t: &mut TextCursor, s: &mut State) -> Result<(), Forma
                         // resolution reports the element.
                         nodes.push(u64::try_from(int(k)).unwrap_or(u64::MAX));
                     }
-                    s.push_cell(
-                        cell_type,
-                        &nodes,
-                        int(0) as u32 as u64,
-                        f64::from(physical),
-                        f64::from(entity),
-                    );
+                    s.push_cell(cell_type, &nodes, int(0) as u32 as u64, f64::from(physical), f64::from(entity));
                 }
             }
         }
@@ -1276,12 +1134,9 @@ fn read_data_header(t: &mut TextCursor, section: &str) -> Result<DataHeader, For
     let mut name = None;
     for _ in 0..num_strings {
         let loc = t.location();
-        let line = t.line_str().ok_or_else(|| {
-            FormatError::new(
-                loc,
-                format!("unexpected end of file in the {section} string tags"),
-            )
-        })?;
+        let line = t
+            .line_str()
+            .ok_or_else(|| FormatError::new(loc, format!("unexpected end of file in the {section} string tags")))?;
         name.get_or_insert_with(|| line.trim().trim_matches('"').to_string());
     }
     let num_reals: u64 = t.parse("the number of real tags")?;
@@ -1309,10 +1164,7 @@ fn read_data_header(t: &mut TextCursor, section: &str) -> Result<DataHeader, For
     }
     let [step, components, count] = ints;
     if !(1..=64).contains(&components) {
-        return Err(FormatError::new(
-            loc,
-            format!("{section}: {components} components per value (1 to 64 are read)"),
-        ));
+        return Err(FormatError::new(loc, format!("{section}: {components} components per value (1 to 64 are read)")));
     }
     let count = nonnegative(count, "the number of values", loc)?;
     Ok(DataHeader {
@@ -1327,11 +1179,7 @@ fn read_data_header(t: &mut TextCursor, section: &str) -> Result<DataHeader, For
 /// `$NodeData` / `$ElementData`: values by tag, merged per name: sections of
 /// the same time step (partitions) add up, a new time step replaces the old.
 fn read_data(t: &mut TextCursor, s: &mut State, kind: DataKind) -> Result<(), FormatError> {
-    let section = if kind == DataKind::Node {
-        "NodeData"
-    } else {
-        "ElementData"
-    };
+    let section = if kind == DataKind::Node { "NodeData" } else { "ElementData" };
     let at = t.location();
     let h = read_data_header(t, section)?;
     let comps = h.components;
@@ -1350,12 +1198,8 @@ fn read_data(t: &mut TextCursor, s: &mut State, kind: DataKind) -> Result<(), Fo
             eat_line_end(t)?;
             let base = t.offset() as u64;
             let mut c = ByteCursor::with_base(t.rest(), base);
-            let count = usize::try_from(h.count).map_err(|_| {
-                FormatError::new(
-                    c.location(),
-                    format!("{section}: count {} is too large", h.count),
-                )
-            })?;
+            let count = usize::try_from(h.count)
+                .map_err(|_| FormatError::new(c.location(), format!("{section}: count {} is too large", h.count)))?;
             let record = 4 + 8 * comps;
             let bytes = c.take_array(count, record, section)?;
             tags.reserve(count);
@@ -1364,30 +1208,19 @@ fn read_data(t: &mut TextCursor, s: &mut State, kind: DataKind) -> Result<(), Fo
                 let tag = word32(rec, endian) as i32;
                 let loc = Location::Byte(base + (i * record) as u64);
                 tags.push(nonnegative(i64::from(tag), "a data tag", loc)?);
-                values.extend(
-                    rec[4..]
-                        .chunks_exact(8)
-                        .map(|v| f64::from_bits(word64(v, endian))),
-                );
+                values.extend(rec[4..].chunks_exact(8).map(|v| f64::from_bits(word64(v, endian))));
             }
             t.advance((c.offset() - base) as usize);
         }
     }
     expect_end(t, section)?;
 
-    match s
-        .data
-        .iter_mut()
-        .find(|f| f.kind == kind && f.name == h.name)
-    {
+    match s.data.iter_mut().find(|f| f.kind == kind && f.name == h.name) {
         Some(f) if f.step == h.step => {
             if f.components != comps {
                 return Err(FormatError::new(
                     at,
-                    format!(
-                        "{section} '{}' changes from {} to {comps} components",
-                        h.name, f.components
-                    ),
+                    format!("{section} '{}' changes from {} to {comps} components", h.name, f.components),
                 ));
             }
             f.tags.extend_from_slice(&tags);
@@ -1439,19 +1272,9 @@ mod tests {
         assert_eq!(m.points.len(), 5);
         assert_eq!(cells(&m).nodes(0), &[0, 1, 2, 3]);
         assert_eq!(m.format, "Gmsh 2.2 (ASCII)");
-        let physical = m
-            .cell_fields
-            .iter()
-            .find(|f| f.name == PHYSICAL_FIELD)
-            .unwrap();
+        let physical = m.cell_fields.iter().find(|f| f.name == PHYSICAL_FIELD).unwrap();
         assert_eq!(physical.values, vec![7.0]);
-        assert!(
-            m.notes
-                .iter()
-                .any(|n| n.contains("skipped 2 lower-dimensional")),
-            "{:?}",
-            m.notes
-        );
+        assert!(m.notes.iter().any(|n| n.contains("skipped 2 lower-dimensional")), "{:?}", m.notes);
     }
 
     #[test]
@@ -1471,10 +1294,7 @@ mod tests {
     fn unknown_element_type_names_element_and_type() {
         let text = TET_22.replace("21 4 2", "21 999 2");
         let e = read(text.as_bytes()).unwrap_err();
-        assert!(
-            e.message.contains("element 21") && e.message.contains("999"),
-            "{e}"
-        );
+        assert!(e.message.contains("element 21") && e.message.contains("999"), "{e}");
         assert_eq!(e.at, Location::Line(16));
     }
 
@@ -1513,11 +1333,7 @@ mod tests {
         assert_eq!(c.types, vec![CellType::Hexahedron, CellType::Pyramid]);
         assert_eq!(c.nodes(0), &[0, 1, 2, 3, 4, 5, 6, 7]);
         assert_eq!(c.nodes(1), &[4, 5, 6, 7, 8]);
-        let physical = m
-            .cell_fields
-            .iter()
-            .find(|f| f.name == PHYSICAL_FIELD)
-            .unwrap();
+        let physical = m.cell_fields.iter().find(|f| f.name == PHYSICAL_FIELD).unwrap();
         assert_eq!(physical.values, vec![42.0, 42.0]);
         // Step 1 replaced step 0; its two partitions (sections) were merged.
         let t = &m.point_fields[0];
@@ -1531,14 +1347,8 @@ mod tests {
         assert_eq!(q.values[1], 0.25);
         let notes = m.notes.join("\n");
         assert!(notes.contains("kept the last of 2 time steps"), "{notes}");
-        assert!(
-            notes.contains("ignored 1 values on non-volume elements"),
-            "{notes}"
-        );
-        assert!(
-            notes.contains("skipped $ElementNodeData 'skipme'"),
-            "{notes}"
-        );
+        assert!(notes.contains("ignored 1 values on non-volume elements"), "{notes}");
+        assert!(notes.contains("skipped $ElementNodeData 'skipme'"), "{notes}");
     }
 
     /// Writes a binary 4.1 file of the same hexahedron + pyramid mesh.
@@ -1590,10 +1400,7 @@ mod tests {
         for v in [2, 2, 1, 2] {
             size(&mut out, v);
         }
-        for (ty, tag, nodes) in [
-            (5, 1u64, &[1u64, 2, 3, 4, 5, 6, 7, 8][..]),
-            (7, 2, &[5, 6, 7, 8, 9][..]),
-        ] {
+        for (ty, tag, nodes) in [(5, 1u64, &[1u64, 2, 3, 4, 5, 6, 7, 8][..]), (7, 2, &[5, 6, 7, 8, 9][..])] {
             int(&mut out, 3);
             int(&mut out, 1);
             int(&mut out, ty);
@@ -1632,12 +1439,7 @@ mod tests {
         let mut out = b"$MeshFormat\n2.2 1 8\n".to_vec();
         out.extend_from_slice(&1i32.to_be_bytes());
         out.extend_from_slice(b"\n$EndMeshFormat\n$Nodes\n4\n");
-        for (tag, p) in [
-            (1, [0., 0., 0.]),
-            (2, [1., 0., 0.]),
-            (3, [0., 1., 0.]),
-            (4, [0., 0., 1.]),
-        ] {
+        for (tag, p) in [(1, [0., 0., 0.]), (2, [1., 0., 0.]), (3, [0., 1., 0.]), (4, [0., 0., 1.])] {
             out.extend_from_slice(&i32::to_be_bytes(tag));
             for c in p {
                 out.extend_from_slice(&f64::to_be_bytes(c));
@@ -1652,11 +1454,7 @@ mod tests {
         let m = read(&out).unwrap();
         assert_eq!(m.format, "Gmsh 2.2 (binary)");
         assert_eq!(cells(&m).nodes(0), &[0, 1, 2, 3]);
-        let geo = m
-            .cell_fields
-            .iter()
-            .find(|f| f.name == GEOMETRICAL_FIELD)
-            .unwrap();
+        let geo = m.cell_fields.iter().find(|f| f.name == GEOMETRICAL_FIELD).unwrap();
         assert_eq!(geo.values, vec![3.0]);
         // A block claiming more elements than the section is rejected.
         let mut bad = out.clone();
@@ -1686,11 +1484,7 @@ mod tests {
             b"$NOD\n1\n1 0 0 0\n$ENDNOD\n",
         ];
         for case in cases {
-            assert!(
-                read(case).is_err(),
-                "accepted: {:?}",
-                String::from_utf8_lossy(case)
-            );
+            assert!(read(case).is_err(), "accepted: {:?}", String::from_utf8_lossy(case));
         }
     }
 }

@@ -167,7 +167,6 @@ impl fmt::Display for Format {
     }
 }
 
-
 /// Options for [`read_file`] beyond the path.
 #[derive(Debug, Clone, Default)]
 pub struct ReadOptions {

@@ -52,12 +52,7 @@ pub fn read(
     let bytes = header_and_maybe_data;
     let h = parse_header(bytes)?;
     let line = Location::Line(h.end_line);
-    let missing = |what: &str| {
-        FormatError::new(
-            line,
-            format!("NRRD header lacks the required '{what}' field"),
-        )
-    };
+    let missing = |what: &str| FormatError::new(line, format!("NRRD header lacks the required '{what}' field"));
     let scalar_type = h.scalar_type.ok_or_else(|| missing("type"))?;
     let dimension = h.dimension.ok_or_else(|| missing("dimension"))?;
     let sizes = h.sizes.clone().ok_or_else(|| missing("sizes"))?;
@@ -65,10 +60,7 @@ pub fn read(
     if sizes.len() != dimension {
         return Err(FormatError::new(
             line,
-            format!(
-                "'sizes' has {} entries but 'dimension' is {dimension}",
-                sizes.len()
-            ),
+            format!("'sizes' has {} entries but 'dimension' is {dimension}", sizes.len()),
         ));
     }
     // A leading axis of up to 4 samples in a 4D volume is the component axis.
@@ -89,10 +81,7 @@ pub fn read(
         }
     };
     if dims.contains(&0) || components == 0 {
-        return Err(FormatError::new(
-            line,
-            format!("'sizes' {sizes:?} contains a zero"),
-        ));
+        return Err(FormatError::new(line, format!("'sizes' {sizes:?} contains a zero")));
     }
     let count = checked_count(dims)
         .and_then(|n| n.checked_mul(components))
@@ -117,11 +106,7 @@ pub fn read(
                 ));
             }
             detached_storage = load_detached(name).map_err(|e| {
-                FormatError::new(
-                    Location::Whole,
-                    format!("cannot read detached data file '{name}': {e}"),
-                )
-                .companion()
+                FormatError::new(Location::Whole, format!("cannot read detached data file '{name}': {e}")).companion()
             })?;
             notes.push(format!("data read from detached file '{name}'"));
             (&detached_storage[..], 0, true)
@@ -136,18 +121,8 @@ pub fn read(
     };
     let mark = |e: FormatError| if companion { e.companion() } else { e };
 
-    let values = decode_data(
-        source,
-        base,
-        &h,
-        encoding,
-        scalar_type,
-        endian,
-        count,
-        data_bytes,
-        &mut notes,
-    )
-    .map_err(mark)?;
+    let values =
+        decode_data(source, base, &h, encoding, scalar_type, endian, count, data_bytes, &mut notes).map_err(mark)?;
 
     // Geometry: space directions beat spacings; space origin beats axis mins.
     let spatial = |v: &[f64]| -> Option<[f64; 3]> {
@@ -159,10 +134,7 @@ pub fn read(
         if dirs.len() != dimension {
             return Err(FormatError::new(
                 line,
-                format!(
-                    "'space directions' has {} entries but 'dimension' is {dimension}",
-                    dirs.len()
-                ),
+                format!("'space directions' has {} entries but 'dimension' is {dimension}", dirs.len()),
             ));
         }
         for (axis, d) in dirs[dimension - 3..].iter().enumerate() {
@@ -180,10 +152,7 @@ pub fn read(
         if sp.len() != dimension {
             return Err(FormatError::new(
                 line,
-                format!(
-                    "'spacings' has {} entries but 'dimension' is {dimension}",
-                    sp.len()
-                ),
+                format!("'spacings' has {} entries but 'dimension' is {dimension}", sp.len()),
             ));
         }
         if let Some(s) = spatial(sp) {
@@ -201,17 +170,10 @@ pub fn read(
         _ => [0.0; 3],
     };
 
-    let name = h
-        .content
-        .clone()
-        .filter(|c| !c.is_empty())
-        .unwrap_or_else(|| "scalars".to_string());
+    let name = h.content.clone().filter(|c| !c.is_empty()).unwrap_or_else(|| "scalars".to_string());
     let mut mesh = SourceMesh {
         points: grid_points(dims, origin, axes),
-        blocks: vec![Block::Structured {
-            dims,
-            first_point: 0,
-        }],
+        blocks: vec![Block::Structured { dims, first_point: 0 }],
         point_fields: vec![Field::new(name, components, values)],
         notes,
         format: format!(
@@ -226,12 +188,9 @@ pub fn read(
         ..Default::default()
     };
     if components > 1 {
-        mesh.notes.push(format!(
-            "{components}-component samples from the leading axis"
-        ));
+        mesh.notes.push(format!("{components}-component samples from the leading axis"));
     }
-    mesh.check()
-        .map_err(|e| FormatError::new(Location::Whole, e))?;
+    mesh.check().map_err(|e| FormatError::new(Location::Whole, e))?;
     Ok(mesh)
 }
 
@@ -270,16 +229,16 @@ fn decode_data(
                 source.len().checked_sub(data_bytes).filter(|&s| s >= start).ok_or_else(|| {
                     FormatError::new(
                         Location::Byte(start as u64),
-                        format!("'byte skip: -1' but the file holds only {} data bytes, {data_bytes} needed", source.len() - start),
+                        format!(
+                            "'byte skip: -1' but the file holds only {} data bytes, {data_bytes} needed",
+                            source.len() - start
+                        ),
                     )
                 })?
             } else if h.byte_skip < 0 {
                 return Err(FormatError::new(
                     Location::Whole,
-                    format!(
-                        "'byte skip: {}' is invalid (only -1 may be negative)",
-                        h.byte_skip
-                    ),
+                    format!("'byte skip: {}' is invalid (only -1 may be negative)", h.byte_skip),
                 ));
             } else {
                 start
@@ -297,39 +256,23 @@ fn decode_data(
                 ));
             }
             if available > data_bytes {
-                notes.push(format!(
-                    "{} bytes after the data ignored",
-                    available - data_bytes
-                ));
+                notes.push(format!("{} bytes after the data ignored", available - data_bytes));
             }
-            decode_to_f64(
-                &source[data_at..data_at + data_bytes],
-                ty,
-                endian,
-                &mut values,
-            );
+            decode_to_f64(&source[data_at..data_at + data_bytes], ty, endian, &mut values);
         }
         Encoding::Gzip => {
             if h.byte_skip < 0 {
-                return Err(FormatError::new(
-                    Location::Whole,
-                    "'byte skip: -1' is only meaningful with raw encoding",
-                ));
+                return Err(FormatError::new(Location::Whole, "'byte skip: -1' is only meaningful with raw encoding"));
             }
             // Byte skip applies to the decompressed stream. The output is
             // bounded to what the header promises (plus one byte to notice
             // excess), so a small bomb cannot inflate without limit.
             let skip = h.byte_skip as u64;
             let want = (data_bytes as u64).saturating_add(skip);
-            let mut decoder =
-                flate2::read::MultiGzDecoder::new(&source[start..]).take(want.saturating_add(1));
-            let mut out =
-                Vec::with_capacity(data_bytes.min(source.len().saturating_mul(64)).min(1 << 28));
+            let mut decoder = flate2::read::MultiGzDecoder::new(&source[start..]).take(want.saturating_add(1));
+            let mut out = Vec::with_capacity(data_bytes.min(source.len().saturating_mul(64)).min(1 << 28));
             decoder.read_to_end(&mut out).map_err(|e| {
-                FormatError::new(
-                    Location::Byte(start as u64),
-                    format!("gzip data cannot be decompressed: {e}"),
-                )
+                FormatError::new(Location::Byte(start as u64), format!("gzip data cannot be decompressed: {e}"))
             })?;
             if (out.len() as u64) < want {
                 return Err(FormatError::new(
@@ -342,10 +285,7 @@ fn decode_data(
                 ));
             }
             if out.len() as u64 > want {
-                notes.push(
-                    "gzip stream holds more bytes than the samples; the rest is ignored"
-                        .to_string(),
-                );
+                notes.push("gzip stream holds more bytes than the samples; the rest is ignored".to_string());
             }
             let s = skip as usize;
             decode_to_f64(&out[s..s + data_bytes], ty, endian, &mut values);
@@ -372,10 +312,7 @@ fn decode_data(
                     None => {
                         return Err(FormatError::new(
                             Location::Byte(source.len() as u64),
-                            format!(
-                                "ascii NRRD data ends after {} of {count} values",
-                                values.len()
-                            ),
+                            format!("ascii NRRD data ends after {} of {count} values", values.len()),
                         ))
                     }
                 }
@@ -393,9 +330,7 @@ fn decode_data(
 fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
     let mut text = TextCursor::new(bytes);
     let magic = text.line_str().unwrap_or("");
-    let version = magic
-        .strip_prefix("NRRD000")
-        .and_then(|v| v.trim_end().parse::<u8>().ok());
+    let version = magic.strip_prefix("NRRD000").and_then(|v| v.trim_end().parse::<u8>().ok());
     if !matches!(version, Some(1..=5)) {
         return Err(FormatError::new(
             Location::Line(1),
@@ -437,23 +372,12 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
         let value = value.trim();
         match key.trim().to_ascii_lowercase().as_str() {
             "type" => {
-                h.scalar_type = Some(
-                    nrrd_type(value)
-                        .ok_or_else(|| err(format!("unsupported NRRD type '{value}'")))?,
-                )
+                h.scalar_type = Some(nrrd_type(value).ok_or_else(|| err(format!("unsupported NRRD type '{value}'")))?)
             }
-            "dimension" => {
-                h.dimension = Some(
-                    value
-                        .parse()
-                        .map_err(|_| err(format!("bad dimension '{value}'")))?,
-                )
-            }
+            "dimension" => h.dimension = Some(value.parse().map_err(|_| err(format!("bad dimension '{value}'")))?),
             "sizes" => {
                 let s: Result<Vec<usize>, _> = value.split_whitespace().map(str::parse).collect();
-                h.sizes = Some(s.map_err(|_| {
-                    err(format!("bad sizes '{value}' (need non-negative integers)"))
-                })?);
+                h.sizes = Some(s.map_err(|_| err(format!("bad sizes '{value}' (need non-negative integers)")))?);
             }
             "endian" => {
                 h.endian = Some(match value.to_ascii_lowercase().as_str() {
@@ -468,9 +392,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
                     "gzip" | "gz" => Encoding::Gzip,
                     "ascii" | "text" | "txt" => Encoding::Ascii,
                     other => {
-                        return Err(err(format!(
-                            "NRRD encoding '{other}' is not supported (raw, gzip, ascii are)"
-                        )))
+                        return Err(err(format!("NRRD encoding '{other}' is not supported (raw, gzip, ascii are)")))
                     }
                 })
             }
@@ -480,28 +402,18 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
             "space origin" => {
                 h.origin = match parse_vectors(value).map_err(err)?[..] {
                     [Some(o)] => Some(o),
-                    _ => {
-                        return Err(err(format!(
-                            "bad space origin '{value}' (need one 3-vector)"
-                        )))
-                    }
+                    _ => return Err(err(format!("bad space origin '{value}' (need one 3-vector)"))),
                 }
             }
             "space dimension" if value != "3" => {
-                return Err(err(format!(
-                    "space dimension {value} is not supported (only 3)"
-                )));
+                return Err(err(format!("space dimension {value} is not supported (only 3)")));
             }
             "data file" | "datafile" => h.data_file = Some(value.to_string()),
             "line skip" | "lineskip" => {
-                h.line_skip = value
-                    .parse()
-                    .map_err(|_| err(format!("bad line skip '{value}'")))?
+                h.line_skip = value.parse().map_err(|_| err(format!("bad line skip '{value}'")))?
             }
             "byte skip" | "byteskip" => {
-                h.byte_skip = value
-                    .parse()
-                    .map_err(|_| err(format!("bad byte skip '{value}'")))?
+                h.byte_skip = value.parse().map_err(|_| err(format!("bad byte skip '{value}'")))?
             }
             "content" => h.content = Some(value.to_string()),
             // Informational fields that do not change how samples are read.
@@ -515,12 +427,8 @@ fn nrrd_type(s: &str) -> Option<ScalarType> {
     Some(match s.to_ascii_lowercase().as_str() {
         "signed char" | "int8" | "int8_t" => ScalarType::I8,
         "uchar" | "unsigned char" | "uint8" | "uint8_t" => ScalarType::U8,
-        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
-            ScalarType::I16
-        }
-        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
-            ScalarType::U16
-        }
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => ScalarType::I16,
+        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => ScalarType::U16,
         "int" | "signed int" | "int32" | "int32_t" => ScalarType::I32,
         "uint" | "unsigned int" | "uint32" | "uint32_t" => ScalarType::U32,
         "longlong"
@@ -530,9 +438,7 @@ fn nrrd_type(s: &str) -> Option<ScalarType> {
         | "signed long long int"
         | "int64"
         | "int64_t" => ScalarType::I64,
-        "ulonglong" | "unsigned long long" | "unsigned long long int" | "uint64" | "uint64_t" => {
-            ScalarType::U64
-        }
+        "ulonglong" | "unsigned long long" | "unsigned long long int" | "uint64" | "uint64_t" => ScalarType::U64,
         "float" => ScalarType::F32,
         "double" => ScalarType::F64,
         _ => return None,
@@ -563,17 +469,11 @@ fn parse_vectors(value: &str) -> Result<Vec<Option<[f64; 3]>>, String> {
         let nums: Vec<f64> = inner
             .0
             .split(',')
-            .map(|t| {
-                crate::cursor::parse_f64(t.trim())
-                    .ok_or_else(|| format!("'{}' is not a number", t.trim()))
-            })
+            .map(|t| crate::cursor::parse_f64(t.trim()).ok_or_else(|| format!("'{}' is not a number", t.trim())))
             .collect::<Result<_, _>>()?;
-        let v: [f64; 3] = nums.try_into().map_err(|n: Vec<f64>| {
-            format!(
-                "vector with {} components; only 3D space is supported",
-                n.len()
-            )
-        })?;
+        let v: [f64; 3] = nums
+            .try_into()
+            .map_err(|n: Vec<f64>| format!("vector with {} components; only 3D space is supported", n.len()))?;
         out.push(Some(v));
         rest = inner.1.trim_start();
     }
@@ -591,15 +491,7 @@ mod tests {
     #[test]
     fn vectors_and_none() {
         let v = parse_vectors("none (1,0,0) (0, 2.5,0)  (0,0,-1)").unwrap();
-        assert_eq!(
-            v,
-            vec![
-                None,
-                Some([1.0, 0.0, 0.0]),
-                Some([0.0, 2.5, 0.0]),
-                Some([0.0, 0.0, -1.0])
-            ]
-        );
+        assert_eq!(v, vec![None, Some([1.0, 0.0, 0.0]), Some([0.0, 2.5, 0.0]), Some([0.0, 0.0, -1.0])]);
         assert!(parse_vectors("(1,0)").is_err());
         assert!(parse_vectors("(1,0,0").is_err());
     }
@@ -620,12 +512,12 @@ mod tests {
         let e = read(b"NRRD0009\n", &mut no_file).unwrap_err();
         assert!(e.message.contains("magic"));
         let e = read(b"NRRD0004\ntype: float\ndimension: 3\nsizes: 99999999 99999999 99999999\nencoding: raw\nendian: little\n\n", &mut no_file).unwrap_err();
-        assert!(
-            e.message.contains("truncated") || e.message.contains("overflow"),
-            "{}",
-            e.message
-        );
-        let e = read(b"NRRD0004\ntype: float\ndimension: 3\nsizes: 1 1 1\nencoding: raw\nendian: little\ndata file: x.raw\n", &mut no_file).unwrap_err();
+        assert!(e.message.contains("truncated") || e.message.contains("overflow"), "{}", e.message);
+        let e = read(
+            b"NRRD0004\ntype: float\ndimension: 3\nsizes: 1 1 1\nencoding: raw\nendian: little\ndata file: x.raw\n",
+            &mut no_file,
+        )
+        .unwrap_err();
         assert!(e.in_companion);
     }
 }

@@ -77,22 +77,10 @@ impl Layout {
                 Endian::Big => "big-endian",
                 Endian::Little => "little-endian",
             },
-            if self.record_markers {
-                "Fortran record markers"
-            } else {
-                "no record markers"
-            },
-            if self.multi_grid {
-                "multi-grid"
-            } else {
-                "single grid"
-            },
+            if self.record_markers { "Fortran record markers" } else { "no record markers" },
+            if self.multi_grid { "multi-grid" } else { "single grid" },
             if self.iblank { "IBLANK" } else { "no IBLANK" },
-            if self.precision == 8 {
-                "double"
-            } else {
-                "single"
-            },
+            if self.precision == 8 { "double" } else { "single" },
             if self.planes { ", planes layout" } else { "" },
         )
     }
@@ -141,17 +129,10 @@ pub fn read(xyz: &[u8], q: Option<&[u8]>, opts: &Plot3dOptions) -> Result<Source
         .iter()
         .try_fold(0usize, |acc, d| acc.checked_add(d[0] * d[1] * d[2]))
         .ok_or_else(|| FormatError::new(Location::Whole, "total point count overflows"))?;
-    let mut mesh = SourceMesh {
-        format: format!("PLOT3D ({})", layout.describe()),
-        ..Default::default()
-    };
+    let mut mesh = SourceMesh { format: format!("PLOT3D ({})", layout.describe()), ..Default::default() };
     // Bounded: detection checked that the file holds every grid's data.
     mesh.points.reserve(total_points);
-    let mut blanked: Option<Vec<bool>> = if layout.iblank {
-        Some(Vec::with_capacity(total_points))
-    } else {
-        None
-    };
+    let mut blanked: Option<Vec<bool>> = if layout.iblank { Some(Vec::with_capacity(total_points)) } else { None };
     let mut unusual_iblank = 0usize;
 
     let mut cur = ByteCursor::new(xyz);
@@ -167,11 +148,7 @@ pub fn read(xyz: &[u8], q: Option<&[u8]>, opts: &Plot3dOptions) -> Result<Source
         }
         iblank_values.clear();
         // Each record is either the whole grid or one k plane.
-        let (records, per_record) = if layout.planes {
-            (dims[2], plane)
-        } else {
-            (1, npts)
-        };
+        let (records, per_record) = if layout.planes { (dims[2], plane) } else { (1, npts) };
         let record_len = per_record * (3 * layout.precision + if layout.iblank { 4 } else { 0 });
         for _ in 0..records {
             let what = format!("grid {g} coordinates");
@@ -187,24 +164,12 @@ pub fn read(xyz: &[u8], q: Option<&[u8]>, opts: &Plot3dOptions) -> Result<Source
             close_record(&mut cur, &layout, record_len, &what)?;
         }
         let first_point = mesh.points.len();
-        mesh.points.extend(
-            coords[0]
-                .iter()
-                .zip(&coords[1])
-                .zip(&coords[2])
-                .map(|((&x, &y), &z)| [x, y, z]),
-        );
+        mesh.points.extend(coords[0].iter().zip(&coords[1]).zip(&coords[2]).map(|((&x, &y), &z)| [x, y, z]));
         if let Some(bl) = blanked.as_mut() {
-            unusual_iblank += iblank_values
-                .iter()
-                .filter(|&&v| v != 0.0 && v != 1.0)
-                .count();
+            unusual_iblank += iblank_values.iter().filter(|&&v| v != 0.0 && v != 1.0).count();
             bl.extend(iblank_values.iter().map(|&v| v == 0.0));
         }
-        mesh.blocks.push(Block::Structured {
-            dims: *dims,
-            first_point,
-        });
+        mesh.blocks.push(Block::Structured { dims: *dims, first_point });
     }
     if let Some(bl) = &blanked {
         let n = bl.iter().filter(|&&b| b).count();
@@ -219,55 +184,34 @@ pub fn read(xyz: &[u8], q: Option<&[u8]>, opts: &Plot3dOptions) -> Result<Source
     mesh.point_blanked = blanked;
 
     if let Some(qbytes) = q {
-        read_q(qbytes, &layout, &header.dims, opts, &mut mesh, &mut notes)
-            .map_err(FormatError::companion)?;
+        read_q(qbytes, &layout, &header.dims, opts, &mut mesh, &mut notes).map_err(FormatError::companion)?;
     }
     if header.dims.len() > 1 {
-        notes.insert(
-            0,
-            format!("{} grids, one structured block each", header.dims.len()),
-        );
+        notes.insert(0, format!("{} grids, one structured block each", header.dims.len()));
     }
     mesh.notes = notes;
-    mesh.check()
-        .map_err(|e| FormatError::new(Location::Whole, e))?;
+    mesh.check().map_err(|e| FormatError::new(Location::Whole, e))?;
     Ok(mesh)
 }
 
 /// Reads a leading record marker and checks it against the record length.
-fn open_record(
-    cur: &mut ByteCursor,
-    layout: &Layout,
-    len: usize,
-    what: &str,
-) -> Result<(), FormatError> {
+fn open_record(cur: &mut ByteCursor, layout: &Layout, len: usize, what: &str) -> Result<(), FormatError> {
     if layout.record_markers {
         let at = cur.location();
         let m = cur.u32(layout.endian, &format!("record marker before {what}"))?;
         if m as usize != len {
-            return Err(FormatError::new(
-                at,
-                format!("record marker before {what} says {m} bytes, expected {len}"),
-            ));
+            return Err(FormatError::new(at, format!("record marker before {what} says {m} bytes, expected {len}")));
         }
     }
     Ok(())
 }
 
-fn close_record(
-    cur: &mut ByteCursor,
-    layout: &Layout,
-    len: usize,
-    what: &str,
-) -> Result<(), FormatError> {
+fn close_record(cur: &mut ByteCursor, layout: &Layout, len: usize, what: &str) -> Result<(), FormatError> {
     if layout.record_markers {
         let at = cur.location();
         let m = cur.u32(layout.endian, &format!("record marker after {what}"))?;
         if m as usize != len {
-            return Err(FormatError::new(
-                at,
-                format!("record marker after {what} says {m} bytes, expected {len}"),
-            ));
+            return Err(FormatError::new(at, format!("record marker after {what} says {m} bytes, expected {len}")));
         }
     }
     Ok(())
@@ -283,27 +227,19 @@ fn parse_header(bytes: &[u8], layout: &Layout) -> Result<GridHeader, FormatError
         let at = cur.location();
         let n = cur.i32(layout.endian, "grid count")?;
         if n <= 0 {
-            return Err(FormatError::new(
-                at,
-                format!("grid count {n} is not positive"),
-            ));
+            return Err(FormatError::new(at, format!("grid count {n} is not positive")));
         }
         close_record(&mut cur, layout, 4, "grid count")?;
         n as usize
     } else {
         1
     };
-    let dims_len = ngrids
-        .checked_mul(12)
-        .ok_or_else(|| FormatError::new(Location::Byte(0), "grid count overflows"))?;
+    let dims_len = ngrids.checked_mul(12).ok_or_else(|| FormatError::new(Location::Byte(0), "grid count overflows"))?;
     if layout.record_markers {
         let at = cur.location();
         let m = cur.u32(layout.endian, "record marker before grid dimensions")? as usize;
         if Some(m) == ngrids.checked_mul(8) {
-            return Err(FormatError::new(
-                at,
-                "this is a 2D PLOT3D grid (ni nj per grid); only 3D grids are supported",
-            ));
+            return Err(FormatError::new(at, "this is a 2D PLOT3D grid (ni nj per grid); only 3D grids are supported"));
         }
         if m != dims_len {
             return Err(FormatError::new(
@@ -337,10 +273,7 @@ fn parse_header(bytes: &[u8], layout: &Layout) -> Result<GridHeader, FormatError
         dims.push(d);
     }
     close_record(&mut cur, layout, dims_len, "grid dimensions")?;
-    Ok(GridHeader {
-        dims,
-        data_start: cur.offset() as usize,
-    })
+    Ok(GridHeader { dims, data_start: cur.offset() as usize })
 }
 
 /// Bytes the grid data of `header` takes under `layout`, markers included.
@@ -350,8 +283,7 @@ fn grid_data_len(header: &GridHeader, layout: &Layout) -> Option<usize> {
         let npts = d[0].checked_mul(d[1])?.checked_mul(d[2])?;
         let records = if layout.planes { d[2] } else { 1 };
         let data = npts.checked_mul(per_point)?;
-        acc.checked_add(data)?
-            .checked_add(records.checked_mul(layout.marker_bytes())?)
+        acc.checked_add(data)?.checked_add(records.checked_mul(layout.marker_bytes())?)
     })
 }
 
@@ -367,10 +299,7 @@ fn choices<T: Copy>(fixed: Option<T>, all: &[T]) -> Vec<T> {
 /// that leaves trailing bytes is accepted, preferring verified record
 /// markers, then the fewest trailing bytes. Returns the layout, its header
 /// and the expected size.
-fn detect_grid_layout(
-    bytes: &[u8],
-    opts: &Plot3dOptions,
-) -> Result<(Layout, GridHeader, usize), FormatError> {
+fn detect_grid_layout(bytes: &[u8], opts: &Plot3dOptions) -> Result<(Layout, GridHeader, usize), FormatError> {
     let mut exact = Vec::new();
     let mut shorter = Vec::new();
     let mut tried = Vec::new();
@@ -392,11 +321,7 @@ fn detect_grid_layout(
                             Ok(h) => h,
                             Err(e) => {
                                 saw_2d |= e.message.contains("2D PLOT3D");
-                                tried.push(format!(
-                                    "[{}] header rejected: {}",
-                                    layout.describe(),
-                                    e.message
-                                ));
+                                tried.push(format!("[{}] header rejected: {}", layout.describe(), e.message));
                                 continue;
                             }
                         };
@@ -406,12 +331,8 @@ fn detect_grid_layout(
                         };
                         // With markers, the first data record's marker must
                         // agree too; this rejects most wrong guesses early.
-                        if layout.record_markers && !first_record_marker_ok(bytes, &header, &layout)
-                        {
-                            tried.push(format!(
-                                "[{}] first data record marker disagrees",
-                                layout.describe()
-                            ));
+                        if layout.record_markers && !first_record_marker_ok(bytes, &header, &layout) {
+                            tried.push(format!("[{}] first data record marker disagrees", layout.describe()));
                             continue;
                         }
                         tried.push(format!(
@@ -434,10 +355,8 @@ fn detect_grid_layout(
         1 => return Ok(exact.pop().expect("one")),
         0 => {}
         _ => {
-            let names: Vec<String> = exact
-                .iter()
-                .map(|(l, h, _)| format!("[{}] dims {}", l.describe(), dims_summary(&h.dims)))
-                .collect();
+            let names: Vec<String> =
+                exact.iter().map(|(l, h, _)| format!("[{}] dims {}", l.describe(), dims_summary(&h.dims))).collect();
             return Err(FormatError::new(
                 Location::Whole,
                 format!(
@@ -452,27 +371,16 @@ fn detect_grid_layout(
     if !shorter.is_empty() {
         shorter.sort_by_key(|(l, _, e)| (!l.record_markers, bytes.len() - e));
         let best_key = (!shorter[0].0.record_markers, bytes.len() - shorter[0].2);
-        let ties = shorter
-            .iter()
-            .filter(|(l, _, e)| (!l.record_markers, bytes.len() - e) == best_key)
-            .count();
+        let ties = shorter.iter().filter(|(l, _, e)| (!l.record_markers, bytes.len() - e) == best_key).count();
         if ties == 1 {
             return Ok(shorter.swap_remove(0));
         }
     }
     saw_2d |= looks_like_2d_c_file(bytes);
-    let hint = if saw_2d {
-        " (the file looks like a 2D PLOT3D grid, which is not supported)"
-    } else {
-        ""
-    };
+    let hint = if saw_2d { " (the file looks like a 2D PLOT3D grid, which is not supported)" } else { "" };
     Err(FormatError::new(
         Location::Whole,
-        format!(
-            "no PLOT3D layout matches the grid file size of {} bytes{hint}; tried: {}",
-            bytes.len(),
-            listing()
-        ),
+        format!("no PLOT3D layout matches the grid file size of {} bytes{hint}; tried: {}", bytes.len(), listing()),
     ))
 }
 
@@ -496,9 +404,9 @@ fn looks_like_2d_c_file(bytes: &[u8]) -> bool {
             return false;
         }
         let npts = ni as u64 * nj as u64;
-        [8u64, 12, 16, 20].iter().any(|per_point| {
-            npts.checked_mul(*per_point).and_then(|d| d.checked_add(8)) == Some(bytes.len() as u64)
-        })
+        [8u64, 12, 16, 20]
+            .iter()
+            .any(|per_point| npts.checked_mul(*per_point).and_then(|d| d.checked_add(8)) == Some(bytes.len() as u64))
     })
 }
 
@@ -506,22 +414,14 @@ fn first_record_marker_ok(bytes: &[u8], header: &GridHeader, layout: &Layout) ->
     let Some(d) = header.dims.first() else {
         return false;
     };
-    let per_record = if layout.planes {
-        d[0] * d[1]
-    } else {
-        d[0] * d[1] * d[2]
-    };
+    let per_record = if layout.planes { d[0] * d[1] } else { d[0] * d[1] * d[2] };
     let len = per_record * (3 * layout.precision + if layout.iblank { 4 } else { 0 });
     let mut cur = ByteCursor::new(bytes);
     cur.seek(header.data_start).is_ok() && open_record(&mut cur, layout, len, "grid").is_ok()
 }
 
 fn dims_summary(dims: &[[usize; 3]]) -> String {
-    let shown: Vec<String> = dims
-        .iter()
-        .take(4)
-        .map(|d| format!("{}×{}×{}", d[0], d[1], d[2]))
-        .collect();
+    let shown: Vec<String> = dims.iter().take(4).map(|d| format!("{}×{}×{}", d[0], d[1], d[2])).collect();
     if dims.len() > 4 {
         format!("{} … ({} grids)", shown.join(", "), dims.len())
     } else {
@@ -541,16 +441,9 @@ fn read_q(
     notes: &mut Vec<String>,
 ) -> Result<(), FormatError> {
     // The Q header has the grid header's shape; IBLANK never appears in Q.
-    let base = Layout {
-        iblank: false,
-        ..*grid_layout
-    };
-    let header = parse_header(bytes, &base).map_err(|e| {
-        FormatError::new(
-            e.at,
-            format!("Q file header under the grid's layout: {}", e.message),
-        )
-    })?;
+    let base = Layout { iblank: false, ..*grid_layout };
+    let header = parse_header(bytes, &base)
+        .map_err(|e| FormatError::new(e.at, format!("Q file header under the grid's layout: {}", e.message)))?;
     if header.dims != dims {
         return Err(FormatError::new(
             Location::Byte(0),
@@ -565,27 +458,17 @@ fn read_q(
         dims.iter().try_fold(header.data_start, |acc, d| {
             let npts = d[0] * d[1] * d[2];
             let records = if layout.planes { d[2] } else { 1 };
-            let data = npts
-                .checked_mul(5 * layout.precision)?
-                .checked_add(4 * layout.precision)?;
-            acc.checked_add(data)?
-                .checked_add((records + 1) * layout.marker_bytes())
+            let data = npts.checked_mul(5 * layout.precision)?.checked_add(4 * layout.precision)?;
+            acc.checked_add(data)?.checked_add((records + 1) * layout.marker_bytes())
         })
     };
-    let other = Layout {
-        precision: if base.precision == 4 { 8 } else { 4 },
-        ..base
-    };
+    let other = Layout { precision: if base.precision == 4 { 8 } else { 4 }, ..base };
     let (layout, expected) = match (q_len(&base), q_len(&other)) {
         (Some(e), _) if e == bytes.len() => (base, e),
         (_, Some(e)) if e == bytes.len() => {
             notes.push(format!(
                 "Q file is {} precision, unlike the grid",
-                if other.precision == 8 {
-                    "double"
-                } else {
-                    "single"
-                }
+                if other.precision == 8 { "double" } else { "single" }
             ));
             (other, e)
         }
@@ -622,12 +505,7 @@ fn read_q(
         let what = format!("grid {g} flow conditions");
         open_record(&mut cur, &layout, 4 * layout.precision, &what)?;
         let mut cond = Vec::with_capacity(4);
-        decode_to_f64(
-            cur.take_array(4, layout.precision, &what)?,
-            layout.float_type(),
-            layout.endian,
-            &mut cond,
-        );
+        decode_to_f64(cur.take_array(4, layout.precision, &what)?, layout.float_type(), layout.endian, &mut cond);
         close_record(&mut cur, &layout, 4 * layout.precision, &what)?;
         conditions.push(cond);
 
@@ -635,11 +513,7 @@ fn read_q(
             v.clear();
             v.reserve(npts);
         }
-        let (records, per_record) = if layout.planes {
-            (d[2], d[0] * d[1])
-        } else {
-            (1, npts)
-        };
+        let (records, per_record) = if layout.planes { (d[2], d[0] * d[1]) } else { (1, npts) };
         let record_len = per_record * 5 * layout.precision;
         let what = format!("grid {g} solution");
         for _ in 0..records {
@@ -652,24 +526,12 @@ fn read_q(
         }
         density.extend_from_slice(&vars[0]);
         energy.extend_from_slice(&vars[4]);
-        momentum.extend(
-            vars[1]
-                .iter()
-                .zip(&vars[2])
-                .zip(&vars[3])
-                .flat_map(|((&x, &y), &z)| [x, y, z]),
-        );
+        momentum.extend(vars[1].iter().zip(&vars[2]).zip(&vars[3]).flat_map(|((&x, &y), &z)| [x, y, z]));
     }
     for (g, c) in conditions.iter().enumerate() {
         if let [fsmach, alpha, re, time] = c[..] {
-            let grid = if dims.len() > 1 {
-                format!(" (grid {g})")
-            } else {
-                String::new()
-            };
-            notes.push(format!(
-                "Q flow conditions{grid}: fsmach {fsmach}, alpha {alpha}, re {re}, time {time}"
-            ));
+            let grid = if dims.len() > 1 { format!(" (grid {g})") } else { String::new() };
+            notes.push(format!("Q flow conditions{grid}: fsmach {fsmach}, alpha {alpha}, re {re}, time {time}"));
         }
     }
     let derived = derive_flow_fields(&density, &momentum, &energy, opts.gamma, opts.gas_constant);
@@ -687,15 +549,11 @@ fn read_q(
     }
     mesh.point_fields.push(Field::new("density", 1, density));
     mesh.point_fields.push(Field::new("momentum", 3, momentum));
-    mesh.point_fields
-        .push(Field::new("stagnation_energy", 1, energy));
-    mesh.point_fields
-        .push(Field::new("pressure", 1, derived.pressure));
-    mesh.point_fields
-        .push(Field::new("temperature", 1, derived.temperature));
+    mesh.point_fields.push(Field::new("stagnation_energy", 1, energy));
+    mesh.point_fields.push(Field::new("pressure", 1, derived.pressure));
+    mesh.point_fields.push(Field::new("temperature", 1, derived.temperature));
     mesh.point_fields.push(Field::new("mach", 1, derived.mach));
-    mesh.point_fields
-        .push(Field::new("velocity", 3, derived.velocity));
+    mesh.point_fields.push(Field::new("velocity", 3, derived.velocity));
     Ok(())
 }
 
@@ -714,13 +572,7 @@ struct DerivedFields {
 /// Mach = |v| / sqrt(γp/ρ). Zero density is replaced by 1 like VTK does, so
 /// a zero never divides; negative pressure gives a NaN Mach number, which
 /// validation reports later.
-fn derive_flow_fields(
-    density: &[f64],
-    momentum: &[f64],
-    energy: &[f64],
-    gamma: f64,
-    r: f64,
-) -> DerivedFields {
+fn derive_flow_fields(density: &[f64], momentum: &[f64], energy: &[f64], gamma: f64, r: f64) -> DerivedFields {
     let n = density.len();
     let mut out = DerivedFields {
         pressure: Vec::with_capacity(n),
@@ -802,26 +654,12 @@ mod tests {
         assert!(m.format.contains("double"), "{}", m.format);
         assert_eq!(m.points.len(), 8);
         assert_eq!(m.points[7], [1.0, 1.0, 1.0]);
-        assert_eq!(
-            m.point_blanked
-                .as_ref()
-                .unwrap()
-                .iter()
-                .filter(|&&b| b)
-                .count(),
-            1
-        );
+        assert_eq!(m.point_blanked.as_ref().unwrap().iter().filter(|&&b| b).count(), 1);
     }
 
     #[test]
     fn derived_fields_follow_vtk() {
-        let d = derive_flow_fields(
-            &[2.0, 0.0],
-            &[2.0, 0.0, 0.0, 1.0, 0.0, 0.0],
-            &[5.0, -1.0],
-            1.4,
-            1.0,
-        );
+        let d = derive_flow_fields(&[2.0, 0.0], &[2.0, 0.0, 0.0, 1.0, 0.0, 0.0], &[5.0, -1.0], 1.4, 1.0);
         // v = 1, p = 0.4 (5 − 1) = 1.6, T = 0.8, a² = 1.4·1.6/2 = 1.12.
         assert!((d.pressure[0] - 1.6).abs() < 1e-12);
         assert!((d.temperature[0] - 0.8).abs() < 1e-12);

@@ -27,19 +27,12 @@ pub struct RawSpec {
 /// is an error stating expected and actual sizes; extra bytes after the
 /// samples are ignored with a note.
 pub fn read(bytes: &[u8], spec: &RawSpec) -> Result<SourceMesh, FormatError> {
-    let count = checked_count(spec.dims).ok_or_else(|| {
-        FormatError::new(
-            Location::Whole,
-            format!("dimensions {:?} overflow", spec.dims),
-        )
-    })?;
+    let count = checked_count(spec.dims)
+        .ok_or_else(|| FormatError::new(Location::Whole, format!("dimensions {:?} overflow", spec.dims)))?;
     if count == 0 {
         return Err(FormatError::new(
             Location::Whole,
-            format!(
-                "dimensions {:?} are empty; every dimension must be at least 1",
-                spec.dims
-            ),
+            format!("dimensions {:?} are empty; every dimension must be at least 1", spec.dims),
         ));
     }
     let expected = count
@@ -63,29 +56,19 @@ pub fn read(bytes: &[u8], spec: &RawSpec) -> Result<SourceMesh, FormatError> {
     let mut values = Vec::new();
     decode_to_f64(data, spec.scalar_type, spec.endian, &mut values);
 
-    let axes = [
-        [spec.spacing[0], 0.0, 0.0],
-        [0.0, spec.spacing[1], 0.0],
-        [0.0, 0.0, spec.spacing[2]],
-    ];
+    let axes = [[spec.spacing[0], 0.0, 0.0], [0.0, spec.spacing[1], 0.0], [0.0, 0.0, spec.spacing[2]]];
     let mut mesh = SourceMesh {
         points: grid_points(spec.dims, spec.origin, axes),
-        blocks: vec![Block::Structured {
-            dims: spec.dims,
-            first_point: 0,
-        }],
+        blocks: vec![Block::Structured { dims: spec.dims, first_point: 0 }],
         point_fields: vec![Field::new(spec.name.clone(), 1, values)],
         format: "raw volume".to_string(),
         ..Default::default()
     };
     if bytes.len() > expected {
-        mesh.notes.push(format!(
-            "raw file has {} bytes after the expected {expected}; ignored",
-            bytes.len() - expected
-        ));
+        mesh.notes
+            .push(format!("raw file has {} bytes after the expected {expected}; ignored", bytes.len() - expected));
     }
-    mesh.check()
-        .map_err(|e| FormatError::new(Location::Whole, e))?;
+    mesh.check().map_err(|e| FormatError::new(Location::Whole, e))?;
     Ok(mesh)
 }
 
@@ -115,25 +98,16 @@ pub(crate) fn checked_count(dims: [usize; 3]) -> Option<usize> {
 /// Points of a regular lattice, i fastest: `origin + i·axes[0] + j·axes[1] +
 /// k·axes[2]`. The caller has already checked that the data backing the
 /// lattice is present, which bounds the allocation by the input size.
-pub(crate) fn grid_points(
-    dims: [usize; 3],
-    origin: [f64; 3],
-    axes: [[f64; 3]; 3],
-) -> Vec<[f64; 3]> {
+pub(crate) fn grid_points(dims: [usize; 3], origin: [f64; 3], axes: [[f64; 3]; 3]) -> Vec<[f64; 3]> {
     let mut points = Vec::with_capacity(checked_count(dims).unwrap_or(0));
     for k in 0..dims[2] {
         let kf = k as f64;
         for j in 0..dims[1] {
             let jf = j as f64;
-            let row: [f64; 3] =
-                std::array::from_fn(|c| origin[c] + jf * axes[1][c] + kf * axes[2][c]);
+            let row: [f64; 3] = std::array::from_fn(|c| origin[c] + jf * axes[1][c] + kf * axes[2][c]);
             points.extend((0..dims[0]).map(|i| {
                 let f = i as f64;
-                [
-                    row[0] + f * axes[0][0],
-                    row[1] + f * axes[0][1],
-                    row[2] + f * axes[0][2],
-                ]
+                [row[0] + f * axes[0][0], row[1] + f * axes[0][1], row[2] + f * axes[0][2]]
             }));
         }
     }
@@ -163,10 +137,7 @@ mod tests {
             b.extend(v.to_be_bytes());
         }
         let m = read(&b, &spec([2, 2, 2], ScalarType::U16)).unwrap();
-        assert_eq!(
-            m.point_fields[0].values,
-            (0..8).map(f64::from).collect::<Vec<_>>()
-        );
+        assert_eq!(m.point_fields[0].values, (0..8).map(f64::from).collect::<Vec<_>>());
         assert_eq!(m.points[7], [11.0, 2.0, 3.0]);
         assert_eq!(m.num_cells(), 1);
     }
@@ -174,11 +145,7 @@ mod tests {
     #[test]
     fn short_file_says_expected_and_actual() {
         let e = read(&[0u8; 10], &spec([2, 2, 2], ScalarType::U16)).unwrap_err();
-        assert!(
-            e.message.contains("18 bytes expected, file has 10"),
-            "{}",
-            e.message
-        );
+        assert!(e.message.contains("18 bytes expected, file has 10"), "{}", e.message);
         let e = read(&[0u8; 10], &spec([usize::MAX, 2, 2], ScalarType::U16)).unwrap_err();
         assert!(e.message.contains("overflow"), "{}", e.message);
         assert!(read(&[0u8; 10], &spec([0, 2, 2], ScalarType::U8)).is_err());

@@ -25,9 +25,7 @@ use crate::{FormatError, Location, SourceMesh};
 /// (`mesh.1`), returns the `.node` and `.ele` paths.
 pub fn companion_paths(path: &Path) -> (PathBuf, PathBuf) {
     let base = match path.extension().and_then(|e| e.to_str()) {
-        Some(e) if e.eq_ignore_ascii_case("node") || e.eq_ignore_ascii_case("ele") => {
-            path.with_extension("")
-        }
+        Some(e) if e.eq_ignore_ascii_case("node") || e.eq_ignore_ascii_case("ele") => path.with_extension(""),
         _ => path.to_path_buf(),
     };
     let mut node = base.clone().into_os_string();
@@ -51,15 +49,12 @@ pub fn read(node: &[u8], ele: &[u8]) -> Result<SourceMesh, FormatError> {
         ..Default::default()
     };
     if quadratic > 0 {
-        mesh.notes.push(format!(
-            "reduced {quadratic} ten-node tetrahedra to their corner nodes"
-        ));
+        mesh.notes.push(format!("reduced {quadratic} ten-node tetrahedra to their corner nodes"));
     }
     if nodes.first_index == 0 {
         mesh.notes.push("TetGen numbering starts at 0".to_string());
     }
-    mesh.check()
-        .map_err(|e| FormatError::new(Location::Whole, e))?;
+    mesh.check().map_err(|e| FormatError::new(Location::Whole, e))?;
     Ok(mesh)
 }
 
@@ -70,9 +65,7 @@ struct Lines<'a> {
 
 impl<'a> Lines<'a> {
     fn new(bytes: &'a [u8]) -> Self {
-        Lines {
-            t: TextCursor::new(bytes),
-        }
+        Lines { t: TextCursor::new(bytes) }
     }
 
     /// The next line holding data, or `None` at the end of the file.
@@ -91,35 +84,21 @@ impl<'a> Lines<'a> {
     /// only called on failure, so the hot path builds no message).
     fn expect(&mut self, what: impl FnOnce() -> String) -> Result<(usize, &'a str), FormatError> {
         let at = self.t.line();
-        self.next_data().ok_or_else(|| {
-            FormatError::new(
-                Location::Line(at),
-                format!("unexpected end of file, expected {}", what()),
-            )
-        })
+        self.next_data()
+            .ok_or_else(|| FormatError::new(Location::Line(at), format!("unexpected end of file, expected {}", what())))
     }
 }
 
 fn parse_int(tok: Option<&str>, what: &str, line: usize) -> Result<i64, FormatError> {
-    let tok =
-        tok.ok_or_else(|| FormatError::new(Location::Line(line), format!("missing {what}")))?;
-    tok.parse::<i64>().map_err(|_| {
-        FormatError::new(
-            Location::Line(line),
-            format!("expected {what}, found '{}'", clip(tok)),
-        )
-    })
+    let tok = tok.ok_or_else(|| FormatError::new(Location::Line(line), format!("missing {what}")))?;
+    tok.parse::<i64>()
+        .map_err(|_| FormatError::new(Location::Line(line), format!("expected {what}, found '{}'", clip(tok))))
 }
 
 fn parse_real(tok: Option<&str>, what: &str, line: usize) -> Result<f64, FormatError> {
-    let tok =
-        tok.ok_or_else(|| FormatError::new(Location::Line(line), format!("missing {what}")))?;
-    parse_f64(tok).ok_or_else(|| {
-        FormatError::new(
-            Location::Line(line),
-            format!("expected {what}, found '{}'", clip(tok)),
-        )
-    })
+    let tok = tok.ok_or_else(|| FormatError::new(Location::Line(line), format!("missing {what}")))?;
+    parse_f64(tok)
+        .ok_or_else(|| FormatError::new(Location::Line(line), format!("expected {what}, found '{}'", clip(tok))))
 }
 
 /// A header count: absent means `default`; present must lie in `range`.
@@ -137,11 +116,7 @@ fn header_count(
     if !range.contains(&v) {
         return Err(FormatError::new(
             Location::Line(line),
-            format!(
-                "{what} must be {} to {}, found {v}",
-                range.start(),
-                range.end()
-            ),
+            format!("{what} must be {} to {}, found {v}", range.start(), range.end()),
         ));
     }
     Ok(v as usize)
@@ -170,15 +145,7 @@ fn check_index(index: i64, expected: i64, what: &str, line: usize) -> Result<(),
 /// Splits row-major `values` (`rows × width`) into one single-component
 /// field per column.
 fn column_fields(values: &[f64], width: usize, name: impl Fn(usize) -> String) -> Vec<Field> {
-    (0..width)
-        .map(|k| {
-            Field::new(
-                name(k),
-                1,
-                values.iter().skip(k).step_by(width).copied().collect(),
-            )
-        })
-        .collect()
+    (0..width).map(|k| Field::new(name(k), 1, values.iter().skip(k).step_by(width).copied().collect())).collect()
 }
 
 struct NodeFile {
@@ -189,8 +156,7 @@ struct NodeFile {
 
 fn read_node(bytes: &[u8]) -> Result<NodeFile, FormatError> {
     let mut lines = Lines::new(bytes);
-    let (line, header) =
-        lines.expect(|| "the .node header (npoints dim nattributes nmarkers)".into())?;
+    let (line, header) = lines.expect(|| "the .node header (npoints dim nattributes nmarkers)".into())?;
     let mut tok = header.split_ascii_whitespace();
     let count = parse_int(tok.next(), "the number of points", line)?;
     if count == 0 {
@@ -199,26 +165,13 @@ fn read_node(bytes: &[u8]) -> Result<NodeFile, FormatError> {
             "the .node file declares 0 points (TetGen then takes them from a .poly file, which is not read here)",
         ));
     }
-    let count = u64::try_from(count).map_err(|_| {
-        FormatError::new(
-            Location::Line(line),
-            format!("negative number of points {count}"),
-        )
-    })?;
+    let count = u64::try_from(count)
+        .map_err(|_| FormatError::new(Location::Line(line), format!("negative number of points {count}")))?;
     if count > u64::from(u32::MAX) {
-        return Err(FormatError::new(
-            Location::Line(line),
-            format!("{count} points are more than tetkit indexes"),
-        ));
+        return Err(FormatError::new(Location::Line(line), format!("{count} points are more than tetkit indexes")));
     }
     let dim = header_count(tok.next(), "the dimension", line, 3, 3..=3)?;
-    let num_attributes = header_count(
-        tok.next(),
-        "the number of point attributes",
-        line,
-        0,
-        0..=i64::from(u16::MAX),
-    )?;
+    let num_attributes = header_count(tok.next(), "the number of point attributes", line, 0, 0..=i64::from(u16::MAX))?;
     let markers = header_count(tok.next(), "the boundary marker flag", line, 0, 0..=1)? == 1;
     let _ = dim;
 
@@ -256,50 +209,26 @@ fn read_node(bytes: &[u8]) -> Result<NodeFile, FormatError> {
     if markers {
         fields.push(Field::new("boundary_marker", 1, boundary));
     }
-    Ok(NodeFile {
-        points,
-        fields,
-        first_index,
-    })
+    Ok(NodeFile { points, fields, first_index })
 }
 
 /// Reads the `.ele` file; node references are `first_index`-based.
-fn read_ele(
-    bytes: &[u8],
-    first_index: i64,
-    num_points: usize,
-) -> Result<(Cells, Vec<Field>, usize), FormatError> {
+fn read_ele(bytes: &[u8], first_index: i64, num_points: usize) -> Result<(Cells, Vec<Field>, usize), FormatError> {
     let mut lines = Lines::new(bytes);
-    let (line, header) =
-        lines.expect(|| "the .ele header (ntets nodes_per_tet nattributes)".into())?;
+    let (line, header) = lines.expect(|| "the .ele header (ntets nodes_per_tet nattributes)".into())?;
     let mut tok = header.split_ascii_whitespace();
     let count = parse_int(tok.next(), "the number of tetrahedra", line)?;
-    let count = u64::try_from(count).map_err(|_| {
-        FormatError::new(
-            Location::Line(line),
-            format!("negative number of tetrahedra {count}"),
-        )
-    })?;
-    let per_tet = header_count(
-        tok.next(),
-        "the number of nodes per tetrahedron",
-        line,
-        4,
-        4..=10,
-    )?;
+    let count = u64::try_from(count)
+        .map_err(|_| FormatError::new(Location::Line(line), format!("negative number of tetrahedra {count}")))?;
+    let per_tet = header_count(tok.next(), "the number of nodes per tetrahedron", line, 4, 4..=10)?;
     if per_tet != 4 && per_tet != 10 {
         return Err(FormatError::new(
             Location::Line(line),
             format!("nodes per tetrahedron must be 4 or 10, found {per_tet}"),
         ));
     }
-    let num_attributes = header_count(
-        tok.next(),
-        "the number of tetrahedron attributes",
-        line,
-        0,
-        0..=i64::from(u16::MAX),
-    )?;
+    let num_attributes =
+        header_count(tok.next(), "the number of tetrahedron attributes", line, 0, 0..=i64::from(u16::MAX))?;
 
     let mut cells = Cells::new();
     let mut attributes = Vec::new();
@@ -312,18 +241,11 @@ fn read_ele(
         if i == 0 {
             first_tet = index;
         } else {
-            check_index(
-                index,
-                first_tet.saturating_add(i as i64),
-                "tetrahedron",
-                line,
-            )?;
+            check_index(index, first_tet.saturating_add(i as i64), "tetrahedron", line)?;
         }
         for k in 0..per_tet {
             let n = parse_int(tok.next(), "a node index", line)?;
-            let local = n
-                .checked_sub(first_index)
-                .filter(|&v| v >= 0 && (v as u64) < num_points as u64);
+            let local = n.checked_sub(first_index).filter(|&v| v >= 0 && (v as u64) < num_points as u64);
             let Some(local) = local else {
                 return Err(FormatError::new(
                     Location::Line(line),
@@ -357,8 +279,7 @@ fn read_ele(
 mod tests {
     use super::*;
 
-    const NODE: &str =
-        "# a tetrahedron and its apex twin\n4 3 1 1\n\n1 0 0 0 0.5 7 # corner\n2 1 0 0 1.5 0\n\
+    const NODE: &str = "# a tetrahedron and its apex twin\n4 3 1 1\n\n1 0 0 0 0.5 7 # corner\n2 1 0 0 1.5 0\n\
         # interleaved comment\n3 0 1 0 2.5 0\n4 0 0 1 3.5 1\n";
     const ELE: &str = "1 4 1\n1 1 2 3 4 -5\n# Generated by tetgen\n";
 
@@ -426,13 +347,8 @@ mod tests {
         ] {
             assert!(read(node.as_bytes(), ele).is_err(), "accepted {node:?}");
         }
-        for ele in [
-            "",
-            "1 5 0\n1 1 2 3 4 5\n",
-            "18446744073709551615 4 0\n",
-            "1 4 0\n1 1 2 3 -4\n",
-            "1 4 0\n1 1 2 3\n",
-        ] {
+        for ele in ["", "1 5 0\n1 1 2 3 4 5\n", "18446744073709551615 4 0\n", "1 4 0\n1 1 2 3 -4\n", "1 4 0\n1 1 2 3\n"]
+        {
             let e = read(NODE.as_bytes(), ele.as_bytes()).unwrap_err();
             assert!(e.in_companion, "{ele:?}: {e}");
         }
@@ -440,10 +356,7 @@ mod tests {
 
     #[test]
     fn companion_paths_from_either_file_or_basename() {
-        let want = (
-            PathBuf::from("dir/mesh.1.node"),
-            PathBuf::from("dir/mesh.1.ele"),
-        );
+        let want = (PathBuf::from("dir/mesh.1.node"), PathBuf::from("dir/mesh.1.ele"));
         assert_eq!(companion_paths(Path::new("dir/mesh.1.node")), want);
         assert_eq!(companion_paths(Path::new("dir/mesh.1.ele")), want);
         assert_eq!(companion_paths(Path::new("dir/mesh.1")), want);

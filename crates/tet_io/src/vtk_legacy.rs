@@ -90,10 +90,7 @@ fn elem_type(name: &str) -> Option<ElemType> {
         ("utf8_string", ElemType::Str),
         ("variant", ElemType::Variant),
     ];
-    prefixed
-        .iter()
-        .find(|(p, _)| s.starts_with(p))
-        .map(|&(_, t)| t)
+    prefixed.iter().find(|(p, _)| s.starts_with(p)).map(|&(_, t)| t)
 }
 
 /// Decodes VTK's `%XX` escapes in array names (VTK writes spaces as `%20`).
@@ -224,9 +221,7 @@ impl<'a> Parser<'a> {
     /// Reads the header: version line, title line, ASCII/BINARY, DATASET.
     fn start(bytes: &'a [u8]) -> Result<Self, FormatError> {
         let mut t = TextCursor::new(bytes);
-        let first = t
-            .line_str()
-            .ok_or_else(|| FormatError::new(Location::Line(1), "empty file"))?;
+        let first = t.line_str().ok_or_else(|| FormatError::new(Location::Line(1), "empty file"))?;
         const PREFIX: &str = "# vtk datafile version";
         let head = first.trim_start();
         let ok_prefix = head.len() >= PREFIX.len()
@@ -256,18 +251,12 @@ impl<'a> Parser<'a> {
         }
         // The title line is free text (possibly empty).
         if t.line_str().is_none() {
-            return Err(FormatError::new(
-                t.location(),
-                "unexpected end of file after the version line",
-            ));
+            return Err(FormatError::new(t.location(), "unexpected end of file after the version line"));
         }
         let mode_line = t.line();
-        let mode = t.token().ok_or_else(|| {
-            FormatError::new(
-                t.location(),
-                "unexpected end of file, expected ASCII or BINARY",
-            )
-        })?;
+        let mode = t
+            .token()
+            .ok_or_else(|| FormatError::new(t.location(), "unexpected end of file, expected ASCII or BINARY"))?;
         let binary = if mode.to_ascii_lowercase().starts_with("ascii") {
             false
         } else if mode.to_ascii_lowercase().starts_with("binary") {
@@ -275,10 +264,7 @@ impl<'a> Parser<'a> {
         } else {
             return Err(FormatError::new(
                 Location::Line(mode_line),
-                format!(
-                    "expected ASCII or BINARY on the third line, found '{}'",
-                    clip(mode)
-                ),
+                format!("expected ASCII or BINARY on the third line, found '{}'", clip(mode)),
             ));
         };
         let mut parser = Parser {
@@ -303,15 +289,11 @@ impl<'a> Parser<'a> {
         };
         let kw = parser.token("DATASET")?;
         if !kw.eq_ignore_ascii_case("DATASET") {
-            let msg =
-                if kw.eq_ignore_ascii_case("POINT_DATA") || kw.eq_ignore_ascii_case("CELL_DATA") {
-                    format!(
-                        "the file has {} but no DATASET: there is no geometry to read",
-                        kw.to_ascii_uppercase()
-                    )
-                } else {
-                    format!("expected DATASET, found '{}'", clip(kw))
-                };
+            let msg = if kw.eq_ignore_ascii_case("POINT_DATA") || kw.eq_ignore_ascii_case("CELL_DATA") {
+                format!("the file has {} but no DATASET: there is no geometry to read", kw.to_ascii_uppercase())
+            } else {
+                format!("expected DATASET, found '{}'", clip(kw))
+            };
             return Err(parser.err(msg));
         }
         let kind = parser.token("dataset type")?;
@@ -362,9 +344,7 @@ impl<'a> Parser<'a> {
     fn data_token(&mut self, i: usize, count: usize, what: &str) -> Result<&'a str, FormatError> {
         match self.t.token() {
             Some(tok) => Ok(tok),
-            None => Err(self.err(format!(
-                "unexpected end of file in {what}: found {i} of {count} values"
-            ))),
+            None => Err(self.err(format!("unexpected end of file in {what}: found {i} of {count} values"))),
         }
     }
 
@@ -414,8 +394,7 @@ impl<'a> Parser<'a> {
     /// True when the next token (possibly on a later line) is `word`.
     fn next_token_is(&self, word: &str) -> bool {
         let mut peek = self.t.clone();
-        peek.token()
-            .is_some_and(|tok| tok.eq_ignore_ascii_case(word))
+        peek.token().is_some_and(|tok| tok.eq_ignore_ascii_case(word))
     }
 
     /// Consumes the rest of the header line, newline included; binary data
@@ -427,19 +406,12 @@ impl<'a> Parser<'a> {
                 self.t.advance(nl + 1);
                 Ok(())
             }
-            None => Err(self.err(format!(
-                "truncated {what}: the file ends before its binary data"
-            ))),
+            None => Err(self.err(format!("truncated {what}: the file ends before its binary data"))),
         }
     }
 
     /// Takes `count` binary items of `size` bytes after the header line.
-    fn binary_block(
-        &mut self,
-        count: usize,
-        size: usize,
-        what: &str,
-    ) -> Result<&'a [u8], FormatError> {
+    fn binary_block(&mut self, count: usize, size: usize, what: &str) -> Result<&'a [u8], FormatError> {
         if count == 0 {
             return Ok(&[]);
         }
@@ -455,10 +427,7 @@ impl<'a> Parser<'a> {
     /// keyword or is a FIELD array header (`name nComp nTuples type`).
     fn at_section_boundary(&self) -> bool {
         let rest = self.t.rest();
-        let start = rest
-            .iter()
-            .position(|b| !b.is_ascii_whitespace())
-            .unwrap_or(rest.len());
+        let start = rest.iter().position(|b| !b.is_ascii_whitespace()).unwrap_or(rest.len());
         if start == rest.len() {
             return true;
         }
@@ -484,14 +453,9 @@ impl<'a> Parser<'a> {
 
     /// Reads `count` values declared as `type_name`, as f64. Returns `None`
     /// (having skipped the data) for string arrays.
-    fn read_values(
-        &mut self,
-        type_name: &str,
-        count: usize,
-        what: &str,
-    ) -> Result<Option<Vec<f64>>, FormatError> {
-        let ty = elem_type(type_name)
-            .ok_or_else(|| self.err(format!("{what}: unknown data type '{}'", clip(type_name))))?;
+    fn read_values(&mut self, type_name: &str, count: usize, what: &str) -> Result<Option<Vec<f64>>, FormatError> {
+        let ty =
+            elem_type(type_name).ok_or_else(|| self.err(format!("{what}: unknown data type '{}'", clip(type_name))))?;
         match ty {
             ElemType::Str => {
                 self.skip_strings(count, what)?;
@@ -502,10 +466,7 @@ impl<'a> Parser<'a> {
             ElemType::Bit => {
                 let nbytes = count.div_ceil(8);
                 let raw = self.binary_block(nbytes, 1, what)?;
-                let bit = |i: usize| {
-                    raw.get(i / 8)
-                        .map_or(0.0, |&b| f64::from((b >> (7 - i % 8)) & 1))
-                };
+                let bit = |i: usize| raw.get(i / 8).map_or(0.0, |&b| f64::from((b >> (7 - i % 8)) & 1));
                 Ok(Some((0..count).map(bit).collect()))
             }
             ElemType::Num(scalar) => {
@@ -518,25 +479,15 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn ascii_values(
-        &mut self,
-        ty: ElemType,
-        count: usize,
-        what: &str,
-    ) -> Result<Vec<f64>, FormatError> {
+    fn ascii_values(&mut self, ty: ElemType, count: usize, what: &str) -> Result<Vec<f64>, FormatError> {
         // Each value takes at least two bytes (digit and separator), so the
         // input bounds the allocation whatever the declared count.
         let mut out = Vec::with_capacity(count.min(self.t.rest().len() / 2 + 1));
         for i in 0..count {
             let tok = self.data_token(i, count, what)?;
-            let v = parse_f64(tok).ok_or_else(|| {
-                self.err(format!("{what}: expected a number, found '{}'", clip(tok)))
-            })?;
-            out.push(if ty == ElemType::Bit {
-                f64::from(u8::from(v != 0.0))
-            } else {
-                v
-            });
+            let v =
+                parse_f64(tok).ok_or_else(|| self.err(format!("{what}: expected a number, found '{}'", clip(tok))))?;
+            out.push(if ty == ElemType::Bit { f64::from(u8::from(v != 0.0)) } else { v });
         }
         Ok(out)
     }
@@ -544,26 +495,16 @@ impl<'a> Parser<'a> {
     /// Binary `long`: 8 bytes as VTK writes it on LP64 platforms; if only 4
     /// bytes per value leave the cursor at a keyword (or the end), the file
     /// came from a platform with a 4-byte `long` (Windows).
-    fn binary_long(
-        &mut self,
-        signed: bool,
-        count: usize,
-        what: &str,
-    ) -> Result<Vec<f64>, FormatError> {
-        let (wide, narrow) = if signed {
-            (ScalarType::I64, ScalarType::I32)
-        } else {
-            (ScalarType::U64, ScalarType::U32)
-        };
+    fn binary_long(&mut self, signed: bool, count: usize, what: &str) -> Result<Vec<f64>, FormatError> {
+        let (wide, narrow) =
+            if signed { (ScalarType::I64, ScalarType::I32) } else { (ScalarType::U64, ScalarType::U32) };
         let saved = self.t.clone();
         let as_wide = self.binary_block(count, 8, what);
         if as_wide.is_err() || !self.at_section_boundary() {
             let after_wide = std::mem::replace(&mut self.t, saved);
             if let Ok(raw) = self.binary_block(count, 4, what) {
                 if self.at_section_boundary() {
-                    self.notes.push(format!(
-                        "{what}: binary 'long' values read as 4-byte integers"
-                    ));
+                    self.notes.push(format!("{what}: binary 'long' values read as 4-byte integers"));
                     let mut out = Vec::new();
                     decode_to_f64(raw, narrow, Endian::Big, &mut out);
                     return Ok(out);
@@ -587,9 +528,7 @@ impl<'a> Parser<'a> {
             self.t.line_str();
             for _ in 0..count {
                 if self.t.line_str().is_none() {
-                    return Err(self.err(format!(
-                        "truncated {what}: the file ends inside a string array"
-                    )));
+                    return Err(self.err(format!("truncated {what}: the file ends inside a string array")));
                 }
             }
             return Ok(());
@@ -629,28 +568,20 @@ impl<'a> Parser<'a> {
         what: &str,
         mut sink: impl FnMut(i64) -> Result<(), String>,
     ) -> Result<(), FormatError> {
-        let ty = elem_type(type_name)
-            .ok_or_else(|| self.err(format!("{what}: unknown data type '{}'", clip(type_name))))?;
+        let ty =
+            elem_type(type_name).ok_or_else(|| self.err(format!("{what}: unknown data type '{}'", clip(type_name))))?;
         let scalar = match ty {
             ElemType::Num(s) if !matches!(s, ScalarType::F32 | ScalarType::F64) => s,
             ElemType::Long { signed: true } => ScalarType::I64,
             ElemType::Long { signed: false } => ScalarType::U64,
-            _ => {
-                return Err(self.err(format!(
-                    "{what} must have an integer type, not '{}'",
-                    clip(type_name)
-                )))
-            }
+            _ => return Err(self.err(format!("{what} must have an integer type, not '{}'", clip(type_name)))),
         };
         if !self.binary {
             for i in 0..count {
                 let tok = self.data_token(i, count, what)?;
-                let v = tok.parse::<i64>().map_err(|_| {
-                    self.err(format!(
-                        "{what}: expected an integer, found '{}'",
-                        clip(tok)
-                    ))
-                })?;
+                let v = tok
+                    .parse::<i64>()
+                    .map_err(|_| self.err(format!("{what}: expected an integer, found '{}'", clip(tok))))?;
                 sink(v).map_err(|m| self.err(format!("{what}: {m}")))?;
             }
             return Ok(());
@@ -679,12 +610,7 @@ impl<'a> Parser<'a> {
                     }
                 }
             };
-            sink(v).map_err(|m| {
-                FormatError::new(
-                    Location::Byte((start + i * size) as u64),
-                    format!("{what}: {m}"),
-                )
-            })?;
+            sink(v).map_err(|m| FormatError::new(Location::Byte((start + i * size) as u64), format!("{what}: {m}")))?;
         }
         self.t.advance(raw.len());
         Ok(())
@@ -714,11 +640,7 @@ impl<'a> Parser<'a> {
     }
 
     fn unexpected(&self, kw: &str) -> FormatError {
-        self.err(format!(
-            "unexpected keyword '{}' in a {} dataset",
-            clip(kw),
-            self.dataset.name()
-        ))
+        self.err(format!("unexpected keyword '{}' in a {} dataset", clip(kw), self.dataset.name()))
     }
 
     fn read_geometry(&mut self, kw: &str) -> Result<(), FormatError> {
@@ -727,9 +649,7 @@ impl<'a> Parser<'a> {
             "POINTS" if matches!(ds, Dataset::Unstructured | Dataset::StructuredGrid) => {
                 let n = self.count("point count")?;
                 let ty = self.token("point data type")?;
-                let count = n
-                    .checked_mul(3)
-                    .ok_or_else(|| self.err(format!("point count {n} is too large")))?;
+                let count = n.checked_mul(3).ok_or_else(|| self.err(format!("point count {n} is too large")))?;
                 let flat = self
                     .read_values(ty, count, "POINTS")?
                     .ok_or_else(|| self.err("POINTS cannot be a string array"))?;
@@ -740,8 +660,7 @@ impl<'a> Parser<'a> {
                 let n = self.count("cell type count")?;
                 let mut types = Vec::with_capacity(n.min(self.t.rest().len() / 2 + 1));
                 self.read_ints("int", n, "CELL_TYPES", |v| {
-                    let id = u32::try_from(v)
-                        .map_err(|_| format!("cell {} has invalid VTK type {v}", types.len()))?;
+                    let id = u32::try_from(v).map_err(|_| format!("cell {} has invalid VTK type {v}", types.len()))?;
                     types.push(id);
                     Ok(())
                 })?;
@@ -757,9 +676,7 @@ impl<'a> Parser<'a> {
                 }
                 dims.iter()
                     .try_fold(1usize, |acc, &d| acc.checked_mul(d))
-                    .ok_or_else(|| {
-                        self.err(format!("DIMENSIONS {dims:?} overflow the point count"))
-                    })?;
+                    .ok_or_else(|| self.err(format!("DIMENSIONS {dims:?} overflow the point count")))?;
                 self.dims = Some(dims);
             }
             "ORIGIN" if ds == Dataset::StructuredPoints => {
@@ -776,9 +693,8 @@ impl<'a> Parser<'a> {
                 let axis = usize::from(kw.as_bytes()[0] - b'X');
                 let n = self.count(&format!("{kw} count"))?;
                 let ty = self.token("coordinate data type")?;
-                let values = self
-                    .read_values(ty, n, kw)?
-                    .ok_or_else(|| self.err(format!("{kw} cannot be a string array")))?;
+                let values =
+                    self.read_values(ty, n, kw)?.ok_or_else(|| self.err(format!("{kw} cannot be a string array")))?;
                 self.coords[axis] = Some(values);
             }
             "BLANKING" if ds == Dataset::StructuredGrid => {
@@ -810,23 +726,14 @@ impl<'a> Parser<'a> {
             let offsets = &mut raw.offsets;
             self.read_ints(ty, first, "OFFSETS", |v| {
                 let prev = offsets.last().copied();
-                let off = usize::try_from(v)
-                    .map_err(|_| format!("offset {} is negative ({v})", offsets.len()))?;
+                let off = usize::try_from(v).map_err(|_| format!("offset {} is negative ({v})", offsets.len()))?;
                 match prev {
-                    None if off != 0 => {
-                        return Err(format!("the first offset must be 0, found {off}"))
-                    }
+                    None if off != 0 => return Err(format!("the first offset must be 0, found {off}")),
                     Some(p) if off < p => {
-                        return Err(format!(
-                            "offset {} ({off}) is below the previous one ({p})",
-                            offsets.len()
-                        ))
+                        return Err(format!("offset {} ({off}) is below the previous one ({p})", offsets.len()))
                     }
                     _ if off > second => {
-                        return Err(format!(
-                            "offset {} ({off}) exceeds the connectivity size {second}",
-                            offsets.len()
-                        ))
+                        return Err(format!("offset {} ({off}) exceeds the connectivity size {second}", offsets.len()))
                     }
                     _ => {}
                 }
@@ -844,13 +751,11 @@ impl<'a> Parser<'a> {
             }
             self.token("CONNECTIVITY")?;
             let ty = self.token("CONNECTIVITY data type")?;
-            raw.connectivity
-                .reserve(second.min(self.t.rest().len() / 2 + 1));
+            raw.connectivity.reserve(second.min(self.t.rest().len() / 2 + 1));
             let conn = &mut raw.connectivity;
             self.read_ints(ty, second, "CONNECTIVITY", |v| {
-                let id = u32::try_from(v).map_err(|_| {
-                    format!("entry {} is not a valid point index ({v})", conn.len())
-                })?;
+                let id =
+                    u32::try_from(v).map_err(|_| format!("entry {} is not a valid point index ({v})", conn.len()))?;
                 conn.push(id);
                 Ok(())
             })?;
@@ -871,19 +776,11 @@ impl<'a> Parser<'a> {
                 match pending {
                     None => {
                         if offsets.len() > ncells {
-                            return Err(format!(
-                                "the list holds more than the declared {ncells} cells"
-                            ));
+                            return Err(format!("the list holds more than the declared {ncells} cells"));
                         }
-                        let n = usize::try_from(v)
-                            .ok()
-                            .filter(|&n| n <= size - consumed)
-                            .ok_or_else(|| {
-                                format!(
-                                    "cell {} declares {v} nodes, more than the list has left",
-                                    offsets.len() - 1
-                                )
-                            })?;
+                        let n = usize::try_from(v).ok().filter(|&n| n <= size - consumed).ok_or_else(|| {
+                            format!("cell {} declares {v} nodes, more than the list has left", offsets.len() - 1)
+                        })?;
                         if n == 0 {
                             offsets.push(conn.len());
                         } else {
@@ -891,12 +788,8 @@ impl<'a> Parser<'a> {
                         }
                     }
                     Some(left) => {
-                        let id = u32::try_from(v).map_err(|_| {
-                            format!(
-                                "cell {} refers to invalid point index {v}",
-                                offsets.len() - 1
-                            )
-                        })?;
+                        let id = u32::try_from(v)
+                            .map_err(|_| format!("cell {} refers to invalid point index {v}", offsets.len() - 1))?;
                         conn.push(id);
                         if left == 1 {
                             offsets.push(conn.len());
@@ -909,10 +802,8 @@ impl<'a> Parser<'a> {
                 Ok(())
             })?;
             if raw.len() != ncells {
-                return Err(self.err(format!(
-                    "CELLS declares {ncells} cells but its list of {size} values holds {}",
-                    raw.len()
-                )));
+                return Err(self
+                    .err(format!("CELLS declares {ncells} cells but its list of {size} values holds {}", raw.len())));
             }
         }
         self.raw_cells = Some(raw);
@@ -939,8 +830,7 @@ impl<'a> Parser<'a> {
                 }
                 (name, ty, comps, "SCALARS")
             }
-            "VECTORS" | "NORMALS" | "TENSORS" | "TENSORS6" | "GLOBAL_IDS" | "PEDIGREE_IDS"
-            | "EDGE_FLAGS" => {
+            "VECTORS" | "NORMALS" | "TENSORS" | "TENSORS6" | "GLOBAL_IDS" | "PEDIGREE_IDS" | "EDGE_FLAGS" => {
                 let name = self.token(&format!("{kw} name"))?;
                 let ty = self.token(&format!("{kw} data type"))?;
                 let comps = match kw {
@@ -955,9 +845,7 @@ impl<'a> Parser<'a> {
                 let name = self.token("TEXTURE_COORDINATES name")?;
                 let comps = self.count("TEXTURE_COORDINATES dimension")?;
                 if !(1..=3).contains(&comps) {
-                    return Err(self.err(format!(
-                        "TEXTURE_COORDINATES dimension must be 1, 2 or 3, found {comps}"
-                    )));
+                    return Err(self.err(format!("TEXTURE_COORDINATES dimension must be 1, 2 or 3, found {comps}")));
                 }
                 let ty = self.token("TEXTURE_COORDINATES data type")?;
                 (name, ty, comps, kw)
@@ -970,24 +858,14 @@ impl<'a> Parser<'a> {
                 }
                 // Bytes in binary files; floats in [0, 1] in ASCII files,
                 // which VTK turns into bytes as 255·v + 0.5, truncated.
-                let ty = if self.binary {
-                    "unsigned_char"
-                } else {
-                    "float"
-                };
+                let ty = if self.binary { "unsigned_char" } else { "float" };
                 (name, ty, comps, kw)
             }
             "LOOKUP_TABLE" => {
                 self.token("LOOKUP_TABLE name")?;
                 let size = self.count("LOOKUP_TABLE size")?;
-                let count = size
-                    .checked_mul(4)
-                    .ok_or_else(|| self.err("LOOKUP_TABLE size is too large"))?;
-                let ty = if self.binary {
-                    "unsigned_char"
-                } else {
-                    "float"
-                };
+                let count = size.checked_mul(4).ok_or_else(|| self.err("LOOKUP_TABLE size is too large"))?;
+                let ty = if self.binary { "unsigned_char" } else { "float" };
                 self.read_values(ty, count, "LOOKUP_TABLE")?;
                 return Ok(());
             }
@@ -998,11 +876,9 @@ impl<'a> Parser<'a> {
             }
         };
         let name = decode_name(name);
-        let count = n.checked_mul(comps).ok_or_else(|| {
-            self.err(format!(
-                "{what} '{name}': {n} tuples × {comps} components overflow"
-            ))
-        })?;
+        let count = n
+            .checked_mul(comps)
+            .ok_or_else(|| self.err(format!("{what} '{name}': {n} tuples × {comps} components overflow")))?;
         let label = format!("{what} '{name}'");
         let Some(mut values) = self.read_values(ty, count, &label)? else {
             self.notes.push(format!("skipped string array {label}"));
@@ -1041,9 +917,7 @@ impl<'a> Parser<'a> {
             let tuples = self.count(&format!("tuple count of field array '{name}'"))?;
             let ty = self.token(&format!("data type of field array '{name}'"))?;
             let count = comps.checked_mul(tuples).ok_or_else(|| {
-                self.err(format!(
-                    "field array '{name}': {tuples} tuples × {comps} components overflow"
-                ))
+                self.err(format!("field array '{name}': {tuples} tuples × {comps} components overflow"))
             })?;
             let label = format!("field array '{name}'");
             let values = self.read_values(ty, count, &label)?;
@@ -1054,9 +928,7 @@ impl<'a> Parser<'a> {
                 None => self.notes.push(format!("skipped string {label}")),
                 Some(_) if comps == 0 || tuples != n => {
                     let kind = if is_point { "points" } else { "cells" };
-                    self.notes.push(format!(
-                        "skipped {label}: {tuples} tuples × {comps} components for {n} {kind}"
-                    ));
+                    self.notes.push(format!("skipped {label}: {tuples} tuples × {comps} components for {n} {kind}"));
                 }
                 Some(values) => self.push_field(Field::new(name, comps, values), is_point),
             }
@@ -1066,12 +938,7 @@ impl<'a> Parser<'a> {
 
     fn finish(mut self) -> Result<SourceMesh, FormatError> {
         let mut mesh = SourceMesh {
-            format: if self.binary {
-                "legacy VTK (BINARY)"
-            } else {
-                "legacy VTK (ASCII)"
-            }
-            .to_string(),
+            format: if self.binary { "legacy VTK (BINARY)" } else { "legacy VTK (ASCII)" }.to_string(),
             ..Default::default()
         };
         let whole = |m: String| FormatError::new(Location::Whole, m);
@@ -1079,23 +946,14 @@ impl<'a> Parser<'a> {
         let mut kept: Option<Vec<bool>> = None;
         let declared_cells = match self.dataset {
             Dataset::Unstructured => {
-                let points = self
-                    .points
+                let points = self.points.take().ok_or_else(|| whole("the UNSTRUCTURED_GRID has no POINTS".into()))?;
+                let raw = self
+                    .raw_cells
                     .take()
-                    .ok_or_else(|| whole("the UNSTRUCTURED_GRID has no POINTS".into()))?;
-                let raw = self.raw_cells.take().ok_or_else(|| {
-                    whole("no volume cells: the UNSTRUCTURED_GRID has no CELLS section".into())
-                })?;
-                let types = self
-                    .cell_types
-                    .take()
-                    .ok_or_else(|| whole("CELLS without CELL_TYPES".into()))?;
+                    .ok_or_else(|| whole("no volume cells: the UNSTRUCTURED_GRID has no CELLS section".into()))?;
+                let types = self.cell_types.take().ok_or_else(|| whole("CELLS without CELL_TYPES".into()))?;
                 if types.len() != raw.len() {
-                    return Err(whole(format!(
-                        "CELL_TYPES lists {} cells but CELLS lists {}",
-                        types.len(),
-                        raw.len()
-                    )));
+                    return Err(whole(format!("CELL_TYPES lists {} cells but CELLS lists {}", types.len(), raw.len())));
                 }
                 let (cells, mask) = assemble_cells(&raw, &types, points.len(), &mut self.notes)?;
                 mesh.points = points;
@@ -1104,9 +962,7 @@ impl<'a> Parser<'a> {
                 raw.len()
             }
             _ => {
-                let dims = self
-                    .dims
-                    .ok_or_else(|| whole(format!("the {ds} has no DIMENSIONS")))?;
+                let dims = self.dims.ok_or_else(|| whole(format!("the {ds} has no DIMENSIONS")))?;
                 let npoints = dims[0] * dims[1] * dims[2];
                 if dims.iter().any(|&d| d < 2) {
                     return Err(whole(format!(
@@ -1116,10 +972,8 @@ impl<'a> Parser<'a> {
                 }
                 mesh.points = match self.dataset {
                     Dataset::StructuredGrid => {
-                        let points = self
-                            .points
-                            .take()
-                            .ok_or_else(|| whole("the STRUCTURED_GRID has no POINTS".into()))?;
+                        let points =
+                            self.points.take().ok_or_else(|| whole("the STRUCTURED_GRID has no POINTS".into()))?;
                         if points.len() != npoints {
                             return Err(whole(format!(
                                 "the STRUCTURED_GRID has {} points but DIMENSIONS {} {} {} need {npoints}",
@@ -1151,9 +1005,9 @@ impl<'a> Parser<'a> {
                         } else {
                             let mut axes: [&[f64]; 3] = [&[], &[], &[]];
                             for (axis, name) in ["X", "Y", "Z"].iter().enumerate() {
-                                let c = self.coords[axis].as_deref().ok_or_else(|| {
-                                    whole(format!("the RECTILINEAR_GRID has no {name}_COORDINATES"))
-                                })?;
+                                let c = self.coords[axis]
+                                    .as_deref()
+                                    .ok_or_else(|| whole(format!("the RECTILINEAR_GRID has no {name}_COORDINATES")))?;
                                 if c.len() != dims[axis] {
                                     return Err(whole(format!(
                                         "{name}_COORDINATES has {} values but DIMENSIONS says {}",
@@ -1167,10 +1021,7 @@ impl<'a> Parser<'a> {
                         }
                     }
                 };
-                mesh.blocks.push(Block::Structured {
-                    dims,
-                    first_point: 0,
-                });
+                mesh.blocks.push(Block::Structured { dims, first_point: 0 });
                 (dims[0] - 1) * (dims[1] - 1) * (dims[2] - 1)
             }
         };
@@ -1184,9 +1035,7 @@ impl<'a> Parser<'a> {
         }
         if let Some(n) = self.cell_data_count {
             if n != declared_cells {
-                return Err(whole(format!(
-                    "CELL_DATA declares {n} values but the dataset has {declared_cells} cells"
-                )));
+                return Err(whole(format!("CELL_DATA declares {n} values but the dataset has {declared_cells} cells")));
             }
         }
         if let Some(mask) = &kept {
@@ -1203,11 +1052,7 @@ impl<'a> Parser<'a> {
         }
         if let Some(blank) = self.blanking.take() {
             if blank.len() != mesh.points.len() {
-                return Err(whole(format!(
-                    "BLANKING has {} values for {} points",
-                    blank.len(),
-                    mesh.points.len()
-                )));
+                return Err(whole(format!("BLANKING has {} values for {} points", blank.len(), mesh.points.len())));
             }
             mesh.point_blanked = Some(blank);
         }
@@ -1251,9 +1096,7 @@ fn assemble_cells(
                 )));
             }
             if let Some(&p) = nodes[..need].iter().find(|&&p| p as usize >= npoints) {
-                return Err(whole(format!(
-                    "cell {c} refers to point {p}, but the file has {npoints} points"
-                )));
+                return Err(whole(format!("cell {c} refers to point {p}, but the file has {npoints} points")));
             }
             if stored > need {
                 reduced += 1;
@@ -1277,15 +1120,11 @@ fn assemble_cells(
         }
     }
     if reduced > 0 {
-        notes.push(format!(
-            "reduced {reduced} quadratic or higher-order cells to their corner nodes"
-        ));
+        notes.push(format!("reduced {reduced} quadratic or higher-order cells to their corner nodes"));
     }
     if lower > 0 {
         lower_ids.sort_unstable();
-        notes.push(format!(
-            "skipped {lower} surface, line or vertex cells (VTK types {lower_ids:?})"
-        ));
+        notes.push(format!("skipped {lower} surface, line or vertex cells (VTK types {lower_ids:?})"));
     }
     if unsupported > 0 {
         unsupported_ids.sort_unstable();
@@ -1299,20 +1138,12 @@ fn assemble_cells(
             types.len()
         )));
     }
-    let mask = if mask.iter().all(|&k| k) {
-        None
-    } else {
-        Some(mask)
-    };
+    let mask = if mask.iter().all(|&k| k) { None } else { Some(mask) };
     Ok((cells, mask))
 }
 
 fn uniform_points(dims: [usize; 3], origin: [f64; 3], spacing: [f64; 3]) -> Vec<[f64; 3]> {
-    let axis = |a: usize| -> Vec<f64> {
-        (0..dims[a])
-            .map(|i| origin[a] + i as f64 * spacing[a])
-            .collect()
-    };
+    let axis = |a: usize| -> Vec<f64> { (0..dims[a]).map(|i| origin[a] + i as f64 * spacing[a]).collect() };
     let (x, y, z) = (axis(0), axis(1), axis(2));
     rectilinear_points([&x, &y, &z])
 }
@@ -1366,10 +1197,7 @@ mod tests {
         assert_eq!(elem_type("vtkIdType"), Some(ElemType::Num(I32)));
         assert_eq!(elem_type("vtktypeint64"), Some(ElemType::Num(I64)));
         assert_eq!(elem_type("vtktypeuint64"), Some(ElemType::Num(U64)));
-        assert_eq!(
-            elem_type("unsigned_long"),
-            Some(ElemType::Long { signed: false })
-        );
+        assert_eq!(elem_type("unsigned_long"), Some(ElemType::Long { signed: false }));
         assert_eq!(elem_type("long"), Some(ElemType::Long { signed: true }));
         assert_eq!(elem_type("unsigned_char"), Some(ElemType::Num(U8)));
         assert_eq!(elem_type("char"), Some(ElemType::Num(I8)));
@@ -1413,31 +1241,20 @@ mod tests {
         let m = read(&ascii(text)).unwrap();
         assert_eq!(m.num_cells(), 1);
         assert_eq!(m.cell_fields[0].values, vec![2.0, 2.0, 2.0]);
-        assert!(
-            m.notes.iter().any(|n| n.contains("skipped 2 surface")),
-            "{:?}",
-            m.notes
-        );
+        assert!(m.notes.iter().any(|n| n.contains("skipped 2 surface")), "{:?}", m.notes);
     }
 
     #[test]
     fn unknown_cell_type_names_cell_and_id() {
         let text = format!("{TET}CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n99\n");
         let e = read(&ascii(&text)).unwrap_err();
-        assert!(
-            e.message.contains("cell 0") && e.message.contains("99"),
-            "{e}"
-        );
+        assert!(e.message.contains("cell 0") && e.message.contains("99"), "{e}");
     }
 
     #[test]
     fn polydata_is_refused_clearly() {
         let e = read(&ascii("DATASET POLYDATA\nPOINTS 0 float\n")).unwrap_err();
-        assert!(
-            e.message
-                .starts_with("no volume cells: this file holds POLYDATA"),
-            "{e}"
-        );
+        assert!(e.message.starts_with("no volume cells: this file holds POLYDATA"), "{e}");
     }
 
     #[test]
@@ -1465,9 +1282,7 @@ mod tests {
     /// values (Windows), bits, colour bytes and a string array.
     #[test]
     fn binary_arrays() {
-        let mut f =
-            b"# vtk DataFile Version 4.2\nt\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n"
-                .to_vec();
+        let mut f = b"# vtk DataFile Version 4.2\nt\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n".to_vec();
         for v in [0.0f64, 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1.] {
             f.extend(v.to_be_bytes());
         }
@@ -1496,11 +1311,7 @@ mod tests {
         assert_eq!(m.point_fields[0].values, vec![-1.0, 2.0, 3.0, 4.0]);
         assert_eq!(m.point_fields[1].values, vec![1.0, 0.0, 1.0, 0.0]);
         assert_eq!(m.point_fields[2].values, vec![0.0, 10.0, 200.0, 255.0]);
-        assert!(
-            m.notes.iter().any(|n| n.contains("4-byte")),
-            "{:?}",
-            m.notes
-        );
+        assert!(m.notes.iter().any(|n| n.contains("4-byte")), "{:?}", m.notes);
     }
 
     #[test]

@@ -48,19 +48,11 @@ fn counts(m: &SourceMesh) -> (usize, usize, usize, usize) {
         *by_type.entry(format!("{t:?}")).or_insert(0usize) += 1;
     }
     let get = |k: &str| by_type.get(k).copied().unwrap_or(0);
-    (
-        get("Tetra"),
-        get("Hexahedron"),
-        get("Wedge"),
-        get("Pyramid"),
-    )
+    (get("Tetra"), get("Hexahedron"), get("Wedge"), get("Pyramid"))
 }
 
 fn field<'a>(fields: &'a [tet_mesh::Field], name: &str) -> &'a tet_mesh::Field {
-    fields
-        .iter()
-        .find(|f| f.name == name)
-        .unwrap_or_else(|| panic!("no field {name}"))
+    fields.iter().find(|f| f.name == name).unwrap_or_else(|| panic!("no field {name}"))
 }
 
 fn has_note(m: &SourceMesh, text: &str) -> bool {
@@ -80,22 +72,10 @@ fn boxcyl_all_four_encodings_agree() {
         assert_eq!(m.format, format);
         assert_eq!(m.points.len(), 419, "{name}");
         assert_eq!(counts(&m), (1333, 0, 0, 0), "{name}");
-        assert!(
-            has_note(&m, "skipped 728 lower-dimensional elements"),
-            "{name}: {:?}",
-            m.notes
-        );
-        assert!(
-            has_note(&m, "kept the last of 2 time steps"),
-            "{name}: {:?}",
-            m.notes
-        );
+        assert!(has_note(&m, "skipped 728 lower-dimensional elements"), "{name}: {:?}", m.notes);
+        assert!(has_note(&m, "kept the last of 2 time steps"), "{name}: {:?}", m.notes);
         assert!(has_note(&m, "7 \"solid\""), "{name}: {:?}", m.notes);
-        assert!(
-            has_note(&m, "$InterpolationScheme"),
-            "{name}: {:?}",
-            m.notes
-        );
+        assert!(has_note(&m, "$InterpolationScheme"), "{name}: {:?}", m.notes);
         assert_eq!(cells(&m), cells(&reference), "{name}");
         for (p, q) in m.points.iter().zip(&reference.points) {
             for k in 0..3 {
@@ -114,48 +94,25 @@ fn boxcyl_all_four_encodings_agree() {
         assert_eq!(velocity.num_components, 3);
         for (p, v) in m.points.iter().zip(velocity.values.chunks(3)) {
             for k in 0..3 {
-                assert!(
-                    (v[k] - p[k]).abs() < 1e-12,
-                    "{name}: velocity {v:?} at {p:?}"
-                );
+                assert!((v[k] - p[k]).abs() < 1e-12, "{name}: velocity {v:?} at {p:?}");
             }
         }
         let icn = field(&m.cell_fields, "ICN 3D");
         assert_eq!(icn.values.len(), 1333);
-        let (lo, hi) = icn
-            .values
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
-        assert!(
-            (lo - 0.390106224220188).abs() < 1e-12 && (hi - 1.0).abs() < 1e-12,
-            "{name}: {lo} {hi}"
-        );
-        assert!(field(&m.cell_fields, "gmsh:physical")
-            .values
-            .iter()
-            .all(|&v| v == 7.0));
-        assert!(field(&m.cell_fields, "gmsh:geometrical")
-            .values
-            .iter()
-            .all(|&v| v == 3.0));
+        let (lo, hi) = icn.values.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!((lo - 0.390106224220188).abs() < 1e-12 && (hi - 1.0).abs() < 1e-12, "{name}: {lo} {hi}");
+        assert!(field(&m.cell_fields, "gmsh:physical").values.iter().all(|&v| v == 7.0));
+        assert!(field(&m.cell_fields, "gmsh:geometrical").values.iter().all(|&v| v == 3.0));
     }
 }
 
 #[test]
 fn hexahedra_are_in_vtk_order() {
-    for name in [
-        "hexbox_22_ascii.msh",
-        "hexbox_41_bin.msh",
-        "hexbox_param_41_ascii.msh",
-    ] {
+    for name in ["hexbox_22_ascii.msh", "hexbox_41_bin.msh", "hexbox_param_41_ascii.msh"] {
         let m = read(name);
         assert_eq!(m.points.len(), 270, "{name}");
         assert_eq!(counts(&m), (0, 160, 0, 0), "{name}");
-        assert!(
-            has_note(&m, "skipped 260 lower-dimensional"),
-            "{name}: {:?}",
-            m.notes
-        );
+        assert!(has_note(&m, "skipped 260 lower-dimensional"), "{name}: {:?}", m.notes);
         // No physical groups in hexbox.geo: no gmsh:physical field.
         assert!(m.cell_fields.iter().all(|f| f.name != "gmsh:physical"));
         let c = cells(&m);
@@ -167,10 +124,7 @@ fn hexahedra_are_in_vtk_order() {
             for k in 0..4 {
                 assert!(!differ(p[k][2], p[0][2]), "{name} cell {i}");
                 assert!(p[k + 4][2] > p[k][2], "{name} cell {i}");
-                assert!(
-                    !differ(p[k + 4][0], p[k][0]) && !differ(p[k + 4][1], p[k][1]),
-                    "{name} cell {i}"
-                );
+                assert!(!differ(p[k + 4][0], p[k][0]) && !differ(p[k + 4][1], p[k][1]), "{name} cell {i}");
                 let next = p[(k + 1) % 4];
                 let moved = differ(p[k][0], next[0]) as u8 + differ(p[k][1], next[1]) as u8;
                 assert_eq!(moved, 1, "{name} cell {i}");
@@ -192,17 +146,8 @@ fn mixed_prisms_pyramids_and_orders() {
         let m = read(name);
         assert_eq!(m.points.len(), points, "{name}");
         assert_eq!(counts(&m), (286, 48, 126, 16), "{name}");
-        assert!(
-            has_note(&m, "skipped 444 lower-dimensional"),
-            "{name}: {:?}",
-            m.notes
-        );
-        assert_eq!(
-            has_note(&m, "reduced 476 higher-order"),
-            points > 280,
-            "{name}: {:?}",
-            m.notes
-        );
+        assert!(has_note(&m, "skipped 444 lower-dimensional"), "{name}: {:?}", m.notes);
+        assert_eq!(has_note(&m, "reduced 476 higher-order"), points > 280, "{name}: {:?}", m.notes);
         let c = cells(&m);
         for i in 0..c.len() {
             let p: Vec<[f64; 3]> = c.nodes(i).iter().map(|&n| m.points[n as usize]).collect();
@@ -210,11 +155,7 @@ fn mixed_prisms_pyramids_and_orders() {
                 // Extruded prisms: triangle 0-1-2 below 3-4-5, edges k -> k + 3 vertical.
                 CellType::Wedge => {
                     for k in 0..3 {
-                        assert_eq!(
-                            (p[k + 3][0], p[k + 3][1]),
-                            (p[k][0], p[k][1]),
-                            "{name} cell {i}"
-                        );
+                        assert_eq!((p[k + 3][0], p[k + 3][1]), (p[k][0], p[k][1]), "{name} cell {i}");
                         assert!(p[k + 3][2] > p[k][2], "{name} cell {i}");
                     }
                 }
@@ -235,16 +176,8 @@ fn mixed_prisms_pyramids_and_orders() {
     let lc = cells(&linear);
     let qc = cells(&quadratic);
     for i in 0..lc.len() {
-        let a: Vec<[f64; 3]> = lc
-            .nodes(i)
-            .iter()
-            .map(|&n| linear.points[n as usize])
-            .collect();
-        let b: Vec<[f64; 3]> = qc
-            .nodes(i)
-            .iter()
-            .map(|&n| quadratic.points[n as usize])
-            .collect();
+        let a: Vec<[f64; 3]> = lc.nodes(i).iter().map(|&n| linear.points[n as usize]).collect();
+        let b: Vec<[f64; 3]> = qc.nodes(i).iter().map(|&n| quadratic.points[n as usize]).collect();
         assert_eq!(a, b, "cell {i}");
     }
 }
@@ -253,11 +186,7 @@ fn mixed_prisms_pyramids_and_orders() {
 fn higher_orders() {
     let m = read("boxcyl_o2_41_bin.msh");
     assert_eq!((m.points.len(), counts(&m)), (2195, (1133, 0, 0, 0)));
-    assert!(
-        has_note(&m, "reduced 1133 higher-order") && has_note(&m, "skipped 656 lower"),
-        "{:?}",
-        m.notes
-    );
+    assert!(has_note(&m, "reduced 1133 higher-order") && has_note(&m, "skipped 656 lower"), "{:?}", m.notes);
 
     let m = read("hexbox_o3_41_ascii.msh");
     assert_eq!((m.points.len(), counts(&m)), (490, (0, 12, 0, 0)));
@@ -265,21 +194,14 @@ fn higher_orders() {
 
     let m = read("mixed_o3_41_bin.msh");
     assert_eq!((m.points.len(), counts(&m)), (3573, (189, 48, 54, 16)));
-    assert!(
-        has_note(&m, "reduced 307 higher-order") && has_note(&m, "skipped 278 lower"),
-        "{:?}",
-        m.notes
-    );
+    assert!(has_note(&m, "reduced 307 higher-order") && has_note(&m, "skipped 278 lower"), "{:?}", m.notes);
 }
 
 /// Fixed-seed LCG so the damage is the same on every run.
 struct Lcg(u64);
 impl Lcg {
     fn next(&mut self) -> u64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         self.0 >> 33
     }
 }

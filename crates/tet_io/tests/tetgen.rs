@@ -26,10 +26,7 @@ fn cells(m: &SourceMesh) -> &Cells {
 }
 
 fn field<'a>(fields: &'a [tet_mesh::Field], name: &str) -> &'a tet_mesh::Field {
-    fields
-        .iter()
-        .find(|f| f.name == name)
-        .unwrap_or_else(|| panic!("no field {name}"))
+    fields.iter().find(|f| f.name == name).unwrap_or_else(|| panic!("no field {name}"))
 }
 
 #[test]
@@ -79,17 +76,10 @@ fn zero_based_second_order_with_point_attributes() {
     assert_eq!(cells(&m).len(), 1266);
     // "0  43 49 78 48  216 217 218 219 220 221", 0-based.
     assert_eq!(cells(&m).nodes(0), &[43, 49, 78, 48]);
-    assert!(
-        m.notes.iter().any(|n| n.contains("reduced 1266 ten-node")),
-        "{:?}",
-        m.notes
-    );
+    assert!(m.notes.iter().any(|n| n.contains("reduced 1266 ten-node")), "{:?}", m.notes);
     assert!(m.cell_fields.is_empty());
     let sum = field(&m.point_fields, "attribute_0");
-    let (lo, hi) = sum
-        .values
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    let (lo, hi) = sum.values.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
     assert_eq!((lo, hi), (0.490479, 15.501588));
     let layer = field(&m.point_fields, "attribute_1");
     assert_eq!(layer.values.iter().filter(|&&v| v == 0.0).count(), 186);
@@ -102,10 +92,7 @@ fn zero_based_second_order_with_point_attributes() {
 struct Lcg(u64);
 impl Lcg {
     fn next(&mut self) -> u64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         self.0 >> 33
     }
 }

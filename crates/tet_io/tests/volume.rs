@@ -45,13 +45,7 @@ fn raw_iron_block() {
     let m = raw::read(&load("iron16.raw"), &iron_spec()).unwrap();
     assert_eq!(m.points.len(), 4096);
     assert_eq!(m.num_cells(), 15 * 15 * 15);
-    assert_eq!(
-        m.blocks,
-        vec![Block::Structured {
-            dims: [16, 16, 16],
-            first_point: 0
-        }]
-    );
+    assert_eq!(m.blocks, vec![Block::Structured { dims: [16, 16, 16], first_point: 0 }]);
     let f = &m.point_fields[0];
     assert_eq!((f.name.as_str(), f.num_components), ("density", 1));
     assert_eq!(f.values.iter().sum::<f64>(), 399_019.0);
@@ -65,56 +59,26 @@ fn raw_iron_block() {
 #[test]
 fn raw_header_bytes_endianness_and_sizes() {
     // The ushort file has 7 junk bytes before little-endian samples.
-    let spec = RawSpec {
-        scalar_type: ScalarType::U16,
-        header_bytes: 7,
-        ..iron_spec()
-    };
+    let spec = RawSpec { scalar_type: ScalarType::U16, header_bytes: 7, ..iron_spec() };
     let m = raw::read(&load("iron16_u16_skip.dat"), &spec).unwrap();
     assert_eq!(m.point_fields[0].values, iron_values());
     // Read as big-endian the same bytes give byte-swapped values.
-    let be = raw::read(
-        &load("iron16_u16_skip.dat"),
-        &RawSpec {
-            endian: Endian::Big,
-            ..spec.clone()
-        },
-    )
-    .unwrap();
+    let be = raw::read(&load("iron16_u16_skip.dat"), &RawSpec { endian: Endian::Big, ..spec.clone() }).unwrap();
     assert_eq!(be.point_fields[0].values[4095], iron_values()[4095] * 256.0);
 
     let bytes = load("iron16.raw");
     let e = raw::read(&bytes[..4000], &iron_spec()).unwrap_err();
-    assert!(
-        e.message.contains("4096 bytes expected, file has 4000"),
-        "{}",
-        e.message
-    );
+    assert!(e.message.contains("4096 bytes expected, file has 4000"), "{}", e.message);
     let mut longer = bytes.clone();
     longer.extend([1, 2, 3]);
     let m = raw::read(&longer, &iron_spec()).unwrap();
-    assert!(
-        m.notes.iter().any(|n| n.contains("3 bytes after")),
-        "{:?}",
-        m.notes
-    );
+    assert!(m.notes.iter().any(|n| n.contains("3 bytes after")), "{:?}", m.notes);
     // Spacing scales the lattice.
-    let m = raw::read(
-        &bytes,
-        &RawSpec {
-            spacing: [0.5, 1.0, 2.0],
-            origin: [0.0; 3],
-            ..iron_spec()
-        },
-    )
-    .unwrap();
+    let m = raw::read(&bytes, &RawSpec { spacing: [0.5, 1.0, 2.0], origin: [0.0; 3], ..iron_spec() }).unwrap();
     assert_eq!(m.points[4095], [7.5, 15.0, 30.0]);
-    for (s, t) in [
-        ("u8", ScalarType::U8),
-        ("int16", ScalarType::I16),
-        ("float", ScalarType::F32),
-        ("f64", ScalarType::F64),
-    ] {
+    for (s, t) in
+        [("u8", ScalarType::U8), ("int16", ScalarType::I16), ("float", ScalarType::F32), ("f64", ScalarType::F64)]
+    {
         assert_eq!(parse_scalar_type(s), Some(t));
     }
 }
@@ -122,42 +86,21 @@ fn raw_header_bytes_endianness_and_sizes() {
 #[test]
 fn nrrd_encodings_agree_with_raw() {
     let expected = iron_values();
-    for name in [
-        "iron16_raw.nrrd",
-        "iron16_gzip.nrrd",
-        "iron16_ascii.nrrd",
-        "iron16_detached.nhdr",
-        "iron16_gz_detached.nhdr",
-    ] {
+    for name in
+        ["iron16_raw.nrrd", "iron16_gzip.nrrd", "iron16_ascii.nrrd", "iron16_detached.nhdr", "iron16_gz_detached.nhdr"]
+    {
         let m = read_nrrd(name).unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert_eq!(
-            m.blocks,
-            vec![Block::Structured {
-                dims: [16, 16, 16],
-                first_point: 0
-            }],
-            "{name}"
-        );
+        assert_eq!(m.blocks, vec![Block::Structured { dims: [16, 16, 16], first_point: 0 }], "{name}");
         let f = &m.point_fields[0];
-        assert_eq!(
-            (f.name.as_str(), f.num_components),
-            ("ironProt", 1),
-            "{name}"
-        );
+        assert_eq!((f.name.as_str(), f.num_components), ("ironProt", 1), "{name}");
         assert_eq!(f.values, expected, "{name}");
         // Space origin (26,26,26) with unit space directions.
         assert_eq!(m.points[0], [26.0; 3], "{name}");
         assert_eq!(m.points[4095], [41.0; 3], "{name}");
         assert_eq!(m.points[3 + 16 * 5 + 256 * 7], [29.0, 31.0, 33.0], "{name}");
     }
-    assert!(read_nrrd("iron16_gzip.nrrd")
-        .unwrap()
-        .format
-        .contains("gzip"));
-    assert!(read_nrrd("iron16_detached.nhdr")
-        .unwrap()
-        .format
-        .contains("detached"));
+    assert!(read_nrrd("iron16_gzip.nrrd").unwrap().format.contains("gzip"));
+    assert!(read_nrrd("iron16_detached.nhdr").unwrap().format.contains("detached"));
 }
 
 #[test]
@@ -174,11 +117,7 @@ fn nrrd_float_big_endian_with_spacings() {
 #[test]
 fn nrrd_skips() {
     let expected = iron_values();
-    for name in [
-        "iron16_u16_skip.nhdr",
-        "iron16_u16_lines.nhdr",
-        "iron16_u16_end.nhdr",
-    ] {
+    for name in ["iron16_u16_skip.nhdr", "iron16_u16_lines.nhdr", "iron16_u16_end.nhdr"] {
         let m = read_nrrd(name).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(m.point_fields[0].values, expected, "{name}");
         assert_eq!(m.point_fields[0].name, "scalars", "{name}");
@@ -192,27 +131,19 @@ fn nrrd_leading_vector_axis() {
     let f = &m.point_fields[0];
     assert_eq!(f.num_components, 3);
     for (t, &v) in iron_values().iter().enumerate() {
-        assert_eq!(
-            &f.values[3 * t..3 * t + 3],
-            &[v, 255.0 - v, (v / 2.0).floor()],
-            "voxel {t}"
-        );
+        assert_eq!(&f.values[3 * t..3 * t + 3], &[v, 255.0 - v, (v / 2.0).floor()], "voxel {t}");
     }
 }
 
 #[test]
 fn nrrd_detached_errors_are_companion_errors() {
     let header = load("iron16_detached.nhdr");
-    let mut missing =
-        |_: &str| -> std::io::Result<Vec<u8>> { Err(std::io::ErrorKind::NotFound.into()) };
+    let mut missing = |_: &str| -> std::io::Result<Vec<u8>> { Err(std::io::ErrorKind::NotFound.into()) };
     let e = nrrd::read(&header, &mut missing).unwrap_err();
     assert!(e.in_companion && e.message.contains("iron16.raw"), "{e}");
     let mut short = |_: &str| -> std::io::Result<Vec<u8>> { Ok(vec![0u8; 100]) };
     let e = nrrd::read(&header, &mut short).unwrap_err();
-    assert!(
-        e.in_companion && e.message.contains("4096 bytes expected, 100 present"),
-        "{e}"
-    );
+    assert!(e.in_companion && e.message.contains("4096 bytes expected, 100 present"), "{e}");
     let gz_header = load("iron16_gz_detached.nhdr");
     let mut not_gzip = |_: &str| -> std::io::Result<Vec<u8>> { Ok(vec![7u8; 100]) };
     let e = nrrd::read(&gz_header, &mut not_gzip).unwrap_err();
@@ -238,11 +169,7 @@ fn nrrd_gzip_output_is_bounded() {
     b.extend(&bomb);
     let m = nrrd::read(&b, &mut from_dir).unwrap();
     assert_eq!(m.point_fields[0].values, vec![0.0; 8]);
-    assert!(
-        m.notes.iter().any(|n| n.contains("more bytes")),
-        "{:?}",
-        m.notes
-    );
+    assert!(m.notes.iter().any(|n| n.contains("more bytes")), "{:?}", m.notes);
     // A header promising more than the stream holds is an error.
     let mut b = b"NRRD0004\ntype: float\ndimension: 3\nsizes: 1000 1000 1000\nendian: big\nencoding: gzip\n\n".to_vec();
     b.extend(gzip(&[1, 2, 3]));
@@ -284,16 +211,10 @@ fn nrrd_hostile_headers() {
     // Small valid ones with key/values, comments and CRLF line ends.
     let ok = b"NRRD0005\r\n# comment\r\ntype: int8\r\ndimension: 3\r\nsizes: 2 2 2\r\nencoding: raw\r\nmy key:=has: colons\r\nspacings: 2 2 2\r\naxis mins: 1 1 1\r\n\r\n\x01\x02\x03\x04\x05\x06\x07\xff";
     let m = nrrd::read(ok, &mut from_dir).unwrap();
-    assert_eq!(
-        m.point_fields[0].values,
-        vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, -1.0]
-    );
+    assert_eq!(m.point_fields[0].values, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, -1.0]);
     assert_eq!(m.points[7], [3.0, 3.0, 3.0]);
-    let e = nrrd::read(
-        b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n",
-        &mut from_dir,
-    )
-    .unwrap_err();
+    let e =
+        nrrd::read(b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n", &mut from_dir).unwrap_err();
     assert!(e.message.contains("no data"), "{}", e.message);
     assert!(matches!(e.at, Location::Line(_)));
 }
@@ -301,10 +222,7 @@ fn nrrd_hostile_headers() {
 struct Lcg(u64);
 impl Lcg {
     fn next(&mut self, bound: usize) -> usize {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((self.0 >> 33) as usize) % bound.max(1)
     }
 }
@@ -326,11 +244,7 @@ fn corrupted_volumes_never_panic() {
             let _ = nrrd::read(&bytes[..rng.next(bytes.len())], &mut from_dir);
             let mut bad = bytes.clone();
             // Half the flips land in the header, where they matter most.
-            let at = if rng.next(2) == 0 {
-                rng.next(bad.len().min(300))
-            } else {
-                rng.next(bad.len())
-            };
+            let at = if rng.next(2) == 0 { rng.next(bad.len().min(300)) } else { rng.next(bad.len()) };
             bad[at] ^= 1 << rng.next(8);
             let _ = nrrd::read(&bad, &mut from_dir);
         }
@@ -350,14 +264,8 @@ fn corrupted_volumes_never_panic() {
         let cut = rng.next(raw_bytes.len() + 1);
         let _ = raw::read(&raw_bytes[..cut], &iron_spec());
     }
-    let hostile = RawSpec {
-        dims: [usize::MAX, usize::MAX, 2],
-        ..iron_spec()
-    };
+    let hostile = RawSpec { dims: [usize::MAX, usize::MAX, 2], ..iron_spec() };
     assert!(raw::read(&raw_bytes, &hostile).is_err());
-    let hostile = RawSpec {
-        header_bytes: usize::MAX,
-        ..iron_spec()
-    };
+    let hostile = RawSpec { header_bytes: usize::MAX, ..iron_spec() };
     assert!(raw::read(&raw_bytes, &hostile).is_err());
 }

@@ -15,12 +15,10 @@ fn load(name: &str) -> SourceMesh {
 }
 
 fn field<'m>(fields: &'m [Field], name: &str) -> &'m Field {
-    fields.iter().find(|f| f.name == name).unwrap_or_else(|| {
-        panic!(
-            "no field '{name}' among {:?}",
-            fields.iter().map(|f| &f.name).collect::<Vec<_>>()
-        )
-    })
+    fields
+        .iter()
+        .find(|f| f.name == name)
+        .unwrap_or_else(|| panic!("no field '{name}' among {:?}", fields.iter().map(|f| &f.name).collect::<Vec<_>>()))
 }
 
 /// Min and max of component `c`.
@@ -29,9 +27,7 @@ fn range(f: &Field, c: usize) -> (f64, f64) {
         .iter()
         .skip(c)
         .step_by(f.num_components)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        })
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
 }
 
 /// Equal up to float32 rounding (ASCII files are parsed to f64 directly,
@@ -64,11 +60,7 @@ fn unstructured(m: &SourceMesh) -> &tet_mesh::Cells {
 }
 
 fn connectivity_sum(m: &SourceMesh) -> u64 {
-    unstructured(m)
-        .connectivity
-        .iter()
-        .map(|&p| u64::from(p))
-        .sum()
+    unstructured(m).connectivity.iter().map(|&p| u64::from(p)).sum()
 }
 
 #[test]
@@ -82,11 +74,7 @@ fn tetra_mesh_ascii() {
     assert_eq!(cells.nodes(0), &[54, 32, 26, 7]);
     assert_eq!(cells.nodes(159), &[18, 14, 15, 13]);
     assert_eq!(connectivity_sum(&m), 18388);
-    assert_point(
-        &m,
-        0,
-        [9.780320167541504, -1.8030699491500854, 0.9875400066375732],
-    );
+    assert_point(&m, 0, [9.780320167541504, -1.8030699491500854, 0.9875400066375732]);
     // The file has an empty CELL_DATA section and int scalars with a named
     // lookup table.
     assert!(m.cell_fields.is_empty());
@@ -140,10 +128,7 @@ fn hexa_ascii() {
     assert_eq!(cells.len(), 10648);
     assert!(cells.types.iter().all(|&t| t == CellType::Hexahedron));
     assert_eq!(cells.nodes(0), &[0, 1, 24, 23, 529, 530, 553, 552]);
-    assert_eq!(
-        cells.nodes(10647),
-        &[11613, 11614, 11637, 11636, 12142, 12143, 12166, 12165]
-    );
+    assert_eq!(cells.nodes(10647), &[11613, 11614, 11637, 11636, 12142, 12143, 12166, 12165]);
     assert_eq!(connectivity_sum(&m), 518174272);
     assert_point(&m, 12167 / 2, [0.47826099395751953; 3]);
     let s = field(&m.point_fields, "scalars");
@@ -175,23 +160,10 @@ fn post_big_endian_binary() {
 #[test]
 fn office_structured_grid_binary() {
     let m = load("office.binary.vtk");
-    assert_eq!(
-        m.blocks,
-        vec![Block::Structured {
-            dims: [21, 20, 20],
-            first_point: 0
-        }]
-    );
+    assert_eq!(m.blocks, vec![Block::Structured { dims: [21, 20, 20], first_point: 0 }]);
     assert_eq!(m.points.len(), 8400);
     assert_eq!(m.num_cells(), 7220);
-    assert_eq!(
-        m.points[1],
-        [
-            0.05000000074505806,
-            0.009999998845160007,
-            0.009999998845160007
-        ]
-    );
+    assert_eq!(m.points[1], [0.05000000074505806, 0.009999998845160007, 0.009999998845160007]);
     assert_eq!(m.points[8399], [4.5, 4.5, 2.5]);
     let s = field(&m.point_fields, "scalars");
     assert_eq!(range(s, 0), (-3.8695590496063232, 0.7185602784156799));
@@ -205,39 +177,17 @@ fn office_structured_grid_binary() {
 #[test]
 fn office_subgrid_ascii_structured_grid() {
     let m = load("office_voi.ascii.vtk");
-    assert_eq!(
-        m.blocks,
-        vec![Block::Structured {
-            dims: [5, 4, 3],
-            first_point: 0
-        }]
-    );
+    assert_eq!(m.blocks, vec![Block::Structured { dims: [5, 4, 3], first_point: 0 }]);
     assert_eq!(m.num_cells(), 24);
     assert_point(&m, 59, [0.4000000059604645, 0.25, 0.07000000029802322]);
-    assert_range(
-        field(&m.point_fields, "scalars"),
-        0,
-        -3.8650100231170654,
-        -3.7861499786376953,
-    );
-    assert_range(
-        field(&m.point_fields, "vectors"),
-        2,
-        -0.005726169794797897,
-        0.054900601506233215,
-    );
+    assert_range(field(&m.point_fields, "scalars"), 0, -3.8650100231170654, -3.7861499786376953);
+    assert_range(field(&m.point_fields, "vectors"), 2, -0.005726169794797897, 0.054900601506233215);
 }
 
 #[test]
 fn iron_protein_structured_points_aspect_ratio() {
     let m = load("ironProt.vtk");
-    assert_eq!(
-        m.blocks,
-        vec![Block::Structured {
-            dims: [68, 68, 68],
-            first_point: 0
-        }]
-    );
+    assert_eq!(m.blocks, vec![Block::Structured { dims: [68, 68, 68], first_point: 0 }]);
     assert_eq!(m.points.len(), 314432);
     assert_eq!(m.num_cells(), 300763);
     assert_eq!(m.points[1], [1.0, 0.0, 0.0]);
@@ -253,13 +203,7 @@ fn color_scalars_ascii_and_binary_agree() {
     let a = load("ironProt_voi.ascii.vtk");
     let b = load("ironProt_voi.binary.vtk");
     for m in [&a, &b] {
-        assert_eq!(
-            m.blocks,
-            vec![Block::Structured {
-                dims: [6, 4, 3],
-                first_point: 0
-            }]
-        );
+        assert_eq!(m.blocks, vec![Block::Structured { dims: [6, 4, 3], first_point: 0 }]);
         assert_eq!(m.points[0], [30.0, 30.0, 30.0]);
         assert_eq!(m.points[71], [35.0, 33.0, 32.0]);
         let s = field(&m.point_fields, "scalars");
@@ -273,14 +217,7 @@ fn color_scalars_ascii_and_binary_agree() {
 fn rectilinear_ascii_and_binary() {
     for name in ["rectilinear.ascii.vtk", "rectilinear.binary.vtk"] {
         let m = load(name);
-        assert_eq!(
-            m.blocks,
-            vec![Block::Structured {
-                dims: [4, 3, 5],
-                first_point: 0
-            }],
-            "{name}"
-        );
+        assert_eq!(m.blocks, vec![Block::Structured { dims: [4, 3, 5], first_point: 0 }], "{name}");
         assert_eq!(m.points.len(), 60);
         assert_eq!(m.points[0], [0.0, -1.0, 0.0]);
         assert_eq!(m.points[1], [0.5, -1.0, 0.0]);
@@ -293,10 +230,7 @@ fn rectilinear_ascii_and_binary() {
             assert_eq!(v, (i + 10 * j + 100 * k) as f64, "{name} point {p}");
         }
         let r = field(&m.cell_fields, "region");
-        assert_eq!(
-            r.values,
-            (0..24).map(|c| f64::from(c - 5)).collect::<Vec<_>>()
-        );
+        assert_eq!(r.values, (0..24).map(|c| f64::from(c - 5)).collect::<Vec<_>>());
     }
 }
 
@@ -304,61 +238,32 @@ fn rectilinear_ascii_and_binary() {
 /// voxel, wedge, pyramid, quadratic tet.
 #[test]
 fn mixed_cells_all_variants() {
-    for name in [
-        "mixed.v42.ascii.vtk",
-        "mixed.v42.binary.vtk",
-        "mixed.v51.ascii.vtk",
-        "mixed.v51.binary.vtk",
-    ] {
+    for name in ["mixed.v42.ascii.vtk", "mixed.v42.binary.vtk", "mixed.v51.ascii.vtk", "mixed.v51.binary.vtk"] {
         let m = load(name);
         assert_eq!(m.points.len(), 44, "{name}");
         assert_eq!(m.points[43], [12.0, 0.5, 0.5]);
         let cells = unstructured(&m);
         use CellType::*;
-        assert_eq!(
-            cells.types,
-            vec![Tetra, Hexahedron, Voxel, Wedge, Pyramid, Tetra],
-            "{name}"
-        );
+        assert_eq!(cells.types, vec![Tetra, Hexahedron, Voxel, Wedge, Pyramid, Tetra], "{name}");
         assert_eq!(cells.nodes(0), &[0, 1, 2, 3]);
         assert_eq!(cells.nodes(1), &[7, 8, 9, 10, 11, 12, 13, 14]);
         assert_eq!(cells.nodes(4), &[29, 30, 31, 32, 33]);
         assert_eq!(cells.nodes(5), &[34, 35, 36, 37]);
-        assert!(
-            m.notes.iter().any(|n| n.contains("reduced 1 quadratic")),
-            "{name}: {:?}",
-            m.notes
-        );
-        assert!(
-            m.notes.iter().any(|n| n.contains("skipped 1 surface")),
-            "{name}: {:?}",
-            m.notes
-        );
+        assert!(m.notes.iter().any(|n| n.contains("reduced 1 quadratic")), "{name}: {:?}", m.notes);
+        assert!(m.notes.iter().any(|n| n.contains("skipped 1 surface")), "{name}: {:?}", m.notes);
 
         let t = field(&m.point_fields, "temperature");
         assert_eq!(range(t, 0), (300.0, 343.0));
         let v = field(&m.point_fields, "velocity");
         assert_eq!(v.num_components, 3);
         assert_eq!((range(v, 0), range(v, 2)), ((0.0, 13.0), (-1.0, 0.0)));
-        assert_eq!(
-            range(field(&m.point_fields, "pressure"), 0),
-            (99978.5, 100000.0)
-        );
+        assert_eq!(range(field(&m.point_fields, "pressure"), 0), (99978.5, 100000.0));
         // `long` in binary is 8 bytes (VTK on LP64); values below -2^31 survive.
-        assert_eq!(
-            range(field(&m.point_fields, "long values"), 0),
-            (-3000000000.0, -2999999957.0)
-        );
+        assert_eq!(range(field(&m.point_fields, "long values"), 0), (-3000000000.0, -2999999957.0));
 
         // The triangle's CELL_DATA tuple is dropped with it; names decode %20.
-        assert_eq!(
-            field(&m.cell_fields, "cell id").values,
-            vec![100.0, 102.0, 103.0, 104.0, 105.0, 106.0]
-        );
-        assert_eq!(
-            field(&m.cell_fields, "global ids").values,
-            vec![1000.0, 1002.0, 1003.0, 1004.0, 1005.0, 1006.0]
-        );
+        assert_eq!(field(&m.cell_fields, "cell id").values, vec![100.0, 102.0, 103.0, 104.0, 105.0, 106.0]);
+        assert_eq!(field(&m.cell_fields, "global ids").values, vec![1000.0, 1002.0, 1003.0, 1004.0, 1005.0, 1006.0]);
         let cv = field(&m.cell_fields, "cell vec");
         assert_eq!(cv.num_components, 3);
         assert_eq!(&cv.values[..6], &[0.0, 0.0, -0.0, 2.0, 20.0, -0.5]);
@@ -369,11 +274,7 @@ fn mixed_cells_all_variants() {
 #[test]
 fn polydata_is_refused() {
     let e = read(&data("sphere.polydata.vtk")).unwrap_err();
-    assert!(
-        e.message
-            .starts_with("no volume cells: this file holds POLYDATA"),
-        "{e}"
-    );
+    assert!(e.message.starts_with("no volume cells: this file holds POLYDATA"), "{e}");
 }
 
 const SAMPLES: [&str; 17] = [
@@ -401,10 +302,7 @@ struct Lcg(u64);
 
 impl Lcg {
     fn next(&mut self, bound: usize) -> usize {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((self.0 >> 33) as usize) % bound.max(1)
     }
 }

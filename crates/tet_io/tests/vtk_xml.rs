@@ -30,10 +30,7 @@ fn unstructured(m: &SourceMesh) -> &tet_mesh::Cells {
 }
 
 fn field<'m>(fields: &'m [Field], name: &str) -> &'m Field {
-    fields
-        .iter()
-        .find(|f| f.name == name)
-        .unwrap_or_else(|| panic!("no field {name}"))
+    fields.iter().find(|f| f.name == name).unwrap_or_else(|| panic!("no field {name}"))
 }
 
 fn close(a: f64, b: f64, rel: f64) -> bool {
@@ -67,29 +64,17 @@ fn declared_ranges(file: &[u8]) -> Vec<(&'static str, String, f64, f64)> {
         let start = pos + p;
         let stop = start + text[start..].find('>').unwrap_or(text.len() - start);
         let tag = &text[start..stop];
-        for (open, s) in [
-            ("<PointData", "point"),
-            ("<CellData", "cell"),
-            ("<FieldData", ""),
-            ("<Points", ""),
-            ("<Cells", ""),
-        ] {
+        for (open, s) in
+            [("<PointData", "point"), ("<CellData", "cell"), ("<FieldData", ""), ("<Points", ""), ("<Cells", "")]
+        {
             if tag.starts_with(open) {
                 section = s;
             }
         }
         if tag.starts_with("<DataArray") && !section.is_empty() {
-            if let (Some(name), Some(lo), Some(hi)) = (
-                attr(tag, "Name"),
-                attr(tag, "RangeMin"),
-                attr(tag, "RangeMax"),
-            ) {
-                out.push((
-                    section,
-                    name,
-                    lo.trim().parse().unwrap(),
-                    hi.trim().parse().unwrap(),
-                ));
+            if let (Some(name), Some(lo), Some(hi)) = (attr(tag, "Name"), attr(tag, "RangeMin"), attr(tag, "RangeMax"))
+            {
+                out.push((section, name, lo.trim().parse().unwrap(), hi.trim().parse().unwrap()));
             }
         }
         pos = stop;
@@ -102,11 +87,7 @@ fn value_range(f: &Field) -> (f64, f64) {
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
     for t in f.values.chunks_exact(f.num_components) {
-        let v = if t.len() == 1 {
-            t[0]
-        } else {
-            t.iter().map(|x| x * x).sum::<f64>().sqrt()
-        };
+        let v = if t.len() == 1 { t[0] } else { t.iter().map(|x| x * x).sum::<f64>().sqrt() };
         lo = lo.min(v);
         hi = hi.max(v);
     }
@@ -119,16 +100,9 @@ fn check_declared_ranges(file: &[u8], m: &SourceMesh) {
     let declared = declared_ranges(file);
     assert!(!declared.is_empty());
     for (section, name, lo, hi) in declared {
-        let fields = if section == "point" {
-            &m.point_fields
-        } else {
-            &m.cell_fields
-        };
+        let fields = if section == "point" { &m.point_fields } else { &m.cell_fields };
         let (a, b) = value_range(field(fields, &name));
-        assert!(
-            close(a, lo, 1e-8) && close(b, hi, 1e-8),
-            "{section} {name}: read {a}..{b}, file says {lo}..{hi}"
-        );
+        assert!(close(a, lo, 1e-8) && close(b, hi, 1e-8), "{section} {name}: read {a}..{b}, file says {lo}..{hi}");
     }
 }
 
@@ -143,17 +117,7 @@ fn su2_cylinder_zlib_appended_base64() {
     let names: Vec<&str> = m.point_fields.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(
         names,
-        [
-            "Density",
-            "X-Momentum",
-            "Y-Momentum",
-            "Z-Momentum",
-            "Energy",
-            "Pressure",
-            "Temperature",
-            "Cp",
-            "Mach"
-        ]
+        ["Density", "X-Momentum", "Y-Momentum", "Z-Momentum", "Energy", "Pressure", "Temperature", "Cp", "Mach"]
     );
     assert!(m.cell_fields.is_empty());
     check_declared_ranges(&file, &m);
@@ -162,11 +126,7 @@ fn su2_cylinder_zlib_appended_base64() {
     assert_eq!(conn_sum(&m), 362_238_724);
     let density: f64 = field(&m.point_fields, "Density").values.iter().sum();
     assert!(close(density, 5560.696205336238, 1e-12));
-    assert!(
-        m.format.contains("UnstructuredGrid") && m.format.contains("zlib"),
-        "{}",
-        m.format
-    );
+    assert!(m.format.contains("UnstructuredGrid") && m.format.contains("zlib"), "{}", m.format);
     assert!(m.format.contains("appended base64"), "{}", m.format);
 }
 
@@ -176,10 +136,7 @@ fn can_appended_raw_uint64_hexahedra() {
     let m = read(&file).unwrap();
     assert_eq!(m.points.len(), 6_724);
     assert_eq!(m.num_cells(), 4_800);
-    assert!(unstructured(&m)
-        .types
-        .iter()
-        .all(|&t| t == CellType::Hexahedron));
+    assert!(unstructured(&m).types.iter().all(|&t| t == CellType::Hexahedron));
     for name in ["DISPL", "VEL", "ACCL"] {
         assert_eq!(field(&m.point_fields, name).num_components, 3);
     }
@@ -210,25 +167,14 @@ fn every_vtk_data_layout_gives_identical_data() {
     let reference = load("cyl_appended_raw.vtu");
     assert_eq!(reference.points.len(), 465);
     assert_eq!(reference.num_cells(), 1_522);
-    assert!(unstructured(&reference)
-        .types
-        .iter()
-        .all(|&t| t == CellType::Tetra));
+    assert!(unstructured(&reference).types.iter().all(|&t| t == CellType::Tetra));
     assert!(close(point_sum(&reference), 23.438956596298187, 1e-12));
     assert_eq!(conn_sum(&reference), 1_764_088);
     let velocity = field(&reference.point_fields, "velocity");
     assert_eq!(velocity.num_components, 3);
-    assert!(close(
-        velocity.values.iter().sum(),
-        -80.31245876265376,
-        1e-12
-    ));
+    assert!(close(velocity.values.iter().sum(), -80.31245876265376, 1e-12));
     let cell_norm = field(&reference.cell_fields, "vel_norm");
-    assert!(close(
-        cell_norm.values.iter().sum(),
-        513.9189479847342,
-        1e-12
-    ));
+    assert!(close(cell_norm.values.iter().sum(), 513.9189479847342, 1e-12));
     for name in CYL_VARIANTS {
         let file = bytes(name);
         let m = read(&file).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -239,22 +185,14 @@ fn every_vtk_data_layout_gives_identical_data() {
         check_declared_ranges(&file, &m);
     }
     assert!(load("cyl_ascii.vtu").format.contains("ascii"));
-    assert!(load("cyl_binary_zlib.vtu")
-        .format
-        .contains("inline binary, zlib"));
-    assert!(load("cyl_appended_b64.vtu")
-        .format
-        .contains("appended base64"));
+    assert!(load("cyl_binary_zlib.vtu").format.contains("inline binary, zlib"));
+    assert!(load("cyl_appended_b64.vtu").format.contains("appended base64"));
 }
 
 #[test]
 fn lz4_is_an_unsupported_compressor() {
     let e = read(&bytes("cyl_lz4.vtu")).unwrap_err();
-    assert!(
-        e.message
-            .contains("unsupported compressor vtkLZ4DataCompressor"),
-        "{e}"
-    );
+    assert!(e.message.contains("unsupported compressor vtkLZ4DataCompressor"), "{e}");
 }
 
 /// Cells as lists of node coordinates, sorted: compares meshes whose point
@@ -262,13 +200,7 @@ fn lz4_is_an_unsupported_compressor() {
 fn cell_coordinates(m: &SourceMesh) -> Vec<Vec<[u64; 3]>> {
     let cells = unstructured(m);
     let mut out: Vec<Vec<[u64; 3]>> = (0..cells.len())
-        .map(|c| {
-            cells
-                .nodes(c)
-                .iter()
-                .map(|&p| m.points[p as usize].map(|v| (v as f32).to_bits() as u64))
-                .collect()
-        })
+        .map(|c| cells.nodes(c).iter().map(|&p| m.points[p as usize].map(|v| (v as f32).to_bits() as u64)).collect())
         .collect();
     out.sort();
     out
@@ -281,26 +213,11 @@ fn two_pieces_in_one_file_are_concatenated() {
     assert_eq!(m.points.len(), 714);
     assert_eq!(m.num_cells(), 1_522);
     assert_eq!(conn_sum(&m), 1_772_289);
-    assert!(
-        m.notes.iter().any(|n| n.contains("2 pieces")),
-        "{:?}",
-        m.notes
-    );
-    assert!(close(
-        field(&m.cell_fields, "vel_norm").values.iter().sum(),
-        513.9189479847342,
-        1e-12
-    ));
-    assert!(close(
-        field(&m.point_fields, "vel_norm").values.iter().sum(),
-        127.78140447983651,
-        1e-12
-    ));
+    assert!(m.notes.iter().any(|n| n.contains("2 pieces")), "{:?}", m.notes);
+    assert!(close(field(&m.cell_fields, "vel_norm").values.iter().sum(), 513.9189479847342, 1e-12));
+    assert!(close(field(&m.point_fields, "vel_norm").values.iter().sum(), 127.78140447983651, 1e-12));
     // The same cells as the whole mesh (points are Float32 in the pieces).
-    assert_eq!(
-        cell_coordinates(&m),
-        cell_coordinates(&load("cyl_appended_raw.vtu"))
-    );
+    assert_eq!(cell_coordinates(&m), cell_coordinates(&load("cyl_appended_raw.vtu")));
 }
 
 #[test]
@@ -315,11 +232,7 @@ fn pvtu_reads_its_pieces() {
     assert_eq!(m.blocks, onefile.blocks);
     assert_eq!(m.point_fields, onefile.point_fields);
     assert_eq!(m.cell_fields, onefile.cell_fields);
-    assert!(
-        m.format.contains("PUnstructuredGrid, 2 pieces"),
-        "{}",
-        m.format
-    );
+    assert!(m.format.contains("PUnstructuredGrid, 2 pieces"), "{}", m.format);
     // A serial reader refuses the index file and says why.
     let e = read(&bytes("cyl_2pieces.pvtu")).unwrap_err();
     assert!(e.message.contains("parallel"), "{e}");
@@ -329,11 +242,7 @@ fn pvtu_reads_its_pieces() {
 fn pvtu_errors_name_the_piece() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(path("cyl_2pieces.pvtu"), dir.path().join("x.pvtu")).unwrap();
-    std::fs::copy(
-        path("cyl_2pieces_0.vtu"),
-        dir.path().join("cyl_2pieces_0.vtu"),
-    )
-    .unwrap();
+    std::fs::copy(path("cyl_2pieces_0.vtu"), dir.path().join("cyl_2pieces_0.vtu")).unwrap();
     match read_pvtu(&dir.path().join("x.pvtu")) {
         Err(ReadError::Io { path, .. }) => assert!(path.ends_with("cyl_2pieces_1.vtu"), "{path:?}"),
         other => panic!("expected a missing-piece error, got {other:?}"),
@@ -345,10 +254,7 @@ fn pvtu_errors_name_the_piece() {
     match read_pvtu(&dir.path().join("x.pvtu")) {
         Err(e @ ReadError::Malformed { .. }) => {
             let text = e.to_string();
-            assert!(
-                text.contains("cyl_2pieces_1.vtu") && text.contains("piece 1"),
-                "{text}"
-            );
+            assert!(text.contains("cyl_2pieces_1.vtu") && text.contains("piece 1"), "{text}");
         }
         other => panic!("expected a malformed-piece error, got {other:?}"),
     }
@@ -359,36 +265,15 @@ fn structured_grid_vts() {
     let file = bytes("office_sub.vts");
     let m = read(&file).unwrap();
     assert_eq!(m.points.len(), 480);
-    assert_eq!(
-        m.blocks,
-        vec![Block::Structured {
-            dims: [10, 8, 6],
-            first_point: 0
-        }]
-    );
+    assert_eq!(m.blocks, vec![Block::Structured { dims: [10, 8, 6], first_point: 0 }]);
     assert_eq!(m.num_cells(), 315);
-    assert!(
-        m.points[0].iter().all(|&v| close(v, 0.01, 1e-6)),
-        "{:?}",
-        m.points[0]
-    );
-    assert!(
-        m.points[479]
-            .iter()
-            .zip([2.1, 1.6, 0.4])
-            .all(|(&v, w)| close(v, w, 1e-6)),
-        "{:?}",
-        m.points[479]
-    );
+    assert!(m.points[0].iter().all(|&v| close(v, 0.01, 1e-6)), "{:?}", m.points[0]);
+    assert!(m.points[479].iter().zip([2.1, 1.6, 0.4]).all(|(&v, w)| close(v, w, 1e-6)), "{:?}", m.points[479]);
     assert!(close(point_sum(&m), 709.8800003044307, 1e-9));
     assert_eq!(field(&m.point_fields, "vectors").num_components, 3);
     assert_eq!(field(&m.cell_fields, "scalars").values.len(), 315);
     check_declared_ranges(&file, &m);
-    assert!(
-        m.format.contains("StructuredGrid (inline binary, zlib)"),
-        "{}",
-        m.format
-    );
+    assert!(m.format.contains("StructuredGrid (inline binary, zlib)"), "{}", m.format);
 }
 
 #[test]
@@ -396,13 +281,7 @@ fn image_data_vti_with_origin_spacing_and_direction() {
     let file = bytes("iron_sub.vti");
     let m = read(&file).unwrap();
     assert_eq!(m.points.len(), 960);
-    assert_eq!(
-        m.blocks,
-        vec![Block::Structured {
-            dims: [12, 10, 8],
-            first_point: 0
-        }]
-    );
+    assert_eq!(m.blocks, vec![Block::Structured { dims: [12, 10, 8], first_point: 0 }]);
     assert_eq!(m.num_cells(), 693);
     // Extent starts at (20, 22, 24): origin + spacing × index.
     assert_eq!(m.points[0], [11.5, 3.5, 48.25]);
@@ -422,21 +301,12 @@ fn image_data_vti_with_origin_spacing_and_direction() {
 fn rectilinear_grid_vtr() {
     let m = load("rect.vtr");
     assert_eq!(m.points.len(), 24);
-    assert_eq!(
-        m.blocks,
-        vec![Block::Structured {
-            dims: [4, 3, 2],
-            first_point: 0
-        }]
-    );
+    assert_eq!(m.blocks, vec![Block::Structured { dims: [4, 3, 2], first_point: 0 }]);
     assert_eq!(m.points[0], [0.0, -1.0, 5.0]);
     assert_eq!(m.points[1], [1.0, -1.0, 5.0]);
     assert_eq!(m.points[4], [0.0, 0.0, 5.0]);
     assert_eq!(m.points[23], [7.0, 2.0, 6.5]);
-    assert_eq!(
-        field(&m.cell_fields, "cellid").values,
-        vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
-    );
+    assert_eq!(field(&m.cell_fields, "cellid").values, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
 }
 
 #[test]
@@ -457,9 +327,7 @@ fn bluntfin_tets_from_shared_data() {
 
 fn tets_of(m: &SourceMesh) -> Vec<[u32; 4]> {
     let cells = unstructured(m);
-    (0..cells.len())
-        .map(|c| cells.nodes(c).try_into().unwrap())
-        .collect()
+    (0..cells.len()).map(|c| cells.nodes(c).try_into().unwrap()).collect()
 }
 
 #[test]
@@ -467,20 +335,9 @@ fn writer_roundtrips_a_real_mesh() {
     let m = load("cylinder3D_solution.vtu");
     let tets = tets_of(&m);
     let cell_ids = Field::new("cell id", 1, (0..tets.len()).map(|c| c as f64).collect());
-    for options in [
-        WriteOptions { compress: false },
-        WriteOptions { compress: true },
-    ] {
+    for options in [WriteOptions { compress: false }, WriteOptions { compress: true }] {
         let mut out = Vec::new();
-        write_vtu_with(
-            &mut out,
-            &m.points,
-            &tets,
-            &m.point_fields,
-            std::slice::from_ref(&cell_ids),
-            options,
-        )
-        .unwrap();
+        write_vtu_with(&mut out, &m.points, &tets, &m.point_fields, std::slice::from_ref(&cell_ids), options).unwrap();
         let back = read(&out).unwrap();
         assert_eq!(back.points, m.points);
         assert_eq!(back.blocks, m.blocks);
@@ -491,14 +348,7 @@ fn writer_roundtrips_a_real_mesh() {
     // Through a file, with the plain entry point.
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("out.vtu");
-    write_vtu(
-        std::fs::File::create(&p).unwrap(),
-        &m.points,
-        &tets,
-        &m.point_fields,
-        &[],
-    )
-    .unwrap();
+    write_vtu(std::fs::File::create(&p).unwrap(), &m.points, &tets, &m.point_fields, &[]).unwrap();
     let back = read(&std::fs::read(&p).unwrap()).unwrap();
     assert_eq!(back.points, m.points);
     assert_eq!(back.point_fields, m.point_fields);
@@ -509,10 +359,7 @@ struct Lcg(u64);
 
 impl Lcg {
     fn next(&mut self) -> u64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         self.0 >> 33
     }
 
@@ -538,9 +385,7 @@ fn truncated_and_corrupted_files_never_panic() {
     let mut rng = Lcg(0x5eed_1234);
     for name in samples {
         let file = bytes(name);
-        let xml_len = String::from_utf8_lossy(&file)
-            .find("<AppendedData")
-            .unwrap_or(file.len());
+        let xml_len = String::from_utf8_lossy(&file).find("<AppendedData").unwrap_or(file.len());
         for _ in 0..200 {
             let cut = rng.below(file.len());
             let _ = read(&file[..cut]);
@@ -548,11 +393,7 @@ fn truncated_and_corrupted_files_never_panic() {
         for i in 0..200 {
             let mut bad = file.clone();
             // Half the flips hit the XML header, where they change structure.
-            let at = if i % 2 == 0 {
-                rng.below(xml_len)
-            } else {
-                rng.below(file.len())
-            };
+            let at = if i % 2 == 0 { rng.below(xml_len) } else { rng.below(file.len()) };
             bad[at] ^= (rng.next() as u8) | 1;
             let _ = read(&bad);
         }
@@ -593,39 +434,18 @@ fn hostile_headers_are_errors() {
     let piece = r#"NumberOfPoints="4" NumberOfCells="1""#;
     for (cells, expect) in [
         (
-            GOOD_CELLS.replace(
-                r#"type="Int32" Name="connectivity""#,
-                r#"type="Float32" Name="connectivity""#,
-            ),
+            GOOD_CELLS.replace(r#"type="Int32" Name="connectivity""#, r#"type="Float32" Name="connectivity""#),
             "integers",
         ),
-        (
-            GOOD_CELLS.replace(
-                r#"type="Int32" Name="offsets""#,
-                r#"type="Float128" Name="offsets""#,
-            ),
-            "Float128",
-        ),
+        (GOOD_CELLS.replace(r#"type="Int32" Name="offsets""#, r#"type="Float128" Name="offsets""#), "Float128"),
         (GOOD_CELLS.replace(">4<", ">-4<"), "offset"),
         (GOOD_CELLS.replace(">4<", ">99999999999<"), "offset"),
         (GOOD_CELLS.replace(">10<", ">300<"), "300"),
         (GOOD_CELLS.replace(">0 1 2 3<", ">0 1 2 -3<"), "point -3"),
-        (
-            GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="appended" offset="0">10"#),
-            "AppendedData",
-        ),
-        (
-            GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="binary">//////8="#),
-            "truncated",
-        ),
-        (
-            GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="binary">!!!!"#),
-            "base64",
-        ),
-        (
-            GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="zip">10"#),
-            "format",
-        ),
+        (GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="appended" offset="0">10"#), "AppendedData"),
+        (GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="binary">//////8="#), "truncated"),
+        (GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="binary">!!!!"#), "base64"),
+        (GOOD_CELLS.replace(r#"format="ascii">10"#, r#"format="zip">10"#), "format"),
     ] {
         let e = read(tiny(piece, &cells).as_bytes()).unwrap_err();
         assert!(e.message.contains(expect), "expected '{expect}' in: {e}");
@@ -636,10 +456,7 @@ fn hostile_headers_are_errors() {
     assert!(read(b"").is_err());
     assert!(read(b"<VTKFile").is_err());
     assert!(read(b"<NotVTK/>").is_err());
-    assert!(read(br#"<VTKFile type="PolyData"><PolyData/></VTKFile>"#)
-        .unwrap_err()
-        .message
-        .contains("PolyData"));
+    assert!(read(br#"<VTKFile type="PolyData"><PolyData/></VTKFile>"#).unwrap_err().message.contains("PolyData"));
     let mut huge_appended = br#"<VTKFile type="ImageData" header_type="UInt64"><ImageData WholeExtent="0 1 0 1 0 1">
 <Piece Extent="0 1 0 1 0 1"><PointData><DataArray type="Float64" Name="v" format="appended" offset="0"/></PointData>
 </Piece></ImageData><AppendedData encoding="raw">_"#

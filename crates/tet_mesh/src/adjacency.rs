@@ -63,9 +63,9 @@ pub fn build_adjacency(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Adjacen
 
     // Split `entries` into per-chunk slices along bucket boundaries.
     let chunk_vertices = (n_points / (rayon::current_num_threads() * 8)).max(1024);
-    let mut slices: Vec<(&mut [(u32, u32, u32)], usize)> = Vec::new();
+    let mut slices: Vec<(&mut [FaceEntry], usize)> = Vec::new();
     {
-        let mut rest: &mut [(u32, u32, u32)] = &mut entries;
+        let mut rest: &mut [FaceEntry] = &mut entries;
         let mut v = 0usize;
         while v < n_points {
             let v_end = (v + chunk_vertices).min(n_points);
@@ -129,6 +129,10 @@ pub fn build_adjacency(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Adjacen
     let convex = boundary_is_convex(points, tets, &boundary_faces);
     Ok(Adjacency { neighbors, boundary_faces, convex })
 }
+
+/// A face in its smallest vertex's bucket: the other two vertices (sorted)
+/// and `tet * 4 + face`.
+type FaceEntry = (u32, u32, u32);
 
 #[inline]
 fn face_key(t: &[u32; 4], f: usize) -> (u32, u32, u32) {
@@ -196,8 +200,7 @@ fn boundary_is_convex(points: &[[f64; 3]], tets: &[[u32; 4]], boundary: &[u32]) 
 pub fn check_adjacency(tets: &[[u32; 4]], adj: &Adjacency) -> Result<(), String> {
     let mut boundary = Vec::new();
     for (t, nb) in adj.neighbors.iter().enumerate() {
-        for f in 0..4 {
-            let n = nb[f];
+        for (f, &n) in nb.iter().enumerate() {
             if n == NO_NEIGHBOR {
                 boundary.push((t * 4 + f) as u32);
                 continue;

@@ -66,15 +66,34 @@ pub struct TetMesh {
 /// One repair or fact found while converting; `Display` is the summary line.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Finding {
-    MergedDuplicatePoints { count: usize, tolerance: f64, with_different_scalar: usize },
-    DroppedBlankedCells { count: usize },
-    DroppedNonFinite { tets: usize, first_source_point: Option<usize> },
+    MergedDuplicatePoints {
+        count: usize,
+        tolerance: f64,
+        with_different_scalar: usize,
+    },
+    DroppedBlankedCells {
+        count: usize,
+    },
+    DroppedNonFinite {
+        tets: usize,
+        first_source_point: Option<usize>,
+    },
     /// Tets re-oriented because their source cells list nodes in mirrored
     /// order (e.g. a left-handed structured grid).
-    ReorientedTets { count: usize, cells: usize },
-    DroppedZeroVolumeTets { count: usize, first_source_cell: usize },
-    RemovedUnusedPoints { count: usize },
-    CellScalarAveragedToPoints { name: String },
+    ReorientedTets {
+        count: usize,
+        cells: usize,
+    },
+    DroppedZeroVolumeTets {
+        count: usize,
+        first_source_cell: usize,
+    },
+    RemovedUnusedPoints {
+        count: usize,
+    },
+    CellScalarAveragedToPoints {
+        name: String,
+    },
     NoScalarField,
     ReaderNote(String),
 }
@@ -148,11 +167,8 @@ pub fn tetrahedralize(
     if source.points.len() >= u32::MAX as usize {
         return Err(MeshError::TooLarge { what: "points", count: source.points.len(), limit: u32::MAX as usize - 1 });
     }
-    let mut report = ConversionReport {
-        source_points: source.points.len(),
-        source_cells: source.num_cells(),
-        ..Default::default()
-    };
+    let mut report =
+        ConversionReport { source_points: source.points.len(), source_cells: source.num_cells(), ..Default::default() };
     report.findings.extend(source.notes.iter().cloned().map(Finding::ReaderNote));
     let scalar = select_scalar(source, opts.scalar.as_deref())?;
     if scalar.location == ScalarLocation::Constant {
@@ -266,7 +282,9 @@ pub fn tetrahedralize(
         report.findings.push(Finding::ReorientedTets { count: flipped, cells: flipped_cells });
     }
     if flat > 0 {
-        report.findings.push(Finding::DroppedZeroVolumeTets { count: flat, first_source_cell: first_flat_cell.unwrap_or(0) });
+        report
+            .findings
+            .push(Finding::DroppedZeroVolumeTets { count: flat, first_source_cell: first_flat_cell.unwrap_or(0) });
     }
     if tets.is_empty() {
         return Err(MeshError::Empty {

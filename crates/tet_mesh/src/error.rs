@@ -5,7 +5,9 @@ use thiserror::Error;
 pub enum MeshError {
     #[error("the input is inconsistent: {0}")]
     BadSource(String),
-    #[error("no volume cells to convert (the input has {points} points and no tetrahedra, hexahedra, wedges or pyramids)")]
+    #[error(
+        "no volume cells to convert (the input has {points} points and no tetrahedra, hexahedra, wedges or pyramids)"
+    )]
     NoCells { points: usize },
     #[error("no scalar named '{name}'; this file has: {available}")]
     UnknownScalar { name: String, available: String },

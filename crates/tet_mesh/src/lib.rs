@@ -42,7 +42,9 @@ pub mod split;
 pub mod stats;
 
 pub use adjacency::{build_adjacency, check_adjacency, Adjacency, FACE_OUTWARD, NO_NEIGHBOR};
-pub use convert::{check_tet_mesh, tetrahedralize, ConversionReport, ConvertOptions, Finding, NanPolicy, Step, TetMesh};
+pub use convert::{
+    check_tet_mesh, tetrahedralize, ConversionReport, ConvertOptions, Finding, NanPolicy, Step, TetMesh,
+};
 pub use error::MeshError;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
 pub use split::SplitMode;

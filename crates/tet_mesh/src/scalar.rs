@@ -109,7 +109,9 @@ pub fn select_scalar(mesh: &SourceMesh, selector: Option<&str>) -> Result<Select
         v
     };
     for (name, comp) in &candidates {
-        for (fields, location) in [(&mesh.point_fields, ScalarLocation::Point), (&mesh.cell_fields, ScalarLocation::Cell)] {
+        for (fields, location) in
+            [(&mesh.point_fields, ScalarLocation::Point), (&mesh.cell_fields, ScalarLocation::Cell)]
+        {
             if let Some(f) = find(fields, name) {
                 let values = extract(f, comp).ok_or_else(unknown)?;
                 let display = match comp {

@@ -137,9 +137,7 @@ impl Block {
     pub fn num_cells(&self) -> usize {
         match self {
             Block::Unstructured(cells) => cells.len(),
-            Block::Structured { dims, .. } => {
-                dims.iter().map(|&d| d.saturating_sub(1)).product()
-            }
+            Block::Structured { dims, .. } => dims.iter().map(|&d| d.saturating_sub(1)).product(),
         }
     }
 }
@@ -159,11 +157,7 @@ impl Field {
     }
 
     pub fn num_tuples(&self) -> usize {
-        if self.num_components == 0 {
-            0
-        } else {
-            self.values.len() / self.num_components
-        }
+        self.values.len().checked_div(self.num_components).unwrap_or(0)
     }
 }
 
@@ -210,9 +204,7 @@ impl SourceMesh {
                             return Err(format!("block {b}: cell {c} has a bad node range"));
                         }
                     }
-                    if let Some((i, &p)) =
-                        cells.connectivity.iter().enumerate().find(|(_, &p)| p as usize >= n)
-                    {
+                    if let Some((i, &p)) = cells.connectivity.iter().enumerate().find(|(_, &p)| p as usize >= n) {
                         return Err(format!(
                             "block {b}: connectivity entry {i} refers to point {p}, but there are {n} points"
                         ));
@@ -271,11 +263,8 @@ mod tests {
     fn check_catches_out_of_range_node() {
         let mut cells = Cells::new();
         cells.push(CellType::Tetra, &[0, 1, 2, 7]);
-        let m = SourceMesh {
-            points: vec![[0.0; 3]; 4],
-            blocks: vec![Block::Unstructured(cells)],
-            ..Default::default()
-        };
+        let m =
+            SourceMesh { points: vec![[0.0; 3]; 4], blocks: vec![Block::Unstructured(cells)], ..Default::default() };
         let e = m.check().unwrap_err();
         assert!(e.contains("point 7"), "{e}");
     }

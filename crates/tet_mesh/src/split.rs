@@ -43,8 +43,7 @@ pub struct SplitCells {
 // from its apex). Splitting a quad keeps its turning sense, so a cone from
 // the apex over outward triangles gives positively oriented tets: only cells
 // whose node order is mirrored need re-orientation later.
-const HEX_FACES: [[usize; 4]; 6] =
-    [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+const HEX_FACES: [[usize; 4]; 6] = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
 const WEDGE_QUADS: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
 const WEDGE_TRIS: [[usize; 3]; 2] = [[0, 2, 1], [3, 4, 5]];
 /// VTK voxel node i sits at hexahedron node VOXEL_TO_HEX[i]'s place.
@@ -302,7 +301,7 @@ mod tests {
 
     #[test]
     fn wedge_and_pyramid_fill_their_volume() {
-        let p = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [0., 1., 1.]];
+        let p = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [0., 1., 1.]];
         for ids in [[0u32, 1, 2, 3, 4, 5], [5, 4, 3, 2, 1, 0], [2, 4, 0, 5, 1, 3]] {
             let mut pts = vec![[0.0; 3]; 6];
             for c in 0..6 {

@@ -4,7 +4,10 @@
 //! pass the invariant checkers.
 use proptest::prelude::*;
 use tet_mesh::predicates::signed_tet_volume;
-use tet_mesh::{build_adjacency, check_adjacency, check_tet_mesh, tetrahedralize, Block, CellType, Cells, ConvertOptions, SourceMesh, SplitMode};
+use tet_mesh::{
+    build_adjacency, check_adjacency, check_tet_mesh, tetrahedralize, Block, CellType, Cells, ConvertOptions,
+    SourceMesh, SplitMode,
+};
 
 #[derive(Debug, Clone, Copy)]
 enum Kind {
@@ -41,7 +44,16 @@ fn mesh(dims: [usize; 3], kinds: &[Kind], perm_seed: u64, jitter: &[f64]) -> Sou
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
-                let h = [id(i, j, k), id(i + 1, j, k), id(i + 1, j + 1, k), id(i, j + 1, k), id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)];
+                let h = [
+                    id(i, j, k),
+                    id(i + 1, j, k),
+                    id(i + 1, j + 1, k),
+                    id(i, j + 1, k),
+                    id(i, j, k + 1),
+                    id(i + 1, j, k + 1),
+                    id(i + 1, j + 1, k + 1),
+                    id(i, j + 1, k + 1),
+                ];
                 match kinds[c % kinds.len()] {
                     Kind::Hex => cells.push(CellType::Hexahedron, &h),
                     Kind::Voxel => cells.push(CellType::Voxel, &[h[0], h[1], h[3], h[2], h[4], h[5], h[7], h[6]]),
@@ -127,8 +139,14 @@ proptest! {
 fn inverted_cells_are_reoriented_and_flat_ones_dropped() {
     // A hexahedron listed upside down (top quad first) and a flat tet.
     let points = vec![
-        [0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.],
-        [0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0., 1., 1.],
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0., 1., 1.],
         [0.5, 0.5, 0.0],
     ];
     let mut cells = Cells::new();
@@ -157,7 +175,11 @@ fn large_coordinate_offsets_keep_exact_orientation() {
             }
         }
     }
-    let src = SourceMesh { points, blocks: vec![Block::Structured { dims: [4, 4, 4], first_point: 0 }], ..Default::default() };
+    let src = SourceMesh {
+        points,
+        blocks: vec![Block::Structured { dims: [4, 4, 4], first_point: 0 }],
+        ..Default::default()
+    };
     let (m, report) = tetrahedralize(&src, &ConvertOptions::default(), &mut |_| {}).unwrap();
     assert_eq!(m.tets.len(), 27 * 5);
     assert_eq!(report.split_tets, 135);
@@ -168,9 +190,18 @@ fn large_coordinate_offsets_keep_exact_orientation() {
 fn cell_scalar_is_volume_weighted_onto_points() {
     // Two unit-height slabs of 1×1 cross-section: volumes 1 and 3, values 1 and 5.
     let points = vec![
-        [0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.],
-        [0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0., 1., 1.],
-        [0., 0., 4.], [1., 0., 4.], [1., 1., 4.], [0., 1., 4.],
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0., 1., 1.],
+        [0., 0., 4.],
+        [1., 0., 4.],
+        [1., 1., 4.],
+        [0., 1., 4.],
     ];
     let mut cells = Cells::new();
     cells.push(CellType::Hexahedron, &[0, 1, 2, 3, 4, 5, 6, 7]);

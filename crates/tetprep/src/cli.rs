@@ -149,15 +149,16 @@ fn parse_format(s: &str) -> Result<tet_io::Format, String> {
 }
 
 fn parse_usize3(s: &str) -> Result<[usize; 3], String> {
-    let v: Vec<usize> = s.split(',').map(|t| t.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    let v: Vec<usize> =
+        s.split(',').map(|t| t.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
     v.try_into().map_err(|_| format!("expected three comma-separated integers, got '{s}'"))
 }
 
 fn parse_f64x3(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> = s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    let v: Vec<f64> =
+        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
     v.try_into().map_err(|_| format!("expected three comma-separated numbers, got '{s}'"))
 }
-
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
@@ -176,7 +177,8 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.downcast_ref::<tet_mesh::MeshError>().is_some() {
             return 4;
         }
-        if cause.downcast_ref::<tet_bundle::BundleError>().is_some() || cause.downcast_ref::<std::io::Error>().is_some() {
+        if cause.downcast_ref::<tet_bundle::BundleError>().is_some() || cause.downcast_ref::<std::io::Error>().is_some()
+        {
             return 5;
         }
     }

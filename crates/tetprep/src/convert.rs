@@ -160,7 +160,8 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     if args.json {
         let mut v = crate::info::summary_json(&bundle);
         v["output"] = json!(args.output.display().to_string());
-        v["timings_s"] = timings.iter().map(|(k, s)| (k.to_string(), json!(s))).collect::<serde_json::Map<_, _>>().into();
+        v["timings_s"] =
+            timings.iter().map(|(k, s)| (k.to_string(), json!(s))).collect::<serde_json::Map<_, _>>().into();
         v["timings_s"]["total"] = json!(total);
         v["tets_per_s"] = json!(bundle.mesh.tets.len() as f64 / total);
         println!("{}", serde_json::to_string_pretty(&v)?);

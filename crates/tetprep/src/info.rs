@@ -28,7 +28,13 @@ pub fn export(path: &Path, output: &Path) -> anyhow::Result<()> {
     let file = std::fs::File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
     tet_io::vtk_xml::write_vtu(std::io::BufWriter::new(file), &mesh.points, &mesh.tets, &fields, &[])
         .with_context(|| format!("writing {} failed", output.display()))?;
-    println!("wrote {} ({} points, {} tets, {} point fields)", output.display(), mesh.points.len(), mesh.tets.len(), fields.len());
+    println!(
+        "wrote {} ({} points, {} tets, {} point fields)",
+        output.display(),
+        mesh.points.len(),
+        mesh.tets.len(),
+        fields.len()
+    );
     Ok(())
 }
 
@@ -61,19 +67,46 @@ pub fn summary_text(b: &Bundle) -> String {
     let s = &b.meta.stats;
     let mut o = String::new();
     let m = &b.meta;
-    let _ = writeln!(o, "source      {} ({}): {} points, {} cells", m.source_path, m.source_format, m.source_points, m.source_cells);
+    let _ = writeln!(
+        o,
+        "source      {} ({}): {} points, {} cells",
+        m.source_path, m.source_format, m.source_points, m.source_cells
+    );
     let _ = writeln!(o, "split       {} → {} tets before validation", m.split, m.split_tets);
     let _ = writeln!(o, "points      {}", b.mesh.points.len());
     let _ = writeln!(o, "tets        {}", b.mesh.tets.len());
     let _ = writeln!(o, "scalar      {}  [{:.6e}, {:.6e}]", b.mesh.scalar_name, s.scalar_min, s.scalar_max);
     if !b.mesh.point_fields.is_empty() {
-        let names: Vec<_> = b.mesh.point_fields.iter().map(|f| if f.num_components == 1 { f.name.clone() } else { format!("{}[{}]", f.name, f.num_components) }).collect();
+        let names: Vec<_> = b
+            .mesh
+            .point_fields
+            .iter()
+            .map(|f| if f.num_components == 1 { f.name.clone() } else { format!("{}[{}]", f.name, f.num_components) })
+            .collect();
         let _ = writeln!(o, "fields      {}", names.join(", "));
     }
-    let _ = writeln!(o, "bounds      [{:.6}, {:.6}, {:.6}] – [{:.6}, {:.6}, {:.6}]", s.bounds_min[0], s.bounds_min[1], s.bounds_min[2], s.bounds_max[0], s.bounds_max[1], s.bounds_max[2]);
-    let _ = writeln!(o, "volume      total {:.9e}; per tet min {:.3e} / median {:.3e} / max {:.3e}", s.total_volume, s.tet_volume.min, s.tet_volume.median, s.tet_volume.max);
-    let _ = writeln!(o, "edge length min {:.3e} / median {:.3e} / max {:.3e}; max cell diameter {:.6e}", s.edge_length.min, s.edge_length.median, s.edge_length.max, s.max_cell_diameter);
-    let _ = writeln!(o, "boundary    {} faces; domain {}{}", b.adjacency.boundary_faces.len(), if b.adjacency.convex { "convex" } else { "not convex" }, if m.delaunay { " (Delaunay)" } else { "" });
+    let _ = writeln!(
+        o,
+        "bounds      [{:.6}, {:.6}, {:.6}] – [{:.6}, {:.6}, {:.6}]",
+        s.bounds_min[0], s.bounds_min[1], s.bounds_min[2], s.bounds_max[0], s.bounds_max[1], s.bounds_max[2]
+    );
+    let _ = writeln!(
+        o,
+        "volume      total {:.9e}; per tet min {:.3e} / median {:.3e} / max {:.3e}",
+        s.total_volume, s.tet_volume.min, s.tet_volume.median, s.tet_volume.max
+    );
+    let _ = writeln!(
+        o,
+        "edge length min {:.3e} / median {:.3e} / max {:.3e}; max cell diameter {:.6e}",
+        s.edge_length.min, s.edge_length.median, s.edge_length.max, s.max_cell_diameter
+    );
+    let _ = writeln!(
+        o,
+        "boundary    {} faces; domain {}{}",
+        b.adjacency.boundary_faces.len(),
+        if b.adjacency.convex { "convex" } else { "not convex" },
+        if m.delaunay { " (Delaunay)" } else { "" }
+    );
     if !m.findings.is_empty() {
         let _ = writeln!(o, "findings:");
         for f in &m.findings {

@@ -41,7 +41,9 @@ fn bluntfin_convert_info_export() {
     assert!(v["timings_s"]["total"].as_f64().unwrap() > 0.0);
 
     let info = json(&tetprep(&["info", out.to_str().unwrap(), "--json"]));
-    for key in ["points", "tets", "total_volume", "min_tet_volume", "bounds", "boundary_faces", "convex", "max_cell_diameter"] {
+    for key in
+        ["points", "tets", "total_volume", "min_tet_volume", "bounds", "boundary_faces", "convex", "max_cell_diameter"]
+    {
         assert!(!info[key].is_null(), "info --json lacks '{key}'");
     }
     assert_eq!(info["scalar"]["name"], "density");
@@ -66,7 +68,8 @@ fn bluntfin_convert_info_export() {
 fn wrong_scalar_lists_the_fields_and_exits_4() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.tetb");
-    let o = tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
+    let o =
+        tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(4));
     let e = stderr(&o);
     assert!(e.contains("no scalar named 'Nope'") && e.contains("Pressure"), "{e}");
@@ -82,7 +85,11 @@ fn missing_and_garbage_inputs_exit_3_naming_the_path() {
     assert!(stderr(&o).contains("/nonexistent/mesh.vtu"));
 
     let garbage = dir.path().join("garbage.vtk");
-    std::fs::write(&garbage, b"# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 99999999999 float\n\x01\x02").unwrap();
+    std::fs::write(
+        &garbage,
+        b"# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 99999999999 float\n\x01\x02",
+    )
+    .unwrap();
     let o = tetprep(&["convert", garbage.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("garbage.vtk"));
@@ -99,7 +106,8 @@ fn a_failed_conversion_keeps_the_previous_output() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("keep.tetb");
     std::fs::write(&out, b"previous").unwrap();
-    let o = tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
+    let o =
+        tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
     assert!(!o.status.success());
     assert_eq!(std::fs::read(&out).unwrap(), b"previous");
 }

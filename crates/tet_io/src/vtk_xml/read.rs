@@ -71,12 +71,9 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
         "" => return Err(ctx.err_at(0, "VTKFile has no type attribute")),
         t => return Err(ctx.err_at(0, format!("unsupported VTK XML dataset type '{t}'"))),
     };
-    let dataset = ctx.child(0, &dataset_type).ok_or_else(|| {
-        ctx.err_at(
-            0,
-            format!("VTKFile of type {dataset_type} has no <{dataset_type}> element"),
-        )
-    })?;
+    let dataset = ctx
+        .child(0, &dataset_type)
+        .ok_or_else(|| ctx.err_at(0, format!("VTKFile of type {dataset_type} has no <{dataset_type}> element")))?;
 
     let mut stats = Stats::default();
     let mut mesh = SourceMesh::default();
@@ -88,13 +85,8 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
                 ctx.structured_piece(kind, dataset, piece, &mut stats)?
             }
         };
-        append_piece(
-            &mut mesh,
-            part,
-            num_pieces == 0,
-            &format!("piece {num_pieces}"),
-        )
-        .map_err(|m| ctx.err_at(piece, m))?;
+        append_piece(&mut mesh, part, num_pieces == 0, &format!("piece {num_pieces}"))
+            .map_err(|m| ctx.err_at(piece, m))?;
         num_pieces += 1;
     }
     if num_pieces == 0 {
@@ -107,8 +99,7 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
     if num_pieces > 1 {
         mesh.notes.push(format!("concatenated {num_pieces} pieces"));
     }
-    mesh.check()
-        .map_err(|m| FormatError::new(Location::Whole, m))?;
+    mesh.check().map_err(|m| FormatError::new(Location::Whole, m))?;
     Ok(mesh)
 }
 
@@ -125,32 +116,15 @@ pub fn read_pvtu(path: &Path) -> Result<SourceMesh, ReadError> {
         at: e.at,
         path: p.to_path_buf(),
     };
-    let bytes = std::fs::read(path).map_err(|source| ReadError::Io {
-        source,
-        path: path.to_path_buf(),
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| ReadError::Io { source, path: path.to_path_buf() })?;
     let ctx = Ctx::new(&bytes).map_err(|e| malformed(e, path))?;
     let ptype = ctx.attr(0, "type").unwrap_or("").to_string();
-    if !matches!(
-        ptype.as_str(),
-        "PUnstructuredGrid" | "PStructuredGrid" | "PImageData" | "PRectilinearGrid"
-    ) {
-        let what = if ptype.is_empty() {
-            "no type attribute".to_string()
-        } else {
-            format!("type '{ptype}'")
-        };
-        return Err(malformed(
-            ctx.err_at(
-                0,
-                format!("not a parallel VTK XML index: VTKFile has {what}"),
-            ),
-            path,
-        ));
+    if !matches!(ptype.as_str(), "PUnstructuredGrid" | "PStructuredGrid" | "PImageData" | "PRectilinearGrid") {
+        let what = if ptype.is_empty() { "no type attribute".to_string() } else { format!("type '{ptype}'") };
+        return Err(malformed(ctx.err_at(0, format!("not a parallel VTK XML index: VTKFile has {what}")), path));
     }
-    let dataset = ctx
-        .child(0, &ptype)
-        .ok_or_else(|| malformed(ctx.err_at(0, format!("no <{ptype}> element")), path))?;
+    let dataset =
+        ctx.child(0, &ptype).ok_or_else(|| malformed(ctx.err_at(0, format!("no <{ptype}> element")), path))?;
     let dir = path.parent().unwrap_or_else(|| Path::new(""));
 
     let mut mesh = SourceMesh::default();
@@ -161,10 +135,8 @@ pub fn read_pvtu(path: &Path) -> Result<SourceMesh, ReadError> {
             .attr(piece, "Source")
             .ok_or_else(|| malformed(ctx.err_at(piece, "<Piece> has no Source attribute"), path))?;
         let piece_path = dir.join(source);
-        let piece_bytes = std::fs::read(&piece_path).map_err(|source| ReadError::Io {
-            source,
-            path: piece_path.clone(),
-        })?;
+        let piece_bytes =
+            std::fs::read(&piece_path).map_err(|source| ReadError::Io { source, path: piece_path.clone() })?;
         let mut part = read(&piece_bytes).map_err(|e| {
             let mut e = e;
             e.message = format!("piece {num_pieces} of {}: {}", path.display(), e.message);
@@ -182,14 +154,10 @@ pub fn read_pvtu(path: &Path) -> Result<SourceMesh, ReadError> {
         num_pieces += 1;
     }
     if num_pieces == 0 {
-        return Err(malformed(
-            ctx.err_at(dataset, format!("<{ptype}> has no <Piece>")),
-            path,
-        ));
+        return Err(malformed(ctx.err_at(dataset, format!("<{ptype}> has no <Piece>")), path));
     }
     mesh.format = format!("VTK XML {ptype}, {num_pieces} pieces; first: {piece_format}");
-    mesh.check()
-        .map_err(|m| malformed(FormatError::new(Location::Whole, m), path))?;
+    mesh.check().map_err(|m| malformed(FormatError::new(Location::Whole, m), path))?;
     Ok(mesh)
 }
 
@@ -197,12 +165,7 @@ pub fn read_pvtu(path: &Path) -> Result<SourceMesh, ReadError> {
 /// `mesh`. Fields are matched by name and component count; a field that a
 /// later piece lacks is dropped with a note, as are a later piece's extra
 /// fields.
-fn append_piece(
-    mesh: &mut SourceMesh,
-    piece: SourceMesh,
-    first: bool,
-    label: &str,
-) -> Result<(), String> {
+fn append_piece(mesh: &mut SourceMesh, piece: SourceMesh, first: bool, label: &str) -> Result<(), String> {
     let base = mesh.points.len();
     if !matches!(base.checked_add(piece.points.len()), Some(t) if t <= u32::MAX as usize) {
         return Err(format!("{label}: more than {} points in all", u32::MAX));
@@ -216,10 +179,8 @@ fn append_piece(
                 if let Some(Block::Unstructured(acc)) = mesh.blocks.last_mut() {
                     let conn_base = acc.connectivity.len();
                     acc.types.extend_from_slice(&cells.types);
-                    acc.offsets
-                        .extend(cells.offsets.iter().skip(1).map(|&o| o + conn_base));
-                    acc.connectivity
-                        .extend(cells.connectivity.iter().map(|&p| p + offset));
+                    acc.offsets.extend(cells.offsets.iter().skip(1).map(|&o| o + conn_base));
+                    acc.connectivity.extend(cells.connectivity.iter().map(|&p| p + offset));
                 } else {
                     let mut cells = cells;
                     cells.connectivity.iter_mut().for_each(|p| *p += offset);
@@ -227,10 +188,7 @@ fn append_piece(
                 }
             }
             Block::Structured { dims, first_point } => {
-                mesh.blocks.push(Block::Structured {
-                    dims,
-                    first_point: first_point + base,
-                });
+                mesh.blocks.push(Block::Structured { dims, first_point: first_point + base });
             }
         }
     }
@@ -238,56 +196,29 @@ fn append_piece(
         mesh.point_fields = piece.point_fields;
         mesh.cell_fields = piece.cell_fields;
     } else {
-        merge_fields(
-            &mut mesh.point_fields,
-            piece.point_fields,
-            "point",
-            label,
-            &mut mesh.notes,
-        );
-        merge_fields(
-            &mut mesh.cell_fields,
-            piece.cell_fields,
-            "cell",
-            label,
-            &mut mesh.notes,
-        );
+        merge_fields(&mut mesh.point_fields, piece.point_fields, "point", label, &mut mesh.notes);
+        merge_fields(&mut mesh.cell_fields, piece.cell_fields, "cell", label, &mut mesh.notes);
     }
     mesh.notes.extend(piece.notes);
     Ok(())
 }
 
-fn merge_fields(
-    acc: &mut Vec<Field>,
-    mut more: Vec<Field>,
-    kind: &str,
-    label: &str,
-    notes: &mut Vec<String>,
-) {
+fn merge_fields(acc: &mut Vec<Field>, mut more: Vec<Field>, kind: &str, label: &str, notes: &mut Vec<String>) {
     acc.retain_mut(|field| {
-        match more
-            .iter()
-            .position(|m| m.name == field.name && m.num_components == field.num_components)
-        {
+        match more.iter().position(|m| m.name == field.name && m.num_components == field.num_components) {
             Some(i) => {
                 let m = more.swap_remove(i);
                 field.values.extend_from_slice(&m.values);
                 true
             }
             None => {
-                notes.push(format!(
-                    "{kind} field '{}' dropped: {label} lacks it",
-                    field.name
-                ));
+                notes.push(format!("{kind} field '{}' dropped: {label} lacks it", field.name));
                 false
             }
         }
     });
     for m in more {
-        notes.push(format!(
-            "{kind} field '{}' dropped: only {label} has it",
-            m.name
-        ));
+        notes.push(format!("{kind} field '{}' dropped: only {label} has it", m.name));
     }
 }
 
@@ -314,10 +245,7 @@ impl Stats {
     fn notes(&self) -> Vec<String> {
         let mut notes = Vec::new();
         if self.reduced_higher_order > 0 {
-            notes.push(format!(
-                "reduced {} higher-order cells to their corner nodes",
-                self.reduced_higher_order
-            ));
+            notes.push(format!("reduced {} higher-order cells to their corner nodes", self.reduced_higher_order));
         }
         if self.skipped_without_volume > 0 {
             notes.push(format!(
@@ -332,15 +260,10 @@ impl Stats {
                 16 => "hexagonal prisms (id 16)".to_string(),
                 id => format!("Lagrange/Bézier volume cells of VTK type id {id}"),
             };
-            notes.push(format!(
-                "skipped {n} {what}, which tetkit cannot reduce, and their cell data"
-            ));
+            notes.push(format!("skipped {n} {what}, which tetkit cannot reduce, and their cell data"));
         }
         if !self.skipped_non_numeric.is_empty() {
-            notes.push(format!(
-                "skipped non-numeric arrays: {}",
-                self.skipped_non_numeric.join(", ")
-            ));
+            notes.push(format!("skipped non-numeric arrays: {}", self.skipped_non_numeric.join(", ")));
         }
         if self.flat_structured_cells > 0 {
             notes.push(format!(
@@ -392,12 +315,7 @@ fn element_from(e: &BytesStart, pos: usize, bytes: &[u8]) -> Result<Element, For
     let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
     let mut attrs = Vec::new();
     for a in e.attributes() {
-        let a = a.map_err(|err| {
-            FormatError::new(
-                line_at(bytes, pos),
-                format!("bad attribute in <{name}>: {err}"),
-            )
-        })?;
+        let a = a.map_err(|err| FormatError::new(line_at(bytes, pos), format!("bad attribute in <{name}>: {err}")))?;
         let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
         let value = match a.unescape_value() {
             Ok(v) => v.into_owned(),
@@ -405,14 +323,7 @@ fn element_from(e: &BytesStart, pos: usize, bytes: &[u8]) -> Result<Element, For
         };
         attrs.push((key, value));
     }
-    Ok(Element {
-        name,
-        attrs,
-        children: Vec::new(),
-        text: Vec::new(),
-        pos,
-        line: 0,
-    })
+    Ok(Element { name, attrs, children: Vec::new(), text: Vec::new(), pos, line: 0 })
 }
 
 /// Parses `xml` (the file up to `<AppendedData`, which need not be closed
@@ -426,10 +337,7 @@ fn parse_tree(xml: &[u8], bytes: &[u8]) -> Result<Vec<Element>, FormatError> {
     loop {
         let before = reader.buffer_position() as usize;
         let event = reader.read_event().map_err(|e| {
-            FormatError::new(
-                line_at(bytes, reader.error_position() as usize),
-                format!("malformed XML: {e}"),
-            )
+            FormatError::new(line_at(bytes, reader.error_position() as usize), format!("malformed XML: {e}"))
         })?;
         let after = reader.buffer_position() as usize;
         match event {
@@ -442,10 +350,7 @@ fn parse_tree(xml: &[u8], bytes: &[u8]) -> Result<Vec<Element>, FormatError> {
                     }
                     continue;
                 }
-                line += xml[counted_to..before]
-                    .iter()
-                    .filter(|&&b| b == b'\n')
-                    .count();
+                line += xml[counted_to..before].iter().filter(|&&b| b == b'\n').count();
                 counted_to = before;
                 let mut el = element_from(e, before, bytes)?;
                 el.line = line;
@@ -553,31 +458,16 @@ impl<'a> Ctx<'a> {
         let xml = &bytes[..appended_at.unwrap_or(bytes.len())];
         let els = parse_tree(xml, bytes)?;
         let root = &els[0];
-        let get = |k: &str| {
-            root.attrs
-                .iter()
-                .find(|(a, _)| a == k)
-                .map(|(_, v)| v.as_str())
-        };
+        let get = |k: &str| root.attrs.iter().find(|(a, _)| a == k).map(|(_, v)| v.as_str());
         let endian = match get("byte_order") {
             None | Some("LittleEndian") => Endian::Little,
             Some("BigEndian") => Endian::Big,
-            Some(o) => {
-                return Err(FormatError::new(
-                    line_at(bytes, root.pos),
-                    format!("unknown byte_order '{o}'"),
-                ))
-            }
+            Some(o) => return Err(FormatError::new(line_at(bytes, root.pos), format!("unknown byte_order '{o}'"))),
         };
         let header_size = match get("header_type") {
             None | Some("UInt32") => 4,
             Some("UInt64") => 8,
-            Some(h) => {
-                return Err(FormatError::new(
-                    line_at(bytes, root.pos),
-                    format!("unknown header_type '{h}'"),
-                ))
-            }
+            Some(h) => return Err(FormatError::new(line_at(bytes, root.pos), format!("unknown header_type '{h}'"))),
         };
         // An unsupported compressor only matters once a binary array is read
         // (VTK writes the attribute on ASCII files too).
@@ -592,56 +482,28 @@ impl<'a> Ctx<'a> {
             None => None,
             Some(at) => Some(Self::appended_section(bytes, at, &els)?),
         };
-        Ok(Ctx {
-            bytes,
-            els,
-            endian,
-            header_size,
-            compressor,
-            appended,
-            used: Cell::new(0),
-        })
+        Ok(Ctx { bytes, els, endian, header_size, compressor, appended, used: Cell::new(0) })
     }
 
-    fn appended_section(
-        bytes: &'a [u8],
-        at: usize,
-        els: &[Element],
-    ) -> Result<Appended<'a>, FormatError> {
+    fn appended_section(bytes: &'a [u8], at: usize, els: &[Element]) -> Result<Appended<'a>, FormatError> {
         let loc = line_at(bytes, at);
-        let gt = find(bytes, b">", at)
-            .ok_or_else(|| FormatError::new(loc, "unterminated <AppendedData> tag"))?;
+        let gt = find(bytes, b">", at).ok_or_else(|| FormatError::new(loc, "unterminated <AppendedData> tag"))?;
         let tag = &bytes[at..=gt];
         let mut reader = quick_xml::Reader::from_reader(tag);
         let encoding = match reader.read_event() {
-            Ok(Event::Start(e)) | Ok(Event::Empty(e)) => element_from(&e, at, bytes)?
-                .attrs
-                .into_iter()
-                .find(|(k, _)| k == "encoding")
-                .map(|(_, v)| v),
+            Ok(Event::Start(e)) | Ok(Event::Empty(e)) => {
+                element_from(&e, at, bytes)?.attrs.into_iter().find(|(k, _)| k == "encoding").map(|(_, v)| v)
+            }
             _ => return Err(FormatError::new(loc, "malformed <AppendedData> tag")),
         };
         let base64 = match encoding.as_deref() {
             Some("raw") => false,
             Some("base64") => true,
-            Some(e) => {
-                return Err(FormatError::new(
-                    loc,
-                    format!("unknown AppendedData encoding '{e}'"),
-                ))
-            }
-            None => {
-                return Err(FormatError::new(
-                    loc,
-                    "<AppendedData> has no encoding attribute",
-                ))
-            }
+            Some(e) => return Err(FormatError::new(loc, format!("unknown AppendedData encoding '{e}'"))),
+            None => return Err(FormatError::new(loc, "<AppendedData> has no encoding attribute")),
         };
         let rest = &bytes[gt + 1..];
-        let skip = rest
-            .iter()
-            .position(|b| !b.is_ascii_whitespace())
-            .unwrap_or(rest.len());
+        let skip = rest.iter().position(|b| !b.is_ascii_whitespace()).unwrap_or(rest.len());
         if rest.get(skip) != Some(&b'_') {
             return Err(FormatError::new(
                 Location::Byte((gt + 1 + skip) as u64),
@@ -663,21 +525,11 @@ impl<'a> Ctx<'a> {
             .collect();
         offsets.sort_unstable();
         offsets.dedup();
-        Ok(Appended {
-            data,
-            base,
-            base64,
-            offsets,
-        })
+        Ok(Appended { data, base, base64, offsets })
     }
 
     fn attr(&self, el: usize, key: &str) -> Option<&str> {
-        self.els
-            .get(el)?
-            .attrs
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| v.as_str())
+        self.els.get(el)?.attrs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
     }
 
     fn name(&self, el: usize) -> &str {
@@ -685,10 +537,7 @@ impl<'a> Ctx<'a> {
     }
 
     fn err_at(&self, el: usize, message: impl Into<String>) -> FormatError {
-        FormatError::new(
-            Location::Line(self.els.get(el).map_or(1, |e| e.line)),
-            message,
-        )
+        FormatError::new(Location::Line(self.els.get(el).map_or(1, |e| e.line)), message)
     }
 
     fn children<'s>(&'s self, el: usize, name: &'s str) -> impl Iterator<Item = usize> + 's {
@@ -707,8 +556,7 @@ impl<'a> Ctx<'a> {
 
     /// A DataArray child whose Name is `name`.
     fn named_array(&self, el: usize, name: &str) -> Option<usize> {
-        self.children(el, "DataArray")
-            .find(|&c| self.attr(c, "Name") == Some(name))
+        self.children(el, "DataArray").find(|&c| self.attr(c, "Name") == Some(name))
     }
 
     fn layout_summary(&self) -> String {
@@ -739,54 +587,32 @@ impl<'a> Ctx<'a> {
     // -- counts and attributes ------------------------------------------------
 
     fn count_attr(&self, el: usize, key: &str) -> Result<usize, FormatError> {
-        let v = self.attr(el, key).ok_or_else(|| {
-            self.err_at(el, format!("<{}> has no {key} attribute", self.name(el)))
-        })?;
-        v.trim()
-            .parse::<usize>()
-            .map_err(|_| self.err_at(el, format!("{key}=\"{v}\" is not a count")))
+        let v =
+            self.attr(el, key).ok_or_else(|| self.err_at(el, format!("<{}> has no {key} attribute", self.name(el))))?;
+        v.trim().parse::<usize>().map_err(|_| self.err_at(el, format!("{key}=\"{v}\" is not a count")))
     }
 
-    fn floats_attr<const N: usize>(
-        &self,
-        el: usize,
-        key: &str,
-        default: [f64; N],
-    ) -> Result<[f64; N], FormatError> {
+    fn floats_attr<const N: usize>(&self, el: usize, key: &str, default: [f64; N]) -> Result<[f64; N], FormatError> {
         let Some(v) = self.attr(el, key) else {
             return Ok(default);
         };
         let vals: Vec<f64> = v.split_ascii_whitespace().filter_map(parse_f64).collect();
-        vals.as_slice()
-            .try_into()
-            .map_err(|_| self.err_at(el, format!("{key}=\"{v}\" must be {N} numbers")))
+        vals.as_slice().try_into().map_err(|_| self.err_at(el, format!("{key}=\"{v}\" must be {N} numbers")))
     }
 
     /// Point counts along i, j, k of an `Extent` (or `WholeExtent`).
     fn extent_dims(&self, el: usize, key: &str) -> Result<[usize; 3], FormatError> {
-        let v = self.attr(el, key).ok_or_else(|| {
-            self.err_at(el, format!("<{}> has no {key} attribute", self.name(el)))
-        })?;
-        let bad = || {
-            self.err_at(
-                el,
-                format!("{key}=\"{v}\" must be 6 integers with max >= min - 1"),
-            )
-        };
-        let e: Vec<i64> = v
-            .split_ascii_whitespace()
-            .map(|t| t.parse::<i64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| bad())?;
+        let v =
+            self.attr(el, key).ok_or_else(|| self.err_at(el, format!("<{}> has no {key} attribute", self.name(el))))?;
+        let bad = || self.err_at(el, format!("{key}=\"{v}\" must be 6 integers with max >= min - 1"));
+        let e: Vec<i64> =
+            v.split_ascii_whitespace().map(|t| t.parse::<i64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
         if e.len() != 6 {
             return Err(bad());
         }
         let mut dims = [0usize; 3];
         for a in 0..3 {
-            let n = e[2 * a + 1]
-                .checked_sub(e[2 * a])
-                .and_then(|d| d.checked_add(1))
-                .ok_or_else(bad)?;
+            let n = e[2 * a + 1].checked_sub(e[2 * a]).and_then(|d| d.checked_add(1)).ok_or_else(bad)?;
             dims[a] = usize::try_from(n).map_err(|_| bad())?;
         }
         Ok(dims)
@@ -795,10 +621,7 @@ impl<'a> Ctx<'a> {
     fn extent_min(&self, el: usize, key: &str) -> [f64; 3] {
         let mut min = [0.0; 3];
         if let Some(v) = self.attr(el, key) {
-            let e: Vec<i64> = v
-                .split_ascii_whitespace()
-                .filter_map(|t| t.parse().ok())
-                .collect();
+            let e: Vec<i64> = v.split_ascii_whitespace().filter_map(|t| t.parse().ok()).collect();
             if e.len() == 6 {
                 min = [e[0] as f64, e[2] as f64, e[4] as f64];
             }
@@ -809,9 +632,7 @@ impl<'a> Ctx<'a> {
     // -- DataArray decoding ---------------------------------------------------
 
     fn array_type(&self, el: usize) -> Result<Option<ScalarType>, FormatError> {
-        let t = self
-            .attr(el, "type")
-            .ok_or_else(|| self.err_at(el, "DataArray has no type attribute"))?;
+        let t = self.attr(el, "type").ok_or_else(|| self.err_at(el, "DataArray has no type attribute"))?;
         Ok(Some(match t {
             "Int8" | "Char" => ScalarType::I8,
             "UInt8" | "UnsignedChar" => ScalarType::U8,
@@ -833,10 +654,7 @@ impl<'a> Ctx<'a> {
             None => Ok(1),
             Some(v) => match v.trim().parse::<usize>() {
                 Ok(n) if n >= 1 => Ok(n),
-                _ => Err(self.err_at(
-                    el,
-                    format!("NumberOfComponents=\"{v}\" must be a positive count"),
-                )),
+                _ => Err(self.err_at(el, format!("NumberOfComponents=\"{v}\" must be a positive count"))),
             },
         }
     }
@@ -867,8 +685,7 @@ impl<'a> Ctx<'a> {
                     .flat_map(|r| self.bytes.get(r.clone()).unwrap_or(&[]).iter().copied())
                     .filter(|b| !b.is_ascii_whitespace())
                     .collect();
-                let decoded = decode_base64(&text)
-                    .map_err(|m| FormatError::new(loc, format!("{what}: {m}")))?;
+                let decoded = decode_base64(&text).map_err(|m| FormatError::new(loc, format!("{what}: {m}")))?;
                 // Offsets inside decoded base64 are not file offsets: report
                 // the element's line instead.
                 let mut cur = ByteCursor::new(&decoded);
@@ -878,44 +695,33 @@ impl<'a> Ctx<'a> {
                 f(Payload::Binary(unpacked.bytes(), loc))
             }
             "appended" => {
-                let app = self.appended.as_ref().ok_or_else(|| {
-                    self.err_at(
-                        el,
-                        format!("{what} is appended but the file has no <AppendedData>"),
-                    )
-                })?;
+                let app = self
+                    .appended
+                    .as_ref()
+                    .ok_or_else(|| self.err_at(el, format!("{what} is appended but the file has no <AppendedData>")))?;
                 let compressor = self.compressor.clone().map_err(|m| self.err_at(el, m))?;
                 let offset_text = self.attr(el, "offset").unwrap_or("");
-                let offset: usize = offset_text.trim().parse().map_err(|_| {
-                    self.err_at(
-                        el,
-                        format!("{what}: offset=\"{offset_text}\" is not a byte offset"),
-                    )
-                })?;
+                let offset: usize = offset_text
+                    .trim()
+                    .parse()
+                    .map_err(|_| self.err_at(el, format!("{what}: offset=\"{offset_text}\" is not a byte offset")))?;
                 let loc = Location::Byte(app.base as u64 + offset as u64);
                 if offset > app.data.len() {
                     return Err(FormatError::new(
                         loc,
-                        format!("{what}: offset {offset} is past the end of the appended data ({} bytes)", app.data.len()),
+                        format!(
+                            "{what}: offset {offset} is past the end of the appended data ({} bytes)",
+                            app.data.len()
+                        ),
                     ));
                 }
                 if app.base64 {
                     self.mark(USED_APPENDED_BASE64);
-                    let end = app
-                        .offsets
-                        .iter()
-                        .copied()
-                        .find(|&o| o > offset)
-                        .unwrap_or(app.data.len());
+                    let end = app.offsets.iter().copied().find(|&o| o > offset).unwrap_or(app.data.len());
                     let end = end.min(app.data.len());
                     let chunk = &app.data[offset..end];
-                    let text: Vec<u8> = chunk
-                        .iter()
-                        .copied()
-                        .filter(|b| !b.is_ascii_whitespace())
-                        .collect();
-                    let decoded = decode_base64(&text)
-                        .map_err(|m| FormatError::new(loc, format!("{what}: {m}")))?;
+                    let text: Vec<u8> = chunk.iter().copied().filter(|b| !b.is_ascii_whitespace()).collect();
+                    let decoded = decode_base64(&text).map_err(|m| FormatError::new(loc, format!("{what}: {m}")))?;
                     let mut cur = ByteCursor::new(&decoded);
                     let unpacked = self
                         .unpack(&mut cur, compressor, expected_bytes, &what)
@@ -951,9 +757,7 @@ impl<'a> Ctx<'a> {
     ) -> Result<Unpacked<'b>, FormatError> {
         let at = cur.location();
         let to_usize = |v: u64, cur: &ByteCursor<'_>| {
-            usize::try_from(v).map_err(|_| {
-                FormatError::new(cur.location(), format!("{what}: size {v} is too large"))
-            })
+            usize::try_from(v).map_err(|_| FormatError::new(cur.location(), format!("{what}: size {v} is too large")))
         };
         if compressor == Compressor::None {
             let n = self.header_word(cur, &format!("{what} size header"))?;
@@ -964,35 +768,18 @@ impl<'a> Ctx<'a> {
         let num_blocks = to_usize(self.header_word(cur, &format!("{what} zlib header"))?, cur)?;
         let block_size = to_usize(self.header_word(cur, &format!("{what} zlib header"))?, cur)?;
         let last_size = to_usize(self.header_word(cur, &format!("{what} zlib header"))?, cur)?;
-        let sizes = cur.take_array(
-            num_blocks,
-            self.header_size,
-            &format!("{what} zlib block sizes"),
-        )?;
-        let last_size = if last_size == 0 {
-            block_size
-        } else {
-            last_size
-        };
+        let sizes = cur.take_array(num_blocks, self.header_size, &format!("{what} zlib block sizes"))?;
+        let last_size = if last_size == 0 { block_size } else { last_size };
         let total = match num_blocks {
             0 => Some(0),
-            n => (n - 1)
-                .checked_mul(block_size)
-                .and_then(|t| t.checked_add(last_size)),
+            n => (n - 1).checked_mul(block_size).and_then(|t| t.checked_add(last_size)),
         }
-        .ok_or_else(|| {
-            FormatError::new(
-                at,
-                format!("{what}: zlib header declares an impossible size"),
-            )
-        })?;
+        .ok_or_else(|| FormatError::new(at, format!("{what}: zlib header declares an impossible size")))?;
         if let Some(expected) = expected_bytes {
             if total != expected {
                 return Err(FormatError::new(
                     at,
-                    format!(
-                        "{what}: zlib header declares {total} bytes, the array needs {expected}"
-                    ),
+                    format!("{what}: zlib header declares {total} bytes, the array needs {expected}"),
                 ));
             }
         }
@@ -1001,11 +788,7 @@ impl<'a> Ctx<'a> {
         let mut inflater = Decompress::new(true);
         for b in 0..num_blocks {
             let comp = to_usize(self.header_word(&mut size_cur, "zlib block size")?, cur)?;
-            let plain = if b + 1 == num_blocks {
-                last_size
-            } else {
-                block_size
-            };
+            let plain = if b + 1 == num_blocks { last_size } else { block_size };
             let block_at = cur.location();
             let input = cur.take(comp, &format!("{what} zlib block {b}"))?;
             if plain > comp.saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1024) {
@@ -1030,12 +813,12 @@ impl<'a> Ctx<'a> {
                 Ok(_) => {
                     return Err(FormatError::new(
                         block_at,
-                        format!("{what}: zlib block {b} is truncated or inflates past the {plain} bytes its header declares"),
+                        format!(
+                        "{what}: zlib block {b} is truncated or inflates past the {plain} bytes its header declares"
+                    ),
                     ))
                 }
-                Err(e) => {
-                    return Err(FormatError::new(block_at, format!("{what}: zlib block {b} is corrupt: {e}")))
-                }
+                Err(e) => return Err(FormatError::new(block_at, format!("{what}: zlib block {b} is corrupt: {e}"))),
             }
         }
         Ok(Unpacked::Inflated(out))
@@ -1043,9 +826,7 @@ impl<'a> Ctx<'a> {
 
     /// The array's values as f64; exactly `expected` of them when given.
     fn array_f64(&self, el: usize, expected: Option<usize>) -> Result<Vec<f64>, FormatError> {
-        let ty = self
-            .array_type(el)?
-            .ok_or_else(|| self.err_at(el, "expected a numeric DataArray"))?;
+        let ty = self.array_type(el)?.ok_or_else(|| self.err_at(el, "expected a numeric DataArray"))?;
         let expected_bytes = expected.and_then(|n| n.checked_mul(ty.size()));
         let what = format!("DataArray '{}'", self.attr(el, "Name").unwrap_or(""));
         let values = self.with_payload(el, expected_bytes, |payload| match payload {
@@ -1062,9 +843,7 @@ impl<'a> Ctx<'a> {
 
     /// The array's values as i64 (integer arrays only).
     fn array_i64(&self, el: usize, expected: Option<usize>) -> Result<Vec<i64>, FormatError> {
-        let ty = self
-            .array_type(el)?
-            .ok_or_else(|| self.err_at(el, "expected an integer DataArray"))?;
+        let ty = self.array_type(el)?.ok_or_else(|| self.err_at(el, "expected an integer DataArray"))?;
         let what = format!("DataArray '{}'", self.attr(el, "Name").unwrap_or(""));
         if matches!(ty, ScalarType::F32 | ScalarType::F64) {
             return Err(self.err_at(el, format!("{what} must hold integers, not floating point")));
@@ -1074,8 +853,7 @@ impl<'a> Ctx<'a> {
             Payload::Ascii(ranges) => self.ascii_values(ranges, expected, &what, parse_i64),
             Payload::Binary(bytes, loc) => {
                 check_byte_count(bytes.len(), ty, expected, loc, &what)?;
-                decode_to_i64(bytes, ty, self.endian)
-                    .map_err(|m| FormatError::new(loc, format!("{what}: {m}")))
+                decode_to_i64(bytes, ty, self.endian).map_err(|m| FormatError::new(loc, format!("{what}: {m}")))
             }
         })
     }
@@ -1095,21 +873,12 @@ impl<'a> Ctx<'a> {
             let Some(text) = self.bytes.get(r.clone()) else {
                 continue;
             };
-            for tok in text
-                .split(|b| b.is_ascii_whitespace())
-                .filter(|t| !t.is_empty())
-            {
+            for tok in text.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty()) {
                 let pos = tok.as_ptr() as usize - base;
-                let value = std::str::from_utf8(tok)
-                    .ok()
-                    .and_then(&parse)
-                    .ok_or_else(|| {
-                        let shown = String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned();
-                        FormatError::new(
-                            line_at(self.bytes, pos),
-                            format!("{what}: '{shown}' is not a valid value"),
-                        )
-                    })?;
+                let value = std::str::from_utf8(tok).ok().and_then(&parse).ok_or_else(|| {
+                    let shown = String::from_utf8_lossy(&tok[..tok.len().min(40)]).into_owned();
+                    FormatError::new(line_at(self.bytes, pos), format!("{what}: '{shown}' is not a valid value"))
+                })?;
                 if expected.is_some_and(|n| out.len() >= n) {
                     return Err(FormatError::new(
                         line_at(self.bytes, pos),
@@ -1137,21 +906,15 @@ impl<'a> Ctx<'a> {
             if num_points == 0 {
                 return Ok(Vec::new());
             }
-            return Err(self.err_at(
-                piece,
-                format!("piece declares {num_points} points but has no <Points>"),
-            ));
+            return Err(self.err_at(piece, format!("piece declares {num_points} points but has no <Points>")));
         };
-        let array = self
-            .child(points_el, "DataArray")
-            .ok_or_else(|| self.err_at(points_el, "<Points> has no DataArray"))?;
+        let array =
+            self.child(points_el, "DataArray").ok_or_else(|| self.err_at(points_el, "<Points> has no DataArray"))?;
         let ncomp = self.num_components(array)?;
         if ncomp != 3 {
             return Err(self.err_at(array, format!("Points have {ncomp} components, expected 3")));
         }
-        let n = num_points
-            .checked_mul(3)
-            .ok_or_else(|| self.err_at(piece, "point count overflows"))?;
+        let n = num_points.checked_mul(3).ok_or_else(|| self.err_at(piece, "point count overflows"))?;
         let flat = self.array_f64(array, Some(n))?;
         Ok(flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
     }
@@ -1203,37 +966,25 @@ impl<'a> Ctx<'a> {
 
     // -- pieces ---------------------------------------------------------------
 
-    fn unstructured_piece(
-        &self,
-        piece: usize,
-        stats: &mut Stats,
-    ) -> Result<SourceMesh, FormatError> {
+    fn unstructured_piece(&self, piece: usize, stats: &mut Stats) -> Result<SourceMesh, FormatError> {
         let num_points = self.count_attr(piece, "NumberOfPoints")?;
         let num_cells = self.count_attr(piece, "NumberOfCells")?;
         if num_points > u32::MAX as usize {
-            return Err(self.err_at(
-                piece,
-                format!("{num_points} points exceed the 32-bit index range"),
-            ));
+            return Err(self.err_at(piece, format!("{num_points} points exceed the 32-bit index range")));
         }
         let points = self.points(piece, num_points)?;
 
         let mut cells = Cells::new();
         let mut kept: Option<Vec<bool>> = None;
         if num_cells > 0 {
-            let cells_el = self.child(piece, "Cells").ok_or_else(|| {
-                self.err_at(
-                    piece,
-                    format!("piece declares {num_cells} cells but has no <Cells>"),
-                )
-            })?;
+            let cells_el = self
+                .child(piece, "Cells")
+                .ok_or_else(|| self.err_at(piece, format!("piece declares {num_cells} cells but has no <Cells>")))?;
             let array = |name: &str| {
-                self.named_array(cells_el, name).ok_or_else(|| {
-                    self.err_at(cells_el, format!("<Cells> has no '{name}' DataArray"))
-                })
+                self.named_array(cells_el, name)
+                    .ok_or_else(|| self.err_at(cells_el, format!("<Cells> has no '{name}' DataArray")))
             };
-            let (conn_el, offsets_el, types_el) =
-                (array("connectivity")?, array("offsets")?, array("types")?);
+            let (conn_el, offsets_el, types_el) = (array("connectivity")?, array("offsets")?, array("types")?);
             let types = self.array_i64(types_el, Some(num_cells))?;
             let mut offsets = self.array_i64(offsets_el, None)?;
             // VTK files list end offsets; some writers add the leading 0.
@@ -1241,32 +992,15 @@ impl<'a> Ctx<'a> {
                 offsets.remove(0);
             }
             if offsets.len() != num_cells {
-                return Err(self.err_at(
-                    offsets_el,
-                    format!(
-                        "'offsets' has {} entries for {num_cells} cells",
-                        offsets.len()
-                    ),
-                ));
+                return Err(
+                    self.err_at(offsets_el, format!("'offsets' has {} entries for {num_cells} cells", offsets.len()))
+                );
             }
             let connectivity = self.array_i64(conn_el, None)?;
-            cells = self.build_cells(
-                &types,
-                &offsets,
-                &connectivity,
-                num_points,
-                piece,
-                &mut kept,
-                stats,
-            )?;
+            cells = self.build_cells(&types, &offsets, &connectivity, num_points, piece, &mut kept, stats)?;
         }
         let point_fields = self.fields(self.child(piece, "PointData"), num_points, None, stats)?;
-        let cell_fields = self.fields(
-            self.child(piece, "CellData"),
-            num_cells,
-            kept.as_deref(),
-            stats,
-        )?;
+        let cell_fields = self.fields(self.child(piece, "CellData"), num_cells, kept.as_deref(), stats)?;
         Ok(SourceMesh {
             points,
             blocks: vec![Block::Unstructured(cells)],
@@ -1297,10 +1031,8 @@ impl<'a> Ctx<'a> {
         let mut start = 0usize;
         let mut nodes = [0u32; 32];
         for (c, (&id, &end)) in types.iter().zip(offsets).enumerate() {
-            let end = usize::try_from(end)
-                .ok()
-                .filter(|&e| e >= start && e <= connectivity.len())
-                .ok_or_else(|| {
+            let end =
+                usize::try_from(end).ok().filter(|&e| e >= start && e <= connectivity.len()).ok_or_else(|| {
                     self.err_at(
                         piece,
                         format!(
@@ -1311,24 +1043,23 @@ impl<'a> Ctx<'a> {
                 })?;
             let cell_nodes = &connectivity[start..end];
             start = end;
-            let id = u32::try_from(id).map_err(|_| {
-                self.err_at(piece, format!("cell {c} has invalid VTK cell type id {id}"))
-            })?;
+            let id = u32::try_from(id)
+                .map_err(|_| self.err_at(piece, format!("cell {c} has invalid VTK cell type id {id}")))?;
             let keep = match CellType::from_vtk_id(id) {
                 Some((cell_type, stored)) => {
                     if cell_nodes.len() != stored {
                         return Err(self.err_at(
                             piece,
-                            format!(
-                                "cell {c} (VTK type {id}) has {} nodes, expected {stored}",
-                                cell_nodes.len()
-                            ),
+                            format!("cell {c} (VTK type {id}) has {} nodes, expected {stored}", cell_nodes.len()),
                         ));
                     }
                     let n = cell_type.num_nodes();
                     for (slot, &p) in nodes.iter_mut().zip(&cell_nodes[..n]) {
                         *slot = u32::try_from(p).ok().filter(|&q| (q as usize) < num_points).ok_or_else(|| {
-                            self.err_at(piece, format!("cell {c} refers to point {p}, but the piece has {num_points} points"))
+                            self.err_at(
+                                piece,
+                                format!("cell {c} refers to point {p}, but the piece has {num_points} points"),
+                            )
                         })?;
                     }
                     if stored > n {
@@ -1346,9 +1077,7 @@ impl<'a> Ctx<'a> {
                     false
                 }
                 None => {
-                    return Err(
-                        self.err_at(piece, format!("cell {c} has unknown VTK cell type id {id}"))
-                    );
+                    return Err(self.err_at(piece, format!("cell {c} has unknown VTK cell type id {id}")));
                 }
             };
             if !keep && kept.is_none() {
@@ -1369,12 +1098,8 @@ impl<'a> Ctx<'a> {
         stats: &mut Stats,
     ) -> Result<SourceMesh, FormatError> {
         let dims = self.extent_dims(piece, "Extent")?;
-        let too_many = || {
-            self.err_at(
-                piece,
-                format!("structured piece {dims:?} has more points than 32-bit indices reach"),
-            )
-        };
+        let too_many =
+            || self.err_at(piece, format!("structured piece {dims:?} has more points than 32-bit indices reach"));
         let num_points = dims
             .iter()
             .try_fold(1usize, |a, &d| a.checked_mul(d))
@@ -1382,11 +1107,7 @@ impl<'a> Ctx<'a> {
             .ok_or_else(too_many)?;
         // VTK's cell count (which cell data follows) counts lower-dimensional
         // cells of flat pieces; tetkit keeps only volume cells.
-        let vtk_cells = if dims.contains(&0) {
-            0
-        } else {
-            dims.iter().map(|&d| (d - 1).max(1)).product()
-        };
+        let vtk_cells = if dims.contains(&0) { 0 } else { dims.iter().map(|&d| (d - 1).max(1)).product() };
         let volume_cells: usize = dims.iter().map(|&d| d.saturating_sub(1)).product();
         let kept_none;
         let kept = if volume_cells == vtk_cells {
@@ -1402,8 +1123,7 @@ impl<'a> Ctx<'a> {
         let points = match kind {
             Kind::Structured => self.points(piece, num_points)?,
             Kind::Image | Kind::Rectilinear => {
-                let backed = !point_fields.is_empty()
-                    || (!cell_fields.is_empty() && volume_cells >= num_points / 8);
+                let backed = !point_fields.is_empty() || (!cell_fields.is_empty() && volume_cells >= num_points / 8);
                 if num_points > MAX_UNBACKED_GRID_POINTS && !backed {
                     return Err(self.err_at(
                         piece,
@@ -1422,10 +1142,7 @@ impl<'a> Ctx<'a> {
         };
         Ok(SourceMesh {
             points,
-            blocks: vec![Block::Structured {
-                dims,
-                first_point: 0,
-            }],
+            blocks: vec![Block::Structured { dims, first_point: 0 }],
             point_fields,
             cell_fields,
             ..Default::default()
@@ -1435,19 +1152,10 @@ impl<'a> Ctx<'a> {
     /// ImageData points, i fastest: `Origin + Direction · (Spacing ∘ ijk)`
     /// with ijk the absolute structured index (Extent minimum included), as
     /// `vtkImageData::TransformIndexToPhysicalPoint` computes them.
-    fn image_points(
-        &self,
-        dataset: usize,
-        piece: usize,
-        dims: [usize; 3],
-    ) -> Result<Vec<[f64; 3]>, FormatError> {
+    fn image_points(&self, dataset: usize, piece: usize, dims: [usize; 3]) -> Result<Vec<[f64; 3]>, FormatError> {
         let origin = self.floats_attr(dataset, "Origin", [0.0; 3])?;
         let spacing = self.floats_attr(dataset, "Spacing", [1.0; 3])?;
-        let d = self.floats_attr(
-            dataset,
-            "Direction",
-            [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-        )?;
+        let d = self.floats_attr(dataset, "Direction", [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])?;
         let min = self.extent_min(piece, "Extent");
         let mut points = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
         for k in 0..dims[2] {
@@ -1468,20 +1176,13 @@ impl<'a> Ctx<'a> {
     }
 
     /// RectilinearGrid points from the three `<Coordinates>` arrays, i fastest.
-    fn rectilinear_points(
-        &self,
-        piece: usize,
-        dims: [usize; 3],
-    ) -> Result<Vec<[f64; 3]>, FormatError> {
+    fn rectilinear_points(&self, piece: usize, dims: [usize; 3]) -> Result<Vec<[f64; 3]>, FormatError> {
         let coords_el = self
             .child(piece, "Coordinates")
             .ok_or_else(|| self.err_at(piece, "RectilinearGrid piece has no <Coordinates>"))?;
         let arrays: Vec<usize> = self.children(coords_el, "DataArray").collect();
         if arrays.len() != 3 {
-            return Err(self.err_at(
-                coords_el,
-                format!("<Coordinates> has {} DataArrays, expected 3", arrays.len()),
-            ));
+            return Err(self.err_at(coords_el, format!("<Coordinates> has {} DataArrays, expected 3", arrays.len())));
         }
         let x = self.array_f64(arrays[0], Some(dims[0]))?;
         let y = self.array_f64(arrays[1], Some(dims[1]))?;
@@ -1513,18 +1214,12 @@ fn check_byte_count(
     if len / ty.size() * ty.size() != len {
         return Err(FormatError::new(
             loc,
-            format!(
-                "{what}: {len} bytes is not a whole number of {}-byte values",
-                ty.size()
-            ),
+            format!("{what}: {len} bytes is not a whole number of {}-byte values", ty.size()),
         ));
     }
     if let Some(n) = expected {
         if len / ty.size() != n {
-            return Err(FormatError::new(
-                loc,
-                format!("{what}: holds {} values, expected {n}", len / ty.size()),
-            ));
+            return Err(FormatError::new(loc, format!("{what}: holds {} values, expected {n}", len / ty.size())));
         }
     }
     Ok(())
@@ -1561,9 +1256,7 @@ fn decode_to_i64(bytes: &[u8], ty: ScalarType, e: Endian) -> Result<Vec<i64>, St
         ScalarType::U64 => conv!(u64, 8)
             .map(|v| i64::try_from(v).map_err(|_| format!("value {v} is out of range")))
             .collect::<Result<_, _>>()?,
-        ScalarType::F32 | ScalarType::F64 => {
-            return Err("expected integers, found floating point".into())
-        }
+        ScalarType::F32 | ScalarType::F64 => return Err("expected integers, found floating point".into()),
     })
 }
 
@@ -1627,32 +1320,15 @@ mod tests {
     #[test]
     fn mixed_cells_skip_surfaces_and_reduce_quadratics() {
         // tet, triangle (skipped), quadratic tet (reduced).
-        let text = tiny_vtu(
-            "10 5 24",
-            "4 7 17",
-            "0 1 2 3  0 1 2  0 1 2 3 4 5 6 7 8 9",
-            "7 8 9",
-        );
+        let text = tiny_vtu("10 5 24", "4 7 17", "0 1 2 3  0 1 2  0 1 2 3 4 5 6 7 8 9", "7 8 9");
         let m = read(text.as_bytes()).unwrap();
         assert_eq!(m.num_cells(), 2);
-        let Block::Unstructured(cells) = &m.blocks[0] else {
-            panic!()
-        };
+        let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
         assert_eq!(cells.nodes(1), &[0, 1, 2, 3]);
         assert_eq!(m.cell_fields[0].values, vec![7.0, 9.0]);
         assert_eq!(m.point_fields.len(), 1, "String array skipped");
-        assert!(
-            m.notes.iter().any(|n| n.contains("1 higher-order")),
-            "{:?}",
-            m.notes
-        );
-        assert!(
-            m.notes
-                .iter()
-                .any(|n| n.contains("skipped 1 cells without volume")),
-            "{:?}",
-            m.notes
-        );
+        assert!(m.notes.iter().any(|n| n.contains("1 higher-order")), "{:?}", m.notes);
+        assert!(m.notes.iter().any(|n| n.contains("skipped 1 cells without volume")), "{:?}", m.notes);
         assert!(m.format.contains("ascii"), "{}", m.format);
     }
 
@@ -1662,21 +1338,14 @@ mod tests {
         let m = read(text.as_bytes()).unwrap();
         assert_eq!(m.num_cells(), 2);
         assert_eq!(m.cell_fields[0].values, vec![1.0, 3.0]);
-        assert!(
-            m.notes.iter().any(|n| n.contains("polyhedra")),
-            "{:?}",
-            m.notes
-        );
+        assert!(m.notes.iter().any(|n| n.contains("polyhedra")), "{:?}", m.notes);
     }
 
     #[test]
     fn unknown_cell_type_names_cell_and_id() {
         let text = tiny_vtu("10 10 99", "4 8 12", "0 1 2 3 4 5 6 7 1 2 3 4", "1 2 3");
         let e = read(text.as_bytes()).unwrap_err();
-        assert!(
-            e.message.contains("cell 2") && e.message.contains("99"),
-            "{e}"
-        );
+        assert!(e.message.contains("cell 2") && e.message.contains("99"), "{e}");
     }
 
     #[test]
@@ -1693,18 +1362,11 @@ mod tests {
     }
 
     fn zlib_header(words: &[u64]) -> Vec<u8> {
-        words
-            .iter()
-            .flat_map(|w| (*w as u32).to_le_bytes())
-            .collect()
+        words.iter().flat_map(|w| (*w as u32).to_le_bytes()).collect()
     }
 
     fn appended_file(payload: &[u8], ty: &str, n: usize, compressed: bool) -> Vec<u8> {
-        let comp = if compressed {
-            r#" compressor="vtkZLibDataCompressor""#
-        } else {
-            ""
-        };
+        let comp = if compressed { r#" compressor="vtkZLibDataCompressor""# } else { "" };
         let mut f = format!(
             r#"<VTKFile type="ImageData" byte_order="LittleEndian"{comp}>
 <ImageData WholeExtent="0 {m} 0 0 0 0" Origin="0 0 0" Spacing="1 1 1"><Piece Extent="0 {m} 0 0 0 0">
@@ -1745,16 +1407,10 @@ mod tests {
     #[test]
     fn unsupported_compressor_is_named() {
         let text = appended_file(&[0; 16], "UInt8", 4, false);
-        let text = String::from_utf8_lossy(&text).replace(
-            r#"byte_order="LittleEndian""#,
-            r#"byte_order="LittleEndian" compressor="vtkLZMADataCompressor""#,
-        );
+        let text = String::from_utf8_lossy(&text)
+            .replace(r#"byte_order="LittleEndian""#, r#"byte_order="LittleEndian" compressor="vtkLZMADataCompressor""#);
         let e = read(text.as_bytes()).unwrap_err();
-        assert!(
-            e.message
-                .contains("unsupported compressor vtkLZMADataCompressor"),
-            "{e}"
-        );
+        assert!(e.message.contains("unsupported compressor vtkLZMADataCompressor"), "{e}");
     }
 
     #[test]

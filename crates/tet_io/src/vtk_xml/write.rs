@@ -35,14 +35,7 @@ pub fn write_vtu<W: Write>(
     point_fields: &[Field],
     cell_fields: &[Field],
 ) -> io::Result<()> {
-    write_vtu_with(
-        out,
-        points,
-        tets,
-        point_fields,
-        cell_fields,
-        WriteOptions::default(),
-    )
+    write_vtu_with(out, points, tets, point_fields, cell_fields, WriteOptions::default())
 }
 
 /// [`write_vtu`] with options (zlib compression).
@@ -54,10 +47,7 @@ pub fn write_vtu_with<W: Write>(
     cell_fields: &[Field],
     options: WriteOptions,
 ) -> io::Result<()> {
-    for (fields, n, kind) in [
-        (point_fields, points.len(), "point"),
-        (cell_fields, tets.len(), "cell"),
-    ] {
+    for (fields, n, kind) in [(point_fields, points.len(), "point"), (cell_fields, tets.len(), "cell")] {
         for f in fields {
             if f.num_components == 0 || Some(f.values.len()) != n.checked_mul(f.num_components) {
                 return Err(io::Error::new(
@@ -82,16 +72,8 @@ pub fn write_vtu_with<W: Write>(
     arrays.push(Array::Offsets(tets.len()));
     arrays.push(Array::Types(tets.len()));
 
-    let compressed: Option<Vec<Vec<u8>>> = if options.compress {
-        Some(
-            arrays
-                .iter()
-                .map(compress_array)
-                .collect::<io::Result<_>>()?,
-        )
-    } else {
-        None
-    };
+    let compressed: Option<Vec<Vec<u8>>> =
+        if options.compress { Some(arrays.iter().map(compress_array).collect::<io::Result<_>>()?) } else { None };
     let mut offsets = Vec::with_capacity(arrays.len());
     let mut offset = 0u64;
     for (i, a) in arrays.iter().enumerate() {
@@ -103,35 +85,18 @@ pub fn write_vtu_with<W: Write>(
     }
 
     let mut out = BufWriter::with_capacity(1 << 16, out);
-    let compressor = if options.compress {
-        r#" compressor="vtkZLibDataCompressor""#
-    } else {
-        ""
-    };
+    let compressor = if options.compress { r#" compressor="vtkZLibDataCompressor""# } else { "" };
     writeln!(out, r#"<?xml version="1.0"?>"#)?;
     writeln!(
         out,
         r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64"{compressor}>"#
     )?;
     writeln!(out, "  <UnstructuredGrid>")?;
-    writeln!(
-        out,
-        r#"    <Piece NumberOfPoints="{}" NumberOfCells="{}">"#,
-        points.len(),
-        tets.len()
-    )?;
+    writeln!(out, r#"    <Piece NumberOfPoints="{}" NumberOfCells="{}">"#, points.len(), tets.len())?;
     let mut next = offsets.iter();
-    let mut array_tag = |out: &mut BufWriter<W>,
-                         ty: &str,
-                         name: &str,
-                         ncomp: usize|
-     -> io::Result<()> {
+    let mut array_tag = |out: &mut BufWriter<W>, ty: &str, name: &str, ncomp: usize| -> io::Result<()> {
         let off = next.next().copied().unwrap_or(0);
-        let comps = if ncomp == 1 {
-            String::new()
-        } else {
-            format!(r#" NumberOfComponents="{ncomp}""#)
-        };
+        let comps = if ncomp == 1 { String::new() } else { format!(r#" NumberOfComponents="{ncomp}""#) };
         writeln!(
             out,
             r#"        <DataArray type="{ty}" Name="{}"{comps} format="appended" offset="{off}"/>"#,
@@ -204,29 +169,21 @@ impl Array<'_> {
             Array::Values(v) => {
                 for chunk in v.chunks(CHUNK_VALUES) {
                     buf.clear();
-                    chunk
-                        .iter()
-                        .for_each(|x| buf.extend_from_slice(&x.to_le_bytes()));
+                    chunk.iter().for_each(|x| buf.extend_from_slice(&x.to_le_bytes()));
                     sink(&buf)?;
                 }
             }
             Array::Points(p) => {
                 for chunk in p.chunks(CHUNK_VALUES) {
                     buf.clear();
-                    chunk
-                        .iter()
-                        .flatten()
-                        .for_each(|x| buf.extend_from_slice(&x.to_le_bytes()));
+                    chunk.iter().flatten().for_each(|x| buf.extend_from_slice(&x.to_le_bytes()));
                     sink(&buf)?;
                 }
             }
             Array::Connectivity(t) => {
                 for chunk in t.chunks(CHUNK_VALUES) {
                     buf.clear();
-                    chunk
-                        .iter()
-                        .flatten()
-                        .for_each(|&x| buf.extend_from_slice(&i64::from(x).to_le_bytes()));
+                    chunk.iter().flatten().for_each(|&x| buf.extend_from_slice(&i64::from(x).to_le_bytes()));
                     sink(&buf)?;
                 }
             }
@@ -235,8 +192,7 @@ impl Array<'_> {
                 while c < *n {
                     let end = (c + CHUNK_VALUES).min(*n);
                     buf.clear();
-                    (c..end)
-                        .for_each(|i| buf.extend_from_slice(&(4 * (i as i64 + 1)).to_le_bytes()));
+                    (c..end).for_each(|i| buf.extend_from_slice(&(4 * (i as i64 + 1)).to_le_bytes()));
                     sink(&buf)?;
                     c = end;
                 }
@@ -262,10 +218,7 @@ fn compress_array(array: &Array<'_>) -> io::Result<Vec<u8>> {
     let mut blocks: Vec<Vec<u8>> = Vec::with_capacity(total.div_ceil(ZLIB_BLOCK));
     let mut pending: Vec<u8> = Vec::with_capacity(ZLIB_BLOCK);
     let compress = |bytes: &[u8]| -> io::Result<Vec<u8>> {
-        let mut enc = ZlibEncoder::new(
-            Vec::with_capacity(bytes.len() / 2 + 64),
-            Compression::fast(),
-        );
+        let mut enc = ZlibEncoder::new(Vec::with_capacity(bytes.len() / 2 + 64), Compression::fast());
         enc.write_all(bytes)?;
         enc.finish()
     };
@@ -281,21 +234,13 @@ fn compress_array(array: &Array<'_>) -> io::Result<Vec<u8>> {
         }
         Ok(())
     })?;
-    let last = if pending.is_empty() {
-        ZLIB_BLOCK
-    } else {
-        pending.len()
-    };
+    let last = if pending.is_empty() { ZLIB_BLOCK } else { pending.len() };
     if !pending.is_empty() {
         blocks.push(compress(&pending)?);
     }
     let header_words = 3 + blocks.len();
     let mut out = Vec::with_capacity(header_words * 8 + blocks.iter().map(Vec::len).sum::<usize>());
-    for w in [
-        blocks.len(),
-        ZLIB_BLOCK,
-        if blocks.is_empty() { 0 } else { last },
-    ] {
+    for w in [blocks.len(), ZLIB_BLOCK, if blocks.is_empty() { 0 } else { last }] {
         out.extend_from_slice(&(w as u64).to_le_bytes());
     }
     for b in &blocks {
@@ -329,19 +274,9 @@ mod tests {
     type Sample = (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<Field>, Vec<Field>);
 
     fn sample() -> Sample {
-        let points = vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0],
-            [1.0, 1.0, 1.0],
-        ];
+        let points = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]];
         let tets = vec![[0, 1, 2, 3], [1, 2, 3, 4]];
-        let pf = vec![Field::new(
-            "T<&\"x\">",
-            1,
-            vec![0.5, 1.5, -2.0, 3.25, 1e300],
-        )];
+        let pf = vec![Field::new("T<&\"x\">", 1, vec![0.5, 1.5, -2.0, 3.25, 1e300])];
         let cf = vec![Field::new("v", 3, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0])];
         (points, tets, pf, cf)
     }
@@ -350,14 +285,9 @@ mod tests {
         let (points, tets, pf, cf) = sample();
         let m = crate::vtk_xml::read(bytes).unwrap();
         assert_eq!(m.points, points);
-        let Block::Unstructured(cells) = &m.blocks[0] else {
-            panic!()
-        };
+        let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
         assert!(cells.types.iter().all(|&t| t == CellType::Tetra));
-        assert_eq!(
-            cells.connectivity,
-            tets.iter().flatten().copied().collect::<Vec<_>>()
-        );
+        assert_eq!(cells.connectivity, tets.iter().flatten().copied().collect::<Vec<_>>());
         assert_eq!(m.point_fields, pf);
         assert_eq!(m.cell_fields, cf);
     }
@@ -369,15 +299,7 @@ mod tests {
         write_vtu(&mut raw, &points, &tets, &pf, &cf).unwrap();
         check_roundtrip(&raw);
         let mut z = Vec::new();
-        write_vtu_with(
-            &mut z,
-            &points,
-            &tets,
-            &pf,
-            &cf,
-            WriteOptions { compress: true },
-        )
-        .unwrap();
+        write_vtu_with(&mut z, &points, &tets, &pf, &cf, WriteOptions { compress: true }).unwrap();
         check_roundtrip(&z);
     }
 

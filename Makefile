@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build test demo bench fuzz-build fmt lint clean
+.PHONY: all build test demo bench fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -29,9 +29,14 @@ demo:
 bench:
 	$(CARGO) bench -p tetkit --bench convert
 
-## Build (not run) the cargo-fuzz targets; needs a nightly toolchain and cargo-fuzz.
+## Build the fuzz targets (plain, uninstrumented: checks they compile).
 fuzz-build:
-	cd fuzz && cargo +nightly fuzz build
+	cd fuzz && $(CARGO) build
+
+## Coverage-guided fuzzing of every reader on stable Rust, FUZZ_SECS per target.
+FUZZ_SECS ?= 60
+fuzz:
+	fuzz/run.sh $(FUZZ_SECS)
 
 fmt:
 	$(CARGO) fmt --all

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Coverage-guided fuzzing of every reader on the STABLE toolchain: libFuzzer
+# via libfuzzer-sys, with LLVM's sanitizer-coverage passes requested through
+# stable -C flags (what cargo-fuzz adds, minus the nightly-only ASan).
+# Overflow checks and debug assertions are on, so arithmetic bugs panic.
+#
+#   fuzz/run.sh [SECONDS_PER_TARGET] [TARGET...]
+#
+# Seeds come from tests/data; crashes land in fuzz/artifacts/TARGET/. Pin
+# each finding as a regression test in the reader's tests before fixing it.
+set -euo pipefail
+cd "$(dirname "$0")"
+secs="${1:-60}"
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw bundle convert)
+host=$(rustc -vV | sed -n 's/^host: //p')
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
+export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
+ -Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table \
+ -Cllvm-args=-sanitizer-coverage-trace-compares -Cdebug-assertions -Coverflow-checks --cfg fuzzing"
+# --target keeps the instrumentation out of build scripts and proc macros.
+cargo build --release --target "$host"
+bin="$CARGO_TARGET_DIR/$host/release"
+data=../tests/data
+seed() { # target, files...
+    local t=$1; shift
+    mkdir -p "corpus/$t"
+    for f in "$@"; do
+        [ -f "$f" ] && [ "$(stat -c %s "$f")" -lt 300000 ] && cp "$f" "corpus/$t/" || true
+    done
+}
+seed vtk_legacy "$data"/vtk/*.vtk
+seed convert "$data"/vtk/*.vtk
+seed vtk_xml "$data"/vtu/*.vt? "$data"/vtu/*.pvtu
+seed gmsh "$data"/gmsh/*.msh
+seed nrrd "$data"/volume/*.nrrd "$data"/volume/*.nhdr
+seed bundle ../formats/samples/*.tetb
+mkdir -p corpus/plot3d corpus/raw corpus/tetgen
+# PLOT3D: a control byte (split point), then a grid and Q file.
+head -c 20000 "$data"/plot3d/bluntfinxyz.bin > corpus/plot3d/bf_head
+printf '\x40' | cat - "$data"/plot3d/bluntfinxyz.bin "$data"/plot3d/bluntfinq.bin | head -c 250000 > corpus/plot3d/bf
+head -c 4104 "$data"/volume/iron16.raw | { printf '\x10\x10\x10\x01\x00\x01\x00\x00'; cat; } > corpus/raw/iron16
+{ head -c 3000 "$data"/tetgen/twobox.1.node; printf '\0'; head -c 3000 "$data"/tetgen/twobox.1.ele; } > corpus/tetgen/twobox
+status=0
+for t in "${targets[@]}"; do
+    mkdir -p "artifacts/$t"
+    echo "== $t ($secs s)"
+    if ! "$bin/$t" "corpus/$t" -max_total_time="$secs" -rss_limit_mb=2048 -max_len=300000 \
+        -artifact_prefix="artifacts/$t/" -print_final_stats=1 2>"artifacts/$t.log"; then
+        echo "!! $t found a crash: see fuzz/artifacts/$t/ and fuzz/artifacts/$t.log"
+        status=1
+    fi
+    grep -E "stat::number_of_executed_units|stat::peak_rss" "artifacts/$t.log" || true
+done
+exit $status

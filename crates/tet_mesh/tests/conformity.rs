@@ -223,3 +223,56 @@ fn cell_scalar_is_volume_weighted_onto_points() {
         assert!(*v > 1.0 && *v < 5.0);
     }
 }
+
+#[test]
+fn iblanked_points_drop_the_cells_touching_them() {
+    let mut points = Vec::new();
+    for k in 0..4 {
+        for j in 0..4 {
+            for i in 0..4 {
+                points.push([i as f64, j as f64, k as f64]);
+            }
+        }
+    }
+    let mut blanked = vec![false; 64];
+    blanked[1 + 4 * (1 + 4 * 1)] = true; // interior point (1,1,1): its 8 cells go
+    let src = SourceMesh {
+        points,
+        blocks: vec![Block::Structured { dims: [4, 4, 4], first_point: 0 }],
+        point_blanked: Some(blanked),
+        ..Default::default()
+    };
+    let (m, report) = tetrahedralize(&src, &ConvertOptions::default(), &mut |_| {}).unwrap();
+    assert!(report.findings.contains(&tet_mesh::Finding::DroppedBlankedCells { count: 8 }));
+    assert_eq!(m.tets.len(), (27 - 8) * 5);
+    // Points (a,b,c) with a,b,c ∈ {0,1} touch only dropped cells.
+    assert_eq!(m.points.len(), 64 - 8);
+    check_tet_mesh(&m).unwrap();
+    let adj = build_adjacency(&m.points, &m.tets).unwrap();
+    assert!(!adj.convex, "a missing corner block makes the domain non-convex");
+}
+
+#[test]
+fn no_field_gives_a_constant_zero_and_coordinates_are_selectable() {
+    let mut points = Vec::new();
+    for k in 0..2 {
+        for j in 0..2 {
+            for i in 0..2 {
+                points.push([i as f64, j as f64 * 2.0, k as f64 * 3.0]);
+            }
+        }
+    }
+    let src = SourceMesh {
+        points,
+        blocks: vec![Block::Structured { dims: [2, 2, 2], first_point: 0 }],
+        ..Default::default()
+    };
+    let (m, report) = tetrahedralize(&src, &ConvertOptions::default(), &mut |_| {}).unwrap();
+    assert_eq!(m.scalar_name, "zero");
+    assert!(m.scalar.iter().all(|&s| s == 0.0));
+    assert!(report.findings.contains(&tet_mesh::Finding::NoScalarField));
+    let opts = ConvertOptions { scalar: Some("z".into()), ..Default::default() };
+    let (m, _) = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
+    assert_eq!(m.scalar_name, "z");
+    assert_eq!(m.scalar.iter().cloned().fold(f64::MIN, f64::max), 3.0);
+}

@@ -162,3 +162,71 @@ fn sample_bundle_info() {
     assert_eq!(o.status.code(), Some(5));
     assert!(stderr(&o).contains("not a tetkit bundle"));
 }
+
+#[test]
+fn raw_volume_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("iron.tetb");
+    let raw = data("volume/iron16.raw");
+    let v = json(&tetprep(&[
+        "convert",
+        raw.to_str().unwrap(),
+        "--format",
+        "raw",
+        "--dims",
+        "16,16,16",
+        "--type",
+        "u8",
+        "--endian",
+        "little",
+        "--spacing",
+        "1,1,2",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(v["tets"], 15 * 15 * 15 * 5);
+    assert_eq!(v["bounds"]["max"][2], 30.0);
+    // Missing layout options are a clear error, not a guess.
+    let o = tetprep(&["convert", raw.to_str().unwrap(), "--format", "raw", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--dims"), "{}", stderr(&o));
+    // A file shorter than the declared dims says by how much.
+    let o = tetprep(&[
+        "convert",
+        raw.to_str().unwrap(),
+        "--format",
+        "raw",
+        "--dims",
+        "32,32,32",
+        "--type",
+        "u8",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(3));
+    assert!(stderr(&o).contains("iron16.raw"), "{}", stderr(&o));
+}
+
+#[test]
+fn six_split_and_coordinate_scalar() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bf6.tetb");
+    let v = json(&tetprep(&[
+        "convert",
+        data("plot3d/bluntfinxyz.bin").to_str().unwrap(),
+        "--q",
+        data("plot3d/bluntfinq.bin").to_str().unwrap(),
+        "--split",
+        "6",
+        "--scalar",
+        "x",
+        "--scalar-only",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(v["split_tets"], 224_874);
+    assert_eq!(v["scalar"]["name"], "x");
+    assert_eq!(v["point_fields"].as_array().unwrap().len(), 0);
+}

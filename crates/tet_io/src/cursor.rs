@@ -242,13 +242,13 @@ impl<'a> TextCursor<'a> {
     pub fn parse<T: std::str::FromStr>(&mut self, what: &str) -> Result<T, FormatError> {
         let tok = self.expect_token(what)?;
         tok.parse::<T>()
-            .map_err(|_| FormatError::new(self.location(), format!("expected {what}, found '{}'", truncate(tok))))
+            .map_err(|_| FormatError::new(self.location(), format!("expected {what}, found '{}'", clip(tok))))
     }
 
     pub fn f64(&mut self, what: &str) -> Result<f64, FormatError> {
         let tok = self.expect_token(what)?;
         parse_f64(tok)
-            .ok_or_else(|| FormatError::new(self.location(), format!("expected {what}, found '{}'", truncate(tok))))
+            .ok_or_else(|| FormatError::new(self.location(), format!("expected {what}, found '{}'", clip(tok))))
     }
 
     /// The rest of the current line (without the newline), consuming it.
@@ -288,7 +288,8 @@ pub fn parse_f64(tok: &str) -> Option<f64> {
     }
 }
 
-fn truncate(s: &str) -> String {
+/// Shortens text quoted in an error message.
+pub(crate) fn clip(s: &str) -> String {
     if s.chars().count() > 40 {
         let t: String = s.chars().take(40).collect();
         format!("{t}…")

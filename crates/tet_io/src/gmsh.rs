@@ -25,7 +25,7 @@ use std::collections::HashMap;
 
 use tet_mesh::{Block, CellType, Cells, Field};
 
-use crate::cursor::{ByteCursor, Endian, TextCursor};
+use crate::cursor::{clip, ByteCursor, Endian, TextCursor};
 use crate::{FormatError, Location, SourceMesh};
 
 /// Field names for the per-cell entity tags.
@@ -246,15 +246,6 @@ fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
         from = i + 1;
     }
     None
-}
-
-fn clip(s: &str) -> String {
-    if s.chars().count() > 40 {
-        let t: String = s.chars().take(40).collect();
-        format!("{t}…")
-    } else {
-        s.to_string()
-    }
 }
 
 /// Scalar reads shared by the ASCII and binary forms of the 4.1 sections

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use tet_mesh::{Block, CellType, Cells, Field};
 
-use crate::cursor::{parse_f64, TextCursor};
+use crate::cursor::{clip, parse_f64, TextCursor};
 use crate::{FormatError, Location, SourceMesh};
 
 /// Given a `.node` or `.ele` path, or the basename without either extension
@@ -120,15 +120,6 @@ fn header_count(
         ));
     }
     Ok(v as usize)
-}
-
-fn clip(s: &str) -> String {
-    if s.chars().count() > 40 {
-        let t: String = s.chars().take(40).collect();
-        format!("{t}…")
-    } else {
-        s.to_string()
-    }
 }
 
 /// Checks that the record index on `line` continues the numbering.

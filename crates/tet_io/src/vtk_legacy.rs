@@ -16,7 +16,7 @@
 //! - `METADATA` (component names, information keys) may follow any array and
 //!   runs to the next empty line; it is skipped.
 
-use crate::cursor::{decode_to_f64, parse_f64, ByteCursor, Endian, ScalarType, TextCursor};
+use crate::cursor::{clip, decode_to_f64, parse_f64, ByteCursor, Endian, ScalarType, TextCursor};
 use crate::{FormatError, Location};
 use tet_mesh::{Block, CellType, Cells, Field, SourceMesh};
 
@@ -1159,16 +1159,6 @@ fn rectilinear_points(axes: [&[f64]; 3]) -> Vec<[f64; 3]> {
         }
     }
     points
-}
-
-/// Shortens text quoted in an error message.
-fn clip(s: &str) -> String {
-    if s.chars().count() > 40 {
-        let t: String = s.chars().take(40).collect();
-        format!("{t}…")
-    } else {
-        s.to_string()
-    }
 }
 
 #[cfg(test)]

@@ -175,25 +175,10 @@ pub fn tetrahedralize(
         report.findings.push(Finding::NoScalarField);
     }
 
-    // Non-finite input: error early (naming the source index) unless dropping.
     let bad_point = |i: usize| {
         let p = &source.points[i];
         !p.iter().all(|c| c.is_finite()) || (scalar.location == ScalarLocation::Point && !scalar.values[i].is_finite())
     };
-    if opts.nan == NanPolicy::Error {
-        if let Some(i) = (0..source.points.len()).find(|&i| !source.points[i].iter().all(|c| c.is_finite())) {
-            return Err(MeshError::NonFinitePoint { point: i, coords: source.points[i] });
-        }
-        if scalar.location != ScalarLocation::Constant {
-            if let Some((i, &v)) = scalar.values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-                return Err(if scalar.location == ScalarLocation::Point {
-                    MeshError::NonFiniteScalar { name: scalar.name.clone(), vertex: i, value: v }
-                } else {
-                    MeshError::NonFiniteCellScalar { name: scalar.name.clone(), cell: i, value: v }
-                });
-            }
-        }
-    }
 
     // 1. Merge duplicates (tolerance relative to the bounding-box diagonal).
     progress(Step::Merge);
@@ -215,6 +200,46 @@ pub fn tetrahedralize(
     progress(Step::Split);
     let (split, blanked) = split_blocks(&source.blocks, opts.split, &rep, source.point_blanked.as_deref());
     report.split_tets = split.tets.len();
+
+    // Non-finite input is an error (naming the source index) unless
+    // dropping; only values some tet uses count, so a NaN on a point that
+    // no cell touches is harmless.
+    if opts.nan == NanPolicy::Error {
+        let any_bad = (0..source.points.len()).any(bad_point)
+            || (scalar.location == ScalarLocation::Cell && scalar.values.iter().any(|v| !v.is_finite()));
+        if any_bad {
+            let mut used = vec![false; source.points.len()];
+            for t in &split.tets {
+                for &v in t {
+                    used[v as usize] = true;
+                }
+            }
+            if let Some(i) =
+                (0..source.points.len()).find(|&i| used[i] && !source.points[i].iter().all(|c| c.is_finite()))
+            {
+                return Err(MeshError::NonFinitePoint { point: i, coords: source.points[i] });
+            }
+            if scalar.location == ScalarLocation::Point {
+                if let Some(i) = (0..source.points.len()).find(|&i| used[i] && !scalar.values[i].is_finite()) {
+                    return Err(MeshError::NonFiniteScalar {
+                        name: scalar.name.clone(),
+                        vertex: i,
+                        value: scalar.values[i],
+                    });
+                }
+            }
+            if scalar.location == ScalarLocation::Cell {
+                if let Some(&c) = split.source_cell.iter().find(|&&c| !scalar.values[c as usize].is_finite()) {
+                    let c = c as usize;
+                    return Err(MeshError::NonFiniteCellScalar {
+                        name: scalar.name.clone(),
+                        cell: c,
+                        value: scalar.values[c],
+                    });
+                }
+            }
+        }
+    }
     if blanked > 0 {
         report.findings.push(Finding::DroppedBlankedCells { count: blanked });
     }

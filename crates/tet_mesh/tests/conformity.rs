@@ -276,3 +276,34 @@ fn no_field_gives_a_constant_zero_and_coordinates_are_selectable() {
     assert_eq!(m.scalar_name, "z");
     assert_eq!(m.scalar.iter().cloned().fold(f64::MIN, f64::max), 3.0);
 }
+
+#[test]
+fn non_finite_values_matter_only_where_a_tet_uses_them() {
+    let mut points = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [f64::NAN, 0., 0.]];
+    let mut cells = Cells::new();
+    cells.push(CellType::Tetra, &[0, 1, 2, 3]);
+    let scalar = tet_mesh::Field::new("s", 1, vec![0.0, 1.0, 2.0, 3.0, f64::INFINITY]);
+    let mut src = SourceMesh {
+        points: points.clone(),
+        blocks: vec![Block::Unstructured(cells.clone())],
+        point_fields: vec![scalar],
+        ..Default::default()
+    };
+    // Point 4 (NaN position, infinite scalar) is in no cell: converts fine.
+    let (m, _) = tetrahedralize(&src, &ConvertOptions::default(), &mut |_| {}).unwrap();
+    assert_eq!(m.points.len(), 4);
+    // Once a cell uses it, the error names it.
+    points[4] = [1.0, 1.0, 1.0];
+    src.points = points;
+    cells.push(CellType::Tetra, &[1, 2, 3, 4]);
+    src.blocks = vec![Block::Unstructured(cells)];
+    let e = tetrahedralize(&src, &ConvertOptions::default(), &mut |_| {}).unwrap_err();
+    assert!(matches!(e, tet_mesh::MeshError::NonFiniteScalar { vertex: 4, .. }), "{e}");
+    let drop = ConvertOptions { nan: tet_mesh::NanPolicy::Drop, ..Default::default() };
+    let (m, report) = tetrahedralize(&src, &drop, &mut |_| {}).unwrap();
+    assert_eq!(m.tets.len(), 1);
+    assert!(report
+        .findings
+        .iter()
+        .any(|f| matches!(f, tet_mesh::Finding::DroppedNonFinite { tets: 1, first_source_point: Some(4) })));
+}

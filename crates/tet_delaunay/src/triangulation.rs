@@ -1,0 +1,457 @@
+//! Incremental Bowyer–Watson on compact arrays with an infinite vertex.
+//!
+//! Every tet is four vertex ids and four neighbour ids (neighbour `i` lies
+//! across the face opposite vertex `i`). The convex hull is closed by ghost
+//! tets that have the infinite vertex [`INF`] in place of a fourth point, so
+//! the structure is a triangulation of the whole 3-sphere: every face has
+//! exactly two tets and points outside the hull are located and inserted
+//! like any other (no bounding super-tetrahedron whose removal would lose
+//! hull tets).
+//!
+//! Orientation contract: a finite tet is positive in tetkit's convention; a
+//! ghost tet is positive when replacing [`INF`] by a point beyond its hull
+//! facet gives a positive tet. Replacing a vertex of a conflict tet by the
+//! new point keeps both true, so new tets need no orientation test.
+
+use crate::predicates::{in_sphere_sos, orient};
+use crate::sort::SplitMix64;
+
+/// The infinite vertex.
+pub(crate) const INF: u32 = u32::MAX;
+/// Vertex slot 0 of a freed tet.
+const DEAD: u32 = u32::MAX - 1;
+
+pub(crate) struct Triangulation<'a> {
+    pts: &'a [[f64; 3]],
+    pub(crate) tv: Vec<[u32; 4]>,
+    pub(crate) tn: Vec<[u32; 4]>,
+    /// Per-tet stamp: `stamp` = in the current conflict zone, `stamp + 1` =
+    /// tested and not in conflict. Avoids clearing flags per insertion.
+    mark: Vec<u32>,
+    stamp: u32,
+    free: Vec<u32>,
+    /// A live finite tet near the last inserted point: where walks start.
+    last: u32,
+    rng: SplitMix64,
+    // Scratch buffers reused by every insertion.
+    stack: Vec<u32>,
+    conflict: Vec<u32>,
+    boundary: Vec<([u32; 4], u32, u8, u8)>,
+    edges: Vec<(u64, u32)>,
+    new_tets: Vec<u32>,
+    /// Walks that hit the step limit and fell back to a full scan.
+    pub(crate) walk_fallbacks: usize,
+}
+
+#[inline]
+fn is_ghost(v: &[u32; 4]) -> bool {
+    v[0] == INF || v[1] == INF || v[2] == INF || v[3] == INF
+}
+
+impl<'a> Triangulation<'a> {
+    /// Starts from the positive tet (a, b, c, d) and its four ghosts.
+    pub(crate) fn new(pts: &'a [[f64; 3]], first: [u32; 4], expected_points: usize) -> Self {
+        let [a, b, c, d] = first.map(|v| &pts[v as usize]);
+        debug_assert!(orient(a, b, c, d) > 0.0);
+        let cap = expected_points.saturating_mul(7) + 16;
+        let mut t = Triangulation {
+            pts,
+            tv: Vec::with_capacity(cap),
+            tn: Vec::with_capacity(cap),
+            mark: Vec::with_capacity(cap),
+            stamp: 0,
+            free: Vec::new(),
+            last: 0,
+            rng: SplitMix64(0x5EED),
+            stack: Vec::new(),
+            conflict: Vec::new(),
+            boundary: Vec::new(),
+            edges: Vec::new(),
+            new_tets: Vec::new(),
+            walk_fallbacks: 0,
+        };
+        // Ghost i replaces vertex i by INF and swaps two other vertices:
+        // beyond face i is the other side from vertex i, so the odd
+        // permutation restores the positive ghost orientation.
+        for i in 0..5 {
+            let mut v = first;
+            if i > 0 {
+                v[i - 1] = INF;
+                v.swap(i % 4, (i + 1) % 4);
+            }
+            t.tv.push(v);
+            t.tn.push([u32::MAX; 4]);
+            t.mark.push(0);
+        }
+        t.link_small(&[0, 1, 2, 3, 4]);
+        t
+    }
+
+    /// Links the faces of a few tets by brute-force vertex-set matching.
+    fn link_small(&mut self, ids: &[u32]) {
+        for &s in ids {
+            for i in 0..4 {
+                let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| self.tv[s as usize][k]).collect();
+                f.sort_unstable();
+                for &o in ids {
+                    if o == s {
+                        continue;
+                    }
+                    for j in 0..4 {
+                        let mut g: Vec<u32> = (0..4).filter(|&k| k != j).map(|k| self.tv[o as usize][k]).collect();
+                        g.sort_unstable();
+                        if f == g {
+                            self.tn[s as usize][i] = o;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[inline]
+    fn p(&self, v: u32) -> &[f64; 3] {
+        &self.pts[v as usize]
+    }
+
+    /// Orientation of tet `t` with vertex `i` replaced by `q` (for a ghost,
+    /// `i` must not be the infinite vertex's slot unless it is replaced).
+    #[inline]
+    fn orient_replaced(&self, v: &[u32; 4], i: usize, q: &[f64; 3]) -> f64 {
+        let mut p: [&[f64; 3]; 4] = [q; 4];
+        for k in 0..4 {
+            if k != i {
+                p[k] = self.p(v[k]);
+            }
+        }
+        orient(p[0], p[1], p[2], p[3])
+    }
+
+    /// Finds a tet in conflict with `q`: a finite tet whose closure
+    /// contains it, or a ghost whose hull facet it sees from outside.
+    fn locate(&mut self, q: &[f64; 3]) -> u32 {
+        let mut t = self.last;
+        let mut prev = u32::MAX;
+        // Stochastic remembering walk: random first face avoids cycles, and
+        // the face we came through is never re-tested.
+        let limit = 64 + 4 * (self.tv.len() as u64).isqrt() as usize + self.tv.len() / 16;
+        'walk: for _ in 0..limit {
+            let v = self.tv[t as usize];
+            if is_ghost(&v) {
+                return t;
+            }
+            let r = (self.rng.next_u64() >> 62) as usize;
+            for k in 0..4 {
+                let i = (r + k) & 3;
+                let nb = self.tn[t as usize][i];
+                if nb == prev {
+                    continue;
+                }
+                if self.orient_replaced(&v, i, q) < 0.0 {
+                    prev = t;
+                    t = nb;
+                    continue 'walk;
+                }
+            }
+            return t;
+        }
+        self.walk_fallbacks += 1;
+        self.locate_by_scan(q)
+    }
+
+    /// Safety net when a walk runs too long: test every live tet.
+    fn locate_by_scan(&self, q: &[f64; 3]) -> u32 {
+        for (t, v) in self.tv.iter().enumerate() {
+            if v[0] == DEAD {
+                continue;
+            }
+            if let Some(g) = v.iter().position(|&x| x == INF) {
+                if self.orient_replaced(v, g, q) > 0.0 {
+                    return t as u32;
+                }
+            } else if (0..4).all(|i| self.orient_replaced(v, i, q) >= 0.0) {
+                return t as u32;
+            }
+        }
+        unreachable!("the tets and ghosts cover all of space")
+    }
+
+    /// Conflict test of tet `t` with point `q` (id `iq`).
+    fn in_conflict(&self, t: u32, q: &[f64; 3], iq: u32) -> bool {
+        let v = self.tv[t as usize];
+        if let Some(g) = v.iter().position(|&x| x == INF) {
+            let o = self.orient_replaced(&v, g, q);
+            if o != 0.0 {
+                return o > 0.0;
+            }
+            // On the hull facet's plane: in conflict exactly when the finite
+            // tet across that facet is (in-circle of the facet, with the
+            // same perturbation), as geogram does.
+            let f = self.tn[t as usize][g];
+            let m = self.mark[f as usize];
+            if m == self.stamp {
+                return true;
+            }
+            if m == self.stamp + 1 {
+                return false;
+            }
+            let w = self.tv[f as usize];
+            return in_sphere_sos([self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3])], w, q, iq);
+        }
+        in_sphere_sos([self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])], v, q, iq)
+    }
+
+    fn alloc(&mut self) -> u32 {
+        if let Some(s) = self.free.pop() {
+            s
+        } else {
+            self.tv.push([DEAD; 4]);
+            self.tn.push([u32::MAX; 4]);
+            self.mark.push(0);
+            (self.tv.len() - 1) as u32
+        }
+    }
+
+    /// Inserts point `iq` (distinct from every inserted point).
+    pub(crate) fn insert(&mut self, iq: u32) {
+        let q = self.pts[iq as usize];
+        let t0 = self.locate(&q);
+        self.stamp = self.stamp.wrapping_add(2);
+        if self.stamp == 0 {
+            // Stamps wrapped: clear so old marks cannot alias.
+            self.mark.iter_mut().for_each(|m| *m = 0);
+            self.stamp = 2;
+        }
+        let stamp = self.stamp;
+
+        // Conflict zone by flood fill from t0 (which contains q, so is in
+        // conflict without a test).
+        self.conflict.clear();
+        self.stack.clear();
+        self.mark[t0 as usize] = stamp;
+        self.conflict.push(t0);
+        self.stack.push(t0);
+        while let Some(t) = self.stack.pop() {
+            for i in 0..4 {
+                let nb = self.tn[t as usize][i];
+                let m = self.mark[nb as usize];
+                if m == stamp || m == stamp + 1 {
+                    continue;
+                }
+                if self.in_conflict(nb, &q, iq) {
+                    self.mark[nb as usize] = stamp;
+                    self.conflict.push(nb);
+                    self.stack.push(nb);
+                } else {
+                    self.mark[nb as usize] = stamp + 1;
+                }
+            }
+        }
+
+        // Boundary faces: new tet = conflict tet with the vertex opposite
+        // the face replaced by q; remember the outside neighbour and its
+        // slot that pointed back.
+        self.boundary.clear();
+        for &t in &self.conflict {
+            let v = self.tv[t as usize];
+            let n = self.tn[t as usize];
+            for i in 0..4 {
+                let nb = n[i];
+                if self.mark[nb as usize] == stamp {
+                    continue;
+                }
+                let back = self.tn[nb as usize].iter().position(|&x| x == t).expect("adjacency is symmetric");
+                let mut nv = v;
+                nv[i] = iq;
+                self.boundary.push((nv, nb, i as u8, back as u8));
+            }
+        }
+
+        // Reuse the conflict slots, then the free list, then grow.
+        for k in 0..self.conflict.len() {
+            let s = self.conflict[k];
+            self.tv[s as usize] = [DEAD; 4];
+            self.free.push(s);
+        }
+        self.new_tets.clear();
+        self.edges.clear();
+        let mut last = u32::MAX;
+        for k in 0..self.boundary.len() {
+            let (nv, nb, i, back) = self.boundary[k];
+            let s = self.alloc();
+            self.tv[s as usize] = nv;
+            self.tn[s as usize] = [u32::MAX; 4];
+            self.tn[s as usize][i as usize] = nb;
+            self.tn[nb as usize][back as usize] = s;
+            self.mark[s as usize] = 0;
+            if !is_ghost(&nv) {
+                last = s;
+            }
+            // The three faces through q are shared with other new tets;
+            // each is named by its edge opposite q.
+            for j in 0..4usize {
+                if j == i as usize {
+                    continue;
+                }
+                let (mut a, mut b) = (u32::MAX, u32::MAX);
+                for (k2, &x) in nv.iter().enumerate() {
+                    if k2 != j && k2 != i as usize {
+                        if a == u32::MAX {
+                            a = x;
+                        } else {
+                            b = x;
+                        }
+                    }
+                }
+                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
+                self.edges.push((key, s * 4 + j as u32));
+            }
+        }
+        self.edges.sort_unstable_by_key(|e| e.0);
+        for pair in self.edges.chunks_exact(2) {
+            debug_assert_eq!(pair[0].0, pair[1].0, "cavity boundary is a closed surface");
+            let (s0, j0) = (pair[0].1 / 4, pair[0].1 % 4);
+            let (s1, j1) = (pair[1].1 / 4, pair[1].1 % 4);
+            self.tn[s0 as usize][j0 as usize] = s1;
+            self.tn[s1 as usize][j1 as usize] = s0;
+        }
+        debug_assert!(last != u32::MAX);
+        self.last = last;
+    }
+
+    /// Removes finite tets reachable from the hull through faces between
+    /// tets whose circumradius exceeds `max_r`; returns the removed flags.
+    pub(crate) fn peel(&self, max_r: f64) -> (Vec<bool>, usize) {
+        let mut removed = vec![false; self.tv.len()];
+        let mut stack = Vec::new();
+        let big = |t: usize| -> bool {
+            let v = self.tv[t];
+            circumradius(self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])) > max_r
+        };
+        for (t, v) in self.tv.iter().enumerate() {
+            if v[0] != DEAD && is_ghost(v) {
+                let g = v.iter().position(|&x| x == INF).expect("ghost");
+                let f = self.tn[t][g] as usize;
+                if !removed[f] && big(f) {
+                    removed[f] = true;
+                    stack.push(f);
+                }
+            }
+        }
+        let mut count = stack.len();
+        while let Some(t) = stack.pop() {
+            for &nb in &self.tn[t] {
+                let nb = nb as usize;
+                if !removed[nb] && !is_ghost(&self.tv[nb]) && big(nb) {
+                    removed[nb] = true;
+                    count += 1;
+                    stack.push(nb);
+                }
+            }
+        }
+        (removed, count)
+    }
+
+    /// Finite tets (skipping `removed` ones) and the number of hull facets.
+    pub(crate) fn finite_tets(&self, removed: Option<&[bool]>) -> (Vec<[u32; 4]>, usize) {
+        let mut out = Vec::with_capacity(self.tv.len());
+        let mut ghosts = 0;
+        for (t, v) in self.tv.iter().enumerate() {
+            if v[0] == DEAD {
+                continue;
+            }
+            if is_ghost(v) {
+                ghosts += 1;
+            } else if !removed.is_some_and(|r| r[t]) {
+                out.push(*v);
+            }
+        }
+        (out, ghosts)
+    }
+}
+
+/// Circumradius in plain floating point (a measurement for filtering, not
+/// a decision the structure depends on); infinite for a flat tet.
+pub(crate) fn circumradius(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3]) -> f64 {
+    let s = |p: &[f64; 3]| [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+    let (u, v, w) = (s(b), s(c), s(d));
+    let cr =
+        |x: [f64; 3], y: [f64; 3]| [x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]];
+    let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    let (vw, wu, uv) = (cr(v, w), cr(w, u), cr(u, v));
+    let det = dot(u, vw);
+    if det == 0.0 {
+        return f64::INFINITY;
+    }
+    let (lu, lv, lw) = (dot(u, u), dot(v, v), dot(w, w));
+    let c = [0, 1, 2].map(|k| (lu * vw[k] + lv * wu[k] + lw * uv[k]) / (2.0 * det));
+    dot(c, c).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sort::SplitMix64;
+
+    /// Builds the triangulation of `pts` (distinct, full-dimensional) in
+    /// the library's insertion order.
+    fn build(pts: &[[f64; 3]]) -> Triangulation<'_> {
+        let order = crate::sort::brio_order(pts, (0..pts.len() as u32).collect(), 1);
+        let (first, rest) = crate::initial_tet(pts, &order).unwrap();
+        let mut t = Triangulation::new(pts, first, pts.len());
+        for v in rest {
+            t.insert(v);
+        }
+        t
+    }
+
+    /// Internal invariants: neighbour links symmetric through the shared
+    /// face (ghosts included), every finite tet positive, and no point in
+    /// conflict with any finite tet under the perturbed predicate, which is
+    /// what makes ties between cospherical points consistent.
+    fn check(t: &Triangulation<'_>) {
+        let live = |s: usize| t.tv[s][0] != DEAD;
+        for s in (0..t.tv.len()).filter(|&s| live(s)) {
+            let v = t.tv[s];
+            for i in 0..4 {
+                let nb = t.tn[s][i] as usize;
+                assert!(live(nb), "tet {s} links to a dead slot");
+                let back = t.tn[nb].iter().position(|&x| x as usize == s).expect("symmetric link");
+                let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| v[k]).collect();
+                let mut g: Vec<u32> = (0..4).filter(|&k| k != back).map(|k| t.tv[nb][k]).collect();
+                f.sort_unstable();
+                g.sort_unstable();
+                assert_eq!(f, g, "tets {s} and {nb} do not share the face they link through");
+            }
+            if !is_ghost(&v) {
+                let p = v.map(|x| &t.pts[x as usize]);
+                assert!(orient(p[0], p[1], p[2], p[3]) > 0.0);
+                for (q, pq) in t.pts.iter().enumerate() {
+                    if !v.contains(&(q as u32)) {
+                        assert!(!in_sphere_sos(p, v, pq, q as u32), "point {q} in conflict with tet {v:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lattice_and_random_sets_satisfy_the_perturbed_empty_sphere_property() {
+        let mut pts = Vec::new();
+        for k in 0..5 {
+            for j in 0..5 {
+                for i in 0..5 {
+                    pts.push([i as f64, j as f64, k as f64]);
+                }
+            }
+        }
+        check(&build(&pts));
+        let mut rng = SplitMix64(5);
+        let pts: Vec<[f64; 3]> = (0..300).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()]).collect();
+        check(&build(&pts));
+        // Two coplanar layers of a 4×4 grid, half a spacing apart.
+        let pts: Vec<[f64; 3]> =
+            (0..32).map(|i| [(i % 4) as f64, ((i / 4) % 4) as f64, (i / 16) as f64 * 0.5]).collect();
+        check(&build(&pts));
+    }
+}

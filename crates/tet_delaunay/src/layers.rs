@@ -56,11 +56,11 @@ pub fn tetrahedralize_layers(layers: &[Vec<[f64; 3]>]) -> Result<Layered, Delaun
             return Err(DelaunayError::NonFinite { index: k * n + i, coords: l[i] });
         }
     }
-    for k in 1..layers.len() {
-        for i in 0..n {
-            let (lo, hi) = (layers[k - 1][i][2], layers[k][i][2]);
-            if hi <= lo {
-                return Err(DelaunayError::LayersNotAscending { layer: k, column: i, z_lower: lo, z_upper: hi });
+    for (k, pair) in layers.windows(2).enumerate() {
+        for (column, (lo, hi)) in pair[0].iter().zip(&pair[1]).enumerate() {
+            if hi[2] <= lo[2] {
+                let (z_lower, z_upper) = (lo[2], hi[2]);
+                return Err(DelaunayError::LayersNotAscending { layer: k + 1, column, z_lower, z_upper });
             }
         }
     }

@@ -121,12 +121,10 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
     let unique: Vec<u32> = merged_into.iter().enumerate().filter(|&(i, &r)| r as usize == i).map(|(_, &r)| r).collect();
     let duplicates = points.len() - unique.len();
     let order = sort::brio_order(points, unique, 0x7E7D_E1A0);
-    let (first, rest) = initial_tet(points, &order)?;
-
-    let mut tri = Triangulation::new(points, first, order.len());
-    for &v in &rest {
-        tri.insert(v);
-    }
+    let order = initial_tet(points, order)?;
+    let mut tri = Triangulation::new(order.iter().map(|&i| points[i as usize]).collect(), order);
+    debug_assert!(tri.num_points() == points.len() - duplicates);
+    tri.insert_all();
     let (removed, removed_cells) = match opts.max_circumradius {
         Some(r) => {
             let (flags, n) = tri.peel(r);
@@ -138,9 +136,9 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
     Ok(Delaunay { tets, merged_into, duplicates, hull_facets, removed_cells, walk_fallbacks: tri.walk_fallbacks })
 }
 
-/// Picks 4 non-coplanar points early in `order` (positively oriented) and
-/// returns them with the remaining insertion order.
-pub(crate) fn initial_tet(points: &[[f64; 3]], order: &[u32]) -> Result<([u32; 4], Vec<u32>), DelaunayError> {
+/// Moves 4 non-coplanar points found early in `order` to its front,
+/// positively oriented, keeping the rest in order.
+pub(crate) fn initial_tet(points: &[[f64; 3]], order: Vec<u32>) -> Result<Vec<u32>, DelaunayError> {
     let p = |i: u32| &points[i as usize];
     let degenerate = |dimension| Err(DelaunayError::Degenerate { distinct: order.len(), dimension });
     if order.len() < 2 {
@@ -163,6 +161,8 @@ pub(crate) fn initial_tet(points: &[[f64; 3]], order: &[u32]) -> Result<([u32; 4
     };
     let d = order[di];
     let first = if orient(p(a), p(b), p(c), p(d)) > 0.0 { [a, b, c, d] } else { [b, a, c, d] };
-    let rest = order.iter().enumerate().filter(|&(k, _)| k > 1 && k != ci && k != di).map(|(_, &v)| v).collect();
-    Ok((first, rest))
+    let mut out = Vec::with_capacity(order.len());
+    out.extend_from_slice(&first);
+    out.extend(order.iter().enumerate().filter(|&(k, _)| k > 1 && k != ci && k != di).map(|(_, &v)| v));
+    Ok(out)
 }

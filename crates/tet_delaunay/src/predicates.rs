@@ -38,12 +38,19 @@ pub(crate) fn in_sphere_exact(a: &[f64; 3], b: &[f64; 3], cc: &[f64; 3], d: &[f6
 /// finite tet `t` (ids `it`): strictly inside its circumsphere, ties broken
 /// by the symbolic perturbation described in the module docs. Never
 /// undecided for distinct ids and a non-flat tet.
-#[inline]
+#[cfg(test)]
 pub(crate) fn in_sphere_sos(t: [&[f64; 3]; 4], it: [u32; 4], q: &[f64; 3], iq: u32) -> bool {
     let d = in_sphere_exact(t[0], t[1], t[2], t[3], q);
     if d != 0.0 {
         return d > 0.0;
     }
+    in_sphere_tie(t, it, q, iq)
+}
+
+/// The perturbed decision for five exactly cospherical points (see
+/// [`in_sphere_sos`]).
+#[cold]
+pub(crate) fn in_sphere_tie(t: [&[f64; 3]; 4], it: [u32; 4], q: &[f64; 3], iq: u32) -> bool {
     // Raising the lift of tet vertex j by δ moves the lifted plane at q by
     // λ_j·δ, where λ_j (q's barycentric coordinate) has the sign of the tet
     // with vertex j replaced by q; raising q's own lift moves q outside.

@@ -33,9 +33,11 @@ impl SplitMix64 {
     }
 }
 
-const BITS: u32 = 21;
+/// Grid resolution per axis: 2^48 cells is far finer than any point
+/// cloud we sort, and fewer bits make the keys cheaper.
+const BITS: u32 = 16;
 
-/// Position along a 3D Hilbert curve of a point on a 2^21 grid (Skilling's
+/// Position along a 3D Hilbert curve of a point on a 2^16 grid (Skilling's
 /// transpose algorithm).
 fn hilbert_key(mut x: [u32; 3]) -> u64 {
     let m = 1u32 << (BITS - 1);
@@ -79,15 +81,10 @@ fn hilbert_key(mut x: [u32; 3]) -> u64 {
 /// of geometrically growing size (each round 8× the previous, the last
 /// holding about 7/8 of the points), each round in Hilbert order over the
 /// bounding box of all points. Coordinates must be finite.
-pub fn brio_order(points: &[[f64; 3]], mut ids: Vec<u32>, seed: u64) -> Vec<u32> {
+pub fn brio_order(points: &[[f64; 3]], ids: Vec<u32>, seed: u64) -> Vec<u32> {
     let n = ids.len();
     if n < 2 {
         return ids;
-    }
-    let mut rng = SplitMix64(seed);
-    for i in (1..n).rev() {
-        let j = rng.below(i + 1);
-        ids.swap(i, j);
     }
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
@@ -102,6 +99,7 @@ pub fn brio_order(points: &[[f64; 3]], mut ids: Vec<u32>, seed: u64) -> Vec<u32>
     // cube, which would scatter its points along the curve.
     let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
     let scale = if extent > 0.0 { ((1u32 << BITS) - 1) as f64 / extent } else { 0.0 };
+    // Keys in input order (sequential reads), then shuffle the pairs.
     let mut keyed: Vec<(u64, u32)> = ids
         .iter()
         .map(|&i| {
@@ -110,6 +108,11 @@ pub fn brio_order(points: &[[f64; 3]], mut ids: Vec<u32>, seed: u64) -> Vec<u32>
             (hilbert_key([g(0), g(1), g(2)]), i)
         })
         .collect();
+    let mut rng = SplitMix64(seed);
+    for i in (1..n).rev() {
+        let j = rng.below(i + 1);
+        keyed.swap(i, j);
+    }
     let mut ends = vec![n];
     let mut end = n;
     while end > 2000 {
@@ -130,8 +133,8 @@ mod tests {
 
     #[test]
     fn hilbert_keys_are_a_bijection_with_unit_steps_on_a_small_grid() {
-        // On the full 2^21 grid the curve visits cells in unit steps; check
-        // the first 4096 cells of the curve by brute force over an 16³ cube.
+        // The curve visits grid cells in unit steps; check its first 4096
+        // cells, which fill the 16³ cube at the origin.
         let mut cells: Vec<(u64, [u32; 3])> = Vec::new();
         for x in 0..16 {
             for y in 0..16 {

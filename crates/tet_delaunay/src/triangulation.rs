@@ -1,30 +1,43 @@
 //! Incremental Bowyer–Watson on compact arrays with an infinite vertex.
 //!
 //! Every tet is four vertex ids and four neighbour ids (neighbour `i` lies
-//! across the face opposite vertex `i`). The convex hull is closed by ghost
-//! tets that have the infinite vertex [`INF`] in place of a fourth point, so
-//! the structure is a triangulation of the whole 3-sphere: every face has
-//! exactly two tets and points outside the hull are located and inserted
-//! like any other (no bounding super-tetrahedron whose removal would lose
-//! hull tets).
+//! across the face opposite vertex `i`), packed in 32 bytes. The convex
+//! hull is closed by ghost tets that have the infinite vertex [`INF`] in
+//! place of a fourth point, so the structure is a triangulation of the whole
+//! 3-sphere: every face has exactly two tets and points outside the hull are
+//! located and inserted like any other (no bounding super-tetrahedron whose
+//! removal would lose hull tets).
 //!
 //! Orientation contract: a finite tet is positive in tetkit's convention; a
 //! ghost tet is positive when replacing [`INF`] by a point beyond its hull
 //! facet gives a positive tet. Replacing a vertex of a conflict tet by the
 //! new point keeps both true, so new tets need no orientation test.
+//!
+//! Vertex ids here are positions in insertion order (so that consecutive
+//! insertions touch nearby memory); `orig` maps them back to input ids, which
+//! key the symbolic perturbation so that ties do not depend on the order.
 
-use crate::predicates::{in_sphere_sos, orient};
+use crate::predicates::{in_sphere_exact, in_sphere_tie, orient};
 use crate::sort::SplitMix64;
 
 /// The infinite vertex.
 pub(crate) const INF: u32 = u32::MAX;
 /// Vertex slot 0 of a freed tet.
 const DEAD: u32 = u32::MAX - 1;
+const EMPTY: u64 = u64::MAX;
 
-pub(crate) struct Triangulation<'a> {
-    pts: &'a [[f64; 3]],
-    pub(crate) tv: Vec<[u32; 4]>,
-    pub(crate) tn: Vec<[u32; 4]>,
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tet {
+    pub(crate) v: [u32; 4],
+    pub(crate) n: [u32; 4],
+}
+
+pub(crate) struct Triangulation {
+    /// Points in insertion order.
+    pts: Vec<[f64; 3]>,
+    /// Input id of each point.
+    pub(crate) orig: Vec<u32>,
+    pub(crate) tets: Vec<Tet>,
     /// Per-tet stamp: `stamp` = in the current conflict zone, `stamp + 1` =
     /// tested and not in conflict. Avoids clearing flags per insertion.
     mark: Vec<u32>,
@@ -37,8 +50,10 @@ pub(crate) struct Triangulation<'a> {
     stack: Vec<u32>,
     conflict: Vec<u32>,
     boundary: Vec<([u32; 4], u32, u8, u8)>,
-    edges: Vec<(u64, u32)>,
-    new_tets: Vec<u32>,
+    /// Open-addressing table matching the faces through the new point by
+    /// their edge opposite it; `used` lists the slots to clear afterwards.
+    table: Vec<(u64, u32)>,
+    used: Vec<u32>,
     /// Walks that hit the step limit and fell back to a full scan.
     pub(crate) walk_fallbacks: usize,
 }
@@ -48,16 +63,15 @@ fn is_ghost(v: &[u32; 4]) -> bool {
     v[0] == INF || v[1] == INF || v[2] == INF || v[3] == INF
 }
 
-impl<'a> Triangulation<'a> {
-    /// Starts from the positive tet (a, b, c, d) and its four ghosts.
-    pub(crate) fn new(pts: &'a [[f64; 3]], first: [u32; 4], expected_points: usize) -> Self {
-        let [a, b, c, d] = first.map(|v| &pts[v as usize]);
-        debug_assert!(orient(a, b, c, d) > 0.0);
-        let cap = expected_points.saturating_mul(7) + 16;
+impl Triangulation {
+    /// Starts from points 0..4 (a positive tet) and its four ghosts.
+    pub(crate) fn new(pts: Vec<[f64; 3]>, orig: Vec<u32>) -> Self {
+        debug_assert!(orient(&pts[0], &pts[1], &pts[2], &pts[3]) > 0.0);
+        let cap = pts.len().saturating_mul(7) + 16;
         let mut t = Triangulation {
             pts,
-            tv: Vec::with_capacity(cap),
-            tn: Vec::with_capacity(cap),
+            orig,
+            tets: Vec::with_capacity(cap),
             mark: Vec::with_capacity(cap),
             stamp: 0,
             free: Vec::new(),
@@ -66,43 +80,51 @@ impl<'a> Triangulation<'a> {
             stack: Vec::new(),
             conflict: Vec::new(),
             boundary: Vec::new(),
-            edges: Vec::new(),
-            new_tets: Vec::new(),
+            table: Vec::new(),
+            used: Vec::new(),
             walk_fallbacks: 0,
         };
         // Ghost i replaces vertex i by INF and swaps two other vertices:
         // beyond face i is the other side from vertex i, so the odd
         // permutation restores the positive ghost orientation.
         for i in 0..5 {
-            let mut v = first;
+            let mut v = [0, 1, 2, 3];
             if i > 0 {
                 v[i - 1] = INF;
                 v.swap(i % 4, (i + 1) % 4);
             }
-            t.tv.push(v);
-            t.tn.push([u32::MAX; 4]);
+            t.tets.push(Tet { v, n: [u32::MAX; 4] });
             t.mark.push(0);
         }
         t.link_small(&[0, 1, 2, 3, 4]);
         t
     }
 
+    /// Number of points (all of which `insert_all` inserts).
+    pub(crate) fn num_points(&self) -> usize {
+        self.pts.len()
+    }
+
+    /// Inserts points 4.. in order.
+    pub(crate) fn insert_all(&mut self) {
+        for v in 4..self.pts.len() as u32 {
+            self.insert(v);
+        }
+    }
+
     /// Links the faces of a few tets by brute-force vertex-set matching.
     fn link_small(&mut self, ids: &[u32]) {
+        let face = |v: [u32; 4], i: usize| {
+            let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| v[k]).collect();
+            f.sort_unstable();
+            f
+        };
         for &s in ids {
             for i in 0..4 {
-                let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| self.tv[s as usize][k]).collect();
-                f.sort_unstable();
-                for &o in ids {
-                    if o == s {
-                        continue;
-                    }
-                    for j in 0..4 {
-                        let mut g: Vec<u32> = (0..4).filter(|&k| k != j).map(|k| self.tv[o as usize][k]).collect();
-                        g.sort_unstable();
-                        if f == g {
-                            self.tn[s as usize][i] = o;
-                        }
+                let f = face(self.tets[s as usize].v, i);
+                for &o in ids.iter().filter(|&&o| o != s) {
+                    if (0..4).any(|j| face(self.tets[o as usize].v, j) == f) {
+                        self.tets[s as usize].n[i] = o;
                     }
                 }
             }
@@ -114,8 +136,8 @@ impl<'a> Triangulation<'a> {
         &self.pts[v as usize]
     }
 
-    /// Orientation of tet `t` with vertex `i` replaced by `q` (for a ghost,
-    /// `i` must not be the infinite vertex's slot unless it is replaced).
+    /// Orientation of tet `v` with vertex `i` replaced by `q` (for a ghost,
+    /// `i` must be the infinite vertex's slot, or the walk must not ask).
     #[inline]
     fn orient_replaced(&self, v: &[u32; 4], i: usize, q: &[f64; 3]) -> f64 {
         let mut p: [&[f64; 3]; 4] = [q; 4];
@@ -132,24 +154,23 @@ impl<'a> Triangulation<'a> {
     fn locate(&mut self, q: &[f64; 3]) -> u32 {
         let mut t = self.last;
         let mut prev = u32::MAX;
-        // Stochastic remembering walk: random first face avoids cycles, and
-        // the face we came through is never re-tested.
-        let limit = 64 + 4 * (self.tv.len() as u64).isqrt() as usize + self.tv.len() / 16;
+        // Stochastic remembering walk: a random first face avoids cycles,
+        // and the face we came through is never re-tested.
+        let limit = 64 + 4 * (self.tets.len() as u64).isqrt() as usize + self.tets.len() / 16;
         'walk: for _ in 0..limit {
-            let v = self.tv[t as usize];
+            let Tet { v, n } = self.tets[t as usize];
             if is_ghost(&v) {
                 return t;
             }
             let r = (self.rng.next_u64() >> 62) as usize;
             for k in 0..4 {
                 let i = (r + k) & 3;
-                let nb = self.tn[t as usize][i];
-                if nb == prev {
+                if n[i] == prev {
                     continue;
                 }
                 if self.orient_replaced(&v, i, q) < 0.0 {
                     prev = t;
-                    t = nb;
+                    t = n[i];
                     continue 'walk;
                 }
             }
@@ -161,7 +182,8 @@ impl<'a> Triangulation<'a> {
 
     /// Safety net when a walk runs too long: test every live tet.
     fn locate_by_scan(&self, q: &[f64; 3]) -> u32 {
-        for (t, v) in self.tv.iter().enumerate() {
+        for (t, tet) in self.tets.iter().enumerate() {
+            let v = &tet.v;
             if v[0] == DEAD {
                 continue;
             }
@@ -176,9 +198,20 @@ impl<'a> Triangulation<'a> {
         unreachable!("the tets and ghosts cover all of space")
     }
 
+    /// Perturbed in-sphere test of finite tet `v` against point `iq`.
+    #[inline]
+    fn in_sphere(&self, v: &[u32; 4], q: &[f64; 3], iq: u32) -> bool {
+        let p = [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])];
+        let d = in_sphere_exact(p[0], p[1], p[2], p[3], q);
+        if d != 0.0 {
+            return d > 0.0;
+        }
+        in_sphere_tie(p, v.map(|x| self.orig[x as usize]), q, self.orig[iq as usize])
+    }
+
     /// Conflict test of tet `t` with point `q` (id `iq`).
     fn in_conflict(&self, t: u32, q: &[f64; 3], iq: u32) -> bool {
-        let v = self.tv[t as usize];
+        let v = self.tets[t as usize].v;
         if let Some(g) = v.iter().position(|&x| x == INF) {
             let o = self.orient_replaced(&v, g, q);
             if o != 0.0 {
@@ -187,7 +220,7 @@ impl<'a> Triangulation<'a> {
             // On the hull facet's plane: in conflict exactly when the finite
             // tet across that facet is (in-circle of the facet, with the
             // same perturbation), as geogram does.
-            let f = self.tn[t as usize][g];
+            let f = self.tets[t as usize].n[g];
             let m = self.mark[f as usize];
             if m == self.stamp {
                 return true;
@@ -195,20 +228,18 @@ impl<'a> Triangulation<'a> {
             if m == self.stamp + 1 {
                 return false;
             }
-            let w = self.tv[f as usize];
-            return in_sphere_sos([self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3])], w, q, iq);
+            return self.in_sphere(&self.tets[f as usize].v, q, iq);
         }
-        in_sphere_sos([self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])], v, q, iq)
+        self.in_sphere(&v, q, iq)
     }
 
     fn alloc(&mut self) -> u32 {
         if let Some(s) = self.free.pop() {
             s
         } else {
-            self.tv.push([DEAD; 4]);
-            self.tn.push([u32::MAX; 4]);
+            self.tets.push(Tet { v: [DEAD; 4], n: [u32::MAX; 4] });
             self.mark.push(0);
-            (self.tv.len() - 1) as u32
+            (self.tets.len() - 1) as u32
         }
     }
 
@@ -233,7 +264,7 @@ impl<'a> Triangulation<'a> {
         self.stack.push(t0);
         while let Some(t) = self.stack.pop() {
             for i in 0..4 {
-                let nb = self.tn[t as usize][i];
+                let nb = self.tets[t as usize].n[i];
                 let m = self.mark[nb as usize];
                 if m == stamp || m == stamp + 1 {
                     continue;
@@ -253,14 +284,13 @@ impl<'a> Triangulation<'a> {
         // slot that pointed back.
         self.boundary.clear();
         for &t in &self.conflict {
-            let v = self.tv[t as usize];
-            let n = self.tn[t as usize];
+            let Tet { v, n } = self.tets[t as usize];
             for i in 0..4 {
                 let nb = n[i];
                 if self.mark[nb as usize] == stamp {
                     continue;
                 }
-                let back = self.tn[nb as usize].iter().position(|&x| x == t).expect("adjacency is symmetric");
+                let back = self.tets[nb as usize].n.iter().position(|&x| x == t).expect("adjacency is symmetric");
                 let mut nv = v;
                 nv[i] = iq;
                 self.boundary.push((nv, nb, i as u8, back as u8));
@@ -270,19 +300,22 @@ impl<'a> Triangulation<'a> {
         // Reuse the conflict slots, then the free list, then grow.
         for k in 0..self.conflict.len() {
             let s = self.conflict[k];
-            self.tv[s as usize] = [DEAD; 4];
+            self.tets[s as usize].v = [DEAD; 4];
             self.free.push(s);
         }
-        self.new_tets.clear();
-        self.edges.clear();
+        let needed = (6 * self.boundary.len()).next_power_of_two().max(256);
+        if self.table.len() < needed {
+            self.table = vec![(EMPTY, 0); needed];
+        }
+        let mask = self.table.len() - 1;
         let mut last = u32::MAX;
         for k in 0..self.boundary.len() {
             let (nv, nb, i, back) = self.boundary[k];
             let s = self.alloc();
-            self.tv[s as usize] = nv;
-            self.tn[s as usize] = [u32::MAX; 4];
-            self.tn[s as usize][i as usize] = nb;
-            self.tn[nb as usize][back as usize] = s;
+            let mut n = [u32::MAX; 4];
+            n[i as usize] = nb;
+            self.tets[s as usize] = Tet { v: nv, n };
+            self.tets[nb as usize].n[back as usize] = s;
             self.mark[s as usize] = 0;
             if !is_ghost(&nv) {
                 last = s;
@@ -293,28 +326,36 @@ impl<'a> Triangulation<'a> {
                 if j == i as usize {
                     continue;
                 }
-                let (mut a, mut b) = (u32::MAX, u32::MAX);
+                let mut e = [0u32; 2];
+                let mut m = 0;
                 for (k2, &x) in nv.iter().enumerate() {
                     if k2 != j && k2 != i as usize {
-                        if a == u32::MAX {
-                            a = x;
-                        } else {
-                            b = x;
-                        }
+                        e[m] = x;
+                        m += 1;
                     }
                 }
-                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
-                self.edges.push((key, s * 4 + j as u32));
+                let key = ((e[0].min(e[1]) as u64) << 32) | e[0].max(e[1]) as u64;
+                let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
+                loop {
+                    let (k3, val) = self.table[h];
+                    if k3 == EMPTY {
+                        self.table[h] = (key, s * 4 + j as u32);
+                        self.used.push(h as u32);
+                        break;
+                    }
+                    if k3 == key {
+                        self.tets[s as usize].n[j] = val / 4;
+                        self.tets[(val / 4) as usize].n[(val % 4) as usize] = s;
+                        break;
+                    }
+                    h = (h + 1) & mask;
+                }
             }
         }
-        self.edges.sort_unstable_by_key(|e| e.0);
-        for pair in self.edges.chunks_exact(2) {
-            debug_assert_eq!(pair[0].0, pair[1].0, "cavity boundary is a closed surface");
-            let (s0, j0) = (pair[0].1 / 4, pair[0].1 % 4);
-            let (s1, j1) = (pair[1].1 / 4, pair[1].1 % 4);
-            self.tn[s0 as usize][j0 as usize] = s1;
-            self.tn[s1 as usize][j1 as usize] = s0;
+        for &h in &self.used {
+            self.table[h as usize].0 = EMPTY;
         }
+        self.used.clear();
         debug_assert!(last != u32::MAX);
         self.last = last;
     }
@@ -322,16 +363,16 @@ impl<'a> Triangulation<'a> {
     /// Removes finite tets reachable from the hull through faces between
     /// tets whose circumradius exceeds `max_r`; returns the removed flags.
     pub(crate) fn peel(&self, max_r: f64) -> (Vec<bool>, usize) {
-        let mut removed = vec![false; self.tv.len()];
+        let mut removed = vec![false; self.tets.len()];
         let mut stack = Vec::new();
         let big = |t: usize| -> bool {
-            let v = self.tv[t];
+            let v = self.tets[t].v;
             circumradius(self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])) > max_r
         };
-        for (t, v) in self.tv.iter().enumerate() {
-            if v[0] != DEAD && is_ghost(v) {
-                let g = v.iter().position(|&x| x == INF).expect("ghost");
-                let f = self.tn[t][g] as usize;
+        for (t, tet) in self.tets.iter().enumerate() {
+            if tet.v[0] != DEAD && is_ghost(&tet.v) {
+                let g = tet.v.iter().position(|&x| x == INF).expect("ghost");
+                let f = self.tets[t].n[g] as usize;
                 if !removed[f] && big(f) {
                     removed[f] = true;
                     stack.push(f);
@@ -340,9 +381,9 @@ impl<'a> Triangulation<'a> {
         }
         let mut count = stack.len();
         while let Some(t) = stack.pop() {
-            for &nb in &self.tn[t] {
+            for &nb in &self.tets[t].n {
                 let nb = nb as usize;
-                if !removed[nb] && !is_ghost(&self.tv[nb]) && big(nb) {
+                if !removed[nb] && !is_ghost(&self.tets[nb].v) && big(nb) {
                     removed[nb] = true;
                     count += 1;
                     stack.push(nb);
@@ -352,18 +393,20 @@ impl<'a> Triangulation<'a> {
         (removed, count)
     }
 
-    /// Finite tets (skipping `removed` ones) and the number of hull facets.
+    /// Finite tets in input ids (skipping `removed` ones) and the number of
+    /// hull facets.
     pub(crate) fn finite_tets(&self, removed: Option<&[bool]>) -> (Vec<[u32; 4]>, usize) {
-        let mut out = Vec::with_capacity(self.tv.len());
+        let mut out = Vec::with_capacity(self.tets.len());
         let mut ghosts = 0;
-        for (t, v) in self.tv.iter().enumerate() {
+        for (t, tet) in self.tets.iter().enumerate() {
+            let v = &tet.v;
             if v[0] == DEAD {
                 continue;
             }
             if is_ghost(v) {
                 ghosts += 1;
             } else if !removed.is_some_and(|r| r[t]) {
-                out.push(*v);
+                out.push(v.map(|x| self.orig[x as usize]));
             }
         }
         (out, ghosts)
@@ -391,17 +434,16 @@ pub(crate) fn circumradius(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::predicates::in_sphere_sos;
     use crate::sort::SplitMix64;
 
     /// Builds the triangulation of `pts` (distinct, full-dimensional) in
     /// the library's insertion order.
-    fn build(pts: &[[f64; 3]]) -> Triangulation<'_> {
+    fn build(pts: &[[f64; 3]]) -> Triangulation {
         let order = crate::sort::brio_order(pts, (0..pts.len() as u32).collect(), 1);
-        let (first, rest) = crate::initial_tet(pts, &order).unwrap();
-        let mut t = Triangulation::new(pts, first, pts.len());
-        for v in rest {
-            t.insert(v);
-        }
+        let order = crate::initial_tet(pts, order).unwrap();
+        let mut t = Triangulation::new(order.iter().map(|&i| pts[i as usize]).collect(), order);
+        t.insert_all();
         t
     }
 
@@ -409,16 +451,16 @@ mod tests {
     /// face (ghosts included), every finite tet positive, and no point in
     /// conflict with any finite tet under the perturbed predicate, which is
     /// what makes ties between cospherical points consistent.
-    fn check(t: &Triangulation<'_>) {
-        let live = |s: usize| t.tv[s][0] != DEAD;
-        for s in (0..t.tv.len()).filter(|&s| live(s)) {
-            let v = t.tv[s];
+    fn check(t: &Triangulation) {
+        let live = |s: usize| t.tets[s].v[0] != DEAD;
+        for s in (0..t.tets.len()).filter(|&s| live(s)) {
+            let v = t.tets[s].v;
             for i in 0..4 {
-                let nb = t.tn[s][i] as usize;
+                let nb = t.tets[s].n[i] as usize;
                 assert!(live(nb), "tet {s} links to a dead slot");
-                let back = t.tn[nb].iter().position(|&x| x as usize == s).expect("symmetric link");
+                let back = t.tets[nb].n.iter().position(|&x| x as usize == s).expect("symmetric link");
                 let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| v[k]).collect();
-                let mut g: Vec<u32> = (0..4).filter(|&k| k != back).map(|k| t.tv[nb][k]).collect();
+                let mut g: Vec<u32> = (0..4).filter(|&k| k != back).map(|k| t.tets[nb].v[k]).collect();
                 f.sort_unstable();
                 g.sort_unstable();
                 assert_eq!(f, g, "tets {s} and {nb} do not share the face they link through");
@@ -428,7 +470,9 @@ mod tests {
                 assert!(orient(p[0], p[1], p[2], p[3]) > 0.0);
                 for (q, pq) in t.pts.iter().enumerate() {
                     if !v.contains(&(q as u32)) {
-                        assert!(!in_sphere_sos(p, v, pq, q as u32), "point {q} in conflict with tet {v:?}");
+                        let ids = v.map(|x| t.orig[x as usize]);
+                        let iq = t.orig[q];
+                        assert!(!in_sphere_sos(p, ids, pq, iq), "point {q} in conflict with tet {v:?}");
                     }
                 }
             }

@@ -23,6 +23,12 @@ pub enum DelaunayError {
     CollinearColumns { columns: usize },
     #[error("column {column}: z of layer {layer} ({z_upper}) is not above layer {below} ({z_lower}); layers must rise strictly", below = layer - 1)]
     LayersNotAscending { layer: usize, column: usize, z_lower: f64, z_upper: f64 },
+    #[error(
+        "layered mode: the points form {columns} xy columns holding {min} to {max} points each; every column needs the same number (one point per layer)"
+    )]
+    UnevenColumns { columns: usize, min: usize, max: usize },
+    #[error("the point cloud is empty: there is nothing to tetrahedralize")]
+    NoPoints,
     #[error("the xy triangulation rejected point {index}: {reason}")]
     Planar { index: usize, reason: String },
 }

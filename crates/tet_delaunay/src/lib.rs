@@ -8,6 +8,9 @@
 //!   boreholes, atmospheric columns): triangulates layer 0 in xy and joins
 //!   consecutive layers with prisms split into conforming tets, giving a
 //!   [`Layered`].
+//! - [`triangulate_cloud`] — a point cloud read from a file (a `SourceMesh`
+//!   without cells) given tet cells by either mode ([`CloudMode`]), ready for
+//!   the ordinary conversion.
 //! - [`SplitMix64`] — the small seeded generator the tests, benchmark and
 //!   example use for reproducible random points.
 //!
@@ -47,12 +50,14 @@
 //! ```
 #![forbid(unsafe_code)]
 
+mod cloud;
 mod error;
 mod layers;
 mod predicates;
 mod sort;
 mod triangulation;
 
+pub use cloud::{triangulate_cloud, CloudMode, CloudReport};
 pub use error::DelaunayError;
 pub use layers::{tetrahedralize_layers, Layered};
 pub use sort::SplitMix64;

@@ -386,7 +386,9 @@ pub fn tetrahedralize(
     Ok((TetMesh { points, tets, scalar_name: scalar.name, scalar: scalar_values, point_fields }, report))
 }
 
-fn bbox_diagonal(points: &[[f64; 3]]) -> f64 {
+/// Diagonal of the bounding box of the finite points (0 if there are none):
+/// the length merge tolerances are relative to.
+pub fn bbox_diagonal(points: &[[f64; 3]]) -> f64 {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in points.iter().filter(|p| p.iter().all(|c| c.is_finite())) {

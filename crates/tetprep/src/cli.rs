@@ -51,6 +51,12 @@ pub enum SplitArg {
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ModeArg {
+    Delaunay,
+    Layered,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum NanArg {
     Error,
     Drop,
@@ -90,6 +96,15 @@ pub struct ConvertArgs {
     /// Do not carry the input's other point fields into the bundle.
     #[arg(long)]
     pub scalar_only: bool,
+    /// Point clouds (inputs without cells): 3D Delaunay of the convex hull, or
+    /// layered prisms for points on layers sharing xy columns (terrain,
+    /// boreholes, atmospheric columns).
+    #[arg(long, value_enum, default_value = "delaunay")]
+    pub mode: ModeArg,
+    /// Point clouds, Delaunay mode: peel hull-filling tets whose circumradius
+    /// exceeds R (world units), for scans of non-convex objects.
+    #[arg(long, value_name = "R")]
+    pub max_circumradius: Option<f64>,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
@@ -174,7 +189,9 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.downcast_ref::<tet_io::ReadError>().is_some() {
             return 3;
         }
-        if cause.downcast_ref::<tet_mesh::MeshError>().is_some() {
+        if cause.downcast_ref::<tet_mesh::MeshError>().is_some()
+            || cause.downcast_ref::<tet_delaunay::DelaunayError>().is_some()
+        {
             return 4;
         }
         if cause.downcast_ref::<tet_bundle::BundleError>().is_some() || cause.downcast_ref::<std::io::Error>().is_some()

@@ -1,11 +1,12 @@
 //! `tetprep convert`: read → tetrahedralize → validate → adjacency → write.
 
-use crate::cli::{ConvertArgs, EndianArg, NanArg, SplitArg};
+use crate::cli::{ConvertArgs, EndianArg, ModeArg, NanArg, SplitArg};
 use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use std::time::{Duration, Instant};
 use tet_bundle::{Bundle, BundleMeta};
+use tet_delaunay::{triangulate_cloud, CloudMode, DelaunayOptions};
 use tet_io::cursor::Endian;
 use tet_io::{plot3d::Plot3dOptions, raw::RawSpec, ReadOptions};
 use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions, NanPolicy, SplitMode, Step};
@@ -82,8 +83,29 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
 
     progress.step("reading");
     let t = Instant::now();
-    let source = tet_io::read_file(&args.input, &opts).context("reading the input failed")?;
+    let mut source = tet_io::read_file(&args.input, &opts).context("reading the input failed")?;
     timings.push(("read", t.elapsed().as_secs_f64()));
+
+    // A point cloud (points, no cells) is tetrahedralized first; from then
+    // on it is a mesh like any other.
+    let cloud = if source.num_cells() == 0 && !source.points.is_empty() {
+        progress.step("tetrahedralizing the point cloud");
+        let t = Instant::now();
+        let mode = match args.mode {
+            ModeArg::Delaunay => CloudMode::Delaunay,
+            ModeArg::Layered => CloudMode::Layered,
+        };
+        let dopts = DelaunayOptions { max_circumradius: args.max_circumradius };
+        let r = triangulate_cloud(&mut source, mode, &dopts, args.merge_tolerance, matches!(args.nan, NanArg::Drop))
+            .with_context(|| format!("tetrahedralizing the points of {} failed", args.input.display()))?;
+        timings.push(("tetrahedralize_points", t.elapsed().as_secs_f64()));
+        Some(r)
+    } else {
+        if args.max_circumradius.is_some() || matches!(args.mode, ModeArg::Layered) {
+            bail!("--mode layered and --max-circumradius apply to point clouds; {} has cells", args.input.display());
+        }
+        None
+    };
 
     let convert_opts = ConvertOptions {
         split: match args.split {
@@ -128,7 +150,31 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     })?;
     timings.push(("adjacency", t.elapsed().as_secs_f64()));
 
-    let split = if source.blocks.iter().any(|b| matches!(b, tet_mesh::Block::Structured { .. })) {
+    let mut findings: Vec<String> = Vec::new();
+    let split = if let Some(c) = &cloud {
+        match c.mode {
+            CloudMode::Delaunay => {
+                findings.push(format!(
+                    "Delaunay tetrahedralization of {} distinct points: {} tets{}",
+                    c.distinct_points,
+                    c.tets,
+                    if c.fills_convex_hull { ", filling the convex hull" } else { "" }
+                ));
+                if c.removed_cells > 0 {
+                    findings.push(format!(
+                        "removed {} hull-filling cells with circumradius above {}; the domain is no longer the convex hull",
+                        c.removed_cells,
+                        args.max_circumradius.unwrap_or(f64::NAN)
+                    ));
+                }
+                "delaunay"
+            }
+            CloudMode::Layered => {
+                findings.push(format!("layered: {} layers × {} columns: {} tets", c.layers, c.columns, c.tets));
+                "layered"
+            }
+        }
+    } else if source.blocks.iter().any(|b| matches!(b, tet_mesh::Block::Structured { .. })) {
         match convert_opts.split {
             SplitMode::Five => "5",
             SplitMode::Six => "6",
@@ -143,7 +189,8 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         source_cells: report.source_cells as u64,
         split_tets: report.split_tets as u64,
         split: split.into(),
-        findings: report.findings.iter().map(|f| f.to_string()).collect(),
+        delaunay: cloud.as_ref().is_some_and(|c| c.fills_convex_hull),
+        findings: findings.into_iter().chain(report.findings.iter().map(|f| f.to_string())).collect(),
         ..Default::default()
     };
     drop(source);

@@ -118,7 +118,7 @@ pub fn read(bytes: &[u8], columns: Option<&[String]>) -> Result<SourceMesh, Form
     let mut t = TextCursor::new(bytes);
     let (first_line, first) =
         next_data(&mut t).ok_or_else(|| FormatError::new(Location::Whole, "the point table has no data lines"))?;
-    let sep = Separator::detect(&first);
+    let sep = Separator::detect(first);
     let mut tok = Vec::new();
     sep.split(first, &mut tok);
     let width = tok.len();
@@ -154,7 +154,9 @@ pub fn read(bytes: &[u8], columns: Option<&[String]>) -> Result<SourceMesh, Form
             if width > 3 {
                 notes.push(format!("no header: columns taken as x, y, z, column_4 … column_{width}"));
             }
-            (0..width).map(|k| if k < 3 { ["x", "y", "z"][k].to_string() } else { format!("column_{}", k + 1) }).collect()
+            (0..width)
+                .map(|k| if k < 3 { ["x", "y", "z"][k].to_string() } else { format!("column_{}", k + 1) })
+                .collect()
         }
     };
 
@@ -200,11 +202,7 @@ pub fn read(bytes: &[u8], columns: Option<&[String]>) -> Result<SourceMesh, Form
     let mut values: Vec<Vec<f64>> = field_names.iter().map(|_| Vec::new()).collect();
     let mut pending = if header { None } else { Some((first_line, first)) };
     let cells = &mut tok;
-    loop {
-        let (line_no, line) = match pending.take().or_else(|| next_data(&mut t)) {
-            Some(l) => l,
-            None => break,
-        };
+    while let Some((line_no, line)) = pending.take().or_else(|| next_data(&mut t)) {
         let at = Location::Line(line_no);
         sep.split(line, cells);
         if cells.len() != width {

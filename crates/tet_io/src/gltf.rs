@@ -67,9 +67,8 @@ fn load_buffers(
                 doc.blob.clone().ok_or_else(|| whole(format!("buffer {i} refers to a GLB BIN chunk the file lacks")))?
             }
             ::gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
-                let (_, b64) = uri
-                    .split_once(";base64,")
-                    .ok_or_else(|| whole(format!("buffer {i}: data URI is not base64")))?;
+                let (_, b64) =
+                    uri.split_once(";base64,").ok_or_else(|| whole(format!("buffer {i}: data URI is not base64")))?;
                 base64::engine::general_purpose::STANDARD
                     .decode(b64.trim())
                     .map_err(|e| whole(format!("buffer {i}: bad base64 in data URI: {e}")))?
@@ -87,7 +86,11 @@ fn load_buffers(
 
 /// Decodes an accessor to `count × components` f64 values, checking every
 /// byte range first.
-fn accessor_values(acc: &::gltf::Accessor, buffers: &[Vec<u8>], input_len: usize) -> Result<(Vec<f64>, usize), FormatError> {
+fn accessor_values(
+    acc: &::gltf::Accessor,
+    buffers: &[Vec<u8>],
+    input_len: usize,
+) -> Result<(Vec<f64>, usize), FormatError> {
     let i = acc.index();
     let dims = match acc.dimensions() {
         Dimensions::Scalar => 1,

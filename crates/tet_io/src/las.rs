@@ -11,7 +11,8 @@
 //! or by the `laszip encoded` VLR; its points are decompressed to the plain
 //! LAS record layout and then decoded like LAS. A LAZ file that declares more
 //! than [`MAX_LAZ_RATIO`] times its compressed size in points is refused
-//! before anything is allocated.
+//! before anything is allocated, and a panic inside the LASzip decoder on
+//! corrupt data is caught and reported as this file's error.
 
 use std::io::Cursor;
 
@@ -131,7 +132,12 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
         if !scale[k].is_finite() || scale[k] == 0.0 || !offset[k].is_finite() {
             return Err(FormatError::new(
                 Location::Byte(131 + 8 * k as u64),
-                format!("{} scale {} / offset {} must be finite and the scale non-zero", ["x", "y", "z"][k], scale[k], offset[k]),
+                format!(
+                    "{} scale {} / offset {} must be finite and the scale non-zero",
+                    ["x", "y", "z"][k],
+                    scale[k],
+                    offset[k]
+                ),
             ));
         }
     }
@@ -168,10 +174,8 @@ fn decompress(bytes: &[u8], h: &Header, vlr_payload: &[u8], count: usize) -> Res
         ));
     }
     let compressed = bytes.len() - h.point_offset;
-    let plain = count
-        .checked_mul(h.record_len)
-        .filter(|&n| n <= compressed.saturating_mul(MAX_LAZ_RATIO))
-        .ok_or_else(|| {
+    let plain = count.checked_mul(h.record_len).filter(|&n| n <= compressed.saturating_mul(MAX_LAZ_RATIO)).ok_or_else(
+        || {
             FormatError::new(
                 at,
                 format!(
@@ -179,13 +183,22 @@ fn decompress(bytes: &[u8], h: &Header, vlr_payload: &[u8], count: usize) -> Res
                     h.record_len
                 ),
             )
-        })?;
+        },
+    )?;
     let mut out = vec![0u8; plain];
-    let mut src = Cursor::new(bytes);
-    src.set_position(h.point_offset as u64);
-    let mut dec = laz::LasZipDecompressor::new(src, vlr)
-        .map_err(|e| FormatError::new(at, format!("cannot start LAZ decompression: {e}")))?;
-    dec.decompress_many(&mut out).map_err(|e| FormatError::new(at, format!("LAZ point data is corrupt or truncated: {e}")))?;
+    // The `laz` decoder asserts and indexes on values read from the stream,
+    // so corrupt data can panic inside it; that panic is this file's error.
+    // (It still prints the panic message; with panic = "abort" it aborts.)
+    let run = || -> Result<(), FormatError> {
+        let mut src = Cursor::new(bytes);
+        src.set_position(h.point_offset as u64);
+        let mut dec = laz::LasZipDecompressor::new(src, vlr)
+            .map_err(|e| FormatError::new(at, format!("cannot start LAZ decompression: {e}")))?;
+        dec.decompress_many(&mut out)
+            .map_err(|e| FormatError::new(at, format!("LAZ point data is corrupt or truncated: {e}")))
+    };
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(run))
+        .unwrap_or_else(|_| Err(FormatError::new(at, "LAZ point data is corrupt: the LASzip decoder failed")))?;
     Ok(out)
 }
 
@@ -315,9 +328,9 @@ mod tests {
     #[test]
     fn format_0_scale_offset_and_fields() {
         let mut f = header(0, 20, 2);
-        for (xyz, i, cls) in [([100, 200, 300], 7u16, 2u8), ([-100, 0, 5], 9, 0x21)] {
+        for (xyz, i, cls) in [([100i32, 200, 300], 7u16, 2u8), ([-100, 0, 5], 9, 0x21)] {
             for v in xyz {
-                f.extend_from_slice(&(v as i32).to_le_bytes());
+                f.extend_from_slice(&v.to_le_bytes());
             }
             f.extend_from_slice(&i.to_le_bytes());
             f.push(0b0001_0010); // return 2 of 2

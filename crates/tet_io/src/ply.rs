@@ -235,7 +235,10 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
         }
     }
     for el in header.elements.iter().filter(|e| e.name != "vertex") {
-        notes.push(format!("skipped the element '{}' ({} records): a point cloud keeps only vertices", el.name, el.count));
+        notes.push(format!(
+            "skipped the element '{}' ({} records): a point cloud keeps only vertices",
+            el.name, el.count
+        ));
     }
 
     // Allocations grow with what the input actually holds: every record
@@ -339,7 +342,8 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
                                 }
                                 PropKind::List { count, item } => {
                                     let at = c.location();
-                                    let n = list_len(scalar_at(c.take(count.size(), &what)?, count, e), at, &prop.name)?;
+                                    let n =
+                                        list_len(scalar_at(c.take(count.size(), &what)?, count, e), at, &prop.name)?;
                                     c.take_array(n, item.size(), &what)?;
                                 }
                             }

@@ -28,7 +28,7 @@ pub enum Command {
     /// (header line or --columns).
     ///
     /// Example: tetprep convert bluntfinxyz.bin --q bluntfinq.bin --scalar density -o bluntfin.tetb
-    Convert(ConvertArgs),
+    Convert(Box<ConvertArgs>),
     /// Print a bundle's counts, bounds, scalar range, cell sizes and boundary facts.
     Info {
         bundle: PathBuf,
@@ -170,7 +170,7 @@ fn parse_f64x3(s: &str) -> Result<[f64; 3], String> {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Convert(args) => crate::convert::run(args),
+        Command::Convert(args) => crate::convert::run(*args),
         Command::Info { bundle, json } => crate::info::run(&bundle, json),
         Command::Export { bundle, output } => crate::info::export(&bundle, &output),
     }

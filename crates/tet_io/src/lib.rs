@@ -1,6 +1,8 @@
 //! Input readers for meshes, grids and volumes, and VTK XML export.
 //!
-//! Every reader turns a file into a [`tet_mesh::SourceMesh`]; [`read_file`]
+//! Every reader turns a file into a [`tet_mesh::SourceMesh`]; point-cloud
+//! readers ([`ply`], [`las`] with LAZ, [`obj`], [`gltf`], [`csv`]) return
+//! points and point fields with no cells, for Delaunay. [`read_file`]
 //! detects the format from the content or the extension (or takes
 //! [`ReadOptions::format`]) and wraps any failure in a [`ReadError`] that
 //! names the format, the place (line or byte offset) and the path.
@@ -20,10 +22,15 @@
 
 #![forbid(unsafe_code)]
 
+pub mod csv;
 pub mod cursor;
+pub mod gltf;
 pub mod gmsh;
+pub mod las;
 pub mod nrrd;
+pub mod obj;
 pub mod plot3d;
+pub mod ply;
 pub mod raw;
 pub mod tetgen;
 pub mod vtk_legacy;
@@ -119,6 +126,16 @@ pub enum Format {
     Raw,
     /// NRRD header (attached or detached data; raw or gzip encoding).
     Nrrd,
+    /// PLY point cloud (ascii or binary): the vertex element.
+    Ply,
+    /// LAS 1.0–1.4 lidar, uncompressed or LAZ.
+    Las,
+    /// Wavefront OBJ vertex list.
+    Obj,
+    /// glTF / GLB `POINTS` primitives.
+    Gltf,
+    /// CSV / XYZ point table (header line or [`ReadOptions::columns`]).
+    Csv,
 }
 
 impl Format {
@@ -133,10 +150,15 @@ impl Format {
             Format::TetGen => "tetgen",
             Format::Raw => "raw",
             Format::Nrrd => "nrrd",
+            Format::Ply => "ply",
+            Format::Las => "las",
+            Format::Obj => "obj",
+            Format::Gltf => "gltf",
+            Format::Csv => "csv",
         }
     }
 
-    pub const ALL: [Format; 8] = [
+    pub const ALL: [Format; 13] = [
         Format::VtkLegacy,
         Format::VtkXml,
         Format::Pvtu,
@@ -145,10 +167,28 @@ impl Format {
         Format::TetGen,
         Format::Raw,
         Format::Nrrd,
+        Format::Ply,
+        Format::Las,
+        Format::Obj,
+        Format::Gltf,
+        Format::Csv,
     ];
 
+    /// Parses a `--format` name; `laz`, `glb` and `xyz-points` are accepted
+    /// as aliases of `las`, `gltf` and `csv`.
     pub fn from_name(name: &str) -> Option<Format> {
+        match name.to_ascii_lowercase().as_str() {
+            "laz" => return Some(Format::Las),
+            "glb" => return Some(Format::Gltf),
+            "xyz-points" | "tsv" => return Some(Format::Csv),
+            _ => {}
+        }
         Format::ALL.into_iter().find(|f| f.name().eq_ignore_ascii_case(name))
+    }
+
+    /// True for formats that hold scattered points and no cells.
+    pub fn is_point_cloud(self) -> bool {
+        matches!(self, Format::Ply | Format::Las | Format::Obj | Format::Gltf | Format::Csv)
     }
 }
 
@@ -163,6 +203,11 @@ impl fmt::Display for Format {
             Format::TetGen => "TetGen",
             Format::Raw => "raw volume",
             Format::Nrrd => "NRRD",
+            Format::Ply => "PLY",
+            Format::Las => "LAS/LAZ",
+            Format::Obj => "OBJ",
+            Format::Gltf => "glTF",
+            Format::Csv => "CSV",
         })
     }
 }
@@ -177,10 +222,14 @@ pub struct ReadOptions {
     pub plot3d: plot3d::Plot3dOptions,
     /// Layout of a raw volume (required for [`Format::Raw`]).
     pub raw: Option<raw::RawSpec>,
+    /// Column names of a CSV/XYZ point table, in order (`x`, `y`, `z` and
+    /// field names; `_` skips a column). Replaces the file's header line.
+    pub columns: Option<Vec<String>>,
 }
 
 /// Reads a single in-memory file of a format that needs no companion file or
-/// options (legacy VTK, VTK XML, Gmsh, NRRD with attached data). Used by
+/// options (legacy VTK, VTK XML, Gmsh, NRRD with attached data, the point
+/// clouds; glTF only with embedded buffers, CSV with a header line). Used by
 /// tests and fuzz targets.
 pub fn read_bytes(bytes: &[u8], format: Format) -> Result<SourceMesh, FormatError> {
     match format {
@@ -191,6 +240,13 @@ pub fn read_bytes(bytes: &[u8], format: Format) -> Result<SourceMesh, FormatErro
             Err(std::io::Error::new(std::io::ErrorKind::NotFound, format!("detached data file '{name}' not available")))
         }),
         Format::Plot3d => plot3d::read(bytes, None, &plot3d::Plot3dOptions::default()),
+        Format::Ply => ply::read(bytes),
+        Format::Las => las::read(bytes),
+        Format::Obj => obj::read(bytes),
+        Format::Csv => csv::read(bytes, None),
+        Format::Gltf => gltf::read(bytes, &mut |uri: &str| {
+            Err(std::io::Error::new(std::io::ErrorKind::NotFound, format!("external buffer '{uri}' not available")))
+        }),
         Format::Pvtu | Format::TetGen | Format::Raw => Err(FormatError::new(
             Location::Whole,
             format!("{format} input needs companion files or options; use read_file"),
@@ -221,6 +277,26 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
     if text.starts_with("NRRD000") {
         return Some(Format::Nrrd);
     }
+    if head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n") {
+        return Some(Format::Ply);
+    }
+    if head.starts_with(b"LASF") {
+        return Some(Format::Las);
+    }
+    if head.starts_with(b"glTF") || (text.trim_start().starts_with('{') && text.contains("\"asset\"")) {
+        return Some(Format::Gltf);
+    }
+    match ext.as_str() {
+        "ply" => return Some(Format::Ply),
+        "las" | "laz" => return Some(Format::Las),
+        "obj" => return Some(Format::Obj),
+        "gltf" | "glb" => return Some(Format::Gltf),
+        "csv" | "tsv" | "txt" | "pts" => return Some(Format::Csv),
+        // `.xyz` is both PLOT3D's grid extension and the plain point-table
+        // one: a column spec or a table-like first line decides.
+        "xyz" if opts.columns.is_some() || csv::looks_like_point_table(head) => return Some(Format::Csv),
+        _ => {}
+    }
     match ext.as_str() {
         "vtk" => Some(Format::VtkLegacy),
         "vtu" | "vts" | "vti" | "vtr" => Some(Format::VtkXml),
@@ -231,6 +307,7 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
         _ if opts.raw.is_some() => Some(Format::Raw),
         "xyz" | "x" | "g" | "p3d" | "grd" | "bin" | "q" | "fmt" => Some(Format::Plot3d),
         _ if opts.q_path.is_some() => Some(Format::Plot3d),
+        _ if opts.columns.is_some() => Some(Format::Csv),
         _ => None,
     }
 }
@@ -298,7 +375,22 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadErro
             });
             result.map_err(|e| malformed(e, path, detached.as_deref()))
         }
-        Format::VtkLegacy | Format::VtkXml | Format::Gmsh => {
+        Format::Csv => {
+            let bytes = read_all(path)?;
+            csv::read(&bytes, opts.columns.as_deref()).map_err(|e| malformed(e, path, None))
+        }
+        Format::Gltf => {
+            let bytes = read_all(path)?;
+            let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+            let mut external: Option<PathBuf> = None;
+            let result = gltf::read(&bytes, &mut |uri: &str| {
+                let p = dir.join(uri);
+                external = Some(p.clone());
+                std::fs::read(p)
+            });
+            result.map_err(|e| malformed(e, path, external.as_deref()))
+        }
+        Format::VtkLegacy | Format::VtkXml | Format::Gmsh | Format::Ply | Format::Las | Format::Obj => {
             let bytes = read_all(path)?;
             read_bytes(&bytes, format).map_err(|e| malformed(e, path, None))
         }

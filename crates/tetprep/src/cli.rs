@@ -23,10 +23,12 @@ pub enum Command {
     /// Formats (detected from content or extension; --format to force):
     /// legacy VTK (.vtk), VTK XML (.vtu .vts .vti .pvtu), PLOT3D grid (+ --q
     /// solution), Gmsh (.msh 2.2/4.1), TetGen (.node/.ele), NRRD (.nrrd
-    /// .nhdr), raw volumes (--format raw --dims --type --endian).
+    /// .nhdr), raw volumes (--format raw --dims --type --endian); point clouds:
+    /// PLY, LAS/LAZ, OBJ vertex lists, glTF/GLB POINTS, CSV/XYZ tables
+    /// (header line or --columns).
     ///
     /// Example: tetprep convert bluntfinxyz.bin --q bluntfinq.bin --scalar density -o bluntfin.tetb
-    Convert(ConvertArgs),
+    Convert(Box<ConvertArgs>),
     /// Print a bundle's counts, bounds, scalar range, cell sizes and boundary facts.
     Info {
         bundle: PathBuf,
@@ -75,7 +77,8 @@ pub struct ConvertArgs {
     /// Output bundle.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Input format: vtk, vtk-xml, pvtu, plot3d, gmsh, tetgen, raw, nrrd.
+    /// Input format: vtk, vtk-xml, pvtu, plot3d, gmsh, tetgen, raw, nrrd,
+    /// ply, las (also LAZ), obj, gltf (also GLB), csv.
     #[arg(long, value_parser = parse_format)]
     pub format: Option<tet_io::Format>,
     /// Scalar to keep: a field name (a vector gives its magnitude), NAME:x|y|z|N
@@ -111,6 +114,11 @@ pub struct ConvertArgs {
     /// No progress bars or summary (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
+
+    /// CSV/XYZ point tables: column names in order, e.g. x,y,z,value (`_`
+    /// skips a column). Replaces the file's header line.
+    #[arg(long, value_delimiter = ',', help_heading = "Point tables")]
+    pub columns: Option<Vec<String>>,
 
     #[command(flatten, next_help_heading = "PLOT3D")]
     pub plot3d: Plot3dArgs,
@@ -177,7 +185,7 @@ fn parse_f64x3(s: &str) -> Result<[f64; 3], String> {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Convert(args) => crate::convert::run(args),
+        Command::Convert(args) => crate::convert::run(*args),
         Command::Info { bundle, json } => crate::info::run(&bundle, json),
         Command::Export { bundle, output } => crate::info::export(&bundle, &output),
     }

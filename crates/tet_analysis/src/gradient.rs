@@ -170,8 +170,8 @@ fn tet_average_at(v: usize, vt: &VertexTets, tg: &TetGradients) -> [f64; 3] {
     let mut vol = 0.0;
     for &t in vt.of(v) {
         let t = t as usize;
-        for a in 0..3 {
-            w[a] += tg.six_vol_gradient[t][a];
+        for (wa, ga) in w.iter_mut().zip(&tg.six_vol_gradient[t]) {
+            *wa += ga;
         }
         vol += tg.six_volume[t];
     }
@@ -286,17 +286,15 @@ pub(crate) fn sym_eigen3(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
             let c = 1.0 / (t * t + 1.0).sqrt();
             let s = t * c;
             // A ← Jᵀ A J with J the rotation in the (p, q) plane.
-            for k in 0..3 {
-                let akp = a[k][p];
-                let akq = a[k][q];
-                a[k][p] = c * akp - s * akq;
-                a[k][q] = s * akp + c * akq;
+            for row in a.iter_mut() {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
             }
+            let (rp, rq) = (a[p], a[q]);
             for k in 0..3 {
-                let apk = a[p][k];
-                let aqk = a[q][k];
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
+                a[p][k] = c * rp[k] - s * rq[k];
+                a[q][k] = s * rp[k] + c * rq[k];
             }
             // Columns of V are the eigenvectors.
             for row in v.iter_mut() {

@@ -17,7 +17,7 @@ fn linear_fields_are_exact_even_far_from_the_origin() {
     let lin = |p: [f64; 3]| 3.0 - 2.0 * p[0] + 0.7 * p[1] + 5.0 * p[2];
     for offset in [0.0, 1e6] {
         // Jittered interior: no symmetry helps the fit.
-        let m = grid(7, 0.6, offset, |p| lin(p));
+        let m = grid(7, 0.6, offset, lin);
         let an = Analyzer::from_mesh(&m).unwrap();
         for method in METHODS {
             for (v, g) in an.vertex_gradients(method).iter().enumerate() {

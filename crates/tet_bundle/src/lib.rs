@@ -38,6 +38,7 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use tet_analysis::{Analysis, CellRanges, FrequencyLimits, GradientMethod, Histograms, SegmentFacts, VertexGradients};
 use tet_mesh::{Adjacency, Field, MeshStats, TetMesh, NO_NEIGHBOR};
 
 pub use layout::{SectionEntry, FORMAT_VERSION, MAGIC};
@@ -92,6 +93,20 @@ pub struct Bundle {
     pub meta: BundleMeta,
     pub mesh: TetMesh,
     pub adjacency: Adjacency,
+    /// Gradients, per-cell ranges, histograms and frequency limits, when
+    /// `tetprep convert --gradients/--histogram` or `tetprep analyze` stored
+    /// them (optional sections `ANALYSIS`, `CELLRANGE`, `CELLGRANGE`,
+    /// `GRADIENT`; bundles without them read as `None`).
+    pub analysis: Option<Analysis>,
+}
+
+/// What the `ANALYSIS` section holds (the arrays have their own sections).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct AnalysisRecord {
+    gradient_method: Option<GradientMethod>,
+    facts: SegmentFacts,
+    limits: FrequencyLimits,
+    histograms: Option<Histograms>,
 }
 
 /// Field descriptors stored in `META`'s companion `FIELDS` section.
@@ -118,7 +133,7 @@ impl Bundle {
         if meta.writer.is_empty() {
             meta.writer = format!("tetkit {}", env!("CARGO_PKG_VERSION"));
         }
-        Bundle { meta, mesh, adjacency }
+        Bundle { meta, mesh, adjacency, analysis: None }
     }
 
     /// The sections in file order, payloads borrowed where possible.
@@ -146,6 +161,24 @@ impl Bundle {
         ];
         for (i, f) in self.mesh.point_fields.iter().enumerate() {
             sections.push((format!("FLD{i:05}"), layout::le_bytes(&f.values)));
+        }
+        if let Some(a) = &self.analysis {
+            let record = AnalysisRecord {
+                gradient_method: a.gradients.as_ref().map(|g| g.method),
+                facts: a.facts,
+                limits: a.limits,
+                histograms: a.histograms.clone(),
+            };
+            let bytes =
+                bincode::serde::encode_to_vec(&record, bincode::config::standard()).expect("analysis always encodes");
+            sections.push(("ANALYSIS".into(), Cow::Owned(bytes)));
+            sections.push(("CELLRANGE".into(), layout::le_bytes(a.ranges.scalar.as_flattened())));
+            if let Some(g) = &a.ranges.gradient_magnitude {
+                sections.push(("CELLGRANGE".into(), layout::le_bytes(g.as_flattened())));
+            }
+            if let Some(g) = &a.gradients {
+                sections.push(("GRADIENT".into(), layout::le_bytes(g.per_point.as_flattened())));
+            }
         }
         sections
     }
@@ -267,15 +300,74 @@ impl Bundle {
             }
             point_fields.push(Field { name: info.name.clone(), num_components: nc, values });
         }
+        let section = |name: &str| {
+            table.iter().find(|e| e.name == name).map(|e| &bytes[e.offset as usize..(e.offset + e.length) as usize])
+        };
+        let analysis = match section("ANALYSIS") {
+            None => None,
+            Some(sec) => Some(read_analysis(sec, &section, np, tets.len()).map_err(damaged)?),
+        };
         Ok(Bundle {
             meta: record.meta,
             mesh: TetMesh { points, tets, scalar_name: record.scalar_name, scalar, point_fields },
             adjacency: Adjacency { neighbors, boundary_faces, convex: record.convex },
+            analysis,
         })
+    }
+
+    /// Sets the analysis part (replacing any earlier one).
+    pub fn with_analysis(mut self, analysis: Analysis) -> Bundle {
+        self.analysis = Some(analysis);
+        self
     }
 
     /// Lists the sections of a bundle file without decoding them (for `info`).
     pub fn sections(bytes: &[u8], path: &Path) -> Result<Vec<SectionEntry>, BundleError> {
         layout::parse(bytes, path)
     }
+}
+
+/// Decodes the optional analysis sections; errors say what is inconsistent.
+fn read_analysis<'b>(
+    record_bytes: &[u8],
+    section: &dyn Fn(&str) -> Option<&'b [u8]>,
+    np: usize,
+    nt: usize,
+) -> Result<Analysis, String> {
+    let (record, _): (AnalysisRecord, usize) =
+        bincode::serde::decode_from_slice(record_bytes, bincode::config::standard().with_limit::<{ 1 << 28 }>())
+            .map_err(|e| format!("ANALYSIS section does not decode ({e})"))?;
+    if let Some(h) = &record.histograms {
+        h.check().map_err(|e| format!("ANALYSIS: {e}"))?;
+    }
+    let pairs = |name: &str, required: bool| -> Result<Option<Vec<[f64; 2]>>, String> {
+        let Some(sec) = section(name) else {
+            return if required { Err(format!("ANALYSIS present without {name}")) } else { Ok(None) };
+        };
+        let v = layout::le_to_f64s(sec, 2).map_err(|e| format!("{name}: {e}"))?;
+        if v.len() != 2 * nt {
+            return Err(format!("{name} has {} values for {nt} tets × 2", v.len()));
+        }
+        Ok(Some(v.chunks_exact(2).map(|c| [c[0], c[1]]).collect()))
+    };
+    let scalar = pairs("CELLRANGE", true)?.unwrap_or_default();
+    let gradient_magnitude = pairs("CELLGRANGE", false)?;
+    let gradients = match record.gradient_method {
+        None => None,
+        Some(method) => {
+            let sec = section("GRADIENT").ok_or("ANALYSIS names a gradient method but GRADIENT is missing")?;
+            let v = layout::le_to_f64s(sec, 3).map_err(|e| format!("GRADIENT: {e}"))?;
+            if v.len() != 3 * np {
+                return Err(format!("GRADIENT has {} values for {np} points × 3", v.len()));
+            }
+            Some(VertexGradients { method, per_point: v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() })
+        }
+    };
+    Ok(Analysis {
+        gradients,
+        ranges: CellRanges { scalar, gradient_magnitude },
+        facts: record.facts,
+        limits: record.limits,
+        histograms: record.histograms,
+    })
 }

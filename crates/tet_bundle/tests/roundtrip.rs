@@ -103,7 +103,55 @@ fn sample_in_formats_reads() {
     assert_eq!(b.mesh.scalar_name, "s");
     assert_eq!(b.adjacency.boundary_faces.len(), 12);
     assert!(b.adjacency.convex);
+    assert_eq!(b.analysis, None, "the v1 sample predates the analysis sections");
     assert!((b.meta.stats.total_volume - 1.0).abs() < 1e-12);
     tet_mesh::check_tet_mesh(&b.mesh).unwrap();
     tet_mesh::check_adjacency(&b.mesh.tets, &b.adjacency).unwrap();
+}
+
+fn analyzed_bundle() -> Bundle {
+    let b = sample_bundle();
+    let an = tet_analysis::Analyzer::from_mesh(&b.mesh).unwrap();
+    let opts = tet_analysis::AnalysisOptions {
+        gradients: Some(tet_analysis::GradientMethod::LeastSquares),
+        histogram: Some(tet_analysis::HistogramOptions { scalar_bins: 8, gradient_bins: 4, ..Default::default() }),
+        ..Default::default()
+    };
+    let a = an.analyze(&opts).unwrap();
+    b.with_analysis(a)
+}
+
+#[test]
+fn analysis_sections_round_trip_and_are_optional() {
+    let b = analyzed_bundle();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.tetb");
+    b.write(&path).unwrap();
+    let back = Bundle::read(&path).unwrap();
+    assert_eq!(back, b);
+    let a = back.analysis.as_ref().unwrap();
+    assert_eq!(a.gradients.as_ref().unwrap().per_point.len(), b.mesh.points.len());
+    let names: Vec<String> = Bundle::sections(&b.to_bytes(), &path).unwrap().into_iter().map(|s| s.name).collect();
+    for n in ["ANALYSIS", "CELLRANGE", "CELLGRANGE", "GRADIENT"] {
+        assert!(names.iter().any(|x| x == n), "{names:?}");
+    }
+    // Without gradients: no GRADIENT or CELLGRANGE section.
+    let mut plain = b.clone();
+    let pa = plain.analysis.as_mut().unwrap();
+    pa.gradients = None;
+    pa.ranges.gradient_magnitude = None;
+    pa.histograms = None;
+    let bytes = plain.to_bytes();
+    assert_eq!(Bundle::from_bytes(&bytes, &path).unwrap(), plain);
+    // A bundle without analysis reads as before.
+    assert_eq!(Bundle::from_bytes(&sample_bundle().to_bytes(), &path).unwrap().analysis, None);
+}
+
+#[test]
+fn damaged_analysis_sections_are_errors() {
+    let bytes = analyzed_bundle().to_bytes();
+    let p = Path::new("a.tetb");
+    for len in (0..bytes.len()).step_by(13) {
+        assert!(Bundle::from_bytes(&bytes[..len], p).is_err(), "truncated at {len} was accepted");
+    }
 }

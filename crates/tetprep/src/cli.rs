@@ -42,6 +42,82 @@ pub enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Add gradients, histograms, per-cell ranges and frequency limits to a bundle.
+    ///
+    /// Ranges, segment facts and frequency limits are always computed; what the
+    /// bundle already has is kept (and recomputed alongside).
+    ///
+    /// Example: tetprep analyze bluntfin.tetb --gradients --histogram
+    Analyze {
+        bundle: PathBuf,
+        /// Output bundle (default: rewrite BUNDLE in place, atomically).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        #[command(flatten)]
+        analysis: AnalysisArgs,
+        /// Print the summary as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Draw the volume-weighted 2D histogram (scalar × |∇s|) as a PNG, with
+    /// the 1D histogram along the top; computed on the fly if not stored.
+    ///
+    /// Example: tetprep hist bluntfin.tetb -o hist.png --csv hist.csv
+    Hist {
+        bundle: PathBuf,
+        /// Output PNG.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also write the bin volumes as CSV.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+        /// Logarithmic colour and bar scale (the default).
+        #[arg(long, conflicts_with = "linear")]
+        log: bool,
+        /// Linear colour and bar scale.
+        #[arg(long)]
+        linear: bool,
+        /// Recompute with these bins (SCALAR,GRADIENT) instead of the stored histogram.
+        #[arg(long, value_parser = parse_bins)]
+        bins: Option<[u32; 2]>,
+        /// Scalar axis range LO,HI (recomputes).
+        #[arg(long, value_parser = parse_range)]
+        scalar_range: Option<(f64, f64)>,
+        /// |∇s| axis range LO,HI (recomputes).
+        #[arg(long, value_parser = parse_range)]
+        gradient_range: Option<(f64, f64)>,
+    },
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum GradientArg {
+    /// Least squares over each vertex's one-ring.
+    Lsq,
+    /// Volume-weighted average of the per-tet gradients.
+    TetAverage,
+}
+
+/// What `convert` and `analyze` compute beyond the mesh.
+#[derive(Debug, Clone, Args)]
+pub struct AnalysisArgs {
+    /// Compute and store per-vertex gradients of the scalar.
+    #[arg(long)]
+    pub gradients: bool,
+    /// How per-vertex gradients are computed.
+    #[arg(long, value_enum, default_value = "lsq")]
+    pub gradient_method: GradientArg,
+    /// Compute and store the volume-weighted 1D and scalar × |∇s| histograms.
+    #[arg(long)]
+    pub histogram: bool,
+    /// Histogram bins: SCALAR,GRADIENT.
+    #[arg(long, value_parser = parse_bins, default_value = "256,256")]
+    pub bins: [u32; 2],
+    /// Histogram scalar range LO,HI (default: the scalar's range).
+    #[arg(long, value_parser = parse_range)]
+    pub scalar_range: Option<(f64, f64)>,
+    /// Histogram |∇s| range LO,HI (default: 0 to the 99.9% volume quantile).
+    #[arg(long, value_parser = parse_range)]
+    pub gradient_range: Option<(f64, f64)>,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -111,6 +187,8 @@ pub struct ConvertArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten, next_help_heading = "Analysis")]
+    pub analysis: AnalysisArgs,
     /// No progress bars or summary (errors are still printed).
     #[arg(short, long)]
     pub quiet: bool,
@@ -171,6 +249,25 @@ fn parse_format(s: &str) -> Result<tet_io::Format, String> {
     })
 }
 
+fn parse_bins(s: &str) -> Result<[u32; 2], String> {
+    let v: Vec<u32> =
+        s.split(',').map(|t| t.trim().parse::<u32>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    let b: [u32; 2] = v.try_into().map_err(|_| format!("expected SCALAR,GRADIENT bin counts, got '{s}'"))?;
+    if b.iter().any(|&n| n == 0 || n > tet_analysis::histogram::MAX_BINS) {
+        return Err(format!("bin counts must be 1..={}", tet_analysis::histogram::MAX_BINS));
+    }
+    Ok(b)
+}
+
+fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let v: Vec<f64> =
+        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    match v[..] {
+        [lo, hi] if lo.is_finite() && hi.is_finite() && lo < hi => Ok((lo, hi)),
+        _ => Err(format!("expected LO,HI with LO < HI, got '{s}'")),
+    }
+}
+
 fn parse_usize3(s: &str) -> Result<[usize; 3], String> {
     let v: Vec<usize> =
         s.split(',').map(|t| t.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
@@ -188,6 +285,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Convert(args) => crate::convert::run(*args),
         Command::Info { bundle, json } => crate::info::run(&bundle, json),
         Command::Export { bundle, output } => crate::info::export(&bundle, &output),
+        Command::Analyze { bundle, output, analysis, json } => {
+            crate::analysis::run_analyze(&bundle, output.as_deref(), &analysis, json)
+        }
+        Command::Hist { bundle, output, csv, log: _, linear, bins, scalar_range, gradient_range } => {
+            crate::plot::run_hist(&bundle, &output, csv.as_deref(), !linear, bins, scalar_range, gradient_range)
+        }
     }
 }
 
@@ -201,6 +304,9 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
             || cause.downcast_ref::<tet_delaunay::DelaunayError>().is_some()
         {
             return 4;
+        }
+        if cause.downcast_ref::<tet_analysis::AnalysisError>().is_some() {
+            return 2;
         }
         if cause.downcast_ref::<tet_bundle::BundleError>().is_some() || cause.downcast_ref::<std::io::Error>().is_some()
         {

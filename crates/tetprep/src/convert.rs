@@ -196,8 +196,15 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     drop(source);
     progress.step("writing the bundle");
     let t = Instant::now();
-    let bundle = Bundle::new(mesh, adjacency, meta);
+    let mut bundle = Bundle::new(mesh, adjacency, meta);
     timings.push(("stats", t.elapsed().as_secs_f64()));
+    if let Some(opts) = crate::analysis::requested(&args.analysis) {
+        progress.step("analysing the scalar");
+        let t = Instant::now();
+        let analysis = crate::analysis::analyze(&bundle, &opts)?;
+        bundle = bundle.with_analysis(analysis);
+        timings.push(("analysis", t.elapsed().as_secs_f64()));
+    }
     let t = Instant::now();
     bundle.write(&args.output).context("writing the bundle failed")?;
     timings.push(("write", t.elapsed().as_secs_f64()));

@@ -25,6 +25,12 @@ pub fn export(path: &Path, output: &Path) -> anyhow::Result<()> {
     let mesh = &bundle.mesh;
     let mut fields = vec![Field::new(mesh.scalar_name.clone(), 1, mesh.scalar.clone())];
     fields.extend(mesh.point_fields.iter().filter(|f| f.name != mesh.scalar_name).cloned());
+    if let Some(g) = bundle.analysis.as_ref().and_then(|a| a.gradients.as_ref()) {
+        let name = format!("{}_gradient", mesh.scalar_name);
+        fields.push(Field::new(name.clone(), 3, g.per_point.as_flattened().to_vec()));
+        let mag = g.per_point.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect();
+        fields.push(Field::new(format!("{name}_magnitude"), 1, mag));
+    }
     let file = std::fs::File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
     tet_io::vtk_xml::write_vtu(std::io::BufWriter::new(file), &mesh.points, &mesh.tets, &fields, &[])
         .with_context(|| format!("writing {} failed", output.display()))?;
@@ -40,6 +46,14 @@ pub fn export(path: &Path, output: &Path) -> anyhow::Result<()> {
 
 /// The JSON summary shared by `info --json` and `convert --json`.
 pub fn summary_json(b: &Bundle) -> Value {
+    let mut v = summary_json_mesh(b);
+    if let (Value::Object(m), Value::Object(a)) = (&mut v, crate::analysis::info_json(b)) {
+        m.extend(a);
+    }
+    v
+}
+
+fn summary_json_mesh(b: &Bundle) -> Value {
     let s = &b.meta.stats;
     json!({
         "format_version": FORMAT_VERSION,
@@ -107,6 +121,7 @@ pub fn summary_text(b: &Bundle) -> String {
         if b.adjacency.convex { "convex" } else { "not convex" },
         if m.delaunay { " (Delaunay)" } else { "" }
     );
+    o.push_str(&crate::analysis::info_text(b));
     if !m.findings.is_empty() {
         let _ = writeln!(o, "findings:");
         for f in &m.findings {

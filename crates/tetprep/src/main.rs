@@ -1,9 +1,12 @@
 //! `tetprep`: meshes, grids and volumes in, validated tetkit bundles out.
 use clap::Parser;
 
+mod analysis;
 mod cli;
 mod convert;
+mod font;
 mod info;
+mod plot;
 
 fn main() -> std::process::ExitCode {
     let args = cli::Cli::parse();

@@ -230,3 +230,93 @@ fn six_split_and_coordinate_scalar() {
     assert_eq!(v["scalar"]["name"], "x");
     assert_eq!(v["point_fields"].as_array().unwrap().len(), 0);
 }
+
+#[test]
+fn bluntfin_gradients_histogram_hist_png_and_analyze() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bf.tetb");
+    let (xyz, q) = (data("plot3d/bluntfinxyz.bin"), data("plot3d/bluntfinq.bin"));
+    let v = json(&tetprep(&[
+        "convert",
+        xyz.to_str().unwrap(),
+        "--q",
+        q.to_str().unwrap(),
+        "--scalar",
+        "density",
+        "--gradients",
+        "--histogram",
+        "--bins",
+        "64,32",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    assert!(v["timings_s"]["analysis"].as_f64().unwrap() > 0.0);
+    let info = json(&tetprep(&["info", out.to_str().unwrap(), "--json"]));
+    assert_eq!(info["gradients"], "lsq");
+    assert_eq!(info["histogram"]["scalar_bins"], 64);
+    let range = info["max_cell_scalar_range"].as_f64().unwrap();
+    assert!(range > 0.0 && range < 4.977 - 0.1926);
+    assert_eq!(info["frequency_limit"].as_f64().unwrap(), 1.0 / range);
+    assert!(info["frequency_limit_99"].as_f64().unwrap() >= info["frequency_limit"].as_f64().unwrap());
+    assert!(info["max_cell_diameter"].as_f64().unwrap() > 0.0);
+    assert!(info["table_resolution"]["triangle"].as_u64().unwrap() > 1);
+
+    let png = dir.path().join("h.png");
+    let csv = dir.path().join("h.csv");
+    let o = tetprep(&["hist", out.to_str().unwrap(), "-o", png.to_str().unwrap(), "--csv", csv.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(text.lines().filter(|l| l.starts_with("1d,")).count(), 64);
+    assert_eq!(text.lines().filter(|l| l.starts_with("2d,")).count(), 64 * 32);
+    // Every bin volume plus what fell off the axes is the mesh volume.
+    let mass: f64 = text
+        .lines()
+        .filter(|l| l.starts_with("2d,"))
+        .map(|l| l.rsplit(',').next().unwrap().parse::<f64>().unwrap())
+        .sum();
+    let outside: f64 = text.lines().next().unwrap().rsplit("joint_outside=").next().unwrap().parse().unwrap();
+    let total = info["total_volume"].as_f64().unwrap();
+    assert!((mass + outside - total).abs() < 1e-9 * total, "{mass} + {outside} vs {total}");
+
+    let vtu = dir.path().join("bf.vtu");
+    assert!(tetprep(&["export", out.to_str().unwrap(), "-o", vtu.to_str().unwrap()]).status.success());
+    let back = tet_io::read_file(&vtu, &Default::default()).unwrap();
+    assert!(back.point_fields.iter().any(|f| f.name == "density_gradient" && f.num_components == 3));
+    assert!(back.point_fields.iter().any(|f| f.name == "density_gradient_magnitude"));
+
+    // A plain bundle gains the analysis later, in place; limits are shown before.
+    let plain = dir.path().join("plain.tetb");
+    let o = tetprep(&[
+        "convert",
+        xyz.to_str().unwrap(),
+        "--q",
+        q.to_str().unwrap(),
+        "--scalar",
+        "density",
+        "-q",
+        "-o",
+        plain.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = json(&tetprep(&["info", plain.to_str().unwrap(), "--json"]));
+    assert_eq!(before["analysis_stored"], false);
+    assert_eq!(before["frequency_limit"], info["frequency_limit"]);
+    let a = json(&tetprep(&[
+        "analyze",
+        plain.to_str().unwrap(),
+        "--gradients",
+        "--gradient-method",
+        "tet-average",
+        "--json",
+    ]));
+    assert_eq!(a["gradients"], "tet-average");
+    let after = json(&tetprep(&["info", plain.to_str().unwrap(), "--json"]));
+    assert_eq!(after["analysis_stored"], true);
+    assert!(after["histogram"].is_null());
+
+    let bad = tetprep(&["hist", out.to_str().unwrap(), "-o", png.to_str().unwrap(), "--bins", "0,5"]);
+    assert_eq!(bad.status.code(), Some(2));
+}

@@ -1,0 +1,389 @@
+//! `tetprep hist`: the volume-weighted scalar × |∇s| histogram as a PNG
+//! (log or linear colour scale with a colour bar, the 1D histogram along the
+//! top, labelled axes) and optionally as CSV.
+
+use crate::font;
+use anyhow::Context;
+use std::io::Write;
+use std::path::Path;
+use tet_analysis::{Axis, HistogramOptions, Histograms, Scale};
+use tet_bundle::Bundle;
+
+/// An RGB image.
+struct Canvas {
+    w: usize,
+    h: usize,
+    px: Vec<u8>,
+}
+
+type Rgb = [u8; 3];
+const WHITE: Rgb = [255, 255, 255];
+const BLACK: Rgb = [0, 0, 0];
+const GREY: Rgb = [90, 90, 90];
+const EMPTY: Rgb = [246, 246, 246];
+const BAR: Rgb = [55, 80, 140];
+
+impl Canvas {
+    fn new(w: usize, h: usize) -> Canvas {
+        Canvas { w, h, px: vec![255; w * h * 3] }
+    }
+
+    fn set(&mut self, x: usize, y: usize, c: Rgb) {
+        if x < self.w && y < self.h {
+            let i = (y * self.w + x) * 3;
+            self.px[i..i + 3].copy_from_slice(&c);
+        }
+    }
+
+    fn rect(&mut self, x0: usize, y0: usize, w: usize, h: usize, c: Rgb) {
+        for y in y0..y0 + h {
+            for x in x0..x0 + w {
+                self.set(x, y, c);
+            }
+        }
+    }
+
+    fn frame(&mut self, x0: usize, y0: usize, w: usize, h: usize, c: Rgb) {
+        self.rect(x0, y0, w, 1, c);
+        self.rect(x0, y0 + h - 1, w, 1, c);
+        self.rect(x0, y0, 1, h, c);
+        self.rect(x0 + w - 1, y0, 1, h, c);
+    }
+
+    fn text_width(s: &str, scale: usize) -> usize {
+        s.chars().count() * font::ADVANCE * scale
+    }
+
+    /// Left-aligned text with its top-left corner at (x, y).
+    fn text(&mut self, x: usize, y: usize, s: &str, scale: usize, c: Rgb) {
+        for (i, ch) in s.chars().enumerate() {
+            let g = font::glyph(ch);
+            for (row, bits) in g.iter().enumerate() {
+                for col in 0..5 {
+                    if bits >> (4 - col) & 1 == 1 {
+                        let (px, py) = (x + (i * font::ADVANCE + col) * scale, y + row * scale);
+                        self.rect(px, py, scale, scale, c);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Text rotated 90° counter-clockwise (reading upwards), its bounding
+    /// box's top-left at (x, y).
+    fn text_up(&mut self, x: usize, y: usize, s: &str, scale: usize, c: Rgb) {
+        let len = Self::text_width(s, scale);
+        for (i, ch) in s.chars().enumerate() {
+            let g = font::glyph(ch);
+            for (row, bits) in g.iter().enumerate() {
+                for col in 0..5 {
+                    if bits >> (4 - col) & 1 == 1 {
+                        // Unrotated (u, v) → rotated (v, len − 1 − u).
+                        let u = (i * font::ADVANCE + col) * scale;
+                        let v = row * scale;
+                        self.rect(x + v, y + len - u - scale, scale, scale, c);
+                    }
+                }
+            }
+        }
+    }
+
+    fn write_png(&self, path: &Path) -> anyhow::Result<()> {
+        let file = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.w as u32, self.h as u32);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().with_context(|| format!("writing {} failed", path.display()))?;
+        w.write_image_data(&self.px).with_context(|| format!("writing {} failed", path.display()))?;
+        Ok(())
+    }
+}
+
+/// Viridis (CC0, matplotlib), nine control points, linearly interpolated.
+fn viridis(t: f64) -> Rgb {
+    const C: [Rgb; 9] = [
+        [68, 1, 84],
+        [71, 44, 122],
+        [59, 81, 139],
+        [44, 113, 142],
+        [33, 144, 141],
+        [39, 173, 129],
+        [92, 200, 99],
+        [170, 220, 50],
+        [253, 231, 37],
+    ];
+    let x = t.clamp(0.0, 1.0) * 8.0;
+    let i = (x.floor() as usize).min(7);
+    let f = x - i as f64;
+    [0, 1, 2].map(|k| (C[i][k] as f64 * (1.0 - f) + C[i + 1][k] as f64 * f).round() as u8)
+}
+
+/// Maps a bin volume to [0, 1] (None: empty bin).
+struct ValueScale {
+    log: bool,
+    lo: f64,
+    hi: f64,
+}
+
+impl ValueScale {
+    fn new(values: &[f64], log: bool) -> ValueScale {
+        let hi = values.iter().copied().fold(0.0, f64::max);
+        let min_pos = values.iter().copied().filter(|&v| v > 0.0).fold(f64::INFINITY, f64::min);
+        // Six decades at most: below that, bins are rounding noise of empty ones.
+        let lo = if log { min_pos.max(hi * 1e-6) } else { 0.0 };
+        ValueScale { log, lo, hi: if hi > 0.0 { hi } else { 1.0 } }
+    }
+
+    fn map(&self, v: f64) -> Option<f64> {
+        if v <= 0.0 {
+            return None;
+        }
+        Some(if self.log {
+            if self.hi <= self.lo {
+                1.0
+            } else {
+                ((v.max(self.lo)).log10() - self.lo.log10()) / (self.hi.log10() - self.lo.log10())
+            }
+        } else {
+            v / self.hi
+        })
+    }
+
+    /// Tick values and their positions in [0, 1].
+    fn ticks(&self) -> Vec<(f64, f64)> {
+        if self.log {
+            let (a, b) = (self.lo.log10().ceil() as i32, self.hi.log10().floor() as i32);
+            let mut t: Vec<(f64, f64)> = (a..=b).map(|e| 10f64.powi(e)).map(|v| (v, self.map(v).unwrap())).collect();
+            if t.len() < 2 {
+                t = vec![(self.lo, 0.0), (self.hi, 1.0)];
+            }
+            t
+        } else {
+            nice_ticks(0.0, self.hi, 5).into_iter().map(|v| (v, v / self.hi)).collect()
+        }
+    }
+}
+
+/// Round-number ticks in [lo, hi], about `n` of them.
+fn nice_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    let raw = (hi - lo) / n as f64;
+    if raw <= 0.0 || !raw.is_finite() {
+        return vec![lo];
+    }
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|&s| s >= raw).unwrap_or(10.0 * mag);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last).map(|k| k as f64 * step).collect()
+}
+
+/// Short number text: fixed point when readable, else scientific.
+fn fmt_num(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    let a = v.abs();
+    if !(1e-3..1e5).contains(&a) {
+        let s = format!("{v:.1e}");
+        return s.replace(".0e", "e");
+    }
+    let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// Ticks of a data axis: (value, fraction along the axis).
+fn axis_ticks(a: &Axis) -> Vec<(f64, f64)> {
+    match a.scale {
+        Scale::Linear => nice_ticks(a.lo, a.hi, 6).into_iter().map(|v| (v, (v - a.lo) / (a.hi - a.lo))).collect(),
+        Scale::Log => {
+            let (l0, l1) = (a.lo.log10(), a.hi.log10());
+            (l0.ceil() as i32..=l1.floor() as i32).map(|e| (10f64.powi(e), (e as f64 - l0) / (l1 - l0))).collect()
+        }
+    }
+}
+
+/// Draws the histograms; `name` is the scalar's name, `title` the first line.
+fn render(h: &Histograms, name: &str, title: &str, log: bool) -> Canvas {
+    let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
+    let s = 2; // text scale: 10×14-pixel glyphs
+    let (left, pw) = (110usize, 640usize);
+    let (top1, ph1) = (64usize, 130usize);
+    let gap = 12usize;
+    let (top2, ph2) = (top1 + ph1 + gap, 480usize);
+    let (bottom, right) = (90usize, 150usize);
+    let (w, hgt) = (left + pw + right, top2 + ph2 + bottom);
+    let mut c = Canvas::new(w, hgt);
+
+    c.text(left, 12, title, s, BLACK);
+    let sub = format!(
+        "volume-weighted, {} colour scale; {}×{} bins; {:.2}% of the volume off the axes",
+        if log { "log" } else { "linear" },
+        ns,
+        ng,
+        100.0 * h.joint_outside / h.total_volume.max(f64::MIN_POSITIVE)
+    );
+    c.text(left, 36, &sub, 1, GREY);
+
+    // 1D histogram along the top, same x axis.
+    let sc1 = ValueScale::new(&h.scalar, log);
+    c.rect(left, top1, pw, ph1, WHITE);
+    for x in 0..pw {
+        let bin = x * ns / pw;
+        if let Some(t) = sc1.map(h.scalar[bin]) {
+            let bar = ((t * (ph1 - 2) as f64).round() as usize).max(1);
+            c.rect(left + x, top1 + ph1 - 1 - bar, 1, bar, BAR);
+        }
+    }
+    c.frame(left, top1, pw, ph1, BLACK);
+    let lab = |v: f64| fmt_num(v);
+    let top_label = lab(sc1.hi);
+    c.text(left - 8 - Canvas::text_width(&top_label, 1), top1, &top_label, 1, GREY);
+    let bottom_label = if log { lab(sc1.lo) } else { "0".into() };
+    c.text(left - 8 - Canvas::text_width(&bottom_label, 1), top1 + ph1 - 7, &bottom_label, 1, GREY);
+    c.text_up(left - 50, top1 + 10, "volume", s, BLACK);
+
+    // Joint histogram: rows are |∇s| bins, bottom row = lowest |∇s|.
+    let sc2 = ValueScale::new(&h.joint, log);
+    for y in 0..ph2 {
+        let g = (ph2 - 1 - y) * ng / ph2;
+        for x in 0..pw {
+            let sb = x * ns / pw;
+            let col = sc2.map(h.joint[g * ns + sb]).map(viridis).unwrap_or(EMPTY);
+            c.set(left + x, top2 + y, col);
+        }
+    }
+    c.frame(left, top2, pw, ph2, BLACK);
+
+    // x axis: scalar.
+    for (v, f) in axis_ticks(&h.scalar_axis) {
+        let x = left + ((f * (pw - 1) as f64).round() as usize).min(pw - 1);
+        c.rect(x, top2 + ph2, 1, 6, BLACK);
+        c.rect(x, top1 + ph1, 1, 4, BLACK);
+        let t = fmt_num(v);
+        let tw = Canvas::text_width(&t, s);
+        c.text(x.saturating_sub(tw / 2).min(w - tw), top2 + ph2 + 10, &t, s, BLACK);
+    }
+    let xl = format!("s = {name}");
+    c.text(left + (pw - Canvas::text_width(&xl, s).min(pw)) / 2, top2 + ph2 + 44, &xl, s, BLACK);
+
+    // y axis: |∇s|.
+    for (v, f) in axis_ticks(&h.gradient_axis) {
+        let y = top2 + ph2 - 1 - ((f * (ph2 - 1) as f64).round() as usize).min(ph2 - 1);
+        c.rect(left - 6, y, 6, 1, BLACK);
+        let t = fmt_num(v);
+        c.text(left - 10 - Canvas::text_width(&t, 1), y.saturating_sub(3), &t, 1, BLACK);
+    }
+    let yl = "|∇s| (per length unit)";
+    let yw = Canvas::text_width(yl, s);
+    c.text_up(left - 90, top2 + (ph2 - yw.min(ph2)) / 2, yl, s, BLACK);
+
+    // Colour bar.
+    let (bx, bw) = (left + pw + 24, 20usize);
+    for y in 0..ph2 {
+        let t = 1.0 - y as f64 / (ph2 - 1) as f64;
+        c.rect(bx, top2 + y, bw, 1, viridis(t));
+    }
+    c.frame(bx, top2, bw, ph2, BLACK);
+    for (v, f) in sc2.ticks() {
+        let y = top2 + ph2 - 1 - ((f * (ph2 - 1) as f64).round() as usize).min(ph2 - 1);
+        c.rect(bx + bw, y, 5, 1, BLACK);
+        c.text(bx + bw + 8, y.saturating_sub(3), &fmt_num(v), 1, BLACK);
+    }
+    let cl = "volume per bin";
+    c.text_up(bx + bw + 60, top2 + (ph2 - Canvas::text_width(cl, s)) / 2, cl, s, BLACK);
+    c
+}
+
+/// Writes the bin volumes: one row per 1D bin, then one per joint bin.
+fn write_csv(h: &Histograms, path: &Path) -> anyhow::Result<()> {
+    let f = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    let mut w = std::io::BufWriter::new(f);
+    let io = |e: std::io::Error| anyhow::Error::new(e).context(format!("writing {} failed", path.display()));
+    writeln!(
+        w,
+        "# total_volume={} scalar_below={} scalar_above={} joint_outside={}",
+        h.total_volume, h.scalar_below, h.scalar_above, h.joint_outside
+    )
+    .map_err(io)?;
+    writeln!(w, "kind,scalar_lo,scalar_hi,gradient_lo,gradient_hi,volume").map_err(io)?;
+    let (sa, ga) = (&h.scalar_axis, &h.gradient_axis);
+    for (k, v) in h.scalar.iter().enumerate() {
+        writeln!(w, "1d,{},{},,,{}", sa.edge(k), sa.edge(k + 1), v).map_err(io)?;
+    }
+    let ns = sa.bins as usize;
+    for g in 0..ga.bins as usize {
+        for k in 0..ns {
+            let v = h.joint[g * ns + k];
+            writeln!(w, "2d,{},{},{},{},{}", sa.edge(k), sa.edge(k + 1), ga.edge(g), ga.edge(g + 1), v).map_err(io)?;
+        }
+    }
+    w.flush().map_err(io)?;
+    Ok(())
+}
+
+pub fn run_hist(
+    path: &Path,
+    output: &Path,
+    csv: Option<&Path>,
+    log: bool,
+    bins: Option<[u32; 2]>,
+    scalar_range: Option<(f64, f64)>,
+    gradient_range: Option<(f64, f64)>,
+) -> anyhow::Result<()> {
+    let bundle = Bundle::read(path)?;
+    let stored = bundle.analysis.as_ref().and_then(|a| a.histograms.as_ref());
+    let recompute = bins.is_some() || scalar_range.is_some() || gradient_range.is_some();
+    let computed;
+    let h = match stored {
+        Some(h) if !recompute => h,
+        _ => {
+            let [sb, gb] = bins.unwrap_or([256, 256]);
+            let opts = HistogramOptions {
+                scalar_bins: sb,
+                gradient_bins: gb,
+                scalar_range,
+                gradient_range,
+                ..Default::default()
+            };
+            let an = tet_analysis::Analyzer::from_mesh(&bundle.mesh).context("the bundle's mesh cannot be analysed")?;
+            computed = an.histograms(&opts)?;
+            &computed
+        }
+    };
+    let name = &bundle.mesh.scalar_name;
+    let file = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+    let title = format!("{file}: {name} × |∇{name}|");
+    render(h, name, &title, log).write_png(output)?;
+    if let Some(csv) = csv {
+        write_csv(h, csv)?;
+    }
+    println!(
+        "wrote {}{} ({}×{} bins, {})",
+        output.display(),
+        csv.map(|c| format!(" and {}", c.display())).unwrap_or_default(),
+        h.scalar_axis.bins,
+        h.gradient_axis.bins,
+        if stored.is_some() && !recompute { "stored histogram" } else { "computed now" }
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_and_numbers() {
+        assert_eq!(nice_ticks(0.0, 1.0, 5), vec![0.0, 0.2, 0.4, 0.6000000000000001, 0.8, 1.0]);
+        assert_eq!(fmt_num(0.25), "0.25");
+        assert_eq!(fmt_num(1234.0), "1234");
+        assert_eq!(fmt_num(2e-5), "2e-5");
+        assert_eq!(viridis(0.0), [68, 1, 84]);
+        assert_eq!(viridis(1.0), [253, 231, 37]);
+    }
+}

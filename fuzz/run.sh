@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw bundle convert)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -36,7 +36,10 @@ seed vtk_xml "$data"/vtu/*.vt? "$data"/vtu/*.pvtu
 seed gmsh "$data"/gmsh/*.msh
 seed nrrd "$data"/volume/*.nrrd "$data"/volume/*.nhdr
 seed bundle ../formats/samples/*.tetb
-mkdir -p corpus/plot3d corpus/raw corpus/tetgen
+mkdir -p corpus/plot3d corpus/raw corpus/tetgen corpus/ply corpus/las corpus/csv
+head -c 200000 "$data"/points/stars_lum_ci.ply > corpus/ply/stars_head
+head -c 100000 "$data"/points/autzen_trim.las > corpus/las/autzen_head
+printf 'x,y,z,value\n0,0,0,1\n1,0,0,2\n0,1,0,3\n0,0,1,4\n' > corpus/csv/small.csv
 # PLOT3D: a control byte (split point), then a grid and Q file.
 head -c 20000 "$data"/plot3d/bluntfinxyz.bin > corpus/plot3d/bf_head
 printf '\x40' | cat - "$data"/plot3d/bluntfinxyz.bin "$data"/plot3d/bluntfinq.bin | head -c 250000 > corpus/plot3d/bf

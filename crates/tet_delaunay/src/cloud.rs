@@ -118,7 +118,10 @@ pub fn triangulate_cloud(
 /// returns the layers (layer k = the k-th lowest point of every column, in
 /// column order of first appearance) with the source index of each
 /// flattened point `k * columns + c`.
-fn layers_from_columns(points: &[[f64; 3]], distinct: &[u32]) -> Result<(Vec<Vec<[f64; 3]>>, Vec<u32>), DelaunayError> {
+/// Layers of points, and the source index of each flattened point.
+type LayersWithIds = (Vec<Vec<[f64; 3]>>, Vec<u32>);
+
+fn layers_from_columns(points: &[[f64; 3]], distinct: &[u32]) -> Result<LayersWithIds, DelaunayError> {
     let mut column_of: HashMap<[u64; 2], usize> = HashMap::new();
     let mut columns: Vec<Vec<u32>> = Vec::new();
     for &i in distinct {

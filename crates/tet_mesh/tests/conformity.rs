@@ -235,7 +235,7 @@ fn iblanked_points_drop_the_cells_touching_them() {
         }
     }
     let mut blanked = vec![false; 64];
-    blanked[1 + 4 * (1 + 4 * 1)] = true; // interior point (1,1,1): its 8 cells go
+    blanked[1 + 4 + 16] = true; // interior point (1,1,1): its 8 cells go
     let src = SourceMesh {
         points,
         blocks: vec![Block::Structured { dims: [4, 4, 4], first_point: 0 }],

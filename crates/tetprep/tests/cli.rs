@@ -320,3 +320,70 @@ fn bluntfin_gradients_histogram_hist_png_and_analyze() {
     let bad = tetprep(&["hist", out.to_str().unwrap(), "-o", png.to_str().unwrap(), "--bins", "0,5"]);
     assert_eq!(bad.status.code(), Some(2));
 }
+
+#[test]
+fn point_clouds_are_tetrahedralized() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("stars.tetb");
+    let v = json(&tetprep(&[
+        "convert",
+        data("points/stars_lum_ci.ply").to_str().unwrap(),
+        "--scalar",
+        "lum",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    // One star is listed twice: merged and reported; the Delaunay mesh fills
+    // the convex hull and the bundle says so.
+    assert_eq!(v["points"], 107_856);
+    assert_eq!(v["split"], "delaunay");
+    assert_eq!(v["delaunay"], true);
+    assert_eq!(v["convex"], true);
+    let findings = v["findings"].as_array().unwrap();
+    assert!(findings.iter().any(|f| f.as_str().unwrap().starts_with("merged 1 duplicate points")), "{findings:?}");
+
+    let out = dir.path().join("autzen.tetb");
+    let v = json(&tetprep(&[
+        "convert",
+        data("points/autzen_trim.las").to_str().unwrap(),
+        "--scalar",
+        "intensity",
+        "--max-circumradius",
+        "20",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(v["delaunay"], false, "peeled: no longer the convex hull");
+    assert_eq!(v["convex"], false);
+    assert!(v["findings"].as_array().unwrap().iter().any(|f| f.as_str().unwrap().starts_with("removed ")));
+}
+
+#[test]
+fn layered_csv_points_become_prisms() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("strata.csv");
+    let mut text = String::from("x,y,z,temperature\n");
+    for k in 0..4 {
+        for j in 0..5 {
+            for i in 0..6 {
+                let z = k as f64 * 10.0 + 0.3 * i as f64 + 0.1 * j as f64;
+                text.push_str(&format!("{},{},{},{}\n", i as f64 * 2.0, j as f64 * 3.0, z, 15.0 - z * 0.5));
+            }
+        }
+    }
+    std::fs::write(&csv, text).unwrap();
+    let out = dir.path().join("strata.tetb");
+    let v =
+        json(&tetprep(&["convert", csv.to_str().unwrap(), "--mode", "layered", "-o", out.to_str().unwrap(), "--json"]));
+    // 5×4 quads → 40 triangles per layer gap, 3 gaps, 3 tets per prism.
+    assert_eq!(v["tets"], 40 * 3 * 3);
+    assert_eq!(v["split"], "layered");
+    assert!((v["total_volume"].as_f64().unwrap() - 10.0 * 3.0 * 10.0 * 12.0).abs() < 1e-9);
+    // --mode layered on a mesh with cells is a usage error, not a silent no-op.
+    let o =
+        tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--mode", "layered", "-o", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("point clouds"), "{}", stderr(&o));
+}

@@ -86,6 +86,13 @@ pub enum Command {
         /// |∇s| axis range LO,HI (recomputes).
         #[arg(long, value_parser = parse_range)]
         gradient_range: Option<(f64, f64)>,
+        /// Units of the scalar for the axis labels, e.g. "kg/m^3" (input files
+        /// rarely carry units, so tetkit cannot know them).
+        #[arg(long, value_name = "UNIT")]
+        units: Option<String>,
+        /// Length unit of the coordinates for the |∇s| label, e.g. "m".
+        #[arg(long, value_name = "UNIT")]
+        length_units: Option<String>,
     },
 }
 
@@ -288,8 +295,20 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Analyze { bundle, output, analysis, json } => {
             crate::analysis::run_analyze(&bundle, output.as_deref(), &analysis, json)
         }
-        Command::Hist { bundle, output, csv, log: _, linear, bins, scalar_range, gradient_range } => {
-            crate::plot::run_hist(&bundle, &output, csv.as_deref(), !linear, bins, scalar_range, gradient_range)
+        Command::Hist {
+            bundle,
+            output,
+            csv,
+            log: _,
+            linear,
+            bins,
+            scalar_range,
+            gradient_range,
+            units,
+            length_units,
+        } => {
+            let units = crate::plot::AxisUnits { scalar: units, length: length_units };
+            crate::plot::run_hist(&bundle, &output, csv.as_deref(), !linear, bins, scalar_range, gradient_range, &units)
         }
     }
 }

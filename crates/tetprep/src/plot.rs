@@ -208,7 +208,32 @@ fn axis_ticks(a: &Axis) -> Vec<(f64, f64)> {
 }
 
 /// Draws the histograms; `name` is the scalar's name, `title` the first line.
-fn render(h: &Histograms, name: &str, title: &str, log: bool) -> Canvas {
+/// Units for the axis labels, when the user knows them.
+#[derive(Debug, Clone, Default)]
+pub struct AxisUnits {
+    pub scalar: Option<String>,
+    pub length: Option<String>,
+}
+
+impl AxisUnits {
+    fn scalar_label(&self, name: &str) -> String {
+        match &self.scalar {
+            Some(u) => format!("s = {name} [{u}]"),
+            None => format!("s = {name}"),
+        }
+    }
+
+    fn gradient_label(&self) -> String {
+        match (&self.scalar, &self.length) {
+            (Some(u), Some(l)) => format!("|∇s| [{u} / {l}]"),
+            (Some(u), None) => format!("|∇s| [{u} per length unit]"),
+            (None, Some(l)) => format!("|∇s| (per {l})"),
+            (None, None) => "|∇s| (per length unit)".to_string(),
+        }
+    }
+}
+
+fn render(h: &Histograms, name: &str, title: &str, log: bool, units: &AxisUnits) -> Canvas {
     let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
     let s = 2; // text scale: 10×14-pixel glyphs
     let (left, pw) = (110usize, 640usize);
@@ -268,7 +293,7 @@ fn render(h: &Histograms, name: &str, title: &str, log: bool) -> Canvas {
         let tw = Canvas::text_width(&t, s);
         c.text(x.saturating_sub(tw / 2).min(w - tw), top2 + ph2 + 10, &t, s, BLACK);
     }
-    let xl = format!("s = {name}");
+    let xl = units.scalar_label(name);
     c.text(left + (pw - Canvas::text_width(&xl, s).min(pw)) / 2, top2 + ph2 + 44, &xl, s, BLACK);
 
     // y axis: |∇s|.
@@ -278,9 +303,9 @@ fn render(h: &Histograms, name: &str, title: &str, log: bool) -> Canvas {
         let t = fmt_num(v);
         c.text(left - 10 - Canvas::text_width(&t, 1), y.saturating_sub(3), &t, 1, BLACK);
     }
-    let yl = "|∇s| (per length unit)";
-    let yw = Canvas::text_width(yl, s);
-    c.text_up(left - 90, top2 + (ph2 - yw.min(ph2)) / 2, yl, s, BLACK);
+    let yl = units.gradient_label();
+    let yw = Canvas::text_width(&yl, s);
+    c.text_up(left - 90, top2 + (ph2 - yw.min(ph2)) / 2, &yl, s, BLACK);
 
     // Colour bar.
     let (bx, bw) = (left + pw + 24, 20usize);
@@ -334,6 +359,7 @@ pub fn run_hist(
     bins: Option<[u32; 2]>,
     scalar_range: Option<(f64, f64)>,
     gradient_range: Option<(f64, f64)>,
+    units: &AxisUnits,
 ) -> anyhow::Result<()> {
     let bundle = Bundle::read(path)?;
     let stored = bundle.analysis.as_ref().and_then(|a| a.histograms.as_ref());
@@ -358,7 +384,7 @@ pub fn run_hist(
     let name = &bundle.mesh.scalar_name;
     let file = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
     let title = format!("{file}: {name} × |∇{name}|");
-    render(h, name, &title, log).write_png(output)?;
+    render(h, name, &title, log, units).write_png(output)?;
     if let Some(csv) = csv {
         write_csv(h, csv)?;
     }

@@ -264,7 +264,18 @@ fn bluntfin_gradients_histogram_hist_png_and_analyze() {
 
     let png = dir.path().join("h.png");
     let csv = dir.path().join("h.csv");
-    let o = tetprep(&["hist", out.to_str().unwrap(), "-o", png.to_str().unwrap(), "--csv", csv.to_str().unwrap()]);
+    let o = tetprep(&[
+        "hist",
+        out.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "--units",
+        "kg/m^3",
+        "--length-units",
+        "m",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let bytes = std::fs::read(&png).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");

@@ -17,7 +17,7 @@
 //! insertions touch nearby memory); `orig` maps them back to input ids, which
 //! key the symbolic perturbation so that ties do not depend on the order.
 
-use crate::predicates::{in_sphere_exact, in_sphere_tie, orient};
+use crate::predicates::{in_sphere_tie, orient, StaticFilter};
 use crate::sort::SplitMix64;
 
 /// The infinite vertex.
@@ -26,7 +26,10 @@ pub(crate) const INF: u32 = u32::MAX;
 const DEAD: u32 = u32::MAX - 1;
 const EMPTY: u64 = u64::MAX;
 
+/// Aligned so that a tet never straddles two cache lines: the flood fill
+/// touches dozens of scattered neighbours per insertion.
 #[derive(Debug, Clone, Copy)]
+#[repr(C, align(32))]
 pub(crate) struct Tet {
     pub(crate) v: [u32; 4],
     pub(crate) n: [u32; 4],
@@ -35,6 +38,8 @@ pub(crate) struct Tet {
 pub(crate) struct Triangulation {
     /// Points in insertion order.
     pts: Vec<[f64; 3]>,
+    /// Error bounds for the predicates' fast paths on `pts`.
+    filter: StaticFilter,
     /// Input id of each point.
     pub(crate) orig: Vec<u32>,
     pub(crate) tets: Vec<Tet>,
@@ -69,6 +74,7 @@ impl Triangulation {
         debug_assert!(orient(&pts[0], &pts[1], &pts[2], &pts[3]) > 0.0);
         let cap = pts.len().saturating_mul(7) + 16;
         let mut t = Triangulation {
+            filter: StaticFilter::new(&pts),
             pts,
             orig,
             tets: Vec::with_capacity(cap),
@@ -146,7 +152,7 @@ impl Triangulation {
                 p[k] = self.p(v[k]);
             }
         }
-        orient(p[0], p[1], p[2], p[3])
+        self.filter.orient(p[0], p[1], p[2], p[3])
     }
 
     /// Finds a tet in conflict with `q`: a finite tet whose closure
@@ -202,7 +208,7 @@ impl Triangulation {
     #[inline]
     fn in_sphere(&self, v: &[u32; 4], q: &[f64; 3], iq: u32) -> bool {
         let p = [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])];
-        let d = in_sphere_exact(p[0], p[1], p[2], p[3], q);
+        let d = self.filter.in_sphere(p[0], p[1], p[2], p[3], q);
         if d != 0.0 {
             return d > 0.0;
         }

@@ -25,6 +25,37 @@ pub(crate) const INF: u32 = u32::MAX;
 /// Vertex slot 0 of a freed tet.
 const DEAD: u32 = u32::MAX - 1;
 const EMPTY: u64 = u64::MAX;
+/// Unassigned entry of `Triangulation::local`.
+const NO_LOCAL: u8 = u8::MAX;
+/// Largest cavity boundary (in vertices) linked through the dense matrix.
+const DENSE_MAX: usize = 64;
+
+/// For a new tet with the new point in slot `i`, the face opposite slot
+/// `j ≠ i` holds the new point and the edge `(v[x], v[y])` with
+/// `(x, y) = EDGE[i][j]`, directed so that the tet across that face holds
+/// the same edge reversed. (The faces (1,2,3), (0,3,2), (0,1,3), (0,2,1)
+/// are consistently oriented, ghosts included, and two tets sharing a
+/// face see it in opposite orders; rotating the face so `i` comes first
+/// leaves the edge.)
+const EDGE: [[(usize, usize); 4]; 4] = [
+    [(0, 0), (3, 2), (1, 3), (2, 1)],
+    [(2, 3), (0, 0), (3, 0), (0, 2)],
+    [(3, 1), (0, 3), (0, 0), (1, 0)],
+    [(1, 2), (2, 0), (0, 1), (0, 0)],
+];
+
+/// A face of the cavity: the new tet built on it and the outside tet.
+#[derive(Debug, Clone, Copy)]
+struct Boundary {
+    /// The new tet's vertices (the new point in `slot`).
+    v: [u32; 4],
+    outside: u32,
+    slot: u8,
+    /// The outside tet's neighbour slot that faces the cavity.
+    back: u8,
+    /// Local ids of `v` (all but `slot`) for the dense edge matrix.
+    local: [u8; 4],
+}
 
 /// Aligned so that a tet never straddles two cache lines: the flood fill
 /// touches dozens of scattered neighbours per insertion.
@@ -54,7 +85,13 @@ pub(crate) struct Triangulation {
     // Scratch buffers reused by every insertion.
     stack: Vec<u32>,
     conflict: Vec<u32>,
-    boundary: Vec<([u32; 4], u32, u8, u8)>,
+    boundary: Vec<Boundary>,
+    /// Per vertex (the infinite one last): its local id in the current
+    /// cavity boundary, or [`NO_LOCAL`]; `local_verts` lists those set.
+    local: Vec<u8>,
+    local_verts: Vec<u32>,
+    /// `DENSE_MAX`² new-tet slots keyed by directed edge of local ids.
+    edge: Vec<u32>,
     /// Open-addressing table matching the faces through the new point by
     /// their edge opposite it; `used` lists the slots to clear afterwards.
     table: Vec<(u64, u32)>,
@@ -73,6 +110,7 @@ impl Triangulation {
     pub(crate) fn new(pts: Vec<[f64; 3]>, orig: Vec<u32>) -> Self {
         debug_assert!(orient(&pts[0], &pts[1], &pts[2], &pts[3]) > 0.0);
         let cap = pts.len().saturating_mul(7) + 16;
+        let n_local = pts.len() + 1;
         let mut t = Triangulation {
             filter: StaticFilter::new(&pts),
             pts,
@@ -86,6 +124,9 @@ impl Triangulation {
             stack: Vec::new(),
             conflict: Vec::new(),
             boundary: Vec::new(),
+            local: vec![NO_LOCAL; n_local],
+            local_verts: Vec::new(),
+            edge: vec![0; DENSE_MAX * DENSE_MAX],
             table: Vec::new(),
             used: Vec::new(),
             walk_fallbacks: 0,
@@ -249,6 +290,16 @@ impl Triangulation {
         }
     }
 
+    /// Index of vertex `x` in `local` (the infinite vertex has the last).
+    #[inline]
+    fn local_slot(&self, x: u32) -> usize {
+        if x == INF {
+            self.pts.len()
+        } else {
+            x as usize
+        }
+    }
+
     /// Inserts point `iq` (distinct from every inserted point).
     pub(crate) fn insert(&mut self, iq: u32) {
         let q = self.pts[iq as usize];
@@ -262,85 +313,158 @@ impl Triangulation {
         let stamp = self.stamp;
 
         // Conflict zone by flood fill from t0 (which contains q, so is in
-        // conflict without a test).
+        // conflict without a test). Each face from a conflict tet to a
+        // non-conflict one is a boundary face: its new tet is the conflict
+        // tet with the vertex opposite the face replaced by q. The outside
+        // neighbour's slot pointing back is found now, before any conflict
+        // slot is reused (a neighbour may face two conflict tets).
         self.conflict.clear();
         self.stack.clear();
+        self.boundary.clear();
         self.mark[t0 as usize] = stamp;
         self.conflict.push(t0);
         self.stack.push(t0);
         while let Some(t) = self.stack.pop() {
-            for i in 0..4 {
-                let nb = self.tets[t as usize].n[i];
-                let m = self.mark[nb as usize];
-                if m == stamp || m == stamp + 1 {
-                    continue;
-                }
-                if self.in_conflict(nb, &q, iq) {
-                    self.mark[nb as usize] = stamp;
-                    self.conflict.push(nb);
-                    self.stack.push(nb);
-                } else {
-                    self.mark[nb as usize] = stamp + 1;
-                }
-            }
-        }
-
-        // Boundary faces: new tet = conflict tet with the vertex opposite
-        // the face replaced by q; remember the outside neighbour and its
-        // slot that pointed back.
-        self.boundary.clear();
-        for &t in &self.conflict {
             let Tet { v, n } = self.tets[t as usize];
             for i in 0..4 {
                 let nb = n[i];
-                if self.mark[nb as usize] == stamp {
+                let m = self.mark[nb as usize];
+                if m == stamp {
                     continue;
                 }
-                let back = self.tets[nb as usize].n.iter().position(|&x| x == t).expect("adjacency is symmetric");
+                if m != stamp + 1 {
+                    if self.in_conflict(nb, &q, iq) {
+                        self.mark[nb as usize] = stamp;
+                        self.conflict.push(nb);
+                        self.stack.push(nb);
+                        continue;
+                    }
+                    self.mark[nb as usize] = stamp + 1;
+                }
+                let nbn = &self.tets[nb as usize].n;
+                let back = (0..4).find(|&k| nbn[k] == t).expect("adjacency is symmetric");
                 let mut nv = v;
                 nv[i] = iq;
-                self.boundary.push((nv, nb, i as u8, back as u8));
+                self.boundary.push(Boundary { v: nv, outside: nb, slot: i as u8, back: back as u8, local: [0; 4] });
             }
         }
 
-        // Reuse the conflict slots, then the free list, then grow.
-        for k in 0..self.conflict.len() {
+        // New tets take the conflict slots first, then the free list, then
+        // grow the array. Marks of reused slots are older stamps, which no
+        // later insertion uses, so they need no reset.
+        let nc = self.conflict.len();
+        for _ in nc..self.boundary.len() {
+            let s = self.alloc();
+            self.conflict.push(s);
+        }
+        for k in self.boundary.len()..nc {
             let s = self.conflict[k];
             self.tets[s as usize].v = [DEAD; 4];
             self.free.push(s);
         }
+        let mut last = u32::MAX;
+        for k in 0..self.boundary.len() {
+            let b = self.boundary[k];
+            let s = self.conflict[k];
+            let mut n = [u32::MAX; 4];
+            n[b.slot as usize] = b.outside;
+            self.tets[s as usize] = Tet { v: b.v, n };
+            self.tets[b.outside as usize].n[b.back as usize] = s;
+            if !is_ghost(&b.v) {
+                last = s;
+            }
+        }
+        debug_assert!(last != u32::MAX);
+        self.last = last;
+        if !self.link_new_dense(iq) {
+            self.link_new_hashed();
+        }
+    }
+
+    /// Links the new tets (slots `conflict[k]` for boundary face `k`)
+    /// across their faces through the new point `iq`, when the cavity
+    /// boundary has at most [`DENSE_MAX`] vertices: each gets a small local
+    /// id, and the directed boundary edges go in a dense matrix. Returns
+    /// false (changing nothing) for larger cavities.
+    fn link_new_dense(&mut self, iq: u32) -> bool {
+        let mut count = 0usize;
+        for k in 0..self.boundary.len() {
+            let b = self.boundary[k];
+            for x in 0..4 {
+                if x == b.slot as usize {
+                    continue;
+                }
+                let slot = self.local_slot(b.v[x]);
+                let mut l = self.local[slot];
+                if l == NO_LOCAL {
+                    if count == DENSE_MAX {
+                        for &v in &self.local_verts {
+                            let slot = self.local_slot(v);
+                            self.local[slot] = NO_LOCAL;
+                        }
+                        self.local_verts.clear();
+                        return false;
+                    }
+                    l = count as u8;
+                    count += 1;
+                    self.local[slot] = l;
+                    self.local_verts.push(b.v[x]);
+                }
+                self.boundary[k].local[x] = l;
+            }
+        }
+        for &v in &self.local_verts {
+            let slot = self.local_slot(v);
+            self.local[slot] = NO_LOCAL;
+        }
+        self.local_verts.clear();
+        debug_assert!(self.boundary.iter().all(|b| b.v[b.slot as usize] == iq));
+        // Each directed edge (x, y) of a new tet's face through q has its
+        // reverse (y, x) in exactly one other new tet: the one across it.
+        for k in 0..self.boundary.len() {
+            let b = &self.boundary[k];
+            let s = self.conflict[k];
+            let i = b.slot as usize;
+            for j in 0..4 {
+                if j != i {
+                    let (x, y) = EDGE[i][j];
+                    self.edge[b.local[x] as usize * DENSE_MAX + b.local[y] as usize] = s;
+                }
+            }
+        }
+        for k in 0..self.boundary.len() {
+            let b = &self.boundary[k];
+            let s = self.conflict[k] as usize;
+            let i = b.slot as usize;
+            for j in 0..4 {
+                if j != i {
+                    let (x, y) = EDGE[i][j];
+                    self.tets[s].n[j] = self.edge[b.local[y] as usize * DENSE_MAX + b.local[x] as usize];
+                }
+            }
+        }
+        true
+    }
+
+    /// [`Self::link_new_dense`] for cavities of any size, through an
+    /// open-addressing table keyed by the undirected edge.
+    fn link_new_hashed(&mut self) {
         let needed = (6 * self.boundary.len()).next_power_of_two().max(256);
         if self.table.len() < needed {
             self.table = vec![(EMPTY, 0); needed];
         }
         let mask = self.table.len() - 1;
-        let mut last = u32::MAX;
         for k in 0..self.boundary.len() {
-            let (nv, nb, i, back) = self.boundary[k];
-            let s = self.alloc();
-            let mut n = [u32::MAX; 4];
-            n[i as usize] = nb;
-            self.tets[s as usize] = Tet { v: nv, n };
-            self.tets[nb as usize].n[back as usize] = s;
-            self.mark[s as usize] = 0;
-            if !is_ghost(&nv) {
-                last = s;
-            }
-            // The three faces through q are shared with other new tets;
-            // each is named by its edge opposite q.
+            let b = self.boundary[k];
+            let s = self.conflict[k];
+            let i = b.slot as usize;
             for j in 0..4usize {
-                if j == i as usize {
+                if j == i {
                     continue;
                 }
-                let mut e = [0u32; 2];
-                let mut m = 0;
-                for (k2, &x) in nv.iter().enumerate() {
-                    if k2 != j && k2 != i as usize {
-                        e[m] = x;
-                        m += 1;
-                    }
-                }
-                let key = ((e[0].min(e[1]) as u64) << 32) | e[0].max(e[1]) as u64;
+                let (x, y) = EDGE[i][j];
+                let (e0, e1) = (b.v[x], b.v[y]);
+                let key = ((e0.min(e1) as u64) << 32) | e0.max(e1) as u64;
                 let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
                 loop {
                     let (k3, val) = self.table[h];
@@ -362,8 +486,6 @@ impl Triangulation {
             self.table[h as usize].0 = EMPTY;
         }
         self.used.clear();
-        debug_assert!(last != u32::MAX);
-        self.last = last;
     }
 
     /// Removes finite tets reachable from the hull through faces between

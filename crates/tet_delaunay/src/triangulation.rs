@@ -24,6 +24,8 @@ use crate::sort::SplitMix64;
 pub(crate) const INF: u32 = u32::MAX;
 /// Vertex slot 0 of a freed tet.
 const DEAD: u32 = u32::MAX - 1;
+/// Vertex slot 0 of a tet in the current insertion's conflict zone.
+const IN_CAVITY: u32 = u32::MAX - 2;
 const EMPTY: u64 = u64::MAX;
 /// Unassigned entry of `Triangulation::local`.
 const NO_LOCAL: u8 = u8::MAX;
@@ -74,16 +76,12 @@ pub(crate) struct Triangulation {
     /// Input id of each point.
     pub(crate) orig: Vec<u32>,
     pub(crate) tets: Vec<Tet>,
-    /// Per-tet stamp: `stamp` = in the current conflict zone, `stamp + 1` =
-    /// tested and not in conflict. Avoids clearing flags per insertion.
-    mark: Vec<u32>,
-    stamp: u32,
     free: Vec<u32>,
     /// A live finite tet near the last inserted point: where walks start.
     last: u32,
     rng: SplitMix64,
     // Scratch buffers reused by every insertion.
-    stack: Vec<u32>,
+    stack: Vec<(u32, Tet)>,
     conflict: Vec<u32>,
     boundary: Vec<Boundary>,
     /// Per vertex (the infinite one last): its local id in the current
@@ -116,8 +114,6 @@ impl Triangulation {
             pts,
             orig,
             tets: Vec::with_capacity(cap),
-            mark: Vec::with_capacity(cap),
-            stamp: 0,
             free: Vec::new(),
             last: 0,
             rng: SplitMix64(0x5EED),
@@ -141,7 +137,6 @@ impl Triangulation {
                 v.swap(i % 4, (i + 1) % 4);
             }
             t.tets.push(Tet { v, n: [u32::MAX; 4] });
-            t.mark.push(0);
         }
         t.link_small(&[0, 1, 2, 3, 4]);
         t
@@ -256,28 +251,22 @@ impl Triangulation {
         in_sphere_tie(p, v.map(|x| self.orig[x as usize]), q, self.orig[iq as usize])
     }
 
-    /// Conflict test of tet `t` with point `q` (id `iq`).
-    fn in_conflict(&self, t: u32, q: &[f64; 3], iq: u32) -> bool {
-        let v = self.tets[t as usize].v;
+    /// Conflict test of tet `tet` with point `q` (id `iq`).
+    #[inline]
+    fn in_conflict(&self, tet: &Tet, q: &[f64; 3], iq: u32) -> bool {
+        let v = &tet.v;
         if let Some(g) = v.iter().position(|&x| x == INF) {
-            let o = self.orient_replaced(&v, g, q);
+            let o = self.orient_replaced(v, g, q);
             if o != 0.0 {
                 return o > 0.0;
             }
             // On the hull facet's plane: in conflict exactly when the finite
             // tet across that facet is (in-circle of the facet, with the
             // same perturbation), as geogram does.
-            let f = self.tets[t as usize].n[g];
-            let m = self.mark[f as usize];
-            if m == self.stamp {
-                return true;
-            }
-            if m == self.stamp + 1 {
-                return false;
-            }
-            return self.in_sphere(&self.tets[f as usize].v, q, iq);
+            let f = &self.tets[tet.n[g] as usize];
+            return f.v[0] == IN_CAVITY || self.in_sphere(&f.v, q, iq);
         }
-        self.in_sphere(&v, q, iq)
+        self.in_sphere(v, q, iq)
     }
 
     fn alloc(&mut self) -> u32 {
@@ -285,18 +274,7 @@ impl Triangulation {
             s
         } else {
             self.tets.push(Tet { v: [DEAD; 4], n: [u32::MAX; 4] });
-            self.mark.push(0);
             (self.tets.len() - 1) as u32
-        }
-    }
-
-    /// Index of vertex `x` in `local` (the infinite vertex has the last).
-    #[inline]
-    fn local_slot(&self, x: u32) -> usize {
-        if x == INF {
-            self.pts.len()
-        } else {
-            x as usize
         }
     }
 
@@ -304,45 +282,39 @@ impl Triangulation {
     pub(crate) fn insert(&mut self, iq: u32) {
         let q = self.pts[iq as usize];
         let t0 = self.locate(&q);
-        self.stamp = self.stamp.wrapping_add(2);
-        if self.stamp == 0 {
-            // Stamps wrapped: clear so old marks cannot alias.
-            self.mark.iter_mut().for_each(|m| *m = 0);
-            self.stamp = 2;
-        }
-        let stamp = self.stamp;
-
         // Conflict zone by flood fill from t0 (which contains q, so is in
-        // conflict without a test). Each face from a conflict tet to a
-        // non-conflict one is a boundary face: its new tet is the conflict
-        // tet with the vertex opposite the face replaced by q. The outside
-        // neighbour's slot pointing back is found now, before any conflict
-        // slot is reused (a neighbour may face two conflict tets).
+        // conflict without a test). A conflict tet is flagged by
+        // `IN_CAVITY` in its first vertex slot, its contents kept on the
+        // stack, so one cache line per neighbour tells whether it is
+        // already in the zone; the flag goes when the slot is rebuilt or
+        // freed. Non-conflict tets are not flagged: one facing several
+        // conflict tets is tested again (cheap, it is in cache).
+        //
+        // Each face from a conflict tet to a non-conflict one is a boundary
+        // face: its new tet is the conflict tet with the vertex opposite
+        // the face replaced by q. The outside neighbour's slot pointing back
+        // is found now, before any conflict slot is reused (a neighbour may
+        // face two conflict tets).
         self.conflict.clear();
         self.stack.clear();
         self.boundary.clear();
-        self.mark[t0 as usize] = stamp;
+        self.stack.push((t0, self.tets[t0 as usize]));
+        self.tets[t0 as usize].v[0] = IN_CAVITY;
         self.conflict.push(t0);
-        self.stack.push(t0);
-        while let Some(t) = self.stack.pop() {
-            let Tet { v, n } = self.tets[t as usize];
+        while let Some((t, Tet { v, n })) = self.stack.pop() {
             for i in 0..4 {
                 let nb = n[i];
-                let m = self.mark[nb as usize];
-                if m == stamp {
+                let nt = self.tets[nb as usize];
+                if nt.v[0] == IN_CAVITY {
                     continue;
                 }
-                if m != stamp + 1 {
-                    if self.in_conflict(nb, &q, iq) {
-                        self.mark[nb as usize] = stamp;
-                        self.conflict.push(nb);
-                        self.stack.push(nb);
-                        continue;
-                    }
-                    self.mark[nb as usize] = stamp + 1;
+                if self.in_conflict(&nt, &q, iq) {
+                    self.tets[nb as usize].v[0] = IN_CAVITY;
+                    self.conflict.push(nb);
+                    self.stack.push((nb, nt));
+                    continue;
                 }
-                let nbn = &self.tets[nb as usize].n;
-                let back = (0..4).find(|&k| nbn[k] == t).expect("adjacency is symmetric");
+                let back = (0..4).find(|&k| nt.n[k] == t).expect("adjacency is symmetric");
                 let mut nv = v;
                 nv[i] = iq;
                 self.boundary.push(Boundary { v: nv, outside: nb, slot: i as u8, back: back as u8, local: [0; 4] });
@@ -350,8 +322,7 @@ impl Triangulation {
         }
 
         // New tets take the conflict slots first, then the free list, then
-        // grow the array. Marks of reused slots are older stamps, which no
-        // later insertion uses, so they need no reset.
+        // grow the array.
         let nc = self.conflict.len();
         for _ in nc..self.boundary.len() {
             let s = self.alloc();
@@ -387,59 +358,56 @@ impl Triangulation {
     /// id, and the directed boundary edges go in a dense matrix. Returns
     /// false (changing nothing) for larger cavities.
     fn link_new_dense(&mut self, iq: u32) -> bool {
+        debug_assert!(self.boundary.iter().all(|b| b.v[b.slot as usize] == iq));
+        let Triangulation { boundary, local, local_verts, edge, conflict, tets, .. } = self;
+        let inf_slot = local.len() - 1;
+        // Each directed edge (x, y) of a new tet's face through q has its
+        // reverse (y, x) in exactly one other new tet: the one across it.
+        // Pass 1 names the vertices and records the directed edges.
         let mut count = 0usize;
-        for k in 0..self.boundary.len() {
-            let b = self.boundary[k];
+        let mut fits = true;
+        'faces: for (b, &s) in boundary.iter_mut().zip(conflict.iter()) {
+            let i = b.slot as usize;
             for x in 0..4 {
-                if x == b.slot as usize {
+                if x == i {
                     continue;
                 }
-                let slot = self.local_slot(b.v[x]);
-                let mut l = self.local[slot];
+                let vx = b.v[x];
+                let slot = if vx == INF { inf_slot } else { vx as usize };
+                let mut l = local[slot];
                 if l == NO_LOCAL {
                     if count == DENSE_MAX {
-                        for &v in &self.local_verts {
-                            let slot = self.local_slot(v);
-                            self.local[slot] = NO_LOCAL;
-                        }
-                        self.local_verts.clear();
-                        return false;
+                        fits = false;
+                        break 'faces;
                     }
                     l = count as u8;
                     count += 1;
-                    self.local[slot] = l;
-                    self.local_verts.push(b.v[x]);
+                    local[slot] = l;
+                    local_verts.push(slot as u32);
                 }
-                self.boundary[k].local[x] = l;
+                b.local[x] = l;
             }
-        }
-        for &v in &self.local_verts {
-            let slot = self.local_slot(v);
-            self.local[slot] = NO_LOCAL;
-        }
-        self.local_verts.clear();
-        debug_assert!(self.boundary.iter().all(|b| b.v[b.slot as usize] == iq));
-        // Each directed edge (x, y) of a new tet's face through q has its
-        // reverse (y, x) in exactly one other new tet: the one across it.
-        for k in 0..self.boundary.len() {
-            let b = &self.boundary[k];
-            let s = self.conflict[k];
-            let i = b.slot as usize;
             for j in 0..4 {
                 if j != i {
                     let (x, y) = EDGE[i][j];
-                    self.edge[b.local[x] as usize * DENSE_MAX + b.local[y] as usize] = s;
+                    edge[b.local[x] as usize * DENSE_MAX + b.local[y] as usize] = s;
                 }
             }
         }
-        for k in 0..self.boundary.len() {
-            let b = &self.boundary[k];
-            let s = self.conflict[k] as usize;
+        for &slot in local_verts.iter() {
+            local[slot as usize] = NO_LOCAL;
+        }
+        local_verts.clear();
+        if !fits {
+            return false;
+        }
+        for (b, &s) in boundary.iter().zip(conflict.iter()) {
             let i = b.slot as usize;
+            let n = &mut tets[s as usize].n;
             for j in 0..4 {
                 if j != i {
                     let (x, y) = EDGE[i][j];
-                    self.tets[s].n[j] = self.edge[b.local[y] as usize * DENSE_MAX + b.local[x] as usize];
+                    n[j] = edge[b.local[y] as usize * DENSE_MAX + b.local[x] as usize];
                 }
             }
         }

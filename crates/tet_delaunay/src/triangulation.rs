@@ -387,9 +387,8 @@ impl Triangulation {
                 }
                 b.local[x] = l;
             }
-            for j in 0..4 {
+            for (j, &(x, y)) in EDGE[i].iter().enumerate() {
                 if j != i {
-                    let (x, y) = EDGE[i][j];
                     edge[b.local[x] as usize * DENSE_MAX + b.local[y] as usize] = s;
                 }
             }
@@ -426,11 +425,10 @@ impl Triangulation {
             let b = self.boundary[k];
             let s = self.conflict[k];
             let i = b.slot as usize;
-            for j in 0..4usize {
+            for (j, &(x, y)) in EDGE[i].iter().enumerate() {
                 if j == i {
                     continue;
                 }
-                let (x, y) = EDGE[i][j];
                 let (e0, e1) = (b.v[x], b.v[y]);
                 let key = ((e0.min(e1) as u64) << 32) | e0.max(e1) as u64;
                 let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;

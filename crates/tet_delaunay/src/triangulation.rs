@@ -241,7 +241,7 @@ impl Triangulation {
     }
 
     /// Perturbed in-sphere test of finite tet `v` against point `iq`.
-    #[inline]
+    #[inline(always)]
     fn in_sphere(&self, v: &[u32; 4], q: &[f64; 3], iq: u32) -> bool {
         let p = [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])];
         let d = self.filter.in_sphere(p[0], p[1], p[2], p[3], q);

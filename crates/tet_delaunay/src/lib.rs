@@ -65,6 +65,9 @@ pub use sort::SplitMix64;
 use predicates::orient;
 use triangulation::Triangulation;
 
+/// Inputs at least this large sort on a second thread.
+const PARALLEL_MIN: usize = 20_000;
+
 /// Options for [`tetrahedralize_points`].
 #[derive(Debug, Clone, Default)]
 pub struct DelaunayOptions {
@@ -122,10 +125,21 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
     if let Some(index) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
         return Err(DelaunayError::NonFinite { index, coords: points[index] });
     }
-    let merged_into = tet_mesh::merge::merge_duplicate_points(points, 0.0);
+    // The duplicate merge and the Hilbert keys are independent: on large
+    // inputs they run on two threads.
+    let (merged_into, keys) = if points.len() >= PARALLEL_MIN {
+        std::thread::scope(|s| {
+            let keys = s.spawn(|| sort::hilbert_keys(points));
+            let merged = tet_mesh::merge::merge_duplicate_points(points, 0.0);
+            (merged, keys.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+        })
+    } else {
+        (tet_mesh::merge::merge_duplicate_points(points, 0.0), sort::hilbert_keys(points))
+    };
     let unique: Vec<u32> = merged_into.iter().enumerate().filter(|&(i, &r)| r as usize == i).map(|(_, &r)| r).collect();
     let duplicates = points.len() - unique.len();
-    let order = sort::brio_order(points, unique, 0x7E7D_E1A0);
+    let order = sort::brio_order_keyed(&keys, unique, 0x7E7D_E1A0);
+    drop(keys);
     let order = initial_tet(points, order)?;
     let mut tri = Triangulation::new(order.iter().map(|&i| points[i as usize]).collect(), order);
     debug_assert!(tri.num_points() == points.len() - duplicates);

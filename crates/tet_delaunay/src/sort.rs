@@ -77,37 +77,46 @@ fn hilbert_key(mut x: [u32; 3]) -> u64 {
     key
 }
 
-/// Returns `ids` reordered for insertion: shuffled (seeded), cut into rounds
-/// of geometrically growing size (each round 8× the previous, the last
-/// holding about 7/8 of the points), each round in Hilbert order over the
-/// bounding box of all points. Coordinates must be finite.
-pub fn brio_order(points: &[[f64; 3]], ids: Vec<u32>, seed: u64) -> Vec<u32> {
-    let n = ids.len();
-    if n < 2 {
-        return ids;
-    }
+/// Hilbert keys of `points` on a grid over their bounding box (one scale
+/// for all axes: a flat layer must not be stretched into a cube, which
+/// would scatter its points along the curve). Coordinates must be finite.
+pub fn hilbert_keys(points: &[[f64; 3]]) -> Vec<u64> {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
-    for &i in &ids {
-        let p = &points[i as usize];
+    for p in points {
         for a in 0..3 {
             lo[a] = lo[a].min(p[a]);
             hi[a] = hi[a].max(p[a]);
         }
     }
-    // One scale for all axes: a flat layer must not be stretched into a
-    // cube, which would scatter its points along the curve.
     let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
     let scale = if extent > 0.0 { ((1u32 << BITS) - 1) as f64 / extent } else { 0.0 };
-    // Keys in input order (sequential reads), then shuffle the pairs.
-    let mut keyed: Vec<(u64, u32)> = ids
+    points
         .iter()
-        .map(|&i| {
-            let p = &points[i as usize];
+        .map(|p| {
             let g = |a: usize| (((p[a] - lo[a]) * scale) as u32).min((1 << BITS) - 1);
-            (hilbert_key([g(0), g(1), g(2)]), i)
+            hilbert_key([g(0), g(1), g(2)])
         })
-        .collect();
+        .collect()
+}
+
+/// Returns `ids` reordered for insertion: shuffled (seeded), cut into rounds
+/// of geometrically growing size (each round 8× the previous, the last
+/// holding about 7/8 of the points), each round in Hilbert order over the
+/// bounding box of all points. Coordinates must be finite.
+#[cfg(test)]
+pub fn brio_order(points: &[[f64; 3]], ids: Vec<u32>, seed: u64) -> Vec<u32> {
+    brio_order_keyed(&hilbert_keys(points), ids, seed)
+}
+
+/// [`brio_order`] given the Hilbert key of every point (indexed by id);
+/// duplicates of a point share its key, so they may be among the keys.
+pub fn brio_order_keyed(keys: &[u64], ids: Vec<u32>, seed: u64) -> Vec<u32> {
+    let n = ids.len();
+    if n < 2 {
+        return ids;
+    }
+    let mut keyed: Vec<(u64, u32)> = ids.iter().map(|&i| (keys[i as usize], i)).collect();
     let mut rng = SplitMix64(seed);
     for i in (1..n).rev() {
         let j = rng.below(i + 1);

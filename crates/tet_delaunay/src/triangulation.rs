@@ -17,16 +17,52 @@
 //! insertions touch nearby memory); `orig` maps them back to input ids, which
 //! key the symbolic perturbation so that ties do not depend on the order.
 
-use crate::predicates::{in_sphere_exact, in_sphere_tie, orient};
+use crate::predicates::{in_sphere_tie, orient, StaticFilter};
 use crate::sort::SplitMix64;
 
 /// The infinite vertex.
 pub(crate) const INF: u32 = u32::MAX;
 /// Vertex slot 0 of a freed tet.
 const DEAD: u32 = u32::MAX - 1;
+/// Vertex slot 0 of a tet in the current insertion's conflict zone.
+const IN_CAVITY: u32 = u32::MAX - 2;
 const EMPTY: u64 = u64::MAX;
+/// Unassigned entry of `Triangulation::local`.
+const NO_LOCAL: u8 = u8::MAX;
+/// Largest cavity boundary (in vertices) linked through the dense matrix.
+const DENSE_MAX: usize = 64;
 
+/// For a new tet with the new point in slot `i`, the face opposite slot
+/// `j ≠ i` holds the new point and the edge `(v[x], v[y])` with
+/// `(x, y) = EDGE[i][j]`, directed so that the tet across that face holds
+/// the same edge reversed. (The faces (1,2,3), (0,3,2), (0,1,3), (0,2,1)
+/// are consistently oriented, ghosts included, and two tets sharing a
+/// face see it in opposite orders; rotating the face so `i` comes first
+/// leaves the edge.)
+const EDGE: [[(usize, usize); 4]; 4] = [
+    [(0, 0), (3, 2), (1, 3), (2, 1)],
+    [(2, 3), (0, 0), (3, 0), (0, 2)],
+    [(3, 1), (0, 3), (0, 0), (1, 0)],
+    [(1, 2), (2, 0), (0, 1), (0, 0)],
+];
+
+/// A face of the cavity: the new tet built on it and the outside tet.
 #[derive(Debug, Clone, Copy)]
+struct Boundary {
+    /// The new tet's vertices (the new point in `slot`).
+    v: [u32; 4],
+    outside: u32,
+    slot: u8,
+    /// The outside tet's neighbour slot that faces the cavity.
+    back: u8,
+    /// Local ids of `v` (all but `slot`) for the dense edge matrix.
+    local: [u8; 4],
+}
+
+/// Aligned so that a tet never straddles two cache lines: the flood fill
+/// touches dozens of scattered neighbours per insertion.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(32))]
 pub(crate) struct Tet {
     pub(crate) v: [u32; 4],
     pub(crate) n: [u32; 4],
@@ -35,21 +71,25 @@ pub(crate) struct Tet {
 pub(crate) struct Triangulation {
     /// Points in insertion order.
     pts: Vec<[f64; 3]>,
+    /// Error bounds for the predicates' fast paths on `pts`.
+    filter: StaticFilter,
     /// Input id of each point.
     pub(crate) orig: Vec<u32>,
     pub(crate) tets: Vec<Tet>,
-    /// Per-tet stamp: `stamp` = in the current conflict zone, `stamp + 1` =
-    /// tested and not in conflict. Avoids clearing flags per insertion.
-    mark: Vec<u32>,
-    stamp: u32,
     free: Vec<u32>,
     /// A live finite tet near the last inserted point: where walks start.
     last: u32,
     rng: SplitMix64,
     // Scratch buffers reused by every insertion.
-    stack: Vec<u32>,
+    stack: Vec<(u32, Tet)>,
     conflict: Vec<u32>,
-    boundary: Vec<([u32; 4], u32, u8, u8)>,
+    boundary: Vec<Boundary>,
+    /// Per vertex (the infinite one last): its local id in the current
+    /// cavity boundary, or [`NO_LOCAL`]; `local_verts` lists those set.
+    local: Vec<u8>,
+    local_verts: Vec<u32>,
+    /// `DENSE_MAX`² new-tet slots keyed by directed edge of local ids.
+    edge: Vec<u32>,
     /// Open-addressing table matching the faces through the new point by
     /// their edge opposite it; `used` lists the slots to clear afterwards.
     table: Vec<(u64, u32)>,
@@ -68,18 +108,21 @@ impl Triangulation {
     pub(crate) fn new(pts: Vec<[f64; 3]>, orig: Vec<u32>) -> Self {
         debug_assert!(orient(&pts[0], &pts[1], &pts[2], &pts[3]) > 0.0);
         let cap = pts.len().saturating_mul(7) + 16;
+        let n_local = pts.len() + 1;
         let mut t = Triangulation {
+            filter: StaticFilter::new(&pts),
             pts,
             orig,
             tets: Vec::with_capacity(cap),
-            mark: Vec::with_capacity(cap),
-            stamp: 0,
             free: Vec::new(),
             last: 0,
             rng: SplitMix64(0x5EED),
             stack: Vec::new(),
             conflict: Vec::new(),
             boundary: Vec::new(),
+            local: vec![NO_LOCAL; n_local],
+            local_verts: Vec::new(),
+            edge: vec![0; DENSE_MAX * DENSE_MAX],
             table: Vec::new(),
             used: Vec::new(),
             walk_fallbacks: 0,
@@ -94,7 +137,6 @@ impl Triangulation {
                 v.swap(i % 4, (i + 1) % 4);
             }
             t.tets.push(Tet { v, n: [u32::MAX; 4] });
-            t.mark.push(0);
         }
         t.link_small(&[0, 1, 2, 3, 4]);
         t
@@ -146,7 +188,7 @@ impl Triangulation {
                 p[k] = self.p(v[k]);
             }
         }
-        orient(p[0], p[1], p[2], p[3])
+        self.filter.orient(p[0], p[1], p[2], p[3])
     }
 
     /// Finds a tet in conflict with `q`: a finite tet whose closure
@@ -199,38 +241,32 @@ impl Triangulation {
     }
 
     /// Perturbed in-sphere test of finite tet `v` against point `iq`.
-    #[inline]
+    #[inline(always)]
     fn in_sphere(&self, v: &[u32; 4], q: &[f64; 3], iq: u32) -> bool {
         let p = [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])];
-        let d = in_sphere_exact(p[0], p[1], p[2], p[3], q);
+        let d = self.filter.in_sphere(p[0], p[1], p[2], p[3], q);
         if d != 0.0 {
             return d > 0.0;
         }
         in_sphere_tie(p, v.map(|x| self.orig[x as usize]), q, self.orig[iq as usize])
     }
 
-    /// Conflict test of tet `t` with point `q` (id `iq`).
-    fn in_conflict(&self, t: u32, q: &[f64; 3], iq: u32) -> bool {
-        let v = self.tets[t as usize].v;
+    /// Conflict test of tet `tet` with point `q` (id `iq`).
+    #[inline]
+    fn in_conflict(&self, tet: &Tet, q: &[f64; 3], iq: u32) -> bool {
+        let v = &tet.v;
         if let Some(g) = v.iter().position(|&x| x == INF) {
-            let o = self.orient_replaced(&v, g, q);
+            let o = self.orient_replaced(v, g, q);
             if o != 0.0 {
                 return o > 0.0;
             }
             // On the hull facet's plane: in conflict exactly when the finite
             // tet across that facet is (in-circle of the facet, with the
             // same perturbation), as geogram does.
-            let f = self.tets[t as usize].n[g];
-            let m = self.mark[f as usize];
-            if m == self.stamp {
-                return true;
-            }
-            if m == self.stamp + 1 {
-                return false;
-            }
-            return self.in_sphere(&self.tets[f as usize].v, q, iq);
+            let f = &self.tets[tet.n[g] as usize];
+            return f.v[0] == IN_CAVITY || self.in_sphere(&f.v, q, iq);
         }
-        self.in_sphere(&v, q, iq)
+        self.in_sphere(v, q, iq)
     }
 
     fn alloc(&mut self) -> u32 {
@@ -238,7 +274,6 @@ impl Triangulation {
             s
         } else {
             self.tets.push(Tet { v: [DEAD; 4], n: [u32::MAX; 4] });
-            self.mark.push(0);
             (self.tets.len() - 1) as u32
         }
     }
@@ -247,94 +282,155 @@ impl Triangulation {
     pub(crate) fn insert(&mut self, iq: u32) {
         let q = self.pts[iq as usize];
         let t0 = self.locate(&q);
-        self.stamp = self.stamp.wrapping_add(2);
-        if self.stamp == 0 {
-            // Stamps wrapped: clear so old marks cannot alias.
-            self.mark.iter_mut().for_each(|m| *m = 0);
-            self.stamp = 2;
-        }
-        let stamp = self.stamp;
-
         // Conflict zone by flood fill from t0 (which contains q, so is in
-        // conflict without a test).
+        // conflict without a test). A conflict tet is flagged by
+        // `IN_CAVITY` in its first vertex slot, its contents kept on the
+        // stack, so one cache line per neighbour tells whether it is
+        // already in the zone; the flag goes when the slot is rebuilt or
+        // freed. Non-conflict tets are not flagged: one facing several
+        // conflict tets is tested again (cheap, it is in cache).
+        //
+        // Each face from a conflict tet to a non-conflict one is a boundary
+        // face: its new tet is the conflict tet with the vertex opposite
+        // the face replaced by q. The outside neighbour's slot pointing back
+        // is found now, before any conflict slot is reused (a neighbour may
+        // face two conflict tets).
         self.conflict.clear();
         self.stack.clear();
-        self.mark[t0 as usize] = stamp;
-        self.conflict.push(t0);
-        self.stack.push(t0);
-        while let Some(t) = self.stack.pop() {
-            for i in 0..4 {
-                let nb = self.tets[t as usize].n[i];
-                let m = self.mark[nb as usize];
-                if m == stamp || m == stamp + 1 {
-                    continue;
-                }
-                if self.in_conflict(nb, &q, iq) {
-                    self.mark[nb as usize] = stamp;
-                    self.conflict.push(nb);
-                    self.stack.push(nb);
-                } else {
-                    self.mark[nb as usize] = stamp + 1;
-                }
-            }
-        }
-
-        // Boundary faces: new tet = conflict tet with the vertex opposite
-        // the face replaced by q; remember the outside neighbour and its
-        // slot that pointed back.
         self.boundary.clear();
-        for &t in &self.conflict {
-            let Tet { v, n } = self.tets[t as usize];
+        self.stack.push((t0, self.tets[t0 as usize]));
+        self.tets[t0 as usize].v[0] = IN_CAVITY;
+        self.conflict.push(t0);
+        while let Some((t, Tet { v, n })) = self.stack.pop() {
             for i in 0..4 {
                 let nb = n[i];
-                if self.mark[nb as usize] == stamp {
+                let nt = self.tets[nb as usize];
+                if nt.v[0] == IN_CAVITY {
                     continue;
                 }
-                let back = self.tets[nb as usize].n.iter().position(|&x| x == t).expect("adjacency is symmetric");
+                if self.in_conflict(&nt, &q, iq) {
+                    self.tets[nb as usize].v[0] = IN_CAVITY;
+                    self.conflict.push(nb);
+                    self.stack.push((nb, nt));
+                    continue;
+                }
+                let back = (0..4).find(|&k| nt.n[k] == t).expect("adjacency is symmetric");
                 let mut nv = v;
                 nv[i] = iq;
-                self.boundary.push((nv, nb, i as u8, back as u8));
+                self.boundary.push(Boundary { v: nv, outside: nb, slot: i as u8, back: back as u8, local: [0; 4] });
             }
         }
 
-        // Reuse the conflict slots, then the free list, then grow.
-        for k in 0..self.conflict.len() {
+        // New tets take the conflict slots first, then the free list, then
+        // grow the array.
+        let nc = self.conflict.len();
+        for _ in nc..self.boundary.len() {
+            let s = self.alloc();
+            self.conflict.push(s);
+        }
+        for k in self.boundary.len()..nc {
             let s = self.conflict[k];
             self.tets[s as usize].v = [DEAD; 4];
             self.free.push(s);
         }
+        let mut last = u32::MAX;
+        for k in 0..self.boundary.len() {
+            let b = self.boundary[k];
+            let s = self.conflict[k];
+            let mut n = [u32::MAX; 4];
+            n[b.slot as usize] = b.outside;
+            self.tets[s as usize] = Tet { v: b.v, n };
+            self.tets[b.outside as usize].n[b.back as usize] = s;
+            if !is_ghost(&b.v) {
+                last = s;
+            }
+        }
+        debug_assert!(last != u32::MAX);
+        self.last = last;
+        if !self.link_new_dense(iq) {
+            self.link_new_hashed();
+        }
+    }
+
+    /// Links the new tets (slots `conflict[k]` for boundary face `k`)
+    /// across their faces through the new point `iq`, when the cavity
+    /// boundary has at most [`DENSE_MAX`] vertices: each gets a small local
+    /// id, and the directed boundary edges go in a dense matrix. Returns
+    /// false (changing nothing) for larger cavities.
+    fn link_new_dense(&mut self, iq: u32) -> bool {
+        debug_assert!(self.boundary.iter().all(|b| b.v[b.slot as usize] == iq));
+        let Triangulation { boundary, local, local_verts, edge, conflict, tets, .. } = self;
+        let inf_slot = local.len() - 1;
+        // Each directed edge (x, y) of a new tet's face through q has its
+        // reverse (y, x) in exactly one other new tet: the one across it.
+        // Pass 1 names the vertices and records the directed edges.
+        let mut count = 0usize;
+        let mut fits = true;
+        'faces: for (b, &s) in boundary.iter_mut().zip(conflict.iter()) {
+            let i = b.slot as usize;
+            for x in 0..4 {
+                if x == i {
+                    continue;
+                }
+                let vx = b.v[x];
+                let slot = if vx == INF { inf_slot } else { vx as usize };
+                let mut l = local[slot];
+                if l == NO_LOCAL {
+                    if count == DENSE_MAX {
+                        fits = false;
+                        break 'faces;
+                    }
+                    l = count as u8;
+                    count += 1;
+                    local[slot] = l;
+                    local_verts.push(slot as u32);
+                }
+                b.local[x] = l;
+            }
+            for (j, &(x, y)) in EDGE[i].iter().enumerate() {
+                if j != i {
+                    edge[b.local[x] as usize * DENSE_MAX + b.local[y] as usize] = s;
+                }
+            }
+        }
+        for &slot in local_verts.iter() {
+            local[slot as usize] = NO_LOCAL;
+        }
+        local_verts.clear();
+        if !fits {
+            return false;
+        }
+        for (b, &s) in boundary.iter().zip(conflict.iter()) {
+            let i = b.slot as usize;
+            let n = &mut tets[s as usize].n;
+            for j in 0..4 {
+                if j != i {
+                    let (x, y) = EDGE[i][j];
+                    n[j] = edge[b.local[y] as usize * DENSE_MAX + b.local[x] as usize];
+                }
+            }
+        }
+        true
+    }
+
+    /// [`Self::link_new_dense`] for cavities of any size, through an
+    /// open-addressing table keyed by the undirected edge.
+    fn link_new_hashed(&mut self) {
         let needed = (6 * self.boundary.len()).next_power_of_two().max(256);
         if self.table.len() < needed {
             self.table = vec![(EMPTY, 0); needed];
         }
         let mask = self.table.len() - 1;
-        let mut last = u32::MAX;
         for k in 0..self.boundary.len() {
-            let (nv, nb, i, back) = self.boundary[k];
-            let s = self.alloc();
-            let mut n = [u32::MAX; 4];
-            n[i as usize] = nb;
-            self.tets[s as usize] = Tet { v: nv, n };
-            self.tets[nb as usize].n[back as usize] = s;
-            self.mark[s as usize] = 0;
-            if !is_ghost(&nv) {
-                last = s;
-            }
-            // The three faces through q are shared with other new tets;
-            // each is named by its edge opposite q.
-            for j in 0..4usize {
-                if j == i as usize {
+            let b = self.boundary[k];
+            let s = self.conflict[k];
+            let i = b.slot as usize;
+            for (j, &(x, y)) in EDGE[i].iter().enumerate() {
+                if j == i {
                     continue;
                 }
-                let mut e = [0u32; 2];
-                let mut m = 0;
-                for (k2, &x) in nv.iter().enumerate() {
-                    if k2 != j && k2 != i as usize {
-                        e[m] = x;
-                        m += 1;
-                    }
-                }
-                let key = ((e[0].min(e[1]) as u64) << 32) | e[0].max(e[1]) as u64;
+                let (e0, e1) = (b.v[x], b.v[y]);
+                let key = ((e0.min(e1) as u64) << 32) | e0.max(e1) as u64;
                 let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
                 loop {
                     let (k3, val) = self.table[h];
@@ -356,8 +452,6 @@ impl Triangulation {
             self.table[h as usize].0 = EMPTY;
         }
         self.used.clear();
-        debug_assert!(last != u32::MAX);
-        self.last = last;
     }
 
     /// Removes finite tets reachable from the hull through faces between

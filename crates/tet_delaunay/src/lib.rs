@@ -68,6 +68,10 @@ use triangulation::Triangulation;
 /// Inputs at least this large sort on a second thread.
 const PARALLEL_MIN: usize = 20_000;
 
+/// The most points [`tetrahedralize_points`] accepts (2^29): their tets
+/// must stay indexable by u32.
+pub const MAX_POINTS: usize = 1 << 29;
+
 /// Options for [`tetrahedralize_points`].
 #[derive(Debug, Clone, Default)]
 pub struct DelaunayOptions {
@@ -111,7 +115,7 @@ impl Delaunay {
 ///
 /// Identical points are merged first (see [`Delaunay::merged_into`]).
 /// Errors: a non-finite coordinate (naming the first such point), more
-/// than 2^32 − 2 points, fewer than 4 distinct non-coplanar points, or a
+/// than [`MAX_POINTS`] points, fewer than 4 distinct non-coplanar points, or a
 /// non-positive `max_circumradius`.
 pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Result<Delaunay, DelaunayError> {
     if let Some(r) = opts.max_circumradius {
@@ -119,7 +123,9 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
             return Err(DelaunayError::BadCircumradius(r));
         }
     }
-    if points.len() >= (u32::MAX - 1) as usize {
+    // Tets are indexed by u32 and number ~6.7 per point (plus ghosts), so
+    // the point count is capped well below 2^32 / 7.
+    if points.len() > MAX_POINTS {
         return Err(DelaunayError::TooManyPoints { count: points.len() });
     }
     if let Some(index) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {

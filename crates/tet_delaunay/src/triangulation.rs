@@ -274,7 +274,10 @@ impl Triangulation {
             s
         } else {
             self.tets.push(Tet { v: [DEAD; 4], n: [u32::MAX; 4] });
-            (self.tets.len() - 1) as u32
+            // MAX_POINTS keeps ordinary inputs far below this; only a
+            // pathological (quadratic-size) triangulation of ~2^29 points
+            // could reach it, after allocating over 100 GB.
+            u32::try_from(self.tets.len() - 1).expect("more than 2^32 tets: the input is too large for 32-bit tet ids")
         }
     }
 

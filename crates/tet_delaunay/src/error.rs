@@ -5,7 +5,7 @@ use thiserror::Error;
 pub enum DelaunayError {
     #[error("point {index} has a non-finite coordinate {coords:?}")]
     NonFinite { index: usize, coords: [f64; 3] },
-    #[error("{count} points is more than the 2^29 a tetrahedralization can index (its tets use 32-bit ids)")]
+    #[error("{count} points is more than a tetrahedralization with 32-bit tet ids can index")]
     TooManyPoints { count: usize },
     #[error(
         "the {distinct} distinct points span only {dimension} dimension(s); a tetrahedralization needs 4 points not in one plane"

@@ -66,14 +66,7 @@ pub(crate) struct StaticFilter {
 
 impl StaticFilter {
     pub(crate) fn new(points: &[[f64; 3]]) -> Self {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in points {
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
+        let (lo, hi) = tet_mesh::stats::bounds(points);
         let m = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
         let margin = 1.0 + 1.0 / (1u64 << 30) as f64;
         let bound = |b: f64| if b.is_finite() && b > 1e-250 { b } else { f64::INFINITY };

@@ -81,14 +81,7 @@ fn hilbert_key(mut x: [u32; 3]) -> u64 {
 /// for all axes: a flat layer must not be stretched into a cube, which
 /// would scatter its points along the curve). Coordinates must be finite.
 pub fn hilbert_keys(points: &[[f64; 3]]) -> Vec<u64> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+    let (lo, hi) = tet_mesh::stats::bounds(points);
     let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
     let scale = if extent > 0.0 { ((1u32 << BITS) - 1) as f64 / extent } else { 0.0 };
     points

@@ -389,14 +389,7 @@ pub fn tetrahedralize(
 /// Diagonal of the bounding box of the finite points (0 if there are none):
 /// the length merge tolerances are relative to.
 pub fn bbox_diagonal(points: &[[f64; 3]]) -> f64 {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points.iter().filter(|p| p.iter().all(|c| c.is_finite())) {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+    let (lo, hi) = crate::stats::bounds(points);
     let d2: f64 = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum();
     if d2.is_finite() {
         d2.sqrt()

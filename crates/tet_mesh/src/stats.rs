@@ -99,16 +99,23 @@ pub struct MeshStats {
 
 const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
 
-/// Computes [`MeshStats`]; volumes and lengths in the mesh's units.
-pub fn mesh_stats(points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> MeshStats {
+/// Axis-aligned bounds `(min, max)` of the finite points; `(+∞, −∞)` per
+/// axis when there are none.
+pub fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
+    for p in points.iter().filter(|p| p.iter().all(|c| c.is_finite())) {
         for a in 0..3 {
             lo[a] = lo[a].min(p[a]);
             hi[a] = hi[a].max(p[a]);
         }
     }
+    (lo, hi)
+}
+
+/// Computes [`MeshStats`]; volumes and lengths in the mesh's units.
+pub fn mesh_stats(points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> MeshStats {
+    let (lo, hi) = bounds(points);
     let volume = |t: usize| {
         let t = &tets[t];
         let p = |k: usize| &points[t[k] as usize];

@@ -307,8 +307,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             units,
             length_units,
         } => {
-            let units = crate::plot::AxisUnits { scalar: units, length: length_units };
-            crate::plot::run_hist(&bundle, &output, csv.as_deref(), !linear, bins, scalar_range, gradient_range, &units)
+            let req = crate::plot::HistRequest {
+                log: !linear,
+                bins,
+                scalar_range,
+                gradient_range,
+                units: crate::plot::AxisUnits { scalar: units, length: length_units },
+            };
+            crate::plot::run_hist(&bundle, &output, csv.as_deref(), &req)
         }
     }
 }

@@ -351,16 +351,19 @@ fn write_csv(h: &Histograms, path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-pub fn run_hist(
-    path: &Path,
-    output: &Path,
-    csv: Option<&Path>,
-    log: bool,
-    bins: Option<[u32; 2]>,
-    scalar_range: Option<(f64, f64)>,
-    gradient_range: Option<(f64, f64)>,
-    units: &AxisUnits,
-) -> anyhow::Result<()> {
+/// What `tetprep hist` was asked to draw; any of `bins`, `scalar_range` or
+/// `gradient_range` recomputes the histogram instead of using the stored one.
+#[derive(Debug, Clone, Default)]
+pub struct HistRequest {
+    pub log: bool,
+    pub bins: Option<[u32; 2]>,
+    pub scalar_range: Option<(f64, f64)>,
+    pub gradient_range: Option<(f64, f64)>,
+    pub units: AxisUnits,
+}
+
+pub fn run_hist(path: &Path, output: &Path, csv: Option<&Path>, req: &HistRequest) -> anyhow::Result<()> {
+    let HistRequest { log, bins, scalar_range, gradient_range, ref units } = *req;
     let bundle = Bundle::read(path)?;
     let stored = bundle.analysis.as_ref().and_then(|a| a.histograms.as_ref());
     let recompute = bins.is_some() || scalar_range.is_some() || gradient_range.is_some();

@@ -128,8 +128,16 @@ struct MetaRecord {
 impl Bundle {
     /// A bundle from a validated mesh; `meta.stats` is recomputed here so it
     /// always describes the stored mesh.
-    pub fn new(mesh: TetMesh, adjacency: Adjacency, mut meta: BundleMeta) -> Bundle {
-        meta.stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
+    pub fn new(mesh: TetMesh, adjacency: Adjacency, meta: BundleMeta) -> Bundle {
+        let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
+        Bundle::with_stats(mesh, adjacency, meta, stats)
+    }
+
+    /// Like [`Bundle::new`] with statistics computed by the caller (e.g.
+    /// concurrently with the adjacency); `stats` must be
+    /// `tet_mesh::mesh_stats` of this mesh.
+    pub fn with_stats(mesh: TetMesh, adjacency: Adjacency, mut meta: BundleMeta, stats: MeshStats) -> Bundle {
+        meta.stats = stats;
         if meta.writer.is_empty() {
             meta.writer = format!("tetkit {}", env!("CARGO_PKG_VERSION"));
         }

@@ -138,7 +138,12 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
 
     progress.step("building face adjacency");
     let t = Instant::now();
-    let adjacency = build_adjacency(&mesh.points, &mesh.tets).map_err(|e| {
+    // Statistics run beside the adjacency, whose face bucketing is serial.
+    let (adjacency, stats) = rayon::join(
+        || build_adjacency(&mesh.points, &mesh.tets),
+        || tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar),
+    );
+    let adjacency = adjacency.map_err(|e| {
         let cells = match &e {
             tet_mesh::MeshError::NonManifoldFace { tets, .. } => {
                 let cells: Vec<String> = tets.iter().map(|&t| report.tet_source_cell[t as usize].to_string()).collect();
@@ -148,7 +153,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         };
         anyhow::Error::new(e).context(format!("the tets do not form a valid mesh{cells}"))
     })?;
-    timings.push(("adjacency", t.elapsed().as_secs_f64()));
+    timings.push(("adjacency_stats", t.elapsed().as_secs_f64()));
 
     let mut findings: Vec<String> = Vec::new();
     let split = if let Some(c) = &cloud {
@@ -195,9 +200,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     };
     drop(source);
     progress.step("writing the bundle");
-    let t = Instant::now();
-    let mut bundle = Bundle::new(mesh, adjacency, meta);
-    timings.push(("stats", t.elapsed().as_secs_f64()));
+    let mut bundle = Bundle::with_stats(mesh, adjacency, meta, stats);
     if let Some(opts) = crate::analysis::requested(&args.analysis) {
         progress.step("analysing the scalar");
         let t = Instant::now();

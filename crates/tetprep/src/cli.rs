@@ -3,7 +3,7 @@
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
-/// Convert meshes, curvilinear grids and volumes into validated tetrahedral
+/// Convert meshes, curvilinear grids, volumes and point clouds into validated tetrahedral
 /// bundles (.tetb) for tetlut and tetview.
 ///
 /// Exit codes: 0 success, 1 unexpected failure, 2 bad command line,
@@ -18,7 +18,7 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Convert an input mesh, grid or volume into a bundle.
+    /// Convert an input mesh, grid, volume or point cloud into a bundle.
     ///
     /// Formats (detected from content or extension; --format to force):
     /// legacy VTK (.vtk), VTK XML (.vtu .vts .vti .pvtu), PLOT3D grid (+ --q

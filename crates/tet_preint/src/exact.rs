@@ -162,8 +162,8 @@ pub fn integrate_segment_with(tf: &TransferFunction, sf: f64, sb: f64, len: f64,
         let (c1, t1) = (tf.color(w[1]), tf.extinction(w[1]));
         let d = (w[1] - w[0]).abs() * per_scalar;
         let (p, dp) = piece(emission, c0, c1, t0, t1, d);
-        for k in 0..3 {
-            color[k] += transmittance * p.color[k];
+        for (acc, c) in color.iter_mut().zip(p.color) {
+            *acc += transmittance * c;
         }
         transmittance *= 1.0 - p.alpha;
         depth += dp;

@@ -304,8 +304,8 @@ impl TransferFunction {
     pub fn max_color(&self) -> [f64; 3] {
         let mut m = [0.0f64; 3];
         for c in &self.color {
-            for k in 0..3 {
-                m[k] = m[k].max(c.rgb[k]);
+            for (mk, ck) in m.iter_mut().zip(c.rgb) {
+                *mk = mk.max(ck);
             }
         }
         m

@@ -124,6 +124,12 @@ fn huge_optical_depth_saturates_without_nan() {
             assert!(p.color.iter().all(|c| c.is_finite() && *c >= 0.0 && *c <= 1.0), "{p:?}");
         }
     }
+    let indep = t.clone().with_emission(Emission::Independent);
+    for &len in &[1e3, 1e8, 1e300] {
+        let p = integrate_segment(&indep, -1.0, 1.0, len);
+        assert_eq!(p.alpha, 1.0);
+        assert!(p.color.iter().all(|c| c.is_finite() && *c >= 0.0), "{p:?}");
+    }
     // The front colour wins when the front is opaque.
     let p = integrate_segment(&t, 0.2, 0.2, 1e9);
     let k = t.color(0.2);

@@ -1,25 +1,39 @@
-//! `tetlut`: pre-integration tables for a transfer function (skeleton).
+//! `tetlut`: transfer functions and pre-integration of ray segments.
 //!
-//! Not built yet (issue "tetlut: transfer functions, an exact reference
-//! integrator, every pre-integration table"): this binary only says so.
-use clap::Parser;
+//! Built: `probe` with the `exact` reference integrator. Not built yet: the
+//! tables (table3d, atlas2d, poly1/2/4, partial, biv-*) and the `bake`,
+//! `show` and `bench` subcommands.
+mod probe;
 
-/// Bake pre-integration tables for a transfer function and measure every
-/// method's error against an exact reference. NOT BUILT YET: no subcommand
-/// works in this version.
+use clap::{Parser, Subcommand};
+
+/// Pre-integration of ray segments through linear tetrahedra.
+///
+/// Built: `probe` with method `exact` (the f64 reference). Not built yet:
+/// the pre-integration tables (table3d, atlas2d, poly1/2/4, partial,
+/// biv-exact, biv-approx) and the bake, show and bench subcommands.
 #[derive(Debug, Parser)]
-#[command(name = "tetlut", version, about)]
+#[command(name = "tetlut", version, about, long_about)]
 struct Cli {
-    /// Planned: bake, show, error, bench.
-    command: Option<String>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    Probe(probe::ProbeArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    eprintln!(
-        "tetlut{}: not built yet — transfer functions, the exact integrator and the pre-integration tables \
-         (table3d, atlas2d, poly1/2/4, partial, biv-*) are planned; this version only converts meshes (tetprep).",
-        cli.command.map(|c| format!(" {c}")).unwrap_or_default()
-    );
-    std::process::ExitCode::from(2)
+    let result = match cli.command {
+        Command::Probe(args) => probe::run(&args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("tetlut: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
 }

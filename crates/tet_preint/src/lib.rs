@@ -1,0 +1,54 @@
+//! Transfer functions and exact pre-integration of ray segments through
+//! linear tetrahedra.
+//!
+//! * [`TransferFunction`] (module [`tf`]): piecewise-linear colour κ(s) and
+//!   VTK-style opacity a(s), extinction ρ = a/u (spec: `formats/tf.md`), with
+//!   ParaView preset import.
+//! * [`integrate_segment`] (module [`exact`]): the f64 reference for one
+//!   segment (Sf, Sb, l), returning premultiplied [`Rgba`].
+//! * [`special`]: `erfcx` and `dawson` in f64.
+//!
+//! ```
+//! use tet_preint::{integrate_segment, TransferFunction};
+//! let tf = TransferFunction::from_json(
+//!     r#"{"color": [[0, 1, 0, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5]], "unit_distance": 1}"#,
+//! )?;
+//! // Constant extinction 0.5 over length 2: α = 1 − e^{−1}.
+//! let px = integrate_segment(&tf, 0.3, 0.3, 2.0);
+//! assert!((px.alpha - (1.0 - (-1.0f64).exp())).abs() < 1e-15);
+//! assert!((px.color[0] - 0.7 * px.alpha).abs() < 1e-15);
+//! # Ok::<(), tet_preint::TfError>(())
+//! ```
+#![forbid(unsafe_code)]
+
+pub mod exact;
+pub mod special;
+pub mod tf;
+
+pub use exact::{integrate_segment, integrate_segment_with, Rgba};
+pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
+
+/// A transfer function that cannot be used; each variant names the entry.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TfError {
+    #[error("transfer function JSON: {0}")]
+    Json(String),
+    #[error("{list}[{index}]: expected {expected} numbers, found {found}")]
+    Arity { list: &'static str, index: usize, expected: usize, found: usize },
+    #[error("{list} has no control points")]
+    Empty { list: &'static str },
+    #[error("{list}[{index}]: value is NaN or infinite")]
+    NonFinite { list: &'static str, index: usize },
+    #[error("{list}[{index}]: negative value")]
+    Negative { list: &'static str, index: usize },
+    #[error("{list}[{index}]: x = {x} repeats the previous control point")]
+    Duplicate { list: &'static str, index: usize, x: f64 },
+    #[error("{list}[{index}]: x = {x} is below the previous control point's {prev} (points must increase)")]
+    Unsorted { list: &'static str, index: usize, x: f64, prev: f64 },
+    #[error("unit_distance = {0}: must be positive and finite")]
+    UnitDistance(f64),
+    #[error("scalar range [{lo}, {hi}]: need finite lo < hi")]
+    Range { lo: f64, hi: f64 },
+    #[error("ParaView preset: {0}")]
+    Preset(String),
+}

@@ -99,12 +99,20 @@ pub enum ReadError {
         source: std::io::Error,
         path: PathBuf,
     },
-    #[error("{format}: {message} (at {at} of {})", path.display())]
+    #[error("{format}: {message} ({})", place(at, path))]
     Malformed { format: Format, message: String, at: Location, path: PathBuf },
     #[error("cannot tell the format of {}: {hint}; pass --format", path.display())]
     UnknownFormat { hint: String, path: PathBuf },
     #[error("{format} input needs {what} ({})", path.display())]
     MissingOption { format: Format, what: String, path: PathBuf },
+}
+
+/// "at byte 12 of x.vtk", "at line 3 of x.msh", or "in x.bin" for whole-file problems.
+fn place(at: &Location, path: &Path) -> String {
+    match at {
+        Location::Whole => format!("in {}", path.display()),
+        _ => format!("at {at} of {}", path.display()),
+    }
 }
 
 /// Input formats `tetprep convert` understands.

@@ -7,6 +7,9 @@
 //! * [`integrate_segment`] (module [`exact`]): the f64 reference for one
 //!   segment (Sf, Sb, l), returning premultiplied [`Rgba`].
 //! * [`special`]: `erfcx` and `dawson` in f64.
+//! * [`Method`], [`Segment`] and [`SegmentShader`] (module [`method`]): the
+//!   method ids of DESIGN.md and the per-segment contract every method
+//!   implements for the renderers ([`ExactShader`], [`PtLinearShader`], tables).
 //!
 //! ```
 //! use tet_preint::{integrate_segment, TransferFunction};
@@ -22,10 +25,12 @@
 #![forbid(unsafe_code)]
 
 pub mod exact;
+pub mod method;
 pub mod special;
 pub mod tf;
 
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
+pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
 
 /// A transfer function that cannot be used; each variant names the entry.

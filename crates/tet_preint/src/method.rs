@@ -1,0 +1,214 @@
+//! Method ids shared by tetlut, tetview and every benchmark (DESIGN.md
+//! "Methods"), and the [`SegmentShader`] contract every method implements.
+//!
+//! A shader turns one ray segment through a linear tet into premultiplied
+//! (C, α). The renderer calls it per fragment (or per thick vertex for
+//! `pt-linear`), so implementations must be cheap, `Sync`, and must never
+//! return NaN: degenerate input (l = 0, Sf = Sb, values outside the baked
+//! domain) is clamped or handled, not propagated.
+
+use crate::exact::integrate_segment_with;
+use crate::tf::TransferFunction;
+use std::fmt;
+use std::str::FromStr;
+
+/// One method id of DESIGN.md's table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    Exact,
+    PtLinear,
+    Table3d,
+    Atlas2d,
+    Poly1,
+    Poly2,
+    Poly4,
+    Partial,
+    BivExact,
+    BivApprox,
+}
+
+impl Method {
+    /// Every method, in DESIGN.md's order.
+    pub const ALL: [Method; 10] = [
+        Method::Exact,
+        Method::PtLinear,
+        Method::Table3d,
+        Method::Atlas2d,
+        Method::Poly1,
+        Method::Poly2,
+        Method::Poly4,
+        Method::Partial,
+        Method::BivExact,
+        Method::BivApprox,
+    ];
+
+    /// The id as written on command lines and in files (`table3d`, `biv-exact`, …).
+    pub fn id(self) -> &'static str {
+        match self {
+            Method::Exact => "exact",
+            Method::PtLinear => "pt-linear",
+            Method::Table3d => "table3d",
+            Method::Atlas2d => "atlas2d",
+            Method::Poly1 => "poly1",
+            Method::Poly2 => "poly2",
+            Method::Poly4 => "poly4",
+            Method::Partial => "partial",
+            Method::BivExact => "biv-exact",
+            Method::BivApprox => "biv-approx",
+        }
+    }
+
+    /// Whether the method needs per-vertex gradient magnitudes (bivariate TFs).
+    pub fn is_bivariate(self) -> bool {
+        matches!(self, Method::BivExact | Method::BivApprox)
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.id())
+    }
+}
+
+/// A method id that is not in DESIGN.md's table.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown method '{given}'; known: exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial, biv-exact, biv-approx")]
+pub struct UnknownMethod {
+    pub given: String,
+}
+
+impl FromStr for Method {
+    type Err = UnknownMethod;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.id() == s)
+            .ok_or_else(|| UnknownMethod { given: s.to_string() })
+    }
+}
+
+/// One ray segment through a linear tet: scalar at entry and exit, gradient
+/// magnitude at entry and exit (0 when the method is not bivariate), and the
+/// segment length in world units.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Segment {
+    pub s_front: f32,
+    pub s_back: f32,
+    pub grad_front: f32,
+    pub grad_back: f32,
+    pub len_world: f32,
+}
+
+/// Premultiplied colour and opacity of one segment: `[R, G, B, A]`, each in
+/// [0, 1] for A and [0, A·max κ] for RGB.
+pub type Rgba32 = [f32; 4];
+
+/// What the renderer asks of every method: (C, α) for one segment.
+pub trait SegmentShader: Send + Sync {
+    /// The method this shader implements.
+    fn method(&self) -> Method;
+    /// Premultiplied (C, α) of the segment; never NaN.
+    fn shade(&self, seg: &Segment) -> Rgba32;
+}
+
+/// The `exact` method as a shader: f64 integration per call (slow; the
+/// reference). Allocation-free for TFs with up to 64 control points.
+#[derive(Debug, Clone)]
+pub struct ExactShader {
+    tf: TransferFunction,
+}
+
+impl ExactShader {
+    pub fn new(tf: TransferFunction) -> Self {
+        ExactShader { tf }
+    }
+    pub fn transfer_function(&self) -> &TransferFunction {
+        &self.tf
+    }
+}
+
+impl SegmentShader for ExactShader {
+    fn method(&self) -> Method {
+        Method::Exact
+    }
+    fn shade(&self, seg: &Segment) -> Rgba32 {
+        thread_local! {
+            static SCRATCH: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        let px = SCRATCH.with(|scratch| {
+            integrate_segment_with(
+                &self.tf,
+                seg.s_front as f64,
+                seg.s_back as f64,
+                (seg.len_world as f64).max(0.0),
+                &mut scratch.borrow_mut(),
+            )
+        });
+        [px.color[0] as f32, px.color[1] as f32, px.color[2] as f32, px.alpha as f32]
+    }
+}
+
+/// `pt-linear` (Shirley–Tuchman): the thick vertex gets the mean colour of
+/// κ(Sf) and κ(Sb) and α = 1 − exp(−l·(ρ(Sf)+ρ(Sb))/2); the rasterizer then
+/// interpolates this RGBA linearly towards zero at the silhouette rather than
+/// calling the shader per fragment.
+#[derive(Debug, Clone)]
+pub struct PtLinearShader {
+    tf: TransferFunction,
+}
+
+impl PtLinearShader {
+    pub fn new(tf: TransferFunction) -> Self {
+        PtLinearShader { tf }
+    }
+}
+
+impl SegmentShader for PtLinearShader {
+    fn method(&self) -> Method {
+        Method::PtLinear
+    }
+    fn shade(&self, seg: &Segment) -> Rgba32 {
+        let (sf, sb) = (seg.s_front as f64, seg.s_back as f64);
+        let l = (seg.len_world as f64).max(0.0);
+        let (cf, cb) = (self.tf.color(sf), self.tf.color(sb));
+        let rho = 0.5 * (self.tf.extinction(sf) + self.tf.extinction(sb));
+        let alpha = -(-(l * rho)).exp_m1();
+        [
+            (0.5 * (cf[0] + cb[0]) * alpha) as f32,
+            (0.5 * (cf[1] + cb[1]) * alpha) as f32,
+            (0.5 * (cf[2] + cb[2]) * alpha) as f32,
+            alpha as f32,
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_round_trip() {
+        for m in Method::ALL {
+            assert_eq!(m.id().parse::<Method>().unwrap(), m);
+        }
+        let err = "table4d".parse::<Method>().unwrap_err();
+        assert!(err.to_string().contains("table4d"));
+    }
+
+    #[test]
+    fn exact_shader_matches_integrator_and_handles_zero_length() {
+        let tf = TransferFunction::from_json(
+            r#"{"color": [[0, 1, 0, 0], [1, 0, 0, 1]], "opacity": [[0, 0], [1, 4]], "unit_distance": 1}"#,
+        )
+        .unwrap();
+        let sh = ExactShader::new(tf.clone());
+        let seg = Segment { s_front: 0.2, s_back: 0.9, len_world: 0.5, ..Default::default() };
+        let got = sh.shade(&seg);
+        let want = crate::integrate_segment(&tf, 0.2f32 as f64, 0.9f32 as f64, 0.5);
+        assert!((got[3] as f64 - want.alpha).abs() < 1e-7);
+        let zero = sh.shade(&Segment { len_world: 0.0, ..seg });
+        assert_eq!(zero, [0.0; 4]);
+        let pt = PtLinearShader::new(tf).shade(&Segment { len_world: 0.0, ..seg });
+        assert_eq!(pt, [0.0; 4]);
+    }
+}

@@ -1,0 +1,342 @@
+//! A camera with VTK's semantics, so a view set here can be set in
+//! ParaView/VTK and back: position, focal point, view-up, vertical view
+//! angle in degrees, parallel projection with a parallel scale (half the
+//! viewport height in world units), and the image size.
+//!
+//! Pixel conventions: pixel (i, j) covers x ∈ [i, i+1), y ∈ [j, j+1) in
+//! pixel coordinates with row 0 at the top; its centre is (i+½, j+½).
+//! `depth` is the distance along the view direction from the eye (positive
+//! in front), which is what visibility ordering and near-plane clipping use.
+
+use crate::RenderError;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// Largest image side accepted; far beyond any display, small enough that
+/// `width * height * 16` bytes cannot overflow or exhaust memory silently.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+fn default_view_angle() -> f64 {
+    30.0
+}
+fn default_parallel_scale() -> f64 {
+    1.0
+}
+
+/// The view file (`--view view.json`), field names as in VTK's vtkCamera.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ViewSpec {
+    pub position: [f64; 3],
+    pub focal_point: [f64; 3],
+    pub view_up: [f64; 3],
+    /// Vertical view angle in degrees (VTK's default 30).
+    #[serde(default = "default_view_angle")]
+    pub view_angle: f64,
+    #[serde(default)]
+    pub parallel: bool,
+    /// Half the viewport height in world units, for parallel projection.
+    #[serde(default = "default_parallel_scale")]
+    pub parallel_scale: f64,
+    /// Image width and height in pixels.
+    pub size: [u32; 2],
+}
+
+impl ViewSpec {
+    pub fn from_json(text: &str) -> Result<ViewSpec, RenderError> {
+        serde_json::from_str(text).map_err(|e| RenderError::View(e.to_string()))
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a ViewSpec always serializes")
+    }
+
+    /// VTK's `ResetCamera` for the given bounds: looking down −z at the
+    /// centre from a distance where the bounding sphere fits the vertical
+    /// view angle; `view_up` = +y; parallel scale = the sphere's radius.
+    pub fn framing(bounds_min: [f64; 3], bounds_max: [f64; 3], size: [u32; 2]) -> ViewSpec {
+        let lo = DVec3::from(bounds_min);
+        let hi = DVec3::from(bounds_max);
+        let (centre, mut radius) = if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
+            ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+        } else {
+            (DVec3::ZERO, 0.5)
+        };
+        if radius <= 0.0 || !radius.is_finite() {
+            radius = 0.5;
+        }
+        let angle = default_view_angle();
+        let distance = radius / (0.5 * angle.to_radians()).sin();
+        ViewSpec {
+            position: (centre + DVec3::Z * distance).into(),
+            focal_point: centre.into(),
+            view_up: [0.0, 1.0, 0.0],
+            view_angle: angle,
+            parallel: false,
+            parallel_scale: radius,
+            size,
+        }
+    }
+
+    /// VTK's `Azimuth(deg)`, then `Elevation(deg)` and `OrthogonalizeViewUp`,
+    /// then `Zoom(factor)` (perspective: view angle ÷ factor; parallel:
+    /// parallel scale ÷ factor).
+    pub fn orbit(&self, azimuth_deg: f64, elevation_deg: f64, zoom: f64) -> ViewSpec {
+        let focal = DVec3::from(self.focal_point);
+        let mut pos = DVec3::from(self.position);
+        let mut up = DVec3::from(self.view_up).normalize_or_zero();
+        if azimuth_deg != 0.0 && up != DVec3::ZERO {
+            pos = focal + rotate(pos - focal, up, azimuth_deg.to_radians());
+        }
+        if elevation_deg != 0.0 {
+            let forward = (focal - pos).normalize_or_zero();
+            let right = forward.cross(up).normalize_or_zero();
+            if right != DVec3::ZERO {
+                // VTK rotates about −(view transform's first row) = −right.
+                pos = focal + rotate(pos - focal, -right, elevation_deg.to_radians());
+                let forward = (focal - pos).normalize_or_zero();
+                up = right.cross(forward).normalize_or_zero();
+            }
+        }
+        let mut out = self.clone();
+        out.position = pos.into();
+        out.view_up = up.into();
+        if zoom > 0.0 && zoom.is_finite() {
+            if self.parallel {
+                out.parallel_scale /= zoom;
+            } else {
+                out.view_angle /= zoom;
+            }
+        }
+        out
+    }
+}
+
+/// Rodrigues rotation of `v` about unit `axis` by `angle` radians
+/// (right-handed, as vtkTransform::RotateWXYZ).
+fn rotate(v: DVec3, axis: DVec3, angle: f64) -> DVec3 {
+    let (s, c) = angle.sin_cos();
+    v * c + axis.cross(v) * s + axis * axis.dot(v) * (1.0 - c)
+}
+
+/// A validated camera ready for projection and ray generation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    spec: ViewSpec,
+    eye_in_world: DVec3,
+    /// Unit view direction (towards the focal point).
+    forward: DVec3,
+    /// Unit screen right and up in world space (orthonormal with forward).
+    right: DVec3,
+    up: DVec3,
+    /// Half extent of the image plane at depth 1 (perspective) or in world
+    /// units (parallel), vertically and horizontally.
+    half_height: f64,
+    half_width: f64,
+    near_depth: f64,
+}
+
+impl Camera {
+    /// Checks the view (finite numbers, position ≠ focal point, view-up not
+    /// along the view direction, 0 < angle < 180, size within limits).
+    pub fn new(spec: &ViewSpec) -> Result<Camera, RenderError> {
+        let bad = |why: &str| Err(RenderError::View(why.to_string()));
+        let [w, h] = spec.size;
+        if w == 0 || h == 0 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
+            return bad(&format!("size {w}x{h}: each side must be 1..={MAX_IMAGE_SIDE}"));
+        }
+        let pos = DVec3::from(spec.position);
+        let focal = DVec3::from(spec.focal_point);
+        let up_hint = DVec3::from(spec.view_up);
+        if !(pos.is_finite() && focal.is_finite() && up_hint.is_finite()) {
+            return bad("position, focal_point and view_up must be finite");
+        }
+        let dist = (focal - pos).length();
+        if dist <= 0.0 || !dist.is_finite() {
+            return bad("position equals focal_point: no view direction");
+        }
+        let forward = (focal - pos) / dist;
+        let right = forward.cross(up_hint);
+        if right.length() <= 1e-12 * up_hint.length().max(1e-300) || up_hint.length() == 0.0 {
+            return bad("view_up is zero or parallel to the view direction");
+        }
+        let right = right.normalize();
+        let up = right.cross(forward);
+        let aspect = w as f64 / h as f64;
+        let half_height = if spec.parallel {
+            if !(spec.parallel_scale > 0.0 && spec.parallel_scale.is_finite()) {
+                return bad("parallel_scale must be positive");
+            }
+            spec.parallel_scale
+        } else {
+            if !(spec.view_angle > 0.0 && spec.view_angle < 180.0) {
+                return bad("view_angle must be in (0, 180) degrees");
+            }
+            (0.5 * spec.view_angle.to_radians()).tan()
+        };
+        Ok(Camera {
+            spec: spec.clone(),
+            eye_in_world: pos,
+            forward,
+            right,
+            up,
+            half_height,
+            half_width: half_height * aspect,
+            // Anything nearer than this is clipped away; small against the
+            // focal distance so a camera inside the mesh loses nothing visible.
+            near_depth: if spec.parallel { f64::NEG_INFINITY } else { 1e-6 * dist },
+        })
+    }
+
+    pub fn spec(&self) -> &ViewSpec {
+        &self.spec
+    }
+    pub fn width(&self) -> u32 {
+        self.spec.size[0]
+    }
+    pub fn height(&self) -> u32 {
+        self.spec.size[1]
+    }
+    pub fn is_parallel(&self) -> bool {
+        self.spec.parallel
+    }
+    pub fn eye_in_world(&self) -> DVec3 {
+        self.eye_in_world
+    }
+    /// Unit view direction.
+    pub fn forward(&self) -> DVec3 {
+        self.forward
+    }
+    /// Points with `depth < near_depth()` are behind the near plane
+    /// (−∞ for parallel projection: nothing is clipped).
+    pub fn near_depth(&self) -> f64 {
+        self.near_depth
+    }
+
+    /// Depth of a world point: distance along the view direction from the eye.
+    pub fn depth(&self, pos_in_world: DVec3) -> f64 {
+        (pos_in_world - self.eye_in_world).dot(self.forward)
+    }
+
+    /// `[x_px, y_px, depth]`. For perspective the caller must make sure
+    /// `depth ≥ near_depth()` (clip first); pixel coordinates of points
+    /// behind the eye are meaningless.
+    pub fn project(&self, pos_in_world: DVec3) -> DVec3 {
+        let rel = pos_in_world - self.eye_in_world;
+        let depth = rel.dot(self.forward);
+        let (x, y) = (rel.dot(self.right), rel.dot(self.up));
+        let scale = if self.spec.parallel { 1.0 } else { 1.0 / depth };
+        let ndc_x = x * scale / self.half_width;
+        let ndc_y = y * scale / self.half_height;
+        DVec3::new((ndc_x + 1.0) * 0.5 * self.width() as f64, (1.0 - ndc_y) * 0.5 * self.height() as f64, depth)
+    }
+
+    /// The ray through pixel coordinates (x_px, y_px) — pass (i+½, j+½) for
+    /// a pixel centre: origin on the eye (perspective) or on the plane
+    /// through the eye (parallel), unit direction.
+    pub fn ray(&self, x_px: f64, y_px: f64) -> (DVec3, DVec3) {
+        let ndc_x = 2.0 * x_px / self.width() as f64 - 1.0;
+        let ndc_y = 1.0 - 2.0 * y_px / self.height() as f64;
+        let off = self.right * (ndc_x * self.half_width) + self.up * (ndc_y * self.half_height);
+        if self.spec.parallel {
+            (self.eye_in_world + off, self.forward)
+        } else {
+            (self.eye_in_world, (self.forward + off).normalize())
+        }
+    }
+
+    /// Unit direction from the eye towards a world point (the view vector for
+    /// lighting and silhouettes); the view direction for parallel projection.
+    pub fn view_dir_to(&self, pos_in_world: DVec3) -> DVec3 {
+        if self.spec.parallel {
+            self.forward
+        } else {
+            (pos_in_world - self.eye_in_world).normalize_or(self.forward)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam(parallel: bool) -> Camera {
+        let mut spec = ViewSpec::framing([-1.0; 3], [1.0; 3], [200, 100]);
+        spec.parallel = parallel;
+        Camera::new(&spec).unwrap()
+    }
+
+    #[test]
+    fn framing_matches_vtk_reset_camera() {
+        let spec = ViewSpec::framing([0.0; 3], [2.0, 2.0, 2.0], [64, 64]);
+        let r = 3f64.sqrt();
+        let d = r / 15f64.to_radians().sin();
+        assert_eq!(spec.focal_point, [1.0, 1.0, 1.0]);
+        assert!((spec.position[2] - (1.0 + d)).abs() < 1e-12);
+        assert!((spec.parallel_scale - r).abs() < 1e-12);
+    }
+
+    #[test]
+    fn focal_point_projects_to_image_centre_and_rays_round_trip() {
+        for parallel in [false, true] {
+            let c = cam(parallel);
+            let p = c.project(DVec3::ZERO);
+            assert!((p.x - 100.0).abs() < 1e-9 && (p.y - 50.0).abs() < 1e-9);
+            // Up in the world is up on screen (smaller row index).
+            assert!(c.project(DVec3::new(0.0, 0.5, 0.0)).y < 50.0);
+            assert!(c.project(DVec3::new(0.5, 0.0, 0.0)).x > 100.0);
+            for (x, y) in [(0.5, 0.5), (199.5, 99.5), (37.25, 80.0)] {
+                let (o, d) = c.ray(x, y);
+                let q = c.project(o + d * 5.0);
+                assert!((q.x - x).abs() < 1e-9 && (q.y - y).abs() < 1e-9, "{parallel} {x} {y} {q}");
+            }
+        }
+    }
+
+    #[test]
+    fn vertical_view_angle_spans_the_image_height() {
+        let c = cam(false);
+        let depth = c.depth(DVec3::ZERO);
+        let top = DVec3::new(0.0, depth * 15f64.to_radians().tan(), 0.0);
+        assert!(c.project(top).y.abs() < 1e-9);
+    }
+
+    #[test]
+    fn orbit_keeps_distance_and_zoom_narrows() {
+        let spec = ViewSpec::framing([-1.0; 3], [1.0; 3], [10, 10]);
+        let d0 = (DVec3::from(spec.position) - DVec3::from(spec.focal_point)).length();
+        let o = spec.orbit(90.0, 30.0, 2.0);
+        let d1 = (DVec3::from(o.position) - DVec3::from(o.focal_point)).length();
+        assert!((d0 - d1).abs() < 1e-9);
+        assert!((o.view_angle - 15.0).abs() < 1e-12);
+        // Azimuth 90 about +y from +z moves the camera to +x (VTK's sense).
+        let a = spec.orbit(90.0, 0.0, 1.0);
+        assert!((a.position[0] - d0).abs() < 1e-9, "{:?}", a.position);
+        // Elevation 90 looks down from +y; view-up stays orthogonal.
+        let e = spec.orbit(0.0, 90.0, 1.0);
+        assert!((e.position[1] - d0).abs() < 1e-9, "{:?}", e.position);
+        assert!(Camera::new(&e).is_ok());
+    }
+
+    #[test]
+    fn bad_views_are_errors() {
+        let good = ViewSpec::framing([0.0; 3], [1.0; 3], [8, 8]);
+        let mut v = good.clone();
+        v.position = v.focal_point;
+        assert!(Camera::new(&v).unwrap_err().to_string().contains("focal_point"));
+        let mut v = good.clone();
+        v.view_up = [0.0, 0.0, 1.0];
+        assert!(Camera::new(&v).unwrap_err().to_string().contains("view_up"));
+        let mut v = good.clone();
+        v.size = [0, 8];
+        assert!(Camera::new(&v).is_err());
+        let mut v = good;
+        v.view_angle = f64::NAN;
+        assert!(Camera::new(&v).is_err());
+        assert!(ViewSpec::from_json(r#"{"position":[0,0,1]}"#).is_err());
+        let j = r#"{"position":[0,0,5],"focal_point":[0,0,0],"view_up":[0,1,0],"size":[4,3]}"#;
+        let v = ViewSpec::from_json(j).unwrap();
+        assert_eq!(v.view_angle, 30.0);
+        assert_eq!(ViewSpec::from_json(&v.to_json()).unwrap(), v);
+    }
+}

@@ -1,0 +1,402 @@
+//! Float images of linear premultiplied RGBA (row 0 at the top), their
+//! NumPy `.npy` form for measurement, display through tone mapping to 8-bit
+//! PNG, and image differences.
+//!
+//! Display pipeline: composite over the background (C + (1−α)·bg), then
+//! either `ToneMap::None` — the linear colour clamped to [0, 1] and written
+//! without a transfer curve, which is what VTK's framebuffer holds and so
+//! what comparisons with other renderers need — or `ToneMap::Reinhard`,
+//! Reinhard's global operator on luminance with the log-average luminance
+//! (seed 001), followed by the sRGB curve.
+
+use crate::RenderError;
+use std::io::Write;
+use std::path::Path;
+
+/// Linear premultiplied RGBA in f32, `width × height`, row-major, row 0 at
+/// the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    width: u32,
+    height: u32,
+    pixels: Vec<[f32; 4]>,
+}
+
+impl Image {
+    /// A transparent image.
+    pub fn new(width: u32, height: u32) -> Image {
+        Image { width, height, pixels: vec![[0.0; 4]; width as usize * height as usize] }
+    }
+
+    /// Wraps pixels; their count must be `width × height`.
+    pub fn from_pixels(width: u32, height: u32, pixels: Vec<[f32; 4]>) -> Result<Image, RenderError> {
+        if pixels.len() != width as usize * height as usize {
+            return Err(RenderError::ImageSize { expected: [width, height], pixels: pixels.len() });
+        }
+        Ok(Image { width, height, pixels })
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    pub fn pixels(&self) -> &[[f32; 4]] {
+        &self.pixels
+    }
+    pub fn pixels_mut(&mut self) -> &mut [[f32; 4]] {
+        &mut self.pixels
+    }
+    pub fn pixel(&self, x: u32, y: u32) -> [f32; 4] {
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+
+    /// NumPy `.npy` v1.0 bytes: little-endian float32, shape (H, W, 4).
+    pub fn to_npy_bytes(&self) -> Vec<u8> {
+        let dict =
+            format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, {}, 4), }}", self.height, self.width);
+        // Magic (6) + version (2) + header length (2) + dict + '\n', padded to 64.
+        let unpadded = 10 + dict.len() + 1;
+        let pad = (64 - unpadded % 64) % 64;
+        let header_len = dict.len() + pad + 1;
+        let mut out = Vec::with_capacity(10 + header_len + self.pixels.len() * 16);
+        out.extend_from_slice(b"\x93NUMPY\x01\x00");
+        out.extend_from_slice(&(header_len as u16).to_le_bytes());
+        out.extend_from_slice(dict.as_bytes());
+        out.extend(std::iter::repeat_n(b' ', pad));
+        out.push(b'\n');
+        for px in &self.pixels {
+            for c in px {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        out
+    }
+
+    /// Reads what [`Image::to_npy_bytes`] writes (float32 little-endian,
+    /// C order, shape (H, W, 4)); anything else is an error saying what was found.
+    pub fn from_npy_bytes(bytes: &[u8], path: &Path) -> Result<Image, RenderError> {
+        let bad = |why: String| RenderError::Npy { why, path: path.to_path_buf() };
+        if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+            return Err(bad("not a .npy file (magic missing)".into()));
+        }
+        let (header_len, start) = match bytes[6] {
+            1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+            2 | 3 if bytes.len() >= 12 => (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12),
+            v => return Err(bad(format!("unsupported .npy version {v}"))),
+        };
+        let header = bytes
+            .get(start..start + header_len)
+            .and_then(|h| std::str::from_utf8(h).ok())
+            .ok_or_else(|| bad("truncated or non-UTF-8 header".into()))?;
+        let compact: String = header.chars().filter(|c| !c.is_whitespace()).collect();
+        if !compact.contains("'descr':'<f4'") {
+            return Err(bad(format!("dtype must be little-endian float32 ('<f4'); header is {header}")));
+        }
+        if compact.contains("'fortran_order':True") {
+            return Err(bad("Fortran order is not supported".into()));
+        }
+        let shape = compact
+            .split("'shape':(")
+            .nth(1)
+            .and_then(|r| r.split(')').next())
+            .ok_or_else(|| bad(format!("no shape in header {header}")))?;
+        let dims: Vec<usize> = shape
+            .split(',')
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse())
+            .collect::<Result<_, _>>()
+            .map_err(|_| bad(format!("bad shape ({shape})")))?;
+        if dims.len() != 3 || dims[2] != 4 {
+            return Err(bad(format!("shape must be (H, W, 4), found ({shape})")));
+        }
+        let (h, w) = (dims[0], dims[1]);
+        if h == 0 || w == 0 || h > crate::camera::MAX_IMAGE_SIDE as usize || w > crate::camera::MAX_IMAGE_SIDE as usize
+        {
+            return Err(bad(format!("image size {w}x{h} out of range")));
+        }
+        let data = &bytes[start + header_len..];
+        let need = h * w * 16;
+        if data.len() != need {
+            return Err(bad(format!("shape ({h}, {w}, 4) needs {need} data bytes, found {}", data.len())));
+        }
+        let pixels = data
+            .chunks_exact(16)
+            .map(|px| {
+                let f = |i: usize| f32::from_le_bytes([px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]]);
+                [f(0), f(1), f(2), f(3)]
+            })
+            .collect();
+        Ok(Image { width: w as u32, height: h as u32, pixels })
+    }
+
+    pub fn write_npy(&self, path: &Path) -> Result<(), RenderError> {
+        write_atomic(path, &self.to_npy_bytes())
+    }
+
+    pub fn read_npy(path: &Path) -> Result<Image, RenderError> {
+        let bytes = std::fs::read(path).map_err(|e| RenderError::Io { source: e, path: path.to_path_buf() })?;
+        Image::from_npy_bytes(&bytes, path)
+    }
+
+    /// 8-bit RGBA (opaque) for display: over `display.background`, then tone mapped.
+    pub fn to_rgba8(&self, display: &Display) -> Vec<u8> {
+        let bg = display.background;
+        let rgb: Vec<[f32; 3]> = self
+            .pixels
+            .iter()
+            .map(|p| {
+                let t = 1.0 - p[3].clamp(0.0, 1.0);
+                [p[0] + t * bg[0], p[1] + t * bg[1], p[2] + t * bg[2]]
+            })
+            .collect();
+        let mut out = Vec::with_capacity(rgb.len() * 4);
+        match display.tonemap {
+            ToneMap::None => {
+                for c in &rgb {
+                    out.extend(c.iter().map(|&v| unit_to_u8(v)));
+                    out.push(255);
+                }
+            }
+            ToneMap::Reinhard { key, exposure } => {
+                let op = Reinhard::fit(&rgb, key, exposure);
+                for c in &rgb {
+                    let m = op.apply(*c);
+                    out.extend(m.iter().map(|&v| unit_to_u8(linear_to_srgb(v))));
+                    out.push(255);
+                }
+            }
+        }
+        out
+    }
+
+    /// Writes an 8-bit sRGB PNG after compositing and tone mapping.
+    pub fn write_png(&self, path: &Path, display: &Display) -> Result<(), RenderError> {
+        write_png_rgba8(path, self.width, self.height, &self.to_rgba8(display))
+    }
+}
+
+/// How a float image becomes 8-bit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Display {
+    /// Linear RGB under the volume.
+    pub background: [f32; 3],
+    pub tonemap: ToneMap,
+}
+
+impl Default for Display {
+    fn default() -> Self {
+        Display { background: [0.0; 3], tonemap: ToneMap::reinhard() }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ToneMap {
+    /// Linear colour clamped to [0, 1], no transfer curve.
+    None,
+    /// Reinhard's global operator: L_m = key·exposure·L / L̄ (L̄ the
+    /// log-average luminance), L_d = L_m(1 + L_m/L_white²)/(1 + L_m) with
+    /// L_white the largest L_m, so the brightest pixel maps to 1.
+    Reinhard { key: f32, exposure: f32 },
+}
+
+impl ToneMap {
+    /// Key 0.18 (Reinhard's "middle grey"), exposure 1.
+    pub fn reinhard() -> ToneMap {
+        ToneMap::Reinhard { key: 0.18, exposure: 1.0 }
+    }
+}
+
+fn luminance(c: [f32; 3]) -> f32 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// Reinhard's operator fitted to one image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reinhard {
+    /// Multiplier from world luminance to L_m.
+    pub scale: f32,
+    /// L_white² in L_m units.
+    pub white_sq: f32,
+    /// The log-average luminance L̄.
+    pub log_average: f32,
+}
+
+impl Reinhard {
+    pub fn fit(rgb: &[[f32; 3]], key: f32, exposure: f32) -> Reinhard {
+        // δ keeps log finite on black pixels (Reinhard et al. 2002).
+        const DELTA: f64 = 1e-4;
+        let n = rgb.len().max(1) as f64;
+        let sum_log: f64 = rgb.iter().map(|&c| (DELTA + luminance(c).max(0.0) as f64).ln()).sum();
+        let log_average = (sum_log / n).exp() as f32;
+        let scale = key * exposure / log_average;
+        let max_lm = rgb.iter().map(|&c| luminance(c).max(0.0) * scale).fold(0.0f32, f32::max);
+        Reinhard { scale, white_sq: (max_lm * max_lm).max(f32::MIN_POSITIVE), log_average }
+    }
+
+    /// Tone-mapped linear RGB in [0, 1] (hue kept: RGB scaled by L_d / L).
+    pub fn apply(&self, c: [f32; 3]) -> [f32; 3] {
+        let l = luminance(c).max(0.0);
+        if l <= 0.0 {
+            return [0.0; 3];
+        }
+        let lm = l * self.scale;
+        let ld = lm * (1.0 + lm / self.white_sq) / (1.0 + lm);
+        let k = ld / l;
+        [(c[0] * k).clamp(0.0, 1.0), (c[1] * k).clamp(0.0, 1.0), (c[2] * k).clamp(0.0, 1.0)]
+    }
+}
+
+pub fn linear_to_srgb(v: f32) -> f32 {
+    let v = v.clamp(0.0, 1.0);
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+fn unit_to_u8(v: f32) -> u8 {
+    // NaN maps to 0 through the clamp's comparison semantics.
+    (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+}
+
+/// Writes 8-bit RGBA rows (row 0 at the top) as a PNG, atomically.
+pub fn write_png_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<(), RenderError> {
+    let mut bytes = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut bytes, width, height);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().map_err(|e| RenderError::Png(e.to_string()))?;
+        w.write_image_data(rgba).map_err(|e| RenderError::Png(e.to_string()))?;
+    }
+    write_atomic(path, &bytes)
+}
+
+/// Writes through a temporary file in the same directory and renames, so a
+/// failed write never leaves a half-written image under the final name.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
+    let io = |e: std::io::Error| RenderError::Io { source: e, path: path.to_path_buf() };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
+    tmp.write_all(bytes).map_err(io)?;
+    tmp.as_file().sync_all().map_err(io)?;
+    tmp.persist(path).map_err(|e| io(e.error))?;
+    Ok(())
+}
+
+/// Differences between two images of the same size, over all four channels
+/// of linear premultiplied RGBA.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiffStats {
+    pub rmse: f64,
+    pub max_abs: f64,
+    /// Pixel (x, y) and channel of the largest difference.
+    pub max_at: (u32, u32, usize),
+    pub mean_abs: f64,
+}
+
+pub fn diff(a: &Image, b: &Image) -> Result<DiffStats, RenderError> {
+    if a.width != b.width || a.height != b.height {
+        return Err(RenderError::SizeMismatch { a: [a.width, a.height], b: [b.width, b.height] });
+    }
+    let (mut sq, mut sum, mut max_abs, mut max_at) = (0.0f64, 0.0f64, -1.0f64, (0, 0, 0));
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        for c in 0..4 {
+            let d = (p[c] as f64 - q[c] as f64).abs();
+            // A NaN anywhere is the largest difference there is.
+            let d = if d.is_nan() { f64::INFINITY } else { d };
+            sq += d * d;
+            sum += d;
+            if d > max_abs {
+                max_abs = d;
+                max_at = ((i % a.width as usize) as u32, (i / a.width as usize) as u32, c);
+            }
+        }
+    }
+    let n = (a.pixels.len() * 4).max(1) as f64;
+    Ok(DiffStats { rmse: (sq / n).sqrt(), max_abs: max_abs.max(0.0), max_at, mean_abs: sum / n })
+}
+
+/// Largest difference between the 8-bit displays of two images (0..=255).
+pub fn diff_rgba8(a: &[u8], b: &[u8]) -> u8 {
+    a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)).max().unwrap_or(0)
+}
+
+/// A visualization of |a − b|: the largest channel difference per pixel,
+/// scaled so `full_scale` maps to white.
+pub fn diff_image_rgba8(a: &Image, b: &Image, full_scale: f32) -> Result<Vec<u8>, RenderError> {
+    if a.width != b.width || a.height != b.height {
+        return Err(RenderError::SizeMismatch { a: [a.width, a.height], b: [b.width, b.height] });
+    }
+    let mut out = Vec::with_capacity(a.pixels.len() * 4);
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        let d = (0..4).map(|c| (p[c] - q[c]).abs()).fold(0.0f32, f32::max);
+        let v = unit_to_u8(d / full_scale.max(f32::MIN_POSITIVE));
+        out.extend_from_slice(&[v, v, v, 255]);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp() -> Image {
+        let px = (0..12).map(|i| [i as f32 / 12.0, 0.5, 0.25, 0.75]).collect();
+        Image::from_pixels(4, 3, px).unwrap()
+    }
+
+    #[test]
+    fn npy_round_trip_and_header_layout() {
+        let img = ramp();
+        let bytes = img.to_npy_bytes();
+        assert_eq!(&bytes[..8], b"\x93NUMPY\x01\x00");
+        let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        assert_eq!((10 + header_len) % 64, 0);
+        assert!(std::str::from_utf8(&bytes[10..10 + header_len]).unwrap().contains("'shape': (3, 4, 4)"));
+        let back = Image::from_npy_bytes(&bytes, Path::new("x.npy")).unwrap();
+        assert_eq!(back, img);
+        for cut in [0, 5, 9, 20, bytes.len() - 1] {
+            assert!(Image::from_npy_bytes(&bytes[..cut], Path::new("x.npy")).is_err(), "cut {cut}");
+        }
+    }
+
+    #[test]
+    fn tonemap_none_is_clamped_linear_over_background() {
+        let img = Image::from_pixels(2, 1, vec![[0.5, 0.0, 2.0, 0.5], [0.0; 4]]).unwrap();
+        let d = Display { background: [1.0, 1.0, 1.0], tonemap: ToneMap::None };
+        let px = img.to_rgba8(&d);
+        assert_eq!(&px[..4], &[255, 128, 255, 255]);
+        assert_eq!(&px[4..], &[255, 255, 255, 255]);
+    }
+
+    #[test]
+    fn reinhard_maps_brightest_to_white_and_keeps_order() {
+        let rgb = [[0.01f32; 3], [0.5; 3], [10.0; 3], [0.0; 3]];
+        let op = Reinhard::fit(&rgb, 0.18, 1.0);
+        let out: Vec<f32> = rgb.iter().map(|&c| op.apply(c)[0]).collect();
+        assert!((out[2] - 1.0).abs() < 1e-5);
+        assert!(out[3] == 0.0 && out[0] < out[1] && out[1] < out[2]);
+        let black = Reinhard::fit(&[[0.0; 3]; 4], 0.18, 1.0);
+        assert_eq!(black.apply([0.0; 3]), [0.0; 3]);
+        assert!(black.scale.is_finite());
+    }
+
+    #[test]
+    fn diff_reports_rmse_max_and_location() {
+        let a = ramp();
+        let mut b = a.clone();
+        b.pixels_mut()[6][2] += 0.5;
+        let d = diff(&a, &b).unwrap();
+        assert!((d.max_abs - 0.5).abs() < 1e-7);
+        assert_eq!(d.max_at, (2, 1, 2));
+        assert!((d.rmse - (0.25f64 / 48.0).sqrt()).abs() < 1e-7);
+        assert!(diff(&a, &Image::new(3, 4)).is_err());
+    }
+}

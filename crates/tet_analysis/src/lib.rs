@@ -14,6 +14,8 @@
 //!   ranges for conservative culling, the (Sf, Sb, l) domain of ray
 //!   segments, and the frequency limit of banded transfer functions with the
 //!   table resolution it implies ([`limits`] has the derivation).
+//! - [`sample_cell_segments`] — random rays through random cells: the
+//!   (Sf, Sb, l) distribution that table errors are measured over.
 //! - [`Analysis`] — everything [`Analyzer::analyze`] returns in one value,
 //!   what the bundle stores.
 //!
@@ -40,6 +42,7 @@
 pub mod gradient;
 pub mod histogram;
 pub mod limits;
+pub mod segments;
 
 pub use gradient::{tet_gradients, vertex_gradients, GradientMethod, TetGradients, VertexTets};
 pub use histogram::{volume_fraction_below, Axis, HistogramOptions, Histograms, Scale};
@@ -47,6 +50,7 @@ pub use limits::{
     cell_ranges, frequency_limits, segment_facts, CellRanges, FrequencyLimits, Percentiles, SegmentFacts,
     TableResolution, DEFAULT_TABLE_TOLERANCE,
 };
+pub use segments::{sample_cell_segments, SampledSegment};
 
 use std::cell::OnceCell;
 

@@ -36,6 +36,7 @@ pub mod convert;
 mod error;
 pub mod merge;
 pub mod predicates;
+pub mod rng;
 pub mod scalar;
 pub mod source;
 pub mod split;
@@ -46,6 +47,7 @@ pub use convert::{
     check_tet_mesh, tetrahedralize, ConversionReport, ConvertOptions, Finding, NanPolicy, Step, TetMesh,
 };
 pub use error::MeshError;
+pub use rng::SplitMix64;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
 pub use split::SplitMode;
 pub use stats::{mesh_stats, MeshStats, Spread};

@@ -23,12 +23,13 @@ fn main() {
         Ok(d) => {
             let secs = start.elapsed().as_secs_f64();
             println!(
-                "points {n}  tets {}  tets/point {:.3}  hull facets {}  duplicates {}  walk fallbacks {}  time {secs:.3} s",
+                "points {n}  tets {}  tets/point {:.3}  hull facets {}  duplicates {}  walk fallbacks {}  deferred {}  time {secs:.3} s",
                 d.tets.len(),
                 d.tets.len() as f64 / n as f64,
                 d.hull_facets,
                 d.duplicates,
-                d.walk_fallbacks
+                d.walk_fallbacks,
+                d.parallel_deferred
             );
         }
         Err(e) => {

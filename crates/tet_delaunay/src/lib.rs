@@ -53,6 +53,7 @@
 mod cloud;
 mod error;
 mod layers;
+mod parallel;
 mod predicates;
 mod sort;
 mod triangulation;
@@ -67,6 +68,8 @@ use triangulation::Triangulation;
 
 /// Inputs at least this large sort on a second thread.
 const PARALLEL_MIN: usize = 20_000;
+/// Inputs at least this large insert their last BRIO round in parallel.
+const PARALLEL_INSERT_MIN: usize = 100_000;
 
 /// The most points [`tetrahedralize_points`] accepts (2^29): their tets
 /// must stay indexable by u32.
@@ -102,6 +105,10 @@ pub struct Delaunay {
     /// Point locations that fell back to a scan of all tets (a safety net;
     /// expected 0).
     pub walk_fallbacks: usize,
+    /// Points of the parallel round that a worker put off (contention at
+    /// the workers' borders, rare big cavities) and the sequential tail
+    /// inserted; 0 when the input was too small to insert in parallel.
+    pub parallel_deferred: usize,
 }
 
 impl Delaunay {
@@ -149,7 +156,19 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
     let order = initial_tet(points, order)?;
     let mut tri = Triangulation::new(order.iter().map(|&i| points[i as usize]).collect(), order);
     debug_assert!(tri.num_points() == points.len() - duplicates);
-    tri.insert_all();
+    // The last BRIO round (7/8 of the points) goes to worker threads on
+    // large inputs; earlier rounds are too small to pay for the hand-off.
+    let n_unique = tri.num_points();
+    let mut parallel_deferred = 0;
+    // rayon's pool size, so RAYON_NUM_THREADS governs every parallel stage alike.
+    let threads = rayon::current_num_threads().min(8);
+    if n_unique >= PARALLEL_INSERT_MIN && threads > 1 {
+        let from = (n_unique / 8).max(4) as u32;
+        tri.insert_range(4, from);
+        parallel_deferred = tri.insert_parallel(from, threads).deferred;
+    } else {
+        tri.insert_range(4, n_unique as u32);
+    }
     let (removed, removed_cells) = match opts.max_circumradius {
         Some(r) => {
             let (flags, n) = tri.peel(r);
@@ -158,7 +177,15 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
         None => (None, 0),
     };
     let (tets, hull_facets) = tri.finite_tets(removed.as_deref());
-    Ok(Delaunay { tets, merged_into, duplicates, hull_facets, removed_cells, walk_fallbacks: tri.walk_fallbacks })
+    Ok(Delaunay {
+        tets,
+        merged_into,
+        duplicates,
+        hull_facets,
+        removed_cells,
+        walk_fallbacks: tri.walk_fallbacks,
+        parallel_deferred,
+    })
 }
 
 /// Moves 4 non-coplanar points found early in `order` to its front,

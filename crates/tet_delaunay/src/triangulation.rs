@@ -23,14 +23,14 @@ use crate::sort::SplitMix64;
 /// The infinite vertex.
 pub(crate) const INF: u32 = u32::MAX;
 /// Vertex slot 0 of a freed tet.
-const DEAD: u32 = u32::MAX - 1;
+pub(crate) const DEAD: u32 = u32::MAX - 1;
 /// Vertex slot 0 of a tet in the current insertion's conflict zone.
 const IN_CAVITY: u32 = u32::MAX - 2;
 const EMPTY: u64 = u64::MAX;
 /// Unassigned entry of `Triangulation::local`.
-const NO_LOCAL: u8 = u8::MAX;
+pub(crate) const NO_LOCAL: u8 = u8::MAX;
 /// Largest cavity boundary (in vertices) linked through the dense matrix.
-const DENSE_MAX: usize = 64;
+pub(crate) const DENSE_MAX: usize = 64;
 
 /// For a new tet with the new point in slot `i`, the face opposite slot
 /// `j ≠ i` holds the new point and the edge `(v[x], v[y])` with
@@ -39,7 +39,7 @@ const DENSE_MAX: usize = 64;
 /// are consistently oriented, ghosts included, and two tets sharing a
 /// face see it in opposite orders; rotating the face so `i` comes first
 /// leaves the edge.)
-const EDGE: [[(usize, usize); 4]; 4] = [
+pub(crate) const EDGE: [[(usize, usize); 4]; 4] = [
     [(0, 0), (3, 2), (1, 3), (2, 1)],
     [(2, 3), (0, 0), (3, 0), (0, 2)],
     [(3, 1), (0, 3), (0, 0), (1, 0)],
@@ -70,15 +70,15 @@ pub(crate) struct Tet {
 
 pub(crate) struct Triangulation {
     /// Points in insertion order.
-    pts: Vec<[f64; 3]>,
+    pub(crate) pts: Vec<[f64; 3]>,
     /// Error bounds for the predicates' fast paths on `pts`.
-    filter: StaticFilter,
+    pub(crate) filter: StaticFilter,
     /// Input id of each point.
     pub(crate) orig: Vec<u32>,
     pub(crate) tets: Vec<Tet>,
-    free: Vec<u32>,
+    pub(crate) free: Vec<u32>,
     /// A live finite tet near the last inserted point: where walks start.
-    last: u32,
+    pub(crate) last: u32,
     rng: SplitMix64,
     // Scratch buffers reused by every insertion.
     stack: Vec<(u32, Tet)>,
@@ -99,7 +99,7 @@ pub(crate) struct Triangulation {
 }
 
 #[inline]
-fn is_ghost(v: &[u32; 4]) -> bool {
+pub(crate) fn is_ghost(v: &[u32; 4]) -> bool {
     v[0] == INF || v[1] == INF || v[2] == INF || v[3] == INF
 }
 
@@ -148,8 +148,14 @@ impl Triangulation {
     }
 
     /// Inserts points 4.. in order.
+    #[cfg(test)]
     pub(crate) fn insert_all(&mut self) {
-        for v in 4..self.pts.len() as u32 {
+        self.insert_range(4, self.pts.len() as u32);
+    }
+
+    /// Inserts points `from..to` in order, on this thread.
+    pub(crate) fn insert_range(&mut self, from: u32, to: u32) {
+        for v in from..to.min(self.pts.len() as u32) {
             self.insert(v);
         }
     }

@@ -359,9 +359,8 @@ impl<'s, 'a> Worker<'s, 'a> {
             let s = self.conflict[k];
             let l = self.local_ids[k];
             let at = &self.sh.tets[s as usize];
-            for j in 0..4 {
+            for (j, &(x, y)) in EDGE[i].iter().enumerate() {
                 if j != i {
-                    let (x, y) = EDGE[i][j];
                     at.n[j].store(self.edge[l[y] as usize * DENSE_MAX + l[x] as usize], Relaxed);
                 }
             }
@@ -380,11 +379,10 @@ impl<'s, 'a> Worker<'s, 'a> {
         let mut fits = true;
         'faces: for &(tet, _, slot, _) in &self.boundary {
             let mut ids = [0u8; 4];
-            for x in 0..4 {
+            for (x, &vx) in tet.v.iter().enumerate() {
                 if x == slot as usize {
                     continue;
                 }
-                let vx = tet.v[x];
                 let at = if vx == INF { inf_slot } else { vx as usize };
                 let mut l = self.local[at];
                 if l == NO_LOCAL {

@@ -74,7 +74,7 @@ fn chord(
     let (e1, e2, e3) = (e(1), e(2), e(3));
     let det = dot(e1, cross(e2, e3));
     let scale = norm(e1).max(norm(e2)).max(norm(e3));
-    if !(det.abs() > 1e-12 * scale * scale * scale) {
+    if det.is_nan() || det.abs() <= 1e-12 * scale * scale * scale {
         return None;
     }
     // Rows of the inverse of [e1 e2 e3]: gradients of barycentrics 1..3.

@@ -4,7 +4,6 @@ use clap::Parser;
 mod analysis;
 mod cli;
 mod convert;
-mod font;
 mod info;
 mod plot;
 

@@ -2,121 +2,16 @@
 //! (log or linear colour scale with a colour bar, the 1D histogram along the
 //! top, labelled axes) and optionally as CSV.
 
-use crate::font;
 use anyhow::Context;
 use std::io::Write;
 use std::path::Path;
 use tet_analysis::{Axis, HistogramOptions, Histograms, Scale};
 use tet_bundle::Bundle;
+use tet_plot::canvas::{Canvas, Rgb, BLACK, GREY, WHITE};
+use tet_plot::{fmt_num, nice_ticks, viridis};
 
-/// An RGB image.
-struct Canvas {
-    w: usize,
-    h: usize,
-    px: Vec<u8>,
-}
-
-type Rgb = [u8; 3];
-const WHITE: Rgb = [255, 255, 255];
-const BLACK: Rgb = [0, 0, 0];
-const GREY: Rgb = [90, 90, 90];
 const EMPTY: Rgb = [246, 246, 246];
 const BAR: Rgb = [55, 80, 140];
-
-impl Canvas {
-    fn new(w: usize, h: usize) -> Canvas {
-        Canvas { w, h, px: vec![255; w * h * 3] }
-    }
-
-    fn set(&mut self, x: usize, y: usize, c: Rgb) {
-        if x < self.w && y < self.h {
-            let i = (y * self.w + x) * 3;
-            self.px[i..i + 3].copy_from_slice(&c);
-        }
-    }
-
-    fn rect(&mut self, x0: usize, y0: usize, w: usize, h: usize, c: Rgb) {
-        for y in y0..y0 + h {
-            for x in x0..x0 + w {
-                self.set(x, y, c);
-            }
-        }
-    }
-
-    fn frame(&mut self, x0: usize, y0: usize, w: usize, h: usize, c: Rgb) {
-        self.rect(x0, y0, w, 1, c);
-        self.rect(x0, y0 + h - 1, w, 1, c);
-        self.rect(x0, y0, 1, h, c);
-        self.rect(x0 + w - 1, y0, 1, h, c);
-    }
-
-    fn text_width(s: &str, scale: usize) -> usize {
-        s.chars().count() * font::ADVANCE * scale
-    }
-
-    /// Left-aligned text with its top-left corner at (x, y).
-    fn text(&mut self, x: usize, y: usize, s: &str, scale: usize, c: Rgb) {
-        for (i, ch) in s.chars().enumerate() {
-            let g = font::glyph(ch);
-            for (row, bits) in g.iter().enumerate() {
-                for col in 0..5 {
-                    if bits >> (4 - col) & 1 == 1 {
-                        let (px, py) = (x + (i * font::ADVANCE + col) * scale, y + row * scale);
-                        self.rect(px, py, scale, scale, c);
-                    }
-                }
-            }
-        }
-    }
-
-    /// Text rotated 90° counter-clockwise (reading upwards), its bounding
-    /// box's top-left at (x, y).
-    fn text_up(&mut self, x: usize, y: usize, s: &str, scale: usize, c: Rgb) {
-        let len = Self::text_width(s, scale);
-        for (i, ch) in s.chars().enumerate() {
-            let g = font::glyph(ch);
-            for (row, bits) in g.iter().enumerate() {
-                for col in 0..5 {
-                    if bits >> (4 - col) & 1 == 1 {
-                        // Unrotated (u, v) → rotated (v, len − 1 − u).
-                        let u = (i * font::ADVANCE + col) * scale;
-                        let v = row * scale;
-                        self.rect(x + v, y + len - u - scale, scale, scale, c);
-                    }
-                }
-            }
-        }
-    }
-
-    fn write_png(&self, path: &Path) -> anyhow::Result<()> {
-        let file = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.w as u32, self.h as u32);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc.write_header().with_context(|| format!("writing {} failed", path.display()))?;
-        w.write_image_data(&self.px).with_context(|| format!("writing {} failed", path.display()))?;
-        Ok(())
-    }
-}
-
-/// Viridis (CC0, matplotlib), nine control points, linearly interpolated.
-fn viridis(t: f64) -> Rgb {
-    const C: [Rgb; 9] = [
-        [68, 1, 84],
-        [71, 44, 122],
-        [59, 81, 139],
-        [44, 113, 142],
-        [33, 144, 141],
-        [39, 173, 129],
-        [92, 200, 99],
-        [170, 220, 50],
-        [253, 231, 37],
-    ];
-    let x = t.clamp(0.0, 1.0) * 8.0;
-    let i = (x.floor() as usize).min(7);
-    let f = x - i as f64;
-    [0, 1, 2].map(|k| (C[i][k] as f64 * (1.0 - f) + C[i + 1][k] as f64 * f).round() as u8)
-}
 
 /// Maps a bin volume to [0, 1] (None: empty bin).
 struct ValueScale {
@@ -161,38 +56,6 @@ impl ValueScale {
         } else {
             nice_ticks(0.0, self.hi, 5).into_iter().map(|v| (v, v / self.hi)).collect()
         }
-    }
-}
-
-/// Round-number ticks in [lo, hi], about `n` of them.
-fn nice_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
-    let raw = (hi - lo) / n as f64;
-    if raw <= 0.0 || !raw.is_finite() {
-        return vec![lo];
-    }
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|&s| s >= raw).unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    (first..=last).map(|k| k as f64 * step).collect()
-}
-
-/// Short number text: fixed point when readable, else scientific.
-fn fmt_num(v: f64) -> String {
-    if v == 0.0 {
-        return "0".into();
-    }
-    let a = v.abs();
-    if !(1e-3..1e5).contains(&a) {
-        let s = format!("{v:.1e}");
-        return s.replace(".0e", "e");
-    }
-    let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
-    let s = format!("{v:.digits$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
     }
 }
 
@@ -400,19 +263,4 @@ pub fn run_hist(path: &Path, output: &Path, csv: Option<&Path>, req: &HistReques
         if stored.is_some() && !recompute { "stored histogram" } else { "computed now" }
     );
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ticks_and_numbers() {
-        assert_eq!(nice_ticks(0.0, 1.0, 5), vec![0.0, 0.2, 0.4, 0.6000000000000001, 0.8, 1.0]);
-        assert_eq!(fmt_num(0.25), "0.25");
-        assert_eq!(fmt_num(1234.0), "1234");
-        assert_eq!(fmt_num(2e-5), "2e-5");
-        assert_eq!(viridis(0.0), [68, 1, 84]);
-        assert_eq!(viridis(1.0), [253, 231, 37]);
-    }
 }

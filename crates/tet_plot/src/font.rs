@@ -1,4 +1,4 @@
-//! A 5×7 bitmap font drawn for tetprep's plots (no system fonts needed).
+//! A 5×7 bitmap font drawn for tetkit's plots (no system fonts needed).
 //! Each glyph is seven rows, bit 4 the leftmost pixel. Written for this
 //! project; same licence as the code.
 

@@ -24,13 +24,19 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod domain;
 pub mod exact;
 pub mod method;
+pub mod precision;
 pub mod special;
+pub mod table3d;
 pub mod tf;
 
+pub use domain::{TableDomain, TableError};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
 pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
+pub use precision::{Accumulation, Precision, Storage};
+pub use table3d::{Build3d, ExtinctionPrefix, Table3d, Table3dParams};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
 
 /// A transfer function that cannot be used; each variant names the entry.

@@ -24,15 +24,21 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod atlas2d;
 pub mod domain;
+pub mod error;
 pub mod exact;
 pub mod method;
+pub mod partial;
 pub mod precision;
 pub mod special;
 pub mod table3d;
 pub mod tf;
 
+pub use atlas2d::{Atlas2d, Atlas2dParams};
 pub use domain::{TableDomain, TableError};
+pub use error::{table_error, uniform_triples};
+pub use partial::{PartialShader, PsiParams, PsiTable};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
 pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
 pub use precision::{Accumulation, Precision, Storage};

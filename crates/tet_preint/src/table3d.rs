@@ -196,7 +196,7 @@ const LANES: usize = 8;
 /// linear) before it is split: tight for independent emission, whose colour
 /// weights T directly; loose for density emission, whose by-parts form only
 /// weights T by Δκ.
-const BEND_INDEPENDENT: f64 = 0.05;
+const BEND_INDEPENDENT: f64 = 0.01;
 const BEND_DENSITY: f64 = 1.0;
 /// Most pieces one interval is split into.
 const MAX_SPLIT: usize = 64;

@@ -191,6 +191,8 @@ impl Atlas2d {
     }
 
     /// Lookup of a segment; inputs outside the domain (and NaN) are clamped.
+    // max/min rather than clamp: they map NaN to the low edge, clamp keeps it.
+    #[allow(clippy::manual_clamp)]
     pub fn lookup(&self, sf: f32, sb: f32, len_world: f32) -> Rgba32 {
         let d = &self.domain;
         let norm = |s: f32| (((s as f64 - d.s_lo) / d.scalar_span()).max(0.0).min(1.0)) as f32;

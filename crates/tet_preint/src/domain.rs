@@ -46,7 +46,7 @@ impl TableDomain {
         if !(s_lo.is_finite() && s_hi.is_finite() && s_lo < s_hi) {
             return bad(format!("scalar range [{s_lo}, {s_hi}] needs finite lo < hi"));
         }
-        if !(max_ds >= 0.0 && !max_ds.is_nan()) {
+        if max_ds.is_nan() || max_ds < 0.0 {
             return bad(format!("max |Sf − Sb| = {max_ds} must be ≥ 0"));
         }
         if !(len_max_world > 0.0 && len_max_world.is_finite()) {

@@ -341,7 +341,7 @@ impl LutFile {
             let offset = u64::from_le_bytes(e[16..24].try_into().expect("8 bytes"));
             let length = u64::from_le_bytes(e[24..32].try_into().expect("8 bytes"));
             let crc = u32::from_le_bytes(e[32..36].try_into().expect("4 bytes"));
-            if !offset.checked_add(length).is_some_and(|end| end <= bytes.len() as u64) {
+            if offset.checked_add(length).is_none_or(|end| end > bytes.len() as u64) {
                 return Err(LutError::Truncated {
                     what: format!("section '{name}' spans bytes {offset}..+{length}"),
                     offset: bytes.len() as u64,

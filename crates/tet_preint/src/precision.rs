@@ -90,7 +90,7 @@ impl Storage {
     /// Encodes f32 `values` (interleaved, `channels` per entry; negative and
     /// NaN values are stored as 0 in unorm formats).
     pub fn encode(values: Vec<f32>, channels: usize, precision: Precision) -> Storage {
-        assert!(channels > 0 && values.len() % channels == 0, "values must hold whole entries");
+        assert!(channels > 0 && values.len().is_multiple_of(channels), "values must hold whole entries");
         let mut scale = vec![1.0f32; channels];
         if matches!(precision, Precision::Unorm16 | Precision::Unorm8) {
             scale.iter_mut().for_each(|s| *s = 0.0);
@@ -195,7 +195,7 @@ impl Storage {
         precision: Precision,
         scale: Vec<f32>,
     ) -> Option<Storage> {
-        if channels == 0 || scale.len() != channels || count % channels != 0 {
+        if channels == 0 || scale.len() != channels || !count.is_multiple_of(channels) {
             return None;
         }
         if bytes.len() != count.checked_mul(precision.bytes())? {

@@ -213,10 +213,8 @@ impl Table3d {
             return Err(TableError::TooLarge { entries, max: MAX_TABLE_ENTRIES });
         }
         match params.build {
-            Build3d::SliceRecurrence { oversampling } => {
-                if !(oversampling.is_finite() && (0.01..=1024.0).contains(&oversampling)) {
-                    return Err(TableError::Invalid(format!("oversampling {oversampling} must be in [0.01, 1024]")));
-                }
+            Build3d::SliceRecurrence { oversampling } if !(0.01..=1024.0).contains(&oversampling) => {
+                return Err(TableError::Invalid(format!("oversampling {oversampling} must be in [0.01, 1024]")));
             }
             Build3d::Blend { steps, .. } => check_res("blend steps", steps as usize, 1, 1 << 16)?,
             _ => {}

@@ -22,15 +22,55 @@
 //! assert!((px.color[0] - 0.7 * px.alpha).abs() < 1e-15);
 //! # Ok::<(), tet_preint::TfError>(())
 //! ```
+//!
+//! Pre-integration tables (each a [`SegmentShader`]), baked over a
+//! [`TableDomain`] in a storage [`Precision`] and stored as `.tetl`
+//! ([`LutFile`], spec `formats/lut.md`; [`bake`] and [`load_shader`] are
+//! what `tetlut` calls):
+//!
+//! * [`Table3d`] (module [`table3d`]): T(Sf, Sb, l), slice-recurrence,
+//!   seed-000 blend, incremental or exact build; banded storage.
+//! * [`Atlas2d`] (module [`atlas2d`]): seed 000's cylindrical planes, tiled.
+//! * [`PsiTable`] + [`PartialShader`] (module [`partial`]): partial
+//!   pre-integration.
+//! * [`table_error`] (module [`error`]): RMS and max error against `exact`.
+//!
+//! ```
+//! use tet_preint::{table_error, uniform_triples, Table3d, Table3dParams, TableDomain, TransferFunction};
+//! let tf = TransferFunction::from_json(
+//!     r#"{"color": [[0, 1, 0, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5], [1, 3]], "unit_distance": 1}"#,
+//! )?;
+//! // Scalars in [0, 1], |Sf − Sb| ≤ 0.25 (the band), segments up to 2 long.
+//! let domain = TableDomain::new(0.0, 1.0, 0.25, 2.0)?;
+//! let table = Table3d::build(&tf, &domain, &Table3dParams { n_s: 32, n_l: 32, ..Default::default() })?;
+//! assert!(table.memory_bytes() < table.full_memory_bytes());
+//! let (rms, max) = table_error(&table, &tf, &uniform_triples(&domain, 1000, 7));
+//! assert!(rms <= max && max < 0.02);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![forbid(unsafe_code)]
 
+pub mod atlas2d;
+pub mod domain;
+pub mod error;
 pub mod exact;
+pub mod lut_file;
 pub mod method;
+pub mod partial;
+pub mod precision;
 pub mod special;
+pub mod table3d;
 pub mod tf;
 
+pub use atlas2d::{Atlas2d, Atlas2dParams};
+pub use domain::{TableDomain, TableError};
+pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
+pub use lut_file::{bake, load_shader, BakeOptions, LutError, LutFile, LutHeader, SectionInfo};
 pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
+pub use partial::{PartialShader, PsiParams, PsiTable};
+pub use precision::{Accumulation, Precision, Storage};
+pub use table3d::{Build3d, ExtinctionPrefix, Table3d, Table3dParams};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
 
 /// A transfer function that cannot be used; each variant names the entry.

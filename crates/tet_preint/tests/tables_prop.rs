@@ -1,0 +1,79 @@
+//! Property tests: for random transfer functions, table3d's nodes and the
+//! partial method stay within tolerance of `exact`; lookups never give NaN.
+use proptest::prelude::*;
+use std::sync::Arc;
+use tet_preint::table3d::{Build3d, Table3dParams};
+use tet_preint::*;
+
+fn arb_tf() -> impl Strategy<Value = TransferFunction> {
+    (
+        prop::collection::vec((0.0f64..1.0, 0.0f64..8.0), 1..6),
+        prop::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0), 1..5),
+        prop::bool::ANY,
+    )
+        .prop_map(|(mut op, mut col, independent)| {
+            op.sort_by(|a, b| a.0.total_cmp(&b.0));
+            op.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
+            col.sort_by(|a, b| a.0.total_cmp(&b.0));
+            col.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
+            let opacity = op.into_iter().map(|(x, a)| OpacityNode { x, a }).collect();
+            let color = col.into_iter().map(|(x, r, g, b)| ColorNode { x, rgb: [r, g, b] }).collect();
+            let e = if independent { Emission::Independent } else { Emission::Density };
+            TransferFunction::new(color, opacity, 1.0, e, false).unwrap()
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, rng_seed: proptest::test_runner::RngSeed::Fixed(2024), ..ProptestConfig::default() })]
+
+    #[test]
+    fn table3d_nodes_match_exact(tf in arb_tf()) {
+        let d = TableDomain::new(0.0, 1.0, 0.5, 2.0).unwrap();
+        let p = Table3dParams { n_s: 24, n_l: 12, build: Build3d::SliceRecurrence { oversampling: 6.0 }, ..Default::default() };
+        let t = Table3d::build(&tf, &d, &p).unwrap();
+        for a in 0..24 {
+            for b in 0..24 {
+                for k in [0, 1, 5, 11] {
+                    if let Some(e) = t.entry(a, b, k) {
+                        let x = integrate_segment(&tf, t.scalar_at(a), t.scalar_at(b), t.len_at(k)).to_array();
+                        for c in 0..4 {
+                            prop_assert!((e[c] as f64 - x[c]).abs() < 1e-3, "({a},{b},{k}) ch {c}: {} vs {}", e[c], x[c]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn partial_matches_exact_and_lookups_are_finite(tf in arb_tf(), sf in -0.2f32..1.2, sb in -0.2f32..1.2, l in 0.0f32..3.0) {
+        let psi = Arc::new(PsiTable::build(&PsiParams { res: 512, first_moment: true, ..Default::default() }).unwrap());
+        let sh = PartialShader::new(tf.clone(), psi).unwrap();
+        let got = sh.shade(&Segment { s_front: sf, s_back: sb, len_world: l, ..Default::default() });
+        let want = integrate_segment(&tf, sf as f64, sb as f64, l as f64).to_array();
+        for c in 0..4 {
+            prop_assert!((got[c] as f64 - want[c]).abs() < 1e-3 * want[c].abs().max(1.0), "ch {c}: {got:?} vs {want:?}");
+        }
+        let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
+        let t = Table3d::build(&tf, &d, &Table3dParams { n_s: 8, n_l: 4, ..Default::default() }).unwrap();
+        let r = t.shade(&Segment { s_front: sf, s_back: sb, len_world: l * 10.0, ..Default::default() });
+        prop_assert!(r.iter().all(|v| v.is_finite() && *v >= 0.0) && r[3] <= 1.0);
+    }
+}
+
+/// The error helper on a table vs on exact itself.
+#[test]
+fn table_error_reports_interpolation_error() {
+    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_mild.json")).unwrap();
+    let d = TableDomain::full(0.0, 1.0, 2.0).unwrap();
+    let tri = uniform_triples(&d, 2000, 3);
+    let t = Table3d::build(&tf, &d, &Table3dParams { n_s: 32, n_l: 32, ..Default::default() }).unwrap();
+    let (rms, max) = table_error(&t, &tf, &tri);
+    // Trilinear interpolation error of a 32³ table (node error is < 1e-5 here).
+    assert!(rms < max && max < 0.05, "{rms} {max}");
+    let fine = Table3d::build(&tf, &d, &Table3dParams { n_s: 64, n_l: 64, ..Default::default() }).unwrap();
+    let (rms_fine, _) = table_error(&fine, &tf, &tri);
+    assert!(rms_fine < 0.5 * rms, "{rms_fine} vs {rms}");
+    let (rms_e, max_e) = table_error(&ExactShader::new(tf.clone()), &tf, &tri);
+    assert!(rms_e < rms && max_e < 1e-6);
+}

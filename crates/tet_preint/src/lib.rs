@@ -26,11 +26,13 @@
 
 pub mod exact;
 pub mod method;
+pub mod poly;
 pub mod special;
 pub mod tf;
 
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
 pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
+pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
 
 /// A transfer function that cannot be used; each variant names the entry.

@@ -80,10 +80,7 @@ pub struct UnknownMethod {
 impl FromStr for Method {
     type Err = UnknownMethod;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Method::ALL
-            .into_iter()
-            .find(|m| m.id() == s)
-            .ok_or_else(|| UnknownMethod { given: s.to_string() })
+        Method::ALL.into_iter().find(|m| m.id() == s).ok_or_else(|| UnknownMethod { given: s.to_string() })
     }
 }
 

@@ -24,16 +24,20 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod bivariate;
 pub mod exact;
 pub mod method;
 pub mod poly;
 pub mod special;
 pub mod tf;
+pub mod widget;
 
+pub use bivariate::{BivApprox, BivExact, FbTable};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
 pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
 pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
+pub use widget::{Shape, Widget};
 
 /// A transfer function that cannot be used; each variant names the entry.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -56,6 +60,8 @@ pub enum TfError {
     UnitDistance(f64),
     #[error("scalar range [{lo}, {hi}]: need finite lo < hi")]
     Range { lo: f64, hi: f64 },
+    #[error("widgets[{index}].{field}: {reason}")]
+    Widget { index: usize, field: &'static str, reason: String },
     #[error("ParaView preset: {0}")]
     Preset(String),
 }

@@ -79,6 +79,8 @@ pub enum PolyError {
     Length { what: &'static str, expected: usize, found: usize },
     #[error("{what}[{index}]: value is NaN or infinite")]
     NonFinite { what: &'static str, index: usize },
+    #[error("the transfer function has {0} 2D widgets; poly tables are 1D (use biv-exact or biv-approx)")]
+    Widgets(usize),
     #[error("alpha table: x_max = {x_max} must be positive and finite, with at least 2 entries (found {len})")]
     AlphaTable { x_max: f32, len: usize },
 }
@@ -259,7 +261,7 @@ impl Nodes {
 }
 
 /// One point of a segment's piecewise-linear profile: scalar, ρ, κ.
-type Knot = (f64, f64, [f64; 3]);
+pub(crate) type Knot = (f64, f64, [f64; 3]);
 
 /// Gauss–Legendre, 6 points on [0, 1]: nodes and weights.
 const GL6: [(f64, f64); 6] = [
@@ -277,12 +279,12 @@ const PANEL_DEPTH: f64 = 1.5;
 
 /// What one (Sf, Sb) entry needs: ∫ρ ds, ∫κρ ds, ∫κ ds over the scalar span
 /// and, for each slice l_k = k·l_max/n (k = 1..n), C_k and α_k.
-struct EntryIntegrals {
+pub(crate) struct EntryIntegrals {
     int_rho: f64,
     int_krho: [f64; 3],
     int_k: [f64; 3],
-    color: [[f64; 3]; 4],
-    alpha: [f64; 4],
+    pub(crate) color: [[f64; 3]; 4],
+    pub(crate) alpha: [f64; 4],
 }
 
 /// Integrates all n slices of one entry at once. Each linear piece uses
@@ -292,7 +294,7 @@ struct EntryIntegrals {
 /// slices share the nodes: slice k's exponent is (k/n)·E, so one `expm1` per
 /// node serves every slice (1 − e^(−kE/n) = m·Σ_{q<k} (1 − m)^q, m = 1 − e^(−E/n)).
 /// Agrees with `exact` to ~1e-9 (tested); about 10× faster than calling it n times.
-fn integrate_entry(knots: &[Knot], l_max: f64, n: usize, emission: Emission) -> EntryIntegrals {
+pub(crate) fn integrate_entry(knots: &[Knot], l_max: f64, n: usize, emission: Emission) -> EntryIntegrals {
     let span = (knots[knots.len() - 1].0 - knots[0].0).abs();
     let per_scalar = l_max / span;
     let inv_n = 1.0 / n as f64;
@@ -441,6 +443,9 @@ impl PolyTable {
     /// normalized TF first), rows in parallel on rayon's pool.
     pub fn build(tf: &TransferFunction, p: &PolyParams) -> Result<Self, PolyError> {
         check_params(p)?;
+        if !tf.widgets().is_empty() {
+            return Err(PolyError::Widgets(tf.widgets().len()));
+        }
         let n = p.degree;
         let res = p.res;
         let band = band_for(res, p.s_lo, p.s_hi, p.max_ds);

@@ -202,7 +202,7 @@ fn widget_shape_integral(w: &Widget, seg: &Seg2, x0: f64, x1: f64) -> f64 {
     }
     let dx = x1 - x0;
     match w.shape {
-        Shape::Box => dx,
+        Shape::Box { .. } => dx,
         // Linear on a piece (split at the peaks and troughs).
         Shape::Triangle { .. } => 0.5 * dx * (w.shape_unclipped(seg.s(x0), 0.0) + w.shape_unclipped(seg.s(x1), 0.0)),
         Shape::Sine { frequency, phase } => {
@@ -295,24 +295,32 @@ impl BivExact {
     }
 }
 
-/// C = ∫ E(x)·T(x) l dx over one piece by panelled 8-point Gauss–Legendre,
-/// T from the closed-form depth from x0. Panels keep the depth per panel
-/// ≤ 0.5 and resolve Gaussian bumps; stops once T < e^{-45}.
-fn quadrature_color(tf: &TransferFunction, seg: &Seg2, x0: f64, x1: f64, depth: f64) -> [f64; 3] {
-    let mut panels = (depth / 0.5).ceil().max(1.0);
+/// C = ∫ E(x)·T(x) l dx over one piece by 8-point Gauss–Legendre panels,
+/// T from the closed-form depth from x0. Each panel is halved until its
+/// depth is ≤ 0.5 (and it resolves Gaussian bumps), the next one starts at
+/// twice the width; stops once T < e^{-45}.
+fn quadrature_color(tf: &TransferFunction, seg: &Seg2, x0: f64, x1: f64, _depth: f64) -> [f64; 3] {
+    let mut h_max = x1 - x0;
     for w in tf.widgets() {
         if let Some((a, _, _)) = gaussian_quadratic(w, seg) {
-            panels = panels.max(((0.5 * a).sqrt() * (x1 - x0) * 2.0).ceil());
+            let k = (0.5 * a).sqrt();
+            if k > 0.0 {
+                h_max = h_max.min(0.5 / k);
+            }
         }
     }
-    let panels = panels.min(4096.0) as usize;
-    let h = (x1 - x0) / panels as f64;
     let mut out = [0.0f64; 3];
     let mut depth_before = 0.0; // from x0 to the panel start
-    for p in 0..panels {
-        let a = x0 + p as f64 * h;
-        if depth_before > 45.0 {
-            break;
+    let mut a = x0;
+    let mut h = h_max;
+    while a < x1 && depth_before <= 45.0 {
+        h = h.min(x1 - a);
+        let mut pd = piece_depth(tf, seg, a, a + h);
+        let mut halvings = 0;
+        while pd > 0.5 && halvings < 200 {
+            h *= 0.5;
+            pd = piece_depth(tf, seg, a, a + h);
+            halvings += 1;
         }
         for &(t, w) in &GL8_NODES {
             let x = a + h * t;
@@ -323,7 +331,9 @@ fn quadrature_color(tf: &TransferFunction, seg: &Seg2, x0: f64, x1: f64, depth: 
                 out[c] += wt * e[c];
             }
         }
-        depth_before += piece_depth(tf, seg, a, a + h);
+        depth_before += pd;
+        a = if h >= x1 - a { x1 } else { a + h };
+        h = (2.0 * h).min(h_max);
     }
     out
 }
@@ -353,6 +363,9 @@ pub fn reference_segment(tf: &TransferFunction, seg: &Seg2, tol: f64) -> Rgba {
     let mut acc = Rgba::default();
     let mut depth = 0.0f64;
     for p in xs.windows(2) {
+        if depth > 60.0 {
+            break; // transmittance < 1e-26: nothing behind is visible
+        }
         let (c, d) = adaptive(tf, seg, p[0], p[1], tol, 0);
         let t = (-depth).exp();
         for k in 0..3 {
@@ -416,11 +429,16 @@ fn adaptive(tf: &TransferFunction, seg: &Seg2, a: f64, b: f64, tol: f64, level: 
     let c2: [f64; 3] = std::array::from_fn(|k| cl[k] + tl * cr[k]);
     let d2 = dl + dr;
     let err = (0..3).map(|k| (c[k] - c2[k]).abs()).fold(((-d).exp() - (-d2).exp()).abs(), f64::max);
-    if err <= tol || level >= 40 || d2 > 60.0 && dl > 60.0 {
+    // A panel deeper than 2 is always split: its nodes could all sit behind
+    // the part that emits (false convergence).
+    if (err <= tol && d2 <= 2.0) || level >= 50 {
         return (c2, d2);
     }
-    let (cl, dl) = adaptive(tf, seg, a, m, 0.5 * tol, level + 1);
-    let (cr, dr) = adaptive(tf, seg, m, b, 0.5 * tol, level + 1);
+    // The tolerance is not halved per level: f64 cannot reach tol·2^-40, and
+    // the panels number in the hundreds, so the sum stays ~100·tol.
+    let (cl, dl) = adaptive(tf, seg, a, m, tol, level + 1);
+    // Behind an optical depth of 60 the right half is invisible (< 1e-26).
+    let (cr, dr) = if dl > 60.0 { (cr, dr) } else { adaptive(tf, seg, m, b, tol, level + 1) };
     let tl = (-dl).exp();
     (std::array::from_fn(|k| cl[k] + tl * cr[k]), dl + dr)
 }

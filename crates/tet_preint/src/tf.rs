@@ -171,7 +171,17 @@ impl TransferFunction {
                 return Err(bad("clip", "need lo ≤ hi, not NaN"));
             }
             match w.shape {
-                crate::widget::Shape::Box => {}
+                crate::widget::Shape::Box { center, width } => {
+                    if center.iter().any(|x| !x.is_finite()) {
+                        return Err(bad("center", "value is NaN or infinite"));
+                    }
+                    if width.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                        return Err(bad("width", "must be positive"));
+                    }
+                    if w.support != crate::widget::box_support(center, width) {
+                        return Err(bad("clip", "a box's support is its centre ± width/2"));
+                    }
+                }
                 crate::widget::Shape::Gaussian { center, sigma } => {
                     if center.iter().any(|x| !x.is_finite()) {
                         return Err(bad("center", "value is NaN or infinite"));

@@ -25,8 +25,8 @@ use crate::TfError;
 /// The shape of a widget and its parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
-    /// Uniform over the support rectangle.
-    Box,
+    /// Uniform over the support rectangle centre ± width/2.
+    Box { center: [f64; 2], width: [f64; 2] },
     /// Gaussian with centre and standard deviations.
     Gaussian { center: [f64; 2], sigma: [f64; 2] },
     /// Triangle-wave bands in s: `frequency` bands per scalar unit, peaks at f·s − φ ∈ ℤ.
@@ -67,7 +67,7 @@ impl Widget {
     /// m(s, g) ignoring the support.
     pub fn shape_unclipped(&self, s: f64, g: f64) -> f64 {
         match self.shape {
-            Shape::Box => 1.0,
+            Shape::Box { .. } => 1.0,
             Shape::Gaussian { center, sigma } => {
                 let (ds, dg) = ((s - center[0]) / sigma[0], (g - center[1]) / sigma[1]);
                 (-0.5 * (ds * ds + dg * dg)).exp()
@@ -108,7 +108,9 @@ impl Widget {
         let span = hi - lo;
         let m = |x: f64| lo + x * span;
         let shape = match self.shape {
-            Shape::Box => Shape::Box,
+            Shape::Box { center, width } => {
+                Shape::Box { center: [m(center[0]), center[1]], width: [width[0] * span, width[1]] }
+            }
             Shape::Gaussian { center, sigma } => {
                 Shape::Gaussian { center: [m(center[0]), center[1]], sigma: [sigma[0] * span, sigma[1]] }
             }
@@ -142,6 +144,11 @@ pub(crate) struct WidgetFile {
     phase: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     clip: Option<Vec<Vec<f64>>>,
+}
+
+/// The support of a box widget.
+pub fn box_support(center: [f64; 2], width: [f64; 2]) -> [[f64; 2]; 2] {
+    [[center[0] - 0.5 * width[0], center[0] + 0.5 * width[0]], [center[1] - 0.5 * width[1], center[1] + 0.5 * width[1]]]
 }
 
 fn err(index: usize, field: &'static str, reason: impl Into<String>) -> TfError {
@@ -235,7 +242,7 @@ impl WidgetFile {
                 refuse("clip", self.clip.is_some())?;
                 let c = pair(index, "center", &self.center)?;
                 let w = positive_pair(index, "width", &self.width)?;
-                (Shape::Box, [[c[0] - 0.5 * w[0], c[0] + 0.5 * w[0]], [c[1] - 0.5 * w[1], c[1] + 0.5 * w[1]]])
+                (Shape::Box { center: c, width: w }, box_support(c, w))
             }
             "gaussian" => {
                 refuse("frequency", self.frequency.is_some())?;
@@ -278,14 +285,10 @@ impl WidgetFile {
             phase: None,
             clip: None,
         };
-        let [[s0, s1], [g0, g1]] = w.support;
         match w.shape {
-            Shape::Box => WidgetFile {
-                kind: "box".into(),
-                center: Some(vec![0.5 * (s0 + s1), 0.5 * (g0 + g1)]),
-                width: Some(vec![s1 - s0, g1 - g0]),
-                ..base
-            },
+            Shape::Box { center, width } => {
+                WidgetFile { kind: "box".into(), center: Some(center.to_vec()), width: Some(width.to_vec()), ..base }
+            }
             Shape::Gaussian { center, sigma } => WidgetFile {
                 kind: "gaussian".into(),
                 center: Some(center.to_vec()),

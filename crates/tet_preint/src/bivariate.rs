@@ -168,22 +168,22 @@ pub fn gaussian_depth(w: &Widget, seg: &Seg2, x0: f64, x1: f64) -> f64 {
 }
 
 const GL6_NODES: [(f64, f64); 6] = [
-    (0.5 * (1.0 - 0.932_469_514_203_152_1), 0.5 * 0.171_324_492_379_170_4),
+    (0.5 * (1.0 - 0.932_469_514_203_152), 0.5 * 0.171_324_492_379_170_4),
     (0.5 * (1.0 - 0.661_209_386_466_264_5), 0.5 * 0.360_761_573_048_138_6),
-    (0.5 * (1.0 - 0.238_619_186_083_196_9), 0.5 * 0.467_913_934_572_691_0),
-    (0.5 * (1.0 + 0.238_619_186_083_196_9), 0.5 * 0.467_913_934_572_691_0),
+    (0.5 * (1.0 - 0.238_619_186_083_196_9), 0.5 * 0.467_913_934_572_691),
+    (0.5 * (1.0 + 0.238_619_186_083_196_9), 0.5 * 0.467_913_934_572_691),
     (0.5 * (1.0 + 0.661_209_386_466_264_5), 0.5 * 0.360_761_573_048_138_6),
-    (0.5 * (1.0 + 0.932_469_514_203_152_1), 0.5 * 0.171_324_492_379_170_4),
+    (0.5 * (1.0 + 0.932_469_514_203_152), 0.5 * 0.171_324_492_379_170_4),
 ];
 
 /// Gauss–Legendre, 8 points on [0, 1].
 const GL8_NODES: [(f64, f64); 8] = [
     (0.5 * (1.0 - 0.960_289_856_497_536_3), 0.5 * 0.101_228_536_290_376_3),
     (0.5 * (1.0 - 0.796_666_477_413_626_7), 0.5 * 0.222_381_034_453_374_5),
-    (0.5 * (1.0 - 0.525_532_409_916_329_0), 0.5 * 0.313_706_645_877_887_3),
-    (0.5 * (1.0 - 0.183_434_642_495_649_8), 0.5 * 0.362_683_783_378_362_0),
-    (0.5 * (1.0 + 0.183_434_642_495_649_8), 0.5 * 0.362_683_783_378_362_0),
-    (0.5 * (1.0 + 0.525_532_409_916_329_0), 0.5 * 0.313_706_645_877_887_3),
+    (0.5 * (1.0 - 0.525_532_409_916_329), 0.5 * 0.313_706_645_877_887_3),
+    (0.5 * (1.0 - 0.183_434_642_495_649_8), 0.5 * 0.362_683_783_378_362),
+    (0.5 * (1.0 + 0.183_434_642_495_649_8), 0.5 * 0.362_683_783_378_362),
+    (0.5 * (1.0 + 0.525_532_409_916_329), 0.5 * 0.313_706_645_877_887_3),
     (0.5 * (1.0 + 0.796_666_477_413_626_7), 0.5 * 0.222_381_034_453_374_5),
     (0.5 * (1.0 + 0.960_289_856_497_536_3), 0.5 * 0.101_228_536_290_376_3),
 ];
@@ -251,7 +251,7 @@ impl BivExact {
     /// zero; l ≤ 0 gives zero.
     pub fn integrate(&self, seg: &Seg2) -> Rgba {
         let finite = [seg.sf, seg.sb, seg.gf, seg.gb].iter().all(|v| v.is_finite());
-        if !finite || !(seg.len > 0.0) {
+        if !finite || seg.len.is_nan() || seg.len <= 0.0 {
             return Rgba::default();
         }
         let seg = Seg2 { len: seg.len.min(1e300), ..*seg };
@@ -356,7 +356,7 @@ impl SegmentShader for BivExact {
 /// Panels are accepted when halving changes C and T by less than `tol`
 /// (absolute); `tol` = 1e-12 gives results good to ~1e-10.
 pub fn reference_segment(tf: &TransferFunction, seg: &Seg2, tol: f64) -> Rgba {
-    if !(seg.len > 0.0) {
+    if seg.len.is_nan() || seg.len <= 0.0 {
         return Rgba::default();
     }
     let xs = breakpoints(tf, seg);
@@ -368,8 +368,8 @@ pub fn reference_segment(tf: &TransferFunction, seg: &Seg2, tol: f64) -> Rgba {
         }
         let (c, d) = adaptive(tf, seg, p[0], p[1], tol, 0);
         let t = (-depth).exp();
-        for k in 0..3 {
-            acc.color[k] += t * c[k];
+        for (a, ck) in acc.color.iter_mut().zip(c) {
+            *a += t * ck;
         }
         depth += d;
     }
@@ -388,7 +388,7 @@ fn gl10() -> [(f64, f64); 10] {
     const W: [f64; 5] = [
         0.295_524_224_714_752_9,
         0.269_266_719_309_996_4,
-        0.219_086_362_515_982_0,
+        0.219_086_362_515_982,
         0.149_451_349_150_580_6,
         0.066_671_344_308_688_1,
     ];
@@ -561,7 +561,7 @@ pub struct BivApprox {
 impl BivApprox {
     /// `k` ≥ 1 sub-segments; the table's emission model must match the TF's.
     pub fn new(tf: TransferFunction, table: FbTable, k: usize) -> Option<Self> {
-        (k >= 1 && k <= 1024 && table.emission == tf.emission()).then_some(BivApprox { tf, table, k })
+        ((1..=1024).contains(&k) && table.emission == tf.emission()).then_some(BivApprox { tf, table, k })
     }
 
     /// Bakes the table at `res` and builds the shader.
@@ -578,7 +578,7 @@ impl BivApprox {
 
     pub fn integrate(&self, seg: &Seg2) -> Rgba {
         let finite = [seg.sf, seg.sb, seg.gf, seg.gb].iter().all(|v| v.is_finite());
-        if !finite || !(seg.len > 0.0) {
+        if !finite || seg.len.is_nan() || seg.len <= 0.0 {
             return Rgba::default();
         }
         let len = seg.len.min(1e30);

@@ -10,6 +10,10 @@
 //! * [`Method`], [`Segment`] and [`SegmentShader`] (module [`method`]): the
 //!   method ids of DESIGN.md and the per-segment contract every method
 //!   implements for the renderers ([`ExactShader`], [`PtLinearShader`], tables).
+//! * [`PolyTable`] (module [`poly`]): `poly1`/`poly2`/`poly4`, seed 003's
+//!   mean-extinction table, 16-bit α table and chromaticity polynomial in l.
+//! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of seed 004;
+//!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]).
 //!
 //! ```
 //! use tet_preint::{integrate_segment, TransferFunction};

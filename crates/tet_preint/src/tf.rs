@@ -397,8 +397,8 @@ impl TransferFunction {
                 let mut e = [k[0] * r, k[1] * r, k[2] * r];
                 for w in &self.widgets {
                     let rw = w.opacity * w.shape_at(s, g) / self.unit_distance;
-                    for c in 0..3 {
-                        e[c] += w.color[c] * rw;
+                    for (ec, wc) in e.iter_mut().zip(w.color) {
+                        *ec += wc * rw;
                     }
                 }
                 e
@@ -406,8 +406,8 @@ impl TransferFunction {
             Emission::Independent => {
                 let mut e = k;
                 for w in self.widgets.iter().filter(|w| w.contains(s, g)) {
-                    for c in 0..3 {
-                        e[c] += w.color[c];
+                    for (ec, wc) in e.iter_mut().zip(w.color) {
+                        *ec += wc;
                     }
                 }
                 e

@@ -34,8 +34,8 @@ fn errors(table: &PolyTable, tf: &TransferFunction, l_max: f64, n: usize) -> (f6
         let (sf, sb, l) = (next() as f32, next() as f32, (next() * l_max) as f32);
         let got = table.lookup(sf, sb, l);
         let want = integrate_segment(tf, sf as f64, sb as f64, l as f64);
-        for c in 0..3 {
-            let d = (got[c] as f64 - want.color[c]).abs();
+        for (g, w) in got.iter().zip(want.color) {
+            let d = (*g as f64 - w).abs();
             sc += d * d;
             mc = mc.max(d);
         }

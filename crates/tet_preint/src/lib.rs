@@ -10,6 +10,10 @@
 //! * [`Method`], [`Segment`] and [`SegmentShader`] (module [`method`]): the
 //!   method ids of DESIGN.md and the per-segment contract every method
 //!   implements for the renderers ([`ExactShader`], [`PtLinearShader`], tables).
+//! * [`PolyTable`] (module [`poly`]): `poly1`/`poly2`/`poly4`, seed 003's
+//!   mean-extinction table, 16-bit α table and chromaticity polynomial in l.
+//! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of seed 004;
+//!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]).
 //!
 //! ```
 //! use tet_preint::{integrate_segment, TransferFunction};
@@ -51,27 +55,33 @@
 #![forbid(unsafe_code)]
 
 pub mod atlas2d;
+pub mod bivariate;
 pub mod domain;
 pub mod error;
 pub mod exact;
 pub mod lut_file;
 pub mod method;
 pub mod partial;
+pub mod poly;
 pub mod precision;
 pub mod special;
 pub mod table3d;
 pub mod tf;
+pub mod widget;
 
 pub use atlas2d::{Atlas2d, Atlas2dParams};
+pub use bivariate::{BivApprox, BivExact, FbTable};
 pub use domain::{TableDomain, TableError};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
 pub use lut_file::{bake, load_shader, BakeOptions, LutError, LutFile, LutHeader, SectionInfo};
 pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
 pub use partial::{PartialShader, PsiParams, PsiTable};
+pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};
 pub use precision::{Accumulation, Precision, Storage};
 pub use table3d::{Build3d, ExtinctionPrefix, Table3d, Table3dParams};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
+pub use widget::{Shape, Widget};
 
 /// A transfer function that cannot be used; each variant names the entry.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -94,6 +104,8 @@ pub enum TfError {
     UnitDistance(f64),
     #[error("scalar range [{lo}, {hi}]: need finite lo < hi")]
     Range { lo: f64, hi: f64 },
+    #[error("widgets[{index}].{field}: {reason}")]
+    Widget { index: usize, field: &'static str, reason: String },
     #[error("ParaView preset: {0}")]
     Preset(String),
 }

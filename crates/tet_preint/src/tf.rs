@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::widget::{Widget, WidgetFile};
 use crate::TfError;
 
 /// How emission enters the colour integral.
@@ -44,6 +45,7 @@ pub struct TransferFunction {
     opacity: Vec<OpacityNode>,
     unit_distance: f64,
     emission: Emission,
+    widgets: Vec<Widget>,
 }
 
 /// The JSON layout of `formats/tf.md`, before validation.
@@ -57,6 +59,8 @@ struct TfFile {
     unit_distance: f64,
     #[serde(default)]
     emission: Emission,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    widgets: Vec<WidgetFile>,
 }
 
 impl TryFrom<TfFile> for TransferFunction {
@@ -65,7 +69,8 @@ impl TryFrom<TfFile> for TransferFunction {
         let color =
             rows::<4>(&f.color, "color")?.into_iter().map(|[x, r, g, b]| ColorNode { x, rgb: [r, g, b] }).collect();
         let opacity = rows::<2>(&f.opacity, "opacity")?.into_iter().map(|[x, a]| OpacityNode { x, a }).collect();
-        TransferFunction::new(color, opacity, f.unit_distance, f.emission, f.normalized)
+        let widgets = f.widgets.iter().enumerate().map(|(i, w)| w.validate(i)).collect::<Result<Vec<_>, _>>()?;
+        TransferFunction::new(color, opacity, f.unit_distance, f.emission, f.normalized)?.with_widgets(widgets)
     }
 }
 
@@ -77,6 +82,7 @@ impl From<TransferFunction> for TfFile {
             opacity: t.opacity.iter().map(|o| vec![o.x, o.a]).collect(),
             unit_distance: t.unit_distance,
             emission: t.emission,
+            widgets: t.widgets.iter().map(WidgetFile::from_widget).collect(),
         }
     }
 }
@@ -147,7 +153,66 @@ impl TransferFunction {
         if !(unit_distance > 0.0 && unit_distance.is_finite()) {
             return Err(TfError::UnitDistance(unit_distance));
         }
-        Ok(TransferFunction { normalized, color, opacity, unit_distance, emission })
+        Ok(TransferFunction { normalized, color, opacity, unit_distance, emission, widgets: Vec::new() })
+    }
+
+    /// Returns a copy with these 2D widgets (seed 004; see [`crate::widget`]),
+    /// checked as the JSON is: errors name `widgets[i].field`.
+    pub fn with_widgets(mut self, widgets: Vec<Widget>) -> Result<Self, TfError> {
+        for (index, w) in widgets.iter().enumerate() {
+            let bad = |field: &'static str, reason: &str| TfError::Widget { index, field, reason: reason.into() };
+            if w.color.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                return Err(bad("color", "must be finite and non-negative"));
+            }
+            if !(w.opacity.is_finite() && w.opacity >= 0.0) {
+                return Err(bad("opacity", "must be finite and non-negative"));
+            }
+            if w.support.iter().flatten().any(|x| x.is_nan()) || w.support.iter().any(|r| r[0] > r[1]) {
+                return Err(bad("clip", "need lo ≤ hi, not NaN"));
+            }
+            match w.shape {
+                crate::widget::Shape::Box { center, width } => {
+                    if center.iter().any(|x| !x.is_finite()) {
+                        return Err(bad("center", "value is NaN or infinite"));
+                    }
+                    if width.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                        return Err(bad("width", "must be positive"));
+                    }
+                    if w.support != crate::widget::box_support(center, width) {
+                        return Err(bad("clip", "a box's support is its centre ± width/2"));
+                    }
+                }
+                crate::widget::Shape::Gaussian { center, sigma } => {
+                    if center.iter().any(|x| !x.is_finite()) {
+                        return Err(bad("center", "value is NaN or infinite"));
+                    }
+                    if sigma.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                        return Err(bad("width", "must be positive"));
+                    }
+                }
+                crate::widget::Shape::Triangle { frequency, phase }
+                | crate::widget::Shape::Sine { frequency, phase } => {
+                    if !(frequency > 0.0 && frequency <= crate::widget::MAX_FREQUENCY) {
+                        return Err(bad("frequency", "must be positive and at most 1e6"));
+                    }
+                    if !phase.is_finite() {
+                        return Err(bad("phase", "value is NaN or infinite"));
+                    }
+                }
+            }
+        }
+        self.widgets = widgets;
+        Ok(self)
+    }
+
+    /// The 2D widgets (empty for a purely 1D transfer function).
+    pub fn widgets(&self) -> &[Widget] {
+        &self.widgets
+    }
+
+    /// The 1D part alone (widgets dropped).
+    pub fn without_widgets(&self) -> Self {
+        TransferFunction { widgets: Vec::new(), ..self.clone() }
     }
 
     /// Parses and validates the JSON of `formats/tf.md`.
@@ -245,7 +310,8 @@ impl TransferFunction {
         let m = |x: f64| lo + x * (hi - lo);
         let color = self.color.iter().map(|c| ColorNode { x: m(c.x), ..*c }).collect();
         let opacity = self.opacity.iter().map(|o| OpacityNode { x: m(o.x), ..*o }).collect();
-        TransferFunction::new(color, opacity, self.unit_distance, self.emission, false)
+        let widgets = self.widgets.iter().map(|w| w.denormalized(lo, hi)).collect();
+        TransferFunction::new(color, opacity, self.unit_distance, self.emission, false)?.with_widgets(widgets)
     }
 
     pub fn normalized(&self) -> bool {
@@ -309,6 +375,103 @@ impl TransferFunction {
             }
         }
         m
+    }
+
+    /// Extinction ρ(s, g) per unit world length: the 1D part plus every
+    /// widget (seed 004 sums extinctions).
+    pub fn extinction2(&self, s: f64, g: f64) -> f64 {
+        let mut rho = self.extinction(s);
+        for w in &self.widgets {
+            rho += w.opacity * w.shape_at(s, g) / self.unit_distance;
+        }
+        rho
+    }
+
+    /// The emission term E(s, g) of dC = E·T dt: κ₁D ρ₁D + Σ c_w ρ_w
+    /// (density) or κ₁D + Σ c_w·[in support] (independent). See [`crate::widget`].
+    pub fn emission2(&self, s: f64, g: f64) -> [f64; 3] {
+        let k = self.color(s);
+        match self.emission {
+            Emission::Density => {
+                let r = self.extinction(s);
+                let mut e = [k[0] * r, k[1] * r, k[2] * r];
+                for w in &self.widgets {
+                    let rw = w.opacity * w.shape_at(s, g) / self.unit_distance;
+                    for (ec, wc) in e.iter_mut().zip(w.color) {
+                        *ec += wc * rw;
+                    }
+                }
+                e
+            }
+            Emission::Independent => {
+                let mut e = k;
+                for w in self.widgets.iter().filter(|w| w.contains(s, g)) {
+                    for (ec, wc) in e.iter_mut().zip(w.color) {
+                        *ec += wc;
+                    }
+                }
+                e
+            }
+        }
+    }
+
+    /// Colour κ(s, g) such that the emission is κ·ρ (density: the
+    /// extinction-weighted mean colour, κ₁D where ρ = 0) or κ (independent).
+    pub fn color2(&self, s: f64, g: f64) -> [f64; 3] {
+        let e = self.emission2(s, g);
+        match self.emission {
+            Emission::Independent => e,
+            Emission::Density => {
+                let r = self.extinction2(s, g);
+                if r > 0.0 {
+                    [e[0] / r, e[1] / r, e[2] / r]
+                } else {
+                    self.color(s)
+                }
+            }
+        }
+    }
+
+    /// Conservative per-cell culling (seed 004 §3.1): true only when every
+    /// (s, g) in the closed box [s_range] × [g_range] contributes nothing —
+    /// zero extinction (density emission), or zero extinction and zero
+    /// emission (independent). A true answer is a proof; false may be
+    /// pessimistic (banded widgets are never zero on an interval; a
+    /// Gaussian's tails are positive everywhere in its clip box).
+    /// NaN or reversed ranges are never culled.
+    pub fn cell_is_invisible(&self, s_range: [f64; 2], g_range: [f64; 2]) -> bool {
+        let ([s0, s1], [g0, g1]) = (s_range, g_range);
+        if !(s0 <= s1 && g0 <= g1) {
+            return false;
+        }
+        // Piecewise-linear: the maximum over [s0, s1] is at an end or a node.
+        let mut xs = vec![s0, s1];
+        self.breakpoints_between(s0, s1, &mut xs);
+        if xs.iter().any(|&x| self.extinction(x) > 0.0) {
+            return false;
+        }
+        let independent = self.emission == Emission::Independent;
+        if independent && xs.iter().any(|&x| self.color(x).iter().any(|&c| c > 0.0)) {
+            return false;
+        }
+        !self.widgets.iter().any(|w| {
+            w.support_meets(s_range, g_range) && (w.opacity > 0.0 || (independent && w.color.iter().any(|&c| c > 0.0)))
+        })
+    }
+
+    /// Seed 004's frequency limit: a banded widget's closed forms assume at
+    /// most one peak per cell, which holds when its period 1/f exceeds the
+    /// largest per-cell scalar range `max_cell_ds`. Returns (widget index,
+    /// frequency, largest allowed frequency 1/max_cell_ds) for each widget
+    /// over the limit. (`biv-exact` here splits at every band crossing, so it
+    /// stays exact past the limit; the check is for the seed's tables.)
+    pub fn band_frequency_violations(&self, max_cell_ds: f64) -> Vec<(usize, f64, f64)> {
+        let limit = 1.0 / max_cell_ds;
+        self.widgets
+            .iter()
+            .enumerate()
+            .filter_map(|(i, w)| w.frequency().filter(|&f| f >= limit).map(|f| (i, f, limit)))
+            .collect()
     }
 
     /// Every node x (colour and opacity) strictly between `lo` and `hi`, sorted

@@ -1,0 +1,292 @@
+//! 2D widgets: JSON, culling, biv-exact against the adaptive reference,
+//! biv-approx convergence in k.
+use proptest::prelude::*;
+use tet_preint::bivariate::{gaussian_depth, reference_segment, Seg2};
+use tet_preint::{integrate_segment, BivApprox, BivExact, Emission, FbTable, TfError, TransferFunction};
+
+const WIDGETS: &str = r#"{"color": [[0, 0.2, 0.2, 0.2], [1, 0.9, 0.8, 0.1]],
+ "opacity": [[0, 0], [0.3, 0], [0.6, 0.8], [1, 0.2]], "unit_distance": 0.5,
+ "widgets": [
+   {"type": "box", "center": [0.2, 1.0], "width": [0.2, 1.0], "color": [1, 0, 0], "opacity": 2},
+   {"type": "gaussian", "center": [0.5, 0.5], "width": [0.08, 0.3], "color": [0, 1, 0], "opacity": 3},
+   {"type": "triangle", "frequency": 5, "phase": 0.25, "color": [0, 0, 1], "opacity": 1.5, "clip": [[0.1, 0.9], [0.0, 2.0]]},
+   {"type": "sine", "frequency": 3, "phase": 0.0, "color": [1, 1, 0], "opacity": 1, "clip": [[0.0, 1.0], [0.5, 3.0]]}
+ ]}"#;
+
+fn full() -> TransferFunction {
+    TransferFunction::from_json(WIDGETS).unwrap()
+}
+
+/// The TF with only widget `i` (1D part transparent and black).
+fn only(i: usize) -> TransferFunction {
+    let tf = full();
+    let w = tf.widgets()[i];
+    TransferFunction::from_json(r#"{"color": [[0, 0, 0, 0]], "opacity": [[0, 0]], "unit_distance": 0.5}"#)
+        .unwrap()
+        .with_widgets(vec![w])
+        .unwrap()
+}
+
+fn lcg(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn random_seg(next: &mut impl FnMut() -> f64) -> Seg2 {
+    Seg2 { sf: next() * 1.2 - 0.1, sb: next() * 1.2 - 0.1, gf: next() * 2.5, gb: next() * 2.5, len: next() * 2.0 }
+}
+
+fn max_diff(a: tet_preint::Rgba, b: tet_preint::Rgba) -> f64 {
+    (0..4).map(|k| (a.to_array()[k] - b.to_array()[k]).abs()).fold(0.0, f64::max)
+}
+
+#[test]
+fn json_round_trip_and_old_files_stay_valid() {
+    let tf = full();
+    assert_eq!(tf.widgets().len(), 4);
+    let back = TransferFunction::from_json(&tf.to_json()).unwrap();
+    assert_eq!(back, tf);
+    let old = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
+    assert!(old.widgets().is_empty());
+    assert!(!old.to_json().contains("widgets"));
+}
+
+#[test]
+fn json_errors_name_the_widget_and_field() {
+    let cases = [
+        (
+            r#"{"type": "box", "center": [0, 0], "width": [0.1, -1], "color": [1, 0, 0], "opacity": 1}"#,
+            "widgets[1].width: must be positive",
+        ),
+        (r#"{"type": "blob", "color": [1, 0, 0], "opacity": 1}"#, "widgets[1].type: unknown widget type"),
+        (r#"{"type": "gaussian", "width": [0.1, 1], "color": [1, 0, 0], "opacity": 1}"#, "widgets[1].center: missing"),
+        (
+            r#"{"type": "sine", "frequency": 0, "color": [1, 0, 0], "opacity": 1}"#,
+            "widgets[1].frequency: must be positive",
+        ),
+        (
+            r#"{"type": "triangle", "frequency": 2, "color": [1, 0], "opacity": 1}"#,
+            "widgets[1].color: expected 3 numbers",
+        ),
+        (r#"{"type": "triangle", "frequency": 2, "color": [1, 0, 0], "opacity": -1}"#, "widgets[1].opacity: negative"),
+        (
+            r#"{"type": "triangle", "frequency": 2, "color": [1, 0, 0], "opacity": 1, "clip": [[1, 0], [0, 1]]}"#,
+            "widgets[1].clip: row 0",
+        ),
+        (
+            r#"{"type": "box", "center": [0, 0], "width": [1, 1], "phase": 1, "color": [1, 0, 0], "opacity": 1}"#,
+            "widgets[1].phase: not a field",
+        ),
+    ];
+    for (w, want) in cases {
+        let text = format!(
+            r#"{{"color": [[0, 1, 1, 1]], "opacity": [[0, 1]], "unit_distance": 1, "widgets": [
+                {{"type": "box", "center": [0, 0], "width": [1, 1], "color": [1, 0, 0], "opacity": 1}}, {w}]}}"#
+        );
+        let err = TransferFunction::from_json(&text).unwrap_err();
+        assert!(matches!(err, TfError::Widget { index: 1, .. }), "{err}");
+        assert!(err.to_string().starts_with(want), "{err} (wanted {want})");
+    }
+    // Unknown fields inside a widget are refused too.
+    let e = TransferFunction::from_json(
+        r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1]], "unit_distance": 1, "widgets": [{"type": "box", "colour": [1,0,0]}]}"#,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("colour"), "{e}");
+}
+
+#[test]
+fn no_widgets_is_the_1d_exact_integrator() {
+    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
+    let mut next = lcg(1);
+    for emission in [Emission::Density, Emission::Independent] {
+        let tf = tf.clone().with_emission(emission);
+        let biv = BivExact::new(tf.clone());
+        for _ in 0..500 {
+            let seg = random_seg(&mut next);
+            let want = integrate_segment(&tf, seg.sf, seg.sb, seg.len);
+            assert!(max_diff(biv.integrate(&seg), want) < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn reference_agrees_with_exact_in_1d() {
+    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
+    let mut next = lcg(2);
+    for emission in [Emission::Density, Emission::Independent] {
+        let tf = tf.clone().with_emission(emission);
+        for _ in 0..200 {
+            let seg = random_seg(&mut next);
+            let d = max_diff(reference_segment(&tf, &seg, 1e-12), integrate_segment(&tf, seg.sf, seg.sb, seg.len));
+            assert!(d < 1e-10, "{emission:?} {seg:?}: {d}");
+        }
+    }
+}
+
+#[test]
+fn biv_exact_matches_reference_per_widget_and_combined() {
+    let mut next = lcg(3);
+    let mut tfs: Vec<(String, TransferFunction)> = (0..4).map(|i| (format!("widget {i}"), only(i))).collect();
+    tfs.push(("all + 1D".into(), full()));
+    for (name, tf) in tfs {
+        for emission in [Emission::Density, Emission::Independent] {
+            let tf = tf.clone().with_emission(emission);
+            let biv = BivExact::new(tf.clone());
+            let mut worst = 0.0f64;
+            for _ in 0..300 {
+                let seg = random_seg(&mut next);
+                let d = max_diff(biv.integrate(&seg), reference_segment(&tf, &seg, 1e-12));
+                worst = worst.max(d);
+            }
+            assert!(worst < 1e-9, "{name} {emission:?}: max |Δ| = {worst}");
+        }
+    }
+}
+
+#[test]
+fn single_widget_density_is_c_times_alpha() {
+    let tf = only(1);
+    let biv = BivExact::new(tf);
+    let px = biv.integrate(&Seg2 { sf: 0.3, sb: 0.7, gf: 0.2, gb: 0.9, len: 1.5 });
+    assert!(px.alpha > 0.1);
+    assert!(px.color[0].abs() < 1e-15 && (px.color[1] - px.alpha).abs() < 1e-14 && px.color[2].abs() < 1e-15);
+}
+
+#[test]
+fn stability_cases() {
+    let tf = full();
+    let biv = BivExact::new(tf.clone());
+    let approx = BivApprox::build(tf.clone(), 64, 8).unwrap();
+    let segs = [
+        Seg2 { sf: 0.5, sb: 0.5, gf: 0.5, gb: 0.5, len: 1.0 }, // Sf = Sb, g constant
+        Seg2 { sf: 0.5, sb: 0.5, gf: 0.0, gb: 0.0, len: 1.0 }, // g = 0
+        Seg2 { sf: 0.2, sb: 0.8, gf: 1.0, gb: 1.0, len: 1e-12 }, // l → 0
+        Seg2 { sf: 0.4, sb: 0.6, gf: 0.4, gb: 0.6, len: 1e6 }, // ρ·l huge
+        Seg2 { sf: 0.0, sb: 0.05, gf: 3.0, gb: 3.5, len: 1.0 }, // (almost) zero extinction
+    ];
+    for seg in segs {
+        for px in [biv.integrate(&seg), approx.integrate(&seg)] {
+            assert!(px.to_array().iter().all(|v| v.is_finite()), "{seg:?}: {px:?}");
+            assert!(px.alpha >= 0.0 && px.alpha <= 1.0);
+        }
+        let r = reference_segment(&tf, &seg, 1e-12);
+        assert!(max_diff(biv.integrate(&seg), r) < 1e-9, "{seg:?}");
+    }
+    // Only the (unbounded) Gaussian's far tail reaches there.
+    assert!(biv.integrate(&segs[4]).alpha < 1e-20);
+    assert_eq!(biv.integrate(&segs[3]).alpha, 1.0);
+    let nan = Seg2 { sf: f64::NAN, ..segs[0] };
+    assert_eq!(biv.integrate(&nan).alpha, 0.0);
+}
+
+#[test]
+fn gaussian_depth_closed_form_matches_quadrature() {
+    let tf = only(1);
+    let w = tf.widgets()[0];
+    let mut next = lcg(4);
+    for _ in 0..2000 {
+        let mut seg = random_seg(&mut next);
+        if next() < 0.2 {
+            seg.sb = seg.sf + 1e-7 * (next() - 0.5); // tiny k: the GL branch
+            seg.gb = seg.gf;
+        }
+        let (x0, x1) = (next() * 0.5, 0.5 + next() * 0.5);
+        let got = gaussian_depth(&w, &seg, x0, x1);
+        // Composite Simpson with 20000 panels.
+        let n = 20_000;
+        let h = (x1 - x0) / n as f64;
+        let f = |x: f64| w.shape_unclipped(seg.sf + x * (seg.sb - seg.sf), seg.gf + x * (seg.gb - seg.gf));
+        let mut want = f(x0) + f(x1);
+        for i in 1..n {
+            want += f(x0 + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+        }
+        want *= h / 3.0;
+        assert!((got - want).abs() < 1e-11 * (1.0 + want), "{seg:?} [{x0}, {x1}]: {got} vs {want}");
+    }
+}
+
+#[test]
+fn biv_approx_converges_with_subdivision() {
+    let tf = full();
+    let mut next = lcg(5);
+    let segs: Vec<Seg2> = (0..300).map(|_| random_seg(&mut next)).collect();
+    let refs: Vec<_> = segs.iter().map(|s| reference_segment(&tf, s, 1e-12)).collect();
+    let mut errs = Vec::new();
+    for k in [1, 4, 16, 64] {
+        let a = BivApprox::build(tf.clone(), 256, k).unwrap();
+        let e = segs.iter().zip(&refs).map(|(s, r)| max_diff(a.integrate(s), *r)).fold(0.0, f64::max);
+        errs.push(e);
+    }
+    assert!(errs[3] < errs[1] && errs[1] < errs[0], "{errs:?}");
+    // At least first-order convergence overall (box edges and clips are
+    // discontinuities, where subdivision converges like 1/k).
+    assert!(errs[3] < errs[0] / 10.0, "{errs:?}");
+}
+
+#[test]
+fn fb_table_parts_and_limits() {
+    let t = FbTable::build(Emission::Density, 33).unwrap();
+    // α_f = α_b = 0: F = B = 0; constant depth a: F + B = α.
+    assert_eq!(t.lookup(0.0, 0.0), (0.0, 0.0));
+    let (f, b) = t.lookup(0.5, 0.5);
+    assert!((f + b - 0.5).abs() < 1e-6);
+    let back = FbTable::from_parts(Emission::Density, 33, t.f().to_vec(), t.b().to_vec()).unwrap();
+    assert_eq!(back, t);
+    assert!(FbTable::from_parts(Emission::Density, 33, t.f()[1..].to_vec(), t.b().to_vec()).is_none());
+    assert!(FbTable::build(Emission::Density, 1).is_none());
+    assert!(BivApprox::new(full().with_emission(Emission::Independent), t, 4).is_none());
+}
+
+#[test]
+fn band_frequency_limit() {
+    let tf = full();
+    // Triangle f = 5, sine f = 3: limits 1/0.25 = 4 flags the triangle only.
+    let v = tf.band_frequency_violations(0.25);
+    assert_eq!(v.len(), 1);
+    assert_eq!(v[0].0, 2);
+    assert!(tf.band_frequency_violations(0.1).is_empty());
+}
+
+#[test]
+fn culling_examples() {
+    let tf = full();
+    // Below every widget support in g? Box g ∈ [0.5, 1.5]; Gaussian is unbounded: never culled.
+    assert!(!tf.cell_is_invisible([0.0, 0.05], [3.0, 3.5]));
+    let no_gauss = TransferFunction::from_json(WIDGETS)
+        .unwrap()
+        .with_widgets(full().widgets().iter().enumerate().filter(|(i, _)| *i != 1).map(|(_, w)| *w).collect())
+        .unwrap();
+    // s ∈ [0, 0.05], g ∈ [3.5, 4]: 1D opacity 0 there, box (s ≥ 0.1), triangle (s ≥ 0.1), sine (g ≤ 3) miss it.
+    assert!(no_gauss.cell_is_invisible([0.0, 0.05], [3.5, 4.0]));
+    assert!(!no_gauss.cell_is_invisible([0.0, 0.05], [2.5, 4.0]));
+    // Independent emission: the 1D colour emits where the opacity is 0.
+    assert!(!no_gauss.clone().with_emission(Emission::Independent).cell_is_invisible([0.0, 0.05], [3.5, 4.0]));
+    assert!(!no_gauss.cell_is_invisible([f64::NAN, 0.05], [3.5, 4.0]));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+    /// Never cull a visible cell: if a box is culled, ρ and the emission are 0
+    /// at random points of it and biv-exact gives nothing for a segment in it.
+    #[test]
+    fn culling_is_conservative(s0 in -0.2f64..1.2, ds in 0.0f64..0.4, g0 in 0.0f64..4.0, dg in 0.0f64..1.0,
+                               drop in 0usize..4, indep in any::<bool>(), pts in prop::collection::vec((0.0f64..=1.0, 0.0f64..=1.0), 8)) {
+        let widgets: Vec<_> = full().widgets().iter().enumerate().filter(|(i, _)| *i != drop).map(|(_, w)| *w).collect();
+        let mut tf = TransferFunction::from_json(WIDGETS).unwrap().with_widgets(widgets).unwrap();
+        if indep { tf = tf.with_emission(Emission::Independent); }
+        let (s_range, g_range) = ([s0, s0 + ds], [g0, g0 + dg]);
+        if tf.cell_is_invisible(s_range, g_range) {
+            for (a, b) in pts {
+                let (s, g) = (s0 + a * ds, g0 + b * dg);
+                prop_assert_eq!(tf.extinction2(s, g), 0.0);
+                prop_assert_eq!(tf.emission2(s, g), [0.0; 3]);
+            }
+            let seg = Seg2 { sf: s0, sb: s0 + ds, gf: g0 + dg, gb: g0, len: 1.0 };
+            prop_assert_eq!(BivExact::new(tf).integrate(&seg).to_array(), [0.0; 4]);
+        }
+    }
+}

@@ -13,6 +13,7 @@ const FRAC_1_SQRT_PI: f64 = 0.5 * std::f64::consts::FRAC_2_SQRT_PI;
 
 /// erfcx(x) = exp(x²)·erfc(x) for x ≥ 0 (NaN for negative or NaN input,
 /// 0 at +∞).
+#[allow(clippy::excessive_precision)] // Cody's coefficients as published
 pub fn erfcx(x: f64) -> f64 {
     if x.is_nan() || x < 0.0 {
         return f64::NAN;

@@ -1,0 +1,173 @@
+//! Every struct the CPU and the GPU share, `#[repr(C)]` and `Pod`, with the
+//! WGSL declaration each one mirrors (in `shaders/common.wgsl` or
+//! `shaders/tonemap.wgsl`). Layout rules: only 4-byte scalars and `[f32; 4]`
+//! / `[u32; 4]` rows, every struct a multiple of 16 bytes, so WGSL's uniform
+//! and storage layouts place each field at the same offset as Rust does
+//! (checked by the layout tests at the bottom).
+
+use bytemuck::{Pod, Zeroable};
+
+/// `Frame` in common.wgsl: the camera in the scene's frame (positions
+/// relative to the mesh centre), the pixel ↔ camera maps of
+/// `tet_render::project::Frame`, and what the shaders need of the method.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct FrameUniforms {
+    /// Eye position relative to the mesh centre; w unused.
+    pub eye_rel: [f32; 4],
+    /// Unit screen right, up and view direction (world frame); w unused.
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    pub forward: [f32; 4],
+    /// x_cam = ax·x_px + bx, y_cam = ay·y_px + by (camera x/y at depth 1
+    /// for perspective, world units for parallel).
+    pub ax: f32,
+    pub bx: f32,
+    pub ay: f32,
+    pub by: f32,
+    pub width: f32,
+    pub height: f32,
+    /// Depth below which geometry is clipped (perspective only).
+    pub near_depth: f32,
+    /// 1 for parallel projection, 0 for perspective.
+    pub parallel: u32,
+    /// Tets in the order buffer (draw slots).
+    pub n_slots: u32,
+    /// `METHOD_*` in common.wgsl.
+    pub method: u32,
+    pub n_color_nodes: u32,
+    pub n_opacity_nodes: u32,
+    /// Table3d grid: lowest scalar, 1/Δs, 1/Δl, band reach in grid steps.
+    pub table_s_lo: f32,
+    pub table_inv_ds: f32,
+    pub table_inv_dl: f32,
+    pub table_reach: f32,
+    pub table_n_s: u32,
+    pub table_n_l: u32,
+    /// Workgroups along x of the classify dispatch (2D for > 4M tets).
+    pub groups_x: u32,
+    pub _pad: u32,
+}
+
+/// Per draw slot, written by the classify pass and read by the vertex
+/// shader (`TetGeom` in common.wgsl): the silhouette in pixel coordinates
+/// and how to triangulate it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct TetGeom {
+    /// Hull points in polygon order, pixel coordinates. In `GEOM_THICK` mode
+    /// only the first 4 are used and `hull[4..6]` carry the pt-linear RGBA of
+    /// the thick point (premultiplied).
+    pub hull: [[f32; 2]; 6],
+    pub thick: [f32; 2],
+    pub n_hull: u32,
+    /// `GEOM_NONE` (draw nothing), `GEOM_THICK` (Shirley–Tuchman fan of
+    /// `n_hull` triangles around the thick point) or `GEOM_CLIPPED` (fan of
+    /// `n_hull − 2` triangles from hull[0]; the tet crosses the near plane).
+    pub mode: u32,
+}
+
+/// Per draw slot, written by the classify pass and read by the fragment
+/// shader (`TetShade` in common.wgsl): everything that turns a pixel into
+/// its ray segment (Sf, Sb, l), as in `tet_render::project::TetSetup`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct TetShade {
+    /// Face planes as affine functions of the pixel position (q0, qx, qy):
+    /// 1/depth for perspective, depth for parallel; w = +1 front face,
+    /// −1 back face, 0 unused (edge-on).
+    pub planes: [[f32; 4]; 4],
+    /// The scalar along the ray at depth z: (a0 + ax·x + ay·y) +
+    /// z·(b0 + bx·x + by·y); `s_a.w` / `s_b.w` are the tet's smallest and
+    /// largest vertex scalar (segments are clamped into them).
+    pub s_a: [f32; 4],
+    pub s_b: [f32; 4],
+    /// (largest edge length, 1/near depth when the tet is clipped else 0, 0, 0).
+    pub extra: [f32; 4],
+}
+
+/// Tone-mapping parameters (`ToneParams` in tonemap.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct ToneParams {
+    /// Linear RGB under the volume; w unused.
+    pub background: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    /// Workgroups of the reduction pass (partials to combine).
+    pub n_partials: u32,
+    /// 0: `ToneMap::None` (clamped linear), 1: Reinhard.
+    pub reinhard: u32,
+    pub key: f32,
+    pub exposure: f32,
+    pub groups_x: u32,
+    pub _pad: u32,
+}
+
+/// The fitted operator (`ToneFit` in tonemap.wgsl), as `tet_render::image::Reinhard`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct ToneFit {
+    pub scale: f32,
+    pub white_sq: f32,
+    pub log_average: f32,
+    pub _pad: f32,
+}
+
+/// Classify workgroup size (`@workgroup_size` in classify.wgsl).
+pub const CLASSIFY_WG: u32 = 64;
+/// Tone-mapping workgroup size (tonemap.wgsl).
+pub const TONE_WG: u32 = 256;
+/// Vertices drawn per slot: at most 4 triangles (class 2, or a clipped hull of 6).
+pub const VERTS_PER_SLOT: u32 = 12;
+
+pub const METHOD_PT_LINEAR: u32 = 0;
+pub const METHOD_TABLE3D: u32 = 1;
+
+pub const GEOM_NONE: u32 = 0;
+pub const GEOM_THICK: u32 = 1;
+pub const GEOM_CLIPPED: u32 = 2;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{align_of, size_of};
+
+    /// Offsets as WGSL lays the mirrored structs out (every row 16 bytes,
+    /// scalars packed 4 to a row).
+    #[test]
+    fn sizes_are_multiples_of_16_and_match_wgsl() {
+        assert_eq!(size_of::<FrameUniforms>(), 4 * 16 + 4 * 4 * 4);
+        assert_eq!(size_of::<TetGeom>(), 64);
+        assert_eq!(size_of::<TetShade>(), 112);
+        assert_eq!(size_of::<ToneParams>(), 48);
+        assert_eq!(size_of::<ToneFit>(), 16);
+        for (s, a) in [
+            (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
+            (size_of::<TetGeom>(), align_of::<TetGeom>()),
+            (size_of::<TetShade>(), align_of::<TetShade>()),
+            (size_of::<ToneParams>(), align_of::<ToneParams>()),
+        ] {
+            assert_eq!(s % 16, 0);
+            assert_eq!(a, 4);
+        }
+    }
+
+    #[test]
+    fn field_offsets() {
+        let f = FrameUniforms::zeroed();
+        let base = &f as *const _ as usize;
+        let off = |p: *const u8| p as usize - base;
+        assert_eq!(off(&f.ax as *const f32 as *const u8), 64);
+        assert_eq!(off(&f.n_slots as *const u32 as *const u8), 96);
+        assert_eq!(off(&f.table_s_lo as *const f32 as *const u8), 112);
+        assert_eq!(off(&f.table_n_s as *const u32 as *const u8), 128);
+        let g = TetGeom::zeroed();
+        let gb = &g as *const _ as usize;
+        assert_eq!(&g.thick as *const _ as usize - gb, 48);
+        assert_eq!(&g.mode as *const _ as usize - gb, 60);
+        let t = ToneParams::zeroed();
+        let tb = &t as *const _ as usize;
+        assert_eq!(&t.key as *const _ as usize - tb, 32);
+    }
+}

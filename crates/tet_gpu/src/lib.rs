@@ -1,0 +1,219 @@
+//! The GPU renderer: projected tetrahedra on wgpu (Vulkan), headless, matched
+//! against tet_render's CPU renderer. The only crate of the workspace that
+//! uses wgpu.
+//!
+//! * [`GpuContext`]: adapter, device and queue ([`GpuContext::new_headless`];
+//!   a clear [`GpuError::NoAdapter`] where none exists — Mesa's lavapipe,
+//!   Debian package `mesa-vulkan-drivers`, is a software adapter).
+//! * [`GpuScene`]: a mesh on the GPU — positions relative to the mesh
+//!   centre in f32, tets, scalars.
+//! * [`GpuShader`]: what colours a fragment — `pt-linear` (transfer function
+//!   nodes) or `table3d` (the table as a 3D texture, trilinear lookup with
+//!   `Table3d::lookup`'s normalisation).
+//! * [`GpuRenderer`]: the classify compute pass (Shirley–Tuchman
+//!   classification, near-plane clipping, face planes), the raster pass
+//!   (front-to-back "under" compositing into Rgba32Float) and readback into
+//!   a tet_render [`Image`]; [`GpuRenderer::tonemap`] fits and applies
+//!   Reinhard's operator on the GPU (log-average luminance by a compute
+//!   reduction) to 8-bit sRGB, as tet_render's `Display`.
+//! * [`centroid_order`]: the visibility order this increment uses — a CPU
+//!   sort of centroid depths (any order, e.g. tet_render's MPVO, can be
+//!   passed instead).
+//! * [`gpu_types`]: every CPU↔GPU struct, `Pod`, mirrored in the WGSL.
+//!
+//! ```
+//! use tet_gpu::{centroid_order, GpuContext, GpuRenderer, GpuScene, GpuShader};
+//! use tet_render::{Camera, ViewSpec};
+//! let ctx = match GpuContext::new_headless() {
+//!     Ok(ctx) => ctx,
+//!     Err(e) => { eprintln!("skipped: {e}"); return Ok(()); }
+//! };
+//! let pts = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+//! let scene = GpuScene::new(&ctx, &pts, &[[0, 1, 2, 3]], &[0.5; 4])?;
+//! let tf = tet_preint::TransferFunction::from_json(
+//!     r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 2]], "unit_distance": 1}"#,
+//! ).unwrap();
+//! let shader = GpuShader::pt_linear(&ctx, &tf)?;
+//! let camera = Camera::new(&ViewSpec::framing([0.0; 3], [1.0; 3], [64, 48])).unwrap();
+//! let renderer = GpuRenderer::new(&ctx)?;
+//! let order = centroid_order(&scene, &camera);
+//! let frame = renderer.render(&ctx, &scene, &camera, &order, &shader)?;
+//! assert!(frame.image.pixel(32, 24)[3] > 0.0);
+//! # Ok::<(), tet_gpu::GpuError>(())
+//! ```
+#![forbid(unsafe_code)]
+
+pub mod gpu_types;
+mod render;
+mod tonemap;
+
+pub use render::{centroid_order, GpuFrame, GpuRenderStats, GpuRenderer, GpuScene, GpuShader};
+pub use tonemap::ToneResult;
+
+use tet_render::Image;
+
+/// Why the GPU path failed; each variant says what to do about it.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter found (tried {backends}); install mesa-vulkan-drivers for a software adapter")]
+    NoAdapter { backends: String },
+    #[error("GPU adapter {adapter} lacks {feature}, which the renderer needs")]
+    MissingFeature { adapter: String, feature: &'static str },
+    #[error("GPU device request failed on {adapter}: {why}")]
+    Device { adapter: String, why: String },
+    #[error("{what} needs {bytes} bytes; this device allows {limit}")]
+    TooLarge { what: &'static str, bytes: u64, limit: u64 },
+    #[error("input: {0}")]
+    Input(String),
+    #[error("GPU validation: {0}")]
+    Validation(String),
+    #[error("reading back from the GPU: {0}")]
+    Readback(String),
+}
+
+/// Adapter, device and queue.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+}
+
+impl GpuContext {
+    /// The first adapter of the backends `WGPU_BACKEND` selects (default:
+    /// every compiled backend, which is Vulkan only — the GL backend lacks
+    /// f32 filtering and blending), high-performance preferred, with the
+    /// adapter's own limits and `FLOAT32_BLENDABLE` (required: the HDR
+    /// target is Rgba32Float).
+    pub fn new_headless() -> Result<GpuContext, GpuError> {
+        let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        let backends = format!("{:?}", desc.backends);
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            ..Default::default()
+        }))
+        .map_err(|_| GpuError::NoAdapter { backends })?;
+        let info = adapter.get_info();
+        let name = format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type);
+        let needed = wgpu::Features::FLOAT32_BLENDABLE;
+        if !adapter.features().contains(needed) {
+            return Err(GpuError::MissingFeature { adapter: name, feature: "FLOAT32_BLENDABLE" });
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("tet_gpu"),
+            required_features: needed,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device { adapter: name, why: e.to_string() })?;
+        Ok(GpuContext { device, queue, info })
+    }
+
+    /// What the adapter is, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)".
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, driver {} {})",
+            self.info.name, self.info.backend, self.info.device_type, self.info.driver, self.info.driver_info
+        )
+    }
+
+    pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.info
+    }
+
+    /// Whether the adapter is a software rasterizer (lavapipe, llvmpipe).
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// Blocks until all submitted work has finished.
+    pub(crate) fn wait(&self) -> Result<(), GpuError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::Readback(e.to_string()))
+    }
+
+    /// Runs `f` inside a validation error scope and turns a captured error
+    /// into [`GpuError::Validation`] (wgpu would otherwise panic).
+    pub(crate) fn checked<T>(&self, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        match pollster::block_on(scope.pop()) {
+            Some(e) => Err(GpuError::Validation(e.to_string())),
+            None => Ok(out),
+        }
+    }
+}
+
+/// The WGSL of every module as the GPU receives it (shared declarations
+/// prepended), by name: what the naga test validates.
+pub fn shader_sources() -> Vec<(&'static str, String)> {
+    vec![
+        ("classify", shader_source(CLASSIFY_WGSL)),
+        ("raster", shader_source(RASTER_WGSL)),
+        ("tonemap", TONEMAP_WGSL.to_string()),
+    ]
+}
+
+const COMMON_WGSL: &str = include_str!("../shaders/common.wgsl");
+const CLASSIFY_WGSL: &str = include_str!("../shaders/classify.wgsl");
+const RASTER_WGSL: &str = include_str!("../shaders/raster.wgsl");
+const TONEMAP_WGSL: &str = include_str!("../shaders/tonemap.wgsl");
+
+fn shader_source(body: &str) -> String {
+    format!("{COMMON_WGSL}\n{body}")
+}
+
+/// Reads an Rgba32Float texture back into an [`Image`].
+pub(crate) fn read_texture(ctx: &GpuContext, tex: &wgpu::Texture) -> Result<Image, GpuError> {
+    let (w, h) = (tex.width(), tex.height());
+    let row = w as u64 * 16;
+    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64;
+    let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: padded * h as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture: tex,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: Default::default(),
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buf,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded as u32),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
+    ctx.queue.submit([enc.finish()]);
+    let bytes = map_read(ctx, &buf)?;
+    let mut pixels = Vec::with_capacity(w as usize * h as usize);
+    for r in 0..h as usize {
+        let line = &bytes[r * padded as usize..r * padded as usize + row as usize];
+        pixels.extend(line.chunks_exact(16).map(|px| {
+            let f = |i: usize| f32::from_le_bytes([px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]]);
+            [f(0), f(1), f(2), f(3)]
+        }));
+    }
+    Image::from_pixels(w, h, pixels).map_err(|e| GpuError::Readback(e.to_string()))
+}
+
+/// Maps a MAP_READ buffer after the queue's work and copies it out.
+pub(crate) fn map_read(ctx: &GpuContext, buf: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    let slice = buf.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.wait()?;
+    rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
+    let out = slice.get_mapped_range().map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
+    buf.unmap();
+    Ok(out)
+}

@@ -1,0 +1,227 @@
+//! Test meshes, an exact visibility order (MPVO over face adjacency, for
+//! convex meshes) and a CPU reference that shades exact ray segments.
+#![allow(dead_code)]
+
+use glam::DVec3;
+use tet_gpu::GpuContext;
+use tet_preint::{Segment, SegmentShader};
+use tet_render::{Camera, Image};
+
+/// The GPU, or `None` with a printed reason; with `TETKIT_REQUIRE_GPU=1` a
+/// missing adapter fails the test instead (`make test-gpu`).
+pub fn gpu() -> Option<GpuContext> {
+    match GpuContext::new_headless() {
+        Ok(ctx) => {
+            eprintln!("GPU adapter: {}", ctx.describe());
+            Some(ctx)
+        }
+        Err(e) => {
+            if std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+                panic!("TETKIT_REQUIRE_GPU=1 but: {e}");
+            }
+            eprintln!("skipped: {e}");
+            None
+        }
+    }
+}
+
+pub struct Mesh {
+    pub points: Vec<[f64; 3]>,
+    pub tets: Vec<[u32; 4]>,
+    pub scalar: Vec<f64>,
+}
+
+/// One positively oriented tet.
+pub fn single_tet() -> Mesh {
+    Mesh {
+        points: vec![[0.0, 0.0, 0.0], [1.0, 0.1, 0.0], [0.2, 1.0, 0.1], [0.1, 0.3, 0.9]],
+        tets: vec![[0, 1, 2, 3]],
+        scalar: vec![0.1, 0.9, 0.5, 0.3],
+    }
+}
+
+/// n³ cells over [0, 1]³, each split into 5 tets (tet_mesh's alternating
+/// pattern), with a smooth scalar in [0, 1].
+pub fn grid(n: usize) -> Mesh {
+    let m = n + 1;
+    let mut points = Vec::with_capacity(m * m * m);
+    let mut scalar = Vec::with_capacity(m * m * m);
+    for k in 0..m {
+        for j in 0..m {
+            for i in 0..m {
+                let p = [i as f64 / n as f64, j as f64 / n as f64, k as f64 / n as f64];
+                let r2 = (p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2);
+                scalar.push((0.5 + 0.45 * (6.0 * r2).cos() * (3.0 * p[0] + 1.0).sin()).clamp(0.0, 1.0));
+                points.push(p);
+            }
+        }
+    }
+    let id = |i: usize, j: usize, k: usize| (i + m * (j + m * k)) as u32;
+    let mut tets = Vec::with_capacity(5 * n * n * n);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let h = [
+                    id(i, j, k),
+                    id(i + 1, j, k),
+                    id(i + 1, j + 1, k),
+                    id(i, j + 1, k),
+                    id(i, j, k + 1),
+                    id(i + 1, j, k + 1),
+                    id(i + 1, j + 1, k + 1),
+                    id(i, j + 1, k + 1),
+                ];
+                tet_mesh::split::split_hexahedron_five(&h, (i + j + k) % 2 == 1, &mut |t| tets.push(t));
+            }
+        }
+    }
+    Mesh { points, tets, scalar }
+}
+
+impl Mesh {
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.points {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// (largest per-tet scalar range, largest edge length).
+    pub fn cell_limits(&self) -> (f64, f64) {
+        let mut ds: f64 = 0.0;
+        let mut len: f64 = 0.0;
+        for t in &self.tets {
+            let s = t.map(|v| self.scalar[v as usize]);
+            let (mn, mx) = s.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+            ds = ds.max(mx - mn);
+            for i in 0..4 {
+                for j in i + 1..4 {
+                    let d = DVec3::from(self.points[t[i] as usize]) - DVec3::from(self.points[t[j] as usize]);
+                    len = len.max(d.length());
+                }
+            }
+        }
+        (ds, len)
+    }
+
+    fn p(&self, v: u32) -> DVec3 {
+        DVec3::from(self.points[v as usize])
+    }
+
+    /// Ray ∩ tet t as (t_in, t_out, s_in, s_out), exact in f64.
+    fn segment(&self, t: usize, o: DVec3, d: DVec3) -> Option<(f64, f64, f64, f64)> {
+        let tet = self.tets[t];
+        let (mut t_in, mut t_out) = (f64::NEG_INFINITY, f64::INFINITY);
+        for fv in tet_mesh::FACE_OUTWARD {
+            let (a, b, c) = (self.p(tet[fv[0]]), self.p(tet[fv[1]]), self.p(tet[fv[2]]));
+            let n = (b - a).cross(c - a);
+            let denom = n.dot(d);
+            let num = n.dot(a - o);
+            if denom < 0.0 {
+                t_in = t_in.max(num / denom);
+            } else if denom > 0.0 {
+                t_out = t_out.min(num / denom);
+            } else if num < 0.0 {
+                return None;
+            }
+        }
+        // A camera inside the mesh sees only what is in front of the eye.
+        let t_in = t_in.max(0.0);
+        if t_out.partial_cmp(&t_in) != Some(std::cmp::Ordering::Greater) {
+            return None;
+        }
+        let s_at = |x: DVec3| self.scalar_at(t, x);
+        Some((t_in, t_out, s_at(o + d * t_in), s_at(o + d * t_out)))
+    }
+
+    fn scalar_at(&self, t: usize, x: DVec3) -> f64 {
+        let tet = self.tets[t];
+        let p = tet.map(|v| self.p(v));
+        let s = tet.map(|v| self.scalar[v as usize]);
+        let (e1, e2, e3) = (p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+        let det = e1.dot(e2.cross(e3));
+        let r = x - p[0];
+        let b1 = r.dot(e2.cross(e3)) / det;
+        let b2 = e1.dot(r.cross(e3)) / det;
+        let b3 = e1.dot(e2.cross(r)) / det;
+        s[0] + b1 * (s[1] - s[0]) + b2 * (s[2] - s[0]) + b3 * (s[3] - s[0])
+    }
+
+    /// CPU reference: per pixel centre, the exact segments of the ray
+    /// through every tet, sorted by entry and composited front to back in
+    /// f32 with `shader` (what tet_render's rasterizer does per fragment).
+    pub fn reference(&self, camera: &Camera, shader: &dyn SegmentShader) -> Image {
+        let (w, h) = (camera.width(), camera.height());
+        let mut px = vec![[0.0f32; 4]; (w * h) as usize];
+        for y in 0..h {
+            for x in 0..w {
+                let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                let mut segs: Vec<(f64, f64, f64, f64)> =
+                    (0..self.tets.len()).filter_map(|t| self.segment(t, o, d)).collect();
+                segs.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let acc = &mut px[(y * w + x) as usize];
+                for (t0, t1, s0, s1) in segs {
+                    let c = shader.shade(&Segment {
+                        s_front: s0 as f32,
+                        s_back: s1 as f32,
+                        len_world: (t1 - t0) as f32,
+                        ..Default::default()
+                    });
+                    let tr = 1.0 - acc[3];
+                    for ch in 0..4 {
+                        acc[ch] += tr * c[ch];
+                    }
+                }
+            }
+        }
+        Image::from_pixels(w, h, px).unwrap()
+    }
+
+    /// MPVO over face adjacency: exact front-to-back order for a convex
+    /// mesh (a tet comes after every neighbour across its front faces).
+    pub fn mpvo_order(&self, camera: &Camera) -> Vec<u32> {
+        let adj = tet_mesh::build_adjacency(&self.points, &self.tets).unwrap();
+        let eye = camera.eye_in_world();
+        let n = self.tets.len();
+        let mut indeg = vec![0u32; n];
+        let mut side = vec![[0i8; 4]; n];
+        for (t, tet) in self.tets.iter().enumerate() {
+            for (f, fv) in tet_mesh::FACE_OUTWARD.iter().enumerate() {
+                let (a, b, c) = (self.p(tet[fv[0]]), self.p(tet[fv[1]]), self.p(tet[fv[2]]));
+                // Parallel projection: the eye is at infinity against the view direction.
+                let to_eye = if camera.is_parallel() { -camera.forward() } else { eye - a };
+                let v = (b - a).cross(c - a).dot(to_eye);
+                side[t][f] = if v > 0.0 {
+                    1
+                } else if v < 0.0 {
+                    -1
+                } else {
+                    0
+                };
+                if v > 0.0 && adj.neighbors[t][f] != tet_mesh::NO_NEIGHBOR {
+                    indeg[t] += 1;
+                }
+            }
+        }
+        let mut queue: std::collections::VecDeque<u32> = (0..n as u32).filter(|&t| indeg[t as usize] == 0).collect();
+        let mut order = Vec::with_capacity(n);
+        while let Some(t) = queue.pop_front() {
+            order.push(t);
+            for (&nb, &sd) in adj.neighbors[t as usize].iter().zip(&side[t as usize]) {
+                if sd < 0 && nb != tet_mesh::NO_NEIGHBOR {
+                    indeg[nb as usize] -= 1;
+                    if indeg[nb as usize] == 0 {
+                        queue.push_back(nb);
+                    }
+                }
+            }
+        }
+        assert_eq!(order.len(), n, "visibility cycle in a test mesh");
+        order
+    }
+}

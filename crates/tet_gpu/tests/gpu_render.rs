@@ -1,0 +1,220 @@
+//! GPU images against a CPU reference that shades exact ray segments with
+//! the same method (tet_preint's `Table3d::lookup`, `PtLinearShader`).
+//! Skip with a printed reason where no adapter exists (fail instead with
+//! TETKIT_REQUIRE_GPU=1); on this kind of machine they run on lavapipe.
+
+mod common;
+
+use common::{gpu, grid, single_tet, Mesh};
+use tet_gpu::{centroid_order, GpuRenderer, GpuScene, GpuShader};
+use tet_preint::{PtLinearShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_render::{diff, Camera, Display, Image, ToneMap, ViewSpec};
+
+fn tf() -> TransferFunction {
+    TransferFunction::from_json(
+        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
+            "opacity": [[0, 0.5], [0.4, 4], [0.6, 1], [1, 8]], "unit_distance": 1}"#,
+    )
+    .unwrap()
+}
+
+fn table_for(mesh: &Mesh) -> Table3d {
+    let (max_ds, len) = mesh.cell_limits();
+    let domain = TableDomain::new(0.0, 1.0, max_ds, len).unwrap();
+    Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, ..Default::default() }).unwrap()
+}
+
+fn view(mesh: &Mesh, size: [u32; 2], az: f64, el: f64) -> Camera {
+    let (lo, hi) = mesh.bounds();
+    Camera::new(&ViewSpec::framing(lo, hi, size).orbit(az, el, 1.0)).unwrap()
+}
+
+fn report(what: &str, gpu: &Image, cpu: &Image) -> tet_render::DiffStats {
+    let d = diff(gpu, cpu).unwrap();
+    let covered = cpu.pixels().iter().filter(|p| p[3] > 0.0).count();
+    eprintln!(
+        "{what}: mean |Δ| = {:.3e} ({:.3}/255), max |Δ| = {:.3e} ({:.3}/255) at {:?}, rmse {:.3e}; {} covered pixels",
+        d.mean_abs,
+        d.mean_abs * 255.0,
+        d.max_abs,
+        d.max_abs * 255.0,
+        d.max_at,
+        d.rmse,
+        covered
+    );
+    assert!(covered > 0, "{what}: the reference image is empty");
+    d
+}
+
+#[test]
+fn single_tet_table3d_and_pt_linear_match_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = single_tet();
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let table = table_for(&mesh);
+    let t3 = GpuShader::table3d(&ctx, &table).unwrap();
+    for (az, el) in [(0.0, 0.0), (40.0, 25.0), (-110.0, -60.0)] {
+        let cam = view(&mesh, [96, 80], az, el);
+        let frame = renderer.render(&ctx, &scene, &cam, &[0], &t3).unwrap();
+        let cpu = mesh.reference(&cam, &table);
+        let d = report(&format!("single tet table3d az {az} el {el}"), &frame.image, &cpu);
+        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    }
+    // pt-linear shades the thick point once and interpolates: where the
+    // thick vertex projects onto a pixel centre, that pixel must equal the
+    // CPU shader on the exact segment there. The apex (0.3, 0.3, 0.8) is on
+    // the view axis, which an odd-sized image puts on pixel (32, 24)'s centre.
+    let mesh = Mesh {
+        points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.3, 0.3, 0.8]],
+        tets: vec![[0, 1, 2, 3]],
+        scalar: vec![0.2, 0.7, 0.9, 0.45],
+    };
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let pt = GpuShader::pt_linear(&ctx, &tf()).unwrap();
+    let cam = Camera::new(&ViewSpec {
+        position: [0.3, 0.3, 4.0],
+        focal_point: [0.3, 0.3, 0.4],
+        view_up: [0.0, 1.0, 0.0],
+        view_angle: 30.0,
+        parallel: false,
+        parallel_scale: 1.0,
+        size: [65, 49],
+    })
+    .unwrap();
+    let img = renderer.render(&ctx, &scene, &cam, &[0], &pt).unwrap().image;
+    let exact = mesh.reference(&cam, &PtLinearShader::new(tf()));
+    let (g, c) = (img.pixel(32, 24), exact.pixel(32, 24));
+    eprintln!("pt-linear at the thick point: GPU {g:?}, CPU {c:?}");
+    for ch in 0..4 {
+        assert!((g[ch] - c[ch]).abs() < 1e-4, "{g:?} vs {c:?}");
+    }
+    // Elsewhere the tent falls linearly to 0 at the silhouette: never above the peak.
+    assert!(img.pixels().iter().all(|p| p[3] <= g[3] + 1e-6));
+    assert!(img.pixels().iter().filter(|p| p[3] > 0.0).count() > 100);
+}
+
+#[test]
+fn grid_table3d_matches_exact_rays() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(6);
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let table = table_for(&mesh);
+    let shader = GpuShader::table3d(&ctx, &table).unwrap();
+    for (az, el) in [(30.0, 20.0), (-75.0, 50.0)] {
+        let cam = view(&mesh, [128, 112], az, el);
+        let cpu = mesh.reference(&cam, &table);
+        let exact_order = mesh.mpvo_order(&cam);
+        let frame = renderer.render(&ctx, &scene, &cam, &exact_order, &shader).unwrap();
+        let d = report(&format!("grid 6³×5 table3d MPVO order az {az} el {el}"), &frame.image, &cpu);
+        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+        // The centroid order is approximate: reported, loosely bounded.
+        let approx = renderer.render(&ctx, &scene, &cam, &centroid_order(&scene, &cam), &shader).unwrap();
+        let d = report(&format!("grid 6³×5 table3d centroid order az {az} el {el}"), &approx.image, &cpu);
+        assert!(d.mean_abs <= 2.0 / 255.0, "{d:?}");
+    }
+}
+
+#[test]
+fn parallel_projection_and_clipped_tets_render() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(4);
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let table = table_for(&mesh);
+    let shader = GpuShader::table3d(&ctx, &table).unwrap();
+    let (lo, hi) = mesh.bounds();
+    let mut spec = ViewSpec::framing(lo, hi, [80, 64]).orbit(20.0, 30.0, 1.0);
+    spec.parallel = true;
+    let cam = Camera::new(&spec).unwrap();
+    let frame = renderer.render(&ctx, &scene, &cam, &mesh.mpvo_order(&cam), &shader).unwrap();
+    let d = report("grid 4³×5 table3d parallel", &frame.image, &mesh.reference(&cam, &table));
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+
+    // Camera inside the mesh: every tet around the eye crosses the near
+    // plane and must be clipped, not dropped.
+    let spec = ViewSpec {
+        position: [0.5, 0.45, 0.52],
+        focal_point: [0.5, 0.45, -1.0],
+        view_up: [0.0, 1.0, 0.0],
+        view_angle: 60.0,
+        parallel: false,
+        parallel_scale: 1.0,
+        size: [64, 64],
+    };
+    let cam = Camera::new(&spec).unwrap();
+    let frame = renderer.render(&ctx, &scene, &cam, &mesh.mpvo_order(&cam), &shader).unwrap();
+    let d =
+        report("grid 4³×5 table3d, camera inside (near-plane clipping)", &frame.image, &mesh.reference(&cam, &table));
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    assert!(frame.image.pixel(32, 32)[3] > 0.0);
+}
+
+#[test]
+fn gpu_reinhard_matches_cpu_display() {
+    let Some(ctx) = gpu() else { return };
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    // A high-dynamic-range image with transparent, dim and very bright pixels.
+    let (w, h) = (67u32, 45u32);
+    let mut rng = tet_mesh::SplitMix64(7);
+    let px: Vec<[f32; 4]> = (0..w * h)
+        .map(|i| {
+            let a = (rng.next_f64() as f32).powi(2);
+            let scale = if i % 17 == 0 { 40.0 } else { 1.0 };
+            [
+                a * scale * rng.next_f64() as f32,
+                a * scale * rng.next_f64() as f32,
+                a * scale * rng.next_f64() as f32,
+                if i % 5 == 0 { 0.0 } else { a },
+            ]
+        })
+        .collect();
+    let img = Image::from_pixels(w, h, px).unwrap();
+    for display in [
+        Display::default(),
+        Display { background: [0.2, 0.3, 0.4], tonemap: ToneMap::Reinhard { key: 0.3, exposure: 1.5 } },
+        Display { background: [1.0, 1.0, 1.0], tonemap: ToneMap::None },
+    ] {
+        let gpu = renderer.tonemap_image(&ctx, &img, &display).unwrap();
+        let cpu = img.to_rgba8(&display);
+        let max = tet_render::image::diff_rgba8(&gpu.rgba8, &cpu);
+        let differing = gpu.rgba8.iter().zip(&cpu).filter(|(a, b)| a != b).count();
+        eprintln!("tonemap {display:?}: max 8-bit difference {max}, {differing} of {} bytes differ", cpu.len());
+        assert!(max <= 1, "{max}");
+        if let ToneMap::Reinhard { key, exposure } = display.tonemap {
+            let rgb: Vec<[f32; 3]> = img
+                .pixels()
+                .iter()
+                .map(|p| {
+                    let t = 1.0 - p[3].clamp(0.0, 1.0);
+                    let bg = display.background;
+                    [p[0] + t * bg[0], p[1] + t * bg[1], p[2] + t * bg[2]]
+                })
+                .collect();
+            let op = tet_render::image::Reinhard::fit(&rgb, key, exposure);
+            let [scale, white_sq, log_avg] = gpu.reinhard.unwrap();
+            eprintln!("  fit GPU (scale {scale}, L_white² {white_sq}, L̄ {log_avg}) CPU {op:?}");
+            assert!((log_avg / op.log_average - 1.0).abs() < 1e-4);
+            assert!((white_sq / op.white_sq - 1.0).abs() < 1e-4);
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = single_tet();
+    let err = GpuScene::new(&ctx, &mesh.points, &[[0, 1, 2, 9]], &mesh.scalar).err().unwrap();
+    assert!(err.to_string().contains("tet 0 refers to point 9"), "{err}");
+    assert!(GpuScene::new(&ctx, &mesh.points, &mesh.tets, &[0.0]).is_err());
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let shader = GpuShader::pt_linear(&ctx, &tf()).unwrap();
+    let cam = view(&mesh, [8, 8], 0.0, 0.0);
+    let err = renderer.render(&ctx, &scene, &cam, &[3], &shader).err().unwrap();
+    assert!(err.to_string().contains("tet 3"), "{err}");
+    // An empty order draws nothing.
+    let img = renderer.render(&ctx, &scene, &cam, &[], &shader).unwrap().image;
+    assert!(img.pixels().iter().all(|p| *p == [0.0; 4]));
+}

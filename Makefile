@@ -3,17 +3,36 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build test demo bench fuzz fuzz-build fmt lint clean
+.PHONY: all build test test-gpu gpu-driver demo bench fuzz fuzz-build fmt lint clean
 
 all: build
 
 build:
 	$(CARGO) build --release --workspace
 
-## The whole test suite (unit, integration, doc tests) on the bundled data.
-test:
+## The whole test suite (unit, integration, doc tests) on the bundled data. GPU tests run
+## on whatever Vulkan adapter exists (Mesa's software lavapipe is installed if missing) and
+## skip with a printed reason where none does.
+test: gpu-driver
 	$(CARGO) test --workspace --all-targets
 	$(CARGO) test --workspace --doc
+
+## The GPU renderer's tests, where a skip (no adapter) is a failure.
+test-gpu: gpu-driver
+	TETKIT_REQUIRE_GPU=1 $(CARGO) test -p tet_gpu --all-targets -- --nocapture
+	TETKIT_REQUIRE_GPU=1 $(CARGO) test -p tet_gpu --doc
+
+## Mesa's Vulkan drivers (lavapipe, a software adapter) when no Vulkan driver is installed;
+## needs apt-get and root or passwordless sudo, otherwise prints a note.
+VK_ICDS = $(wildcard /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json)
+gpu-driver:
+ifeq ($(VK_ICDS),)
+	@if command -v apt-get >/dev/null 2>&1 && { [ "$$(id -u)" = 0 ] || sudo -n true 2>/dev/null; }; then \
+		SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+		$$SUDO apt-get install -y mesa-vulkan-drivers || { $$SUDO apt-get update && $$SUDO apt-get install -y mesa-vulkan-drivers; } \
+		|| echo "note: installing mesa-vulkan-drivers failed; GPU tests will skip"; \
+	else echo "note: no Vulkan driver, and mesa-vulkan-drivers cannot be installed here (needs apt-get and root or sudo); GPU tests will skip"; fi
+endif
 
 ## The main job on a bundled real dataset: NASA Blunt Fin (PLOT3D) → bundle with gradients and
 ## histograms → summary, 2D histogram PNG and a VTU for ParaView, all under $(OUT)/.

@@ -37,3 +37,74 @@ fn shader_files_on_disk_are_all_included() {
     names.sort();
     assert_eq!(names, ["classify.wgsl", "common.wgsl", "raster.wgsl", "tonemap.wgsl"]);
 }
+
+/// Every Pod struct of gpu_types.rs has the size and field offsets naga
+/// gives its WGSL mirror.
+#[test]
+fn pod_layouts_match_the_wgsl_structs() {
+    use std::mem::{offset_of, size_of};
+    use tet_gpu::gpu_types::*;
+    macro_rules! layout {
+        ($ty:ty, $wgsl:literal, [$($field:ident),*]) => {
+            (stringify!($ty), $wgsl, size_of::<$ty>(), vec![$((stringify!($field), offset_of!($ty, $field))),*])
+        };
+    }
+    let expected = [
+        layout!(
+            FrameUniforms,
+            "Frame",
+            [
+                eye_rel,
+                right,
+                up,
+                forward,
+                ax,
+                bx,
+                ay,
+                by,
+                width,
+                height,
+                near_depth,
+                parallel,
+                n_slots,
+                method,
+                n_color_nodes,
+                n_opacity_nodes,
+                table_s_lo,
+                table_inv_ds,
+                table_inv_dl,
+                table_reach,
+                table_n_s,
+                table_n_l,
+                groups_x,
+                _pad
+            ]
+        ),
+        layout!(TetGeom, "TetGeom", [hull, thick, n_hull, mode]),
+        layout!(TetShade, "TetShade", [planes, s_a, s_b, extra]),
+        layout!(
+            ToneParams,
+            "ToneParams",
+            [background, width, height, n_partials, reinhard, key, exposure, groups_x, _pad]
+        ),
+        layout!(ToneFit, "ToneFit", [scale, white_sq, log_average, _pad]),
+    ];
+    let modules: Vec<naga::Module> =
+        tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();
+    for (rust, wgsl, size, fields) in expected {
+        let (members, span) = modules
+            .iter()
+            .flat_map(|m| m.types.iter())
+            .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
+                (Some(n), naga::TypeInner::Struct { members, span }) if n == wgsl => Some((members.clone(), *span)),
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("struct {wgsl} not found in the WGSL"));
+        assert_eq!(span as usize, size, "{rust} vs {wgsl}: size");
+        assert_eq!(members.len(), fields.len(), "{rust} vs {wgsl}: field count");
+        for (m, (name, off)) in members.iter().zip(fields) {
+            assert_eq!(m.name.as_deref(), Some(name), "{rust} vs {wgsl}: field order");
+            assert_eq!(m.offset as usize, off, "{rust}.{name}: offset");
+        }
+    }
+}

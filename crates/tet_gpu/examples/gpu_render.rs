@@ -57,6 +57,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = Instant::now();
     let ctx = GpuContext::new_headless()?;
     println!("adapter: {}  (context {:.3} s)", ctx.describe(), t.elapsed().as_secs_f64());
+    let lim = ctx.device.limits();
+    println!(
+        "limits: storage binding {} MiB, buffer {} MiB, 3D texture {}",
+        lim.max_storage_buffer_binding_size >> 20,
+        lim.max_buffer_size >> 20,
+        lim.max_texture_dimension_3d
+    );
     let t = Instant::now();
     let (points, tets, scalar) = grid(cells);
     println!(

@@ -20,11 +20,14 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod boundary;
 pub mod camera;
 pub mod image;
+pub mod reference;
 
 pub use camera::{Camera, ViewSpec};
 pub use image::{diff, DiffStats, Display, Image, ToneMap};
+pub use reference::{render_reference, RayResult, RayScratch, ReferenceOptions, ReferenceRenderer, ReferenceStats};
 
 use std::path::PathBuf;
 
@@ -43,4 +46,8 @@ pub enum RenderError {
     Npy { why: String, path: PathBuf },
     #[error("{source}: {path}")]
     Io { source: std::io::Error, path: PathBuf },
+    #[error("mesh and adjacency disagree: {why}")]
+    InvalidMesh { why: String },
+    #[error("the transfer function is normalized: map it onto the scalar range first (TransferFunction::denormalize)")]
+    NormalizedTransferFunction,
 }

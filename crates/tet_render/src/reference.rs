@@ -369,11 +369,10 @@ impl<'a> ReferenceRenderer<'a> {
                 *s = line_side(&line.o, &line.q, p(v), p(w));
             }
         }
-        for f in 0..4 {
+        for (f, &face) in FACE_OUTWARD.iter().enumerate() {
             if f == f_in {
                 continue;
             }
-            let face = FACE_OUTWARD[f];
             // Value of the oriented face edge x → y for the line, and whether
             // it passes on the leaving (negative) side.
             let mut vals = [0.0f64; 3];
@@ -399,14 +398,14 @@ impl<'a> ReferenceRenderer<'a> {
             // Barycentric weight of face vertex i is the value of the edge
             // opposite it (edge i+1 → i+2), negated for the leaving side.
             let mut w = [0.0f64; 3];
-            for i in 0..3 {
+            for (i, wi) in w.iter_mut().enumerate() {
                 let e = (i + 1) % 3;
                 let val = if vals[e].is_nan() {
                     line_side(&line.o, &line.q, p(face[e]), p(face[(e + 1) % 3])).0
                 } else {
                     vals[e]
                 };
-                w[i] = (-val).max(0.0);
+                *wi = (-val).max(0.0);
             }
             let ids = [t[face[0]], t[face[1]], t[face[2]]];
             return Some(match self.point_on_face(line, ids, w) {

@@ -41,10 +41,17 @@ fn perturbed_sign(rows: [&[f64; 3]; 4]) -> i8 {
     // Perturbed entry k sits at row k / 3 (0 = o, 1 = q), column k % 3.
     // Terms are visited by increasing exponent Σ 2^k, i.e. by mask value.
     for mask in 1u32..64 {
-        let ks: Vec<usize> = (0..6).filter(|k| mask & (1 << k) != 0).collect();
-        let s = match ks.as_slice() {
-            &[k] => single(rows, k / 3, k % 3),
-            &[k1, k2] => {
+        let mut ks = [0usize; 6];
+        let mut n = 0;
+        for k in 0..6 {
+            if mask & (1 << k) != 0 {
+                ks[n] = k;
+                n += 1;
+            }
+        }
+        let s = match ks[..n] {
+            [k] => single(rows, k / 3, k % 3),
+            [k1, k2] => {
                 let (r1, c1, r2, c2) = (k1 / 3, k1 % 3, k2 / 3, k2 % 3);
                 if r1 == r2 || c1 == c2 {
                     continue; // two entries of one row or column: no such term
@@ -89,7 +96,7 @@ fn single(rows: [&[f64; 3]; 4], r: usize, c: usize) -> i8 {
         }
     }
     let minor = sign(orient2d(pts[0], pts[1], pts[2]));
-    if (r + c) % 2 == 0 {
+    if (r + c).is_multiple_of(2) {
         minor
     } else {
         -minor
@@ -129,9 +136,9 @@ mod tests {
             let mut sub = [[0i128; 3]; 3];
             for r in 1..4 {
                 let mut cc = 0;
-                for k in 0..4 {
+                for (k, v) in m[r].iter().enumerate() {
                     if k != c {
-                        sub[r - 1][cc] = m[r][k];
+                        sub[r - 1][cc] = *v;
                         cc += 1;
                     }
                 }

@@ -6,6 +6,10 @@
 //! * [`Image`] (module [`image`]): linear premultiplied RGBA f32, `.npy`
 //!   read/write, [`Display`] (background + [`ToneMap`]: none or Reinhard with
 //!   log-average luminance) to 8-bit PNG, and [`diff`] statistics.
+//! * [`ReferenceRenderer`] / [`render_reference`] (module [`reference`]):
+//!   exact ray casting through the tets by face adjacency (exact ray–tet
+//!   segments, `exact` integration, f64 compositing) — the ground truth for
+//!   image errors; [`boundary::BoundaryBvh`] finds where rays enter.
 //!
 //! ```
 //! use tet_render::{Camera, Image, ViewSpec};

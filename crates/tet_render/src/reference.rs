@@ -437,6 +437,38 @@ impl<'a> ReferenceRenderer<'a> {
 
 /// Builds a [`ReferenceRenderer`] and renders one image; keep the renderer
 /// instead when rendering several views of one mesh.
+///
+/// ```
+/// use tet_mesh::{build_adjacency, TetMesh};
+/// use tet_preint::{ColorNode, Emission, OpacityNode, TransferFunction};
+/// use tet_render::{render_reference, Camera, ReferenceOptions, ViewSpec};
+/// let mesh = TetMesh {
+///     points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+///     tets: vec![[0, 1, 2, 3]],
+///     scalar: vec![0.0; 4],
+///     scalar_name: "s".into(),
+///     point_fields: Vec::new(),
+/// };
+/// let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+/// let tf = TransferFunction::new(
+///     vec![ColorNode { x: 0.0, rgb: [1.0, 0.5, 0.25] }],
+///     vec![OpacityNode { x: 0.0, a: 2.0 }],
+///     1.0,
+///     Emission::Density,
+///     false,
+/// )?;
+/// // Looking down −z at the point (0.2, 0.2): the chord through the tet is 0.6.
+/// let view = ViewSpec {
+///     position: [0.2, 0.2, 5.0], focal_point: [0.2, 0.2, 0.0], view_up: [0.0, 1.0, 0.0],
+///     view_angle: 30.0, parallel: true, parallel_scale: 0.01, size: [1, 1],
+/// };
+/// let camera = Camera::new(&view)?;
+/// let (img, stats) = render_reference(&mesh, &adj, &camera, &tf, &ReferenceOptions::default(), &|_, _| {})?;
+/// let alpha = 1.0 - (-2.0f64 * 0.6).exp();
+/// assert!((img.pixel(0, 0)[3] as f64 - alpha).abs() < 1e-6);
+/// assert_eq!(stats.walk_failures, 0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn render_reference(
     mesh: &TetMesh,
     adjacency: &Adjacency,

@@ -6,6 +6,10 @@
 //! * [`Image`] (module [`image`]): linear premultiplied RGBA f32, `.npy`
 //!   read/write, [`Display`] (background + [`ToneMap`]: none or Reinhard with
 //!   log-average luminance) to 8-bit PNG, and [`diff`] statistics.
+//! * [`ReferenceRenderer`] / [`render_reference`] (module [`reference`]):
+//!   exact ray casting through the tets by face adjacency (exact ray–tet
+//!   segments, `exact` integration, f64 compositing) — the ground truth for
+//!   image errors; [`boundary::BoundaryBvh`] finds where rays enter.
 //!
 //! ```
 //! use tet_render::{Camera, Image, ViewSpec};
@@ -20,11 +24,14 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod boundary;
 pub mod camera;
 pub mod image;
+pub mod reference;
 
 pub use camera::{Camera, ViewSpec};
 pub use image::{diff, DiffStats, Display, Image, ToneMap};
+pub use reference::{render_reference, RayResult, RayScratch, ReferenceOptions, ReferenceRenderer, ReferenceStats};
 
 use std::path::PathBuf;
 
@@ -43,4 +50,8 @@ pub enum RenderError {
     Npy { why: String, path: PathBuf },
     #[error("{source}: {path}")]
     Io { source: std::io::Error, path: PathBuf },
+    #[error("mesh and adjacency disagree: {why}")]
+    InvalidMesh { why: String },
+    #[error("the transfer function is normalized: map it onto the scalar range first (TransferFunction::denormalize)")]
+    NormalizedTransferFunction,
 }

@@ -369,7 +369,6 @@ pub struct Fragment {
 /// Per-tet data for rasterizing one tet: silhouette, planes and fields.
 #[derive(Debug, Clone)]
 pub(crate) struct TetSetup {
-    pub hull: [[f64; 2]; 6],
     pub n_hull: usize,
     edges: [Edge; 6],
     /// Inclusive pixel ranges `[x0, y0, x1, y1]`, clipped to the image.
@@ -388,6 +387,10 @@ pub(crate) struct TetSetup {
     g_range: [f64; 2],
     len_max: f64,
     pub thick: Option<[f64; 2]>,
+    /// Per silhouette edge, the ramp `[c0, cx, cy]` that is 1 at the thick
+    /// point and 0 on the edge (edges the thick point lies on are skipped).
+    tent_ramps: [[f64; 3]; 6],
+    n_ramps: usize,
     pub clipped: bool,
 }
 
@@ -599,7 +602,6 @@ impl TetSetup {
         // Face planes as affine functions of the pixel position.
         let mask = view.face_mask[t];
         let mut setup = TetSetup {
-            hull,
             n_hull,
             edges,
             bbox,
@@ -616,8 +618,22 @@ impl TetSetup {
             g_range,
             len_max,
             thick,
+            tent_ramps: [[0.0; 3]; 6],
+            n_ramps: 0,
             clipped,
         };
+        if let Some(t) = thick {
+            for k in 0..n_hull {
+                let (u, v) = (hull[k], hull[(k + 1) % n_hull]);
+                let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
+                let et = dx * (t[1] - u[1]) - dy * (t[0] - u[0]);
+                if et > 0.0 {
+                    // (dx·(y − u_y) − dy·(x − u_x)) / et as an affine function.
+                    setup.tent_ramps[setup.n_ramps] = [(dy * u[0] - dx * u[1]) / et, -dy / et, dx / et];
+                    setup.n_ramps += 1;
+                }
+            }
+        }
         for (f, fv) in FACE_OUTWARD.iter().enumerate() {
             let front = mask & (1 << f) != 0;
             let back = mask & (1 << (4 + f)) != 0;
@@ -632,14 +648,16 @@ impl TetSetup {
             let q = if frame.parallel {
                 // Depth where the ray (x_c, y_c, ·) meets n·X = k.
                 let nz = nrm.z;
-                if (front && !(nz < 0.0)) || (back && !(nz > 0.0)) {
+                let agrees = if front { nz < 0.0 } else { nz > 0.0 };
+                if !agrees {
                     continue; // rounding disagrees with the exact side: edge-on, skip
                 }
                 [(k - nrm.x * frame.bx - nrm.y * frame.by) / nz, -nrm.x * frame.ax / nz, -nrm.y * frame.ay / nz]
             } else {
                 // 1/depth where the ray z·(x_c, y_c, 1) meets n·X = k; the eye
                 // (origin) is outside a front face: k < 0.
-                if (front && !(k < 0.0)) || (back && !(k > 0.0)) {
+                let agrees = if front { k < 0.0 } else { k > 0.0 };
+                if !agrees {
                     continue;
                 }
                 [(nrm.x * frame.bx + nrm.y * frame.by + nrm.z) / k, nrm.x * frame.ax / k, nrm.y * frame.ay / k]
@@ -696,12 +714,13 @@ impl TetSetup {
             for q in &self.planes_back[..self.n_back] {
                 wb = wb.max(ev(q));
             }
-            if !(wb > 0.0) || wf == f64::INFINITY {
+            // (f64::max drops NaNs, so wb is a number.)
+            if wb <= 0.0 || wf == f64::INFINITY {
                 return None;
             }
             (1.0 / wf, 1.0 / wb)
         };
-        if !(z_b > z_f) || !z_f.is_finite() || !z_b.is_finite() {
+        if !z_f.is_finite() || !z_b.is_finite() || z_b <= z_f {
             return None;
         }
         let len = ((z_b - z_f) * frame.len_per_depth(x, y)).min(self.len_max);
@@ -733,15 +752,12 @@ impl TetSetup {
     /// triangles (on a convex silhouette the tent is the minimum of the
     /// per-edge ramps, so no triangle lookup is needed).
     pub fn tent(&self, x: f64, y: f64) -> f64 {
-        let Some(t) = self.thick else { return 0.0 };
+        if self.thick.is_none() {
+            return 0.0;
+        }
         let mut lam = 1.0f64;
-        for k in 0..self.n_hull {
-            let (u, v) = (self.hull[k], self.hull[(k + 1) % self.n_hull]);
-            let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
-            let et = dx * (t[1] - u[1]) - dy * (t[0] - u[0]);
-            if et > 0.0 {
-                lam = lam.min((dx * (y - u[1]) - dy * (x - u[0])) / et);
-            }
+        for r in &self.tent_ramps[..self.n_ramps] {
+            lam = lam.min(r[0] + r[1] * x + r[2] * y);
         }
         lam.clamp(0.0, 1.0)
     }

@@ -169,8 +169,8 @@ fn cycles_are_broken_and_counted() {
     let camera = Camera::new(&view).unwrap();
     let mut geo = ViewGeometry::new(&scene, &camera);
     let nb = scene.neighbors();
-    for t in 0..3 {
-        for (f, &n) in nb[t].iter().enumerate() {
+    for (t, nbt) in nb.iter().enumerate() {
+        for (f, &n) in nbt.iter().enumerate() {
             if n == tet_mesh::NO_NEIGHBOR {
                 continue;
             }

@@ -51,9 +51,9 @@ fn coordinates_offset_by_a_million_render_the_same() {
     for o in [[0.0; 3], off] {
         let (p, t, s) = grid_mesh(5, 0.3, o, 4, wave);
         let mut v = view();
-        for a in 0..3 {
-            v.position[a] += o[a];
-            v.focal_point[a] += o[a];
+        for (a, oa) in o.iter().enumerate() {
+            v.position[a] += oa;
+            v.focal_point[a] += oa;
         }
         let scene = Scene::new(&p, t, s).unwrap();
         images.push(render(scene, &v, Arc::new(ExactShader::new(tf(TF)))));

@@ -6,9 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use tet_bundle::Bundle;
 use tet_preint::{ExactShader, Method, PtLinearShader, SegmentShader, TransferFunction};
-use tet_render::{
-    Display, Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ToneMap, ViewSpec,
-};
+use tet_render::{Display, Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ToneMap, ViewSpec};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ToneMapArg {
@@ -150,10 +148,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         return Err(UsageError("--range is only for normalized transfer functions".into()).into());
     }
 
-    let shading = Shading {
-        light: args.light.then(Light::default),
-        silhouette: args.silhouette,
-    };
+    let shading = Shading { light: args.light.then(Light::default), silhouette: args.silhouette };
     if let Some(p) = args.silhouette {
         if !(p >= 0.0 && p.is_finite()) {
             return Err(UsageError(format!("--silhouette {p}: need a finite exponent ≥ 0")).into());
@@ -166,16 +161,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let domain = ShaderDomain {
         scalar_range: scene.scalar_range(),
         max_len_world: stats.max_cell_diameter,
-        grad_range: scene.gradient_magnitudes().map(|g| {
-            g.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &v| [a.min(v), b.max(v)])
-        }),
+        grad_range: scene
+            .gradient_magnitudes()
+            .map(|g| g.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &v| [a.min(v), b.max(v)])),
     };
     let shader: Arc<dyn SegmentShader> = make_shader(method, &tf, &domain)?.into();
 
     let view = match &args.view {
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| InputError(format!("reading view {}: {e}", p.display())))?;
+            let text =
+                std::fs::read_to_string(p).map_err(|e| InputError(format!("reading view {}: {e}", p.display())))?;
             let mut v = ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display()))?;
             if let Some(s) = args.size {
                 v.size = s;

@@ -1,0 +1,837 @@
+//! Projection of tets: the per-view vertex transform, exact front/back
+//! decisions for every face, Shirley–Tuchman classification of each tet's
+//! projection, near-plane clipping, and the per-tet setup that turns a
+//! pixel into its ray segment (Sf, Sb, l).
+//!
+//! How a fragment gets its segment. Shirley–Tuchman split the silhouette
+//! into 3 or 4 triangles around the thick vertex; within each triangle the
+//! front and back surfaces are single planes (faces of the tet), so
+//! perspective-correct interpolation of Sf and Sb across a triangle is the
+//! same as evaluating the scalar where the pixel's ray meets those planes.
+//! We do the latter directly: every face plane gives an affine function of
+//! the pixel position (1/depth for perspective, depth for parallel), the
+//! entry is the farthest front plane and the exit the nearest back plane (a
+//! tet is convex), and the scalar there is `A(p) + z·B(p)`. That is exact
+//! for Sf, Sb and l, needs no division by a projected area (the classic
+//! instability of near-coplanar projections), and a near-edge-on plane can
+//! only lose the min/max, never produce a NaN. The classification gives the
+//! silhouette (the pixels to visit) and the thick vertex (which `pt-linear`
+//! shades once and interpolates).
+//!
+//! Coverage is decided with edge functions evaluated in one canonical
+//! vertex order per edge and a tie rule that gives a pixel centre exactly on
+//! a shared edge to exactly one side, so neighbouring silhouettes neither
+//! miss nor double-cover it whatever order they are drawn in.
+
+use crate::camera::Camera;
+use crate::scene::Scene;
+use glam::DVec3;
+use rayon::prelude::*;
+use robust::{orient2d, Coord};
+use tet_mesh::predicates::{side_of_oriented_plane, TetOrientation};
+use tet_mesh::FACE_OUTWARD;
+
+/// The camera in the scene's frame (positions relative to the mesh centre),
+/// with the pixel ↔ camera-space maps the rasterizer needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    pub eye_rel: DVec3,
+    pub right: DVec3,
+    pub up: DVec3,
+    pub forward: DVec3,
+    pub parallel: bool,
+    /// Depth below which geometry is clipped (−∞ for parallel).
+    pub near_depth: f64,
+    pub width: u32,
+    pub height: u32,
+    /// x_cam = ax·x_px + bx and y_cam = ay·y_px + by, where camera x/y are
+    /// at depth 1 (perspective: tangent space) or world units (parallel).
+    pub ax: f64,
+    pub bx: f64,
+    pub ay: f64,
+    pub by: f64,
+}
+
+impl Frame {
+    /// Same basis and extents as [`Camera`] (VTK semantics), shifted so the
+    /// eye is relative to `centre_in_world`.
+    pub fn new(camera: &Camera, centre_in_world: DVec3) -> Frame {
+        let spec = camera.spec();
+        let pos = DVec3::from(spec.position);
+        let forward = camera.forward();
+        let right = forward.cross(DVec3::from(spec.view_up)).normalize();
+        let up = right.cross(forward);
+        let (w, h) = (spec.size[0] as f64, spec.size[1] as f64);
+        let half_h = if spec.parallel { spec.parallel_scale } else { (0.5 * spec.view_angle.to_radians()).tan() };
+        let half_w = half_h * w / h;
+        Frame {
+            eye_rel: pos - centre_in_world,
+            right,
+            up,
+            forward,
+            parallel: spec.parallel,
+            near_depth: camera.near_depth(),
+            width: spec.size[0],
+            height: spec.size[1],
+            ax: 2.0 * half_w / w,
+            bx: -half_w,
+            ay: -2.0 * half_h / h,
+            by: half_h,
+        }
+    }
+
+    /// Camera coordinates (right, up, depth) of a position relative to the centre.
+    #[inline]
+    pub fn to_cam(&self, p_rel: [f64; 3]) -> [f64; 3] {
+        let d = DVec3::from(p_rel) - self.eye_rel;
+        [d.dot(self.right), d.dot(self.up), d.dot(self.forward)]
+    }
+
+    /// Pixel coordinates of a camera-space point (perspective: depth must be > 0).
+    #[inline]
+    pub fn cam_to_px(&self, x: [f64; 3]) -> [f64; 2] {
+        let (cx, cy) = if self.parallel { (x[0], x[1]) } else { (x[0] / x[2], x[1] / x[2]) };
+        [(cx - self.bx) / self.ax, (cy - self.by) / self.ay]
+    }
+
+    /// World length per unit of depth along the ray through a pixel: |d(p)|
+    /// for perspective (d has unit depth), 1 for parallel.
+    #[inline]
+    pub fn len_per_depth(&self, x_px: f64, y_px: f64) -> f64 {
+        if self.parallel {
+            1.0
+        } else {
+            let (cx, cy) = (self.ax * x_px + self.bx, self.ay * y_px + self.by);
+            (1.0 + cx * cx + cy * cy).sqrt()
+        }
+    }
+
+    /// Unit world direction of the ray through a pixel.
+    #[inline]
+    pub fn view_dir(&self, x_px: f64, y_px: f64) -> DVec3 {
+        if self.parallel {
+            self.forward
+        } else {
+            let (cx, cy) = (self.ax * x_px + self.bx, self.ay * y_px + self.by);
+            (self.forward + self.right * cx + self.up * cy).normalize()
+        }
+    }
+}
+
+/// Face `f` of a tet seen from the eye: bit `f` set when the eye is strictly
+/// outside it (front face), bit `4 + f` when strictly inside (back face);
+/// neither when the eye lies in its plane.
+pub const FRONT: u8 = 0x0f;
+/// See [`FRONT`].
+pub const BACK: u8 = 0xf0;
+
+/// Everything about a view that does not depend on the transfer function:
+/// per-vertex camera and pixel coordinates and per-tet face masks.
+#[derive(Debug, Clone)]
+pub struct ViewGeometry {
+    pub frame: Frame,
+    /// Camera coordinates (right, up, depth) per vertex.
+    pub cam: Vec<[f64; 3]>,
+    /// Pixel coordinates per vertex (NaN for vertices in front of the near plane's clip).
+    pub px: Vec<[f64; 2]>,
+    /// Per tet, [`FRONT`]/[`BACK`] bits per face.
+    pub face_mask: Vec<u8>,
+}
+
+impl ViewGeometry {
+    pub fn new(scene: &Scene, camera: &Camera) -> ViewGeometry {
+        let frame = Frame::new(camera, scene.centre_in_world());
+        let cam: Vec<[f64; 3]> = scene.positions_rel().par_iter().map(|&p| frame.to_cam(p)).collect();
+        let px = cam
+            .par_iter()
+            .map(|&x| if frame.parallel || x[2] >= frame.near_depth { frame.cam_to_px(x) } else { [f64::NAN; 2] })
+            .collect();
+        let pos = scene.positions_rel();
+        let eye: [f64; 3] = frame.eye_rel.into();
+        let face_mask = scene
+            .tets()
+            .par_iter()
+            .map(|t| {
+                let mut m = 0u8;
+                for (f, fv) in FACE_OUTWARD.iter().enumerate() {
+                    let ids = [t[fv[0]], t[fv[1]], t[fv[2]]];
+                    let side = if frame.parallel {
+                        parallel_side(pos, ids, frame.forward)
+                    } else {
+                        side_of_oriented_plane(
+                            &pos[ids[0] as usize],
+                            &pos[ids[1] as usize],
+                            &pos[ids[2] as usize],
+                            &eye,
+                        )
+                    };
+                    match side {
+                        TetOrientation::Positive => m |= 1 << f,
+                        TetOrientation::Negative => m |= 1 << (4 + f),
+                        TetOrientation::Flat => {}
+                    }
+                }
+                m
+            })
+            .collect();
+        ViewGeometry { frame, cam, px, face_mask }
+    }
+}
+
+/// Side of the eye at infinity (parallel projection) of the oriented face
+/// `ids`: `Positive` when its normal points against the view direction.
+/// Computed in one canonical vertex order (sorted ids) and flipped by the
+/// permutation's parity, so the two tets sharing a face always disagree
+/// exactly and MPVO never sees a spurious 2-cycle.
+fn parallel_side(pos: &[[f64; 3]], ids: [u32; 3], forward: DVec3) -> TetOrientation {
+    let mut s = ids;
+    let mut odd = false;
+    for i in 0..3 {
+        for j in 0..2 - i {
+            if s[j] > s[j + 1] {
+                s.swap(j, j + 1);
+                odd = !odd;
+            }
+        }
+    }
+    let p = |i: u32| DVec3::from(pos[i as usize]);
+    let n = (p(s[1]) - p(s[0])).cross(p(s[2]) - p(s[0]));
+    let d = n.dot(forward);
+    if d.abs() <= 1e-14 * n.length() || !d.is_finite() {
+        return TetOrientation::Flat;
+    }
+    // Outward normal against the view direction: the eye sees the outside.
+    if (d < 0.0) != odd {
+        TetOrientation::Positive
+    } else {
+        TetOrientation::Negative
+    }
+}
+
+/// Shirley–Tuchman class of a projected tet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ProjClass {
+    /// Vertex `thick` projects inside (or onto the boundary of) the triangle
+    /// of the other three: 3 triangles around it.
+    One { thick: usize },
+    /// The projected edges `diag0` and `diag1` cross at the thick point,
+    /// `diag0[0] + t·(diag0[1] − diag0[0])`: 4 triangles.
+    Two { diag0: [usize; 2], diag1: [usize; 2], t: f64 },
+    /// All four vertices project onto one line: no area, no pixels.
+    Degenerate,
+}
+
+fn coord(p: [f64; 2]) -> Coord<f64> {
+    Coord { x: p[0], y: p[1] }
+}
+
+/// Classifies the projection of a tet from the exact signs of its four
+/// projected faces (oriented as [`FACE_OUTWARD`]): a face whose sign is
+/// alone is opposite the thick vertex (class 1); two and two make class 2,
+/// whose diagonals are the edge shared by the two positive faces and the
+/// edge shared by the two negative ones. Zero-area faces (collinear or
+/// coincident projections) fall into the same rules; the signed areas of
+/// the four faces sum to zero, so the sign pattern is always consistent.
+pub fn classify_projection(p: &[[f64; 2]; 4]) -> ProjClass {
+    let mut pos = [0usize; 4];
+    let mut neg = [0usize; 4];
+    let (mut np, mut nn) = (0, 0);
+    for (f, fv) in FACE_OUTWARD.iter().enumerate() {
+        let a = orient2d(coord(p[fv[0]]), coord(p[fv[1]]), coord(p[fv[2]]));
+        if a > 0.0 {
+            pos[np] = f;
+            np += 1;
+        } else if a < 0.0 {
+            neg[nn] = f;
+            nn += 1;
+        }
+    }
+    match (np, nn) {
+        (0, _) | (_, 0) => ProjClass::Degenerate,
+        (1, _) => ProjClass::One { thick: pos[0] },
+        (_, 1) => ProjClass::One { thick: neg[0] },
+        _ => {
+            // (2, 2): the diagonals are {neg faces' vertices} and {pos faces' vertices}.
+            let d0 = [neg[0], neg[1]];
+            let d1 = [pos[0], pos[1]];
+            let o1 = orient2d(coord(p[d1[0]]), coord(p[d1[1]]), coord(p[d0[0]]));
+            let o2 = orient2d(coord(p[d1[0]]), coord(p[d1[1]]), coord(p[d0[1]]));
+            let t = (o1 / (o1 - o2)).clamp(0.0, 1.0);
+            ProjClass::Two { diag0: d0, diag1: d1, t }
+        }
+    }
+}
+
+impl ProjClass {
+    /// The silhouette's vertices (local indices), in polygon order.
+    pub fn silhouette(&self) -> ([usize; 4], usize) {
+        match *self {
+            ProjClass::One { thick } => {
+                let mut o = [0; 4];
+                let mut k = 0;
+                for v in 0..4 {
+                    if v != thick {
+                        o[k] = v;
+                        k += 1;
+                    }
+                }
+                (o, 3)
+            }
+            ProjClass::Two { diag0, diag1, .. } => ([diag0[0], diag1[0], diag0[1], diag1[1]], 4),
+            ProjClass::Degenerate => ([0; 4], 0),
+        }
+    }
+
+    /// Pixel position of the thick point.
+    pub fn thick_point(&self, p: &[[f64; 2]; 4]) -> Option<[f64; 2]> {
+        match *self {
+            ProjClass::One { thick } => Some(p[thick]),
+            ProjClass::Two { diag0, t, .. } => {
+                let (a, b) = (p[diag0[0]], p[diag0[1]]);
+                Some([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])])
+            }
+            ProjClass::Degenerate => None,
+        }
+    }
+}
+
+/// One silhouette edge as a coverage test. The edge function is evaluated
+/// from the endpoint with the smaller key, so both silhouettes sharing an
+/// edge compute bit-identical values and the sign flip is exact.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Edge {
+    ax: f64,
+    ay: f64,
+    dx: f64,
+    dy: f64,
+    sign: f64,
+    tie: bool,
+}
+
+impl Edge {
+    fn new(u: [f64; 2], ku: u64, v: [f64; 2], kv: u64) -> Edge {
+        let (a, b, sign) = if ku <= kv { (u, v, 1.0) } else { (v, u, -1.0) };
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        // A centre exactly on the edge belongs to the side for which the
+        // directed edge points down (or right when horizontal): exactly one of
+        // the two directions does.
+        let (ddx, ddy) = (sign * dx, sign * dy);
+        Edge { ax: a[0], ay: a[1], dx, dy, sign, tie: ddy > 0.0 || (ddy == 0.0 && ddx > 0.0) }
+    }
+
+    #[inline(always)]
+    fn inside(&self, x: f64, y: f64) -> bool {
+        let e = self.sign * (self.dx * (y - self.ay) - self.dy * (x - self.ax));
+        e > 0.0 || (e == 0.0 && self.tie)
+    }
+}
+
+/// A quantity linear in world space inside one tet, along the ray through
+/// pixel p at depth z: `a(p) + z·b(p)` with a, b affine in the pixel
+/// coordinates (`[c0, c_x, c_y]`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Field {
+    a: [f64; 3],
+    b: [f64; 3],
+}
+
+impl Field {
+    #[inline(always)]
+    fn at(&self, x: f64, y: f64, z: f64) -> f64 {
+        (self.a[0] + self.a[1] * x + self.a[2] * y) + z * (self.b[0] + self.b[1] * x + self.b[2] * y)
+    }
+
+    /// The field with gradient `g` (camera frame) and value `f0` at camera point `x0`.
+    fn new(frame: &Frame, g: DVec3, f0: f64, x0: DVec3) -> Field {
+        let c = f0 - g.dot(x0);
+        if frame.parallel {
+            // X = (x_c, y_c, z).
+            Field { a: [c + g.x * frame.bx + g.y * frame.by, g.x * frame.ax, g.y * frame.ay], b: [g.z, 0.0, 0.0] }
+        } else {
+            // X = z·(x_c, y_c, 1).
+            Field { a: [c, 0.0, 0.0], b: [g.x * frame.bx + g.y * frame.by + g.z, g.x * frame.ax, g.y * frame.ay] }
+        }
+    }
+}
+
+/// The ray segment through one tet at one pixel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fragment {
+    pub s_front: f64,
+    pub s_back: f64,
+    pub g_front: f64,
+    pub g_back: f64,
+    pub len_world: f64,
+    pub z_front: f64,
+    pub z_back: f64,
+}
+
+/// Per-tet data for rasterizing one tet: silhouette, planes and fields.
+#[derive(Debug, Clone)]
+pub(crate) struct TetSetup {
+    pub n_hull: usize,
+    edges: [Edge; 6],
+    /// Inclusive pixel ranges `[x0, y0, x1, y1]`, clipped to the image.
+    pub bbox: [i32; 4],
+    planes_front: [[f64; 3]; 4],
+    n_front: usize,
+    planes_back: [[f64; 3]; 4],
+    n_back: usize,
+    /// Perspective: 1/near when the tet crosses the near plane (an extra entry plane).
+    near_w: Option<f64>,
+    parallel: bool,
+    s: Field,
+    g: Option<Field>,
+    normal: Option<[Field; 3]>,
+    s_range: [f64; 2],
+    g_range: [f64; 2],
+    len_max: f64,
+    pub thick: Option<[f64; 2]>,
+    /// Per silhouette edge, the ramp `[c0, cx, cy]` that is 1 at the thick
+    /// point and 0 on the edge (edges the thick point lies on are skipped).
+    tent_ramps: [[f64; 3]; 6],
+    n_ramps: usize,
+    pub clipped: bool,
+}
+
+/// What the setup needs besides the tet: optional per-vertex fields.
+pub(crate) struct SetupInputs<'a> {
+    pub scene: &'a Scene,
+    pub view: &'a ViewGeometry,
+    pub want_grad_mag: bool,
+    pub want_normals: bool,
+}
+
+/// Pixel bounding box `[x0, y0, x1, y1]` (inclusive, clipped to the image) of
+/// the pixel centres a tet may cover, or `None` when it covers none.
+pub(crate) fn tet_bbox(view: &ViewGeometry, tet: &[u32; 4]) -> Option<[i32; 4]> {
+    let mut pts = [[0.0; 2]; 6];
+    let mut keys = [0u64; 6];
+    let n = screen_points(view, tet, &mut pts, &mut keys);
+    bbox_of(&pts[..n], view.frame.width, view.frame.height)
+}
+
+fn bbox_of(pts: &[[f64; 2]], w: u32, h: u32) -> Option<[i32; 4]> {
+    if pts.is_empty() {
+        return None;
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in pts {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if !(lo[0].is_finite() && lo[1].is_finite() && hi[0].is_finite() && hi[1].is_finite()) {
+        return None;
+    }
+    // Centre i + ½ inside [lo, hi] ⇔ i ∈ [ceil(lo − ½), floor(hi − ½)].
+    let c = |v: f64, max: u32| v.clamp(-1.0, max as f64) as i32;
+    let x0 = c((lo[0] - 0.5).ceil(), w);
+    let y0 = c((lo[1] - 0.5).ceil(), h);
+    let x1 = c((hi[0] - 0.5).floor(), w - 1);
+    let y1 = c((hi[1] - 0.5).floor(), h - 1);
+    let (x0, y0) = (x0.max(0), y0.max(0));
+    if x0 > x1 || y0 > y1 || x1 < 0 || y1 < 0 {
+        return None;
+    }
+    Some([x0, y0, x1, y1])
+}
+
+/// The tet's projected points: its 4 vertices, or, when it crosses the near
+/// plane, the vertices in front of it plus the points where its edges cross
+/// it (at most 6). Keys identify points across tets (vertex id, or the
+/// canonical edge) so shared silhouette edges are evaluated identically.
+fn screen_points(view: &ViewGeometry, tet: &[u32; 4], pts: &mut [[f64; 2]; 6], keys: &mut [u64; 6]) -> usize {
+    let f = &view.frame;
+    let z = tet.map(|v| view.cam[v as usize][2]);
+    if f.parallel || z.iter().all(|&z| z >= f.near_depth) {
+        for k in 0..4 {
+            pts[k] = view.px[tet[k] as usize];
+            keys[k] = vertex_key(tet[k]);
+        }
+        return 4;
+    }
+    let mut n = 0;
+    for k in 0..4 {
+        if z[k] >= f.near_depth {
+            pts[n] = view.px[tet[k] as usize];
+            keys[n] = vertex_key(tet[k]);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return 0;
+    }
+    for i in 0..4 {
+        for j in i + 1..4 {
+            if (z[i] >= f.near_depth) != (z[j] >= f.near_depth) {
+                let (a, b) = if tet[i] < tet[j] { (tet[i], tet[j]) } else { (tet[j], tet[i]) };
+                let (xa, xb) = (view.cam[a as usize], view.cam[b as usize]);
+                let t = (f.near_depth - xa[2]) / (xb[2] - xa[2]);
+                let x = [xa[0] + t * (xb[0] - xa[0]), xa[1] + t * (xb[1] - xa[1]), f.near_depth];
+                pts[n] = f.cam_to_px(x);
+                keys[n] = ((a as u64) << 32) | b as u64;
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+#[inline]
+fn vertex_key(v: u32) -> u64 {
+    ((v as u64) << 32) | v as u64
+}
+
+/// Convex hull (positively oriented, exact orientation tests) of up to 6 points.
+fn hull_of(pts: &[[f64; 2]], keys: &[u64], out: &mut [[f64; 2]; 6], out_keys: &mut [u64; 6]) -> usize {
+    let mut idx: Vec<usize> = (0..pts.len()).collect();
+    idx.sort_by(|&a, &b| pts[a][0].total_cmp(&pts[b][0]).then(pts[a][1].total_cmp(&pts[b][1])));
+    let mut h: Vec<usize> = Vec::with_capacity(12);
+    for pass in 0..2 {
+        let start = h.len();
+        let iter: Box<dyn Iterator<Item = &usize>> =
+            if pass == 0 { Box::new(idx.iter()) } else { Box::new(idx.iter().rev()) };
+        for &i in iter {
+            while h.len() >= start + 2
+                && orient2d(coord(pts[h[h.len() - 2]]), coord(pts[h[h.len() - 1]]), coord(pts[i])) <= 0.0
+            {
+                h.pop();
+            }
+            h.push(i);
+        }
+        h.pop();
+    }
+    let n = h.len().min(6);
+    for (k, &i) in h.iter().take(n).enumerate() {
+        out[k] = pts[i];
+        out_keys[k] = keys[i];
+    }
+    n
+}
+
+impl TetSetup {
+    /// Sets up tet `t`, or `None` when it can cover no pixel (fully behind
+    /// the near plane, zero projected area, zero volume, off screen).
+    pub fn new(inp: &SetupInputs, t: usize) -> Option<TetSetup> {
+        let scene = inp.scene;
+        let view = inp.view;
+        let frame = &view.frame;
+        let tet = &scene.tets()[t];
+        let mut pts = [[0.0; 2]; 6];
+        let mut keys = [0u64; 6];
+        let n = screen_points(view, tet, &mut pts, &mut keys);
+        if n < 3 {
+            return None;
+        }
+        let mut hull = [[0.0; 2]; 6];
+        let mut hull_keys = [0u64; 6];
+        let clipped = n != 4 || (!frame.parallel && tet.iter().any(|&v| view.cam[v as usize][2] < frame.near_depth));
+        let (n_hull, thick) = if clipped {
+            (hull_of(&pts[..n], &keys[..n], &mut hull, &mut hull_keys), None)
+        } else {
+            let p4 = [pts[0], pts[1], pts[2], pts[3]];
+            let class = classify_projection(&p4);
+            let (sil, ns) = class.silhouette();
+            for k in 0..ns {
+                hull[k] = p4[sil[k]];
+                hull_keys[k] = keys[sil[k]];
+            }
+            // Positive orientation (interior on the left of each directed edge).
+            let area: f64 = (0..ns)
+                .map(|k| {
+                    let (u, v) = (hull[k], hull[(k + 1) % ns]);
+                    u[0] * v[1] - u[1] * v[0]
+                })
+                .sum();
+            if area < 0.0 {
+                hull[..ns].reverse();
+                hull_keys[..ns].reverse();
+            }
+            (ns, class.thick_point(&p4))
+        };
+        if n_hull < 3 {
+            return None;
+        }
+        let bbox = bbox_of(&hull[..n_hull], frame.width, frame.height)?;
+        let mut edges = [Edge::default(); 6];
+        for k in 0..n_hull {
+            let j = (k + 1) % n_hull;
+            edges[k] = Edge::new(hull[k], hull_keys[k], hull[j], hull_keys[j]);
+        }
+
+        // Linear fields from the camera-space vertices.
+        let x = tet.map(|v| DVec3::from(view.cam[v as usize]));
+        let (e1, e2, e3) = (x[1] - x[0], x[2] - x[0], x[3] - x[0]);
+        let (c23, c31, c12) = (e2.cross(e3), e3.cross(e1), e1.cross(e2));
+        let det = e1.dot(c23);
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let grad_of = |f: [f64; 4]| (c23 * (f[1] - f[0]) + c31 * (f[2] - f[0]) + c12 * (f[3] - f[0])) / det;
+        let field_of = |f: [f64; 4]| Field::new(frame, grad_of(f), f[0], x[0]);
+        let sv = tet.map(|v| scene.scalar()[v as usize]);
+        let range = |f: [f64; 4]| {
+            [f.iter().copied().fold(f64::INFINITY, f64::min), f.iter().copied().fold(f64::NEG_INFINITY, f64::max)]
+        };
+        let s = field_of(sv);
+        let s_range = range(sv);
+        let (g, g_range) = match (inp.want_grad_mag, scene.gradient_magnitudes()) {
+            (true, Some(gm)) => {
+                let gv = tet.map(|v| gm[v as usize]);
+                (Some(field_of(gv)), range(gv))
+            }
+            _ => (None, [0.0, 0.0]),
+        };
+        let normal = match (inp.want_normals, scene.gradients()) {
+            (true, Some(gr)) => {
+                let comp = |c: usize| field_of(tet.map(|v| gr[v as usize][c]));
+                Some([comp(0), comp(1), comp(2)])
+            }
+            _ => None,
+        };
+        let mut len_max: f64 = 0.0;
+        for i in 0..4 {
+            for j in i + 1..4 {
+                len_max = len_max.max((x[i] - x[j]).length_squared());
+            }
+        }
+        let len_max = len_max.sqrt();
+
+        // Face planes as affine functions of the pixel position.
+        let mask = view.face_mask[t];
+        let mut setup = TetSetup {
+            n_hull,
+            edges,
+            bbox,
+            planes_front: [[0.0; 3]; 4],
+            n_front: 0,
+            planes_back: [[0.0; 3]; 4],
+            n_back: 0,
+            near_w: if clipped && !frame.parallel { Some(1.0 / frame.near_depth) } else { None },
+            parallel: frame.parallel,
+            s,
+            g,
+            normal,
+            s_range,
+            g_range,
+            len_max,
+            thick,
+            tent_ramps: [[0.0; 3]; 6],
+            n_ramps: 0,
+            clipped,
+        };
+        if let Some(t) = thick {
+            for k in 0..n_hull {
+                let (u, v) = (hull[k], hull[(k + 1) % n_hull]);
+                let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
+                let et = dx * (t[1] - u[1]) - dy * (t[0] - u[0]);
+                if et > 0.0 {
+                    // (dx·(y − u_y) − dy·(x − u_x)) / et as an affine function.
+                    setup.tent_ramps[setup.n_ramps] = [(dy * u[0] - dx * u[1]) / et, -dy / et, dx / et];
+                    setup.n_ramps += 1;
+                }
+            }
+        }
+        for (f, fv) in FACE_OUTWARD.iter().enumerate() {
+            let front = mask & (1 << f) != 0;
+            let back = mask & (1 << (4 + f)) != 0;
+            if !front && !back {
+                continue;
+            }
+            let (a, b, c) = (x[fv[0]], x[fv[1]], x[fv[2]]);
+            // The camera basis (right, up, forward) is left-handed, so the
+            // outward normal's components are (c − a) × (b − a) there.
+            let nrm = (c - a).cross(b - a);
+            let k = nrm.dot(a);
+            let q = if frame.parallel {
+                // Depth where the ray (x_c, y_c, ·) meets n·X = k.
+                let nz = nrm.z;
+                let agrees = if front { nz < 0.0 } else { nz > 0.0 };
+                if !agrees {
+                    continue; // rounding disagrees with the exact side: edge-on, skip
+                }
+                [(k - nrm.x * frame.bx - nrm.y * frame.by) / nz, -nrm.x * frame.ax / nz, -nrm.y * frame.ay / nz]
+            } else {
+                // 1/depth where the ray z·(x_c, y_c, 1) meets n·X = k; the eye
+                // (origin) is outside a front face: k < 0.
+                let agrees = if front { k < 0.0 } else { k > 0.0 };
+                if !agrees {
+                    continue;
+                }
+                [(nrm.x * frame.bx + nrm.y * frame.by + nrm.z) / k, nrm.x * frame.ax / k, nrm.y * frame.ay / k]
+            };
+            if !q.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            if front {
+                setup.planes_front[setup.n_front] = q;
+                setup.n_front += 1;
+            } else {
+                setup.planes_back[setup.n_back] = q;
+                setup.n_back += 1;
+            }
+        }
+        if setup.n_back == 0 {
+            return None;
+        }
+        Some(setup)
+    }
+
+    /// Whether pixel centre (x, y) is covered (edge functions, tie rule).
+    #[inline(always)]
+    pub fn covers(&self, x: f64, y: f64) -> bool {
+        self.edges[..self.n_hull].iter().all(|e| e.inside(x, y))
+    }
+
+    /// The segment along the ray through pixel position (x, y); `None` where
+    /// the ray misses the tet or the segment has no length.
+    #[inline]
+    pub fn fragment(&self, frame: &Frame, x: f64, y: f64) -> Option<Fragment> {
+        let ev = |q: &[f64; 3]| q[0] + q[1] * x + q[2] * y;
+        let (z_f, z_b) = if self.parallel {
+            let mut zf = f64::NEG_INFINITY;
+            for q in &self.planes_front[..self.n_front] {
+                zf = zf.max(ev(q));
+            }
+            let mut zb = f64::INFINITY;
+            for q in &self.planes_back[..self.n_back] {
+                zb = zb.min(ev(q));
+            }
+            (zf, zb)
+        } else {
+            // Entry: the smallest positive 1/depth over front planes (and the
+            // near plane); exit: the largest over back planes.
+            let mut wf = self.near_w.unwrap_or(f64::INFINITY);
+            for q in &self.planes_front[..self.n_front] {
+                let w = ev(q);
+                if w > 0.0 && w < wf {
+                    wf = w;
+                }
+            }
+            let mut wb = 0.0f64;
+            for q in &self.planes_back[..self.n_back] {
+                wb = wb.max(ev(q));
+            }
+            // (f64::max drops NaNs, so wb is a number.)
+            if wb <= 0.0 || wf == f64::INFINITY {
+                return None;
+            }
+            (1.0 / wf, 1.0 / wb)
+        };
+        if !z_f.is_finite() || !z_b.is_finite() || z_b <= z_f {
+            return None;
+        }
+        let len = ((z_b - z_f) * frame.len_per_depth(x, y)).min(self.len_max);
+        let clamp = |v: f64, r: [f64; 2]| if v.is_nan() { r[0] } else { v.clamp(r[0], r[1]) };
+        let (g_front, g_back) = match &self.g {
+            Some(g) => (clamp(g.at(x, y, z_f), self.g_range), clamp(g.at(x, y, z_b), self.g_range)),
+            None => (0.0, 0.0),
+        };
+        Some(Fragment {
+            s_front: clamp(self.s.at(x, y, z_f), self.s_range),
+            s_back: clamp(self.s.at(x, y, z_b), self.s_range),
+            g_front,
+            g_back,
+            len_world: len,
+            z_front: z_f,
+            z_back: z_b,
+        })
+    }
+
+    /// The interpolated per-vertex gradient (world frame) at depth z on the
+    /// ray through (x, y), when normals were requested.
+    #[inline]
+    pub fn normal_at(&self, x: f64, y: f64, z: f64) -> Option<DVec3> {
+        self.normal.as_ref().map(|n| DVec3::new(n[0].at(x, y, z), n[1].at(x, y, z), n[2].at(x, y, z)))
+    }
+
+    /// The tent weight of the thick point at pixel (x, y): 1 at the thick
+    /// point, 0 on the silhouette, linear on each of the Shirley–Tuchman
+    /// triangles (on a convex silhouette the tent is the minimum of the
+    /// per-edge ramps, so no triangle lookup is needed).
+    pub fn tent(&self, x: f64, y: f64) -> f64 {
+        if self.thick.is_none() {
+            return 0.0;
+        }
+        let mut lam = 1.0f64;
+        for r in &self.tent_ramps[..self.n_ramps] {
+            lam = lam.min(r[0] + r[1] * x + r[2] * y);
+        }
+        lam.clamp(0.0, 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn class_one_when_a_vertex_projects_inside() {
+        let p = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [2.0, 2.0]];
+        assert_eq!(classify_projection(&p), ProjClass::One { thick: 3 });
+        let p = [[2.0, 2.0], [10.0, 0.0], [0.0, 10.0], [0.0, 0.0]];
+        assert_eq!(classify_projection(&p), ProjClass::One { thick: 0 });
+    }
+
+    #[test]
+    fn class_two_when_edges_cross() {
+        // Square with diagonals (0,2) and (1,3) crossing at its centre.
+        let p = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        match classify_projection(&p) {
+            c @ ProjClass::Two { diag0, diag1, t } => {
+                let mut d = [diag0, diag1].map(|mut e| {
+                    e.sort();
+                    e
+                });
+                d.sort();
+                assert_eq!(d, [[0, 2], [1, 3]]);
+                assert!((t - 0.5).abs() < 1e-15);
+                assert_eq!(c.thick_point(&p), Some([5.0, 5.0]));
+                assert_eq!(c.silhouette().1, 4);
+            }
+            c => panic!("{c:?}"),
+        }
+    }
+
+    #[test]
+    fn degenerate_projections() {
+        // A vertex exactly on an edge: class 1 with the thick vertex on the boundary.
+        let p = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [5.0, 0.0]];
+        assert_eq!(classify_projection(&p), ProjClass::One { thick: 3 });
+        // Two vertices coincide (an edge seen end-on).
+        let p = [[0.0, 0.0], [10.0, 0.0], [3.0, 3.0], [3.0, 3.0]];
+        assert!(matches!(classify_projection(&p), ProjClass::One { thick: 2 | 3 }));
+        // All collinear: nothing to draw.
+        let p = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [5.0, 5.0]];
+        assert_eq!(classify_projection(&p), ProjClass::Degenerate);
+        let p = [[1.0, 1.0]; 4];
+        assert_eq!(classify_projection(&p), ProjClass::Degenerate);
+    }
+
+    #[test]
+    fn shared_edge_ties_go_to_exactly_one_side() {
+        // Edge from (0,0) to (4,4) passing through the centre (1.5,1.5);
+        // the two triangles on either side use it in opposite directions.
+        let (a, b) = ([0.0, 0.0], [4.0, 4.0]);
+        let e1 = Edge::new(a, 1, b, 2);
+        let e2 = Edge::new(b, 2, a, 1);
+        assert!(e1.inside(1.5, 1.5) != e2.inside(1.5, 1.5));
+        let h1 = Edge::new([0.0, 1.5], 1, [4.0, 1.5], 2);
+        let h2 = Edge::new([4.0, 1.5], 2, [0.0, 1.5], 1);
+        assert!(h1.inside(2.5, 1.5) != h2.inside(2.5, 1.5));
+    }
+
+    #[test]
+    fn hull_of_clipped_points() {
+        let pts = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0], [2.0, 2.0], [2.0, 0.0]];
+        let keys = [0, 1, 2, 3, 4, 5];
+        let mut h = [[0.0; 2]; 6];
+        let mut k = [0; 6];
+        let n = hull_of(&pts, &keys, &mut h, &mut k);
+        assert_eq!(n, 4);
+        let area: f64 = (0..n).map(|i| h[i][0] * h[(i + 1) % n][1] - h[i][1] * h[(i + 1) % n][0]).sum();
+        assert!(area > 0.0);
+    }
+}

@@ -1,0 +1,257 @@
+//! Tile-parallel compositing of projected tets.
+//!
+//! The visibility order is split into chunks; each chunk bins its tets (by
+//! pixel bounding box) into screen tiles, keeping the order. Each tile is
+//! then rendered by one thread, walking the chunks' lists in order and
+//! compositing front to back in f32 ("under": C += (1−α_acc)·c,
+//! α_acc += (1−α_acc)·α), skipping pixels whose α has reached
+//! [`RasterOptions::opaque_alpha`] and leaving the tile once all its pixels
+//! have. A pixel's result depends only on the order, never on which thread
+//! ran which tile: the image is bit-identical for any thread count.
+
+use crate::image::Image;
+use crate::project::{tet_bbox, Fragment, SetupInputs, TetSetup, ViewGeometry};
+use crate::scene::Scene;
+use crate::shading::Shading;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use tet_preint::{Method, Segment, SegmentShader};
+
+/// Rasterizer settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RasterOptions {
+    /// Tile side in pixels.
+    pub tile: u32,
+    /// A pixel at or above this accumulated α takes no more fragments
+    /// (what it misses is at most 1 − opaque_alpha of the remaining colour).
+    pub opaque_alpha: f32,
+    pub shading: Shading,
+}
+
+impl Default for RasterOptions {
+    fn default() -> Self {
+        RasterOptions { tile: 32, opaque_alpha: 0.9999, shading: Shading::default() }
+    }
+}
+
+/// Counters from one rasterization.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct RasterStats {
+    /// Fragments shaded and composited.
+    pub fragments: u64,
+    /// Per-tile tet setups (a tet spanning k tiles is set up k times).
+    pub setups: u64,
+    /// Tiles left early because every pixel was opaque.
+    pub tiles_terminated: usize,
+    pub bin_seconds: f64,
+    pub raster_seconds: f64,
+}
+
+/// Renders the tets of `order` (front to back) into a linear premultiplied
+/// RGBA image. `progress(done, total)` is called as tiles finish, from
+/// worker threads.
+pub fn rasterize(
+    scene: &Scene,
+    view: &ViewGeometry,
+    order: &[u32],
+    shader: &dyn SegmentShader,
+    opts: &RasterOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> (Image, RasterStats) {
+    let frame = &view.frame;
+    let (w, h) = (frame.width, frame.height);
+    let tile = opts.tile.clamp(4, 1024);
+    let (tx, ty) = (w.div_ceil(tile) as usize, h.div_ceil(tile) as usize);
+    let n_tiles = tx * ty;
+
+    let t0 = std::time::Instant::now();
+    let n_chunks = (rayon::current_num_threads() * 4).min(order.len() / 2048 + 1).max(1);
+    let chunk_len = order.len().div_ceil(n_chunks).max(1);
+    let bins: Vec<Vec<Vec<u32>>> = order
+        .par_chunks(chunk_len)
+        .map(|chunk| {
+            let mut b: Vec<Vec<u32>> = vec![Vec::new(); n_tiles];
+            for &t in chunk {
+                if let Some([x0, y0, x1, y1]) = tet_bbox(view, &scene.tets()[t as usize]) {
+                    let (t_x0, t_x1) = (x0 as u32 / tile, x1 as u32 / tile);
+                    let (t_y0, t_y1) = (y0 as u32 / tile, y1 as u32 / tile);
+                    for j in t_y0..=t_y1 {
+                        for i in t_x0..=t_x1 {
+                            b[j as usize * tx + i as usize].push(t);
+                        }
+                    }
+                }
+            }
+            b
+        })
+        .collect();
+    let bin_seconds = t0.elapsed().as_secs_f64();
+
+    let t1 = std::time::Instant::now();
+    let inputs = SetupInputs {
+        scene,
+        view,
+        want_grad_mag: shader.method().is_bivariate(),
+        want_normals: opts.shading.is_active(),
+    };
+    let pt_linear = shader.method() == Method::PtLinear;
+    let fragments = AtomicU64::new(0);
+    let setups = AtomicU64::new(0);
+    let terminated = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let tiles: Vec<Vec<[f32; 4]>> = (0..n_tiles)
+        .into_par_iter()
+        .map(|ti| {
+            let rect = {
+                let (i, j) = ((ti % tx) as u32, (ti / tx) as u32);
+                [i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1]
+            };
+            let mut ctx = TileCtx {
+                rect,
+                stride: (rect[2] - rect[0] + 1) as usize,
+                acc: vec![[0.0f32; 4]; ((rect[2] - rect[0] + 1) * (rect[3] - rect[1] + 1)) as usize],
+                opaque: 0,
+                fragments: 0,
+                setups: 0,
+            };
+            let all = ctx.acc.len();
+            'tets: for chunk in &bins {
+                for &t in &chunk[ti] {
+                    if ctx.opaque == all {
+                        terminated.fetch_add(1, Ordering::Relaxed);
+                        break 'tets;
+                    }
+                    ctx.setups += 1;
+                    if let Some(s) = TetSetup::new(&inputs, t as usize) {
+                        draw_tet(&mut ctx, &s, view, shader, opts, pt_linear);
+                    }
+                }
+            }
+            fragments.fetch_add(ctx.fragments, Ordering::Relaxed);
+            setups.fetch_add(ctx.setups, Ordering::Relaxed);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, n_tiles);
+            ctx.acc
+        })
+        .collect();
+
+    let mut img = Image::new(w, h);
+    let px = img.pixels_mut();
+    for (ti, acc) in tiles.into_iter().enumerate() {
+        let (i, j) = ((ti % tx) as u32, (ti / tx) as u32);
+        let (x0, y0) = (i * tile, j * tile);
+        let tw = ((i + 1) * tile).min(w) - x0;
+        for (r, row) in acc.chunks_exact(tw as usize).enumerate() {
+            let start = (y0 as usize + r) * w as usize + x0 as usize;
+            px[start..start + tw as usize].copy_from_slice(row);
+        }
+    }
+    let stats = RasterStats {
+        fragments: fragments.into_inner(),
+        setups: setups.into_inner(),
+        tiles_terminated: terminated.into_inner(),
+        bin_seconds,
+        raster_seconds: t1.elapsed().as_secs_f64(),
+    };
+    (img, stats)
+}
+
+struct TileCtx {
+    rect: [u32; 4],
+    stride: usize,
+    acc: Vec<[f32; 4]>,
+    opaque: usize,
+    fragments: u64,
+    setups: u64,
+}
+
+fn segment(f: &Fragment) -> Segment {
+    Segment {
+        s_front: f.s_front as f32,
+        s_back: f.s_back as f32,
+        grad_front: f.g_front as f32,
+        grad_back: f.g_back as f32,
+        len_world: f.len_world as f32,
+    }
+}
+
+/// Shades one fragment, with lighting/silhouettes at the segment's midpoint.
+#[inline]
+fn shade(
+    s: &TetSetup,
+    view: &ViewGeometry,
+    shader: &dyn SegmentShader,
+    opts: &RasterOptions,
+    f: &Fragment,
+    x: f64,
+    y: f64,
+) -> [f32; 4] {
+    let rgba = shader.shade(&segment(f));
+    if !opts.shading.is_active() {
+        return rgba;
+    }
+    match s.normal_at(x, y, 0.5 * (f.z_front + f.z_back)) {
+        Some(n) => opts.shading.apply(rgba, n, view.frame.view_dir(x, y)),
+        None => rgba,
+    }
+}
+
+fn draw_tet(
+    ctx: &mut TileCtx,
+    s: &TetSetup,
+    view: &ViewGeometry,
+    shader: &dyn SegmentShader,
+    opts: &RasterOptions,
+    pt_linear: bool,
+) {
+    let x0 = (s.bbox[0] as u32).max(ctx.rect[0]);
+    let y0 = (s.bbox[1] as u32).max(ctx.rect[1]);
+    let x1 = (s.bbox[2] as u32).min(ctx.rect[2]);
+    let y1 = (s.bbox[3] as u32).min(ctx.rect[3]);
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    // pt-linear: shade the thick point once, interpolate towards the silhouette.
+    let thick_rgba = if pt_linear && !s.clipped {
+        let Some(t) = s.thick else { return };
+        match s.fragment(&view.frame, t[0], t[1]) {
+            Some(f) => Some(shade(s, view, shader, opts, &f, t[0], t[1])),
+            None => return,
+        }
+    } else {
+        None
+    };
+    let opaque_alpha = opts.opaque_alpha;
+    for py in y0..=y1 {
+        let y = py as f64 + 0.5;
+        let row = (py - ctx.rect[1]) as usize * ctx.stride;
+        for px in x0..=x1 {
+            let x = px as f64 + 0.5;
+            let acc = &mut ctx.acc[row + (px - ctx.rect[0]) as usize];
+            if acc[3] >= opaque_alpha || !s.covers(x, y) {
+                continue;
+            }
+            let c = match thick_rgba {
+                Some(rgba) => {
+                    let lam = s.tent(x, y) as f32;
+                    if lam <= 0.0 {
+                        continue;
+                    }
+                    rgba.map(|v| v * lam)
+                }
+                None => match s.fragment(&view.frame, x, y) {
+                    Some(f) => shade(s, view, shader, opts, &f, x, y),
+                    None => continue,
+                },
+            };
+            ctx.fragments += 1;
+            let t = 1.0 - acc[3];
+            acc[0] += t * c[0];
+            acc[1] += t * c[1];
+            acc[2] += t * c[2];
+            acc[3] += t * c[3];
+            if acc[3] >= opaque_alpha {
+                ctx.opaque += 1;
+            }
+        }
+    }
+}

@@ -1,0 +1,481 @@
+//! The reference renderer: exact ray casting through the tets, the ground
+//! truth every image error is measured against.
+//!
+//! Per pixel centre the camera's ray is cast; every boundary face through
+//! which its line enters the mesh is found with a [`BoundaryBvh`]; from each
+//! entry the ray walks tet to tet through the face adjacency until it leaves
+//! through the boundary (a non-convex mesh is re-entered at its next entry
+//! farther along). In each tet the exit face is decided by exact,
+//! symbolically perturbed Plücker side tests (module `sos`), so a ray
+//! through an edge or a vertex is neither lost nor counted twice; exit points
+//! come from the Plücker barycentric coordinates of the exit face (always
+//! inside it), the scalar there by barycentric interpolation. Each ray–tet
+//! segment (Sf, Sb, l) is integrated with `exact` in f64 and composited
+//! front to back in f64 (premultiplied "over").
+//!
+//! Walks start at boundary entries along the whole line, also behind the
+//! eye, and segments are clipped at the camera's near depth: a camera inside
+//! the mesh therefore needs no point location.
+
+mod sos;
+
+use crate::boundary::BoundaryBvh;
+use crate::{Camera, Image, RenderError};
+use glam::DVec3;
+use rayon::prelude::*;
+use sos::line_side;
+use std::sync::atomic::{AtomicU32, Ordering};
+use tet_mesh::{Adjacency, TetMesh, FACE_OUTWARD, NO_NEIGHBOR};
+use tet_preint::{integrate_segment_with, TransferFunction};
+
+/// Choices for a reference render.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceOptions {
+    /// Stop a ray once its accumulated opacity reaches `alpha_cutoff`.
+    pub early_termination: bool,
+    /// Default 1 − 1e-9: what is left changes no output by more than 1e-9.
+    pub alpha_cutoff: f64,
+}
+
+impl Default for ReferenceOptions {
+    fn default() -> Self {
+        ReferenceOptions { early_termination: true, alpha_cutoff: 1.0 - 1e-9 }
+    }
+}
+
+/// Counts from one render (or one ray). All are exact integers, summed in a
+/// fixed order, so they are deterministic.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReferenceStats {
+    pub rays: u64,
+    /// Rays whose line entered the mesh in front of the near plane.
+    pub rays_hit: u64,
+    /// Boundary entries walked from.
+    pub entries: u64,
+    /// Ray–tet steps taken (including zero-length and clipped ones).
+    pub steps: u64,
+    /// Segments of positive length integrated.
+    pub segments: u64,
+    /// Rays stopped by early termination.
+    pub terminated_early: u64,
+    /// Walks that could not find an exit face or a way back through the
+    /// adjacency, or ran past the tet count. 0 on any valid mesh.
+    pub walk_failures: u64,
+    /// Most steps one ray took.
+    pub max_steps_per_ray: u64,
+}
+
+impl ReferenceStats {
+    fn add(&mut self, o: &ReferenceStats) {
+        self.rays += o.rays;
+        self.rays_hit += o.rays_hit;
+        self.entries += o.entries;
+        self.steps += o.steps;
+        self.segments += o.segments;
+        self.terminated_early += o.terminated_early;
+        self.walk_failures += o.walk_failures;
+        self.max_steps_per_ray = self.max_steps_per_ray.max(o.max_steps_per_ray);
+    }
+}
+
+/// Premultiplied RGBA of one ray in f64 and its counts.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RayResult {
+    pub rgba: [f64; 4],
+    pub stats: ReferenceStats,
+}
+
+/// A mesh prepared for reference rendering: the boundary hierarchy is built
+/// once here and reused for every view and transfer function.
+#[derive(Debug)]
+pub struct ReferenceRenderer<'a> {
+    points: &'a [[f64; 3]],
+    tets: &'a [[u32; 4]],
+    scalar: &'a [f64],
+    neighbors: &'a [[u32; 4]],
+    bvh: BoundaryBvh,
+}
+
+/// Reusable per-thread buffers.
+#[derive(Debug, Default)]
+pub struct RayScratch {
+    breakpoints: Vec<f64>,
+    entries: Vec<Entry>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    t: f64,
+    scalar: f64,
+    packed_face: u32,
+}
+
+/// The line a ray lies on: the exact points `o` and `q` that all decisions
+/// use, and the unit direction along which parameters `t` (world length
+/// from `o`) are measured.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    o: [f64; 3],
+    q: [f64; 3],
+    origin: DVec3,
+    unit: DVec3,
+}
+
+impl<'a> ReferenceRenderer<'a> {
+    /// Checks that the mesh and adjacency agree (sizes, ids in range, finite
+    /// points and scalars) and builds the boundary hierarchy.
+    pub fn new(mesh: &'a TetMesh, adjacency: &'a Adjacency) -> Result<ReferenceRenderer<'a>, RenderError> {
+        let bad = |why: String| Err(RenderError::InvalidMesh { why });
+        let (np, nt) = (mesh.points.len(), mesh.tets.len());
+        if nt > (u32::MAX / 4) as usize || np >= u32::MAX as usize {
+            return bad(format!("{nt} tets / {np} points exceed the u32 ids"));
+        }
+        if mesh.scalar.len() != np {
+            return bad(format!("{} scalars for {np} points", mesh.scalar.len()));
+        }
+        if adjacency.neighbors.len() != nt {
+            return bad(format!("adjacency has {} tets, the mesh {nt}", adjacency.neighbors.len()));
+        }
+        if let Some(i) = mesh.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+            return bad(format!("point {i} is not finite"));
+        }
+        if let Some(i) = mesh.scalar.iter().position(|s| !s.is_finite()) {
+            return bad(format!("scalar of point {i} is not finite"));
+        }
+        for (t, (tet, nb)) in mesh.tets.iter().zip(&adjacency.neighbors).enumerate() {
+            if tet.iter().any(|&v| v as usize >= np) {
+                return bad(format!("tet {t} has a vertex id ≥ {np}"));
+            }
+            if nb.iter().any(|&n| n != NO_NEIGHBOR && n as usize >= nt) {
+                return bad(format!("tet {t} has a neighbour id ≥ {nt}"));
+            }
+        }
+        if let Some(&b) = adjacency.boundary_faces.iter().find(|&&b| b as usize >= 4 * nt) {
+            return bad(format!("boundary face {b} is past the last tet"));
+        }
+        Ok(ReferenceRenderer {
+            points: &mesh.points,
+            tets: &mesh.tets,
+            scalar: &mesh.scalar,
+            neighbors: &adjacency.neighbors,
+            bvh: BoundaryBvh::build(&mesh.points, &mesh.tets, &adjacency.boundary_faces),
+        })
+    }
+
+    pub fn bvh(&self) -> &BoundaryBvh {
+        &self.bvh
+    }
+
+    /// Renders one image: one ray per pixel centre, rows in parallel. The
+    /// result does not depend on the thread count. `tf` must be in the
+    /// mesh's scalar units (denormalize a normalized one first).
+    /// `progress(rows_done, rows_total)` is called from worker threads.
+    pub fn render(
+        &self,
+        camera: &Camera,
+        tf: &TransferFunction,
+        options: &ReferenceOptions,
+        progress: &(dyn Fn(u32, u32) + Sync),
+    ) -> Result<(Image, ReferenceStats), RenderError> {
+        if tf.normalized() {
+            return Err(RenderError::NormalizedTransferFunction);
+        }
+        let (w, h) = (camera.width(), camera.height());
+        let done = AtomicU32::new(0);
+        let rows: Vec<(Vec<[f32; 4]>, ReferenceStats)> = (0..h)
+            .into_par_iter()
+            .map_init(RayScratch::default, |scratch, j| {
+                let mut row = Vec::with_capacity(w as usize);
+                let mut stats = ReferenceStats::default();
+                for i in 0..w {
+                    let r = self.trace_pixel(camera, i as f64 + 0.5, j as f64 + 0.5, tf, options, scratch);
+                    row.push(r.rgba.map(|v| v as f32));
+                    stats.add(&r.stats);
+                }
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1, h);
+                (row, stats)
+            })
+            .collect();
+        let mut stats = ReferenceStats::default();
+        let mut pixels = Vec::with_capacity(w as usize * h as usize);
+        for (row, s) in rows {
+            pixels.extend_from_slice(&row);
+            stats.add(&s);
+        }
+        Ok((Image::from_pixels(w, h, pixels)?, stats))
+    }
+
+    /// The camera's ray through pixel coordinates (x_px, y_px), clipped at
+    /// the near depth (perspective) or unclipped (parallel).
+    pub fn trace_pixel(
+        &self,
+        camera: &Camera,
+        x_px: f64,
+        y_px: f64,
+        tf: &TransferFunction,
+        options: &ReferenceOptions,
+        scratch: &mut RayScratch,
+    ) -> RayResult {
+        let (origin, dir) = camera.ray(x_px, y_px);
+        let t_start = if camera.is_parallel() {
+            f64::NEG_INFINITY
+        } else {
+            // depth = t · (dir · forward); dir · forward ≥ cos(half diagonal angle) > 0.
+            camera.near_depth() / dir.dot(camera.forward())
+        };
+        self.trace_line(origin, origin + dir, t_start, tf, options, scratch)
+    }
+
+    /// Integrates along the line through `origin` and `through` (exact
+    /// points: every decision is made on this line), from parameter
+    /// `t_start` on, where t is world length from `origin` towards
+    /// `through` (−∞: the whole line).
+    pub fn trace_line(
+        &self,
+        origin: DVec3,
+        through: DVec3,
+        t_start: f64,
+        tf: &TransferFunction,
+        options: &ReferenceOptions,
+        scratch: &mut RayScratch,
+    ) -> RayResult {
+        let mut res = RayResult { stats: ReferenceStats { rays: 1, ..Default::default() }, ..Default::default() };
+        let delta = through - origin;
+        let len = delta.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return res;
+        }
+        let line = Line { o: origin.into(), q: through.into(), origin, unit: delta / len };
+        let entries = &mut scratch.entries;
+        entries.clear();
+        self.bvh.for_each_near_line(origin, delta, |tri| {
+            let [p0, p1, p2] = tri.vertices.map(|v| &self.points[v as usize]);
+            // Entering through an outward face: the line passes every edge
+            // on the positive side.
+            let (v01, s01) = line_side(&line.o, &line.q, p0, p1);
+            if s01 < 0 {
+                return;
+            }
+            let (v12, s12) = line_side(&line.o, &line.q, p1, p2);
+            if s12 < 0 {
+                return;
+            }
+            let (v20, s20) = line_side(&line.o, &line.q, p2, p0);
+            if s20 < 0 || s01 == 0 || s12 == 0 || s20 == 0 {
+                return;
+            }
+            let t = &self.tets[(tri.packed_face / 4) as usize];
+            let [i, j, k] = FACE_OUTWARD[(tri.packed_face % 4) as usize];
+            let ids = [t[i], t[j], t[k]];
+            let w = [v12.max(0.0), v20.max(0.0), v01.max(0.0)];
+            let (t_hit, s_hit) = self.point_on_face(&line, ids, w).unwrap_or_else(|| {
+                // The line lies in the face's plane: the crossing point is
+                // the limit of the perturbed line's, which no float weight
+                // gives; the face centroid is as good as any point of it,
+                // since a walk starting there keeps t monotone from it.
+                self.point_on_face(&line, ids, [1.0; 3]).expect("positive weights")
+            });
+            entries.push(Entry { t: t_hit, scalar: s_hit, packed_face: tri.packed_face });
+        });
+        entries.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.packed_face.cmp(&b.packed_face)));
+        let mut acc = [0.0f64; 4];
+        let mut hit = false;
+        let n_tets = self.tets.len() as u64;
+        let mut steps_this_ray = 0u64;
+        'walks: for e in entries.iter() {
+            res.stats.entries += 1;
+            let mut tet = (e.packed_face / 4) as usize;
+            let mut f_in = (e.packed_face % 4) as usize;
+            let (mut t_in, mut s_in) = (e.t, e.scalar);
+            let mut steps = 0u64;
+            loop {
+                steps += 1;
+                if steps > n_tets + 1 {
+                    res.stats.walk_failures += 1;
+                    break;
+                }
+                let Some((f_out, t_raw, s_raw)) = self.exit(&line, tet, f_in) else {
+                    res.stats.walk_failures += 1;
+                    break;
+                };
+                let (t_out, s_out) = match t_raw {
+                    Some(t) if t > t_in => (t, s_raw),
+                    // Degenerate (all weights 0) or rounding put the exit
+                    // before the entry: a zero-length segment here, the
+                    // next tet takes the length.
+                    _ => (t_in, s_in),
+                };
+                if t_out > t_start {
+                    hit = true;
+                    let (t0, s0) = if t_in < t_start {
+                        (t_start, s_in + (s_out - s_in) * ((t_start - t_in) / (t_out - t_in)))
+                    } else {
+                        (t_in, s_in)
+                    };
+                    let l = t_out - t0;
+                    if l > 0.0 {
+                        res.stats.segments += 1;
+                        let c = integrate_segment_with(tf, s0, s_out, l, &mut scratch.breakpoints);
+                        let tr = 1.0 - acc[3];
+                        acc[0] += tr * c.color[0];
+                        acc[1] += tr * c.color[1];
+                        acc[2] += tr * c.color[2];
+                        acc[3] += tr * c.alpha;
+                        if options.early_termination && acc[3] >= options.alpha_cutoff {
+                            res.stats.terminated_early = 1;
+                            steps_this_ray += steps;
+                            break 'walks;
+                        }
+                    }
+                }
+                let next = self.neighbors[tet][f_out];
+                if next == NO_NEIGHBOR {
+                    break;
+                }
+                let back = self.neighbors[next as usize].iter().position(|&n| n as usize == tet);
+                let Some(back) = back else {
+                    res.stats.walk_failures += 1;
+                    break;
+                };
+                tet = next as usize;
+                f_in = back;
+                t_in = t_out;
+                s_in = s_out;
+            }
+            steps_this_ray += steps;
+        }
+        res.stats.steps = steps_this_ray;
+        res.stats.max_steps_per_ray = steps_this_ray;
+        res.stats.rays_hit = hit as u64;
+        res.rgba = acc;
+        res
+    }
+
+    /// Leaving `tet`, entered through face `f_in`: the exit face and, unless
+    /// the line lies in the exit face's plane, the exit parameter; and the
+    /// scalar there. `None` when no face qualifies (impossible for a
+    /// positively oriented tet entered consistently).
+    #[inline]
+    fn exit(&self, line: &Line, tet: usize, f_in: usize) -> Option<(usize, Option<f64>, f64)> {
+        let t = &self.tets[tet];
+        let p = |l: usize| &self.points[t[l] as usize];
+        // The exit face contains the vertex opposite the entry face (local
+        // index f_in); its edge on the entry face is already known to pass
+        // correctly, so only the three edges from that vertex decide.
+        let v = f_in;
+        let mut side = [(0.0f64, 0i8); 4];
+        for (w, s) in side.iter_mut().enumerate() {
+            if w != v {
+                *s = line_side(&line.o, &line.q, p(v), p(w));
+            }
+        }
+        for (f, &face) in FACE_OUTWARD.iter().enumerate() {
+            if f == f_in {
+                continue;
+            }
+            // Value of the oriented face edge x → y for the line, and whether
+            // it passes on the leaving (negative) side.
+            let mut vals = [0.0f64; 3];
+            let mut ok = true;
+            for e in 0..3 {
+                let (x, y) = (face[e], face[(e + 1) % 3]);
+                let (val, s) = if x == v {
+                    side[y]
+                } else if y == v {
+                    (-side[x].0, -side[x].1)
+                } else {
+                    (f64::NAN, -1) // the entry-face edge: computed below if needed
+                };
+                if s >= 0 {
+                    ok = false;
+                    break;
+                }
+                vals[e] = val;
+            }
+            if !ok {
+                continue;
+            }
+            // Barycentric weight of face vertex i is the value of the edge
+            // opposite it (edge i+1 → i+2), negated for the leaving side.
+            let mut w = [0.0f64; 3];
+            for (i, wi) in w.iter_mut().enumerate() {
+                let e = (i + 1) % 3;
+                let val = if vals[e].is_nan() {
+                    line_side(&line.o, &line.q, p(face[e]), p(face[(e + 1) % 3])).0
+                } else {
+                    vals[e]
+                };
+                *wi = (-val).max(0.0);
+            }
+            let ids = [t[face[0]], t[face[1]], t[face[2]]];
+            return Some(match self.point_on_face(line, ids, w) {
+                Some((tp, s)) => (f, Some(tp), s),
+                None => (f, None, 0.0),
+            });
+        }
+        None
+    }
+
+    /// Parameter and scalar of the point with barycentric weights `w` on the
+    /// triangle `ids`; `None` if the weights sum to zero.
+    #[inline]
+    fn point_on_face(&self, line: &Line, ids: [u32; 3], w: [f64; 3]) -> Option<(f64, f64)> {
+        let sum = w[0] + w[1] + w[2];
+        if !(sum > 0.0 && sum.is_finite()) {
+            return None;
+        }
+        let mut pos = DVec3::ZERO;
+        let mut s = 0.0;
+        for (id, wi) in ids.iter().zip(w) {
+            pos += DVec3::from(self.points[*id as usize]) * wi;
+            s += self.scalar[*id as usize] * wi;
+        }
+        let pos = pos / sum;
+        Some(((pos - line.origin).dot(line.unit), s / sum))
+    }
+}
+
+/// Builds a [`ReferenceRenderer`] and renders one image; keep the renderer
+/// instead when rendering several views of one mesh.
+///
+/// ```
+/// use tet_mesh::{build_adjacency, TetMesh};
+/// use tet_preint::{ColorNode, Emission, OpacityNode, TransferFunction};
+/// use tet_render::{render_reference, Camera, ReferenceOptions, ViewSpec};
+/// let mesh = TetMesh {
+///     points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+///     tets: vec![[0, 1, 2, 3]],
+///     scalar: vec![0.0; 4],
+///     scalar_name: "s".into(),
+///     point_fields: Vec::new(),
+/// };
+/// let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+/// let tf = TransferFunction::new(
+///     vec![ColorNode { x: 0.0, rgb: [1.0, 0.5, 0.25] }],
+///     vec![OpacityNode { x: 0.0, a: 2.0 }],
+///     1.0,
+///     Emission::Density,
+///     false,
+/// )?;
+/// // Looking down −z at the point (0.2, 0.2): the chord through the tet is 0.6.
+/// let view = ViewSpec {
+///     position: [0.2, 0.2, 5.0], focal_point: [0.2, 0.2, 0.0], view_up: [0.0, 1.0, 0.0],
+///     view_angle: 30.0, parallel: true, parallel_scale: 0.01, size: [1, 1],
+/// };
+/// let camera = Camera::new(&view)?;
+/// let (img, stats) = render_reference(&mesh, &adj, &camera, &tf, &ReferenceOptions::default(), &|_, _| {})?;
+/// let alpha = 1.0 - (-2.0f64 * 0.6).exp();
+/// assert!((img.pixel(0, 0)[3] as f64 - alpha).abs() < 1e-6);
+/// assert_eq!(stats.walk_failures, 0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn render_reference(
+    mesh: &TetMesh,
+    adjacency: &Adjacency,
+    camera: &Camera,
+    tf: &TransferFunction,
+    options: &ReferenceOptions,
+    progress: &(dyn Fn(u32, u32) + Sync),
+) -> Result<(Image, ReferenceStats), RenderError> {
+    ReferenceRenderer::new(mesh, adjacency)?.render(camera, tf, options, progress)
+}

@@ -1,0 +1,80 @@
+//! Command line: subcommands and exit codes.
+
+use clap::{Parser, Subcommand};
+
+/// Render tetkit bundles: projected tetrahedra on the CPU with an exact
+/// visibility order (MPVO), per-fragment segment integration, HDR tone
+/// mapping, and a float image for measurement.
+///
+/// Exit codes: 0 ok, 2 bad command line or unusable transfer function /
+/// method, 3 unreadable bundle or view, 5 output I/O, 1 anything else.
+#[derive(Debug, Parser)]
+#[command(name = "tetview", version, about, long_about)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Render a bundle to PNG (and optionally a float .npy).
+    Render(crate::render::RenderArgs),
+    /// Exact ray-cast reference render (ground truth for `tetview diff`).
+    Reference(crate::reference::ReferenceArgs),
+    /// Compare two images (.npy float or .png): RMSE, max/mean abs, 8-bit max after display.
+    Diff(crate::diff::DiffArgs),
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(args) => crate::render::run(&args),
+        Command::Reference(args) => crate::reference::run(&args),
+        Command::Diff(args) => crate::diff::run(&args),
+    }
+}
+
+/// A command line that parses but cannot be carried out (exit code 2).
+#[derive(Debug)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+impl std::error::Error for UsageError {}
+
+/// Input that cannot be read (exit code 3).
+#[derive(Debug)]
+pub struct InputError(pub String);
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+impl std::error::Error for InputError {}
+
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        if cause.downcast_ref::<UsageError>().is_some() || cause.downcast_ref::<tet_preint::TfError>().is_some() {
+            return 2;
+        }
+        if cause.downcast_ref::<InputError>().is_some() || cause.downcast_ref::<tet_bundle::BundleError>().is_some() {
+            return 3;
+        }
+        if let Some(r) = cause.downcast_ref::<tet_render::RenderError>() {
+            return match r {
+                tet_render::RenderError::View(_) => 2,
+                tet_render::RenderError::Io { .. }
+                | tet_render::RenderError::Png(_)
+                | tet_render::RenderError::Npy { .. } => 5,
+                _ => 1,
+            };
+        }
+        if cause.downcast_ref::<std::io::Error>().is_some() {
+            return 5;
+        }
+    }
+    1
+}

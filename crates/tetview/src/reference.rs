@@ -1,0 +1,222 @@
+//! `tetview reference BUNDLE --tf T`: the exact ray-cast reference render
+//! (the same as `tetview render --reference`), the ground truth for
+//! `tetview diff`.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+use tet_bundle::Bundle;
+use tet_preint::TransferFunction;
+use tet_render::{Camera, Display, ReferenceOptions, ReferenceRenderer, ToneMap, ViewSpec};
+
+#[derive(Debug, Clone, Args)]
+pub struct ReferenceArgs {
+    /// The bundle (.tetb) to render.
+    pub bundle: PathBuf,
+    /// Transfer function JSON (formats/tf.md); a normalized one is mapped
+    /// onto the bundle's scalar range (or --range).
+    #[arg(long)]
+    pub tf: PathBuf,
+    /// Scalar range LO,HI for a normalized transfer function.
+    #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
+    pub range: Option<(f64, f64)>,
+    /// Camera JSON (VTK semantics); without it the bounds are framed.
+    #[arg(long)]
+    pub view: Option<PathBuf>,
+    /// Image size WxH (default: the view's, else 512x512).
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<[u32; 2]>,
+    /// Orbit the camera: degrees about view-up, then elevation, then zoom.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub azimuth: f64,
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub elevation: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub zoom: f64,
+    /// Parallel projection (with the framing's parallel scale unless --view sets one).
+    #[arg(long)]
+    pub parallel: bool,
+    /// PNG output (8-bit sRGB after tone mapping, over --background).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Float output: NumPy .npy, float32 H×W×4 linear premultiplied RGBA, row 0 at the top.
+    #[arg(long)]
+    pub float: Option<PathBuf>,
+    /// Background for the PNG, linear R,G,B.
+    #[arg(long, value_parser = crate::diff::parse_rgb, default_value = "0,0,0")]
+    pub background: [f32; 3],
+    /// PNG display: none (linear colour clamped) or reinhard.
+    #[arg(long, default_value = "reinhard", value_parser = ["none", "reinhard"])]
+    pub tonemap: String,
+    /// Reinhard exposure.
+    #[arg(long, default_value_t = 1.0)]
+    pub exposure: f32,
+    /// Integrate every ray to its end (default: stop at α ≥ 1 − 1e-9).
+    #[arg(long)]
+    pub no_early_termination: bool,
+    /// Write the camera actually used as JSON (for `tetview render --view`, VTK, ParaView).
+    #[arg(long)]
+    pub save_view: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
+    let v: Vec<&str> = s.split(',').collect();
+    let [lo, hi] = v.as_slice() else { return Err(format!("{s}: expected LO,HI")) };
+    let lo: f64 = lo.trim().parse().map_err(|e| format!("{s}: {e}"))?;
+    let hi: f64 = hi.trim().parse().map_err(|e| format!("{s}: {e}"))?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(format!("{s}: need finite LO < HI"));
+    }
+    Ok((lo, hi))
+}
+
+fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s}: expected WxH, e.g. 512x512"))?;
+    let w: u32 = w.trim().parse().map_err(|e| format!("{s}: {e}"))?;
+    let h: u32 = h.trim().parse().map_err(|e| format!("{s}: {e}"))?;
+    let max = tet_render::camera::MAX_IMAGE_SIDE;
+    if w == 0 || h == 0 || w > max || h > max {
+        return Err(format!("{s}: each side must be 1..={max}"));
+    }
+    Ok([w, h])
+}
+
+pub fn run(args: &ReferenceArgs) -> Result<()> {
+    if args.output.is_none() && args.float.is_none() {
+        bail!("nothing to write: give -o out.png and/or --float out.npy");
+    }
+    let bundle = Bundle::read(&args.bundle)?;
+    let mesh = &bundle.mesh;
+    let text = std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display()))?;
+    let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", args.tf.display()))?;
+    let (smin, smax) = mesh.scalar.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &s| (a.min(s), b.max(s)));
+    match (tf.normalized(), args.range) {
+        (true, Some((lo, hi))) => tf = tf.denormalize(lo, hi)?,
+        (true, None) => {
+            tf = tf.denormalize(smin, smax).with_context(|| {
+                format!("{} is normalized but the scalar is constant ({smin}): give --range LO,HI", args.tf.display())
+            })?
+        }
+        (false, Some(_)) => bail!("--range is only for normalized transfer functions"),
+        (false, None) => {}
+    }
+
+    let mut spec = match &args.view {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display()))?
+        }
+        None => {
+            let (lo, hi) = bounds(&mesh.points);
+            ViewSpec::framing(lo, hi, [512, 512])
+        }
+    };
+    if let Some(size) = args.size {
+        spec.size = size;
+    }
+    if args.parallel {
+        spec.parallel = true;
+    }
+    spec = spec.orbit(args.azimuth, args.elevation, args.zoom);
+    let camera = Camera::new(&spec)?;
+    if let Some(p) = &args.save_view {
+        std::fs::write(p, spec.to_json()).with_context(|| format!("writing {}", p.display()))?;
+    }
+
+    let t0 = Instant::now();
+    let renderer = ReferenceRenderer::new(mesh, &bundle.adjacency)?;
+    let setup_s = t0.elapsed().as_secs_f64();
+    let options = ReferenceOptions { early_termination: !args.no_early_termination, ..Default::default() };
+    let bar = indicatif::ProgressBar::new(camera.height() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("reference {bar:30} {pos}/{len} rows, {elapsed_precise} (eta {eta})")
+            .expect("valid template"),
+    );
+    let t1 = Instant::now();
+    let (image, stats) = renderer.render(&camera, &tf, &options, &|done, _| bar.set_position(done as u64))?;
+    let render_s = t1.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    if let Some(p) = &args.float {
+        image.write_npy(p)?;
+    }
+    if let Some(p) = &args.output {
+        let tonemap = match args.tonemap.as_str() {
+            "none" => ToneMap::None,
+            _ => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
+        };
+        image.write_png(p, &Display { background: args.background, tonemap })?;
+    }
+    let seg_per_s = stats.segments as f64 / render_s.max(1e-9);
+    // writeln! rather than println!: a closed pipe is an error, not a panic.
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        let j = serde_json::json!({
+            "bundle": args.bundle.display().to_string(),
+            "tets": mesh.tets.len(),
+            "size": spec.size,
+            "setup_s": setup_s,
+            "render_s": render_s,
+            "rays": stats.rays,
+            "rays_hit": stats.rays_hit,
+            "entries": stats.entries,
+            "steps": stats.steps,
+            "segments": stats.segments,
+            "segments_per_s": seg_per_s,
+            "terminated_early": stats.terminated_early,
+            "walk_failures": stats.walk_failures,
+            "max_steps_per_ray": stats.max_steps_per_ray,
+            "view": spec,
+            "png": args.output.as_ref().map(|p| p.display().to_string()),
+            "float": args.float.as_ref().map(|p| p.display().to_string()),
+        });
+        writeln!(out, "{}", serde_json::to_string_pretty(&j)?)?;
+    } else {
+        writeln!(
+            out,
+            "reference: {}x{}, {} tets, boundary hierarchy {:.3} s, render {:.3} s",
+            spec.size[0],
+            spec.size[1],
+            mesh.tets.len(),
+            setup_s,
+            render_s
+        )?;
+        writeln!(
+            out,
+            "  {} rays ({} hit), {} segments ({:.2} M segments/s), {} stopped early, {} walk failures",
+            stats.rays,
+            stats.rays_hit,
+            stats.segments,
+            seg_per_s / 1e6,
+            stats.terminated_early,
+            stats.walk_failures
+        )?;
+        for p in [&args.output, &args.float].into_iter().flatten() {
+            writeln!(out, "  wrote {}", p.display())?;
+        }
+    }
+    if stats.walk_failures > 0 {
+        eprintln!(
+            "warning: {} ray walks failed (the adjacency does not match the geometry); those rays are incomplete",
+            stats.walk_failures
+        );
+    }
+    Ok(())
+}
+
+fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}

@@ -1,0 +1,248 @@
+//! `tetview render`: one image of a bundle.
+
+use crate::cli::{InputError, UsageError};
+use anyhow::{Context, Result};
+use std::path::PathBuf;
+use std::sync::Arc;
+use tet_bundle::Bundle;
+use tet_preint::{ExactShader, Method, PtLinearShader, SegmentShader, TransferFunction};
+use tet_render::{Display, Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ToneMap, ViewSpec};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ToneMapArg {
+    None,
+    Reinhard,
+}
+
+/// Render BUNDLE with a transfer function and method (or a baked table).
+#[derive(Debug, clap::Args)]
+pub struct RenderArgs {
+    /// The bundle (.tetb) written by `tetprep convert`.
+    pub bundle: PathBuf,
+    /// Transfer function JSON (formats/tf.md); a normalized TF is mapped
+    /// onto --range, or the bundle's scalar range.
+    #[arg(long, required_unless_present = "lut")]
+    pub tf: Option<PathBuf>,
+    /// Method id: exact, pt-linear (built); table3d, atlas2d, poly1, poly2,
+    /// poly4, partial, biv-exact, biv-approx (tables, not built in this build).
+    #[arg(long, default_value = "pt-linear")]
+    pub method: String,
+    /// Pre-integration tables (.tetl) instead of --tf/--method (not built yet).
+    #[arg(long, conflicts_with = "tf")]
+    pub lut: Option<PathBuf>,
+    /// Scalar range LO,HI for a normalized transfer function.
+    #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
+    pub range: Option<(f64, f64)>,
+    /// View JSON (VTK camera fields; see `--save-view`).
+    #[arg(long, conflicts_with_all = ["azimuth", "elevation", "zoom"])]
+    pub view: Option<PathBuf>,
+    /// Degrees about the view-up, from the default view that frames the bounds.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub azimuth: f64,
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub elevation: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub zoom: f64,
+    /// Parallel projection for the default view.
+    #[arg(long)]
+    pub parallel: bool,
+    /// Image size WxH (default 512x512, or the view file's).
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<[u32; 2]>,
+    /// Linear background colour r,g,b under the volume.
+    #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
+    pub background: [f32; 3],
+    #[arg(long, value_enum, default_value = "reinhard")]
+    pub tonemap: ToneMapArg,
+    /// Exposure multiplier for Reinhard tone mapping.
+    #[arg(long, default_value_t = 1.0)]
+    pub exposure: f32,
+    /// Visibility order: mpvo (exact on convex meshes), mpvonc (non-convex),
+    /// radix (centroid depth, approximate), auto.
+    #[arg(long, default_value = "auto")]
+    pub sort: SortMethod,
+    /// Blinn–Phong headlight with per-vertex gradients as normals.
+    #[arg(long)]
+    pub light: bool,
+    /// Silhouette enhancement exponent p: α·(1 − |ĝ·v|)^p.
+    #[arg(long)]
+    pub silhouette: Option<f32>,
+    /// Draw every tet (turn off culling of invisible cells).
+    #[arg(long)]
+    pub no_cull: bool,
+    /// Output PNG (8-bit sRGB after tone mapping, over the background).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write linear premultiplied RGBA as float32 .npy (H×W×4, row 0 at the top).
+    #[arg(long = "float")]
+    pub float: Option<PathBuf>,
+    /// Write the view used as JSON (reusable with --view, and in ParaView).
+    #[arg(long)]
+    pub save_view: Option<PathBuf>,
+    /// Print statistics as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_pair(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(',').ok_or("expected LO,HI")?;
+    let p = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"));
+    Ok((p(a)?, p(b)?))
+}
+
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 512x512")?;
+    let p = |x: &str| x.trim().parse::<u32>().map_err(|e| format!("{x:?}: {e}"));
+    Ok([p(w)?, p(h)?])
+}
+
+fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> =
+        s.split(',').map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
+        _ => Err("expected three non-negative numbers r,g,b".into()),
+    }
+}
+
+/// What a table method may be asked about: the (Sf, Sb, l) domain the
+/// bundle can produce.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShaderDomain {
+    pub scalar_range: [f64; 2],
+    /// Longest segment through one cell (the largest cell diameter).
+    pub max_len_world: f64,
+    /// Per-vertex |∇s| range, when the bundle has gradients.
+    pub grad_range: Option<[f64; 2]>,
+}
+
+/// The shader of a method. Table methods construct here once their crates
+/// land: one match arm each.
+pub fn make_shader(method: Method, tf: &TransferFunction, _domain: &ShaderDomain) -> Result<Box<dyn SegmentShader>> {
+    match method {
+        Method::Exact => Ok(Box::new(ExactShader::new(tf.clone()))),
+        Method::PtLinear => Ok(Box::new(PtLinearShader::new(tf.clone()))),
+        m => Err(UsageError(format!("method {m}: tables not built in this build (built: exact, pt-linear)")).into()),
+    }
+}
+
+pub fn run(args: &RenderArgs) -> Result<()> {
+    if let Some(l) = &args.lut {
+        return Err(UsageError(format!(
+            "--lut {}: .tetl tables are not built in this build; use --tf with --method exact or pt-linear",
+            l.display()
+        ))
+        .into());
+    }
+    let method: Method = args.method.parse().map_err(|e: tet_preint::UnknownMethod| UsageError(e.to_string()))?;
+    let tf_path = args.tf.as_ref().ok_or_else(|| UsageError("--tf is required".into()))?;
+    let bundle = Bundle::read(&args.bundle)?;
+    let text = std::fs::read_to_string(tf_path).with_context(|| format!("reading {}", tf_path.display()))?;
+    let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", tf_path.display()))?;
+    let stats = &bundle.meta.stats;
+    if tf.normalized() {
+        let (lo, hi) = args.range.unwrap_or((stats.scalar_min, stats.scalar_max));
+        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
+        tf = tf.denormalize(lo, hi)?;
+    } else if args.range.is_some() {
+        return Err(UsageError("--range is only for normalized transfer functions".into()).into());
+    }
+
+    let shading = Shading { light: args.light.then(Light::default), silhouette: args.silhouette };
+    if let Some(p) = args.silhouette {
+        if !(p >= 0.0 && p.is_finite()) {
+            return Err(UsageError(format!("--silhouette {p}: need a finite exponent ≥ 0")).into());
+        }
+    }
+    let mut scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
+    if shading.is_active() || method.is_bivariate() {
+        scene = scene.ensure_gradients()?;
+    }
+    let domain = ShaderDomain {
+        scalar_range: scene.scalar_range(),
+        max_len_world: stats.max_cell_diameter,
+        grad_range: scene
+            .gradient_magnitudes()
+            .map(|g| g.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &v| [a.min(v), b.max(v)])),
+    };
+    let shader: Arc<dyn SegmentShader> = make_shader(method, &tf, &domain)?.into();
+
+    let view = match &args.view {
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).map_err(|e| InputError(format!("reading view {}: {e}", p.display())))?;
+            let mut v = ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display()))?;
+            if let Some(s) = args.size {
+                v.size = s;
+            }
+            v
+        }
+        None => {
+            let (lo, hi) = scene.bounds();
+            let mut v = ViewSpec::framing(lo, hi, args.size.unwrap_or([512, 512]));
+            v.parallel = args.parallel;
+            v.orbit(args.azimuth, args.elevation, args.zoom)
+        }
+    };
+
+    let mut r = Renderer::new(scene);
+    r.set_view(&view)?;
+    r.set_shader(shader);
+    r.set_sort(args.sort);
+    if !args.no_cull {
+        r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
+    }
+    r.set_raster_options(RasterOptions { shading, ..Default::default() });
+    let bar = if args.json { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(0) };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} tiles")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_message("rendering");
+    let (image, st) = r.render(&|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+
+    let display = Display {
+        background: args.background,
+        tonemap: match args.tonemap {
+            ToneMapArg::None => ToneMap::None,
+            ToneMapArg::Reinhard => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
+        },
+    };
+    image.write_png(&args.output, &display)?;
+    if let Some(p) = &args.float {
+        image.write_npy(p)?;
+    }
+    if let Some(p) = &args.save_view {
+        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display()))?;
+    }
+    if args.json {
+        let mut v = serde_json::to_value(&st)?;
+        v["method"] = method.id().into();
+        v["tets_per_second"] = st.tets_per_second().into();
+        v["output"] = args.output.display().to_string().into();
+        v["size"] = serde_json::json!(view.size);
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        eprintln!(
+            "{}: {} of {} tets drawn ({:.1}% culled, sort {}{}), {}x{} in {:.3} s (sort {:.3} s, raster {:.3} s) → {}",
+            method,
+            st.tets_drawn,
+            st.tets_total,
+            100.0 * st.fraction_culled,
+            st.sort_method,
+            if st.cycles_broken > 0 { format!(", {} cycles broken", st.cycles_broken) } else { String::new() },
+            view.size[0],
+            view.size[1],
+            st.total_seconds,
+            st.sort_seconds,
+            st.raster_seconds,
+            args.output.display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,156 @@
+//! `tetview render` end to end on a tiny bundle.
+use std::path::Path;
+use std::process::Command;
+use tet_bundle::{Bundle, BundleMeta};
+use tet_mesh::{build_adjacency, TetMesh};
+
+fn bundle(dir: &Path) -> std::path::PathBuf {
+    // A cube of 5 tets with a linear scalar.
+    let points = vec![
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0., 1., 1.],
+    ];
+    let tets = vec![[0, 1, 3, 4], [1, 2, 3, 6], [1, 6, 4, 5], [3, 4, 6, 7], [1, 3, 4, 6]];
+    let tets = tets
+        .into_iter()
+        .map(|mut t: [u32; 4]| {
+            let p = |i: usize| points[t[i] as usize];
+            let d = |a: [f64; 3], b: [f64; 3]| [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let (a, b, c) = (d(p(0), p(1)), d(p(0), p(2)), d(p(0), p(3)));
+            let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]);
+            if det < 0.0 {
+                t.swap(2, 3);
+            }
+            t
+        })
+        .collect();
+    let scalar = points.iter().map(|p| p[0] + 0.5 * p[1]).collect();
+    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
+    let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let meta = BundleMeta { stats: tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar), ..Default::default() };
+    let path = dir.join("cube.tetb");
+    Bundle::new(mesh, adjacency, meta).write(&path).unwrap();
+    path
+}
+
+fn tf(dir: &Path) -> std::path::PathBuf {
+    let p = dir.join("tf.json");
+    std::fs::write(&p, r#"{"normalized": true, "color": [[0, 0, 0, 1], [1, 1, 0.5, 0]], "opacity": [[0, 0.5], [1, 3]], "unit_distance": 1}"#).unwrap();
+    p
+}
+
+fn tetview(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tetview")).args(args).output().unwrap()
+}
+
+#[test]
+fn renders_png_npy_and_view_with_json_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let (png, npy, view) = (dir.path().join("a.png"), dir.path().join("a.npy"), dir.path().join("v.json"));
+    for method in ["pt-linear", "exact"] {
+        let out = tetview(&[
+            "render",
+            b.to_str().unwrap(),
+            "--tf",
+            t.to_str().unwrap(),
+            "--method",
+            method,
+            "--size",
+            "40x30",
+            "--azimuth",
+            "30",
+            "--elevation",
+            "-20",
+            "-o",
+            png.to_str().unwrap(),
+            "--float",
+            npy.to_str().unwrap(),
+            "--save-view",
+            view.to_str().unwrap(),
+            "--json",
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(stats["tets_drawn"], 5);
+        assert_eq!(stats["sort_method"], "mpvo");
+        assert_eq!(stats["method"], method);
+        let img = tet_render::Image::read_npy(&npy).unwrap();
+        assert_eq!((img.width(), img.height()), (40, 30));
+        assert!(img.pixels().iter().any(|p| p[3] > 0.2));
+        assert!(std::fs::metadata(&png).unwrap().len() > 100);
+    }
+    // The saved view reproduces the image.
+    let npy2 = dir.path().join("b.npy");
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--method",
+        "exact",
+        "--view",
+        view.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--float",
+        npy2.to_str().unwrap(),
+        "--tonemap",
+        "none",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(tet_render::Image::read_npy(&npy).unwrap(), tet_render::Image::read_npy(&npy2).unwrap());
+}
+
+#[test]
+fn unbuilt_methods_and_bad_input_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let png = dir.path().join("a.png");
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--method",
+        "poly2",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("method poly2: tables not built in this build"));
+    let out = tetview(&["render", b.to_str().unwrap(), "--lut", "x.tetl", "-o", png.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not built"));
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--method",
+        "table4d",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = tetview(&["render", "missing.tetb", "--tf", t.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--size",
+        "0x10",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+}

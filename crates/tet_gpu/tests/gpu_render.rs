@@ -218,3 +218,35 @@ fn bad_input_is_an_error_not_a_panic() {
     let img = renderer.render(&ctx, &scene, &cam, &[], &shader).unwrap().image;
     assert!(img.pixels().iter().all(|p| *p == [0.0; 4]));
 }
+
+/// Against tet_render's CPU projected-tetrahedra renderer with the same
+/// (MPVO) order: table3d per fragment, and pt-linear's interpolated thick
+/// point.
+#[test]
+fn grid_matches_the_cpu_pt_renderer() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(8);
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let table = std::sync::Arc::new(table_for(&mesh));
+    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let mut cpu = tet_render::Renderer::new(cpu_scene);
+    let shaders: [(GpuShader, std::sync::Arc<dyn tet_preint::SegmentShader>); 2] = [
+        (GpuShader::table3d(&ctx, &table).unwrap(), table.clone()),
+        (GpuShader::pt_linear(&ctx, &tf()).unwrap(), std::sync::Arc::new(PtLinearShader::new(tf()))),
+    ];
+    for (az, el) in [(30.0, 20.0), (-130.0, -40.0)] {
+        let (lo, hi) = mesh.bounds();
+        let spec = ViewSpec::framing(lo, hi, [120, 100]).orbit(az, el, 1.0);
+        let cam = Camera::new(&spec).unwrap();
+        cpu.set_view(&spec).unwrap();
+        for (gpu_shader, cpu_shader) in &shaders {
+            cpu.set_shader(cpu_shader.clone());
+            let (want, _) = cpu.render(&|_, _| {}).unwrap();
+            let order = cpu.order().unwrap().tets.clone();
+            let got = renderer.render(&ctx, &scene, &cam, &order, gpu_shader).unwrap().image;
+            let d = report(&format!("grid 8³×5 {} vs CPU PT az {az} el {el}", gpu_shader.method_id()), &got, &want);
+            assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+        }
+    }
+}

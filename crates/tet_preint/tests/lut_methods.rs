@@ -87,6 +87,22 @@ fn every_method_round_trips_and_matches_the_in_memory_shader() {
 }
 
 #[test]
+fn normalized_widget_tf_survives_the_header() {
+    // Unbounded clip sides must stay finite (±f64::MAX) after denormalizing.
+    let tf = TransferFunction::from_json(
+        r#"{"normalized": true, "color": [[0, 1, 1, 1]], "opacity": [[0, 0.1]], "unit_distance": 1,
+            "widgets": [{"type": "gaussian", "center": [0.5, 1.0], "width": [0.1, 0.5], "color": [1, 1, 0],
+                         "opacity": 3}]}"#,
+    )
+    .unwrap();
+    let domain = TableDomain::new(0.0, 6.0, 5.0, 2.0).unwrap();
+    let lut = bake(Method::BivApprox, &tf, &domain, &opts(Precision::F32)).unwrap();
+    let back = LutFile::from_bytes(&lut.to_bytes(), Path::new("w.tetl")).unwrap();
+    assert_eq!(back.transfer_function().unwrap(), tf.denormalize(0.0, 6.0).unwrap());
+    assert!(load_shader(&back, Path::new("w.tetl")).is_ok());
+}
+
+#[test]
 fn f16_poly_files_are_half_the_size_and_stay_accurate() {
     let domain = TableDomain::new(0.0, 1.0, 0.4, 2.0).unwrap();
     // At 64² the 8 KB α table no longer dominates.

@@ -44,9 +44,6 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
             let opts = args.table.options(args.method)?;
             let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
             let (domain, _) = args.domain.resolve(&tf, tabulated)?;
-            if !tf.normalized() && args.domain.range.is_some() && !tabulated {
-                return Err(usage("--range is only for normalized transfer functions (or tables)"));
-            }
             Baked::build(args.method, &tf, &domain, &opts)
                 .with_context(|| format!("cannot bake {}", args.method))
                 .code(BAKE)?

@@ -7,6 +7,8 @@
 //! [`reference_segment`] for `biv-*`. Two segment sets: random rays through
 //! random cells of the bundle (`sample_cell_segments`) and triples uniform
 //! over the baked domain (`uniform_triples`; |∇s| uniform over [0, max]).
+//! The table also gives each method's shading cost per segment on one
+//! thread (the run-time side of the trade-off the bake-time plot omits).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -119,6 +121,27 @@ fn references_2d(tf: &TransferFunction, segs: &[Segment]) -> Vec<[f64; 4]> {
     segs.par_iter().map(|s| reference_segment(tf, &Seg2::from(s), 1e-10).to_array()).collect()
 }
 
+/// Nanoseconds per `shade` call on one thread over up to 100 000 segments
+/// (best of 3 passes).
+fn shade_cost(baked: &Baked, segs: &[Segment]) -> f64 {
+    let segs = &segs[..segs.len().min(100_000)];
+    if segs.is_empty() {
+        return f64::NAN;
+    }
+    let sh = baked.shader();
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let t = Instant::now();
+        let mut acc = 0.0f32;
+        for s in segs {
+            acc += sh.shade(s)[3];
+        }
+        std::hint::black_box(acc);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    best * 1e9 / segs.len() as f64
+}
+
 /// One benchmark row.
 struct Row {
     method: Method,
@@ -127,6 +150,8 @@ struct Row {
     bake_s: f64,
     memory: usize,
     full_memory: usize,
+    /// Single-thread shading cost, ns per segment (cells set).
+    shade_ns: f64,
     /// (set name, rms, max) per segment set.
     err: Vec<(&'static str, f64, f64)>,
 }
@@ -160,10 +185,15 @@ fn sweep(method: Method, quick: bool) -> Vec<(BakeOptions, String)> {
             .into_iter()
             .map(|n| (BakeOptions { poly_res: n, ..base }, n.to_string()))
             .collect(),
-        Method::BivApprox => pick(&[16, 32, 64, 128], &[16, 32])
-            .into_iter()
-            .map(|n| (BakeOptions { fb_res: n, ..base }, n.to_string()))
-            .collect(),
+        Method::BivApprox => {
+            // Table side and sub-segment count k (the error is mostly k's).
+            let pairs: &[(usize, usize)] =
+                if quick { &[(16, 4), (32, 16)] } else { &[(16, 4), (64, 4), (128, 4), (64, 16), (64, 64)] };
+            pairs
+                .iter()
+                .map(|&(n, k)| (BakeOptions { fb_res: n, biv_subsegments: k, ..base }, format!("{n}/k{k}")))
+                .collect()
+        }
     }
 }
 
@@ -295,6 +325,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 baked = Some(b);
             }
             let baked = baked.expect("repeat ≥ 1");
+            let shade_ns = shade_cost(&baked, &sets[0].segs);
             let err = sets
                 .iter()
                 .map(|s| {
@@ -309,6 +340,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 bake_s: best,
                 memory: baked.memory_bytes(),
                 full_memory: baked.full_memory_bytes(),
+                shade_ns,
                 err,
             });
             bar.inc(1);
@@ -337,18 +369,19 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     println!();
     println!(
-        "| method | resolution | bake ms | memory | full domain | cells RMS | cells max | uniform RMS | uniform max |"
+        "| method | resolution | bake ms | memory | full domain | shade ns | cells RMS | cells max | uniform RMS | uniform max |"
     );
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let e = |i: usize| r.err.get(i).map_or((f64::NAN, f64::NAN), |e| (e.1, e.2));
         println!(
-            "| {} | {} | {:.2} | {} | {} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |",
+            "| {} | {} | {:.2} | {} | {} | {:.0} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |",
             r.method,
             r.res,
             r.bake_s * 1e3,
             human_bytes(r.memory),
             human_bytes(r.full_memory),
+            r.shade_ns,
             e(0).0,
             e(0).1,
             e(1).0,
@@ -372,6 +405,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 "bake_seconds": r.bake_s,
                 "memory_bytes": r.memory,
                 "full_domain_memory_bytes": r.full_memory,
+                "shade_ns_per_segment": r.shade_ns,
                 "errors": r.err.iter().map(|e| json!({"set": e.0, "rms": e.1, "max": e.2})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
         });

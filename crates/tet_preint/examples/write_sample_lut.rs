@@ -1,6 +1,7 @@
 //! Regenerates `formats/samples/mild8.tetl` (a table3d of 8 × 8 × 4 in f16
 //! for `crates/tet_preint/tests/data/vtk/tf_mild.json` over s ∈ [0, 1],
-//! |Sf − Sb| ≤ 0.5, l ≤ 2). Run only when the format version changes:
+//! |Sf − Sb| ≤ 0.5, l ≤ 2) and `formats/samples/mild_poly2.tetl` (poly2 at
+//! 16² in f16, same TF and domain). Run only when the format version changes:
 //! `cargo run -p tet_preint --example write_sample_lut`
 use tet_preint::table3d::{Build3d, Table3dParams};
 use tet_preint::{bake, BakeOptions, Method, Precision, TableDomain, TransferFunction};
@@ -15,6 +16,12 @@ fn main() {
     };
     let lut = bake(Method::Table3d, &tf, &domain, &opts).expect("bake");
     let path = std::path::Path::new(root).join("formats/samples/mild8.tetl");
+    lut.write(&path).expect("write");
+    println!("wrote {}", path.display());
+    // poly2 at 16² in f16 over the same domain.
+    let opts = BakeOptions { poly_res: 16, precision_2d: Precision::F16, ..Default::default() };
+    let lut = bake(Method::Poly2, &tf, &domain, &opts).expect("bake");
+    let path = std::path::Path::new(root).join("formats/samples/mild_poly2.tetl");
     lut.write(&path).expect("write");
     println!("wrote {}", path.display());
 }

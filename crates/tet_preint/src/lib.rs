@@ -38,6 +38,8 @@
 //! * [`PsiTable`] + [`PartialShader`] (module [`partial`]): partial
 //!   pre-integration.
 //! * [`table_error`] (module [`error`]): RMS and max error against `exact`.
+//! * [`make_shader`] and [`Baked`] (module [`factory`]): any method id to a
+//!   ready shader, baking on the fly with [`BakeOptions`]' resolutions.
 //!
 //! ```
 //! use tet_preint::{table_error, uniform_triples, Table3d, Table3dParams, TableDomain, TransferFunction};
@@ -59,6 +61,7 @@ pub mod bivariate;
 pub mod domain;
 pub mod error;
 pub mod exact;
+pub mod factory;
 pub mod lut_file;
 pub mod method;
 pub mod partial;
@@ -74,7 +77,10 @@ pub use bivariate::{BivApprox, BivExact, FbTable};
 pub use domain::{TableDomain, TableError};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
-pub use lut_file::{bake, load_shader, BakeOptions, LutError, LutFile, LutHeader, SectionInfo};
+pub use factory::{make_shader, tf_for_domain, Baked};
+pub use lut_file::{
+    bake, load_shader, BakeOptions, FbFileParams, LutError, LutFile, LutHeader, PolyFileParams, SectionInfo,
+};
 pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
 pub use partial::{PartialShader, PsiParams, PsiTable};
 pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};

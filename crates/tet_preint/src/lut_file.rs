@@ -9,12 +9,15 @@
 //! unorm scale) per data section, so new table kinds need no format change.
 
 use crate::atlas2d::{Atlas2d, Atlas2dParams};
+use crate::bivariate::{BivApprox, BivExact, FbTable};
 use crate::domain::{TableDomain, TableError};
-use crate::method::{Method, SegmentShader};
+use crate::factory::{tf_for_domain, Baked, MAX_SUBSEGMENTS};
+use crate::method::{ExactShader, Method, PtLinearShader, SegmentShader};
 use crate::partial::{PartialShader, PsiParams, PsiTable};
+use crate::poly::{AlphaTable, PolyTable};
 use crate::precision::{Precision, Storage};
 use crate::table3d::{Table3d, Table3dParams};
-use crate::tf::{Emission, TransferFunction};
+use crate::tf::TransferFunction;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -404,7 +407,8 @@ fn align(n: usize) -> usize {
     n.div_ceil(ALIGN) * ALIGN
 }
 
-/// What `tetlut bake` asks for; unused fields are ignored by a method.
+/// What `tetlut bake` and [`crate::make_shader`] ask for; each method reads
+/// only its own fields.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BakeOptions {
     /// `table3d` and `atlas2d` (which resamples a table3d).
@@ -413,11 +417,30 @@ pub struct BakeOptions {
     pub atlas_planes_quarters: usize,
     /// `partial`: Ψ table.
     pub psi: PsiParams,
+    /// `poly1`/`poly2`/`poly4`: table side N (N × N over the scalar range).
+    pub poly_res: usize,
+    /// `biv-approx`: F/B table side.
+    pub fb_res: usize,
+    /// `biv-approx`: equal sub-segments per segment (seed 004's k).
+    pub biv_subsegments: usize,
+    /// Storage of the poly tables (f32 or f16: their coefficients are
+    /// signed) and of the F/B table (any precision).
+    pub precision_2d: Precision,
 }
 
 impl Default for BakeOptions {
+    /// table3d 128 × 128 × 256 f32 (slice recurrence, o = 2); atlas2d N
+    /// planes; Ψ 1024² f32; poly 512² f32; F/B 128² f32 with 4 sub-segments.
     fn default() -> Self {
-        BakeOptions { table3d: Table3dParams::default(), atlas_planes_quarters: 4, psi: PsiParams::default() }
+        BakeOptions {
+            table3d: Table3dParams::default(),
+            atlas_planes_quarters: 4,
+            psi: PsiParams::default(),
+            poly_res: 512,
+            fb_res: 128,
+            biv_subsegments: 4,
+            precision_2d: Precision::F32,
+        }
     }
 }
 
@@ -425,63 +448,264 @@ impl Default for BakeOptions {
 pub const TABLE3D_SECTION: &str = "T3D";
 pub const ATLAS_SECTION: &str = "ATLAS";
 pub const PSI_SECTION: &str = "PSI";
+pub const POLY_RHO_SECTION: &str = "RHO";
+pub const POLY_COEF_SECTION: &str = "COEF";
+pub const POLY_ALPHA_SECTION: &str = "ALPHA";
+pub const FB_SECTION: &str = "FB";
 
-/// Bakes `method` for `tf` over `domain` into a `.tetl` in memory.
-/// Methods this module does not build (poly*, biv-*, exact, pt-linear) are
-/// an error.
+/// Bakes `method` for `tf` over `domain` into a `.tetl` in memory (through
+/// [`Baked::build`]: a normalized TF is mapped onto the domain's scalar
+/// range, and the header stores the TF in data units). `exact`, `pt-linear`
+/// and `biv-exact` tabulate nothing: their file holds the TF only.
 pub fn bake(
     method: Method,
     tf: &TransferFunction,
     domain: &TableDomain,
     opts: &BakeOptions,
 ) -> Result<LutFile, TableError> {
-    match method {
-        Method::Table3d => Ok(Table3d::build(tf, domain, &opts.table3d)?.to_lut(tf)),
-        Method::Atlas2d => {
-            let t = Table3d::build(tf, domain, &opts.table3d)?;
-            let params = Atlas2dParams::for_table(&t, opts.atlas_planes_quarters, opts.table3d.precision);
-            Ok(Atlas2d::build(&t, &params)?.to_lut(tf))
+    let tf = tf_for_domain(tf, domain)?;
+    Ok(Baked::build(method, &tf, domain, opts)?.to_lut(&tf, domain))
+}
+
+/// A shader for a baked file of any method.
+pub fn load_shader(lut: &LutFile, path: &Path) -> Result<Box<dyn SegmentShader>, LutError> {
+    Ok(Baked::from_lut(lut, path)?.into_shader())
+}
+
+/// `params` of the methods that tabulate nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+struct UntabulatedParams {
+    /// Always false: the shader evaluates the TF per segment.
+    tabulated: bool,
+}
+
+/// `params` of `poly1`/`poly2`/`poly4` files.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PolyFileParams {
+    pub degree: usize,
+    pub res: usize,
+    /// Band half-width in samples, `null` for the full square.
+    pub band: Option<usize>,
+    pub s_lo: f32,
+    pub s_hi: f32,
+    pub l_max: f32,
+    /// Largest κ per channel (the colour clamp).
+    pub max_color: [f32; 3],
+    /// Range of the 16-bit α table.
+    pub alpha_x_max: f32,
+    pub precision: Precision,
+}
+
+/// `params` of `biv-approx` files.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FbFileParams {
+    pub res: usize,
+    pub subsegments: usize,
+    pub precision: Precision,
+}
+
+fn header_error(what: String, path: &Path) -> LutError {
+    LutError::BadSection { section: HEADER_SECTION.into(), offset: 0, what, path: path.into() }
+}
+
+impl Baked {
+    /// The baked method as a `.tetl`; `tf` (data units) is stored in the
+    /// header, `domain` too where the method has none of its own.
+    pub fn to_lut(&self, tf: &TransferFunction, domain: &TableDomain) -> LutFile {
+        let untabulated = || serde_json::to_value(UntabulatedParams { tabulated: false }).expect("serializes");
+        match self {
+            Baked::Table3d(t) => t.to_lut(tf),
+            Baked::Atlas2d(t) => t.to_lut(tf),
+            Baked::Partial(s) => s.psi().to_lut(tf, domain),
+            Baked::Poly(t, precision) => t.to_lut(tf, domain, *precision),
+            Baked::BivApprox(s, precision) => fb_to_lut(s, tf, domain, *precision),
+            Baked::Exact(_) | Baked::PtLinear(_) | Baked::BivExact(_) => {
+                LutFile::new(self.method(), tf, Some(*domain), untabulated())
+            }
         }
-        Method::Partial => {
-            let mut psi = opts.psi;
-            psi.first_moment |= tf.emission() == Emission::Independent;
-            Ok(PsiTable::build(&psi)?.to_lut(tf, domain))
-        }
-        m => Err(TableError::Invalid(format!("method '{m}' is not baked by tet_preint's table module"))),
+    }
+
+    /// Rebuilds the baked method from a file, checking every section against
+    /// the header's params.
+    pub fn from_lut(lut: &LutFile, path: &Path) -> Result<Baked, LutError> {
+        let method: Method = lut.header.method.parse().map_err(|_| LutError::Method {
+            found: lut.header.method.clone(),
+            what: "is not a known method id".into(),
+            path: path.into(),
+        })?;
+        let tf = || lut.transfer_function().map_err(|e| header_error(format!("tf: {e}"), path));
+        let no_widgets = |tf: TransferFunction| {
+            if tf.widgets().is_empty() || method.is_bivariate() {
+                Ok(tf)
+            } else {
+                Err(header_error(format!("method {method} cannot hold a TF with 2D widgets"), path))
+            }
+        };
+        Ok(match method {
+            Method::Table3d => Baked::Table3d(Table3d::from_lut(lut, path)?),
+            Method::Atlas2d => Baked::Atlas2d(Atlas2d::from_lut(lut, path)?),
+            Method::Partial => {
+                let tf = no_widgets(tf()?)?;
+                let psi = Arc::new(PsiTable::from_lut(lut, path)?);
+                Baked::Partial(
+                    PartialShader::new(tf, psi)
+                        .map_err(|e| LutError::Damaged { what: e.to_string(), path: path.into() })?,
+                )
+            }
+            Method::Poly1 | Method::Poly2 | Method::Poly4 => {
+                let t = PolyTable::from_lut(lut, path)?;
+                let p: PolyFileParams = params_of(lut, method, path)?;
+                Baked::Poly(t, p.precision)
+            }
+            Method::BivApprox => {
+                let p: FbFileParams = params_of(lut, method, path)?;
+                Baked::BivApprox(fb_from_lut(lut, &tf()?, path)?, p.precision)
+            }
+            Method::Exact | Method::PtLinear | Method::BivExact => {
+                let _: UntabulatedParams = params_of(lut, method, path)?;
+                let tf = no_widgets(tf()?)?;
+                match method {
+                    Method::Exact => Baked::Exact(ExactShader::new(tf)),
+                    Method::PtLinear => Baked::PtLinear(PtLinearShader::new(tf)),
+                    _ => Baked::BivExact(BivExact::new(tf)),
+                }
+            }
+        })
     }
 }
 
-/// A shader for a baked file of method table3d, atlas2d or partial.
-pub fn load_shader(lut: &LutFile, path: &Path) -> Result<Box<dyn SegmentShader>, LutError> {
-    let method: Method = lut.header.method.parse().map_err(|_| LutError::Method {
-        found: lut.header.method.clone(),
-        what: "is not a known method id".into(),
-        path: path.into(),
-    })?;
-    Ok(match method {
-        Method::Table3d => Box::new(Table3d::from_lut(lut, path)?),
-        Method::Atlas2d => Box::new(Atlas2d::from_lut(lut, path)?),
-        Method::Partial => {
-            let tf = lut.transfer_function().map_err(|e| LutError::BadSection {
-                section: HEADER_SECTION.into(),
-                offset: 0,
-                what: format!("tf: {e}"),
-                path: path.into(),
-            })?;
-            let psi = Arc::new(PsiTable::from_lut(lut, path)?);
-            Box::new(
-                PartialShader::new(tf, psi)
-                    .map_err(|e| LutError::Damaged { what: e.to_string(), path: path.into() })?,
-            )
-        }
-        m => {
-            return Err(LutError::Method {
-                found: m.id().into(),
-                what: "has no table loader here".into(),
-                path: path.into(),
-            })
-        }
+/// Raw little-endian bytes of f32 values in `precision` (f32 or f16).
+fn push_f32s(
+    f: &mut LutFile,
+    name: &str,
+    dims: Vec<u64>,
+    values: &[f32],
+    precision: Precision,
+) -> Result<(), LutError> {
+    let channels = *dims.last().expect("dims") as usize;
+    f.push_storage(name, dims, &Storage::encode(values.to_vec(), channels, precision))
+}
+
+fn fb_to_lut(s: &BivApprox, tf: &TransferFunction, domain: &TableDomain, precision: Precision) -> LutFile {
+    let t = s.table();
+    let params = FbFileParams { res: t.res(), subsegments: s.subsegments(), precision };
+    let mut f = LutFile::new(Method::BivApprox, tf, Some(*domain), serde_json::to_value(params).expect("serializes"));
+    let fb: Vec<f32> = t.f().iter().zip(t.b()).flat_map(|(a, b)| [*a, *b]).collect();
+    let r = t.res() as u64;
+    push_f32s(&mut f, FB_SECTION, vec![r, r, 2], &fb, precision).expect("valid name");
+    f
+}
+
+fn fb_from_lut(lut: &LutFile, tf: &TransferFunction, path: &Path) -> Result<BivApprox, LutError> {
+    let p: FbFileParams = params_of(lut, Method::BivApprox, path)?;
+    let data = lut.storage(FB_SECTION, path)?;
+    let r = p.res;
+    if data.channels() != 2 || data.precision() != p.precision || Some(data.len()) != r.checked_mul(2 * r) {
+        return Err(layout_error(FB_SECTION, path));
+    }
+    let v = data.to_f32();
+    let (f, b): (Vec<f32>, Vec<f32>) = v.chunks_exact(2).map(|c| (c[0], c[1])).unzip();
+    let table = FbTable::from_parts(tf.emission(), r, f, b).ok_or_else(|| layout_error(FB_SECTION, path))?;
+    BivApprox::new(tf.clone(), table, p.subsegments).ok_or_else(|| {
+        header_error(format!("biv-approx sub-segments {} not in 1..={MAX_SUBSEGMENTS}", p.subsegments), path)
     })
+}
+
+impl PolyTable {
+    /// The table as a `.tetl` of method poly{degree} (sections `RHO`: dims
+    /// [res, row_len, 1]; `COEF`: [res, row_len, 3(n+1)]; `ALPHA`: [len, 1]
+    /// unorm16 with scale 1), ρ̂ and the coefficients stored in `precision`
+    /// (f32 or f16; [`Baked::build`] rounds the in-memory table the same
+    /// way so that baking and loading give the same shader).
+    pub fn to_lut(&self, tf: &TransferFunction, domain: &TableDomain, precision: Precision) -> LutFile {
+        let [s_lo, s_hi] = self.s_range();
+        let params = PolyFileParams {
+            degree: self.degree(),
+            res: self.res(),
+            band: self.band(),
+            s_lo,
+            s_hi,
+            l_max: self.l_max(),
+            max_color: self.max_color(),
+            alpha_x_max: self.alpha_table().x_max(),
+            precision,
+        };
+        let mut f = LutFile::new(self.method(), tf, Some(*domain), serde_json::to_value(params).expect("serializes"));
+        let (res, row) = (self.res() as u64, self.row_len() as u64);
+        let stride = 3 * (self.degree() as u64 + 1);
+        push_f32s(&mut f, POLY_RHO_SECTION, vec![res, row, 1], self.rho(), precision).expect("valid name");
+        push_f32s(&mut f, POLY_COEF_SECTION, vec![res, row, stride], self.coef(), precision).expect("valid name");
+        let alpha = self.alpha_table().data();
+        let info = SectionInfo {
+            name: POLY_ALPHA_SECTION.into(),
+            dtype: DType::Unorm16,
+            dims: vec![alpha.len() as u64, 1],
+            scale: vec![1.0],
+        };
+        f.push(info, alpha.iter().flat_map(|v| v.to_le_bytes()).collect()).expect("valid name");
+        f
+    }
+
+    pub fn from_lut(lut: &LutFile, path: &Path) -> Result<PolyTable, LutError> {
+        let method: Method = lut.header.method.parse().map_err(|_| LutError::Method {
+            found: lut.header.method.clone(),
+            what: "is not a known method id".into(),
+            path: path.into(),
+        })?;
+        if !matches!(method, Method::Poly1 | Method::Poly2 | Method::Poly4) {
+            return Err(LutError::Method {
+                found: method.id().into(),
+                what: "is not poly1/2/4".into(),
+                path: path.into(),
+            });
+        }
+        let p: PolyFileParams = params_of(lut, method, path)?;
+        let want_degree = match method {
+            Method::Poly1 => 1,
+            Method::Poly2 => 2,
+            _ => 4,
+        };
+        if p.degree != want_degree {
+            return Err(header_error(format!("params.degree {} does not match method {method}", p.degree), path));
+        }
+        let tf = lut.transfer_function().map_err(|e| header_error(format!("tf: {e}"), path))?;
+        let rho = lut.storage(POLY_RHO_SECTION, path)?;
+        let coef = lut.storage(POLY_COEF_SECTION, path)?;
+        if rho.precision() != p.precision || coef.precision() != p.precision {
+            return Err(layout_error(POLY_COEF_SECTION, path));
+        }
+        let (info, bytes) = lut
+            .section(POLY_ALPHA_SECTION)
+            .ok_or_else(|| LutError::MissingSection { section: POLY_ALPHA_SECTION.into(), path: path.into() })?;
+        if info.dtype != DType::Unorm16 || info.scale.iter().any(|s| *s != 1.0) {
+            return Err(layout_error(POLY_ALPHA_SECTION, path));
+        }
+        let alpha: Vec<u16> = bytes.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+        let alpha = AlphaTable::from_parts(p.alpha_x_max, alpha).map_err(|e| LutError::BadSection {
+            section: POLY_ALPHA_SECTION.into(),
+            offset: 0,
+            what: e.to_string(),
+            path: path.into(),
+        })?;
+        PolyTable::from_parts(
+            p.degree,
+            p.res,
+            p.band,
+            [p.s_lo, p.s_hi],
+            p.l_max,
+            tf.emission(),
+            p.max_color,
+            rho.to_f32(),
+            coef.to_f32(),
+            alpha,
+        )
+        .map_err(|e| LutError::BadSection {
+            section: POLY_COEF_SECTION.into(),
+            offset: 0,
+            what: e.to_string(),
+            path: path.into(),
+        })
+    }
 }
 
 fn params_of<T: for<'de> Deserialize<'de>>(lut: &LutFile, method: Method, path: &Path) -> Result<T, LutError> {

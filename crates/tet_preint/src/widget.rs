@@ -121,8 +121,11 @@ impl Widget {
                 Shape::Sine { frequency: frequency / span, phase: phase + frequency * lo / span }
             }
         };
+        // ±f64::MAX marks an unbounded side: keep it (scaling would overflow
+        // to ±inf, which JSON cannot hold).
+        let side = |x: f64| if x.abs() == f64::MAX { x } else { m(x) };
         let [[s0, s1], g] = self.support;
-        Widget { shape, support: [[m(s0), m(s1)], g], ..*self }
+        Widget { shape, support: [[side(s0), side(s1)], g], ..*self }
     }
 }
 

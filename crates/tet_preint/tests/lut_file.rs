@@ -16,6 +16,7 @@ fn opts(precision: Precision) -> BakeOptions {
         table3d: Table3dParams { n_s: 12, n_l: 6, build: Build3d::default(), precision },
         atlas_planes_quarters: 16,
         psi: PsiParams { res: 32, first_moment: false, precision },
+        ..Default::default()
     }
 }
 

@@ -1,39 +1,31 @@
-//! `tetlut`: transfer functions and pre-integration of ray segments.
+//! `tetlut`: bake, inspect, probe and benchmark pre-integration tables.
 //!
-//! Built: `probe` with the `exact` reference integrator. Not built yet: the
-//! tables (table3d, atlas2d, poly1/2/4, partial, biv-*) and the `bake`,
-//! `show` and `bench` subcommands.
+//! Subcommands: `bake` (a method's tables to `.tetl`), `show` (a `.tetl` as
+//! labelled images), `probe` (segments in, premultiplied RGBA out) and
+//! `bench` (bake time, memory and error of every method; `--paper`
+//! reproduces seed 000's Tables 1–2 and seed 003's Table 4).
+mod bake;
+mod bench;
+mod common;
+mod paper;
 mod probe;
+mod show;
 
-use clap::{Parser, Subcommand};
-
-/// Pre-integration of ray segments through linear tetrahedra.
-///
-/// Built: `probe` with method `exact` (the f64 reference). Not built yet:
-/// the pre-integration tables (table3d, atlas2d, poly1/2/4, partial,
-/// biv-exact, biv-approx) and the bake, show and bench subcommands.
-#[derive(Debug, Parser)]
-#[command(name = "tetlut", version, about, long_about)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Debug, Subcommand)]
-enum Command {
-    Probe(probe::ProbeArgs),
-}
+use clap::Parser;
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    let cli = common::Cli::parse();
     let result = match cli.command {
-        Command::Probe(args) => probe::run(&args),
+        common::Command::Bake(args) => bake::run(&args),
+        common::Command::Show(args) => show::run(&args),
+        common::Command::Probe(args) => probe::run(&args),
+        common::Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("tetlut: {e:#}");
-            std::process::ExitCode::FAILURE
+            std::process::ExitCode::from(common::exit_code(&e))
         }
     }
 }

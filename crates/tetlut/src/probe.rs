@@ -1,65 +1,67 @@
-//! `tetlut probe`: integrate (Sf, Sb, l) triples and print premultiplied RGBA.
+//! `tetlut probe`: shade segments given as text and print premultiplied RGBA.
 
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
-use tet_preint::{integrate_segment_with, TransferFunction};
+use anyhow::{Context, Result};
+use tet_preint::bivariate::Seg2;
+use tet_preint::{integrate_segment_with, Baked, LutFile, Method, Segment};
 
-/// Method ids of DESIGN.md that are planned but not built yet.
-const PLANNED: &[&str] =
-    &["pt-linear", "table3d", "atlas2d", "poly1", "poly2", "poly4", "partial", "biv-exact", "biv-approx"];
+use crate::common::{input, parse_method, read_tf, usage, CodeExt, DomainArgs, TableArgs, BAKE, INPUT};
 
-/// Reads (Sf, Sb, l) triples, one per line (whitespace-separated; blank lines
-/// and lines starting with '#' skipped), and prints premultiplied `R G B A`
-/// per triple in shortest round-trip form.
+/// Reads segments "Sf Sb l [gf gb]", one per line (whitespace-separated;
+/// blank lines and lines starting with '#' skipped; gf, gb = |∇s| at entry
+/// and exit, 0 when absent), and prints premultiplied "R G B A" per segment.
+/// `exact` and `biv-exact` print the f64 integral in shortest round-trip
+/// form, the tables what the renderer gets (f32).
 #[derive(Debug, clap::Args)]
 pub struct ProbeArgs {
-    /// Transfer function JSON (formats/tf.md).
-    #[arg(long)]
-    tf: PathBuf,
-    /// Integration method; only `exact` is built so far.
-    #[arg(long, default_value = "exact")]
-    method: String,
-    /// Scalar range LO,HI onto which a normalized TF's [0,1] is mapped.
-    #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
-    range: Option<(f64, f64)>,
-    /// Triples file (stdin when absent).
+    /// A baked .tetl (instead of --tf/--method).
+    #[arg(long, value_name = "lut.tetl", conflicts_with_all = ["tf", "method"])]
+    lut: Option<PathBuf>,
+    /// Transfer function (formats/tf.md JSON or a ParaView preset).
+    #[arg(long, value_name = "tf.json", required_unless_present = "lut")]
+    tf: Option<PathBuf>,
+    /// Method id; tables are baked on the fly over the domain.
+    #[arg(long, value_parser = parse_method, default_value = "exact")]
+    method: Method,
+    #[command(flatten)]
+    domain: DomainArgs,
+    #[command(flatten)]
+    table: TableArgs,
+    /// Segments file (stdin when absent).
     file: Option<PathBuf>,
 }
 
-fn parse_range(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected LO,HI")?;
-    let p = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"));
-    Ok((p(a)?, p(b)?))
-}
-
 pub fn run(args: &ProbeArgs) -> Result<()> {
-    if args.method != "exact" {
-        if PLANNED.contains(&args.method.as_str()) {
-            bail!("method {:?} is planned but not built yet; only \"exact\" exists", args.method);
+    let baked = match (&args.lut, &args.tf) {
+        (Some(path), _) => {
+            let lut = LutFile::read(path).map_err(anyhow::Error::new).code(INPUT)?;
+            Baked::from_lut(&lut, path).map_err(anyhow::Error::new).code(INPUT)?
         }
-        bail!("unknown method {:?}; only \"exact\" exists", args.method);
-    }
-    let text = std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display()))?;
-    let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", args.tf.display()))?;
-    match (tf.normalized(), args.range) {
-        (true, Some((lo, hi))) => tf = tf.denormalize(lo, hi)?,
-        (true, None) => bail!("{} is normalized: give --range LO,HI", args.tf.display()),
-        (false, Some(_)) => bail!("--range is only for normalized transfer functions"),
-        (false, None) => {}
-    }
-    let input: Box<dyn BufRead> = match &args.file {
+        (None, Some(tf_path)) => {
+            let tf = read_tf(tf_path)?;
+            let opts = args.table.options(args.method)?;
+            let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
+            let (domain, _) = args.domain.resolve(&tf, tabulated)?;
+            Baked::build(args.method, &tf, &domain, &opts)
+                .with_context(|| format!("cannot bake {}", args.method))
+                .code(BAKE)?
+        }
+        (None, None) => return Err(usage("give --lut L, or --tf T with --method M")),
+    };
+    let reader: Box<dyn BufRead> = match &args.file {
         Some(p) => Box::new(std::io::BufReader::new(
-            std::fs::File::open(p).with_context(|| format!("opening {}", p.display()))?,
+            std::fs::File::open(p).with_context(|| format!("opening {}", p.display())).code(INPUT)?,
         )),
         None => Box::new(std::io::stdin().lock()),
     };
     let name = args.file.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "stdin".into());
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     let mut scratch = Vec::new();
-    for (i, line) in input.lines().enumerate() {
-        let line = line.with_context(|| format!("{name}: line {}", i + 1))?;
+    for (i, line) in reader.lines().enumerate() {
+        let n = i + 1;
+        let line = line.with_context(|| format!("{name}: line {n}")).code(INPUT)?;
         let t = line.trim();
         if t.is_empty() || t.starts_with('#') {
             continue;
@@ -68,15 +70,38 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
             .split_whitespace()
             .map(|x| x.parse::<f64>())
             .collect::<Result<_, _>>()
-            .with_context(|| format!("{name}: line {}: not numbers: {t:?}", i + 1))?;
-        let [sf, sb, l] = v[..] else {
-            bail!("{name}: line {}: expected 3 numbers (Sf Sb l), found {}", i + 1, v.len());
+            .map_err(|_| input(format!("{name}: line {n}: not numbers: {t:?}")))?;
+        let (sf, sb, l, gf, gb) = match v[..] {
+            [sf, sb, l] => (sf, sb, l, 0.0, 0.0),
+            [sf, sb, l, gf, gb] => (sf, sb, l, gf, gb),
+            _ => {
+                return Err(input(format!(
+                    "{name}: line {n}: expected 3 numbers (Sf Sb l) or 5 (Sf Sb l gf gb), found {}",
+                    v.len()
+                )))
+            }
         };
-        if !(sf.is_finite() && sb.is_finite() && l.is_finite() && l >= 0.0) {
-            bail!("{name}: line {}: need finite Sf, Sb and l ≥ 0", i + 1);
+        if !(v.iter().all(|x| x.is_finite()) && l >= 0.0 && gf >= 0.0 && gb >= 0.0) {
+            return Err(input(format!("{name}: line {n}: need finite values with l, gf, gb ≥ 0")));
         }
-        let p = integrate_segment_with(&tf, sf, sb, l, &mut scratch);
-        writeln!(out, "{:e} {:e} {:e} {:e}", p.color[0], p.color[1], p.color[2], p.alpha)?;
+        let px: [f64; 4] = match &baked {
+            Baked::Exact(s) => integrate_segment_with(s.transfer_function(), sf, sb, l, &mut scratch).to_array(),
+            Baked::BivExact(s) => s.integrate(&Seg2 { sf, sb, gf, gb, len: l }).to_array(),
+            other => {
+                // f32 in its own shortest form.
+                let seg = Segment {
+                    s_front: sf as f32,
+                    s_back: sb as f32,
+                    grad_front: gf as f32,
+                    grad_back: gb as f32,
+                    len_world: l as f32,
+                };
+                let p = other.shader().shade(&seg);
+                writeln!(out, "{:e} {:e} {:e} {:e}", p[0], p[1], p[2], p[3])?;
+                continue;
+            }
+        };
+        writeln!(out, "{:e} {:e} {:e} {:e}", px[0], px[1], px[2], px[3])?;
     }
     out.flush()?;
     Ok(())

@@ -1,0 +1,92 @@
+//! `tetlut bake`: one method's tables to a `.tetl`.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use serde_json::json;
+use tet_preint::{Baked, Method};
+
+use crate::common::{describe_res, human_bytes, parse_method, read_tf, CodeExt, DomainArgs, TableArgs, BAKE, OUTPUT};
+
+#[derive(Debug, clap::Args)]
+pub struct BakeArgs {
+    /// Transfer function: formats/tf.md JSON or a ParaView preset.
+    #[arg(long, value_name = "tf.json")]
+    pub tf: PathBuf,
+    /// Method id (exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4,
+    /// partial, biv-exact, biv-approx); untabulated methods store the TF only.
+    #[arg(long, value_parser = parse_method)]
+    pub method: Method,
+    #[command(flatten)]
+    pub domain: DomainArgs,
+    #[command(flatten)]
+    pub table: TableArgs,
+    /// Output .tetl (written atomically).
+    #[arg(short, long, value_name = "lut.tetl")]
+    pub output: PathBuf,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: &BakeArgs) -> Result<()> {
+    let tf = read_tf(&args.tf)?;
+    let opts = args.table.options(args.method)?;
+    let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
+    let (domain, bundle) = args.domain.resolve(&tf, tabulated)?;
+    let tf = tet_preint::tf_for_domain(&tf, &domain).code(BAKE)?;
+    let spinner = (!args.json).then(|| {
+        let s = indicatif::ProgressBar::new_spinner();
+        s.set_message(format!("baking {} {}", args.method, describe_res(args.method, &opts)));
+        s.enable_steady_tick(std::time::Duration::from_millis(200));
+        s
+    });
+    let t0 = Instant::now();
+    let baked = Baked::build(args.method, &tf, &domain, &opts)
+        .with_context(|| format!("cannot bake {}", args.method))
+        .code(BAKE)?;
+    let bake_s = t0.elapsed().as_secs_f64();
+    if let Some(s) = spinner {
+        s.finish_and_clear();
+    }
+    let lut = baked.to_lut(&tf, &domain);
+    lut.write(&args.output).map_err(anyhow::Error::new).code(OUTPUT)?;
+    let file_bytes = std::fs::metadata(&args.output).map(|m| m.len()).unwrap_or(0);
+    let (mem, full) = (baked.memory_bytes(), baked.full_memory_bytes());
+    let saved = if full > 0 { 1.0 - mem as f64 / full as f64 } else { 0.0 };
+    if args.json {
+        let v = json!({
+            "output": args.output.display().to_string(),
+            "method": args.method.id(),
+            "resolution": describe_res(args.method, &opts),
+            "bundle": bundle.as_ref().and(args.domain.bundle.as_ref()).map(|p| p.display().to_string()),
+            "domain": domain,
+            "bake_seconds": bake_s,
+            "memory_bytes": mem,
+            "full_domain_memory_bytes": full,
+            "memory_saved_fraction": saved,
+            "file_bytes": file_bytes,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("wrote {} ({})", args.output.display(), human_bytes(file_bytes as usize));
+        println!("method      {} {}", args.method, describe_res(args.method, &opts));
+        println!(
+            "domain      s in [{}, {}], |Sf - Sb| <= {}, l <= {}",
+            domain.s_lo, domain.s_hi, domain.max_ds, domain.len_max_world
+        );
+        println!("bake time   {:.1} ms", bake_s * 1e3);
+        if tabulated {
+            println!(
+                "memory      {} (full domain: {}; saved {:.1}%)",
+                human_bytes(mem),
+                human_bytes(full),
+                100.0 * saved
+            );
+        } else {
+            println!("memory      nothing tabulated ({} evaluates the TF per segment)", args.method);
+        }
+    }
+    Ok(())
+}

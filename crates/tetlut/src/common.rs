@@ -1,0 +1,353 @@
+//! Command line, exit codes, and what every subcommand shares: reading a
+//! transfer function, a bundle or a `.tetl`, the (Sf, Sb, l) domain, and the
+//! bake options.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand};
+use tet_preint::{BakeOptions, Build3d, Method, Precision, TableDomain, TransferFunction};
+
+/// Pre-integration tables for ray segments through linear tetrahedra: bake
+/// them to .tetl files, draw them, probe them, and measure bake time,
+/// memory and error of every method against the exact integral.
+///
+/// Methods (DESIGN.md): exact, pt-linear, table3d, atlas2d, poly1, poly2,
+/// poly4, partial, biv-exact, biv-approx.
+///
+/// Exit codes: 0 success, 1 unexpected failure, 2 bad command line,
+/// 3 unreadable or malformed input (transfer function, bundle, .tetl,
+/// probe lines), 4 the method cannot be baked with these inputs (e.g. a TF
+/// with 2D widgets for a 1D method, a table too large), 5 the output cannot
+/// be written.
+#[derive(Debug, Parser)]
+#[command(name = "tetlut", version, about, long_about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Bake one method's tables for a TF over a bundle's domain into a .tetl.
+    ///
+    /// The domain is the bundle's: scalar range, |Sf − Sb| up to the largest
+    /// per-cell range (a band around the diagonal) and l up to the largest
+    /// cell diameter; without --bundle give --range and --max-len.
+    ///
+    /// Example: tetlut bake --bundle bluntfin.tetb --tf tf.json --method table3d -o bluntfin.tetl
+    Bake(crate::bake::BakeArgs),
+    /// Draw a .tetl's tables as a labelled PNG (l-slices, the cylindrical
+    /// atlas, Ψ, ρ̂ and colour coefficients, F and B).
+    ///
+    /// Example: tetlut show bluntfin.tetl -o bluntfin.png --slices 8
+    Show(crate::show::ShowArgs),
+    /// Read segments "Sf Sb l [gf gb]" (one per line) and print
+    /// premultiplied "R G B A" per line.
+    ///
+    /// Example: echo "0.2 0.4 1.5" | tetlut probe --tf tf.json --method exact
+    Probe(crate::probe::ProbeArgs),
+    /// Bake time, memory and RMS/max error against exact of every method
+    /// over a range of resolutions; a Pareto plot as PNG.
+    ///
+    /// Example: tetlut bench --bundle bluntfin.tetb --tf tf.json -o pareto.png --json bench.json
+    Bench(crate::bench::BenchArgs),
+}
+
+/// An error carrying its exit code (see [`Cli`]'s help); displays as the
+/// wrapped error with its whole chain.
+#[derive(Debug)]
+pub struct Coded {
+    pub code: u8,
+    pub inner: anyhow::Error,
+}
+
+impl fmt::Display for Coded {
+    /// The chain joined by ": ", leaving out causes whose text an outer
+    /// message already quotes (library errors often embed their source).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut text = String::new();
+        for cause in self.inner.chain() {
+            let c = cause.to_string();
+            if text.contains(&c) {
+                continue;
+            }
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&c);
+        }
+        f.write_str(&text)
+    }
+}
+
+impl std::error::Error for Coded {}
+
+pub const USAGE: u8 = 2;
+pub const INPUT: u8 = 3;
+pub const BAKE: u8 = 4;
+pub const OUTPUT: u8 = 5;
+
+/// Tags a result's error with an exit code.
+pub trait CodeExt<T> {
+    fn code(self, code: u8) -> Result<T>;
+}
+
+impl<T, E: Into<anyhow::Error>> CodeExt<T> for std::result::Result<T, E> {
+    fn code(self, code: u8) -> Result<T> {
+        self.map_err(|e| anyhow::Error::new(Coded { code, inner: e.into() }))
+    }
+}
+
+/// A usage error (exit code 2).
+pub fn usage(msg: impl Into<String>) -> anyhow::Error {
+    anyhow::Error::new(Coded { code: USAGE, inner: anyhow::anyhow!(msg.into()) })
+}
+
+/// An input error (exit code 3).
+pub fn input(msg: impl Into<String>) -> anyhow::Error {
+    anyhow::Error::new(Coded { code: INPUT, inner: anyhow::anyhow!(msg.into()) })
+}
+
+/// The exit code of an error: the outermost [`Coded`] in its chain, else 1.
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    e.chain().find_map(|c| c.downcast_ref::<Coded>()).map_or(1, |c| c.code)
+}
+
+pub fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
+    let (a, b) = s.split_once(',').ok_or("expected LO,HI")?;
+    let p = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"));
+    let (lo, hi) = (p(a)?, p(b)?);
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(format!("need finite LO < HI, got {lo},{hi}"));
+    }
+    Ok((lo, hi))
+}
+
+pub fn parse_method(s: &str) -> std::result::Result<Method, String> {
+    s.parse::<Method>().map_err(|e| e.to_string())
+}
+
+pub fn parse_precision(s: &str) -> std::result::Result<Precision, String> {
+    s.parse::<Precision>()
+}
+
+/// Reads a TF: formats/tf.md JSON, or a ParaView colour-map preset (a file
+/// with "RGBPoints"; imported normalized with unit distance 1).
+pub fn read_tf(path: &Path) -> Result<TransferFunction> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display())).code(INPUT)?;
+    match TransferFunction::from_json(&text) {
+        Ok(tf) => Ok(tf),
+        Err(e) if text.contains("\"RGBPoints\"") => TransferFunction::from_paraview_json(&text, None, 1.0)
+            .with_context(|| format!("in {} (read as a ParaView preset; as tetkit JSON: {e})", path.display()))
+            .code(INPUT),
+        Err(e) => Err(e).with_context(|| format!("in {}", path.display())).code(INPUT),
+    }
+}
+
+pub fn read_bundle(path: &Path) -> Result<tet_bundle::Bundle> {
+    tet_bundle::Bundle::read(path).map_err(anyhow::Error::new).code(INPUT)
+}
+
+/// Where the (Sf, Sb, l) domain comes from.
+#[derive(Debug, Clone, Args)]
+pub struct DomainArgs {
+    /// Bundle (.tetb) whose segments the table serves: scalar range, largest
+    /// per-cell scalar range and largest cell diameter.
+    #[arg(long, value_name = "B.tetb")]
+    pub bundle: Option<PathBuf>,
+    /// Scalar range LO,HI (without --bundle); also where a normalized TF's [0,1] goes.
+    #[arg(long, value_parser = parse_range, allow_hyphen_values = true, value_name = "LO,HI")]
+    pub range: Option<(f64, f64)>,
+    /// Largest segment length, world units (without --bundle).
+    #[arg(long, value_name = "L")]
+    pub max_len: Option<f64>,
+    /// Largest |Sf − Sb| baked (without --bundle; default: the whole range).
+    #[arg(long, value_name = "D")]
+    pub max_ds: Option<f64>,
+    /// Bake the whole (Sf, Sb) square instead of the bundle's band.
+    #[arg(long)]
+    pub full_domain: bool,
+}
+
+impl DomainArgs {
+    /// The domain, and the bundle when one was given. `need_len`: whether a
+    /// length range is required (tables); untabulated methods only need a
+    /// scalar range, and not even that for a TF in data units.
+    pub fn resolve(&self, tf: &TransferFunction, need_len: bool) -> Result<(TableDomain, Option<tet_bundle::Bundle>)> {
+        if let Some(path) = &self.bundle {
+            if self.range.is_some() || self.max_len.is_some() || self.max_ds.is_some() {
+                return Err(usage("--range, --max-len and --max-ds are taken from --bundle; give one or the other"));
+            }
+            let b = read_bundle(path)?;
+            let mut d =
+                TableDomain::from_bundle(&b).with_context(|| format!("domain of {}", path.display())).code(INPUT)?;
+            if self.full_domain {
+                d = TableDomain::full(d.s_lo, d.s_hi, d.len_max_world).code(INPUT)?;
+            }
+            return Ok((d, Some(b)));
+        }
+        let (lo, hi) = match (self.range, tf.normalized()) {
+            (Some(r), _) => r,
+            (None, true) => {
+                return Err(usage("the transfer function is normalized: give --range LO,HI (or --bundle)"));
+            }
+            (None, false) if !need_len => tf_span(tf),
+            (None, false) => return Err(usage("give --bundle B.tetb, or --range LO,HI and --max-len L")),
+        };
+        let len = match self.max_len {
+            Some(l) => l,
+            None if !need_len => 1.0,
+            None => return Err(usage("this method bakes tables over l: give --max-len L (or --bundle)")),
+        };
+        let ds = if self.full_domain { f64::INFINITY } else { self.max_ds.unwrap_or(f64::INFINITY) };
+        let d = TableDomain::new(lo, hi, ds, len).map_err(|e| usage(e.to_string()))?;
+        Ok((d, None))
+    }
+}
+
+/// The x span of a TF's nodes (a degenerate one widened).
+pub fn tf_span(tf: &TransferFunction) -> (f64, f64) {
+    let xs = tf.color_nodes().iter().map(|c| c.x).chain(tf.opacity_nodes().iter().map(|o| o.x));
+    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+    if lo < hi {
+        (lo, hi)
+    } else {
+        (lo - 0.5, lo + 0.5)
+    }
+}
+
+/// Resolution and storage flags shared by `bake` and `probe`.
+#[derive(Debug, Clone, Args)]
+pub struct TableArgs {
+    /// Resolution: N (table3d/atlas2d: N × N × 2N; partial: Ψ N²; poly: N²;
+    /// biv-approx: F/B N²) or NsxNsxNl for table3d/atlas2d.
+    #[arg(long, value_name = "N|NsxNsxNl")]
+    pub res: Option<String>,
+    /// Storage precision: f32 (default), f16, unorm16, unorm8 (poly: f32 or f16).
+    #[arg(long, value_parser = parse_precision, value_name = "P")]
+    pub precision: Option<Precision>,
+    /// atlas2d plane count: 4n (exact reconstruction), n (default) or n/2.
+    #[arg(long, value_name = "4n|n|n/2")]
+    pub planes: Option<String>,
+    /// biv-approx: sub-segments per segment (default 4).
+    #[arg(long, value_name = "K")]
+    pub k: Option<usize>,
+    /// table3d/atlas2d build: slice[:OVERSAMPLING] (default slice:2),
+    /// incremental, exact (f64 per entry) or blend:STEPS:BITS (seed 000).
+    #[arg(long, value_name = "BUILD")]
+    pub build: Option<String>,
+}
+
+/// Parses `--build`.
+pub fn parse_build(s: &str) -> Result<Build3d> {
+    let bad = || usage(format!("--build {s:?}: expected slice[:O], incremental, exact or blend:STEPS:BITS"));
+    let parts: Vec<&str> = s.split(':').collect();
+    Ok(match parts[..] {
+        ["slice"] => Build3d::default(),
+        ["slice", o] => Build3d::SliceRecurrence { oversampling: o.parse().map_err(|_| bad())? },
+        ["incremental"] => Build3d::Incremental,
+        ["exact"] => Build3d::Exact,
+        ["blend", n, b] => Build3d::Blend {
+            steps: n.parse().map_err(|_| bad())?,
+            accumulation: tet_preint::Accumulation::new(b.parse().map_err(|_| bad())?)
+                .ok_or_else(|| usage(format!("--build {s:?}: accumulation bits must be 2..=24 or 32")))?,
+        },
+        _ => return Err(bad()),
+    })
+}
+
+impl TableArgs {
+    /// The bake options for `method` (flags a method does not read are refused).
+    pub fn options(&self, method: Method) -> Result<BakeOptions> {
+        let mut o = BakeOptions::default();
+        let is_3d = matches!(method, Method::Table3d | Method::Atlas2d);
+        if let Some(r) = &self.res {
+            let dims: Vec<usize> = r
+                .split('x')
+                .map(|v| v.trim().parse::<usize>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| usage(format!("--res {r:?}: expected N or NsxNsxNl")))?;
+            match (&dims[..], is_3d) {
+                (&[n], true) => (o.table3d.n_s, o.table3d.n_l) = (n, 2 * n),
+                (&[a, b, l], true) if a == b => (o.table3d.n_s, o.table3d.n_l) = (a, l),
+                (&[n], false) | (&[n, _], false) if dims.iter().all(|&d| d == n) => match method {
+                    Method::Partial => o.psi.res = n,
+                    Method::Poly1 | Method::Poly2 | Method::Poly4 => o.poly_res = n,
+                    Method::BivApprox => o.fb_res = n,
+                    _ => return Err(usage(format!("method {method} has no tables: --res does not apply"))),
+                },
+                _ => {
+                    return Err(usage(format!(
+                        "--res {r:?} for {method}: expected {}",
+                        if is_3d { "N or NxNxNl (square in Sf, Sb)" } else { "N (square tables)" }
+                    )))
+                }
+            }
+        }
+        if let Some(p) = self.precision {
+            o.table3d.precision = p;
+            o.psi.precision = p;
+            o.precision_2d = p;
+        }
+        if let Some(p) = &self.planes {
+            if method != Method::Atlas2d {
+                return Err(usage("--planes is for atlas2d only"));
+            }
+            o.atlas_planes_quarters = match p.as_str() {
+                "4n" | "4N" => 16,
+                "n" | "N" => 4,
+                "n/2" | "N/2" => 2,
+                _ => return Err(usage(format!("--planes {p:?}: expected 4n, n or n/2"))),
+            };
+        }
+        if let Some(k) = self.k {
+            if method != Method::BivApprox {
+                return Err(usage("--k is for biv-approx only"));
+            }
+            o.biv_subsegments = k;
+        }
+        if let Some(b) = &self.build {
+            if !is_3d {
+                return Err(usage("--build is for table3d and atlas2d only"));
+            }
+            o.table3d.build = parse_build(b)?;
+        }
+        Ok(o)
+    }
+}
+
+/// "N×N×M" style description of what a method bakes with `o`.
+pub fn describe_res(method: Method, o: &BakeOptions) -> String {
+    match method {
+        Method::Table3d | Method::Atlas2d => {
+            let t = &o.table3d;
+            let base = format!("{}x{}x{} {}", t.n_s, t.n_s, t.n_l, t.precision);
+            if method == Method::Atlas2d {
+                let planes = (t.n_s * o.atlas_planes_quarters / 4).max(2);
+                format!("{base}, {planes} planes")
+            } else {
+                base
+            }
+        }
+        Method::Partial => format!("{}^2 {}", o.psi.res, o.psi.precision),
+        Method::Poly1 | Method::Poly2 | Method::Poly4 => format!("{}^2 {}", o.poly_res, o.precision_2d),
+        Method::BivApprox => format!("{}^2 {}, k={}", o.fb_res, o.precision_2d, o.biv_subsegments),
+        _ => "-".into(),
+    }
+}
+
+/// Bytes in human units.
+pub fn human_bytes(b: usize) -> String {
+    let b = b as f64;
+    if b >= 1024.0 * 1024.0 * 1024.0 {
+        format!("{:.2} GiB", b / (1024.0 * 1024.0 * 1024.0))
+    } else if b >= 1024.0 * 1024.0 {
+        format!("{:.2} MiB", b / (1024.0 * 1024.0))
+    } else if b >= 1024.0 {
+        format!("{:.1} KiB", b / 1024.0)
+    } else {
+        format!("{b} B")
+    }
+}

@@ -29,13 +29,16 @@ where
     }
 }
 
-/// Culling for a 1D transfer function: the maximal closed intervals on which
-/// it is invisible (extinction zero and, with independent emission, colour
-/// zero too), precomputed once per TF.
+/// Culling for a transfer function: the maximal closed intervals on which
+/// its 1D part is invisible (extinction zero and, with independent emission,
+/// colour zero too), precomputed once per TF; with 2D widgets, a cell is also
+/// checked against the widgets over its (scalar, |∇s|) box.
 #[derive(Debug, Clone)]
 pub struct TfCuller {
     /// Sorted, disjoint `[lo, hi]` (±∞ at the clamped ends).
     zero: Vec<[f64; 2]>,
+    /// The TF when it has widgets (their test needs the gradient range).
+    widgets: Option<TransferFunction>,
 }
 
 impl TfCuller {
@@ -61,7 +64,8 @@ impl TfCuller {
                 _ => zero.push([lo, hi]),
             }
         }
-        TfCuller { zero }
+        let widgets = (!tf.widgets().is_empty()).then(|| tf.clone());
+        TfCuller { zero, widgets }
     }
 
     /// The invisible intervals (for reports and tests).
@@ -71,9 +75,14 @@ impl TfCuller {
 }
 
 impl CellCuller for TfCuller {
-    fn is_invisible(&self, scalar: [f64; 2], _grad_mag: Option<[f64; 2]>) -> bool {
+    fn is_invisible(&self, scalar: [f64; 2], grad_mag: Option<[f64; 2]>) -> bool {
         let i = self.zero.partition_point(|z| z[1] < scalar[1]);
-        self.zero.get(i).is_some_and(|z| z[0] <= scalar[0] && scalar[1] <= z[1])
+        let zero_1d = self.zero.get(i).is_some_and(|z| z[0] <= scalar[0] && scalar[1] <= z[1]);
+        match &self.widgets {
+            None => zero_1d,
+            // Without gradients any |∇s| is possible.
+            Some(tf) => zero_1d && tf.cell_is_invisible(scalar, grad_mag.unwrap_or([0.0, f64::INFINITY])),
+        }
     }
 }
 
@@ -160,5 +169,20 @@ mod tests {
         let c: &dyn CellCuller = &f;
         assert!(c.is_invisible([-2.0, -1.0], None));
         assert!(!c.is_invisible([-2.0, 1.0], None));
+    }
+
+    /// Regression: the culler once looked at the 1D part only and culled
+    /// cells that a 2D widget makes visible.
+    #[test]
+    fn widgets_keep_their_cells_visible() {
+        let t = tf(r#"{"color": [[0, 1, 1, 1], [1, 1, 1, 1]], "opacity": [[0, 0], [1, 0]], "unit_distance": 1,
+            "widgets": [{"type": "box", "center": [0.5, 2.0], "width": [0.2, 1.0], "color": [1, 0, 0], "opacity": 1}]}"#);
+        let c = TfCuller::new(&t);
+        // Inside the box's scalar band: visible unless the gradients miss it.
+        assert!(!c.is_invisible([0.45, 0.55], Some([1.8, 2.2])));
+        assert!(!c.is_invisible([0.45, 0.55], None));
+        assert!(c.is_invisible([0.45, 0.55], Some([3.0, 4.0])));
+        // Outside it in s: invisible whatever the gradient.
+        assert!(c.is_invisible([0.8, 0.9], None));
     }
 }

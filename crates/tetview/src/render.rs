@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use std::path::PathBuf;
 use std::sync::Arc;
 use tet_bundle::Bundle;
-use tet_preint::{ExactShader, Method, PtLinearShader, SegmentShader, TransferFunction};
+use tet_preint::{load_shader, BakeOptions, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{Display, Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ToneMap, ViewSpec};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -23,11 +23,13 @@ pub struct RenderArgs {
     /// onto --range, or the bundle's scalar range.
     #[arg(long, required_unless_present = "lut")]
     pub tf: Option<PathBuf>,
-    /// Method id: exact, pt-linear (built); table3d, atlas2d, poly1, poly2,
-    /// poly4, partial, biv-exact, biv-approx (tables, not built in this build).
+    /// Method id: exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4,
+    /// partial, biv-exact, biv-approx (tables are baked now over the
+    /// bundle's domain at tetlut's default resolutions).
     #[arg(long, default_value = "pt-linear")]
     pub method: String,
-    /// Pre-integration tables (.tetl) instead of --tf/--method (not built yet).
+    /// Pre-integration tables baked by `tetlut bake` (.tetl) instead of
+    /// --tf/--method; the TF and method come from the file.
     #[arg(long, conflicts_with = "tf")]
     pub lut: Option<PathBuf>,
     /// Scalar range LO,HI for a normalized transfer function.
@@ -105,48 +107,41 @@ fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
-/// What a table method may be asked about: the (Sf, Sb, l) domain the
-/// bundle can produce.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ShaderDomain {
-    pub scalar_range: [f64; 2],
-    /// Longest segment through one cell (the largest cell diameter).
-    pub max_len_world: f64,
-    /// Per-vertex |∇s| range, when the bundle has gradients.
-    pub grad_range: Option<[f64; 2]>,
-}
-
-/// The shader of a method. Table methods construct here once their crates
-/// land: one match arm each.
-pub fn make_shader(method: Method, tf: &TransferFunction, _domain: &ShaderDomain) -> Result<Box<dyn SegmentShader>> {
-    match method {
-        Method::Exact => Ok(Box::new(ExactShader::new(tf.clone()))),
-        Method::PtLinear => Ok(Box::new(PtLinearShader::new(tf.clone()))),
-        m => Err(UsageError(format!("method {m}: tables not built in this build (built: exact, pt-linear)")).into()),
-    }
+/// The shader of a method, baked now over the bundle's (Sf, Sb, l) domain
+/// with tet_preint's default resolutions (the same as `tetlut bake`).
+pub fn make_shader(method: Method, tf: &TransferFunction, domain: &TableDomain) -> Result<Box<dyn SegmentShader>> {
+    tet_preint::make_shader(method, tf, domain, &BakeOptions::default())
+        .map_err(|e| UsageError(format!("method {method}: {e}")).into())
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
-    if let Some(l) = &args.lut {
-        return Err(UsageError(format!(
-            "--lut {}: .tetl tables are not built in this build; use --tf with --method exact or pt-linear",
-            l.display()
-        ))
-        .into());
-    }
-    let method: Method = args.method.parse().map_err(|e: tet_preint::UnknownMethod| UsageError(e.to_string()))?;
-    let tf_path = args.tf.as_ref().ok_or_else(|| UsageError("--tf is required".into()))?;
     let bundle = Bundle::read(&args.bundle)?;
-    let text = std::fs::read_to_string(tf_path).with_context(|| format!("reading {}", tf_path.display()))?;
-    let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", tf_path.display()))?;
     let stats = &bundle.meta.stats;
-    if tf.normalized() {
-        let (lo, hi) = args.range.unwrap_or((stats.scalar_min, stats.scalar_max));
-        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
-        tf = tf.denormalize(lo, hi)?;
-    } else if args.range.is_some() {
-        return Err(UsageError("--range is only for normalized transfer functions".into()).into());
-    }
+    // Either a baked .tetl (its TF travels in the file) or a TF and a method.
+    let (method, tf, lut) = match &args.lut {
+        Some(path) => {
+            let lut = LutFile::read(path).map_err(|e| InputError(e.to_string()))?;
+            let tf = lut.transfer_function().map_err(|e| InputError(format!("{}: {e}", path.display())))?;
+            let method: Method =
+                lut.header.method.parse().map_err(|e: tet_preint::UnknownMethod| InputError(e.to_string()))?;
+            (method, tf, Some((lut, path.clone())))
+        }
+        None => {
+            let method: Method =
+                args.method.parse().map_err(|e: tet_preint::UnknownMethod| UsageError(e.to_string()))?;
+            let tf_path = args.tf.as_ref().ok_or_else(|| UsageError("--tf or --lut is required".into()))?;
+            let text = std::fs::read_to_string(tf_path).with_context(|| format!("reading {}", tf_path.display()))?;
+            let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", tf_path.display()))?;
+            if tf.normalized() {
+                let (lo, hi) = args.range.unwrap_or((stats.scalar_min, stats.scalar_max));
+                let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
+                tf = tf.denormalize(lo, hi)?;
+            } else if args.range.is_some() {
+                return Err(UsageError("--range is only for normalized transfer functions".into()).into());
+            }
+            (method, tf, None)
+        }
+    };
 
     let shading = Shading { light: args.light.then(Light::default), silhouette: args.silhouette };
     if let Some(p) = args.silhouette {
@@ -158,14 +153,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if shading.is_active() || method.is_bivariate() {
         scene = scene.ensure_gradients()?;
     }
-    let domain = ShaderDomain {
-        scalar_range: scene.scalar_range(),
-        max_len_world: stats.max_cell_diameter,
-        grad_range: scene
-            .gradient_magnitudes()
-            .map(|g| g.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &v| [a.min(v), b.max(v)])),
+    let shader: Arc<dyn SegmentShader> = match &lut {
+        Some((lut, path)) => load_shader(lut, path).map_err(|e| InputError(e.to_string()))?.into(),
+        None => {
+            let domain = TableDomain::from_bundle(&bundle).map_err(|e| InputError(e.to_string()))?;
+            make_shader(method, &tf, &domain)?.into()
+        }
     };
-    let shader: Arc<dyn SegmentShader> = make_shader(method, &tf, &domain)?.into();
 
     let view = match &args.view {
         Some(p) => {

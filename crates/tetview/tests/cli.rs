@@ -109,26 +109,78 @@ fn renders_png_npy_and_view_with_json_stats() {
     assert_eq!(tet_render::Image::read_npy(&npy).unwrap(), tet_render::Image::read_npy(&npy2).unwrap());
 }
 
+/// Every method renders through `--tf --method` (tables baked on the fly)
+/// and close to `exact`; a baked `.tetl` renders through `--lut` like the
+/// same method baked on the fly.
 #[test]
-fn unbuilt_methods_and_bad_input_are_clear_errors() {
+fn every_method_and_baked_tables_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let render = |extra: &[&str], name: &str| {
+        let npy = dir.path().join(format!("{name}.npy"));
+        let png = dir.path().join(format!("{name}.png"));
+        let mut args = vec!["render", b.to_str().unwrap(), "--size", "48x40", "-o", png.to_str().unwrap()];
+        args.extend_from_slice(&["--float", npy.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        let out = tetview(&args);
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        tet_render::Image::read_npy(&npy).unwrap()
+    };
+    let exact = render(&["--tf", t.to_str().unwrap(), "--method", "exact"], "exact");
+    for (method, tol) in
+        [("table3d", 2e-2), ("atlas2d", 5e-2), ("poly1", 2e-2), ("poly2", 2e-2), ("poly4", 2e-2), ("partial", 1e-4)]
+    {
+        let img = render(&["--tf", t.to_str().unwrap(), "--method", method], method);
+        let d = tet_render::diff(&img, &exact).unwrap();
+        assert!(d.max_abs < tol, "{method}: max {} (rms {})", d.max_abs, d.rmse);
+    }
+    // Bake table3d over the bundle's domain as `tetlut bake` does, then render it.
+    let bundle = Bundle::read(&b).unwrap();
+    let domain = tet_preint::TableDomain::from_bundle(&bundle).unwrap();
+    let text = std::fs::read_to_string(&t).unwrap();
+    let tf = tet_preint::TransferFunction::from_json(&text).unwrap();
+    let tf = tet_preint::tf_for_domain(&tf, &domain).unwrap();
+    let lut = tet_preint::bake(tet_preint::Method::Table3d, &tf, &domain, &Default::default()).unwrap();
+    let lut_path = dir.path().join("t.tetl");
+    lut.write(&lut_path).unwrap();
+    let from_lut = render(&["--lut", lut_path.to_str().unwrap()], "lut");
+    let on_the_fly = render(&["--tf", t.to_str().unwrap(), "--method", "table3d"], "fly");
+    assert!(tet_render::diff(&from_lut, &on_the_fly).unwrap().max_abs < 1e-6);
+}
+
+#[test]
+fn bad_methods_luts_and_input_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (bundle(dir.path()), tf(dir.path()));
     let png = dir.path().join("a.png");
+    // A 2D-widget TF with a 1D method: refused, pointing to the bivariate methods.
+    let wt = dir.path().join("w.json");
+    std::fs::write(
+        &wt,
+        r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0], [2, 0]], "unit_distance": 1,
+        "widgets": [{"type": "box", "center": [1.0, 1.0], "width": [0.5, 1.0], "color": [1, 0, 0], "opacity": 1}]}"#,
+    )
+    .unwrap();
     let out = tetview(&[
         "render",
         b.to_str().unwrap(),
         "--tf",
-        t.to_str().unwrap(),
+        wt.to_str().unwrap(),
         "--method",
-        "poly2",
+        "pt-linear",
         "-o",
         png.to_str().unwrap(),
     ]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("method poly2: tables not built in this build"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("biv-exact"), "{}", String::from_utf8_lossy(&out.stderr));
+    // A missing or damaged .tetl is an input error naming the file.
     let out = tetview(&["render", b.to_str().unwrap(), "--lut", "x.tetl", "-o", png.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("not built"));
+    assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("x.tetl"));
+    let bad = dir.path().join("bad.tetl");
+    std::fs::write(&bad, b"\x89TETL\r\n\x1a garbage").unwrap();
+    let out = tetview(&["render", b.to_str().unwrap(), "--lut", bad.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
     let out = tetview(&[
         "render",
         b.to_str().unwrap(),

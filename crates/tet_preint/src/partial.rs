@@ -19,7 +19,7 @@
 use crate::domain::{check_res, TableError};
 use crate::method::{Method, Rgba32, Segment, SegmentShader};
 use crate::precision::{Precision, Storage};
-use crate::special::{dawson, erfcx};
+use crate::special::{dawson_fast, erfcx};
 use crate::tf::{Emission, TransferFunction};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -69,7 +69,7 @@ pub fn psi(a: f64, c: f64) -> (f64, f64) {
     let p0 = if b > 0.0 {
         std::f64::consts::PI.sqrt() * k * (erfcx(f) - zeta * erfcx(e))
     } else {
-        2.0 * k * (dawson(f) - zeta * dawson(e))
+        2.0 * k * (dawson_fast(f) - zeta * dawson_fast(e))
     };
     // a Ψ + b Ψ₁ = 1 − ζ.
     let alpha = -(-(0.5 * (a + c))).exp_m1();

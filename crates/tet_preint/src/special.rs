@@ -119,10 +119,92 @@ pub fn dawson(x: f64) -> f64 {
         }
         return sum;
     }
-    if x > 1e8 {
-        // Asymptotic 1/(2x)·(1 + 1/(2x²) + …); the correction is below ulp.
-        return 0.5 / x;
+    if x < CHEB_HI {
+        return dawson_rybicki(x);
     }
+    dawson_asymptotic(x)
+}
+
+/// Dawson's integral for x ≥ 0 in about a tenth of [`dawson`]'s time, to
+/// within 4e-15 relative (checked against mpmath below; [`dawson`] is within
+/// 2e-15): piecewise Chebyshev interpolants on [0.2, 12). For tables stored
+/// in f32, such as partial pre-integration's Ψ.
+pub fn dawson_fast(x: f64) -> f64 {
+    if (CHEB_LO..CHEB_HI).contains(&x) {
+        dawson_chebyshev(x)
+    } else {
+        dawson(x)
+    }
+}
+
+fn dawson_asymptotic(x: f64) -> f64 {
+    // Asymptotic F(x) = 1/(2x)·Σ (2n−1)!!/(2x²)ⁿ: at x ≥ 12 the terms fall
+    // by ≥ 14× each for the dozen terms f64 needs.
+    let y = 0.5 / (x * x);
+    let mut term = 1.0;
+    let mut sum = 1.0;
+    let mut n = 0.0;
+    while term > 1e-17 * sum {
+        n += 1.0;
+        term *= (2.0 * n - 1.0) * y;
+        sum += term;
+    }
+    0.5 / x * sum
+}
+
+/// Chebyshev pieces of Dawson's integral on [0.2, 12): interval width and
+/// polynomial degree (11 coefficients; the interpolation error on a 0.05
+/// wide piece is far below f64 rounding).
+const CHEB_LO: f64 = 0.2;
+const CHEB_HI: f64 = 12.0;
+const CHEB_WIDTH: f64 = 0.05;
+const CHEB_PIECES: usize = 236;
+const CHEB_N: usize = 11;
+
+/// Dawson on [0.2, 12) from piecewise Chebyshev interpolants of
+/// [`dawson_rybicki`], fitted once on first use (2,596 evaluations, well
+/// under a millisecond): a Clenshaw sum instead of 17 exponentials-weighted
+/// divisions per call.
+fn dawson_chebyshev(x: f64) -> f64 {
+    static PIECES: std::sync::LazyLock<Vec<[f64; CHEB_N]>> = std::sync::LazyLock::new(|| {
+        (0..CHEB_PIECES)
+            .map(|i| {
+                let (a, b) = (CHEB_LO + i as f64 * CHEB_WIDTH, CHEB_LO + (i + 1) as f64 * CHEB_WIDTH);
+                let (mid, half) = (0.5 * (a + b), 0.5 * (b - a));
+                let n = CHEB_N as f64;
+                let f: [f64; CHEB_N] = std::array::from_fn(|k| {
+                    dawson_rybicki(mid + half * (std::f64::consts::PI * (k as f64 + 0.5) / n).cos())
+                });
+                std::array::from_fn(|j| {
+                    let c: f64 = (0..CHEB_N)
+                        .map(|k| f[k] * (std::f64::consts::PI * j as f64 * (k as f64 + 0.5) / n).cos())
+                        .sum();
+                    if j == 0 {
+                        c / n
+                    } else {
+                        2.0 * c / n
+                    }
+                })
+            })
+            .collect()
+    });
+    let i = (((x - CHEB_LO) / CHEB_WIDTH) as usize).min(CHEB_PIECES - 1);
+    let a = CHEB_LO + i as f64 * CHEB_WIDTH;
+    let t = (x - a) / CHEB_WIDTH * 2.0 - 1.0;
+    let c = &PIECES[i];
+    // Clenshaw.
+    let (mut b1, mut b2) = (0.0, 0.0);
+    for &ck in c[1..].iter().rev() {
+        let b0 = 2.0 * t * b1 - b2 + ck;
+        b2 = b1;
+        b1 = b0;
+    }
+    t * b1 - b2 + c[0]
+}
+
+/// Rybicki's sum for Dawson's integral, x ≥ 0.2: exact to f64 rounding but
+/// ~20 divisions per call, so only used to fit [`dawson_chebyshev`].
+fn dawson_rybicki(x: f64) -> f64 {
     // Rybicki: F(x) ≈ (1/√π) Σ_{n odd} exp(−(x − n h)²)/n, with the sum
     // centred on the even n0 nearest x/h. The discretisation error is
     // ~exp(−(π/2h)²) ≈ 1e-27 at h = 0.2; terms with |n − n0|·h > 6.4 are
@@ -248,6 +330,20 @@ mod tests {
     fn dawson_matches_mpmath() {
         for &(x, v) in DAWSON_REF {
             assert!(rel(dawson(x), v) < 2e-15, "dawson({x}) = {} vs {v}: rel {}", dawson(x), rel(dawson(x), v));
+        }
+    }
+
+    #[test]
+    fn dawson_fast_matches_mpmath() {
+        for &(x, v) in DAWSON_REF {
+            let f = dawson_fast(x);
+            assert!(rel(f, v) < 4e-15, "dawson_fast({x}) = {f} vs {v}: rel {}", rel(f, v));
+        }
+        // And the fit against Rybicki's sum on a dense grid, piece edges included.
+        for i in 0..=23_600 {
+            let x = 0.2 + i as f64 * 5e-4;
+            let (f, r) = (dawson_fast(x), dawson(x));
+            assert!(rel(f, r) < 4e-15, "x = {x}: {f} vs {r}");
         }
     }
 

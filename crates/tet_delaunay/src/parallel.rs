@@ -50,6 +50,8 @@ impl AtomicTet {
 }
 
 const FREE: u8 = 0;
+/// Fresh tet slots a worker takes from the shared array at a time.
+const SLOT_BLOCK: usize = 4096;
 
 struct Shared<'a> {
     pts: &'a [[f64; 3]],
@@ -80,6 +82,9 @@ struct Worker<'s, 'a> {
     last: u32,
     rng: SplitMix64,
     free: Vec<u32>,
+    /// The worker's current block of fresh slots, `block_next..block_end`.
+    block_next: usize,
+    block_end: usize,
     locked: Vec<u32>,
     stack: Vec<u32>,
     conflict: Vec<u32>,
@@ -293,14 +298,21 @@ impl<'s, 'a> Worker<'s, 'a> {
                 None => break,
             }
         }
-        let more = need - got.len();
-        if more > 0 {
-            let start = self.sh.len.fetch_add(more, Relaxed);
-            if start + more > self.sh.tets.len() {
-                self.free.extend(got);
-                return Err(Deferred::OutOfSlots);
+        while got.len() < need {
+            if self.block_next == self.block_end {
+                // Fresh slots come in private blocks: slots (and their lock
+                // bytes) of different workers never share a cache line,
+                // which one shared bump counter made them do.
+                let start = self.sh.len.fetch_add(SLOT_BLOCK, Relaxed);
+                let end = (start + SLOT_BLOCK).min(self.sh.tets.len());
+                if start >= end {
+                    self.free.extend(got);
+                    return Err(Deferred::OutOfSlots);
+                }
+                (self.block_next, self.block_end) = (start, end);
             }
-            got.extend((start..start + more).map(|s| s as u32));
+            got.push(self.block_next as u32);
+            self.block_next += 1;
         }
         for (k, &s) in got.iter().enumerate() {
             let cavity = self.cavity;
@@ -429,7 +441,7 @@ impl Triangulation {
         let todo = (n - from) as usize;
         // ~6.7 finite tets per point plus ghosts; over-reserving by 8 per
         // point keeps OutOfSlots deferrals rare.
-        let cap = self.tets.len() + 8 * todo + 1024;
+        let cap = self.tets.len() + 8 * todo + 2 * threads * SLOT_BLOCK;
         let used = self.tets.len();
         let mut shared_tets: Vec<AtomicTet> = Vec::with_capacity(cap);
         shared_tets.extend(self.tets.drain(..).map(AtomicTet::new));
@@ -464,6 +476,8 @@ impl Triangulation {
                             last: last0,
                             rng: SplitMix64(0x5EED ^ (w as u64 + 1)),
                             free: my_free,
+                            block_next: 0,
+                            block_end: 0,
                             locked: Vec::new(),
                             stack: Vec::new(),
                             conflict: Vec::new(),

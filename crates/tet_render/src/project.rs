@@ -371,7 +371,7 @@ pub struct Fragment {
 }
 
 /// Per-tet data for rasterizing one tet: silhouette, planes and fields.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub(crate) struct TetSetup {
     pub n_hull: usize,
     edges: [Edge; 6],
@@ -455,6 +455,8 @@ pub(crate) struct SpanEval {
     zeta_near: f32,
     s0: Affine32,
     sb: Affine32,
+    /// Gradient-magnitude fields (bivariate methods) present.
+    has_g: bool,
     g0: Affine32,
     gb: Affine32,
     s_range: [f32; 2],
@@ -470,25 +472,58 @@ pub(crate) struct SpanEval {
 }
 
 impl SpanEval {
-    /// Builds the f32 form from a finished f64 setup (bbox, ramps, ranges),
-    /// the tet's camera-space vertices `x`, its vertex scalars and gradient
-    /// magnitudes, and its face mask; planes are kept and dropped by the same
-    /// rules as the f64 ones.
-    fn new(
+    /// The reference pixel (the bbox corner) and the tangent-space map of
+    /// pixel centres; no planes, fields or ramps yet.
+    fn new(frame: &Frame, bbox: [i32; 4]) -> SpanEval {
+        let ref_px = [bbox[0], bbox[1]];
+        let (xr, yr) = (ref_px[0] as f64 + 0.5, ref_px[1] as f64 + 0.5);
+        let (cx, cy) = (frame.ax * xr + frame.bx, frame.ay * yr + frame.by);
+        SpanEval {
+            ref_px,
+            perspective: !frame.parallel,
+            cx: Affine32 { c: cx as f32, dx: frame.ax as f32, dy: 0.0 },
+            cy: Affine32 { c: cy as f32, dx: 0.0, dy: frame.ay as f32 },
+            ..Default::default()
+        }
+    }
+
+    /// Tangent-space (perspective) or world (parallel) x/y of the reference pixel centre.
+    fn ref_cam_xy(&self, frame: &Frame) -> (f64, f64) {
+        let (xr, yr) = (self.ref_px[0] as f64 + 0.5, self.ref_px[1] as f64 + 0.5);
+        (frame.ax * xr + frame.bx, frame.ay * yr + frame.by)
+    }
+
+    /// The `pt-linear` tent ramps (absolute pixel coordinates), re-based.
+    fn set_ramps(&mut self, ramps: &[[f64; 3]]) {
+        let (xr, yr) = (self.ref_px[0] as f64 + 0.5, self.ref_px[1] as f64 + 0.5);
+        for (k, r) in ramps.iter().enumerate() {
+            self.ramps[k] = Affine32::rebased(*r, xr, yr);
+        }
+        self.n_ramps = ramps.len();
+    }
+
+    /// Planes and fields from the tet's camera-space vertices `x`, vertex
+    /// scalars and gradient magnitudes, face mask, near depth when clipped,
+    /// and the (scalar range, gradient-magnitude range, longest edge) clamps.
+    /// Planes are kept and dropped by the same rules as the f64 ones; `false`
+    /// when no face is an exit.
+    #[allow(clippy::too_many_arguments)]
+    fn set_segments(
+        &mut self,
         frame: &Frame,
-        setup: &TetSetup,
         x: &[DVec3; 4],
         s_vals: &[f64; 4],
         g_vals: Option<&[f64; 4]>,
         mask: u8,
-    ) -> SpanEval {
-        let ref_px = [setup.bbox[0], setup.bbox[1]];
-        let (xr, yr) = (ref_px[0] as f64 + 0.5, ref_px[1] as f64 + 0.5);
+        near_depth: Option<f64>,
+        (s_range, g_range, len_max): ([f64; 2], [f64; 2], f64),
+    ) -> bool {
+        let (cx, cy) = self.ref_cam_xy(frame);
         let centroid = (x[0] + x[1] + x[2] + x[3]) * 0.25;
-        let z0 = if frame.parallel { centroid.z } else { centroid.z.max(frame.near_depth) };
-        // Tangent-space (perspective) or world (parallel) x/y of pixel centres.
-        let (cx, cy) = (frame.ax * xr + frame.bx, frame.ay * yr + frame.by);
-        // The ray through the reference pixel at depth z0 (a point), and per-pixel steps.
+        let z0 = match near_depth {
+            Some(near) => centroid.z.max(near),
+            None => centroid.z,
+        };
         let (e1, e2, e3) = (x[1] - x[0], x[2] - x[0], x[3] - x[0]);
         let (c23, c31, c12) = (e2.cross(e3), e3.cross(e1), e1.cross(e2));
         let det = e1.dot(c23);
@@ -516,32 +551,18 @@ impl SpanEval {
                 (f0, Affine32 { c: g.dot(d_ref) as f32, dx: (g.x * frame.ax) as f32, dy: (g.y * frame.ay) as f32 })
             }
         };
-        let (s0, sb) = field(s_vals);
-        let (g0, gb) = g_vals.map(field).unwrap_or_default();
-
-        let mut span = SpanEval {
-            ref_px,
-            z0,
-            zeta_near: if setup.near_w.is_some() { (frame.near_depth - z0) as f32 } else { f32::NEG_INFINITY },
-            s0,
-            sb,
-            g0,
-            gb,
-            s_range: setup.s_range.map(|v| v as f32),
-            g_range: setup.g_range.map(|v| v as f32),
-            len_max: setup.len_max as f32,
-            perspective: !frame.parallel,
-            cx: Affine32 { c: cx as f32, dx: frame.ax as f32, dy: 0.0 },
-            cy: Affine32 { c: cy as f32, dx: 0.0, dy: frame.ay as f32 },
-            ..Default::default()
-        };
-        for k in 0..setup.n_ramps {
-            span.ramps[k] = Affine32::rebased(setup.tent_ramps[k], xr, yr);
-        }
-        span.n_ramps = setup.n_ramps;
+        self.z0 = z0;
+        (self.s0, self.sb) = field(s_vals);
+        self.has_g = g_vals.is_some();
+        (self.g0, self.gb) = g_vals.map(field).unwrap_or_default();
+        self.zeta_near = near_depth.map_or(f32::NEG_INFINITY, |near| (near - z0) as f32);
+        self.s_range = s_range.map(|v| v as f32);
+        self.g_range = g_range.map(|v| v as f32);
+        self.len_max = len_max as f32;
 
         let mut backs = [Plane32::default(); 4];
         let mut n_back = 0;
+        self.n_front = 0;
         for (f, fv) in FACE_OUTWARD.iter().enumerate() {
             let front = mask & (1 << f) != 0;
             let back = mask & (1 << (4 + f)) != 0;
@@ -583,16 +604,16 @@ impl SpanEval {
             };
             let plane = Plane32 { num, den };
             if front {
-                span.planes[span.n_front] = plane;
-                span.n_front += 1;
+                self.planes[self.n_front] = plane;
+                self.n_front += 1;
             } else {
                 backs[n_back] = plane;
                 n_back += 1;
             }
         }
-        span.planes[span.n_front..span.n_front + n_back].copy_from_slice(&backs[..n_back]);
-        span.n_planes = span.n_front + n_back;
-        span
+        self.planes[self.n_front..self.n_front + n_back].copy_from_slice(&backs[..n_back]);
+        self.n_planes = self.n_front + n_back;
+        n_back > 0
     }
 }
 
@@ -615,6 +636,10 @@ pub(crate) struct SetupInputs<'a> {
     pub view: &'a ViewGeometry,
     pub want_grad_mag: bool,
     pub want_normals: bool,
+    /// The f64 thick-point data `pt-linear` shades once per tet.
+    pub want_thick: bool,
+    /// The f32 span data per-fragment methods evaluate (always built for clipped tets).
+    pub want_span: bool,
 }
 
 /// Pixel bounding box `[x0, y0, x1, y1]` (inclusive, clipped to the image) of
@@ -694,6 +719,31 @@ fn screen_points(view: &ViewGeometry, tet: &[u32; 4], pts: &mut [[f64; 2]; 6], k
     n
 }
 
+/// ⌈v⌉ for |v| ≤ 1e15 (beyond: ±1e15; NaN → 0), without a libm call on
+/// baseline x86-64.
+#[inline(always)]
+fn ceil_i64(v: f64) -> i64 {
+    let v = v.clamp(-1e15, 1e15);
+    let t = v as i64;
+    if (t as f64) < v {
+        t + 1
+    } else {
+        t
+    }
+}
+
+/// ⌊v⌋, as [`ceil_i64`].
+#[inline(always)]
+fn floor_i64(v: f64) -> i64 {
+    let v = v.clamp(-1e15, 1e15);
+    let t = v as i64;
+    if (t as f64) > v {
+        t - 1
+    } else {
+        t
+    }
+}
+
 #[inline]
 fn vertex_key(v: u32) -> u64 {
     ((v as u64) << 32) | v as u64
@@ -729,7 +779,20 @@ fn hull_of(pts: &[[f64; 2]], keys: &[u64], out: &mut [[f64; 2]; 6], out_keys: &m
 impl TetSetup {
     /// Sets up tet `t`, or `None` when it can cover no pixel (fully behind
     /// the near plane, zero projected area, zero volume, off screen).
+    #[cfg(test)]
     pub fn new(inp: &SetupInputs, t: usize) -> Option<TetSetup> {
+        let mut s = TetSetup::default();
+        s.build(inp, t).then_some(s)
+    }
+
+    /// Sets up tet `t` in place (a setup is large: the rasterizer reuses one
+    /// per tile rather than moving a new one around for every tet); `false`
+    /// when the tet can cover no pixel (fully behind the near plane, zero
+    /// projected area, zero volume, off screen, or no exit face). Builds the
+    /// f64 thick-point data (planes, fields; thick point and tent unless
+    /// clipped) when `want_thick`, and the f32 span data when `want_span` or
+    /// clipped.
+    pub fn build(&mut self, inp: &SetupInputs, t: usize) -> bool {
         let scene = inp.scene;
         let view = inp.view;
         let frame = &view.frame;
@@ -738,7 +801,7 @@ impl TetSetup {
         let mut keys = [0u64; 6];
         let n = screen_points(view, tet, &mut pts, &mut keys);
         if n < 3 {
-            return None;
+            return false;
         }
         let mut hull = [[0.0; 2]; 6];
         let mut hull_keys = [0u64; 6];
@@ -767,14 +830,9 @@ impl TetSetup {
             (ns, class.thick_point(&p4))
         };
         if n_hull < 3 {
-            return None;
+            return false;
         }
-        let bbox = bbox_of(&hull[..n_hull], frame.width, frame.height)?;
-        let mut edges = [Edge::default(); 6];
-        for k in 0..n_hull {
-            let j = (k + 1) % n_hull;
-            edges[k] = Edge::new(hull[k], hull_keys[k], hull[j], hull_keys[j]);
-        }
+        let Some(bbox) = bbox_of(&hull[..n_hull], frame.width, frame.height) else { return false };
 
         // Linear fields from the camera-space vertices.
         let x = tet.map(|v| DVec3::from(view.cam[v as usize]));
@@ -782,27 +840,29 @@ impl TetSetup {
         let (c23, c31, c12) = (e2.cross(e3), e3.cross(e1), e1.cross(e2));
         let det = e1.dot(c23);
         if det == 0.0 || !det.is_finite() {
-            return None;
+            return false;
         }
-        let grad_of = |f: [f64; 4]| (c23 * (f[1] - f[0]) + c31 * (f[2] - f[0]) + c12 * (f[3] - f[0])) / det;
-        let field_of = |f: [f64; 4]| Field::new(frame, grad_of(f), f[0], x[0]);
+        // f64 planes and fields whenever asked (the thick point, and tests'
+        // per-pixel oracle); the thick point itself only for unclipped tets.
+        let thick_path = inp.want_thick;
+        let span_path = inp.want_span || clipped;
+        let grad_of = |f: &[f64; 4]| (c23 * (f[1] - f[0]) + c31 * (f[2] - f[0]) + c12 * (f[3] - f[0])) / det;
+        let field_of = |f: &[f64; 4]| Field::new(frame, grad_of(f), f[0], x[0]);
         let sv = tet.map(|v| scene.scalar()[v as usize]);
-        let range = |f: [f64; 4]| {
+        let range = |f: &[f64; 4]| {
             [f.iter().copied().fold(f64::INFINITY, f64::min), f.iter().copied().fold(f64::NEG_INFINITY, f64::max)]
         };
-        let s = field_of(sv);
-        let s_range = range(sv);
         let g_vals = match (inp.want_grad_mag, scene.gradient_magnitudes()) {
             (true, Some(gm)) => Some(tet.map(|v| gm[v as usize])),
             _ => None,
         };
-        let (g, g_range) = match g_vals {
-            Some(gv) => (Some(field_of(gv)), range(gv)),
-            None => (None, [0.0, 0.0]),
-        };
-        let normal = match (inp.want_normals, scene.gradients()) {
+        self.s = if thick_path { field_of(&sv) } else { Field::default() };
+        self.s_range = range(&sv);
+        self.g = g_vals.as_ref().filter(|_| thick_path).map(field_of);
+        self.g_range = g_vals.as_ref().map_or([0.0, 0.0], range);
+        self.normal = match (inp.want_normals, scene.gradients()) {
             (true, Some(gr)) => {
-                let comp = |c: usize| field_of(tet.map(|v| gr[v as usize][c]));
+                let comp = |c: usize| field_of(&tet.map(|v| gr[v as usize][c]));
                 Some([comp(0), comp(1), comp(2)])
             }
             _ => None,
@@ -813,44 +873,52 @@ impl TetSetup {
                 len_max = len_max.max((x[i] - x[j]).length_squared());
             }
         }
-        let len_max = len_max.sqrt();
+        self.len_max = len_max.sqrt();
+        self.n_hull = n_hull;
+        for k in 0..n_hull {
+            let j = (k + 1) % n_hull;
+            self.edges[k] = Edge::new(hull[k], hull_keys[k], hull[j], hull_keys[j]);
+        }
+        self.bbox = bbox;
+        self.near_w = if clipped && !frame.parallel { Some(1.0 / frame.near_depth) } else { None };
+        self.parallel = frame.parallel;
+        self.clipped = clipped;
+        self.thick = if thick_path { thick } else { None }; // None when clipped
+        self.n_ramps = 0;
+        self.n_front = 0;
+        self.n_back = 0;
+        self.span = SpanEval::new(frame, bbox);
 
-        // Face planes as affine functions of the pixel position.
-        let mask = view.face_mask[t];
-        let mut setup = TetSetup {
-            n_hull,
-            edges,
-            bbox,
-            planes_front: [[0.0; 3]; 4],
-            n_front: 0,
-            planes_back: [[0.0; 3]; 4],
-            n_back: 0,
-            near_w: if clipped && !frame.parallel { Some(1.0 / frame.near_depth) } else { None },
-            parallel: frame.parallel,
-            s,
-            g,
-            normal,
-            s_range,
-            g_range,
-            len_max,
-            thick,
-            tent_ramps: [[0.0; 3]; 6],
-            n_ramps: 0,
-            clipped,
-            span: SpanEval::default(),
-        };
-        if let Some(t) = thick {
-            for k in 0..n_hull {
-                let (u, v) = (hull[k], hull[(k + 1) % n_hull]);
-                let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
-                let et = dx * (t[1] - u[1]) - dy * (t[0] - u[0]);
-                if et > 0.0 {
-                    // (dx·(y − u_y) − dy·(x − u_x)) / et as an affine function.
-                    setup.tent_ramps[setup.n_ramps] = [(dy * u[0] - dx * u[1]) / et, -dy / et, dx / et];
-                    setup.n_ramps += 1;
+        if thick_path {
+            if let Some(t) = thick {
+                for k in 0..n_hull {
+                    let (u, v) = (hull[k], hull[(k + 1) % n_hull]);
+                    let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
+                    let et = dx * (t[1] - u[1]) - dy * (t[0] - u[0]);
+                    if et > 0.0 {
+                        // (dx·(y − u_y) − dy·(x − u_x)) / et as an affine function.
+                        self.tent_ramps[self.n_ramps] = [(dy * u[0] - dx * u[1]) / et, -dy / et, dx / et];
+                        self.n_ramps += 1;
+                    }
                 }
             }
+            self.span.set_ramps(&self.tent_ramps[..self.n_ramps]);
+            if !self.set_f64_planes(frame, &x, view.face_mask[t]) {
+                return false;
+            }
         }
+        if span_path {
+            let near = if clipped && !frame.parallel { Some(frame.near_depth) } else { None };
+            let ranges = (self.s_range, self.g_range, self.len_max);
+            if !self.span.set_segments(frame, &x, &sv, g_vals.as_ref(), view.face_mask[t], near, ranges) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The f64 face planes of [`TetSetup::fragment`]; `false` when none is an exit.
+    fn set_f64_planes(&mut self, frame: &Frame, x: &[DVec3; 4], mask: u8) -> bool {
         for (f, fv) in FACE_OUTWARD.iter().enumerate() {
             let front = mask & (1 << f) != 0;
             let back = mask & (1 << (4 + f)) != 0;
@@ -883,18 +951,14 @@ impl TetSetup {
                 continue;
             }
             if front {
-                setup.planes_front[setup.n_front] = q;
-                setup.n_front += 1;
+                self.planes_front[self.n_front] = q;
+                self.n_front += 1;
             } else {
-                setup.planes_back[setup.n_back] = q;
-                setup.n_back += 1;
+                self.planes_back[self.n_back] = q;
+                self.n_back += 1;
             }
         }
-        if setup.n_back == 0 {
-            return None;
-        }
-        setup.span = SpanEval::new(frame, &setup, &x, &sv, g_vals.as_ref(), mask);
-        Some(setup)
+        self.n_back > 0
     }
 
     /// The pixels of row `py` within `[x_lo, x_hi]` whose centres the
@@ -918,28 +982,34 @@ impl TetSetup {
                 }
                 continue;
             }
-            // The pixel whose span holds the crossing (truncation: a guess; a
-            // NaN or huge crossing saturates and is clamped).
-            let x_cross = e.ax + e.x_per_y * (y - e.ay);
-            let guess = (x_cross as i64).clamp(lo - 1, hi + 1);
+            // The crossing's x, off by far less than a pixel: the exact tests
+            // below usually just confirm the pixel next to it (a NaN or huge
+            // crossing saturates, is clamped, and costs a longer walk).
+            let x_cross = e.ax + e.x_per_y * (y - e.ay) - 0.5;
             if slope < 0.0 {
-                // Inside for x ≥ boundary: find the first inside pixel ≥ lo.
-                let mut i = guess.max(lo);
-                while i > lo && at(i - 1) {
-                    i -= 1;
-                }
-                while i <= hi && !at(i) {
-                    i += 1;
+                // Inside for x ≥ boundary: the first inside pixel ≥ lo.
+                let mut i = ceil_i64(x_cross).clamp(lo, hi + 1);
+                if i <= hi && at(i) {
+                    while i > lo && at(i - 1) {
+                        i -= 1;
+                    }
+                } else {
+                    while i <= hi && !at(i) {
+                        i += 1;
+                    }
                 }
                 lo = i;
             } else {
-                // Inside for x ≤ boundary: find the last inside pixel ≤ hi.
-                let mut i = guess.min(hi);
-                while i < hi && at(i + 1) {
-                    i += 1;
-                }
-                while i >= lo && !at(i) {
-                    i -= 1;
+                // Inside for x ≤ boundary: the last inside pixel ≤ hi.
+                let mut i = floor_i64(x_cross).clamp(lo - 1, hi);
+                if i >= lo && at(i) {
+                    while i < hi && at(i + 1) {
+                        i += 1;
+                    }
+                } else {
+                    while i >= lo && !at(i) {
+                        i -= 1;
+                    }
                 }
                 hi = i;
             }
@@ -1002,7 +1072,7 @@ impl TetSetup {
             out.s_back[l] = clamp(s0 + zb[l] * sb, sp.s_range);
             out.zeta_mid[l] = if ok { 0.5 * (zf[l] + zb[l]) } else { 0.0 };
         }
-        if self.g.is_some() {
+        if sp.has_g {
             let (g0r, gbr) = (sp.g0.row(j), sp.gb.row(j));
             for l in 0..LANES {
                 let (g0, gb) = (g0r + sp.g0.dx * ii[l], gbr + sp.gb.dx * ii[l]);
@@ -1208,7 +1278,14 @@ mod tests {
         let scene = Scene::new(&p, vec![[0, 1, 2, 3]], vec![0.1, 0.9, 0.4, 0.7]).unwrap();
         let camera = Camera::new(view).unwrap();
         let geo = ViewGeometry::new(&scene, &camera);
-        let inp = SetupInputs { scene: &scene, view: &geo, want_grad_mag: false, want_normals: false };
+        let inp = SetupInputs {
+            scene: &scene,
+            view: &geo,
+            want_grad_mag: false,
+            want_normals: false,
+            want_thick: true,
+            want_span: true,
+        };
         let Some(s) = TetSetup::new(&inp, 0) else { return 0 };
         let mut covered = 0;
         let mut lanes = Lanes::default();

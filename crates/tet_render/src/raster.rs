@@ -93,6 +93,8 @@ pub fn rasterize(
         view,
         want_grad_mag: shader.method().is_bivariate(),
         want_normals: opts.shading.is_active(),
+        want_thick: shader.method() == Method::PtLinear,
+        want_span: shader.method() != Method::PtLinear,
     };
     let pt_linear = shader.method() == Method::PtLinear;
     let fragments = AtomicU64::new(0);
@@ -116,6 +118,7 @@ pub fn rasterize(
                 batch: Batch::new(),
             };
             let all = ctx.acc.len();
+            let mut setup = TetSetup::default();
             'tets: for chunk in &bins {
                 for &t in &chunk[ti] {
                     if ctx.opaque == all {
@@ -123,8 +126,8 @@ pub fn rasterize(
                         break 'tets;
                     }
                     ctx.setups += 1;
-                    if let Some(s) = TetSetup::new(&inputs, t as usize) {
-                        draw_tet(&mut ctx, &s, view, shader, opts, pt_linear);
+                    if setup.build(&inputs, t as usize) {
+                        draw_tet(&mut ctx, &setup, view, shader, opts, pt_linear);
                     }
                 }
             }

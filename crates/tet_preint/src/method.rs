@@ -106,6 +106,17 @@ pub trait SegmentShader: Send + Sync {
     fn method(&self) -> Method;
     /// Premultiplied (C, α) of the segment; never NaN.
     fn shade(&self, seg: &Segment) -> Rgba32;
+
+    /// Shades a batch: `out[i] = self.shade(&segs[i])` for every `i` below
+    /// `min(segs.len(), out.len())`. Renderers pass a tet's fragments in one
+    /// call, so a dynamic call covers many fragments; a table may override
+    /// this to hoist per-call work (storage dispatch, clamps) out of the loop,
+    /// and must then return the same values as [`SegmentShader::shade`].
+    fn shade_span(&self, segs: &[Segment], out: &mut [Rgba32]) {
+        for (seg, o) in segs.iter().zip(out.iter_mut()) {
+            *o = self.shade(seg);
+        }
+    }
 }
 
 /// The `exact` method as a shader: f64 integration per call (slow; the

@@ -144,6 +144,15 @@ impl Storage {
         self.len() * self.precision.bytes()
     }
 
+    /// The values themselves when stored as f32 (no decoding needed), so a
+    /// hot loop can index them directly.
+    pub fn as_f32(&self) -> Option<&[f32]> {
+        match &self.data {
+            Data::F32(v) => Some(v),
+            _ => None,
+        }
+    }
+
     /// Value `i` (entry · channels + channel), decoded.
     #[inline]
     pub fn get(&self, i: usize) -> f32 {

@@ -302,6 +302,13 @@ impl Table3d {
     /// Trilinear lookup; inputs outside the domain (and NaN) are clamped.
     #[inline]
     pub fn lookup(&self, sf: f32, sb: f32, len_world: f32) -> Rgba32 {
+        self.lookup_with(|i| self.data.get4(i), sf, sb, len_world)
+    }
+
+    /// [`Table3d::lookup`] reading entries through `get4` (the decoding
+    /// storage accessor, or a direct f32 slice in [`SegmentShader::shade_span`]).
+    #[inline(always)]
+    fn lookup_with(&self, get4: impl Fn(usize) -> [f32; 4], sf: f32, sb: f32, len_world: f32) -> Rgba32 {
         let top = (self.params.n_s - 1) as f32;
         let lo = self.domain.s_lo as f32;
         // f32::max/min drop NaN, so NaN lands on the low edge.
@@ -325,8 +332,8 @@ impl Table3d {
                     continue;
                 }
                 let base = (self.band.pair(a0 + da, b0 + db) * nl + k0) * 4;
-                let e0 = self.data.get4(base);
-                let e1 = self.data.get4(base + 4);
+                let e0 = get4(base);
+                let e1 = get4(base + 4);
                 for c in 0..4 {
                     out[c] += w * (e0[c] + fk * (e1[c] - e0[c]));
                 }
@@ -342,6 +349,26 @@ impl SegmentShader for Table3d {
     }
     fn shade(&self, seg: &Segment) -> Rgba32 {
         self.lookup(seg.s_front, seg.s_back, seg.len_world)
+    }
+    /// Same values as `shade`; f32 storage is indexed directly (one storage
+    /// dispatch per call instead of eight per segment).
+    fn shade_span(&self, segs: &[Segment], out: &mut [Rgba32]) {
+        match self.data.as_f32() {
+            Some(d) => {
+                let get4 = |i: usize| -> [f32; 4] {
+                    let e = &d[i..i + 4];
+                    [e[0], e[1], e[2], e[3]]
+                };
+                for (seg, o) in segs.iter().zip(out.iter_mut()) {
+                    *o = self.lookup_with(get4, seg.s_front, seg.s_back, seg.len_world);
+                }
+            }
+            None => {
+                for (seg, o) in segs.iter().zip(out.iter_mut()) {
+                    *o = self.lookup(seg.s_front, seg.s_back, seg.len_world);
+                }
+            }
+        }
     }
 }
 
@@ -802,6 +829,32 @@ mod tests {
     fn ramp() -> TransferFunction {
         tf(r#"{"color": [[0, 0.1, 0.2, 0.9], [0.5, 0.9, 0.9, 0.2], [1, 1, 0.1, 0]],
                "opacity": [[0, 0], [0.4, 0.05], [0.45, 3], [0.55, 3], [0.6, 0.1], [1, 0.4]], "unit_distance": 0.5}"#)
+    }
+
+    #[test]
+    fn shade_span_equals_shade_for_every_precision() {
+        let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
+        let segs: Vec<Segment> = (0..500)
+            .map(|i| {
+                let x = i as f32 * 0.618_034;
+                Segment {
+                    s_front: (x.fract() * 1.4) - 0.2,
+                    s_back: ((x * 1.7).fract() * 1.4) - 0.2,
+                    len_world: (x * 2.3).fract() * 2.5,
+                    ..Default::default()
+                }
+            })
+            .chain([Segment { s_front: f32::NAN, s_back: 0.5, len_world: f32::NAN, ..Default::default() }])
+            .collect();
+        for precision in [Precision::F32, Precision::F16, Precision::Unorm8] {
+            let p = Table3dParams { n_s: 16, n_l: 8, precision, ..Default::default() };
+            let t = Table3d::build(&ramp(), &d, &p).unwrap();
+            let mut out = vec![[0.0f32; 4]; segs.len()];
+            t.shade_span(&segs, &mut out);
+            for (s, o) in segs.iter().zip(&out) {
+                assert_eq!(*o, t.shade(s));
+            }
+        }
     }
 
     fn node_error(t: &Table3d, tf: &TransferFunction) -> f64 {

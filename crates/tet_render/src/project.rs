@@ -306,6 +306,9 @@ pub(crate) struct Edge {
     dy: f64,
     sign: f64,
     tie: bool,
+    /// dx/dy (0 when horizontal): where the edge's line crosses a row, for
+    /// the starting guess of [`TetSetup::row_span`] only.
+    x_per_y: f64,
 }
 
 impl Edge {
@@ -316,7 +319,8 @@ impl Edge {
         // directed edge points down (or right when horizontal): exactly one of
         // the two directions does.
         let (ddx, ddy) = (sign * dx, sign * dy);
-        Edge { ax: a[0], ay: a[1], dx, dy, sign, tie: ddy > 0.0 || (ddy == 0.0 && ddx > 0.0) }
+        let x_per_y = if dy != 0.0 { dx / dy } else { 0.0 };
+        Edge { ax: a[0], ay: a[1], dx, dy, sign, tie: ddy > 0.0 || (ddy == 0.0 && ddx > 0.0), x_per_y }
     }
 
     #[inline(always)]
@@ -367,7 +371,7 @@ pub struct Fragment {
 }
 
 /// Per-tet data for rasterizing one tet: silhouette, planes and fields.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub(crate) struct TetSetup {
     pub n_hull: usize,
     edges: [Edge; 6],
@@ -392,6 +396,238 @@ pub(crate) struct TetSetup {
     tent_ramps: [[f64; 3]; 6],
     n_ramps: usize,
     pub clipped: bool,
+    /// The f32 form of the planes and fields the span loop evaluates.
+    pub span: SpanEval,
+}
+
+/// Number of pixels [`TetSetup::eval_lanes`] evaluates at once (plain arrays
+/// that LLVM vectorizes).
+pub(crate) const LANES: usize = 8;
+
+/// `c + dx·i + dy·j` for pixel offsets (i, j) from a tet's reference pixel.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Affine32 {
+    c: f32,
+    dx: f32,
+    dy: f32,
+}
+
+impl Affine32 {
+    /// From `[c0, cx, cy]` in absolute pixel-centre coordinates, re-based at
+    /// the pixel centre (xr, yr) in f64 before rounding to f32.
+    fn rebased(q: [f64; 3], xr: f64, yr: f64) -> Affine32 {
+        Affine32 { c: (q[0] + q[1] * xr + q[2] * yr) as f32, dx: q[1] as f32, dy: q[2] as f32 }
+    }
+    #[inline(always)]
+    fn row(&self, j: f32) -> f32 {
+        self.c + self.dy * j
+    }
+}
+
+/// One face plane for the span loop: where the ray through pixel offset
+/// (i, j) meets it, as depth ζ relative to the tet's reference depth z0,
+/// is `num / den`; the ray crosses it in front of the eye only where `den`
+/// has the sign of the face's role (front: den < 0, entering; back: den > 0).
+#[derive(Debug, Clone, Copy, Default)]
+struct Plane32 {
+    num: Affine32,
+    den: Affine32,
+}
+
+/// The per-pixel part of a tet setup in f32, relative to the tet's
+/// reference pixel (its bounding box corner) and reference depth z0 (its
+/// centroid's, or the near plane's when that is farther), so the values
+/// the loop combines are of the size of the tet, not of the scene: the
+/// point at pixel p and depth z0 + ζ has scalar `s0(p) + ζ·sb(p)`, the
+/// segment is `[max(fronts, near), min(backs)]` in ζ, and its world length
+/// is `Δζ·|d(p)|` with `|d| = sqrt(1 + cx² + cy²)` (perspective) or 1.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct SpanEval {
+    /// Reference pixel (offsets are taken from its centre).
+    pub ref_px: [i32; 2],
+    /// Reference depth, camera units (f64: lighting evaluates fields at z0 + ζ).
+    pub z0: f64,
+    /// Fronts first, then backs.
+    planes: [Plane32; 4],
+    n_front: usize,
+    n_planes: usize,
+    /// Entry bound from the near plane (−∞ when not clipped).
+    zeta_near: f32,
+    s0: Affine32,
+    sb: Affine32,
+    /// Gradient-magnitude fields (bivariate methods) present.
+    has_g: bool,
+    g0: Affine32,
+    gb: Affine32,
+    s_range: [f32; 2],
+    g_range: [f32; 2],
+    len_max: f32,
+    /// Perspective: tangent-space x/y of the reference pixel centre and per pixel.
+    perspective: bool,
+    cx: Affine32,
+    cy: Affine32,
+    /// The tent ramps of `pt-linear`, re-based.
+    ramps: [Affine32; 6],
+    n_ramps: usize,
+}
+
+impl SpanEval {
+    /// The reference pixel (the bbox corner) and the tangent-space map of
+    /// pixel centres; no planes, fields or ramps yet.
+    fn new(frame: &Frame, bbox: [i32; 4]) -> SpanEval {
+        let ref_px = [bbox[0], bbox[1]];
+        let (xr, yr) = (ref_px[0] as f64 + 0.5, ref_px[1] as f64 + 0.5);
+        let (cx, cy) = (frame.ax * xr + frame.bx, frame.ay * yr + frame.by);
+        SpanEval {
+            ref_px,
+            perspective: !frame.parallel,
+            cx: Affine32 { c: cx as f32, dx: frame.ax as f32, dy: 0.0 },
+            cy: Affine32 { c: cy as f32, dx: 0.0, dy: frame.ay as f32 },
+            ..Default::default()
+        }
+    }
+
+    /// Tangent-space (perspective) or world (parallel) x/y of the reference pixel centre.
+    fn ref_cam_xy(&self, frame: &Frame) -> (f64, f64) {
+        let (xr, yr) = (self.ref_px[0] as f64 + 0.5, self.ref_px[1] as f64 + 0.5);
+        (frame.ax * xr + frame.bx, frame.ay * yr + frame.by)
+    }
+
+    /// The `pt-linear` tent ramps (absolute pixel coordinates), re-based.
+    fn set_ramps(&mut self, ramps: &[[f64; 3]]) {
+        let (xr, yr) = (self.ref_px[0] as f64 + 0.5, self.ref_px[1] as f64 + 0.5);
+        for (k, r) in ramps.iter().enumerate() {
+            self.ramps[k] = Affine32::rebased(*r, xr, yr);
+        }
+        self.n_ramps = ramps.len();
+    }
+
+    /// Planes and fields from the tet's camera-space vertices `x`, vertex
+    /// scalars and gradient magnitudes, face mask, near depth when clipped,
+    /// and the (scalar range, gradient-magnitude range, longest edge) clamps.
+    /// Planes are kept and dropped by the same rules as the f64 ones; `false`
+    /// when no face is an exit.
+    #[allow(clippy::too_many_arguments)]
+    fn set_segments(
+        &mut self,
+        frame: &Frame,
+        x: &[DVec3; 4],
+        s_vals: &[f64; 4],
+        g_vals: Option<&[f64; 4]>,
+        mask: u8,
+        near_depth: Option<f64>,
+        (s_range, g_range, len_max): ([f64; 2], [f64; 2], f64),
+    ) -> bool {
+        let (cx, cy) = self.ref_cam_xy(frame);
+        let centroid = (x[0] + x[1] + x[2] + x[3]) * 0.25;
+        let z0 = match near_depth {
+            Some(near) => centroid.z.max(near),
+            None => centroid.z,
+        };
+        let (e1, e2, e3) = (x[1] - x[0], x[2] - x[0], x[3] - x[0]);
+        let (c23, c31, c12) = (e2.cross(e3), e3.cross(e1), e1.cross(e2));
+        let det = e1.dot(c23);
+        let grad_of = |f: &[f64; 4]| (c23 * (f[1] - f[0]) + c31 * (f[2] - f[0]) + c12 * (f[3] - f[0])) / det;
+        // A field f = f_c + g·(X − centroid) at X = (z0 + ζ)·d (perspective) or
+        // (cx, cy, z0 + ζ) (parallel): f0(p) + ζ·fb(p).
+        let field = |f: &[f64; 4]| -> (Affine32, Affine32) {
+            let g = grad_of(f);
+            let f_c = 0.25 * (f[0] + f[1] + f[2] + f[3]);
+            if frame.parallel {
+                let p_ref = DVec3::new(cx, cy, z0);
+                let f0 = Affine32 {
+                    c: (f_c + g.dot(p_ref - centroid)) as f32,
+                    dx: (g.x * frame.ax) as f32,
+                    dy: (g.y * frame.ay) as f32,
+                };
+                (f0, Affine32 { c: g.z as f32, dx: 0.0, dy: 0.0 })
+            } else {
+                let d_ref = DVec3::new(cx, cy, 1.0);
+                let f0 = Affine32 {
+                    c: (f_c + g.dot(d_ref * z0 - centroid)) as f32,
+                    dx: (g.x * frame.ax * z0) as f32,
+                    dy: (g.y * frame.ay * z0) as f32,
+                };
+                (f0, Affine32 { c: g.dot(d_ref) as f32, dx: (g.x * frame.ax) as f32, dy: (g.y * frame.ay) as f32 })
+            }
+        };
+        self.z0 = z0;
+        (self.s0, self.sb) = field(s_vals);
+        self.has_g = g_vals.is_some();
+        (self.g0, self.gb) = g_vals.map(field).unwrap_or_default();
+        self.zeta_near = near_depth.map_or(f32::NEG_INFINITY, |near| (near - z0) as f32);
+        self.s_range = s_range.map(|v| v as f32);
+        self.g_range = g_range.map(|v| v as f32);
+        self.len_max = len_max as f32;
+
+        let mut backs = [Plane32::default(); 4];
+        let mut n_back = 0;
+        self.n_front = 0;
+        for (f, fv) in FACE_OUTWARD.iter().enumerate() {
+            let front = mask & (1 << f) != 0;
+            let back = mask & (1 << (4 + f)) != 0;
+            if !front && !back {
+                continue;
+            }
+            let (a, b, c) = (x[fv[0]], x[fv[1]], x[fv[2]]);
+            let nrm = (c - a).cross(b - a);
+            let len = nrm.length();
+            if !(len > 0.0 && len.is_finite()) {
+                continue;
+            }
+            let nrm = nrm / len;
+            let (num, den) = if frame.parallel {
+                let agrees = if front { nrm.z < 0.0 } else { nrm.z > 0.0 };
+                if !agrees {
+                    continue;
+                }
+                // ζ = (n·a − n_x·cx − n_y·cy − n_z·z0) / n_z.
+                let num = Affine32 {
+                    c: nrm.dot(a - DVec3::new(cx, cy, z0)) as f32,
+                    dx: (-nrm.x * frame.ax) as f32,
+                    dy: (-nrm.y * frame.ay) as f32,
+                };
+                (num, Affine32 { c: nrm.z as f32, dx: 0.0, dy: 0.0 })
+            } else {
+                let agrees = if front { nrm.dot(a) < 0.0 } else { nrm.dot(a) > 0.0 };
+                if !agrees {
+                    continue;
+                }
+                // ζ = (n·a − z0·n·d) / (n·d).
+                let (den_dx, den_dy) = (nrm.x * frame.ax, nrm.y * frame.ay);
+                let num = Affine32 {
+                    c: nrm.dot(a - DVec3::new(cx, cy, 1.0) * z0) as f32,
+                    dx: (-z0 * den_dx) as f32,
+                    dy: (-z0 * den_dy) as f32,
+                };
+                (num, Affine32 { c: nrm.dot(DVec3::new(cx, cy, 1.0)) as f32, dx: den_dx as f32, dy: den_dy as f32 })
+            };
+            let plane = Plane32 { num, den };
+            if front {
+                self.planes[self.n_front] = plane;
+                self.n_front += 1;
+            } else {
+                backs[n_back] = plane;
+                n_back += 1;
+            }
+        }
+        self.planes[self.n_front..self.n_front + n_back].copy_from_slice(&backs[..n_back]);
+        self.n_planes = self.n_front + n_back;
+        n_back > 0
+    }
+}
+
+/// Per-lane results of [`TetSetup::eval_lanes`]: a lane with `len == 0`
+/// has no fragment.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Lanes {
+    pub s_front: [f32; LANES],
+    pub s_back: [f32; LANES],
+    pub g_front: [f32; LANES],
+    pub g_back: [f32; LANES],
+    pub len_world: [f32; LANES],
+    /// ζ at the segment's midpoint (lighting).
+    pub zeta_mid: [f32; LANES],
 }
 
 /// What the setup needs besides the tet: optional per-vertex fields.
@@ -400,6 +636,10 @@ pub(crate) struct SetupInputs<'a> {
     pub view: &'a ViewGeometry,
     pub want_grad_mag: bool,
     pub want_normals: bool,
+    /// The f64 thick-point data `pt-linear` shades once per tet.
+    pub want_thick: bool,
+    /// The f32 span data per-fragment methods evaluate (always built for clipped tets).
+    pub want_span: bool,
 }
 
 /// Pixel bounding box `[x0, y0, x1, y1]` (inclusive, clipped to the image) of
@@ -479,6 +719,31 @@ fn screen_points(view: &ViewGeometry, tet: &[u32; 4], pts: &mut [[f64; 2]; 6], k
     n
 }
 
+/// ⌈v⌉ for |v| ≤ 1e15 (beyond: ±1e15; NaN → 0), without a libm call on
+/// baseline x86-64.
+#[inline(always)]
+fn ceil_i64(v: f64) -> i64 {
+    let v = v.clamp(-1e15, 1e15);
+    let t = v as i64;
+    if (t as f64) < v {
+        t + 1
+    } else {
+        t
+    }
+}
+
+/// ⌊v⌋, as [`ceil_i64`].
+#[inline(always)]
+fn floor_i64(v: f64) -> i64 {
+    let v = v.clamp(-1e15, 1e15);
+    let t = v as i64;
+    if (t as f64) > v {
+        t - 1
+    } else {
+        t
+    }
+}
+
 #[inline]
 fn vertex_key(v: u32) -> u64 {
     ((v as u64) << 32) | v as u64
@@ -514,7 +779,20 @@ fn hull_of(pts: &[[f64; 2]], keys: &[u64], out: &mut [[f64; 2]; 6], out_keys: &m
 impl TetSetup {
     /// Sets up tet `t`, or `None` when it can cover no pixel (fully behind
     /// the near plane, zero projected area, zero volume, off screen).
+    #[cfg(test)]
     pub fn new(inp: &SetupInputs, t: usize) -> Option<TetSetup> {
+        let mut s = TetSetup::default();
+        s.build(inp, t).then_some(s)
+    }
+
+    /// Sets up tet `t` in place (a setup is large: the rasterizer reuses one
+    /// per tile rather than moving a new one around for every tet); `false`
+    /// when the tet can cover no pixel (fully behind the near plane, zero
+    /// projected area, zero volume, off screen, or no exit face). Builds the
+    /// f64 thick-point data (planes, fields; thick point and tent unless
+    /// clipped) when `want_thick`, and the f32 span data when `want_span` or
+    /// clipped.
+    pub fn build(&mut self, inp: &SetupInputs, t: usize) -> bool {
         let scene = inp.scene;
         let view = inp.view;
         let frame = &view.frame;
@@ -523,7 +801,7 @@ impl TetSetup {
         let mut keys = [0u64; 6];
         let n = screen_points(view, tet, &mut pts, &mut keys);
         if n < 3 {
-            return None;
+            return false;
         }
         let mut hull = [[0.0; 2]; 6];
         let mut hull_keys = [0u64; 6];
@@ -552,14 +830,9 @@ impl TetSetup {
             (ns, class.thick_point(&p4))
         };
         if n_hull < 3 {
-            return None;
+            return false;
         }
-        let bbox = bbox_of(&hull[..n_hull], frame.width, frame.height)?;
-        let mut edges = [Edge::default(); 6];
-        for k in 0..n_hull {
-            let j = (k + 1) % n_hull;
-            edges[k] = Edge::new(hull[k], hull_keys[k], hull[j], hull_keys[j]);
-        }
+        let Some(bbox) = bbox_of(&hull[..n_hull], frame.width, frame.height) else { return false };
 
         // Linear fields from the camera-space vertices.
         let x = tet.map(|v| DVec3::from(view.cam[v as usize]));
@@ -567,26 +840,29 @@ impl TetSetup {
         let (c23, c31, c12) = (e2.cross(e3), e3.cross(e1), e1.cross(e2));
         let det = e1.dot(c23);
         if det == 0.0 || !det.is_finite() {
-            return None;
+            return false;
         }
-        let grad_of = |f: [f64; 4]| (c23 * (f[1] - f[0]) + c31 * (f[2] - f[0]) + c12 * (f[3] - f[0])) / det;
-        let field_of = |f: [f64; 4]| Field::new(frame, grad_of(f), f[0], x[0]);
+        // f64 planes and fields whenever asked (the thick point, and tests'
+        // per-pixel oracle); the thick point itself only for unclipped tets.
+        let thick_path = inp.want_thick;
+        let span_path = inp.want_span || clipped;
+        let grad_of = |f: &[f64; 4]| (c23 * (f[1] - f[0]) + c31 * (f[2] - f[0]) + c12 * (f[3] - f[0])) / det;
+        let field_of = |f: &[f64; 4]| Field::new(frame, grad_of(f), f[0], x[0]);
         let sv = tet.map(|v| scene.scalar()[v as usize]);
-        let range = |f: [f64; 4]| {
+        let range = |f: &[f64; 4]| {
             [f.iter().copied().fold(f64::INFINITY, f64::min), f.iter().copied().fold(f64::NEG_INFINITY, f64::max)]
         };
-        let s = field_of(sv);
-        let s_range = range(sv);
-        let (g, g_range) = match (inp.want_grad_mag, scene.gradient_magnitudes()) {
-            (true, Some(gm)) => {
-                let gv = tet.map(|v| gm[v as usize]);
-                (Some(field_of(gv)), range(gv))
-            }
-            _ => (None, [0.0, 0.0]),
+        let g_vals = match (inp.want_grad_mag, scene.gradient_magnitudes()) {
+            (true, Some(gm)) => Some(tet.map(|v| gm[v as usize])),
+            _ => None,
         };
-        let normal = match (inp.want_normals, scene.gradients()) {
+        self.s = if thick_path { field_of(&sv) } else { Field::default() };
+        self.s_range = range(&sv);
+        self.g = g_vals.as_ref().filter(|_| thick_path).map(field_of);
+        self.g_range = g_vals.as_ref().map_or([0.0, 0.0], range);
+        self.normal = match (inp.want_normals, scene.gradients()) {
             (true, Some(gr)) => {
-                let comp = |c: usize| field_of(tet.map(|v| gr[v as usize][c]));
+                let comp = |c: usize| field_of(&tet.map(|v| gr[v as usize][c]));
                 Some([comp(0), comp(1), comp(2)])
             }
             _ => None,
@@ -597,43 +873,52 @@ impl TetSetup {
                 len_max = len_max.max((x[i] - x[j]).length_squared());
             }
         }
-        let len_max = len_max.sqrt();
+        self.len_max = len_max.sqrt();
+        self.n_hull = n_hull;
+        for k in 0..n_hull {
+            let j = (k + 1) % n_hull;
+            self.edges[k] = Edge::new(hull[k], hull_keys[k], hull[j], hull_keys[j]);
+        }
+        self.bbox = bbox;
+        self.near_w = if clipped && !frame.parallel { Some(1.0 / frame.near_depth) } else { None };
+        self.parallel = frame.parallel;
+        self.clipped = clipped;
+        self.thick = if thick_path { thick } else { None }; // None when clipped
+        self.n_ramps = 0;
+        self.n_front = 0;
+        self.n_back = 0;
+        self.span = SpanEval::new(frame, bbox);
 
-        // Face planes as affine functions of the pixel position.
-        let mask = view.face_mask[t];
-        let mut setup = TetSetup {
-            n_hull,
-            edges,
-            bbox,
-            planes_front: [[0.0; 3]; 4],
-            n_front: 0,
-            planes_back: [[0.0; 3]; 4],
-            n_back: 0,
-            near_w: if clipped && !frame.parallel { Some(1.0 / frame.near_depth) } else { None },
-            parallel: frame.parallel,
-            s,
-            g,
-            normal,
-            s_range,
-            g_range,
-            len_max,
-            thick,
-            tent_ramps: [[0.0; 3]; 6],
-            n_ramps: 0,
-            clipped,
-        };
-        if let Some(t) = thick {
-            for k in 0..n_hull {
-                let (u, v) = (hull[k], hull[(k + 1) % n_hull]);
-                let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
-                let et = dx * (t[1] - u[1]) - dy * (t[0] - u[0]);
-                if et > 0.0 {
-                    // (dx·(y − u_y) − dy·(x − u_x)) / et as an affine function.
-                    setup.tent_ramps[setup.n_ramps] = [(dy * u[0] - dx * u[1]) / et, -dy / et, dx / et];
-                    setup.n_ramps += 1;
+        if thick_path {
+            if let Some(t) = thick {
+                for k in 0..n_hull {
+                    let (u, v) = (hull[k], hull[(k + 1) % n_hull]);
+                    let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
+                    let et = dx * (t[1] - u[1]) - dy * (t[0] - u[0]);
+                    if et > 0.0 {
+                        // (dx·(y − u_y) − dy·(x − u_x)) / et as an affine function.
+                        self.tent_ramps[self.n_ramps] = [(dy * u[0] - dx * u[1]) / et, -dy / et, dx / et];
+                        self.n_ramps += 1;
+                    }
                 }
             }
+            self.span.set_ramps(&self.tent_ramps[..self.n_ramps]);
+            if !self.set_f64_planes(frame, &x, view.face_mask[t]) {
+                return false;
+            }
         }
+        if span_path {
+            let near = if clipped && !frame.parallel { Some(frame.near_depth) } else { None };
+            let ranges = (self.s_range, self.g_range, self.len_max);
+            if !self.span.set_segments(frame, &x, &sv, g_vals.as_ref(), view.face_mask[t], near, ranges) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The f64 face planes of [`TetSetup::fragment`]; `false` when none is an exit.
+    fn set_f64_planes(&mut self, frame: &Frame, x: &[DVec3; 4], mask: u8) -> bool {
         for (f, fv) in FACE_OUTWARD.iter().enumerate() {
             let front = mask & (1 << f) != 0;
             let back = mask & (1 << (4 + f)) != 0;
@@ -666,21 +951,163 @@ impl TetSetup {
                 continue;
             }
             if front {
-                setup.planes_front[setup.n_front] = q;
-                setup.n_front += 1;
+                self.planes_front[self.n_front] = q;
+                self.n_front += 1;
             } else {
-                setup.planes_back[setup.n_back] = q;
-                setup.n_back += 1;
+                self.planes_back[self.n_back] = q;
+                self.n_back += 1;
             }
         }
-        if setup.n_back == 0 {
-            return None;
-        }
-        Some(setup)
+        self.n_back > 0
     }
 
-    /// Whether pixel centre (x, y) is covered (edge functions, tie rule).
-    #[inline(always)]
+    /// The pixels of row `py` within `[x_lo, x_hi]` whose centres the
+    /// silhouette covers, as an inclusive range, decided by the same edge
+    /// functions and tie rule as [`TetSetup::covers`] (so exactly the pixels
+    /// it accepts): each edge's test is monotone in x along a row, so its
+    /// boundary is estimated from the edge's crossing and then settled with
+    /// the exact test.
+    pub fn row_span(&self, py: u32, x_lo: u32, x_hi: u32) -> Option<(u32, u32)> {
+        let y = py as f64 + 0.5;
+        let (mut lo, mut hi) = (x_lo as i64, x_hi as i64);
+        for e in &self.edges[..self.n_hull] {
+            if lo > hi {
+                return None;
+            }
+            let at = |i: i64| e.inside(i as f64 + 0.5, y);
+            let slope = e.sign * e.dy; // the edge function changes by −slope per unit x
+            if slope == 0.0 {
+                if !at(lo) {
+                    return None;
+                }
+                continue;
+            }
+            // The crossing's x, off by far less than a pixel: the exact tests
+            // below usually just confirm the pixel next to it (a NaN or huge
+            // crossing saturates, is clamped, and costs a longer walk).
+            let x_cross = e.ax + e.x_per_y * (y - e.ay) - 0.5;
+            if slope < 0.0 {
+                // Inside for x ≥ boundary: the first inside pixel ≥ lo.
+                let mut i = ceil_i64(x_cross).clamp(lo, hi + 1);
+                if i <= hi && at(i) {
+                    while i > lo && at(i - 1) {
+                        i -= 1;
+                    }
+                } else {
+                    while i <= hi && !at(i) {
+                        i += 1;
+                    }
+                }
+                lo = i;
+            } else {
+                // Inside for x ≤ boundary: the last inside pixel ≤ hi.
+                let mut i = floor_i64(x_cross).clamp(lo - 1, hi);
+                if i >= lo && at(i) {
+                    while i < hi && at(i + 1) {
+                        i += 1;
+                    }
+                } else {
+                    while i >= lo && !at(i) {
+                        i -= 1;
+                    }
+                }
+                hi = i;
+            }
+        }
+        (lo <= hi).then_some((lo as u32, hi as u32))
+    }
+
+    /// Segments for the `LANES` pixels `(px0 + l, py)`, l = 0..LANES, in f32
+    /// (see [`SpanEval`]); lanes outside the tet get `len_world == 0`.
+    /// Scalars are clamped into the tet's vertex range and lengths into
+    /// [0, longest edge], so no lane is ever NaN.
+    #[inline]
+    pub fn eval_lanes(&self, px0: u32, py: u32, out: &mut Lanes) {
+        let sp = &self.span;
+        let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
+        let j = (py as i32 - sp.ref_px[1]) as f32;
+        let ii: [f32; LANES] = std::array::from_fn(|l| i0 + l as f32);
+        let mut zf = [sp.zeta_near; LANES];
+        let mut zb = [f32::INFINITY; LANES];
+        for (k, p) in sp.planes[..sp.n_planes].iter().enumerate() {
+            let (nr, dr) = (p.num.row(j), p.den.row(j));
+            if k < sp.n_front {
+                for l in 0..LANES {
+                    let den = dr + p.den.dx * ii[l];
+                    let z = (nr + p.num.dx * ii[l]) / den;
+                    zf[l] = if den < 0.0 && z > zf[l] { z } else { zf[l] };
+                }
+            } else {
+                for l in 0..LANES {
+                    let den = dr + p.den.dx * ii[l];
+                    let z = (nr + p.num.dx * ii[l]) / den;
+                    zb[l] = if den > 0.0 && z < zb[l] { z } else { zb[l] };
+                }
+            }
+        }
+        let mut dlen = [1.0f32; LANES];
+        if sp.perspective {
+            let cy = sp.cy.row(j);
+            for l in 0..LANES {
+                let cx = sp.cx.c + sp.cx.dx * ii[l];
+                dlen[l] = (1.0 + cx * cx + cy * cy).sqrt();
+            }
+        }
+        let clamp = |v: f32, r: [f32; 2]| {
+            // NaN fails both comparisons and lands on r[0].
+            let v = if v < r[1] { v } else { r[1] };
+            if v > r[0] {
+                v
+            } else {
+                r[0]
+            }
+        };
+        let (s0r, sbr) = (sp.s0.row(j), sp.sb.row(j));
+        for l in 0..LANES {
+            let len = (zb[l] - zf[l]) * dlen[l];
+            let ok = len > 0.0 && len < f32::INFINITY;
+            out.len_world[l] = if ok { len.min(sp.len_max) } else { 0.0 };
+            let (s0, sb) = (s0r + sp.s0.dx * ii[l], sbr + sp.sb.dx * ii[l]);
+            out.s_front[l] = clamp(s0 + zf[l] * sb, sp.s_range);
+            out.s_back[l] = clamp(s0 + zb[l] * sb, sp.s_range);
+            out.zeta_mid[l] = if ok { 0.5 * (zf[l] + zb[l]) } else { 0.0 };
+        }
+        if sp.has_g {
+            let (g0r, gbr) = (sp.g0.row(j), sp.gb.row(j));
+            for l in 0..LANES {
+                let (g0, gb) = (g0r + sp.g0.dx * ii[l], gbr + sp.gb.dx * ii[l]);
+                out.g_front[l] = clamp(g0 + zf[l] * gb, sp.g_range);
+                out.g_back[l] = clamp(g0 + zb[l] * gb, sp.g_range);
+            }
+        } else {
+            out.g_front = [0.0; LANES];
+            out.g_back = [0.0; LANES];
+        }
+    }
+
+    /// The `pt-linear` tent weights for the `LANES` pixels `(px0 + l, py)`
+    /// (see [`TetSetup::tent`]), in f32.
+    #[inline]
+    pub fn tent_lanes(&self, px0: u32, py: u32, out: &mut [f32; LANES]) {
+        let sp = &self.span;
+        let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
+        let j = (py as i32 - sp.ref_px[1]) as f32;
+        *out = [1.0; LANES];
+        for r in &sp.ramps[..sp.n_ramps] {
+            let rr = r.row(j);
+            for (l, o) in out.iter_mut().enumerate() {
+                let v = rr + r.dx * (i0 + l as f32);
+                *o = if v < *o { v } else { *o };
+            }
+        }
+        for o in out.iter_mut() {
+            *o = if *o > 0.0 { o.min(1.0) } else { 0.0 };
+        }
+    }
+
+    /// Whether pixel centre (x, y) is covered (edge functions, tie rule);
+    /// the per-pixel definition [`TetSetup::row_span`] must agree with.
+    #[cfg(test)]
     pub fn covers(&self, x: f64, y: f64) -> bool {
         self.edges[..self.n_hull].iter().all(|e| e.inside(x, y))
     }
@@ -750,7 +1177,9 @@ impl TetSetup {
     /// The tent weight of the thick point at pixel (x, y): 1 at the thick
     /// point, 0 on the silhouette, linear on each of the Shirley–Tuchman
     /// triangles (on a convex silhouette the tent is the minimum of the
-    /// per-edge ramps, so no triangle lookup is needed).
+    /// per-edge ramps, so no triangle lookup is needed). The f64 definition
+    /// [`TetSetup::tent_lanes`] evaluates in f32.
+    #[cfg(test)]
     pub fn tent(&self, x: f64, y: f64) -> f64 {
         if self.thick.is_none() {
             return 0.0;
@@ -821,6 +1250,114 @@ mod tests {
         let h1 = Edge::new([0.0, 1.5], 1, [4.0, 1.5], 2);
         let h2 = Edge::new([4.0, 1.5], 2, [0.0, 1.5], 1);
         assert!(h1.inside(2.5, 1.5) != h2.inside(2.5, 1.5));
+    }
+
+    /// A small xorshift generator (fixed seeds).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn range(&mut self, lo: f64, hi: f64) -> f64 {
+            lo + (hi - lo) * self.next()
+        }
+    }
+
+    /// Compares the span path (row spans, f32 lanes) with the per-pixel f64
+    /// path on one tet: identical coverage; lengths within 1e-5 of the
+    /// longest edge; scalars within 1e-5 of the vertex range wherever the
+    /// segment is longer than 1e-3 of the longest edge (on shorter ones the
+    /// scalar is ill-conditioned and weighs nothing); tents within 1e-5.
+    /// Returns the number of covered pixels.
+    fn span_matches_per_pixel(p: [[f64; 3]; 4], view: &crate::ViewSpec) -> usize {
+        let d = |a: [f64; 3], b: [f64; 3]| DVec3::from(b) - DVec3::from(a);
+        let p = if d(p[0], p[1]).dot(d(p[0], p[2]).cross(d(p[0], p[3]))) < 0.0 { [p[0], p[1], p[3], p[2]] } else { p };
+        let scene = Scene::new(&p, vec![[0, 1, 2, 3]], vec![0.1, 0.9, 0.4, 0.7]).unwrap();
+        let camera = Camera::new(view).unwrap();
+        let geo = ViewGeometry::new(&scene, &camera);
+        let inp = SetupInputs {
+            scene: &scene,
+            view: &geo,
+            want_grad_mag: false,
+            want_normals: false,
+            want_thick: true,
+            want_span: true,
+        };
+        let Some(s) = TetSetup::new(&inp, 0) else { return 0 };
+        let mut covered = 0;
+        let mut lanes = Lanes::default();
+        let mut tent = [0.0f32; LANES];
+        let [x0, y0, x1, y1] = s.bbox.map(|v| v as u32);
+        for py in y0..=y1 {
+            let span = s.row_span(py, x0, x1);
+            for px in x0..=x1 {
+                let (x, y) = (px as f64 + 0.5, py as f64 + 0.5);
+                let inside = span.is_some_and(|(a, b)| a <= px && px <= b);
+                assert_eq!(inside, s.covers(x, y), "pixel ({px}, {py}) of {p:?} in {view:?}");
+                if !inside {
+                    continue;
+                }
+                covered += 1;
+                s.eval_lanes(px, py, &mut lanes);
+                let want = s.fragment(&geo.frame, x, y);
+                let got_len = lanes.len_world[0] as f64;
+                let want_len = want.map_or(0.0, |f| f.len_world);
+                assert!((got_len - want_len).abs() <= 1e-5 * s.len_max, "len {got_len} vs {want_len} at ({px}, {py})");
+                if let Some(f) = want {
+                    if f.len_world > 1e-3 * s.len_max && got_len > 0.0 {
+                        let tol = 1e-5 * (s.s_range[1] - s.s_range[0]);
+                        assert!((lanes.s_front[0] as f64 - f.s_front).abs() <= tol, "sf at ({px}, {py})");
+                        assert!((lanes.s_back[0] as f64 - f.s_back).abs() <= tol, "sb at ({px}, {py})");
+                    }
+                }
+                if s.thick.is_some() {
+                    // Within 1e-5 of the tent's change over one pixel when that is steeper than 1.
+                    let slope = s.tent_ramps[..s.n_ramps].iter().map(|r| r[1].abs() + r[2].abs()).fold(1.0, f64::max);
+                    s.tent_lanes(px, py, &mut tent);
+                    let (got, want) = (tent[0] as f64, s.tent(x, y));
+                    assert!((got - want).abs() <= 1e-5 * slope, "tent at ({px}, {py}): {got} vs {want}");
+                }
+            }
+        }
+        covered
+    }
+
+    #[test]
+    fn span_path_matches_the_per_pixel_path_on_random_tets() {
+        let mut rng = Rng(0x5eed_5a11);
+        let mut covered = 0;
+        for case in 0..200 {
+            let p = std::array::from_fn(|_| std::array::from_fn(|_| rng.range(-1.0, 1.0)));
+            let mut view = crate::ViewSpec::framing([-1.0; 3], [1.0; 3], [37, 29]).orbit(
+                rng.range(0.0, 360.0),
+                rng.range(-80.0, 80.0),
+                rng.range(0.5, 3.0),
+            );
+            view.parallel = case % 3 == 1;
+            if case % 7 == 3 {
+                // Eye inside the box the tets live in: some tets cross the near plane.
+                view.position = std::array::from_fn(|_| rng.range(-0.5, 0.5));
+            }
+            covered += span_matches_per_pixel(p, &view);
+        }
+        assert!(covered > 10_000, "only {covered} pixels were compared");
+    }
+
+    #[test]
+    fn span_path_matches_on_slivers_needles_and_grid_aligned_edges() {
+        let view = crate::ViewSpec::framing([-1.0; 3], [1.0; 3], [48, 48]);
+        for parallel in [false, true] {
+            let mut v = view.clone();
+            v.parallel = parallel;
+            span_matches_per_pixel([[-0.8, -0.7, 0.0], [0.9, -0.6, 1e-7], [0.1, 0.8, 0.0], [0.0, 0.0, 2e-7]], &v);
+            span_matches_per_pixel([[0.0, 0.0, -0.9], [0.01, 0.0, 0.9], [0.0, 0.012, 0.9], [0.005, 0.004, 0.0]], &v);
+            span_matches_per_pixel([[0.0, -0.5, -0.5], [0.0, 0.5, -0.5], [0.0, 0.0, 0.5], [0.7, 0.0, 0.0]], &v);
+            // Edges through pixel centres (axis-aligned cube corner).
+            span_matches_per_pixel([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &v);
+        }
     }
 
     #[test]

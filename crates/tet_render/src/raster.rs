@@ -10,12 +10,12 @@
 //! ran which tile: the image is bit-identical for any thread count.
 
 use crate::image::Image;
-use crate::project::{tet_bbox, Fragment, SetupInputs, TetSetup, ViewGeometry};
+use crate::project::{tet_bbox, Fragment, Lanes, SetupInputs, TetSetup, ViewGeometry, LANES};
 use crate::scene::Scene;
 use crate::shading::Shading;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use tet_preint::{Method, Segment, SegmentShader};
+use tet_preint::{Method, Rgba32, Segment, SegmentShader};
 
 /// Rasterizer settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,6 +93,8 @@ pub fn rasterize(
         view,
         want_grad_mag: shader.method().is_bivariate(),
         want_normals: opts.shading.is_active(),
+        want_thick: shader.method() == Method::PtLinear,
+        want_span: shader.method() != Method::PtLinear,
     };
     let pt_linear = shader.method() == Method::PtLinear;
     let fragments = AtomicU64::new(0);
@@ -113,8 +115,10 @@ pub fn rasterize(
                 opaque: 0,
                 fragments: 0,
                 setups: 0,
+                batch: Batch::new(),
             };
             let all = ctx.acc.len();
+            let mut setup = TetSetup::default();
             'tets: for chunk in &bins {
                 for &t in &chunk[ti] {
                     if ctx.opaque == all {
@@ -122,8 +126,8 @@ pub fn rasterize(
                         break 'tets;
                     }
                     ctx.setups += 1;
-                    if let Some(s) = TetSetup::new(&inputs, t as usize) {
-                        draw_tet(&mut ctx, &s, view, shader, opts, pt_linear);
+                    if setup.build(&inputs, t as usize) {
+                        draw_tet(&mut ctx, &setup, view, shader, opts, pt_linear);
                     }
                 }
             }
@@ -162,6 +166,72 @@ struct TileCtx {
     opaque: usize,
     fragments: u64,
     setups: u64,
+    batch: Batch,
+}
+
+/// Fragments of one tet waiting to be shaded in one
+/// [`SegmentShader::shade_span`] call and composited.
+struct Batch {
+    segs: [Segment; BATCH],
+    /// Index into the tile's `acc`.
+    pixel: [u32; BATCH],
+    /// Pixel position and ζ at the segment midpoint (lighting only).
+    at: [[u32; 2]; BATCH],
+    zeta_mid: [f32; BATCH],
+    rgba: [Rgba32; BATCH],
+    n: usize,
+}
+
+const BATCH: usize = 64;
+
+impl Batch {
+    fn new() -> Batch {
+        Batch {
+            segs: [Segment::default(); BATCH],
+            pixel: [0; BATCH],
+            at: [[0; 2]; BATCH],
+            zeta_mid: [0.0; BATCH],
+            rgba: [[0.0; 4]; BATCH],
+            n: 0,
+        }
+    }
+}
+
+/// Composites premultiplied `c` under pixel `acc` ("under": front to back).
+#[inline(always)]
+fn under(acc: &mut [f32; 4], c: Rgba32, opaque_alpha: f32, opaque: &mut usize) {
+    let t = 1.0 - acc[3];
+    acc[0] += t * c[0];
+    acc[1] += t * c[1];
+    acc[2] += t * c[2];
+    acc[3] += t * c[3];
+    if acc[3] >= opaque_alpha {
+        *opaque += 1;
+    }
+}
+
+/// Shades and composites the batched fragments (one tet's, so no pixel
+/// appears twice), with lighting/silhouettes at each segment's midpoint.
+fn flush(ctx: &mut TileCtx, s: &TetSetup, view: &ViewGeometry, shader: &dyn SegmentShader, opts: &RasterOptions) {
+    let b = &mut ctx.batch;
+    let n = b.n;
+    if n == 0 {
+        return;
+    }
+    shader.shade_span(&b.segs[..n], &mut b.rgba[..n]);
+    if opts.shading.is_active() {
+        for k in 0..n {
+            let (x, y) = (b.at[k][0] as f64 + 0.5, b.at[k][1] as f64 + 0.5);
+            if let Some(nrm) = s.normal_at(x, y, s.span.z0 + b.zeta_mid[k] as f64) {
+                b.rgba[k] = opts.shading.apply(b.rgba[k], nrm, view.frame.view_dir(x, y));
+            }
+        }
+    }
+    for k in 0..n {
+        under(&mut ctx.acc[b.pixel[k] as usize], b.rgba[k], opts.opaque_alpha, &mut ctx.opaque);
+    }
+    ctx.fragments += n as u64;
+    b.n = 0;
 }
 
 fn segment(f: &Fragment) -> Segment {
@@ -174,8 +244,7 @@ fn segment(f: &Fragment) -> Segment {
     }
 }
 
-/// Shades one fragment, with lighting/silhouettes at the segment's midpoint.
-#[inline]
+/// Shades one fragment (the `pt-linear` thick point), with lighting/silhouettes at the segment's midpoint.
 fn shade(
     s: &TetSetup,
     view: &ViewGeometry,
@@ -195,6 +264,9 @@ fn shade(
     }
 }
 
+/// Draws one tet into the tile: row spans of covered pixel centres (exact
+/// edge tests), segments evaluated `LANES` pixels at a time, fragments
+/// batched per tet for the shader.
 fn draw_tet(
     ctx: &mut TileCtx,
     s: &TetSetup,
@@ -221,37 +293,50 @@ fn draw_tet(
         None
     };
     let opaque_alpha = opts.opaque_alpha;
+    let mut lanes = Lanes::default();
+    let mut tent = [0.0f32; LANES];
     for py in y0..=y1 {
-        let y = py as f64 + 0.5;
+        let Some((xa, xb)) = s.row_span(py, x0, x1) else { continue };
         let row = (py - ctx.rect[1]) as usize * ctx.stride;
-        for px in x0..=x1 {
-            let x = px as f64 + 0.5;
-            let acc = &mut ctx.acc[row + (px - ctx.rect[0]) as usize];
-            if acc[3] >= opaque_alpha || !s.covers(x, y) {
-                continue;
-            }
-            let c = match thick_rgba {
-                Some(rgba) => {
-                    let lam = s.tent(x, y) as f32;
-                    if lam <= 0.0 {
+        let mut px0 = xa;
+        while px0 <= xb {
+            let n = ((xb - px0 + 1) as usize).min(LANES);
+            let base = row + (px0 - ctx.rect[0]) as usize;
+            if let Some(rgba) = thick_rgba {
+                s.tent_lanes(px0, py, &mut tent);
+                for (l, &lam) in tent[..n].iter().enumerate() {
+                    let acc = &mut ctx.acc[base + l];
+                    if lam <= 0.0 || acc[3] >= opaque_alpha {
                         continue;
                     }
-                    rgba.map(|v| v * lam)
+                    under(acc, rgba.map(|v| v * lam), opaque_alpha, &mut ctx.opaque);
+                    ctx.fragments += 1;
                 }
-                None => match s.fragment(&view.frame, x, y) {
-                    Some(f) => shade(s, view, shader, opts, &f, x, y),
-                    None => continue,
-                },
-            };
-            ctx.fragments += 1;
-            let t = 1.0 - acc[3];
-            acc[0] += t * c[0];
-            acc[1] += t * c[1];
-            acc[2] += t * c[2];
-            acc[3] += t * c[3];
-            if acc[3] >= opaque_alpha {
-                ctx.opaque += 1;
+            } else {
+                s.eval_lanes(px0, py, &mut lanes);
+                for l in 0..n {
+                    if lanes.len_world[l] <= 0.0 || ctx.acc[base + l][3] >= opaque_alpha {
+                        continue;
+                    }
+                    let b = &mut ctx.batch;
+                    b.segs[b.n] = Segment {
+                        s_front: lanes.s_front[l],
+                        s_back: lanes.s_back[l],
+                        grad_front: lanes.g_front[l],
+                        grad_back: lanes.g_back[l],
+                        len_world: lanes.len_world[l],
+                    };
+                    b.pixel[b.n] = (base + l) as u32;
+                    b.at[b.n] = [px0 + l as u32, py];
+                    b.zeta_mid[b.n] = lanes.zeta_mid[l];
+                    b.n += 1;
+                    if b.n == BATCH {
+                        flush(ctx, s, view, shader, opts);
+                    }
+                }
             }
+            px0 += LANES as u32;
         }
     }
+    flush(ctx, s, view, shader, opts);
 }

@@ -82,6 +82,11 @@ pub struct RenderArgs {
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Render on the GPU (tet_gpu; methods pt-linear and table3d, the same
+    /// visibility order and culling as the CPU). Exit code 4 where no GPU
+    /// adapter exists; without --gpu tetview renders on the CPU.
+    #[arg(long)]
+    pub gpu: bool,
 }
 
 fn parse_pair(s: &str) -> Result<(f64, f64), String> {
@@ -158,6 +163,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if shading.is_active() || method.is_bivariate() {
         scene = scene.ensure_gradients()?;
     }
+    if args.gpu {
+        crate::gpu::check_args(args, method)?;
+    }
     let domain = ShaderDomain {
         scalar_range: scene.scalar_range(),
         max_len_world: stats.max_cell_diameter,
@@ -165,8 +173,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             .gradient_magnitudes()
             .map(|g| g.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &v| [a.min(v), b.max(v)])),
     };
-    let shader: Arc<dyn SegmentShader> = make_shader(method, &tf, &domain)?.into();
-
     let view = match &args.view {
         Some(p) => {
             let text =
@@ -184,6 +190,18 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             v.orbit(args.azimuth, args.elevation, args.zoom)
         }
     };
+
+    let display = Display {
+        background: args.background,
+        tonemap: match args.tonemap {
+            ToneMapArg::None => ToneMap::None,
+            ToneMapArg::Reinhard => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
+        },
+    };
+    if args.gpu {
+        return crate::gpu::render(args, &bundle, &scene, &tf, method, &view, &display);
+    }
+    let shader: Arc<dyn SegmentShader> = make_shader(method, &tf, &domain)?.into();
 
     let mut r = Renderer::new(scene);
     r.set_view(&view)?;
@@ -206,13 +224,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     })?;
     bar.finish_and_clear();
 
-    let display = Display {
-        background: args.background,
-        tonemap: match args.tonemap {
-            ToneMapArg::None => ToneMap::None,
-            ToneMapArg::Reinhard => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
-        },
-    };
     image.write_png(&args.output, &display)?;
     if let Some(p) = &args.float {
         image.write_npy(p)?;

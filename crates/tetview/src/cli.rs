@@ -7,7 +7,8 @@ use clap::{Parser, Subcommand};
 /// mapping, and a float image for measurement.
 ///
 /// Exit codes: 0 ok, 2 bad command line or unusable transfer function /
-/// method, 3 unreadable bundle or view, 5 output I/O, 1 anything else.
+/// method, 3 unreadable bundle or view, 4 no GPU adapter (`render --gpu`),
+/// 5 output I/O, 1 anything else.
 #[derive(Debug, Parser)]
 #[command(name = "tetview", version, about, long_about)]
 pub struct Cli {
@@ -57,6 +58,9 @@ impl std::error::Error for InputError {}
 
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
+        if cause.downcast_ref::<crate::gpu::NoGpuError>().is_some() {
+            return 4;
+        }
         if cause.downcast_ref::<UsageError>().is_some() || cause.downcast_ref::<tet_preint::TfError>().is_some() {
             return 2;
         }

@@ -4,6 +4,7 @@ use clap::Parser;
 
 mod cli;
 mod diff;
+mod gpu;
 mod reference;
 mod render;
 

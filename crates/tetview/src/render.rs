@@ -84,6 +84,11 @@ pub struct RenderArgs {
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Render on the GPU (tet_gpu; methods pt-linear and table3d, the same
+    /// visibility order and culling as the CPU). Exit code 4 where no GPU
+    /// adapter exists; without --gpu tetview renders on the CPU.
+    #[arg(long)]
+    pub gpu: bool,
 }
 
 fn parse_pair(s: &str) -> Result<(f64, f64), String> {
@@ -153,6 +158,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if shading.is_active() || method.is_bivariate() {
         scene = scene.ensure_gradients()?;
     }
+    if args.gpu {
+        crate::gpu::check_args(args, method)?;
+    }
     let shader: Arc<dyn SegmentShader> = match &lut {
         Some((lut, path)) => load_shader(lut, path).map_err(|e| InputError(e.to_string()))?.into(),
         None => {
@@ -179,6 +187,17 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
     };
 
+    let display = Display {
+        background: args.background,
+        tonemap: match args.tonemap {
+            ToneMapArg::None => ToneMap::None,
+            ToneMapArg::Reinhard => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
+        },
+    };
+    if args.gpu {
+        return crate::gpu::render(args, &bundle, &scene, &tf, method, &view, &display);
+    }
+
     let mut r = Renderer::new(scene);
     r.set_view(&view)?;
     r.set_shader(shader);
@@ -200,13 +219,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     })?;
     bar.finish_and_clear();
 
-    let display = Display {
-        background: args.background,
-        tonemap: match args.tonemap {
-            ToneMapArg::None => ToneMap::None,
-            ToneMapArg::Reinhard => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
-        },
-    };
     image.write_png(&args.output, &display)?;
     if let Some(p) = &args.float {
         image.write_npy(p)?;

@@ -206,3 +206,96 @@ fn bad_methods_luts_and_input_are_clear_errors() {
     ]);
     assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// `render --gpu` against the CPU path with the same order: pt-linear both
+/// ways, table3d (GPU) against `exact` (CPU; the table's discretisation
+/// error). Skips with a printed reason where no GPU adapter exists (fails
+/// instead with TETKIT_REQUIRE_GPU=1).
+#[test]
+fn gpu_render_matches_the_cpu_or_skips() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let png = dir.path().join("g.png");
+    let render = |extra: &[&str], npy: &Path| {
+        let mut a = vec![
+            "render",
+            b.to_str().unwrap(),
+            "--tf",
+            t.to_str().unwrap(),
+            "--size",
+            "64x48",
+            "--azimuth",
+            "30",
+            "--elevation",
+            "-20",
+            "-o",
+            png.to_str().unwrap(),
+            "--float",
+            npy.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        tetview(&a)
+    };
+    // Methods the GPU lacks are a usage error naming the ones it has,
+    // whether or not an adapter exists.
+    let out = render(&["--gpu", "--method", "exact"], &dir.path().join("x.npy"));
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("GPU methods: pt-linear, table3d"));
+
+    if let Err(e) = tet_gpu::GpuContext::new_headless() {
+        if std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+            panic!("TETKIT_REQUIRE_GPU=1 but: {e}");
+        }
+        eprintln!("skipped: {e}");
+        let out = render(&["--gpu"], &dir.path().join("x.npy"));
+        assert_eq!(out.status.code(), Some(4), "{}", String::from_utf8_lossy(&out.stderr));
+        return;
+    }
+    let diff = |a: &Path, b: &Path| {
+        let d = tet_render::diff(&tet_render::Image::read_npy(a).unwrap(), &tet_render::Image::read_npy(b).unwrap())
+            .unwrap();
+        eprintln!(
+            "{} vs {}: mean {:.3}/255, max {:.3}/255",
+            a.display(),
+            b.display(),
+            d.mean_abs * 255.0,
+            d.max_abs * 255.0
+        );
+        d
+    };
+    let (gpu, cpu) = (dir.path().join("gpu.npy"), dir.path().join("cpu.npy"));
+    let out = render(&["--gpu", "--json"], &gpu);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["tets_drawn"], 5);
+    assert_eq!(stats["sort_method"], "mpvo");
+    assert_eq!(stats["method"], "pt-linear");
+    assert!(stats["device"].as_str().is_some_and(|d| !d.is_empty()));
+    for k in ["sort_seconds", "classify_seconds", "raster_seconds", "tonemap_seconds", "total_seconds"] {
+        assert!(stats[k].as_f64().is_some_and(|s| s >= 0.0), "{k}: {stats}");
+    }
+    assert!(std::fs::metadata(&png).unwrap().len() > 100);
+    let out = render(&[], &cpu);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let d = diff(&gpu, &cpu);
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+
+    let out = render(&["--gpu", "--method", "table3d"], &gpu);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = render(&["--method", "exact"], &cpu);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let d = diff(&gpu, &cpu);
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    let img = tet_render::Image::read_npy(&gpu).unwrap();
+    assert!(img.pixels().iter().any(|p| p[3] > 0.2));
+
+    // A backend with no adapter (GL is not compiled in): exit code 4 and a
+    // clear message; the CPU path is unaffected.
+    let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+        .env("WGPU_BACKEND", "gl")
+        .args(["render", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--gpu", "-o", png.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(4), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no GPU adapter"));
+}

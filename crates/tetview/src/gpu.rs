@@ -1,0 +1,167 @@
+//! `tetview render --gpu`: the same outputs as the CPU path (PNG, `--float`
+//! .npy, `--save-view`, `--json` statistics), rendered by tet_gpu.
+//!
+//! The visibility order and the cull mask come from tet_render exactly as
+//! the CPU renderer computes them (`visibility_order` with `--sort`,
+//! `TfCuller` unless `--no-cull`), so GPU and CPU images agree; only the
+//! projection, rasterization, compositing and tone mapping run on the GPU.
+
+use crate::cli::UsageError;
+use crate::render::RenderArgs;
+use anyhow::{Context, Result};
+use std::time::Instant;
+use tet_bundle::Bundle;
+use tet_gpu::{GpuContext, GpuError, GpuRenderer, GpuScene, GpuShader};
+use tet_preint::{Method, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_render::cull::{cull, CullMask};
+use tet_render::project::ViewGeometry;
+use tet_render::{visibility_order, Camera, Display, Scene, SortMethod, TfCuller, ViewSpec};
+
+/// The methods `--gpu` renders.
+pub const GPU_METHODS: &str = "pt-linear, table3d";
+
+/// No GPU adapter (exit code 4): `tetview render` without `--gpu` works.
+#[derive(Debug)]
+pub struct NoGpuError(pub String);
+
+impl std::fmt::Display for NoGpuError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+impl std::error::Error for NoGpuError {}
+
+/// Checks what the GPU path cannot do before any work (exit code 2).
+pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
+    if !matches!(method, Method::PtLinear | Method::Table3d) {
+        return Err(
+            UsageError(format!("--gpu: method {method} is not on the GPU yet (GPU methods: {GPU_METHODS})")).into()
+        );
+    }
+    if args.light || args.silhouette.is_some() {
+        return Err(UsageError("--gpu: --light and --silhouette are CPU-only for now".into()).into());
+    }
+    Ok(())
+}
+
+/// What the CPU path does from the scene on, on the GPU.
+#[allow(clippy::too_many_arguments)]
+pub fn render(
+    args: &RenderArgs,
+    bundle: &Bundle,
+    scene: &Scene,
+    tf: &TransferFunction,
+    method: Method,
+    view: &ViewSpec,
+    display: &Display,
+) -> Result<()> {
+    let start = Instant::now();
+    let t = Instant::now();
+    let ctx = GpuContext::new_headless().map_err(|e| match e {
+        GpuError::NoAdapter { .. } | GpuError::MissingFeature { .. } | GpuError::Device { .. } => {
+            anyhow::Error::new(NoGpuError(format!("--gpu: {e}; run without --gpu to render on the CPU")))
+        }
+        e => e.into(),
+    })?;
+    let device_seconds = t.elapsed().as_secs_f64();
+
+    let camera = Camera::new(view)?;
+    let t = Instant::now();
+    let geometry = ViewGeometry::new(scene, &camera);
+    let view_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mask = if args.no_cull { CullMask::all(scene.num_tets()) } else { cull(scene, &TfCuller::new(tf)) };
+    let cull_seconds = t.elapsed().as_secs_f64();
+    // As tet_render's Renderer: graph sorts order every tet and are
+    // filtered, the radix sort sorts visible tets only.
+    let t = Instant::now();
+    let radix = args.sort.resolve(scene) == SortMethod::Radix;
+    let visible = (radix && mask.culled > 0).then_some(mask.visible.as_slice());
+    let order = visibility_order(scene, &geometry, args.sort, visible);
+    let tets: Vec<u32> = if mask.culled > 0 && order.method != SortMethod::Radix {
+        order.tets.iter().copied().filter(|&t| mask.visible[t as usize]).collect()
+    } else {
+        order.tets.clone()
+    };
+    let sort_seconds = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let mut bake_seconds = 0.0;
+    let shader = match method {
+        Method::Table3d => {
+            let domain = TableDomain::from_bundle(bundle)?;
+            let tb = Instant::now();
+            let table = Table3d::build(tf, &domain, &Table3dParams::default())?;
+            bake_seconds = tb.elapsed().as_secs_f64();
+            GpuShader::table3d(&ctx, &table)?
+        }
+        _ => GpuShader::pt_linear(&ctx, tf)?,
+    };
+    let mesh = &bundle.mesh;
+    let gpu_scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)?;
+    let renderer = GpuRenderer::new(&ctx)?;
+    let setup_seconds = t.elapsed().as_secs_f64();
+
+    let frame = renderer.render(&ctx, &gpu_scene, &camera, &tets, &shader)?;
+    let tone = renderer.tonemap(&ctx, &frame, display)?;
+    tet_render::image::write_png_rgba8(&args.output, view.size[0], view.size[1], &tone.rgba8)?;
+    if let Some(p) = &args.float {
+        frame.image.write_npy(p)?;
+    }
+    if let Some(p) = &args.save_view {
+        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display()))?;
+    }
+    let total_seconds = start.elapsed().as_secs_f64();
+    let s = &frame.stats;
+    let gpu_seconds = s.total_seconds + tone.seconds;
+    if args.json {
+        let v = serde_json::json!({
+            "method": method.id(),
+            "device": ctx.describe(),
+            "sort_method": order.method.id(),
+            "cycles_broken": order.cycles_broken,
+            "tets_total": scene.num_tets(),
+            "tets_culled": mask.culled,
+            "tets_drawn": tets.len(),
+            "fraction_culled": mask.fraction_culled(),
+            "device_seconds": device_seconds,
+            "view_seconds": view_seconds,
+            "cull_seconds": cull_seconds,
+            "sort_seconds": sort_seconds,
+            "table_bake_seconds": bake_seconds,
+            "setup_seconds": setup_seconds,
+            "upload_seconds": s.upload_seconds,
+            "classify_seconds": s.classify_seconds,
+            "raster_seconds": s.raster_seconds,
+            "readback_seconds": s.readback_seconds,
+            "tonemap_seconds": tone.seconds,
+            "gpu_seconds": gpu_seconds,
+            "total_seconds": total_seconds,
+            "tets_per_second": if gpu_seconds > 0.0 { tets.len() as f64 / gpu_seconds } else { 0.0 },
+            "output": args.output.display().to_string(),
+            "size": view.size,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        eprintln!(
+            "{} on {}: {} of {} tets drawn ({:.1}% culled, sort {} {:.3} s), {}x{}: GPU {:.3} s \
+             (classify {:.3}, raster {:.3}, tonemap {:.3}), total {:.3} s → {}",
+            method,
+            ctx.describe(),
+            tets.len(),
+            scene.num_tets(),
+            100.0 * mask.fraction_culled(),
+            order.method.id(),
+            sort_seconds,
+            view.size[0],
+            view.size[1],
+            gpu_seconds,
+            s.classify_seconds,
+            s.raster_seconds,
+            tone.seconds,
+            total_seconds,
+            args.output.display()
+        );
+    }
+    Ok(())
+}

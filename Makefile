@@ -35,7 +35,8 @@ ifeq ($(VK_ICDS),)
 endif
 
 ## The main job on a bundled real dataset: NASA Blunt Fin (PLOT3D) → bundle with gradients and
-## histograms → summary, 2D histogram PNG and a VTU for ParaView, all under $(OUT)/.
+## histograms → summary, 2D histogram PNG, a VTU for ParaView, a table3d .tetl and a rendered
+## PNG + .npy, all under $(OUT)/.
 TETPREP = $(CARGO) run -q --release -p tetprep --
 
 demo:
@@ -45,6 +46,11 @@ demo:
 	$(TETPREP) info $(OUT)/bluntfin.tetb
 	$(TETPREP) hist $(OUT)/bluntfin.tetb -o $(OUT)/bluntfin_hist.png
 	$(TETPREP) export $(OUT)/bluntfin.tetb -o $(OUT)/bluntfin.vtu
+	$(CARGO) run -q --release -p tetlut -- bake --bundle $(OUT)/bluntfin.tetb \
+		--tf formats/samples/tf_normalized.json --method table3d -o $(OUT)/bluntfin.tetl
+	$(CARGO) run -q --release -p tetview -- render $(OUT)/bluntfin.tetb --lut $(OUT)/bluntfin.tetl \
+		--azimuth 30 --elevation 20 -o $(OUT)/bluntfin.png --float $(OUT)/bluntfin.npy
+	@echo "demo image: $(OUT)/bluntfin.png (float linear RGBA: $(OUT)/bluntfin.npy)"
 
 ## Criterion benchmarks: conversion pipeline (Blunt Fin, 1.2M-tet grid), Delaunay
 ## (100k and 1M random points), analysis (Blunt Fin gradients + histograms + ranges).

@@ -38,7 +38,7 @@ impl Rgba {
 /// Below this |b| the series in b is used (its 9 terms are exact to below
 /// 1e-17; above it the erfcx/Dawson forms lose at most a factor
 /// √(π/2|b|) ≈ 13 to cancellation).
-const B_SERIES: f64 = 0.01;
+pub(crate) const B_SERIES: f64 = 0.01;
 
 /// Mₙ(a) = ∫₀¹ xⁿ e^{−a x} dx for a ≥ 0.
 fn moment(n: u32, a: f64) -> f64 {
@@ -68,7 +68,7 @@ fn moment(n: u32, a: f64) -> f64 {
 }
 
 /// Ψ and Ψ₁ by the series Σ_j (−b/2)^j/j! M_{2j(+1)}(a), for |b| ≤ B_SERIES.
-fn psi_series(a: f64, b: f64) -> (f64, f64) {
+pub(crate) fn psi_series(a: f64, b: f64) -> (f64, f64) {
     let mut coef = 1.0;
     let (mut p0, mut p1) = (0.0, 0.0);
     for j in 0..9u32 {

@@ -13,10 +13,11 @@
 //! Ψ (and Ψ₁) depend on no transfer function: [`PsiTable`] tabulates them
 //! once over γ = x / (1 + x) ∈ [0, 1] per axis (γ = 1 is x = ∞, where
 //! Ψ = Ψ₁ = 0), and a TF edit costs nothing. ζ is computed directly.
-//! The f64 Ψ here repeats `exact`'s closed forms (erfcx/Dawson, a series in
-//! (c − a) near the diagonal) so the table is built from the same maths.
+//! The f64 Ψ uses `exact`'s series in (c − a) near the diagonal and the same
+//! erfcx/Dawson closed form elsewhere (with the faster f32-grade Dawson).
 
 use crate::domain::{check_res, TableError};
+use crate::exact::{psi_series, B_SERIES};
 use crate::method::{Method, Rgba32, Segment, SegmentShader};
 use crate::precision::{Precision, Storage};
 use crate::special::{dawson_fast, erfcx};
@@ -25,43 +26,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
-/// Mₙ(a) = ∫₀¹ xⁿ e^{−a x} dx for a ≥ 0 (as in `exact`).
-fn moment(n: u32, a: f64) -> f64 {
-    if a <= 40.0 {
-        let mut term = 1.0 / f64::from(n + 1);
-        let mut sum = term;
-        let mut k = 1.0;
-        while term > 1e-18 * sum {
-            term *= a / (f64::from(n + 1) + k);
-            sum += term;
-            k += 1.0;
-        }
-        (-a).exp() * sum
-    } else {
-        let mut lead = 1.0 / a;
-        let mut term = (-a).exp();
-        let mut tail = term;
-        for i in 1..=n {
-            lead *= f64::from(i) / a;
-            term *= a / f64::from(i);
-            tail += term;
-        }
-        lead * (1.0 - tail)
-    }
-}
-
 /// (Ψ, Ψ₁) for front/back rates a, c ≥ 0 (finite), in f64.
 pub fn psi(a: f64, c: f64) -> (f64, f64) {
     let b = c - a;
-    if b.abs() <= 0.01 {
-        let mut coef = 1.0;
-        let (mut p0, mut p1) = (0.0, 0.0);
-        for j in 0..9u32 {
-            p0 += coef * moment(2 * j, a);
-            p1 += coef * moment(2 * j + 1, a);
-            coef *= -0.5 * b / f64::from(j + 1);
-        }
-        return (p0, p1);
+    if b.abs() <= B_SERIES {
+        return psi_series(a, b);
     }
     let zeta = (-(0.5 * (a + c))).exp();
     let k = 1.0 / (2.0 * b.abs()).sqrt();

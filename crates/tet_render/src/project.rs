@@ -16,7 +16,11 @@
 //! instability of near-coplanar projections), and a near-edge-on plane can
 //! only lose the min/max, never produce a NaN. The classification gives the
 //! silhouette (the pixels to visit) and the thick vertex (which `pt-linear`
-//! shades once and interpolates).
+//! shades once and interpolates). The rasterizer evaluates the same planes
+//! in f32 (`SpanEval`), as depths relative to the tet's centroid and pixel
+//! offsets from its bounding-box corner so the values stay of the tet's
+//! size; the f64 form (`TetSetup::fragment`) serves the thick point and
+//! is the oracle the span path is tested against.
 //!
 //! Coverage is decided with edge functions evaluated in one canonical
 //! vertex order per edge and a tie rule that gives a pixel centre exactly on

@@ -8,6 +8,12 @@
 //! [`RasterOptions::opaque_alpha`] and leaving the tile once all its pixels
 //! have. A pixel's result depends only on the order, never on which thread
 //! ran which tile: the image is bit-identical for any thread count.
+//!
+//! Per tet and tile, a setup is built in place (f64 silhouette and thick
+//! point, f32 planes and fields relative to the tet); each row's covered
+//! pixels come from the exact edge tests as one span, the span's segments are
+//! evaluated 8 pixels at a time, and the tet's fragments go to the shader in
+//! batches through [`SegmentShader::shade_span`] before compositing.
 
 use crate::image::Image;
 use crate::project::{tet_bbox, Fragment, Lanes, SetupInputs, TetSetup, ViewGeometry, LANES};

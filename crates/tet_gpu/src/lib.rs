@@ -45,11 +45,14 @@
 //! ```
 #![forbid(unsafe_code)]
 
+mod binning;
 pub mod gpu_types;
+mod gpusort;
 mod render;
 mod tonemap;
+mod workspace;
 
-pub use render::{centroid_order, GpuFrame, GpuRenderStats, GpuRenderer, GpuScene, GpuShader};
+pub use render::{centroid_order, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer, GpuScene, GpuShader, RasterPath};
 pub use tonemap::ToneResult;
 
 use tet_render::Image;
@@ -150,18 +153,35 @@ impl GpuContext {
 pub fn shader_sources() -> Vec<(&'static str, String)> {
     vec![
         ("classify", shader_source(CLASSIFY_WGSL)),
-        ("raster", shader_source(RASTER_WGSL)),
-        ("tonemap", TONEMAP_WGSL.to_string()),
+        ("raster", shader_source_fragment(RASTER_WGSL)),
+        ("bin", shader_source_fragment(BIN_WGSL)),
+        ("sort", shader_source_plain(SORT_WGSL)),
+        ("tonemap", shader_source_plain(TONEMAP_WGSL)),
     ]
 }
 
 const COMMON_WGSL: &str = include_str!("../shaders/common.wgsl");
+const FRAGMENT_WGSL: &str = include_str!("../shaders/fragment.wgsl");
 const CLASSIFY_WGSL: &str = include_str!("../shaders/classify.wgsl");
 const RASTER_WGSL: &str = include_str!("../shaders/raster.wgsl");
+const BIN_WGSL: &str = include_str!("../shaders/bin.wgsl");
+const SORT_WGSL: &str = include_str!("../shaders/sort.wgsl");
 const TONEMAP_WGSL: &str = include_str!("../shaders/tonemap.wgsl");
 
+/// common.wgsl + `body` (classify).
 fn shader_source(body: &str) -> String {
     format!("{COMMON_WGSL}\n{body}")
+}
+
+/// common.wgsl + fragment.wgsl + `body`: the modules that shade fragments
+/// (graphics raster, compute raster), so both run the same maths.
+fn shader_source_fragment(body: &str) -> String {
+    format!("{COMMON_WGSL}\n{FRAGMENT_WGSL}\n{body}")
+}
+
+/// A module on its own (sort, tonemap).
+fn shader_source_plain(body: &str) -> String {
+    body.to_string()
 }
 
 /// Reads an Rgba32Float texture back into an [`Image`].
@@ -208,7 +228,12 @@ pub(crate) fn read_texture(ctx: &GpuContext, tex: &wgpu::Texture) -> Result<Imag
 
 /// Maps a MAP_READ buffer after the queue's work and copies it out.
 pub(crate) fn map_read(ctx: &GpuContext, buf: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-    let slice = buf.slice(..);
+    map_read_range(ctx, buf, buf.size())
+}
+
+/// As [`map_read`], the first `bytes` only.
+pub(crate) fn map_read_range(ctx: &GpuContext, buf: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+    let slice = buf.slice(..bytes);
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);

@@ -41,8 +41,9 @@ const BIN_WG: u32 = 64u;
 // As tet_render's RasterOptions::opaque_alpha: a pixel stops compositing
 // once its opacity reaches this.
 const OPAQUE_ALPHA: f32 = 0.9999;
-// Entries composited between workgroup-wide termination checks.
-const BATCH: u32 = 32u;
+// Entries loaded into workgroup memory at a time (and composited between
+// workgroup-wide termination checks).
+const BATCH: u32 = 128u;
 
 // Inclusive tile rectangle (x0, y0, x1, y1) whose pixel centres the
 // slot's silhouette box can cover; x0 > x1 when none.
@@ -130,11 +131,9 @@ fn edge_fn(a: vec2<f32>, b: vec2<f32>, p: vec2<f32>) -> f32 {
     return orient2(a, b, p);
 }
 
-// Whether pixel centre p lies in the convex polygon hull[0..n]: inside
-// every edge, and on an edge only where the edge (interior on its left)
-// points down or, horizontal, left — a tie rule under which exactly one of
-// two polygons sharing an edge owns the points on it.
-fn covers(g: TetGeom, p: vec2<f32>) -> bool {
+// Twice the signed area of the polygon hull[0..n] (0 when degenerate or
+// not finite: nothing covered).
+fn poly_area(g: TetGeom) -> f32 {
     let n = g.n_hull;
     var area = 0.0;
     for (var i = 0u; i < n; i++) {
@@ -142,10 +141,19 @@ fn covers(g: TetGeom, p: vec2<f32>) -> bool {
         let b = g.hull[(i + 1u) % n];
         area += a.x * b.y - b.x * a.y;
     }
-    if area == 0.0 || !(abs(area) < 3.0e38) {
-        return false;
+    if !(abs(area) < 3.0e38) {
+        return 0.0;
     }
-    let sgn = select(-1.0, 1.0, area > 0.0);
+    return area;
+}
+
+// Whether pixel centre p lies in the convex polygon hull[0..n] whose area
+// has sign `sgn`: inside every edge, and on an edge only where the edge
+// (interior on its left) points down or, horizontal, left — a tie rule
+// under which exactly one of two polygons sharing an edge owns the points
+// on it.
+fn covers(g: TetGeom, sgn: f32, p: vec2<f32>) -> bool {
+    let n = g.n_hull;
     for (var i = 0u; i < n; i++) {
         let a = g.hull[i];
         let b = g.hull[(i + 1u) % n];
@@ -182,6 +190,12 @@ fn tent_at(g: TetGeom, p: vec2<f32>) -> f32 {
 var<workgroup> w_range: vec2<u32>;
 var<workgroup> w_done: atomic<u32>;
 var<workgroup> w_done_plain: u32;
+// One batch of the tile's list, loaded cooperatively: slot, silhouette,
+// pixel-centre box and area sign (0: covers nothing).
+var<workgroup> b_slot: array<u32, BATCH>;
+var<workgroup> b_geom: array<TetGeom, BATCH>;
+var<workgroup> b_box: array<vec4<f32>, BATCH>;
+var<workgroup> b_sgn: array<f32, BATCH>;
 
 @compute @workgroup_size(16, 16)
 fn composite(
@@ -210,19 +224,39 @@ fn composite(
     let r = workgroupUniformLoad(&w_range);
     let p = vec2<f32>(f32(px) + 0.5, f32(py) + 0.5);
     for (var start = r.x; start < r.y; start += BATCH) {
+        let count = min(BATCH, r.y - start);
+        if lid < count {
+            let slot = vals[start + lid];
+            let g = geoms[slot];
+            var lo = vec2<f32>(3.0e38);
+            var hi = vec2<f32>(-3.0e38);
+            for (var i = 0u; i < g.n_hull; i++) {
+                lo = min(lo, g.hull[i]);
+                hi = max(hi, g.hull[i]);
+            }
+            let area = poly_area(g);
+            b_slot[lid] = slot;
+            b_geom[lid] = g;
+            b_box[lid] = vec4<f32>(lo, hi);
+            b_sgn[lid] = select(select(-1.0, 1.0, area > 0.0), 0.0, area == 0.0 || g.mode == GEOM_NONE);
+        }
+        workgroupBarrier();
         if alive {
-            let end = min(start + BATCH, r.y);
-            for (var i = start; i < end; i++) {
-                let slot = vals[i];
-                let g = geoms[slot];
-                if !covers(g, p) {
+            for (var k = 0u; k < count; k++) {
+                let bx = b_box[k];
+                let sgn = b_sgn[k];
+                if sgn == 0.0 || p.x < bx.x || p.x > bx.z || p.y < bx.y || p.y > bx.w {
+                    continue;
+                }
+                let g = b_geom[k];
+                if !covers(g, sgn, p) {
                     continue;
                 }
                 var tent = 0.0;
                 if g.mode == GEOM_THICK && fr.method == METHOD_PT_LINEAR {
                     tent = tent_at(g, p);
                 }
-                let f = fragment_color(fr, g.mode, vec4<f32>(g.hull[4], g.hull[5]), tent, slot, p.x, p.y);
+                let f = fragment_color(fr, g.mode, vec4<f32>(g.hull[4], g.hull[5]), tent, b_slot[k], p.x, p.y);
                 if f.ok {
                     acc += (1.0 - acc.a) * f.rgba;
                 }

@@ -11,14 +11,24 @@
 //!   nodes) or `table3d` (the table as a 3D texture, trilinear lookup with
 //!   `Table3d::lookup`'s normalisation).
 //! * [`GpuRenderer`]: the classify compute pass (Shirley–Tuchman
-//!   classification, near-plane clipping, face planes), the raster pass
-//!   (front-to-back "under" compositing into Rgba32Float) and readback into
-//!   a tet_render [`Image`]; [`GpuRenderer::tonemap`] fits and applies
-//!   Reinhard's operator on the GPU (log-average luminance by a compute
-//!   reduction) to 8-bit sRGB, as tet_render's `Display`.
-//! * [`centroid_order`]: the visibility order this increment uses — a CPU
-//!   sort of centroid depths (any order, e.g. tet_render's MPVO, can be
-//!   passed instead).
+//!   classification, near-plane clipping, face planes), then one of two
+//!   rasterizers ([`RasterPath`]) compositing front to back ("under") into
+//!   Rgba32Float, and readback into a tet_render [`Image`]:
+//!   - `Compute` (default): tets binned into 16×16-pixel tiles in
+//!     visibility order (prefix sums and a stable GPU radix sort of
+//!     (tile, tet) pairs), one workgroup per tile compositing per pixel
+//!     with early termination;
+//!   - `Graphics`: the hardware rasterizer with blending.
+//!
+//!   Both call the same per-fragment function (shaders/fragment.wgsl).
+//!   Buffers persist across frames and grow only when needed; orders whose
+//!   per-tet data exceeds one storage binding are drawn in chunks.
+//!   [`GpuRenderer::tonemap`] fits and applies Reinhard's operator on the
+//!   GPU (log-average luminance by a compute reduction) to 8-bit sRGB, as
+//!   tet_render's `Display`.
+//! * [`GpuOrder`]: the visibility order — given (tet_render's MPVO, the
+//!   exact option, or the CPU [`centroid_order`]) or `GpuCentroid`, a GPU
+//!   radix sort of centroid depths recomputed only when the camera moves.
 //! * [`gpu_types`]: every CPU↔GPU struct, `Pod`, mirrored in the WGSL.
 //!
 //! ```

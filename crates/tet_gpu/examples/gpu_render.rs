@@ -1,13 +1,17 @@
 //! Renders a structured-grid mesh (n³ cells × 5 tets) on the GPU with
-//! table3d and prints the adapter, the per-stage times and tets/s; with
-//! `--compare` also the CPU reference of tests/common on small meshes.
+//! table3d and prints the adapter, the per-stage times and tets/s for each
+//! rasterizer (graphics, compute) and order (the CPU centroid sort
+//! uploaded, the GPU radix sort), turning the camera by 0.5° a frame so
+//! every frame re-sorts; then the largest difference between the two
+//! rasterizers' images.
 //!
 //! cargo run --release -p tet_gpu --example gpu_render -- [CELLS] [SIZE] [FRAMES] [OUT_PREFIX]
-//! e.g. `-- 60 1024 5 /tmp/g` renders 1.08M tets at 1024² five times (the
-//! first frame includes pipeline warm-up) and writes /tmp/g.png and /tmp/g.npy.
+//! e.g. `-- 60 1024 5 /tmp/g` renders 1.08M tets at 1024² five times per
+//! mode (the first frame includes warm-up and buffer growth) and writes
+//! /tmp/g.png and /tmp/g.npy (compute raster, GPU order).
 
 use std::time::Instant;
-use tet_gpu::{centroid_order, GpuContext, GpuRenderer, GpuScene, GpuShader};
+use tet_gpu::{centroid_order, GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{Table3d, Table3dParams, TableDomain, TransferFunction};
 use tet_render::{Camera, Display, ViewSpec};
 
@@ -90,31 +94,57 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let renderer = GpuRenderer::new(&ctx)?;
     println!("upload + pipelines: {:.3} s", t.elapsed().as_secs_f64());
 
-    let spec = ViewSpec::framing([0.0; 3], [1.0; 3], [size, size]).orbit(30.0, 20.0, 1.0);
-    let camera = Camera::new(&spec)?;
     println!(
-        "frame  sort(cpu)  upload  classify  raster  readback  tonemap   total  tets/s(total)  tets/s(classify+raster)"
+        "raster    order  frame  sort    upload  classify  bin     raster  readback  tonemap  total   pairs     tets/s(total)  tets/s(GPU stages)"
     );
+    let mut images = Vec::new();
     let mut last = None;
-    for f in 0..frames {
-        let t = Instant::now();
-        let order = centroid_order(&scene, &camera);
-        let sort_s = t.elapsed().as_secs_f64();
-        let frame = renderer.render(&ctx, &scene, &camera, &order, &shader)?;
-        let tone = renderer.tonemap(&ctx, &frame, &Display::default())?;
-        let s = &frame.stats;
-        let total = sort_s + s.total_seconds + tone.seconds;
+    for (raster, gpu_order) in [
+        (RasterPath::Graphics, false),
+        (RasterPath::Compute, false),
+        (RasterPath::Graphics, true),
+        (RasterPath::Compute, true),
+    ] {
+        for f in 0..frames {
+            let spec = ViewSpec::framing([0.0; 3], [1.0; 3], [size, size]).orbit(30.0 + 0.5 * f as f64, 20.0, 1.0);
+            let camera = Camera::new(&spec)?;
+            let t = Instant::now();
+            let cpu_order = if gpu_order { Vec::new() } else { centroid_order(&scene, &camera) };
+            let cpu_sort_s = t.elapsed().as_secs_f64();
+            let order = if gpu_order { GpuOrder::GpuCentroid } else { GpuOrder::Given(&cpu_order) };
+            let frame = renderer.render_with(&ctx, &scene, &camera, order, &shader, raster)?;
+            let tone = renderer.tonemap(&ctx, &frame, &Display::default())?;
+            let s = &frame.stats;
+            let sort_s = cpu_sort_s + s.sort_seconds;
+            let total = cpu_sort_s + s.total_seconds + tone.seconds;
+            let gpu_stages = s.sort_seconds + s.classify_seconds + s.bin_seconds + s.raster_seconds;
+            println!(
+                "{:<8}  {:<5}  {f:>5}  {sort_s:>6.4}  {:>6.4}  {:>8.4}  {:>6.4}  {:>6.4}  {:>8.4}  {:>7.4}  {total:>6.4}  {:>8}  {:>13.3e}  {:>18.3e}",
+                s.raster_path.id(),
+                if gpu_order { "gpu" } else { "cpu" },
+                s.upload_seconds,
+                s.classify_seconds,
+                s.bin_seconds,
+                s.raster_seconds,
+                s.readback_seconds,
+                tone.seconds,
+                s.pairs,
+                tets.len() as f64 / total,
+                tets.len() as f64 / gpu_stages,
+            );
+            if f == 0 && !gpu_order {
+                images.push(frame.image.clone());
+            }
+            last = Some((frame, tone));
+        }
+    }
+    if let [g, c] = &images[..] {
+        let d = tet_render::diff(g, c)?;
         println!(
-            "{f:>5}  {sort_s:>9.4}  {:>6.4}  {:>8.4}  {:>6.4}  {:>8.4}  {:>7.4}  {total:>6.4}  {:>13.3e}  {:>23.3e}",
-            s.upload_seconds,
-            s.classify_seconds,
-            s.raster_seconds,
-            s.readback_seconds,
-            tone.seconds,
-            tets.len() as f64 / total,
-            tets.len() as f64 / (s.classify_seconds + s.raster_seconds),
+            "graphics vs compute raster (same CPU order, first frame): mean {:.4}/255, max {:.4}/255",
+            d.mean_abs * 255.0,
+            d.max_abs * 255.0
         );
-        last = Some((frame, tone));
     }
     if let (Some(prefix), Some((frame, tone))) = (out, last) {
         frame.image.write_npy(std::path::Path::new(&format!("{prefix}.npy")))?;

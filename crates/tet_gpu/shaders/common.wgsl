@@ -185,3 +185,4 @@ fn shade_pt_linear(fr: Frame, seg: Seg) -> vec4<f32> {
     }
     return vec4<f32>(0.5 * (cf + cb) * alpha, alpha);
 }
+

@@ -114,6 +114,55 @@ pub struct ToneFit {
     pub _pad: f32,
 }
 
+/// Parameters of one dispatch of sort.wgsl (`SortParams` there): prefix
+/// sums, radix passes and the centroid-depth keys.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct SortParams {
+    /// Eye relative to the mesh centre and the unit view direction (depth
+    /// keys only); w unused.
+    pub eye_rel: [f32; 4],
+    pub forward: [f32; 4],
+    /// Elements to scan or sort.
+    pub n: u32,
+    /// Bit offset of the radix digit.
+    pub shift: u32,
+    /// Blocks of the pass (scan: block sums; radix: histogram columns).
+    pub n_blocks: u32,
+    /// Workgroups along x of a 2D dispatch.
+    pub groups_x: u32,
+}
+
+/// Parameters of one dispatch of bin.wgsl (`BinParams` there).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct BinParams {
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    /// Slots of the chunk.
+    pub n_slots: u32,
+    pub groups_x: u32,
+    /// Slots whose pairs this pass writes, and the pair index of `slot_lo`'s
+    /// first pair (pairs of a chunk too many for one pass go in several).
+    pub slot_lo: u32,
+    pub slot_hi: u32,
+    pub pair_base: u32,
+    pub n_pairs: u32,
+}
+
+/// Side of a compute-raster tile in pixels (`TILE` in bin.wgsl; the
+/// composite workgroup is TILE × TILE).
+pub const TILE_PX: u32 = 16;
+/// Workgroup size of bin_count / bin_fill / tile_ranges (`BIN_WG`).
+pub const BIN_WG: u32 = 64;
+/// Elements a scan workgroup handles (`SCAN_BLOCK` in sort.wgsl).
+pub const SCAN_BLOCK: u32 = 1024;
+/// Elements a radix workgroup handles, and the digit width.
+pub const RADIX_BLOCK: u32 = 256;
+pub const RADIX_BITS: u32 = 4;
+/// Stride of the per-dispatch uniform arena (dynamic offsets).
+pub const PARAM_STRIDE: u64 = 256;
+
 /// Classify workgroup size (`@workgroup_size` in classify.wgsl).
 pub const CLASSIFY_WG: u32 = 64;
 /// Tone-mapping workgroup size (tonemap.wgsl).
@@ -142,12 +191,16 @@ mod tests {
         assert_eq!(size_of::<TetShade>(), 112);
         assert_eq!(size_of::<ToneParams>(), 48);
         assert_eq!(size_of::<ToneFit>(), 16);
+        assert_eq!(size_of::<SortParams>(), 48);
+        assert_eq!(size_of::<BinParams>(), 32);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
             (size_of::<TetGeom>(), align_of::<TetGeom>()),
             (size_of::<TetShade>(), align_of::<TetShade>()),
             (size_of::<ToneParams>(), align_of::<ToneParams>()),
             (size_of::<ToneFit>(), align_of::<ToneFit>()),
+            (size_of::<SortParams>(), align_of::<SortParams>()),
+            (size_of::<BinParams>(), align_of::<BinParams>()),
         ] {
             assert_eq!(s % 16, 0);
             assert_eq!(a, 4);

@@ -11,14 +11,24 @@
 //!   nodes) or `table3d` (the table as a 3D texture, trilinear lookup with
 //!   `Table3d::lookup`'s normalisation).
 //! * [`GpuRenderer`]: the classify compute pass (Shirley–Tuchman
-//!   classification, near-plane clipping, face planes), the raster pass
-//!   (front-to-back "under" compositing into Rgba32Float) and readback into
-//!   a tet_render [`Image`]; [`GpuRenderer::tonemap`] fits and applies
-//!   Reinhard's operator on the GPU (log-average luminance by a compute
-//!   reduction) to 8-bit sRGB, as tet_render's `Display`.
-//! * [`centroid_order`]: the visibility order this increment uses — a CPU
-//!   sort of centroid depths (any order, e.g. tet_render's MPVO, can be
-//!   passed instead).
+//!   classification, near-plane clipping, face planes), then one of two
+//!   rasterizers ([`RasterPath`]) compositing front to back ("under") into
+//!   Rgba32Float, and readback into a tet_render [`Image`]:
+//!   - `Compute` (default): tets binned into 16×16-pixel tiles in
+//!     visibility order (prefix sums and a stable GPU radix sort of
+//!     (tile, tet) pairs), one workgroup per tile compositing per pixel
+//!     with early termination;
+//!   - `Graphics`: the hardware rasterizer with blending.
+//!
+//!   Both call the same per-fragment function (shaders/fragment.wgsl).
+//!   Buffers persist across frames and grow only when needed; orders whose
+//!   per-tet data exceeds one storage binding are drawn in chunks.
+//!   [`GpuRenderer::tonemap`] fits and applies Reinhard's operator on the
+//!   GPU (log-average luminance by a compute reduction) to 8-bit sRGB, as
+//!   tet_render's `Display`.
+//! * [`GpuOrder`]: the visibility order — given (tet_render's MPVO, the
+//!   exact option, or the CPU [`centroid_order`]) or `GpuCentroid`, a GPU
+//!   radix sort of centroid depths recomputed only when the camera moves.
 //! * [`gpu_types`]: every CPU↔GPU struct, `Pod`, mirrored in the WGSL.
 //!
 //! ```
@@ -45,11 +55,14 @@
 //! ```
 #![forbid(unsafe_code)]
 
+mod binning;
 pub mod gpu_types;
+mod gpusort;
 mod render;
 mod tonemap;
+mod workspace;
 
-pub use render::{centroid_order, GpuFrame, GpuRenderStats, GpuRenderer, GpuScene, GpuShader};
+pub use render::{centroid_order, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer, GpuScene, GpuShader, RasterPath};
 pub use tonemap::ToneResult;
 
 use tet_render::Image;
@@ -150,18 +163,35 @@ impl GpuContext {
 pub fn shader_sources() -> Vec<(&'static str, String)> {
     vec![
         ("classify", shader_source(CLASSIFY_WGSL)),
-        ("raster", shader_source(RASTER_WGSL)),
-        ("tonemap", TONEMAP_WGSL.to_string()),
+        ("raster", shader_source_fragment(RASTER_WGSL)),
+        ("bin", shader_source_fragment(BIN_WGSL)),
+        ("sort", shader_source_plain(SORT_WGSL)),
+        ("tonemap", shader_source_plain(TONEMAP_WGSL)),
     ]
 }
 
 const COMMON_WGSL: &str = include_str!("../shaders/common.wgsl");
+const FRAGMENT_WGSL: &str = include_str!("../shaders/fragment.wgsl");
 const CLASSIFY_WGSL: &str = include_str!("../shaders/classify.wgsl");
 const RASTER_WGSL: &str = include_str!("../shaders/raster.wgsl");
+const BIN_WGSL: &str = include_str!("../shaders/bin.wgsl");
+const SORT_WGSL: &str = include_str!("../shaders/sort.wgsl");
 const TONEMAP_WGSL: &str = include_str!("../shaders/tonemap.wgsl");
 
+/// common.wgsl + `body` (classify).
 fn shader_source(body: &str) -> String {
     format!("{COMMON_WGSL}\n{body}")
+}
+
+/// common.wgsl + fragment.wgsl + `body`: the modules that shade fragments
+/// (graphics raster, compute raster), so both run the same maths.
+fn shader_source_fragment(body: &str) -> String {
+    format!("{COMMON_WGSL}\n{FRAGMENT_WGSL}\n{body}")
+}
+
+/// A module on its own (sort, tonemap).
+fn shader_source_plain(body: &str) -> String {
+    body.to_string()
 }
 
 /// Reads an Rgba32Float texture back into an [`Image`].
@@ -208,7 +238,12 @@ pub(crate) fn read_texture(ctx: &GpuContext, tex: &wgpu::Texture) -> Result<Imag
 
 /// Maps a MAP_READ buffer after the queue's work and copies it out.
 pub(crate) fn map_read(ctx: &GpuContext, buf: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-    let slice = buf.slice(..);
+    map_read_range(ctx, buf, buf.size())
+}
+
+/// As [`map_read`], the first `bytes` only.
+pub(crate) fn map_read_range(ctx: &GpuContext, buf: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+    let slice = buf.slice(..bytes);
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);

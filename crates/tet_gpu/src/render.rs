@@ -1,14 +1,23 @@
 //! Scene upload, shaders (pt-linear, table3d), the classify and raster
 //! passes, and the centroid visibility order.
 
+use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
 use crate::gpu_types::{
-    FrameUniforms, TetGeom, TetShade, CLASSIFY_WG, METHOD_PT_LINEAR, METHOD_TABLE3D, VERTS_PER_SLOT,
+    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_PT_LINEAR, METHOD_TABLE3D, RADIX_BLOCK,
+    SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
-use crate::{read_texture, shader_source, GpuContext, GpuError, CLASSIFY_WGSL, RASTER_WGSL};
+use crate::gpusort::SortPipelines;
+use crate::workspace::{split_groups, Grow, Params};
+use crate::{
+    map_read_range, read_texture, shader_source, shader_source_fragment, GpuContext, GpuError, CLASSIFY_WGSL,
+    RASTER_WGSL,
+};
 use glam::DVec3;
 use rayon::prelude::*;
+use std::sync::Mutex;
 use std::time::Instant;
 use tet_preint::{Table3d, TransferFunction};
+use tet_render::ViewSpec;
 use tet_render::{Camera, Image};
 use wgpu::util::DeviceExt;
 
@@ -19,6 +28,8 @@ pub(crate) const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Fl
 /// centre (as tet_render's `Scene`), in f32, so far-from-origin meshes keep
 /// their sub-cell precision.
 pub struct GpuScene {
+    /// Unique per scene: keys the renderer's cached GPU order.
+    id: u64,
     centre_in_world: DVec3,
     n_points: usize,
     /// Kept for the CPU centroid sort.
@@ -31,8 +42,10 @@ pub struct GpuScene {
 
 impl GpuScene {
     /// Uploads a mesh: `tets` positively oriented (as every bundle's are),
-    /// one scalar per point. Indices out of range, non-finite values and
-    /// sizes beyond the device's storage-binding limit are errors.
+    /// one scalar per point. Indices out of range and non-finite values are
+    /// errors, and so are tets or points beyond one storage binding (16
+    /// bytes each: 8.4M on lavapipe's 128 MiB); per-tet render data is
+    /// chunked and has no such limit.
     pub fn new(ctx: &GpuContext, points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> Result<GpuScene, GpuError> {
         if scalar.len() != points.len() {
             return Err(GpuError::Input(format!("{} scalars for {} points", scalar.len(), points.len())));
@@ -53,9 +66,9 @@ impl GpuScene {
         {
             return Err(GpuError::Input(format!("tet {t} refers to point {v}; the mesh has {}", points.len())));
         }
-        // Per-slot buffers are the largest bindings: check them now.
+        // Per-slot data is drawn in chunks; the scene itself is bound whole.
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
-        check_size("per-tet shading data (112 bytes a tet)", tets.len() as u64 * 112, limit)?;
+        check_size("tets (16 bytes a tet)", tets.len() as u64 * 16, limit)?;
         check_size("point positions (16 bytes a point)", points.len() as u64 * 16, limit)?;
         if tets.len() as u64 * VERTS_PER_SLOT as u64 > u32::MAX as u64 {
             return Err(GpuError::Input(format!("{} tets: too many vertices for one draw", tets.len())));
@@ -86,7 +99,9 @@ impl GpuScene {
                 init("scalars", bytemuck::cast_slice(&s32)),
             )
         })?;
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
         Ok(GpuScene {
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             centre_in_world: centre,
             n_points: points.len(),
             pos_rel,
@@ -274,34 +289,153 @@ fn table_texture(ctx: &GpuContext, size: [u32; 3], texels: &[[f32; 4]]) -> Resul
     })
 }
 
+/// Which rasterizer composites the classified tets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RasterPath {
+    /// Tiles in compute shaders (bin.wgsl): tets binned into 16×16 tiles
+    /// in visibility order (prefix sums and a stable radix sort), one
+    /// workgroup per tile compositing front to back per pixel with early
+    /// termination. Needs the image (16 bytes a pixel) within one storage
+    /// binding; larger images fall back to [`RasterPath::Graphics`].
+    #[default]
+    Compute,
+    /// The hardware rasterizer: a fan of 3 or 4 triangles per tet, "under"
+    /// blending into the HDR target (raster.wgsl).
+    Graphics,
+}
+
+impl RasterPath {
+    pub fn id(self) -> &'static str {
+        match self {
+            RasterPath::Compute => "compute",
+            RasterPath::Graphics => "graphics",
+        }
+    }
+}
+
+impl std::str::FromStr for RasterPath {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "compute" => Ok(RasterPath::Compute),
+            "graphics" => Ok(RasterPath::Graphics),
+            _ => Err(format!("unknown raster path '{s}'; known: compute, graphics")),
+        }
+    }
+}
+
+/// The visibility order of a frame.
+#[derive(Debug, Clone, Copy)]
+pub enum GpuOrder<'a> {
+    /// Tet indices front to back computed elsewhere (tet_render's MPVO: the
+    /// exact option; [`centroid_order`]); may leave tets out (culled).
+    Given(&'a [u32]),
+    /// Every tet by centroid depth, radix-sorted on the GPU — the fast
+    /// approximate order, recomputed only when the camera (or the scene)
+    /// changed since the renderer last sorted.
+    GpuCentroid,
+}
+
 /// Wall-clock seconds of each stage (each stage is submitted and waited
-/// for on its own so it can be timed) and counts.
+/// for on its own so it can be timed; chunks add up) and counts.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct GpuRenderStats {
-    /// Order upload and per-slot buffer allocation.
+    /// Order upload (a given order).
     pub upload_seconds: f64,
+    /// GPU centroid sort (0 when the cached order was reused).
+    pub sort_seconds: f64,
     pub classify_seconds: f64,
+    /// Compute path: tile counts, prefix sums, pair fill, radix sort by tile.
+    pub bin_seconds: f64,
+    /// Compute path: the tile composite; graphics path: the draw.
     pub raster_seconds: f64,
     pub readback_seconds: f64,
     pub total_seconds: f64,
     pub tets_drawn: usize,
+    /// Chunks the order was split into (per-slot data beyond one storage
+    /// binding).
+    pub chunks: usize,
+    /// Compute path: (tile, tet) pairs binned.
+    pub pairs: u64,
+    /// The rasterizer that ran (a compute request can fall back).
+    pub raster_path: RasterPath,
+    /// Whether this frame ran the GPU centroid sort.
+    pub sorted_on_gpu: bool,
+    /// Persistent buffers (re)allocated by this frame.
+    pub buffers_grown: usize,
 }
 
 /// One rendered frame: the linear premultiplied image and the HDR texture
-/// it came from (input of [`GpuRenderer::tonemap`]).
+/// it came from (input of [`GpuRenderer::tonemap`]; the renderer reuses the
+/// texture, so tone map a frame before rendering the next).
 pub struct GpuFrame {
     pub image: Image,
     pub stats: GpuRenderStats,
     pub(crate) hdr: wgpu::Texture,
 }
 
-/// Pipelines of the classify, raster and tone-mapping passes.
+/// Per-slot, order, binning and sort buffers kept across frames.
+struct Workspace {
+    params: Params,
+    order: Grow,
+    geoms: Grow,
+    shades: Grow,
+    counts: Grow,
+    sums: Grow,
+    hist: Grow,
+    ranges: Grow,
+    accum: Grow,
+    pair_keys: [Grow; 2],
+    pair_vals: [Grow; 2],
+    depth_keys: [Grow; 2],
+    depth_vals: [Grow; 2],
+    readback: Grow,
+    /// The GPU centroid order in `depth_vals[.2]`, valid for scene `.0`
+    /// seen from `.1`.
+    sorted: Option<(u64, ViewSpec, usize)>,
+    hdr: Option<wgpu::Texture>,
+    /// Caps below the device's (see [`GpuRenderer::set_chunk_limits`]).
+    max_chunk_slots: usize,
+    max_pairs: u32,
+}
+
+impl Workspace {
+    fn new(ctx: &GpuContext) -> Workspace {
+        let two = |k: &'static str, v: &'static str| [Grow::storage(k), Grow::storage(v)];
+        Workspace {
+            params: Params::new(ctx),
+            order: Grow::storage("order"),
+            geoms: Grow::storage("geoms"),
+            shades: Grow::storage("shades"),
+            counts: Grow::storage("tile counts"),
+            sums: Grow::storage("scan sums"),
+            hist: Grow::storage("radix histogram"),
+            ranges: Grow::storage("tile ranges"),
+            accum: Grow::storage("accumulated colour"),
+            pair_keys: two("pair keys 0", "pair keys 1"),
+            pair_vals: two("pair values 0", "pair values 1"),
+            depth_keys: two("depth keys 0", "depth keys 1"),
+            depth_vals: two("depth order 0", "depth order 1"),
+            readback: Grow::new("readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
+            sorted: None,
+            hdr: None,
+            max_chunk_slots: usize::MAX,
+            max_pairs: u32::MAX,
+        }
+    }
+}
+
+/// Pipelines of the classify, raster (graphics and compute), sort and
+/// tone-mapping passes, and the buffers they reuse across frames.
 pub struct GpuRenderer {
     classify_layout: wgpu::BindGroupLayout,
     classify: wgpu::ComputePipeline,
     raster_layout: wgpu::BindGroupLayout,
     raster: wgpu::RenderPipeline,
+    bin: BinPipelines,
+    sort: SortPipelines,
     pub(crate) tone: crate::tonemap::TonePipelines,
+    ws: Mutex<Workspace>,
 }
 
 pub(crate) fn storage_entry(
@@ -334,6 +468,20 @@ pub(crate) fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgp
     }
 }
 
+/// A uniform bound at a dynamic offset into the parameter arena.
+pub(crate) fn uniform_dyn_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: true,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
 pub(crate) fn texture_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,
@@ -351,6 +499,8 @@ pub(crate) fn texture_entry(
     }
 }
 
+const FRAME_SIZE: u64 = std::mem::size_of::<FrameUniforms>() as u64;
+
 impl GpuRenderer {
     /// Compiles the shaders and builds the pipelines.
     pub fn new(ctx: &GpuContext) -> Result<GpuRenderer, GpuError> {
@@ -361,7 +511,7 @@ impl GpuRenderer {
             let classify_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("classify"),
                 entries: &[
-                    uniform_entry(0, cs),
+                    uniform_dyn_entry(0, cs),
                     storage_entry(1, cs, true),
                     storage_entry(2, cs, true),
                     storage_entry(3, cs, true),
@@ -392,7 +542,7 @@ impl GpuRenderer {
             let raster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("raster"),
                 entries: &[
-                    uniform_entry(0, vs | fs),
+                    uniform_dyn_entry(0, vs | fs),
                     storage_entry(5, vs, true),
                     storage_entry(6, fs, true),
                     storage_entry(7, fs, true),
@@ -401,7 +551,7 @@ impl GpuRenderer {
             });
             let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("raster.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(shader_source(RASTER_WGSL).into()),
+                source: wgpu::ShaderSource::Wgsl(shader_source_fragment(RASTER_WGSL).into()),
             });
             let layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("raster"),
@@ -440,13 +590,33 @@ impl GpuRenderer {
                 cache: None,
             });
             let tone = crate::tonemap::TonePipelines::new(ctx);
-            GpuRenderer { classify_layout, classify, raster_layout, raster, tone }
+            GpuRenderer {
+                classify_layout,
+                classify,
+                raster_layout,
+                raster,
+                bin: BinPipelines::new(ctx),
+                sort: SortPipelines::new(ctx),
+                tone,
+                ws: Mutex::new(Workspace::new(ctx)),
+            }
         })
+    }
+
+    /// Lowers the chunking thresholds below what the device's storage
+    /// binding limit implies: at most `slots` tets a chunk (rounded down to
+    /// a multiple of 256, at least 256) and at most `pairs` (tile, tet)
+    /// pairs a compute-raster pass; `None` restores the device's. For tests
+    /// of the chunked paths on small scenes, and to bound memory.
+    pub fn set_chunk_limits(&self, slots: Option<usize>, pairs: Option<u32>) {
+        let mut ws = self.ws.lock().unwrap_or_else(|e| e.into_inner());
+        ws.max_chunk_slots = slots.map_or(usize::MAX, |s| (s / 256 * 256).max(256));
+        ws.max_pairs = pairs.map_or(u32::MAX, |p| p.max(1));
     }
 
     /// Renders `order` (tet indices, front to back; e.g. [`centroid_order`]
     /// or tet_render's MPVO) into a linear premultiplied image of the
-    /// camera's size.
+    /// camera's size with the default rasterizer ([`RasterPath::Compute`]).
     pub fn render(
         &self,
         ctx: &GpuContext,
@@ -455,153 +625,541 @@ impl GpuRenderer {
         order: &[u32],
         shader: &GpuShader,
     ) -> Result<GpuFrame, GpuError> {
+        self.render_with(ctx, scene, camera, GpuOrder::Given(order), shader, RasterPath::default())
+    }
+
+    /// The GPU centroid-depth order of every tet (sorted now unless cached
+    /// for this scene and camera), read back: what [`GpuOrder::GpuCentroid`]
+    /// draws.
+    pub fn gpu_centroid_order(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        camera: &Camera,
+    ) -> Result<Vec<u32>, GpuError> {
+        let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
+        let ws = &mut *guard;
+        self.sort_centroids(ctx, ws, scene, camera)?;
+        let idx = ws.sorted.as_ref().map(|s| s.2).unwrap_or(0);
+        let bytes = scene.num_tets() as u64 * 4;
+        ws.readback.ensure(ctx, bytes, u64::MAX)?;
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(ws.depth_vals[idx].get(), 0, ws.readback.get(), 0, bytes);
+        ctx.queue.submit([enc.finish()]);
+        let data = map_read_range(ctx, ws.readback.get(), bytes)?;
+        Ok(bytemuck::cast_slice(&data).to_vec())
+    }
+
+    /// Sorts every tet by centroid depth on the GPU into `ws.depth_vals`
+    /// unless the cached order is for this scene and camera; returns the
+    /// number of buffers grown, or `None` when the cache was used.
+    fn sort_centroids(
+        &self,
+        ctx: &GpuContext,
+        ws: &mut Workspace,
+        scene: &GpuScene,
+        camera: &Camera,
+    ) -> Result<Option<usize>, GpuError> {
+        if ws.sorted.as_ref().is_some_and(|(id, spec, _)| *id == scene.id && spec == camera.spec()) {
+            return Ok(None);
+        }
+        ws.sorted = None;
+        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        let n = scene.num_tets() as u32;
+        let mut grown = crate::gpusort::ensure_pairs(ctx, &mut ws.depth_keys, &mut ws.depth_vals, n as u64 * 4, limit)?;
+        let blocks = n.div_ceil(RADIX_BLOCK);
+        grown += ws.hist.ensure(ctx, SortPipelines::hist_bytes(n), limit)? as usize;
+        grown += ws.sums.ensure(ctx, SortPipelines::sums_bytes(16 * blocks), limit)? as usize;
+        let eye = (camera.eye_in_world() - scene.centre_in_world).as_vec3();
+        let fwd = camera.forward().as_vec3();
+        let idx = ctx.checked(|| -> Result<usize, GpuError> {
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            let prm = &mut ws.params;
+            self.sort.encode_depth_keys(
+                ctx,
+                &mut enc,
+                prm,
+                [eye.x, eye.y, eye.z, 0.0],
+                [fwd.x, fwd.y, fwd.z, 0.0],
+                n,
+                &scene.positions,
+                &scene.tet_buf,
+                ws.depth_keys[0].get(),
+                ws.depth_vals[0].get(),
+            )?;
+            let keys = [ws.depth_keys[0].get(), ws.depth_keys[1].get()];
+            let vals = [ws.depth_vals[0].get(), ws.depth_vals[1].get()];
+            let idx = self.sort.encode_radix(ctx, &mut enc, prm, keys, vals, n, 32, ws.hist.get(), ws.sums.get())?;
+            prm.flush(ctx);
+            ctx.queue.submit([enc.finish()]);
+            Ok(idx)
+        })??;
+        ctx.wait()?;
+        ws.sorted = Some((scene.id, camera.spec().clone(), idx));
+        Ok(Some(grown))
+    }
+
+    /// Renders with a chosen order and rasterizer. The order is drawn in
+    /// chunks when its per-slot data (176 bytes a tet) exceeds one storage
+    /// binding; buffers persist across calls and grow only when needed.
+    pub fn render_with(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        camera: &Camera,
+        order: GpuOrder<'_>,
+        shader: &GpuShader,
+        raster: RasterPath,
+    ) -> Result<GpuFrame, GpuError> {
         let start = Instant::now();
-        if order.len() > scene.num_tets() {
-            return Err(GpuError::Input(format!("order of {} tets for a scene of {}", order.len(), scene.num_tets())));
+        if let GpuOrder::Given(order) = order {
+            if order.len() > scene.num_tets() {
+                return Err(GpuError::Input(format!(
+                    "order of {} tets for a scene of {}",
+                    order.len(),
+                    scene.num_tets()
+                )));
+            }
+            if let Some(&t) = order.iter().find(|&&t| t as usize >= scene.num_tets()) {
+                return Err(GpuError::Input(format!("order refers to tet {t}; the scene has {}", scene.num_tets())));
+            }
         }
-        if let Some(&t) = order.iter().find(|&&t| t as usize >= scene.num_tets()) {
-            return Err(GpuError::Input(format!("order refers to tet {t}; the scene has {}", scene.num_tets())));
-        }
-        let n = order.len().max(1) as u64;
         let dev = &ctx.device;
-        let groups = (n as u32).div_ceil(CLASSIFY_WG);
-        let groups_x = groups.min(65535);
-        let groups_y = groups.div_ceil(groups_x);
-        let uniforms = frame_uniforms(camera, scene.centre_in_world, order.len() as u32, shader, groups_x);
+        let lim = dev.limits();
+        let limit = lim.max_storage_buffer_binding_size;
         let (w, h) = (camera.width(), camera.height());
-        let max2d = dev.limits().max_texture_dimension_2d;
-        if w > max2d || h > max2d {
+        if w > lim.max_texture_dimension_2d || h > lim.max_texture_dimension_2d {
             return Err(GpuError::TooLarge {
                 what: "image side (pixels)",
                 bytes: w.max(h) as u64,
-                limit: max2d as u64,
+                limit: lim.max_texture_dimension_2d as u64,
             });
         }
-
-        let (uni, order_buf, geoms, shades, hdr) = ctx.checked(|| {
-            let uni = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("frame"),
-                contents: bytemuck::bytes_of(&uniforms),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            let order_src: &[u32] = if order.is_empty() { &[0] } else { order };
-            let order_buf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("order"),
-                contents: bytemuck::cast_slice(order_src),
-                usage: wgpu::BufferUsages::STORAGE,
-            });
-            let slot_buf = |label, size| {
-                dev.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size,
-                    usage: wgpu::BufferUsages::STORAGE,
-                    mapped_at_creation: false,
+        let mut guard = self.ws.lock().unwrap_or_else(|e| e.into_inner());
+        let ws = &mut *guard;
+        let mut stats = GpuRenderStats { raster_path: raster, ..Default::default() };
+        let pixels_bytes = w as u64 * h as u64 * 16;
+        if raster == RasterPath::Compute && pixels_bytes > limit {
+            stats.raster_path = RasterPath::Graphics;
+        }
+        if ws.hdr.as_ref().is_none_or(|t| t.width() != w || t.height() != h) {
+            ws.hdr = None;
+            ws.hdr = Some(ctx.checked(|| {
+                dev.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("hdr"),
+                    size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: HDR_FORMAT,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::TEXTURE_BINDING
+                        | wgpu::TextureUsages::STORAGE_BINDING,
+                    view_formats: &[],
                 })
-            };
-            let geoms = slot_buf("geoms", n * std::mem::size_of::<TetGeom>() as u64);
-            let shades = slot_buf("shades", n * std::mem::size_of::<TetShade>() as u64);
-            let hdr = dev.create_texture(&wgpu::TextureDescriptor {
-                label: Some("hdr"),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: HDR_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            });
-            (uni, order_buf, geoms, shades, hdr)
-        })?;
-        ctx.wait()?;
-        let upload_seconds = start.elapsed().as_secs_f64();
+            })?);
+            stats.buffers_grown += 1;
+        }
+        let hdr = ws.hdr.clone().expect("set above");
+        let hdr_view = hdr.create_view(&Default::default());
 
-        let t = Instant::now();
-        ctx.checked(|| {
-            let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("classify"),
-                layout: &self.classify_layout,
-                entries: &[
-                    bind(0, &uni),
-                    bind(1, &scene.positions),
-                    bind(2, &scene.tet_buf),
-                    bind(3, &scene.scalars),
-                    bind(4, &order_buf),
-                    bind(5, &geoms),
-                    bind(6, &shades),
-                    bind(7, &shader.tf_nodes),
-                ],
-            });
-            let mut enc = dev.create_command_encoder(&Default::default());
-            if !order.is_empty() {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.classify);
-                pass.set_bind_group(0, &bg, &[]);
-                pass.dispatch_workgroups(groups_x, groups_y, 1);
-            }
-            ctx.queue.submit([enc.finish()]);
-        })?;
-        ctx.wait()?;
-        let classify_seconds = t.elapsed().as_secs_f64();
-
-        let t = Instant::now();
-        ctx.checked(|| {
-            let table_view = shader.table.create_view(&Default::default());
-            let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("raster"),
-                layout: &self.raster_layout,
-                entries: &[
-                    bind(0, &uni),
-                    bind(5, &geoms),
-                    bind(6, &shades),
-                    bind(7, &shader.tf_nodes),
-                    wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&table_view) },
-                ],
-            });
-            let view = hdr.create_view(&Default::default());
-            let mut enc = dev.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("raster"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                if !order.is_empty() {
-                    pass.set_pipeline(&self.raster);
-                    pass.set_bind_group(0, &bg, &[]);
-                    pass.draw(0..order.len() as u32 * VERTS_PER_SLOT, 0..1);
+        // The order.
+        let n = match order {
+            GpuOrder::Given(o) => {
+                let t = Instant::now();
+                if !o.is_empty() {
+                    stats.buffers_grown += ws.order.ensure(ctx, o.len() as u64 * 4, lim.max_buffer_size)? as usize;
+                    ctx.queue.write_buffer(ws.order.get(), 0, bytemuck::cast_slice(o));
+                    ctx.queue.submit([]);
+                    ctx.wait()?;
                 }
+                stats.upload_seconds = t.elapsed().as_secs_f64();
+                o.len()
             }
+            GpuOrder::GpuCentroid => {
+                let t = Instant::now();
+                if let Some(g) = self.sort_centroids(ctx, ws, scene, camera)? {
+                    stats.buffers_grown += g;
+                    stats.sorted_on_gpu = true;
+                }
+                stats.sort_seconds = t.elapsed().as_secs_f64();
+                scene.num_tets()
+            }
+        };
+        stats.tets_drawn = n;
+
+        // Chunks: slot offsets into the order must meet the binding offset
+        // alignment, so chunks are multiples of 256 slots (1 KiB).
+        let per_slot = (std::mem::size_of::<TetShade>() as u64).max(std::mem::size_of::<TetGeom>() as u64);
+        let cap = ((limit / per_slot) as usize / 256 * 256)
+            .min(u32::MAX as usize / VERTS_PER_SLOT as usize / 256 * 256)
+            .min(ws.max_chunk_slots);
+        if cap == 0 {
+            return Err(GpuError::TooLarge { what: "one chunk of per-tet data", bytes: per_slot * 256, limit });
+        }
+        let chunk = cap.min(n.max(1));
+        stats.buffers_grown += ws.geoms.ensure(ctx, chunk as u64 * 64, limit)? as usize;
+        stats.buffers_grown += ws.shades.ensure(ctx, chunk as u64 * 112, limit)? as usize;
+        let compute = stats.raster_path == RasterPath::Compute && n > 0;
+        let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
+        if compute {
+            for (g, bytes) in [
+                (&mut ws.accum, pixels_bytes),
+                (&mut ws.ranges, tiles_x as u64 * tiles_y as u64 * 8),
+                (&mut ws.counts, chunk as u64 * 4),
+            ] {
+                stats.buffers_grown += g.ensure(ctx, bytes, limit)? as usize;
+            }
+            stats.buffers_grown += ws.sums.ensure(ctx, SortPipelines::sums_bytes(chunk as u32), limit)? as usize;
+            stats.buffers_grown += crate::gpusort::ensure_pairs(ctx, &mut ws.pair_keys, &mut ws.pair_vals, 16, limit)?;
+            stats.buffers_grown += ws.hist.ensure(ctx, 16, limit)? as usize;
+            stats.buffers_grown += ws.readback.ensure(ctx, 256, u64::MAX)? as usize;
+        }
+        let table_view = shader.table.create_view(&Default::default());
+
+        if n == 0 {
+            // Nothing to draw: a cleared image.
+            let mut enc = dev.create_command_encoder(&Default::default());
+            enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("clear"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
             ctx.queue.submit([enc.finish()]);
-        })?;
-        ctx.wait()?;
-        let raster_seconds = t.elapsed().as_secs_f64();
+        }
+
+        // (An empty given order uploads nothing; bind something.)
+        stats.buffers_grown += ws.order.ensure(ctx, 16, lim.max_buffer_size)? as usize;
+        let order_buf = match order {
+            GpuOrder::Given(_) => ws.order.get().clone(),
+            GpuOrder::GpuCentroid => ws.depth_vals[ws.sorted.as_ref().map(|s| s.2).unwrap_or(0)].get().clone(),
+        };
+        let mut s0 = 0;
+        while s0 < n {
+            let m = chunk.min(n - s0);
+            let first = s0 == 0;
+            stats.chunks += 1;
+            let (gx, gy) = split_groups((m as u32).div_ceil(CLASSIFY_WG));
+            let uniforms = frame_uniforms(camera, scene.centre_in_world, m as u32, shader, gx);
+
+            let t = Instant::now();
+            ctx.checked(|| -> Result<(), GpuError> {
+                let fo = ws.params.push(&uniforms)?;
+                let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("classify"),
+                    layout: &self.classify_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) },
+                        bind(1, &scene.positions),
+                        bind(2, &scene.tet_buf),
+                        bind(3, &scene.scalars),
+                        wgpu::BindGroupEntry {
+                            binding: 4,
+                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                buffer: &order_buf,
+                                offset: s0 as u64 * 4,
+                                size: std::num::NonZeroU64::new(m as u64 * 4),
+                            }),
+                        },
+                        bind(5, ws.geoms.get()),
+                        bind(6, ws.shades.get()),
+                        bind(7, &shader.tf_nodes),
+                    ],
+                });
+                let mut enc = dev.create_command_encoder(&Default::default());
+                {
+                    let mut pass = enc.begin_compute_pass(&Default::default());
+                    pass.set_pipeline(&self.classify);
+                    pass.set_bind_group(0, &bg, &[fo]);
+                    pass.dispatch_workgroups(gx, gy, 1);
+                }
+                ws.params.flush(ctx);
+                ctx.queue.submit([enc.finish()]);
+                Ok(())
+            })??;
+            ctx.wait()?;
+            stats.classify_seconds += t.elapsed().as_secs_f64();
+
+            if compute {
+                let env = BinEnv {
+                    uniforms: &uniforms,
+                    hdr_view: &hdr_view,
+                    table_view: &table_view,
+                    shader,
+                    tiles: [tiles_x, tiles_y],
+                    m: m as u32,
+                    first,
+                    pixels_bytes,
+                    limit,
+                };
+                self.raster_compute(ctx, ws, &env, &mut stats)?;
+            } else {
+                let t = Instant::now();
+                ctx.checked(|| -> Result<(), GpuError> {
+                    let fo = ws.params.push(&uniforms)?;
+                    let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("raster"),
+                        layout: &self.raster_layout,
+                        entries: &[
+                            wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) },
+                            bind(5, ws.geoms.get()),
+                            bind(6, ws.shades.get()),
+                            bind(7, &shader.tf_nodes),
+                            wgpu::BindGroupEntry {
+                                binding: 8,
+                                resource: wgpu::BindingResource::TextureView(&table_view),
+                            },
+                        ],
+                    });
+                    let mut enc = dev.create_command_encoder(&Default::default());
+                    {
+                        let load =
+                            if first { wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT) } else { wgpu::LoadOp::Load };
+                        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                            label: Some("raster"),
+                            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                                view: &hdr_view,
+                                depth_slice: None,
+                                resolve_target: None,
+                                ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+                            })],
+                            depth_stencil_attachment: None,
+                            timestamp_writes: None,
+                            occlusion_query_set: None,
+                            multiview_mask: None,
+                        });
+                        pass.set_pipeline(&self.raster);
+                        pass.set_bind_group(0, &bg, &[fo]);
+                        pass.draw(0..m as u32 * VERTS_PER_SLOT, 0..1);
+                    }
+                    ws.params.flush(ctx);
+                    ctx.queue.submit([enc.finish()]);
+                    Ok(())
+                })??;
+                ctx.wait()?;
+                stats.raster_seconds += t.elapsed().as_secs_f64();
+            }
+            s0 += m;
+        }
 
         let t = Instant::now();
         let image = read_texture(ctx, &hdr)?;
-        let readback_seconds = t.elapsed().as_secs_f64();
-        let stats = GpuRenderStats {
-            upload_seconds,
-            classify_seconds,
-            raster_seconds,
-            readback_seconds,
-            total_seconds: start.elapsed().as_secs_f64(),
-            tets_drawn: order.len(),
-        };
+        stats.readback_seconds = t.elapsed().as_secs_f64();
+        stats.total_seconds = start.elapsed().as_secs_f64();
         Ok(GpuFrame { image, stats, hdr })
     }
+
+    /// The compute rasterizer for one classified chunk: count tiles per
+    /// slot, scan, read the pair total back, then fill, sort by tile and
+    /// composite — in several passes over slot ranges when the pairs exceed
+    /// one storage binding.
+    fn raster_compute(
+        &self,
+        ctx: &GpuContext,
+        ws: &mut Workspace,
+        env: &BinEnv<'_>,
+        stats: &mut GpuRenderStats,
+    ) -> Result<(), GpuError> {
+        let dev = &ctx.device;
+        let m = env.m;
+        let [tiles_x, tiles_y] = env.tiles;
+        let n_tiles = tiles_x as u64 * tiles_y as u64;
+        let bin_params = |lo: u32, hi: u32, base: u32, n_pairs: u32, items: u32| BinParams {
+            tiles_x,
+            tiles_y,
+            n_slots: m,
+            groups_x: split_groups(items.div_ceil(BIN_WG)).0,
+            slot_lo: lo,
+            slot_hi: hi,
+            pair_base: base,
+            n_pairs,
+        };
+        let groups = |items: u32| split_groups(items.div_ceil(BIN_WG));
+
+        // Counts and their prefix sum; the total comes back to size the pairs.
+        let t = Instant::now();
+        let blocks = m.div_ceil(SCAN_BLOCK).max(1);
+        ctx.checked(|| -> Result<(), GpuError> {
+            let mut enc = dev.create_command_encoder(&Default::default());
+            if env.first {
+                enc.clear_buffer(ws.accum.get(), 0, Some(env.pixels_bytes));
+            }
+            let fo = ws.params.push(env.uniforms)?;
+            let bo = ws.params.push(&bin_params(0, m, 0, 0, m))?;
+            let bg = self.bin_group(ctx, ws, env, 0)?;
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&self.bin.count);
+                pass.set_bind_group(0, &bg, &[fo, bo]);
+                let (gx, gy) = groups(m);
+                pass.dispatch_workgroups(gx, gy, 1);
+            }
+            self.sort.encode_scan(ctx, &mut enc, &mut ws.params, ws.counts.get(), m, ws.sums.get())?;
+            enc.copy_buffer_to_buffer(ws.sums.get(), blocks as u64 * 4, ws.readback.get(), 0, 4);
+            ws.params.flush(ctx);
+            ctx.queue.submit([enc.finish()]);
+            Ok(())
+        })??;
+        let total = u32::from_le_bytes(map_read_range(ctx, ws.readback.get(), 4)?[..4].try_into().expect("4 bytes"));
+        stats.pairs += total as u64;
+
+        // Slot ranges whose pairs fit one binding (usually one range).
+        let pair_cap = ((env.limit / 4).min(u32::MAX as u64) as u32).min(ws.max_pairs);
+        let mut passes: Vec<(u32, u32, u32, u32)> = Vec::new();
+        if total <= pair_cap {
+            passes.push((0, m, 0, total));
+        } else {
+            stats.buffers_grown += ws.readback.ensure(ctx, m as u64 * 4, u64::MAX)? as usize;
+            let mut enc = dev.create_command_encoder(&Default::default());
+            enc.copy_buffer_to_buffer(ws.counts.get(), 0, ws.readback.get(), 0, m as u64 * 4);
+            ctx.queue.submit([enc.finish()]);
+            let bytes = map_read_range(ctx, ws.readback.get(), m as u64 * 4)?;
+            let mut offsets: Vec<u32> = bytemuck::cast_slice(&bytes).to_vec();
+            offsets.push(total);
+            let mut lo = 0usize;
+            while lo < m as usize {
+                let base = offsets[lo];
+                let hi = lo + offsets[lo + 1..].partition_point(|&o| o - base <= pair_cap);
+                if hi == lo {
+                    return Err(GpuError::TooLarge {
+                        what: "tile pairs of one tet",
+                        bytes: (offsets[lo + 1] - base) as u64 * 4,
+                        limit: env.limit,
+                    });
+                }
+                passes.push((lo as u32, hi as u32, base, offsets[hi] - base));
+                lo = hi;
+            }
+        }
+        stats.bin_seconds += t.elapsed().as_secs_f64();
+
+        let bits = 64 - (n_tiles.max(2) - 1).leading_zeros();
+        for (lo, hi, base, n_pairs) in passes {
+            let t = Instant::now();
+            let blocks = n_pairs.div_ceil(RADIX_BLOCK).max(1);
+            stats.buffers_grown +=
+                crate::gpusort::ensure_pairs(ctx, &mut ws.pair_keys, &mut ws.pair_vals, n_pairs as u64 * 4, env.limit)?;
+            stats.buffers_grown += ws.hist.ensure(ctx, SortPipelines::hist_bytes(n_pairs), env.limit)? as usize;
+            stats.buffers_grown += ws.sums.ensure(ctx, SortPipelines::sums_bytes(16 * blocks), env.limit)? as usize;
+            let sorted = ctx.checked(|| -> Result<usize, GpuError> {
+                let mut enc = dev.create_command_encoder(&Default::default());
+                enc.clear_buffer(ws.ranges.get(), 0, Some(n_tiles * 8));
+                let mut sorted = 0;
+                if n_pairs > 0 {
+                    let fo = ws.params.push(env.uniforms)?;
+                    let bo = ws.params.push(&bin_params(lo, hi, base, n_pairs, hi - lo))?;
+                    let bg = self.bin_group(ctx, ws, env, 0)?;
+                    {
+                        let mut pass = enc.begin_compute_pass(&Default::default());
+                        pass.set_pipeline(&self.bin.fill);
+                        pass.set_bind_group(0, &bg, &[fo, bo]);
+                        let (gx, gy) = groups(hi - lo);
+                        pass.dispatch_workgroups(gx, gy, 1);
+                    }
+                    let keys = [ws.pair_keys[0].get(), ws.pair_keys[1].get()];
+                    let vals = [ws.pair_vals[0].get(), ws.pair_vals[1].get()];
+                    sorted = self.sort.encode_radix(
+                        ctx,
+                        &mut enc,
+                        &mut ws.params,
+                        keys,
+                        vals,
+                        n_pairs,
+                        bits,
+                        ws.hist.get(),
+                        ws.sums.get(),
+                    )?;
+                    let bo = ws.params.push(&bin_params(lo, hi, base, n_pairs, n_pairs))?;
+                    let bg = self.bin_group(ctx, ws, env, sorted)?;
+                    let mut pass = enc.begin_compute_pass(&Default::default());
+                    pass.set_pipeline(&self.bin.ranges);
+                    pass.set_bind_group(0, &bg, &[fo, bo]);
+                    let (gx, gy) = groups(n_pairs);
+                    pass.dispatch_workgroups(gx, gy, 1);
+                }
+                ws.params.flush(ctx);
+                ctx.queue.submit([enc.finish()]);
+                Ok(sorted)
+            })??;
+            ctx.wait()?;
+            stats.bin_seconds += t.elapsed().as_secs_f64();
+
+            let t = Instant::now();
+            ctx.checked(|| -> Result<(), GpuError> {
+                let fo = ws.params.push(env.uniforms)?;
+                let bo = ws.params.push(&bin_params(lo, hi, base, n_pairs, 0))?;
+                let bg = self.bin_group(ctx, ws, env, sorted)?;
+                let mut enc = dev.create_command_encoder(&Default::default());
+                {
+                    let mut pass = enc.begin_compute_pass(&Default::default());
+                    pass.set_pipeline(&self.bin.composite);
+                    pass.set_bind_group(0, &bg, &[fo, bo]);
+                    pass.dispatch_workgroups(tiles_x, tiles_y, 1);
+                }
+                ws.params.flush(ctx);
+                ctx.queue.submit([enc.finish()]);
+                Ok(())
+            })??;
+            ctx.wait()?;
+            stats.raster_seconds += t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    }
+
+    /// The bin.wgsl bind group with pair buffers `pairs` (0 or 1).
+    fn bin_group(
+        &self,
+        ctx: &GpuContext,
+        ws: &Workspace,
+        env: &BinEnv<'_>,
+        pairs: usize,
+    ) -> Result<wgpu::BindGroup, GpuError> {
+        Ok(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("bin"),
+            layout: &self.bin.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) },
+                wgpu::BindGroupEntry { binding: 1, resource: ws.params.binding(BIN_PARAMS_SIZE) },
+                bind(2, ws.geoms.get()),
+                bind(3, ws.counts.get()),
+                bind(4, ws.pair_keys[pairs].get()),
+                bind(5, ws.pair_vals[pairs].get()),
+                bind(6, ws.shades.get()),
+                bind(7, &env.shader.tf_nodes),
+                wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(env.table_view) },
+                bind(9, ws.ranges.get()),
+                bind(10, ws.accum.get()),
+                wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(env.hdr_view) },
+            ],
+        }))
+    }
+}
+
+/// What the compute rasterizer needs of the frame and chunk.
+struct BinEnv<'a> {
+    uniforms: &'a FrameUniforms,
+    hdr_view: &'a wgpu::TextureView,
+    table_view: &'a wgpu::TextureView,
+    shader: &'a GpuShader,
+    tiles: [u32; 2],
+    /// Slots in the chunk.
+    m: u32,
+    /// First chunk: clears the accumulated colour.
+    first: bool,
+    pixels_bytes: u64,
+    limit: u64,
 }
 
 fn bind(binding: u32, buf: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {

@@ -4,7 +4,7 @@
 #[test]
 fn every_shader_parses_and_validates() {
     let sources = tet_gpu::shader_sources();
-    assert_eq!(sources.len(), 3);
+    assert_eq!(sources.len(), 5);
     for (name, src) in sources {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}.wgsl does not parse:\n{}", e.emit_to_string(&src)));
@@ -17,6 +17,8 @@ fn every_shader_parses_and_validates() {
         let want: &[&str] = match name {
             "classify" => &["classify"],
             "raster" => &["vs", "fs"],
+            "bin" => &["bin_count", "bin_fill", "tile_ranges", "composite"],
+            "sort" => &["scan_blocks", "scan_sums", "scan_add", "depth_keys", "rs_hist", "rs_scatter"],
             "tonemap" => &["reduce", "fit", "map"],
             other => panic!("unexpected module {other}"),
         };
@@ -35,7 +37,10 @@ fn shader_files_on_disk_are_all_included() {
         .filter(|n| n.ends_with(".wgsl"))
         .collect();
     names.sort();
-    assert_eq!(names, ["classify.wgsl", "common.wgsl", "raster.wgsl", "tonemap.wgsl"]);
+    assert_eq!(
+        names,
+        ["bin.wgsl", "classify.wgsl", "common.wgsl", "fragment.wgsl", "raster.wgsl", "sort.wgsl", "tonemap.wgsl"]
+    );
 }
 
 /// Every Pod struct of gpu_types.rs has the size and field offsets naga
@@ -88,6 +93,8 @@ fn pod_layouts_match_the_wgsl_structs() {
             [background, width, height, n_partials, reinhard, key, exposure, groups_x, _pad]
         ),
         layout!(ToneFit, "ToneFit", [scale, white_sq, log_average, _pad]),
+        layout!(SortParams, "SortParams", [eye_rel, forward, n, shift, n_blocks, groups_x]),
+        layout!(BinParams, "BinParams", [tiles_x, tiles_y, n_slots, groups_x, slot_lo, slot_hi, pair_base, n_pairs]),
     ];
     let modules: Vec<naga::Module> =
         tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();

@@ -11,7 +11,7 @@ use crate::render::RenderArgs;
 use anyhow::{Context, Result};
 use std::time::Instant;
 use tet_bundle::Bundle;
-use tet_gpu::{GpuContext, GpuError, GpuRenderer, GpuScene, GpuShader};
+use tet_gpu::{GpuContext, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{Method, Table3d, Table3dParams, TableDomain, TransferFunction};
 use tet_render::cull::{cull, CullMask};
 use tet_render::project::ViewGeometry;
@@ -102,7 +102,11 @@ pub fn render(
     let renderer = GpuRenderer::new(&ctx)?;
     let setup_seconds = t.elapsed().as_secs_f64();
 
-    let frame = renderer.render(&ctx, &gpu_scene, &camera, &tets, &shader)?;
+    let raster = match args.gpu_raster {
+        GpuRasterArg::Compute => RasterPath::Compute,
+        GpuRasterArg::Graphics => RasterPath::Graphics,
+    };
+    let frame = renderer.render_with(&ctx, &gpu_scene, &camera, GpuOrder::Given(&tets), &shader, raster)?;
     let tone = renderer.tonemap(&ctx, &frame, display)?;
     tet_render::image::write_png_rgba8(&args.output, view.size[0], view.size[1], &tone.rgba8)?;
     if let Some(p) = &args.float {
@@ -118,6 +122,7 @@ pub fn render(
         let v = serde_json::json!({
             "method": method.id(),
             "device": ctx.describe(),
+            "raster_path": s.raster_path.id(),
             "sort_method": order.method.id(),
             "cycles_broken": order.cycles_broken,
             "tets_total": scene.num_tets(),
@@ -132,7 +137,10 @@ pub fn render(
             "setup_seconds": setup_seconds,
             "upload_seconds": s.upload_seconds,
             "classify_seconds": s.classify_seconds,
+            "bin_seconds": s.bin_seconds,
             "raster_seconds": s.raster_seconds,
+            "chunks": s.chunks,
+            "tile_pairs": s.pairs,
             "readback_seconds": s.readback_seconds,
             "tonemap_seconds": tone.seconds,
             "gpu_seconds": gpu_seconds,
@@ -144,10 +152,11 @@ pub fn render(
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         eprintln!(
-            "{} on {}: {} of {} tets drawn ({:.1}% culled, sort {} {:.3} s), {}x{}: GPU {:.3} s \
-             (classify {:.3}, raster {:.3}, tonemap {:.3}), total {:.3} s → {}",
+            "{} on {} ({} raster): {} of {} tets drawn ({:.1}% culled, sort {} {:.3} s), {}x{}: GPU {:.3} s \
+             (classify {:.3}, bin {:.3}, raster {:.3}, tonemap {:.3}), total {:.3} s → {}",
             method,
             ctx.describe(),
+            s.raster_path.id(),
             tets.len(),
             scene.num_tets(),
             100.0 * mask.fraction_culled(),
@@ -157,6 +166,7 @@ pub fn render(
             view.size[1],
             gpu_seconds,
             s.classify_seconds,
+            s.bin_seconds,
             s.raster_seconds,
             tone.seconds,
             total_seconds,
@@ -164,4 +174,12 @@ pub fn render(
         );
     }
     Ok(())
+}
+
+/// `--gpu-raster`: the compute-shader tile rasterizer (default) or the
+/// hardware rasterizer with blending.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum GpuRasterArg {
+    Compute,
+    Graphics,
 }

@@ -89,6 +89,10 @@ pub struct RenderArgs {
     /// adapter exists; without --gpu tetview renders on the CPU.
     #[arg(long)]
     pub gpu: bool,
+    /// With --gpu: the compute-shader tile rasterizer or the hardware
+    /// rasterizer with blending (same images; speed differs by device).
+    #[arg(long, value_enum, default_value = "compute", requires = "gpu")]
+    pub gpu_raster: crate::gpu::GpuRasterArg,
 }
 
 fn parse_pair(s: &str) -> Result<(f64, f64), String> {

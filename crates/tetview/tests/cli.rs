@@ -270,6 +270,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
     assert_eq!(stats["tets_drawn"], 5);
     assert_eq!(stats["sort_method"], "mpvo");
     assert_eq!(stats["method"], "pt-linear");
+    assert_eq!(stats["raster_path"], "compute");
     assert!(stats["device"].as_str().is_some_and(|d| !d.is_empty()));
     for k in ["sort_seconds", "classify_seconds", "raster_seconds", "tonemap_seconds", "total_seconds"] {
         assert!(stats[k].as_f64().is_some_and(|s| s >= 0.0), "{k}: {stats}");
@@ -278,6 +279,14 @@ fn gpu_render_matches_the_cpu_or_skips() {
     let out = render(&[], &cpu);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d = diff(&gpu, &cpu);
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+
+    let gfx = dir.path().join("gfx.npy");
+    let out = render(&["--gpu", "--gpu-raster", "graphics", "--json"], &gfx);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["raster_path"], "graphics");
+    let d = diff(&gfx, &cpu);
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
 
     let out = render(&["--gpu", "--method", "table3d"], &gpu);

@@ -1,0 +1,178 @@
+//! The compute rasterizer against the graphics one and tet_render's CPU
+//! renderer (same MPVO order), chunked rendering, persistent buffers and
+//! the GPU centroid sort. Skip with a printed reason where no adapter
+//! exists (fail instead with TETKIT_REQUIRE_GPU=1); lavapipe here.
+
+mod common;
+
+use common::{gpu, grid, Mesh};
+use std::sync::Arc;
+use tet_gpu::{centroid_order, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
+use tet_preint::{PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_render::{diff, Camera, DiffStats, Image, ViewSpec};
+
+fn tf() -> TransferFunction {
+    TransferFunction::from_json(
+        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
+            "opacity": [[0, 0.5], [0.4, 4], [0.6, 1], [1, 8]], "unit_distance": 1}"#,
+    )
+    .unwrap()
+}
+
+fn table_for(mesh: &Mesh) -> Table3d {
+    let (max_ds, len) = mesh.cell_limits();
+    let domain = TableDomain::new(0.0, 1.0, max_ds, len).unwrap();
+    Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, ..Default::default() }).unwrap()
+}
+
+fn check(what: &str, a: &Image, b: &Image) -> DiffStats {
+    let d = diff(a, b).unwrap();
+    eprintln!(
+        "{what}: mean {:.4}/255, max {:.4}/255 at {:?}; {} covered pixels",
+        d.mean_abs * 255.0,
+        d.max_abs * 255.0,
+        d.max_at,
+        b.pixels().iter().filter(|p| p[3] > 0.0).count()
+    );
+    assert!(b.pixels().iter().any(|p| p[3] > 0.0), "{what}: empty reference");
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{what}: {d:?}");
+    d
+}
+
+/// Views: two orbits, parallel projection, and a camera inside the mesh
+/// (near-plane clipping).
+fn views(mesh: &Mesh) -> Vec<(&'static str, ViewSpec)> {
+    let (lo, hi) = mesh.bounds();
+    let mut parallel = ViewSpec::framing(lo, hi, [90, 70]).orbit(20.0, 30.0, 1.0);
+    parallel.parallel = true;
+    vec![
+        ("az 30 el 20", ViewSpec::framing(lo, hi, [120, 100]).orbit(30.0, 20.0, 1.0)),
+        ("az -130 el -40 zoom 1.6", ViewSpec::framing(lo, hi, [101, 77]).orbit(-130.0, -40.0, 1.6)),
+        ("parallel", parallel),
+        (
+            "inside",
+            ViewSpec {
+                position: [0.5, 0.45, 0.52],
+                focal_point: [0.5, 0.45, -1.0],
+                view_up: [0.0, 1.0, 0.0],
+                view_angle: 60.0,
+                parallel: false,
+                parallel_scale: 1.0,
+                size: [64, 64],
+            },
+        ),
+    ]
+}
+
+#[test]
+fn compute_raster_matches_graphics_and_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(8);
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let table = Arc::new(table_for(&mesh));
+    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let mut cpu = tet_render::Renderer::new(cpu_scene);
+    let shaders: [(GpuShader, Arc<dyn SegmentShader>); 2] = [
+        (GpuShader::table3d(&ctx, &table).unwrap(), table.clone()),
+        (GpuShader::pt_linear(&ctx, &tf()).unwrap(), Arc::new(PtLinearShader::new(tf()))),
+    ];
+    for (name, spec) in views(&mesh) {
+        let cam = Camera::new(&spec).unwrap();
+        cpu.set_view(&spec).unwrap();
+        for (gpu_shader, cpu_shader) in &shaders {
+            cpu.set_shader(cpu_shader.clone());
+            let (want, _) = cpu.render(&|_, _| {}).unwrap();
+            let order = cpu.order().unwrap().tets.clone();
+            let m = gpu_shader.method_id();
+            let comp = renderer
+                .render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), gpu_shader, RasterPath::Compute)
+                .unwrap();
+            assert_eq!(comp.stats.raster_path, RasterPath::Compute);
+            assert!(comp.stats.pairs > 0, "{:?}", comp.stats);
+            let gfx = renderer
+                .render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), gpu_shader, RasterPath::Graphics)
+                .unwrap();
+            check(&format!("{m} {name}: compute vs CPU"), &comp.image, &want);
+            check(&format!("{m} {name}: graphics vs CPU"), &gfx.image, &want);
+            check(&format!("{m} {name}: compute vs graphics"), &comp.image, &gfx.image);
+        }
+    }
+}
+
+/// Chunks of 256 tets and compute passes of few pairs give the image of
+/// one chunk; buffers are reused from the second frame on.
+#[test]
+fn chunked_frames_match_and_buffers_persist() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(6);
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let shader = GpuShader::table3d(&ctx, &table_for(&mesh)).unwrap();
+    let (lo, hi) = mesh.bounds();
+    let cam = Camera::new(&ViewSpec::framing(lo, hi, [96, 80]).orbit(40.0, 25.0, 1.0)).unwrap();
+    let order = mesh.mpvo_order(&cam);
+    for path in [RasterPath::Compute, RasterPath::Graphics] {
+        renderer.set_chunk_limits(None, None);
+        let whole = renderer.render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, path).unwrap();
+        assert_eq!(whole.stats.chunks, 1);
+        let again = renderer.render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, path).unwrap();
+        assert_eq!(again.stats.buffers_grown, 0, "{path:?}: {:?}", again.stats);
+        assert_eq!(again.image, whole.image);
+
+        renderer.set_chunk_limits(Some(256), Some(300));
+        let chunked = renderer.render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, path).unwrap();
+        eprintln!("{path:?}: {} tets in {} chunks, {} pairs", order.len(), chunked.stats.chunks, chunked.stats.pairs);
+        assert_eq!(chunked.stats.chunks, order.len().div_ceil(256));
+        check(&format!("{path:?} chunked vs whole"), &chunked.image, &whole.image);
+    }
+    renderer.set_chunk_limits(None, None);
+}
+
+/// The GPU radix sort of centroid depths: a permutation in depth order (as
+/// tet_render's CPU sort), cached until the camera moves, and its image
+/// equals the image of the CPU centroid order.
+#[test]
+fn gpu_centroid_sort_orders_by_depth_and_is_cached() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(7);
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let shader = GpuShader::pt_linear(&ctx, &tf()).unwrap();
+    let (lo, hi) = mesh.bounds();
+    for (az, el) in [(30.0, 20.0), (-100.0, 60.0)] {
+        let cam = Camera::new(&ViewSpec::framing(lo, hi, [80, 64]).orbit(az, el, 1.0)).unwrap();
+        let gpu_order = renderer.gpu_centroid_order(&ctx, &scene, &cam).unwrap();
+        let cpu_order = centroid_order(&scene, &cam);
+        let mut seen = vec![false; mesh.tets.len()];
+        for &t in &gpu_order {
+            assert!(!std::mem::replace(&mut seen[t as usize], true), "tet {t} twice");
+        }
+        assert!(seen.iter().all(|&s| s));
+        let eye = cam.eye_in_world();
+        let depth = |t: u32| {
+            let c = mesh.tets[t as usize]
+                .iter()
+                .fold(glam::DVec3::ZERO, |a, &v| a + glam::DVec3::from(mesh.points[v as usize]))
+                * 0.25;
+            (c - eye).dot(cam.forward())
+        };
+        let inversions = gpu_order.windows(2).filter(|w| depth(w[0]) > depth(w[1]) + 1e-6).count();
+        let same = gpu_order.iter().zip(&cpu_order).filter(|(a, b)| a == b).count();
+        eprintln!("az {az}: {same} of {} positions as the CPU sort, {inversions} depth inversions", gpu_order.len());
+        assert_eq!(inversions, 0);
+        assert!(same * 100 >= gpu_order.len() * 99);
+
+        let first =
+            renderer.render_with(&ctx, &scene, &cam, GpuOrder::GpuCentroid, &shader, RasterPath::Compute).unwrap();
+        assert!(!first.stats.sorted_on_gpu, "gpu_centroid_order already sorted for this camera");
+        let cpu_img = renderer.render(&ctx, &scene, &cam, &cpu_order, &shader).unwrap().image;
+        check(&format!("GPU vs CPU centroid order az {az}"), &first.image, &cpu_img);
+    }
+    let cam = Camera::new(&ViewSpec::framing(lo, hi, [80, 64]).orbit(5.0, 5.0, 1.0)).unwrap();
+    let moved = renderer.render_with(&ctx, &scene, &cam, GpuOrder::GpuCentroid, &shader, RasterPath::Compute).unwrap();
+    assert!(moved.stats.sorted_on_gpu);
+    let still = renderer.render_with(&ctx, &scene, &cam, GpuOrder::GpuCentroid, &shader, RasterPath::Graphics).unwrap();
+    assert!(!still.stats.sorted_on_gpu);
+    check("GPU centroid order, compute vs graphics", &moved.image, &still.image);
+}

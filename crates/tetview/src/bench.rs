@@ -370,7 +370,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     points: rows
                         .iter()
                         .filter(|r| r.method == *m)
-                        .map(|r| Point { x: r.total_s(), y: y(r), label: Some(r.bundle.clone()) })
+                        .map(|r| Point {
+                            x: r.total_s(),
+                            y: y(r),
+                            // One bundle: the legend says it all.
+                            label: (args.bundles.len() > 1).then(|| r.bundle.clone()),
+                        })
                         .collect(),
                 })
                 .collect()

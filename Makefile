@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build test test-gpu gpu-driver demo bench fuzz fuzz-build fmt lint clean
+.PHONY: all build test test-gpu gpu-driver demo golden bench fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -35,8 +35,8 @@ ifeq ($(VK_ICDS),)
 endif
 
 ## The main job on a bundled real dataset: NASA Blunt Fin (PLOT3D) → bundle with gradients and
-## histograms → summary, 2D histogram PNG, a VTU for ParaView, a table3d .tetl and a rendered
-## PNG + .npy, all under $(OUT)/.
+## histograms → summary, 2D histogram PNG and a VTU for ParaView → table3d tables baked by
+## tetlut → a 512² render by tetview (PNG + float .npy), all under $(OUT)/.
 TETPREP = $(CARGO) run -q --release -p tetprep --
 
 demo:
@@ -47,10 +47,15 @@ demo:
 	$(TETPREP) hist $(OUT)/bluntfin.tetb -o $(OUT)/bluntfin_hist.png
 	$(TETPREP) export $(OUT)/bluntfin.tetb -o $(OUT)/bluntfin.vtu
 	$(CARGO) run -q --release -p tetlut -- bake --bundle $(OUT)/bluntfin.tetb \
-		--tf formats/samples/tf_normalized.json --method table3d -o $(OUT)/bluntfin.tetl
-	$(CARGO) run -q --release -p tetview -- render $(OUT)/bluntfin.tetb --lut $(OUT)/bluntfin.tetl \
-		--azimuth 30 --elevation 20 -o $(OUT)/bluntfin.png --float $(OUT)/bluntfin.npy
-	@echo "demo image: $(OUT)/bluntfin.png (float linear RGBA: $(OUT)/bluntfin.npy)"
+		--tf formats/samples/tf_normalized.json --method table3d -o $(OUT)/bluntfin_table3d.tetl
+	$(CARGO) run -q --release -p tetview -- render $(OUT)/bluntfin.tetb --lut $(OUT)/bluntfin_table3d.tetl \
+		-o $(OUT)/bluntfin.png --float $(OUT)/bluntfin.npy --save-view $(OUT)/bluntfin_view.json
+	@echo "image: $(OUT)/bluntfin.png (8-bit, Reinhard); linear premultiplied RGBA: $(OUT)/bluntfin.npy; view: $(OUT)/bluntfin_view.json"
+
+## Rewrite the golden images under tests/golden/ from the current renderer (only this
+## target writes them; `cargo test -p tetview --test golden` compares against them).
+golden:
+	TETKIT_WRITE_GOLDEN=1 $(CARGO) test -p tetview --test golden -- renders_match_golden_images
 
 ## Criterion benchmarks: conversion pipeline (Blunt Fin, 1.2M-tet grid), Delaunay
 ## (100k and 1M random points), analysis (Blunt Fin gradients + histograms + ranges).

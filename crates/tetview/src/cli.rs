@@ -24,6 +24,9 @@ enum Command {
     Reference(crate::reference::ReferenceArgs),
     /// Compare two images (.npy float or .png): RMSE, max/mean abs, 8-bit max after display.
     Diff(crate::diff::DiffArgs),
+    /// Run time against image error of every method, on real bundles, against
+    /// the reference render: markdown table, Pareto PNG, JSON.
+    Bench(crate::bench::BenchArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -31,6 +34,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => crate::render::run(&args),
         Command::Reference(args) => crate::reference::run(&args),
         Command::Diff(args) => crate::diff::run(&args),
+        Command::Bench(args) => crate::bench::run(&args),
     }
 }
 

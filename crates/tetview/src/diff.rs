@@ -153,6 +153,20 @@ fn composited_rgb(img: &Image, bg: [f32; 3]) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// Largest 8-bit difference between `a` (the reference) and `b`, both
+/// composited over `background`, tone mapped with Reinhard (key 0.18)
+/// fitted to `a` and applied to both, then sRGB-encoded: what `tetview
+/// diff` reports for two float images. Returns the difference (0..=255) and
+/// where: pixel (x, y) and channel.
+pub fn max_8bit_reinhard(a: &Image, b: &Image, background: [f32; 3]) -> Result<(u8, (u32, u32, usize))> {
+    if (a.width(), a.height()) != (b.width(), b.height()) {
+        bail!("images differ in size: {}x{} vs {}x{}", a.width(), a.height(), b.width(), b.height());
+    }
+    let op = Reinhard::fit(&composited_rgb(a, background), 0.18, 1.0);
+    let (da, db) = (display(a, background, Some(&op)), display(b, background, Some(&op)));
+    Ok(max_8bit(&da, &db, a.width()))
+}
+
 /// What `tetview diff` measured.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiffReport {

@@ -2,6 +2,7 @@
 //! exact visibility order, HDR tone mapping, float output for measurement).
 use clap::Parser;
 
+mod bench;
 mod cli;
 mod diff;
 mod gpu;

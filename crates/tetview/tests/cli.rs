@@ -308,3 +308,48 @@ fn gpu_render_matches_the_cpu_or_skips() {
     assert_eq!(out.status.code(), Some(4), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no GPU adapter"));
 }
+
+#[test]
+fn bench_prints_a_table_writes_plot_and_json_and_caches_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let (png, json) = (dir.path().join("pareto.png"), dir.path().join("bench.json"));
+    let args = [
+        "bench",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--methods",
+        "exact,pt-linear,table3d",
+        "--size",
+        "24x16",
+        "--views",
+        "2",
+        "--repeat",
+        "1",
+        "-o",
+        png.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ];
+    let out = tetview(&args);
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    assert!(stdout.contains("| method | bake ms |") && stdout.contains("| table3d |"), "{stdout}");
+    assert_eq!(stderr.matches("reference cube view").count(), 2, "{stderr}");
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    // The exact method matches the exact reference to f32 rounding.
+    assert_eq!(rows[0]["method"], "exact");
+    assert!(rows[0]["max_abs"].as_f64().unwrap() < 1e-4, "{}", rows[0]);
+    assert_eq!(rows[0]["views"].as_array().unwrap().len(), 2);
+    // A second run reads both references from the cache next to -o.
+    let out = tetview(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && stderr.matches(": cached ").count() == 2, "{stderr}");
+    // Bad arguments are usage errors.
+    let out = tetview(&["bench", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--methods", "nope"]);
+    assert_eq!(out.status.code(), Some(2));
+}

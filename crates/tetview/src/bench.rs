@@ -1,0 +1,433 @@
+//! `tetview bench BUNDLE... --tf T`: run time against image error of every
+//! method on real data.
+//!
+//! For each bundle and view, the exact ray-cast reference is rendered once
+//! (and cached as `.npy` under `--cache`, keyed by a hash of the bundle's
+//! bytes, the view, the TF file and the size, so re-runs skip it). Every
+//! method is then baked (timed) and rendered by the projected-tetrahedra
+//! [`Renderer`] `--repeat` times from a fresh camera, so each frame redoes
+//! the view geometry, the visibility sort and the rasterization — what a
+//! camera move costs; the cull mask (a TF change) is kept. The best total
+//! frame time is reported with its sort / raster split. Errors are over
+//! linear premultiplied RGBA against the reference (RMSE and max abs over
+//! all four channels), and the largest 8-bit difference after compositing
+//! over black, Reinhard tone mapping fitted to the reference (applied to
+//! both) and sRGB encoding — what `tetview diff` reports.
+
+use crate::cli::{InputError, UsageError};
+use anyhow::{Context, Result};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+use tet_bundle::Bundle;
+use tet_plot::{Canvas, Point, ScatterPlot, Series};
+use tet_preint::{Method, SegmentShader, TableDomain, TransferFunction};
+use tet_render::{
+    diff, Camera, Image, ReferenceOptions, ReferenceRenderer, Renderer, Scene, SortMethod, TfCuller, ViewSpec,
+};
+
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Bundles (.tetb) to measure, each with its own table.
+    #[arg(required = true)]
+    pub bundles: Vec<PathBuf>,
+    /// Transfer function JSON (formats/tf.md); a normalized one is mapped onto
+    /// each bundle's scalar range.
+    #[arg(long)]
+    pub tf: PathBuf,
+    /// Methods: all, or a comma-separated list of ids. biv-* are skipped (with
+    /// a note): the reference integrates the 1D TF only.
+    #[arg(long, default_value = "all")]
+    pub methods: String,
+    /// Image size WxH.
+    #[arg(long, default_value = "512x512", value_parser = parse_size)]
+    pub size: [u32; 2],
+    /// Views per bundle: the default framing orbited by 360°/N steps of azimuth.
+    #[arg(long, default_value_t = 1)]
+    pub views: u32,
+    /// Renders per method and view; the best total frame time is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: u32,
+    /// Visibility order for every method (auto: MPVO on convex meshes, MPVONC otherwise).
+    #[arg(long, default_value = "auto")]
+    pub sort: SortMethod,
+    /// Pareto plot PNG: image error against frame time, one series per method.
+    #[arg(short, long, value_name = "pareto.png")]
+    pub output: Option<PathBuf>,
+    /// Every row as JSON.
+    #[arg(long, value_name = "out.json")]
+    pub json: Option<PathBuf>,
+    /// Where reference renders are cached (default: `bench-cache/` next to
+    /// -o, else next to --json, else in the current directory).
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+}
+
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 512x512")?;
+    let p = |x: &str| x.trim().parse::<u32>().map_err(|e| format!("{x:?}: {e}"));
+    let (w, h) = (p(w)?, p(h)?);
+    let max = tet_render::camera::MAX_IMAGE_SIDE;
+    if w == 0 || h == 0 || w > max || h > max {
+        return Err(format!("{s}: each side must be 1..={max}"));
+    }
+    Ok([w, h])
+}
+
+/// 64-bit FNV-1a: a stable content key for the reference cache (not a
+/// security hash; a collision only reuses a wrong cached image).
+fn fnv1a(bytes: &[u8], mut h: u64) -> u64 {
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// The methods to measure and notes on the ones left out.
+pub fn select_methods(spec: &str, has_widgets: bool) -> Result<(Vec<Method>, Vec<String>)> {
+    let asked: Vec<Method> = if spec == "all" {
+        Method::ALL.to_vec()
+    } else {
+        spec.split(',')
+            .map(|s| s.trim().parse::<Method>().map_err(|e| UsageError(e.to_string()).into()))
+            .collect::<Result<_>>()?
+    };
+    let mut notes = vec![];
+    let mut out = vec![];
+    for m in asked {
+        if m.is_bivariate() {
+            notes.push(if has_widgets {
+                format!("{m}: skipped (the reference ray caster integrates the 1D TF only; no 2D-widget ground truth)")
+            } else {
+                format!("{m}: skipped (the TF has no 2D widgets)")
+            });
+        } else if !out.contains(&m) {
+            out.push(m);
+        }
+    }
+    if has_widgets && !out.is_empty() {
+        notes.push("1D methods and the reference use the TF's 1D part (its widgets dropped)".into());
+    }
+    Ok((out, notes))
+}
+
+/// One method on one view of one bundle.
+#[derive(Debug, Clone)]
+struct Sample {
+    bake_s: f64,
+    sort_s: f64,
+    /// Binning and tile rasterization.
+    raster_s: f64,
+    total_s: f64,
+    tets_drawn: usize,
+    rmse: f64,
+    max_abs: f64,
+    max_8bit: u8,
+}
+
+/// One table row: a method on a bundle, over all views.
+struct Row {
+    bundle: String,
+    method: Method,
+    views: Vec<Sample>,
+}
+
+impl Row {
+    fn mean(&self, f: impl Fn(&Sample) -> f64) -> f64 {
+        self.views.iter().map(f).sum::<f64>() / self.views.len().max(1) as f64
+    }
+    fn bake_s(&self) -> f64 {
+        self.views.first().map_or(0.0, |s| s.bake_s)
+    }
+    fn total_s(&self) -> f64 {
+        self.mean(|s| s.total_s)
+    }
+    fn tets_per_s(&self) -> f64 {
+        self.mean(|s| if s.total_s > 0.0 { s.tets_drawn as f64 / s.total_s } else { 0.0 })
+    }
+    /// RMSE over every pixel of every view (views have the same size).
+    fn rmse(&self) -> f64 {
+        self.mean(|s| s.rmse * s.rmse).sqrt()
+    }
+    fn max_abs(&self) -> f64 {
+        self.views.iter().map(|s| s.max_abs).fold(0.0, f64::max)
+    }
+    fn max_8bit(&self) -> u8 {
+        self.views.iter().map(|s| s.max_8bit).max().unwrap_or(0)
+    }
+}
+
+fn cache_dir(args: &BenchArgs) -> PathBuf {
+    if let Some(c) = &args.cache {
+        return c.clone();
+    }
+    let beside = args.output.as_ref().or(args.json.as_ref()).and_then(|p| p.parent()).map(Path::to_path_buf);
+    beside.unwrap_or_default().join("bench-cache")
+}
+
+/// The reference image of `view`, from the cache or rendered now (and cached).
+fn reference_image(
+    bundle: &Bundle,
+    tf: &TransferFunction,
+    spec: &ViewSpec,
+    path: &Path,
+    label: &str,
+) -> Result<(Image, Option<f64>)> {
+    if let Ok(img) = Image::read_npy(path) {
+        if [img.width(), img.height()] == spec.size {
+            return Ok((img, None));
+        }
+    }
+    let t = Instant::now();
+    let renderer = ReferenceRenderer::new(&bundle.mesh, &bundle.adjacency)?;
+    let camera = Camera::new(spec)?;
+    let bar = indicatif::ProgressBar::new(camera.height() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} rows (eta {eta})").expect("valid template"),
+    );
+    bar.set_message(format!("reference {label}"));
+    let (img, stats) =
+        renderer.render(&camera, tf, &ReferenceOptions::default(), &|done, _| bar.set_position(done as u64))?;
+    bar.finish_and_clear();
+    if stats.walk_failures > 0 {
+        eprintln!("warning: {label}: {} reference ray walks failed; those rays are incomplete", stats.walk_failures);
+    }
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    img.write_npy(path)?;
+    Ok((img, Some(t.elapsed().as_secs_f64())))
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    if args.views == 0 || args.repeat == 0 {
+        return Err(UsageError("--views and --repeat must be at least 1".into()).into());
+    }
+    let tf_text = std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display()))?;
+    let tf_file = TransferFunction::from_json(&tf_text).with_context(|| format!("in {}", args.tf.display()))?;
+    let has_widgets = !tf_file.widgets().is_empty();
+    let (methods, notes) = select_methods(&args.methods, has_widgets)?;
+    let cache = cache_dir(args);
+    let threads = rayon::current_num_threads();
+    let mut rows: Vec<Row> = vec![];
+    let mut out = String::new();
+    for note in &notes {
+        out.push_str(&format!("note: {note}\n"));
+    }
+    for bundle_path in &args.bundles {
+        let bundle_bytes =
+            std::fs::read(bundle_path).map_err(|e| InputError(format!("reading {}: {e}", bundle_path.display())))?;
+        let bundle = Bundle::read(bundle_path)?;
+        let name = bundle_path.file_stem().map_or("bundle".into(), |s| s.to_string_lossy().into_owned());
+        let stats = &bundle.meta.stats;
+        let mut tf = tf_file.without_widgets();
+        if tf.normalized() {
+            let (lo, hi) = (stats.scalar_min, stats.scalar_max);
+            let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
+            tf = tf.denormalize(lo, hi)?;
+        }
+        let domain = TableDomain::from_bundle(&bundle).map_err(|e| InputError(e.to_string()))?;
+        let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", bundle_path.display()))?;
+        let (lo, hi) = scene.bounds();
+        let base = ViewSpec::framing(lo, hi, args.size);
+        let views: Vec<ViewSpec> =
+            (0..args.views).map(|i| base.orbit(360.0 * f64::from(i) / f64::from(args.views), 0.0, 1.0)).collect();
+        let key = fnv1a(tf_text.as_bytes(), fnv1a(&bundle_bytes, FNV_OFFSET));
+        drop(bundle_bytes);
+
+        let mut references = vec![];
+        for (i, v) in views.iter().enumerate() {
+            let vkey = fnv1a(v.to_json().as_bytes(), key);
+            let path = cache.join(format!("ref-{name}-v{i}-{}x{}-{vkey:016x}.npy", v.size[0], v.size[1]));
+            let (img, took) = reference_image(&bundle, &tf, v, &path, &format!("{name} view {i}"))?;
+            match took {
+                Some(s) => eprintln!("reference {name} view {i}: {s:.2} s → {}", path.display()),
+                None => eprintln!("reference {name} view {i}: cached {}", path.display()),
+            }
+            references.push(img);
+        }
+
+        let mut r = Renderer::new(scene);
+        r.set_sort(args.sort);
+        r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
+        let first = rows.len();
+        let mut culled = 0.0;
+        let mut sort_used = String::new();
+        for &m in &methods {
+            let t = Instant::now();
+            let shader: Arc<dyn SegmentShader> = crate::render::make_shader(m, &tf, &domain)?.into();
+            let bake_s = t.elapsed().as_secs_f64();
+            r.set_shader(shader);
+            let mut samples = vec![];
+            for (v, reference) in views.iter().zip(&references) {
+                // A different camera in between makes every frame redo the
+                // view geometry and the sort, as a camera move does.
+                let mut other = v.clone();
+                other.position[0] += 1.0;
+                let mut best: Option<(Image, tet_render::RenderStats)> = None;
+                for _ in 0..args.repeat {
+                    r.set_view(&other)?;
+                    r.set_view(v)?;
+                    let (img, st) = r.render(&|_, _| {})?;
+                    if best.as_ref().is_none_or(|b| st.total_seconds < b.1.total_seconds) {
+                        best = Some((img, st));
+                    }
+                }
+                let (img, st) = best.expect("repeat ≥ 1");
+                culled = st.fraction_culled;
+                sort_used = st.sort_method.clone();
+                let d = diff(reference, &img)?;
+                let (max_8bit, _) = crate::diff::max_8bit_reinhard(reference, &img, [0.0; 3])?;
+                samples.push(Sample {
+                    bake_s,
+                    sort_s: st.sort_seconds,
+                    raster_s: st.project_seconds + st.raster_seconds,
+                    total_s: st.total_seconds,
+                    tets_drawn: st.tets_drawn,
+                    rmse: d.rmse,
+                    max_abs: d.max_abs,
+                    max_8bit,
+                });
+            }
+            eprintln!("{name} {m}: done");
+            rows.push(Row { bundle: name.clone(), method: m, views: samples });
+        }
+
+        out.push_str(&format!(
+            "\n### {} — {} tets, {}x{}, {} view(s), sort {}, {:.1}% culled, best of {} frames, {} threads\n\n",
+            bundle_path.display(),
+            bundle.mesh.tets.len(),
+            args.size[0],
+            args.size[1],
+            args.views,
+            sort_used,
+            100.0 * culled,
+            args.repeat,
+            threads
+        ));
+        out.push_str(
+            "| method | bake ms | sort ms | raster ms | frame ms | M tets/s | RMSE (linear) | max abs (linear) | 8-bit max |\n",
+        );
+        out.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        for row in &rows[first..] {
+            out.push_str(&format!(
+                "| {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2e} | {:.2e} | {} |\n",
+                row.method,
+                row.bake_s() * 1e3,
+                row.mean(|s| s.sort_s) * 1e3,
+                row.mean(|s| s.raster_s) * 1e3,
+                row.total_s() * 1e3,
+                row.tets_per_s() / 1e6,
+                row.rmse(),
+                row.max_abs(),
+                row.max_8bit()
+            ));
+        }
+    }
+    print!("{out}");
+
+    if let Some(path) = &args.json {
+        let v = json!({
+            "tf": args.tf.display().to_string(),
+            "size": args.size,
+            "views": args.views,
+            "repeat": args.repeat,
+            "threads": threads,
+            "notes": notes,
+            "rows": rows.iter().map(|r| json!({
+                "bundle": r.bundle,
+                "method": r.method.id(),
+                "bake_seconds": r.bake_s(),
+                "frame_seconds": r.total_s(),
+                "tets_per_second": r.tets_per_s(),
+                "rmse": r.rmse(),
+                "max_abs": r.max_abs(),
+                "max_8bit": r.max_8bit(),
+                "views": r.views.iter().map(|s| json!({
+                    "sort_seconds": s.sort_s,
+                    "raster_seconds": s.raster_s,
+                    "frame_seconds": s.total_s,
+                    "tets_drawn": s.tets_drawn,
+                    "rmse": s.rmse,
+                    "max_abs": s.max_abs,
+                    "max_8bit": s.max_8bit,
+                })).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+        });
+        std::fs::write(path, serde_json::to_string_pretty(&v)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.output {
+        let series = |y: &dyn Fn(&Row) -> f64| -> Vec<Series> {
+            methods
+                .iter()
+                .map(|m| Series {
+                    name: m.id().into(),
+                    points: rows
+                        .iter()
+                        .filter(|r| r.method == *m)
+                        .map(|r| Point {
+                            x: r.total_s(),
+                            y: y(r),
+                            // One bundle: the legend says it all.
+                            label: (args.bundles.len() > 1).then(|| r.bundle.clone()),
+                        })
+                        .collect(),
+                })
+                .collect()
+        };
+        let plot = |title: &str, y_label: &str, y: &dyn Fn(&Row) -> f64| {
+            ScatterPlot {
+                title: title.into(),
+                x_label: "frame time [s]".into(),
+                y_label: y_label.into(),
+                log_x: true,
+                log_y: true,
+                series: series(y),
+                pareto: true,
+            }
+            .draw(1000, 520)
+        };
+        let a = plot("image RMSE against frame time", "RMSE, linear RGBA", &|r| r.rmse());
+        let b = plot("largest image error against frame time", "max abs error, linear RGBA", &|r| r.max_abs());
+        stack(&a, &b).write_png(path).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// `a` above `b`.
+fn stack(a: &Canvas, b: &Canvas) -> Canvas {
+    let mut c = Canvas::new(a.w.max(b.w), a.h + b.h);
+    for (img, y0) in [(a, 0), (b, a.h)] {
+        for y in 0..img.h {
+            for x in 0..img.w {
+                c.set(x, y0 + y, img.get(x, y));
+            }
+        }
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn method_selection_and_hash() {
+        let (m, notes) = select_methods("all", false).unwrap();
+        assert_eq!(m.len(), 8);
+        assert!(m.contains(&Method::Exact) && !m.iter().any(|m| m.is_bivariate()));
+        assert_eq!(notes.len(), 2);
+        let (m, notes) = select_methods("table3d, pt-linear,table3d", true).unwrap();
+        assert_eq!(m, vec![Method::Table3d, Method::PtLinear]);
+        assert_eq!(notes.len(), 1);
+        assert!(select_methods("table4d", false).is_err());
+        assert_ne!(fnv1a(b"a", FNV_OFFSET), fnv1a(b"b", FNV_OFFSET));
+        assert_eq!(fnv1a(b"", FNV_OFFSET), FNV_OFFSET);
+    }
+}

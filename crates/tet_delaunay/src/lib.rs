@@ -68,8 +68,8 @@ use triangulation::Triangulation;
 
 /// Inputs at least this large sort on a second thread.
 const PARALLEL_MIN: usize = 20_000;
-/// Inputs at least this large insert their last BRIO round in parallel.
-const PARALLEL_INSERT_MIN: usize = 100_000;
+/// BRIO rounds at least this large are inserted in parallel.
+const PARALLEL_ROUND_MIN: usize = 50_000;
 
 /// The most points [`tetrahedralize_points`] accepts (2^29): their tets
 /// must stay indexable by u32.
@@ -105,9 +105,10 @@ pub struct Delaunay {
     /// Point locations that fell back to a scan of all tets (a safety net;
     /// expected 0).
     pub walk_fallbacks: usize,
-    /// Points of the parallel round that a worker put off (contention at
-    /// the workers' borders, rare big cavities) and the sequential tail
-    /// inserted; 0 when the input was too small to insert in parallel.
+    /// Points of the parallel rounds that a worker put off (their walk or
+    /// conflict zone reached another worker's part of space, or rarely a
+    /// walk ran long) and the sequential tail of the round inserted; 0 when
+    /// the input was too small to insert in parallel.
     pub parallel_deferred: usize,
 }
 
@@ -151,24 +152,31 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
     };
     let unique: Vec<u32> = merged_into.iter().enumerate().filter(|&(i, &r)| r as usize == i).map(|(_, &r)| r).collect();
     let duplicates = points.len() - unique.len();
-    let order = sort::brio_order_keyed(&keys, unique, 0x7E7D_E1A0);
-    drop(keys);
+    let (order, round_ends) = sort::brio_order_keyed(&keys, unique, 0x7E7D_E1A0);
     let order = initial_tet(points, order)?;
+    // Hilbert keys in insertion order partition the parallel rounds.
+    let keys: Vec<u64> = order.iter().map(|&o| keys[o as usize]).collect();
     let mut tri = Triangulation::new(order.iter().map(|&i| points[i as usize]).collect(), order);
     debug_assert!(tri.num_points() == points.len() - duplicates);
-    // The last BRIO round (7/8 of the points) goes to worker threads on
-    // large inputs; earlier rounds are too small to pay for the hand-off.
-    let n_unique = tri.num_points();
-    let mut parallel_deferred = 0;
-    // rayon's pool size, so RAYON_NUM_THREADS governs every parallel stage alike.
+    // Large BRIO rounds go to worker threads; small ones are not worth the
+    // hand-off. rayon's pool size, so RAYON_NUM_THREADS governs every
+    // parallel stage alike.
     let threads = rayon::current_num_threads().min(8);
-    if n_unique >= PARALLEL_INSERT_MIN && threads > 1 {
-        let from = (n_unique / 8).max(4) as u32;
-        tri.insert_range(4, from);
-        parallel_deferred = tri.insert_parallel(from, threads).deferred;
-    } else {
-        tri.insert_range(4, n_unique as u32);
+    let mut parallel_deferred = 0;
+    let mut start = 4u32;
+    for &end in &round_ends {
+        let end = end as u32;
+        if end <= start {
+            continue;
+        }
+        if threads > 1 && (end - start) as usize >= PARALLEL_ROUND_MIN {
+            parallel_deferred += tri.insert_parallel(start, end, &keys, threads).deferred;
+        } else {
+            tri.insert_range(start, end);
+        }
+        start = end;
     }
+    drop(keys);
     let (removed, removed_cells) = match opts.max_circumradius {
         Some(r) => {
             let (flags, n) = tri.peel(r);

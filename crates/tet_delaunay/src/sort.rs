@@ -74,15 +74,17 @@ pub fn hilbert_keys(points: &[[f64; 3]]) -> Vec<u64> {
 /// bounding box of all points. Coordinates must be finite.
 #[cfg(test)]
 pub fn brio_order(points: &[[f64; 3]], ids: Vec<u32>, seed: u64) -> Vec<u32> {
-    brio_order_keyed(&hilbert_keys(points), ids, seed)
+    brio_order_keyed(&hilbert_keys(points), ids, seed).0
 }
 
 /// [`brio_order`] given the Hilbert key of every point (indexed by id);
 /// duplicates of a point share its key, so they may be among the keys.
-pub fn brio_order_keyed(keys: &[u64], ids: Vec<u32>, seed: u64) -> Vec<u32> {
+/// Also returns where each round ends in the order (the last end is
+/// `ids.len()`).
+pub fn brio_order_keyed(keys: &[u64], ids: Vec<u32>, seed: u64) -> (Vec<u32>, Vec<usize>) {
     let n = ids.len();
     if n < 2 {
-        return ids;
+        return (ids, vec![n]);
     }
     let mut keyed: Vec<(u64, u32)> = ids.iter().map(|&i| (keys[i as usize], i)).collect();
     let mut rng = SplitMix64(seed);
@@ -101,7 +103,8 @@ pub fn brio_order_keyed(keys: &[u64], ids: Vec<u32>, seed: u64) -> Vec<u32> {
     for w in ends.windows(2) {
         keyed[w[0]..w[1]].sort_unstable();
     }
-    keyed.into_iter().map(|(_, i)| i).collect()
+    ends.remove(0);
+    (keyed.into_iter().map(|(_, i)| i).collect(), ends)
 }
 
 #[cfg(test)]

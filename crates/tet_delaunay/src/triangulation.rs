@@ -16,21 +16,33 @@
 //! Vertex ids here are positions in insertion order (so that consecutive
 //! insertions touch nearby memory); `orig` maps them back to input ids, which
 //! key the symbolic perturbation so that ties do not depend on the order.
+//!
+//! Storage is atomic (`Relaxed` loads and stores, plain moves on x86) so
+//! that one [`Inserter`] serves both the sequential path and the parallel
+//! rounds of [`crate::parallel`], which share the tets without copying
+//! them; the concurrency contract is documented there. Sequentially an
+//! `Inserter` owns every vertex and never defers.
 
 use crate::predicates::{in_sphere_tie, orient, StaticFilter};
 use crate::sort::SplitMix64;
+use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering::Relaxed};
 
 /// The infinite vertex.
 pub(crate) const INF: u32 = u32::MAX;
-/// Vertex slot 0 of a freed tet.
+/// Vertex slot 0 of a freed (or never used) tet.
 pub(crate) const DEAD: u32 = u32::MAX - 1;
-/// Vertex slot 0 of a tet in the current insertion's conflict zone.
+/// Vertex slot 0 of a tet in worker `w`'s current conflict zone is
+/// `IN_CAVITY - w`. Vertex ids stay below `MAX_POINTS` (2^29), far below.
 const IN_CAVITY: u32 = u32::MAX - 2;
+/// Most workers of one parallel round (their cavity markers must not
+/// collide with anything else).
+pub(crate) const MAX_WORKERS: usize = 64;
 const EMPTY: u64 = u64::MAX;
-/// Unassigned entry of `Triangulation::local`.
-pub(crate) const NO_LOCAL: u8 = u8::MAX;
-/// Largest cavity boundary (in vertices) linked through the dense matrix.
-pub(crate) const DENSE_MAX: usize = 64;
+/// Unassigned entry of `Inserter::local`.
+const NO_LOCAL: u8 = u8::MAX;
+/// Largest cavity boundary (in vertices) linked through the dense matrix;
+/// larger ones go through a hash table.
+const DENSE_MAX: usize = 64;
 
 /// For a new tet with the new point in slot `i`, the face opposite slot
 /// `j ≠ i` holds the new point and the edge `(v[x], v[y])` with
@@ -39,7 +51,7 @@ pub(crate) const DENSE_MAX: usize = 64;
 /// are consistently oriented, ghosts included, and two tets sharing a
 /// face see it in opposite orders; rotating the face so `i` comes first
 /// leaves the edge.)
-pub(crate) const EDGE: [[(usize, usize); 4]; 4] = [
+const EDGE: [[(usize, usize); 4]; 4] = [
     [(0, 0), (3, 2), (1, 3), (2, 1)],
     [(2, 3), (0, 0), (3, 0), (0, 2)],
     [(3, 1), (0, 3), (0, 0), (1, 0)],
@@ -59,13 +71,70 @@ struct Boundary {
     local: [u8; 4],
 }
 
-/// Aligned so that a tet never straddles two cache lines: the flood fill
-/// touches dozens of scattered neighbours per insertion.
-#[derive(Debug, Clone, Copy)]
-#[repr(C, align(32))]
+/// A tet's contents, read or to be written in one go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Tet {
     pub(crate) v: [u32; 4],
     pub(crate) n: [u32; 4],
+}
+
+const DEAD_TET: Tet = Tet { v: [DEAD; 4], n: [u32::MAX; 4] };
+
+/// A tet in shared memory. Aligned so that it never straddles two cache
+/// lines: the flood fill touches dozens of scattered neighbours per
+/// insertion.
+#[derive(Debug)]
+#[repr(C, align(32))]
+pub(crate) struct AtomicTet {
+    v: [AtomicU32; 4],
+    n: [AtomicU32; 4],
+}
+
+impl AtomicTet {
+    pub(crate) fn new(t: Tet) -> Self {
+        AtomicTet { v: t.v.map(AtomicU32::new), n: t.n.map(AtomicU32::new) }
+    }
+    #[inline(always)]
+    pub(crate) fn load(&self) -> Tet {
+        Tet { v: [0, 1, 2, 3].map(|k| self.v[k].load(Relaxed)), n: [0, 1, 2, 3].map(|k| self.n[k].load(Relaxed)) }
+    }
+    #[inline(always)]
+    pub(crate) fn store(&self, t: Tet) {
+        for k in 0..4 {
+            self.v[k].store(t.v[k], Relaxed);
+            self.n[k].store(t.n[k], Relaxed);
+        }
+    }
+    #[cfg(test)]
+    pub(crate) fn v0(&self) -> u32 {
+        self.v[0].load(Relaxed)
+    }
+    #[inline(always)]
+    fn set_v0(&self, x: u32) {
+        self.v[0].store(x, Relaxed)
+    }
+    #[inline(always)]
+    fn set_n(&self, i: usize, x: u32) {
+        self.n[i].store(x, Relaxed)
+    }
+}
+
+#[inline]
+pub(crate) fn is_ghost(v: &[u32; 4]) -> bool {
+    v[0] == INF || v[1] == INF || v[2] == INF || v[3] == INF
+}
+
+/// Why an insertion was put off (parallel rounds only; a sequential
+/// inserter only ever runs out of slots).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Deferred {
+    /// The walk or the conflict zone reached a tet with a vertex another
+    /// worker owns.
+    Foreign,
+    /// The walk exceeded its step limit.
+    LongWalk,
+    /// No free or fresh tet slot was left for the new tets.
+    OutOfSlots,
 }
 
 pub(crate) struct Triangulation {
@@ -75,71 +144,72 @@ pub(crate) struct Triangulation {
     pub(crate) filter: StaticFilter,
     /// Input id of each point.
     pub(crate) orig: Vec<u32>,
-    pub(crate) tets: Vec<Tet>,
+    /// Tet slots, all initialised; `0..used` have been handed out (live or
+    /// freed), the rest are fresh.
+    pub(crate) tets: Vec<AtomicTet>,
+    pub(crate) used: usize,
+    /// Freed slots below `used`.
     pub(crate) free: Vec<u32>,
     /// A live finite tet near the last inserted point: where walks start.
     pub(crate) last: u32,
-    rng: SplitMix64,
-    // Scratch buffers reused by every insertion.
-    stack: Vec<(u32, Tet)>,
-    conflict: Vec<u32>,
-    boundary: Vec<Boundary>,
-    /// Per vertex (the infinite one last): its local id in the current
-    /// cavity boundary, or [`NO_LOCAL`]; `local_verts` lists those set.
-    local: Vec<u8>,
-    local_verts: Vec<u32>,
-    /// `DENSE_MAX`² new-tet slots keyed by directed edge of local ids.
-    edge: Vec<u32>,
-    /// Open-addressing table matching the faces through the new point by
-    /// their edge opposite it; `used` lists the slots to clear afterwards.
-    table: Vec<(u64, u32)>,
-    used: Vec<u32>,
     /// Walks that hit the step limit and fell back to a full scan.
     pub(crate) walk_fallbacks: usize,
 }
 
-#[inline]
-pub(crate) fn is_ghost(v: &[u32; 4]) -> bool {
-    v[0] == INF || v[1] == INF || v[2] == INF || v[3] == INF
-}
-
 impl Triangulation {
-    /// Starts from points 0..4 (a positive tet) and its four ghosts.
+    /// Starts from points 0..4 (a positive tet) and its four ghosts, with
+    /// room for the tets a random set of that size needs (more are added
+    /// when needed).
     pub(crate) fn new(pts: Vec<[f64; 3]>, orig: Vec<u32>) -> Self {
         debug_assert!(orient(&pts[0], &pts[1], &pts[2], &pts[3]) > 0.0);
-        let cap = pts.len().saturating_mul(7) + 16;
-        let n_local = pts.len() + 1;
+        // ~6.7 finite tets per random point plus ghosts; a little more
+        // avoids growing on typical inputs, and growth doubles otherwise.
+        let capacity = pts.len().saturating_mul(29) / 4 + 16 * crate::parallel::BLOCK;
         let mut t = Triangulation {
             filter: StaticFilter::new(&pts),
             pts,
             orig,
-            tets: Vec::with_capacity(cap),
+            tets: Vec::new(),
+            used: 5,
             free: Vec::new(),
             last: 0,
-            rng: SplitMix64(0x5EED),
-            stack: Vec::new(),
-            conflict: Vec::new(),
-            boundary: Vec::new(),
-            local: vec![NO_LOCAL; n_local],
-            local_verts: Vec::new(),
-            edge: vec![0; DENSE_MAX * DENSE_MAX],
-            table: Vec::new(),
-            used: Vec::new(),
             walk_fallbacks: 0,
         };
+        t.grow_to(capacity);
         // Ghost i replaces vertex i by INF and swaps two other vertices:
         // beyond face i is the other side from vertex i, so the odd
         // permutation restores the positive ghost orientation.
-        for i in 0..5 {
+        let mut first = [DEAD_TET; 5];
+        for (i, tet) in first.iter_mut().enumerate() {
             let mut v = [0, 1, 2, 3];
             if i > 0 {
                 v[i - 1] = INF;
                 v.swap(i % 4, (i + 1) % 4);
             }
-            t.tets.push(Tet { v, n: [u32::MAX; 4] });
+            tet.v = v;
         }
-        t.link_small(&[0, 1, 2, 3, 4]);
+        link_small(&mut first);
+        for (k, tet) in first.into_iter().enumerate() {
+            t.tets[k].store(tet);
+        }
         t
+    }
+
+    /// Makes at least `len` slots exist, fresh ones dead. Large arrays are
+    /// initialised on all threads: the first touch of each page is most of
+    /// the cost.
+    pub(crate) fn grow_to(&mut self, len: usize) {
+        use rayon::prelude::*;
+        if len <= self.tets.len() {
+            return;
+        }
+        let add = len - self.tets.len();
+        self.tets.reserve_exact(add);
+        if add >= 1 << 16 {
+            self.tets.par_extend((0..add).into_par_iter().map(|_| AtomicTet::new(DEAD_TET)));
+        } else {
+            self.tets.extend((0..add).map(|_| AtomicTet::new(DEAD_TET)));
+        }
     }
 
     /// Number of points (all of which `insert_all` inserts).
@@ -153,35 +223,243 @@ impl Triangulation {
         self.insert_range(4, self.pts.len() as u32);
     }
 
-    /// Inserts points `from..to` in order, on this thread.
-    pub(crate) fn insert_range(&mut self, from: u32, to: u32) {
-        for v in from..to.min(self.pts.len() as u32) {
-            self.insert(v);
+    /// Inserts points `ids` in order, on this thread.
+    pub(crate) fn insert_points(&mut self, ids: &[u32]) {
+        let mut k = 0;
+        while k < ids.len() {
+            let next = AtomicUsize::new(self.used);
+            let free = std::mem::take(&mut self.free);
+            let mut ins = Inserter::new(self, &next, None, 0, self.last, free, SplitMix64(0x5EED ^ k as u64));
+            while k < ids.len() {
+                match ins.insert(ids[k]) {
+                    Ok(()) => k += 1,
+                    Err(Deferred::OutOfSlots) => break,
+                    Err(e) => unreachable!("a sequential insertion cannot be deferred ({e:?})"),
+                }
+            }
+            let fresh = ins.unused_fresh();
+            let (free, last, fallbacks) = (ins.free, ins.last, ins.walk_fallbacks);
+            self.free = free;
+            self.last = last;
+            self.walk_fallbacks += fallbacks;
+            // The inserter took all spare slots as one block.
+            self.used = if fresh.is_empty() { next.into_inner().min(self.tets.len()) } else { fresh.start };
+            if k < ids.len() {
+                self.grow_to(self.tets.len() * 2);
+            }
         }
     }
 
-    /// Links the faces of a few tets by brute-force vertex-set matching.
-    fn link_small(&mut self, ids: &[u32]) {
-        let face = |v: [u32; 4], i: usize| {
-            let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| v[k]).collect();
-            f.sort_unstable();
-            f
-        };
-        for &s in ids {
-            for i in 0..4 {
-                let f = face(self.tets[s as usize].v, i);
-                for &o in ids.iter().filter(|&&o| o != s) {
-                    if (0..4).any(|j| face(self.tets[o as usize].v, j) == f) {
-                        self.tets[s as usize].n[i] = o;
-                    }
-                }
-            }
-        }
+    /// Inserts points `from..to` in order, on this thread.
+    pub(crate) fn insert_range(&mut self, from: u32, to: u32) {
+        let ids: Vec<u32> = (from..to.min(self.pts.len() as u32)).collect();
+        self.insert_points(&ids);
     }
 
     #[inline]
     fn p(&self, v: u32) -> &[f64; 3] {
         &self.pts[v as usize]
+    }
+
+    /// Removes finite tets reachable from the hull through faces between
+    /// tets whose circumradius exceeds `max_r`; returns the removed flags.
+    pub(crate) fn peel(&self, max_r: f64) -> (Vec<bool>, usize) {
+        let tets: Vec<Tet> = self.tets[..self.used].iter().map(AtomicTet::load).collect();
+        let mut removed = vec![false; tets.len()];
+        let mut stack = Vec::new();
+        let big = |t: usize| -> bool {
+            let v = tets[t].v;
+            circumradius(self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])) > max_r
+        };
+        for (t, tet) in tets.iter().enumerate() {
+            if tet.v[0] != DEAD && is_ghost(&tet.v) {
+                let g = tet.v.iter().position(|&x| x == INF).expect("ghost");
+                let f = tets[t].n[g] as usize;
+                if !removed[f] && big(f) {
+                    removed[f] = true;
+                    stack.push(f);
+                }
+            }
+        }
+        let mut count = stack.len();
+        while let Some(t) = stack.pop() {
+            for &nb in &tets[t].n {
+                let nb = nb as usize;
+                if !removed[nb] && !is_ghost(&tets[nb].v) && big(nb) {
+                    removed[nb] = true;
+                    count += 1;
+                    stack.push(nb);
+                }
+            }
+        }
+        (removed, count)
+    }
+
+    /// Finite tets in input ids (skipping `removed` ones) and the number of
+    /// hull facets.
+    pub(crate) fn finite_tets(&self, removed: Option<&[bool]>) -> (Vec<[u32; 4]>, usize) {
+        use rayon::prelude::*;
+        // Chunks keep the output in slot order whatever the thread count.
+        const CHUNK: usize = 1 << 16;
+        let parts: Vec<(Vec<[u32; 4]>, usize)> = self.tets[..self.used]
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| {
+                let mut out = Vec::with_capacity(chunk.len());
+                let mut ghosts = 0;
+                for (k, tet) in chunk.iter().enumerate() {
+                    let v = tet.load().v;
+                    if v[0] == DEAD {
+                        continue;
+                    }
+                    if is_ghost(&v) {
+                        ghosts += 1;
+                    } else if !removed.is_some_and(|r| r[c * CHUNK + k]) {
+                        out.push(v.map(|x| self.orig[x as usize]));
+                    }
+                }
+                (out, ghosts)
+            })
+            .collect();
+        let total = parts.iter().map(|p| p.0.len()).sum();
+        let mut out = Vec::with_capacity(total);
+        let mut ghosts = 0;
+        for (p, g) in parts {
+            out.extend_from_slice(&p);
+            ghosts += g;
+        }
+        (out, ghosts)
+    }
+}
+
+/// Links the faces of a few tets by brute-force vertex-set matching.
+fn link_small(tets: &mut [Tet]) {
+    let face = |v: [u32; 4], i: usize| {
+        let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| v[k]).collect();
+        f.sort_unstable();
+        f
+    };
+    for s in 0..tets.len() {
+        for i in 0..4 {
+            let f = face(tets[s].v, i);
+            for o in (0..tets.len()).filter(|&o| o != s) {
+                if (0..4).any(|j| face(tets[o].v, j) == f) {
+                    tets[s].n[i] = o as u32;
+                }
+            }
+        }
+    }
+}
+
+/// Inserts points into a triangulation's shared tets: one per thread in a
+/// parallel round, or one on the caller's thread. Holds the scratch
+/// buffers every insertion reuses.
+pub(crate) struct Inserter<'a> {
+    pts: &'a [[f64; 3]],
+    filter: &'a StaticFilter,
+    orig: &'a [u32],
+    tets: &'a [AtomicTet],
+    /// Owner of each vertex in a parallel round (`None`: this inserter owns
+    /// every vertex).
+    owner: Option<&'a [u8]>,
+    me: u8,
+    /// `IN_CAVITY - me`.
+    marker: u32,
+    /// Shared bump counter of fresh slots.
+    next: &'a AtomicUsize,
+    /// Fresh slots taken from `next` and not used yet.
+    block_next: usize,
+    block_end: usize,
+    /// Fresh slots taken from `next` at a time (all of them sequentially).
+    block: usize,
+    pub(crate) last: u32,
+    pub(crate) free: Vec<u32>,
+    rng: SplitMix64,
+    pub(crate) walk_fallbacks: usize,
+    stack: Vec<(u32, Tet)>,
+    conflict: Vec<u32>,
+    /// The original first vertex of each conflict tet (replaced by the
+    /// marker), restored when the insertion is put off.
+    saved_v0: Vec<u32>,
+    boundary: Vec<Boundary>,
+    /// Per vertex (the infinite one last): its local id in the current
+    /// cavity boundary, or [`NO_LOCAL`]; `local_verts` lists those set.
+    local: Vec<u8>,
+    local_verts: Vec<u32>,
+    /// `DENSE_MAX`² new-tet slots keyed by directed edge of local ids.
+    edge: Vec<u32>,
+    /// Open-addressing table matching the faces through the new point by
+    /// their edge opposite it; `used` lists the slots to clear afterwards.
+    table: Vec<(u64, u32)>,
+    table_used: Vec<u32>,
+}
+
+impl<'a> Inserter<'a> {
+    /// An inserter on `tri`'s tets starting its walks at `last` (a live
+    /// finite tet), allocating from `free` and then fresh slots from
+    /// `next`. With `owner`, it only touches tets whose finite vertices
+    /// `me` owns and defers other points.
+    pub(crate) fn new(
+        tri: &'a Triangulation,
+        next: &'a AtomicUsize,
+        owner: Option<&'a [u8]>,
+        me: u8,
+        last: u32,
+        free: Vec<u32>,
+        rng: SplitMix64,
+    ) -> Self {
+        debug_assert!((me as usize) < MAX_WORKERS);
+        Inserter {
+            pts: &tri.pts,
+            filter: &tri.filter,
+            orig: &tri.orig,
+            tets: &tri.tets,
+            block: if owner.is_some() { crate::parallel::BLOCK } else { usize::MAX },
+            owner,
+            me,
+            marker: IN_CAVITY - me as u32,
+            next,
+            block_next: 0,
+            block_end: 0,
+            last,
+            free,
+            rng,
+            walk_fallbacks: 0,
+            stack: Vec::new(),
+            conflict: Vec::new(),
+            saved_v0: Vec::new(),
+            boundary: Vec::new(),
+            local: vec![NO_LOCAL; tri.pts.len() + 1],
+            local_verts: Vec::new(),
+            edge: vec![0; DENSE_MAX * DENSE_MAX],
+            table: Vec::new(),
+            table_used: Vec::new(),
+        }
+    }
+
+    /// Fresh slots taken but not used, for the caller to put on the free
+    /// list after a round.
+    pub(crate) fn unused_fresh(&self) -> std::ops::Range<usize> {
+        self.block_next..self.block_end
+    }
+
+    #[inline(always)]
+    fn p(&self, v: u32) -> &'a [f64; 3] {
+        &self.pts[v as usize]
+    }
+
+    #[inline(always)]
+    fn tet(&self, t: u32) -> Tet {
+        self.tets[t as usize].load()
+    }
+
+    /// Whether this inserter may rewrite a tet with these vertices.
+    #[inline(always)]
+    fn owns(&self, v: &[u32; 4]) -> bool {
+        match self.owner {
+            None => true,
+            Some(o) => v.iter().all(|&x| x == INF || o[x as usize] == self.me),
+        }
     }
 
     /// Orientation of tet `v` with vertex `i` replaced by `q` (for a ghost,
@@ -199,16 +477,20 @@ impl Triangulation {
 
     /// Finds a tet in conflict with `q`: a finite tet whose closure
     /// contains it, or a ghost whose hull facet it sees from outside.
-    fn locate(&mut self, q: &[f64; 3]) -> u32 {
+    pub(crate) fn locate(&mut self, q: &[f64; 3]) -> Result<u32, Deferred> {
         let mut t = self.last;
         let mut prev = u32::MAX;
         // Stochastic remembering walk: a random first face avoids cycles,
         // and the face we came through is never re-tested.
-        let limit = 64 + 4 * (self.tets.len() as u64).isqrt() as usize + self.tets.len() / 16;
+        let len = self.tets.len();
+        let limit = 64 + 4 * (len as u64).isqrt() as usize + len / 16;
         'walk: for _ in 0..limit {
-            let Tet { v, n } = self.tets[t as usize];
+            let Tet { v, n } = self.tet(t);
+            if !self.owns(&v) {
+                return Err(Deferred::Foreign);
+            }
             if is_ghost(&v) {
-                return t;
+                return Ok(t);
             }
             let r = (self.rng.next_u64() >> 62) as usize;
             for k in 0..4 {
@@ -222,24 +504,27 @@ impl Triangulation {
                     continue 'walk;
                 }
             }
-            return t;
+            return Ok(t);
+        }
+        if self.owner.is_some() {
+            return Err(Deferred::LongWalk);
         }
         self.walk_fallbacks += 1;
-        self.locate_by_scan(q)
+        Ok(self.locate_by_scan(q))
     }
 
-    /// Safety net when a walk runs too long: test every live tet.
+    /// Safety net when a sequential walk runs too long: test every live tet.
     fn locate_by_scan(&self, q: &[f64; 3]) -> u32 {
         for (t, tet) in self.tets.iter().enumerate() {
-            let v = &tet.v;
+            let v = tet.load().v;
             if v[0] == DEAD {
                 continue;
             }
             if let Some(g) = v.iter().position(|&x| x == INF) {
-                if self.orient_replaced(v, g, q) > 0.0 {
+                if self.orient_replaced(&v, g, q) > 0.0 {
                     return t as u32;
                 }
-            } else if (0..4).all(|i| self.orient_replaced(v, i, q) >= 0.0) {
+            } else if (0..4).all(|i| self.orient_replaced(&v, i, q) >= 0.0) {
                 return t as u32;
             }
         }
@@ -269,32 +554,61 @@ impl Triangulation {
             // On the hull facet's plane: in conflict exactly when the finite
             // tet across that facet is (in-circle of the facet, with the
             // same perturbation), as geogram does.
-            let f = &self.tets[tet.n[g] as usize];
-            return f.v[0] == IN_CAVITY || self.in_sphere(&f.v, q, iq);
+            let f = self.tet(tet.n[g]);
+            return f.v[0] == self.marker || self.in_sphere(&f.v, q, iq);
         }
         self.in_sphere(v, q, iq)
     }
 
-    fn alloc(&mut self) -> u32 {
-        if let Some(s) = self.free.pop() {
-            s
-        } else {
-            self.tets.push(Tet { v: [DEAD; 4], n: [u32::MAX; 4] });
-            // MAX_POINTS keeps ordinary inputs far below this; only a
-            // pathological (quadratic-size) triangulation of ~2^29 points
-            // could reach it, after allocating over 100 GB.
-            u32::try_from(self.tets.len() - 1).expect("more than 2^32 tets: the input is too large for 32-bit tet ids")
+    /// Puts tet `t` (contents `tet`) into the conflict zone.
+    #[inline(always)]
+    fn mark(&mut self, t: u32, tet: Tet) {
+        self.tets[t as usize].set_v0(self.marker);
+        self.conflict.push(t);
+        self.saved_v0.push(tet.v[0]);
+        self.stack.push((t, tet));
+    }
+
+    /// Undoes the marks of an insertion that is put off.
+    fn unmark(&mut self) {
+        for (&t, &v0) in self.conflict.iter().zip(&self.saved_v0) {
+            self.tets[t as usize].set_v0(v0);
         }
     }
 
-    /// Inserts point `iq` (distinct from every inserted point).
-    pub(crate) fn insert(&mut self, iq: u32) {
+    /// A free or fresh slot, or `None` when none is left.
+    #[inline]
+    fn alloc(&mut self) -> Option<u32> {
+        if let Some(s) = self.free.pop() {
+            return Some(s);
+        }
+        if self.block_next == self.block_end {
+            // Parallel workers take private blocks, so that slots of
+            // different workers rarely share a cache line.
+            let len = self.tets.len();
+            let start = self.next.fetch_add(self.block.min(len), Relaxed);
+            let end = start.saturating_add(self.block).min(len);
+            if start >= end {
+                // Keep the shared counter from creeping past the end.
+                self.next.fetch_min(len, Relaxed);
+                return None;
+            }
+            (self.block_next, self.block_end) = (start, end);
+        }
+        let s = self.block_next as u32;
+        self.block_next += 1;
+        Some(s)
+    }
+
+    /// Inserts point `iq` (distinct from every inserted point), or puts it
+    /// off leaving the triangulation unchanged.
+    pub(crate) fn insert(&mut self, iq: u32) -> Result<(), Deferred> {
         let q = self.pts[iq as usize];
-        let t0 = self.locate(&q);
+        let t0 = self.locate(&q)?;
         // Conflict zone by flood fill from t0 (which contains q, so is in
-        // conflict without a test). A conflict tet is flagged by
-        // `IN_CAVITY` in its first vertex slot, its contents kept on the
-        // stack, so one cache line per neighbour tells whether it is
+        // conflict without a test). A conflict tet is flagged by this
+        // inserter's marker in its first vertex slot, its contents kept on
+        // the stack, so one cache line per neighbour tells whether it is
         // already in the zone; the flag goes when the slot is rebuilt or
         // freed. Non-conflict tets are not flagged: one facing several
         // conflict tets is tested again (cheap, it is in cache).
@@ -305,22 +619,24 @@ impl Triangulation {
         // is found now, before any conflict slot is reused (a neighbour may
         // face two conflict tets).
         self.conflict.clear();
+        self.saved_v0.clear();
         self.stack.clear();
         self.boundary.clear();
-        self.stack.push((t0, self.tets[t0 as usize]));
-        self.tets[t0 as usize].v[0] = IN_CAVITY;
-        self.conflict.push(t0);
+        let tet0 = self.tet(t0);
+        self.mark(t0, tet0);
         while let Some((t, Tet { v, n })) = self.stack.pop() {
             for i in 0..4 {
                 let nb = n[i];
-                let nt = self.tets[nb as usize];
-                if nt.v[0] == IN_CAVITY {
+                let nt = self.tet(nb);
+                if nt.v[0] == self.marker {
                     continue;
                 }
                 if self.in_conflict(&nt, &q, iq) {
-                    self.tets[nb as usize].v[0] = IN_CAVITY;
-                    self.conflict.push(nb);
-                    self.stack.push((nb, nt));
+                    if !self.owns(&nt.v) {
+                        self.unmark();
+                        return Err(Deferred::Foreign);
+                    }
+                    self.mark(nb, nt);
                     continue;
                 }
                 let back = (0..4).find(|&k| nt.n[k] == t).expect("adjacency is symmetric");
@@ -330,16 +646,23 @@ impl Triangulation {
             }
         }
 
-        // New tets take the conflict slots first, then the free list, then
-        // grow the array.
+        // New tets take the conflict slots first, then free or fresh ones.
         let nc = self.conflict.len();
-        for _ in nc..self.boundary.len() {
-            let s = self.alloc();
-            self.conflict.push(s);
+        for k in nc..self.boundary.len() {
+            match self.alloc() {
+                Some(s) => self.conflict.push(s),
+                None => {
+                    self.free.extend_from_slice(&self.conflict[nc..k]);
+                    self.conflict.truncate(nc);
+                    self.unmark();
+                    return Err(Deferred::OutOfSlots);
+                }
+            }
         }
+        // Point of no return.
         for k in self.boundary.len()..nc {
             let s = self.conflict[k];
-            self.tets[s as usize].v = [DEAD; 4];
+            self.tets[s as usize].store(DEAD_TET);
             self.free.push(s);
         }
         let mut last = u32::MAX;
@@ -348,8 +671,8 @@ impl Triangulation {
             let s = self.conflict[k];
             let mut n = [u32::MAX; 4];
             n[b.slot as usize] = b.outside;
-            self.tets[s as usize] = Tet { v: b.v, n };
-            self.tets[b.outside as usize].n[b.back as usize] = s;
+            self.tets[s as usize].store(Tet { v: b.v, n });
+            self.tets[b.outside as usize].set_n(b.back as usize, s);
             if !is_ghost(&b.v) {
                 last = s;
             }
@@ -359,6 +682,7 @@ impl Triangulation {
         if !self.link_new_dense(iq) {
             self.link_new_hashed();
         }
+        Ok(())
     }
 
     /// Links the new tets (slots `conflict[k]` for boundary face `k`)
@@ -368,7 +692,7 @@ impl Triangulation {
     /// false (changing nothing) for larger cavities.
     fn link_new_dense(&mut self, iq: u32) -> bool {
         debug_assert!(self.boundary.iter().all(|b| b.v[b.slot as usize] == iq));
-        let Triangulation { boundary, local, local_verts, edge, conflict, tets, .. } = self;
+        let Inserter { boundary, local, local_verts, edge, conflict, tets, .. } = self;
         let inf_slot = local.len() - 1;
         // Each directed edge (x, y) of a new tet's face through q has its
         // reverse (y, x) in exactly one other new tet: the one across it.
@@ -411,11 +735,11 @@ impl Triangulation {
         }
         for (b, &s) in boundary.iter().zip(conflict.iter()) {
             let i = b.slot as usize;
-            let n = &mut tets[s as usize].n;
+            let tet = &tets[s as usize];
             for j in 0..4 {
                 if j != i {
                     let (x, y) = EDGE[i][j];
-                    n[j] = edge[b.local[y] as usize * DENSE_MAX + b.local[x] as usize];
+                    tet.set_n(j, edge[b.local[y] as usize * DENSE_MAX + b.local[x] as usize]);
                 }
             }
         }
@@ -445,74 +769,22 @@ impl Triangulation {
                     let (k3, val) = self.table[h];
                     if k3 == EMPTY {
                         self.table[h] = (key, s * 4 + j as u32);
-                        self.used.push(h as u32);
+                        self.table_used.push(h as u32);
                         break;
                     }
                     if k3 == key {
-                        self.tets[s as usize].n[j] = val / 4;
-                        self.tets[(val / 4) as usize].n[(val % 4) as usize] = s;
+                        self.tets[s as usize].set_n(j, val / 4);
+                        self.tets[(val / 4) as usize].set_n((val % 4) as usize, s);
                         break;
                     }
                     h = (h + 1) & mask;
                 }
             }
         }
-        for &h in &self.used {
+        for &h in &self.table_used {
             self.table[h as usize].0 = EMPTY;
         }
-        self.used.clear();
-    }
-
-    /// Removes finite tets reachable from the hull through faces between
-    /// tets whose circumradius exceeds `max_r`; returns the removed flags.
-    pub(crate) fn peel(&self, max_r: f64) -> (Vec<bool>, usize) {
-        let mut removed = vec![false; self.tets.len()];
-        let mut stack = Vec::new();
-        let big = |t: usize| -> bool {
-            let v = self.tets[t].v;
-            circumradius(self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3])) > max_r
-        };
-        for (t, tet) in self.tets.iter().enumerate() {
-            if tet.v[0] != DEAD && is_ghost(&tet.v) {
-                let g = tet.v.iter().position(|&x| x == INF).expect("ghost");
-                let f = self.tets[t].n[g] as usize;
-                if !removed[f] && big(f) {
-                    removed[f] = true;
-                    stack.push(f);
-                }
-            }
-        }
-        let mut count = stack.len();
-        while let Some(t) = stack.pop() {
-            for &nb in &self.tets[t].n {
-                let nb = nb as usize;
-                if !removed[nb] && !is_ghost(&self.tets[nb].v) && big(nb) {
-                    removed[nb] = true;
-                    count += 1;
-                    stack.push(nb);
-                }
-            }
-        }
-        (removed, count)
-    }
-
-    /// Finite tets in input ids (skipping `removed` ones) and the number of
-    /// hull facets.
-    pub(crate) fn finite_tets(&self, removed: Option<&[bool]>) -> (Vec<[u32; 4]>, usize) {
-        let mut out = Vec::with_capacity(self.tets.len());
-        let mut ghosts = 0;
-        for (t, tet) in self.tets.iter().enumerate() {
-            let v = &tet.v;
-            if v[0] == DEAD {
-                continue;
-            }
-            if is_ghost(v) {
-                ghosts += 1;
-            } else if !removed.is_some_and(|r| r[t]) {
-                out.push(v.map(|x| self.orig[x as usize]));
-            }
-        }
-        (out, ghosts)
+        self.table_used.clear();
     }
 }
 
@@ -535,7 +807,7 @@ pub(crate) fn circumradius(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::predicates::in_sphere_sos;
     use crate::sort::SplitMix64;
@@ -551,19 +823,23 @@ mod tests {
     }
 
     /// Internal invariants: neighbour links symmetric through the shared
-    /// face (ghosts included), every finite tet positive, and no point in
-    /// conflict with any finite tet under the perturbed predicate, which is
-    /// what makes ties between cospherical points consistent.
-    fn check(t: &Triangulation) {
-        let live = |s: usize| t.tets[s].v[0] != DEAD;
-        for s in (0..t.tets.len()).filter(|&s| live(s)) {
-            let v = t.tets[s].v;
+    /// face (ghosts included), every finite tet positive, no slot both live
+    /// and free, and (with `empty_sphere`) no point in conflict with any
+    /// finite tet under the perturbed predicate, which is what makes ties
+    /// between cospherical points consistent.
+    pub(crate) fn check(t: &Triangulation, empty_sphere: bool) {
+        let tets: Vec<Tet> = t.tets[..t.used].iter().map(AtomicTet::load).collect();
+        assert!(t.tets[t.used..].iter().all(|x| x.v0() == DEAD), "a slot past `used` is live");
+        let live = |s: usize| tets[s].v[0] != DEAD;
+        assert!(t.free.iter().all(|&f| !live(f as usize)), "a free slot is live");
+        for s in (0..tets.len()).filter(|&s| live(s)) {
+            let v = tets[s].v;
             for i in 0..4 {
-                let nb = t.tets[s].n[i] as usize;
+                let nb = tets[s].n[i] as usize;
                 assert!(live(nb), "tet {s} links to a dead slot");
-                let back = t.tets[nb].n.iter().position(|&x| x as usize == s).expect("symmetric link");
+                let back = tets[nb].n.iter().position(|&x| x as usize == s).expect("symmetric link");
                 let mut f: Vec<u32> = (0..4).filter(|&k| k != i).map(|k| v[k]).collect();
-                let mut g: Vec<u32> = (0..4).filter(|&k| k != back).map(|k| t.tets[nb].v[k]).collect();
+                let mut g: Vec<u32> = (0..4).filter(|&k| k != back).map(|k| tets[nb].v[k]).collect();
                 f.sort_unstable();
                 g.sort_unstable();
                 assert_eq!(f, g, "tets {s} and {nb} do not share the face they link through");
@@ -571,11 +847,13 @@ mod tests {
             if !is_ghost(&v) {
                 let p = v.map(|x| &t.pts[x as usize]);
                 assert!(orient(p[0], p[1], p[2], p[3]) > 0.0);
-                for (q, pq) in t.pts.iter().enumerate() {
-                    if !v.contains(&(q as u32)) {
-                        let ids = v.map(|x| t.orig[x as usize]);
-                        let iq = t.orig[q];
-                        assert!(!in_sphere_sos(p, ids, pq, iq), "point {q} in conflict with tet {v:?}");
+                if empty_sphere {
+                    for (q, pq) in t.pts.iter().enumerate() {
+                        if !v.contains(&(q as u32)) {
+                            let ids = v.map(|x| t.orig[x as usize]);
+                            let iq = t.orig[q];
+                            assert!(!in_sphere_sos(p, ids, pq, iq), "point {q} in conflict with tet {v:?}");
+                        }
                     }
                 }
             }
@@ -592,13 +870,31 @@ mod tests {
                 }
             }
         }
-        check(&build(&pts));
+        check(&build(&pts), true);
         let mut rng = SplitMix64(5);
         let pts: Vec<[f64; 3]> = (0..300).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()]).collect();
-        check(&build(&pts));
+        check(&build(&pts), true);
         // Two coplanar layers of a 4×4 grid, half a spacing apart.
         let pts: Vec<[f64; 3]> =
             (0..32).map(|i| [(i % 4) as f64, ((i / 4) % 4) as f64, (i / 16) as f64 * 0.5]).collect();
-        check(&build(&pts));
+        check(&build(&pts), true);
+    }
+
+    #[test]
+    fn running_out_of_slots_grows_the_array_and_retries() {
+        // Points on two skew lines have a quadratic-size Delaunay
+        // tetrahedralization ((n/2 − 1)² tets), far beyond the initial
+        // capacity estimate.
+        let pts: Vec<[f64; 3]> =
+            (0..600).map(|i| if i % 2 == 0 { [i as f64, 0.0, 0.0] } else { [0.0, i as f64, 1.0] }).collect();
+        let order = crate::sort::brio_order(&pts, (0..pts.len() as u32).collect(), 1);
+        let order = crate::initial_tet(&pts, order).unwrap();
+        let mut t = Triangulation::new(order.iter().map(|&i| pts[i as usize]).collect(), order);
+        let before = t.tets.len();
+        t.insert_all();
+        check(&t, true);
+        let (tets, _) = t.finite_tets(None);
+        assert_eq!(tets.len(), 299 * 299);
+        assert!(tets.len() > before, "{} tets fit in the initial {before} slots", tets.len());
     }
 }

@@ -736,9 +736,8 @@ impl<'a> Inserter<'a> {
         for (b, &s) in boundary.iter().zip(conflict.iter()) {
             let i = b.slot as usize;
             let tet = &tets[s as usize];
-            for j in 0..4 {
+            for (j, &(x, y)) in EDGE[i].iter().enumerate() {
                 if j != i {
-                    let (x, y) = EDGE[i][j];
                     tet.set_n(j, edge[b.local[y] as usize * DENSE_MAX + b.local[x] as usize]);
                 }
             }

@@ -299,36 +299,44 @@ impl Triangulation {
     /// hull facets.
     pub(crate) fn finite_tets(&self, removed: Option<&[bool]>) -> (Vec<[u32; 4]>, usize) {
         use rayon::prelude::*;
-        // Chunks keep the output in slot order whatever the thread count.
+        // Two passes over fixed chunks: count, then fill each chunk's exact
+        // share of the output, so the output is in slot order whatever the
+        // thread count and is written (and paged in) once.
         const CHUNK: usize = 1 << 16;
-        let parts: Vec<(Vec<[u32; 4]>, usize)> = self.tets[..self.used]
+        let keep = |s: usize, v: &[u32; 4]| v[0] != DEAD && !is_ghost(v) && !removed.is_some_and(|r| r[s]);
+        let slots = &self.tets[..self.used];
+        let counts: Vec<(usize, usize)> = slots
             .par_chunks(CHUNK)
             .enumerate()
             .map(|(c, chunk)| {
-                let mut out = Vec::with_capacity(chunk.len());
-                let mut ghosts = 0;
+                let (mut kept, mut ghosts) = (0, 0);
                 for (k, tet) in chunk.iter().enumerate() {
                     let v = tet.load().v;
-                    if v[0] == DEAD {
-                        continue;
-                    }
-                    if is_ghost(&v) {
-                        ghosts += 1;
-                    } else if !removed.is_some_and(|r| r[c * CHUNK + k]) {
-                        out.push(v.map(|x| self.orig[x as usize]));
-                    }
+                    kept += keep(c * CHUNK + k, &v) as usize;
+                    ghosts += (v[0] != DEAD && is_ghost(&v)) as usize;
                 }
-                (out, ghosts)
+                (kept, ghosts)
             })
             .collect();
-        let total = parts.iter().map(|p| p.0.len()).sum();
-        let mut out = Vec::with_capacity(total);
-        let mut ghosts = 0;
-        for (p, g) in parts {
-            out.extend_from_slice(&p);
-            ghosts += g;
+        let mut out = vec![[0u32; 4]; counts.iter().map(|c| c.0).sum()];
+        let mut parts = Vec::with_capacity(counts.len());
+        let mut rest = &mut out[..];
+        for &(kept, _) in &counts {
+            let (part, tail) = rest.split_at_mut(kept);
+            parts.push(part);
+            rest = tail;
         }
-        (out, ghosts)
+        parts.into_par_iter().zip(slots.par_chunks(CHUNK)).enumerate().for_each(|(c, (part, chunk))| {
+            let mut k = 0;
+            for (j, tet) in chunk.iter().enumerate() {
+                let v = tet.load().v;
+                if keep(c * CHUNK + j, &v) {
+                    part[k] = v.map(|x| self.orig[x as usize]);
+                    k += 1;
+                }
+            }
+        });
+        (out, counts.iter().map(|c| c.1).sum())
     }
 }
 

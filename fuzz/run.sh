@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert delaunay)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -36,7 +36,9 @@ seed vtk_xml "$data"/vtu/*.vt? "$data"/vtu/*.pvtu
 seed gmsh "$data"/gmsh/*.msh
 seed nrrd "$data"/volume/*.nrrd "$data"/volume/*.nhdr
 seed bundle ../formats/samples/*.tetb
-mkdir -p corpus/plot3d corpus/raw corpus/tetgen corpus/ply corpus/las corpus/csv
+mkdir -p corpus/plot3d corpus/raw corpus/tetgen corpus/ply corpus/las corpus/csv corpus/delaunay
+# Delaunay: mode byte 0 (grid coordinates), a 2×2×2 cube plus its centre.
+printf '\x00\x00\x00\x00\x02\x00\x00\x00\x02\x00\x02\x02\x00\x00\x00\x02\x02\x00\x02\x00\x02\x00\x02\x02\x02\x02\x02\x01\x01\x01' > corpus/delaunay/cube
 head -c 200000 "$data"/points/stars_lum_ci.ply > corpus/ply/stars_head
 head -c 100000 "$data"/points/autzen_trim.las > corpus/las/autzen_head
 printf 'x,y,z,value\n0,0,0,1\n1,0,0,2\n0,1,0,3\n0,0,1,4\n' > corpus/csv/small.csv

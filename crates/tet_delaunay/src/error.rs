@@ -5,6 +5,10 @@ use thiserror::Error;
 pub enum DelaunayError {
     #[error("point {index} has a non-finite coordinate {coords:?}")]
     NonFinite { index: usize, coords: [f64; 3] },
+    #[error(
+        "point {index} has a coordinate beyond ±{limit:e} {coords:?}: the exact predicates' products would overflow"
+    )]
+    CoordinateTooLarge { index: usize, coords: [f64; 3], limit: f64 },
     #[error("{count} points is more than a tetrahedralization with 32-bit tet ids can index")]
     TooManyPoints { count: usize },
     #[error(

@@ -11,6 +11,8 @@
 //! - [`triangulate_cloud`] — a point cloud read from a file (a `SourceMesh`
 //!   without cells) given tet cells by either mode ([`CloudMode`]), ready for
 //!   the ordinary conversion.
+//! - [`check_delaunay`] — the invariant checker tests and fuzzing use: a
+//!   [`DelaunayViolation`] names the first broken invariant.
 //! - [`SplitMix64`] — the small seeded generator the tests, benchmark and
 //!   example use for reproducible random points.
 //!
@@ -50,6 +52,7 @@
 //! ```
 #![forbid(unsafe_code)]
 
+mod check;
 mod cloud;
 mod error;
 mod layers;
@@ -58,6 +61,7 @@ mod predicates;
 mod sort;
 mod triangulation;
 
+pub use check::{check_delaunay, DelaunayViolation};
 pub use cloud::{triangulate_cloud, CloudMode, CloudReport};
 pub use error::DelaunayError;
 pub use layers::{tetrahedralize_layers, Layered};
@@ -74,6 +78,11 @@ const PARALLEL_ROUND_MIN: usize = 50_000;
 /// The most points [`tetrahedralize_points`] accepts (2^29): their tets
 /// must stay indexable by u32.
 pub const MAX_POINTS: usize = 1 << 29;
+
+/// The largest coordinate magnitude [`tetrahedralize_points`] accepts
+/// (2^190 ≈ 1.6e57): the in-sphere determinant is a degree-5 polynomial in
+/// coordinate differences, and its exact evaluation must not overflow.
+pub const MAX_COORDINATE: f64 = 1.5692754338466702e57;
 
 /// Options for [`tetrahedralize_points`].
 #[derive(Debug, Clone, Default)]
@@ -122,7 +131,8 @@ impl Delaunay {
 /// Delaunay tetrahedralization of `points`.
 ///
 /// Identical points are merged first (see [`Delaunay::merged_into`]).
-/// Errors: a non-finite coordinate (naming the first such point), more
+/// Errors: a non-finite coordinate or one beyond [`MAX_COORDINATE`]
+/// (naming the first such point), more
 /// than [`MAX_POINTS`] points, fewer than 4 distinct non-coplanar points, or a
 /// non-positive `max_circumradius`.
 pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Result<Delaunay, DelaunayError> {
@@ -138,6 +148,9 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
     }
     if let Some(index) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
         return Err(DelaunayError::NonFinite { index, coords: points[index] });
+    }
+    if let Some(index) = points.iter().position(|p| p.iter().any(|c| c.abs() > MAX_COORDINATE)) {
+        return Err(DelaunayError::CoordinateTooLarge { index, coords: points[index], limit: MAX_COORDINATE });
     }
     // The duplicate merge and the Hilbert keys are independent: on large
     // inputs they run on two threads.

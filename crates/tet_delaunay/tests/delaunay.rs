@@ -152,6 +152,8 @@ fn hull_area_2d(p: &mut [[f64; 2]]) -> f64 {
 /// distinct point used, duplicates mapped to a used point.
 fn check_all(pts: &[[f64; 3]]) {
     let d = tetrahedralize_points(pts, &DelaunayOptions::default()).expect("tetrahedralize");
+    // The library's own checker must agree with the independent one below.
+    tet_delaunay::check_delaunay(pts, &d, true).expect("check_delaunay");
     let boundary = check_structure(pts, &d.tets);
     assert_eq!(boundary.len(), d.hull_facets);
     check_empty_spheres(pts, &d.tets);
@@ -273,6 +275,16 @@ fn errors_name_the_problem() {
         Err(DelaunayError::NonFinite { index: 4, .. }) => {}
         other => panic!("{other:?}"),
     }
+    pts[4] = [0.0, -1e60, 0.0];
+    match tetrahedralize_points(&pts, &DelaunayOptions::default()) {
+        Err(e @ DelaunayError::CoordinateTooLarge { index: 4, .. }) => assert!(e.to_string().contains("point 4")),
+        other => panic!("{other:?}"),
+    }
+    // Huge but accepted coordinates (a power of two below the limit) stay exact.
+    let s = tet_delaunay::MAX_COORDINATE / 2.0;
+    let big = [[0.0, 0.0, 0.0], [s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s], [s, s, s], [-s, -s, -s]];
+    let d = tetrahedralize_points(&big, &DelaunayOptions::default()).unwrap();
+    tet_delaunay::check_delaunay(&big, &d, true).unwrap();
     let flat = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [2.0, 3.0, 0.0]];
     assert!(matches!(
         tetrahedralize_points(&flat, &DelaunayOptions::default()),

@@ -23,7 +23,7 @@ fn main() {
         Ok(d) => {
             let secs = start.elapsed().as_secs_f64();
             println!(
-                "points {n}  tets {}  tets/point {:.3}  hull facets {}  duplicates {}  walk fallbacks {}  pass-1 deferred {}  time {secs:.3} s",
+                "points {n}  tets {}  tets/point {:.3}  hull facets {}  duplicates {}  walk fallbacks {}  sequential tail {}  time {secs:.3} s",
                 d.tets.len(),
                 d.tets.len() as f64 / n as f64,
                 d.hull_facets,

@@ -114,10 +114,10 @@ pub struct Delaunay {
     /// Point locations that fell back to a scan of all tets (a safety net;
     /// expected 0).
     pub walk_fallbacks: usize,
-    /// Points of the parallel rounds that a worker put off (their walk or
-    /// conflict zone reached another worker's part of space, or rarely a
-    /// walk ran long) and the sequential tail of the round inserted; 0 when
-    /// the input was too small to insert in parallel.
+    /// Points of the parallel rounds that workers put off in both passes
+    /// (their walk or conflict zone reached another worker's part of space,
+    /// or rarely a walk ran long) and the round's sequential tail inserted;
+    /// 0 when the input was too small to insert in parallel.
     pub parallel_deferred: usize,
 }
 
@@ -183,7 +183,7 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
             continue;
         }
         if threads > 1 && (end - start) as usize >= PARALLEL_ROUND_MIN {
-            parallel_deferred += tri.insert_parallel(start, end, &keys, threads).deferred;
+            parallel_deferred += tri.insert_parallel(start, end, &keys, threads).sequential;
         } else {
             tri.insert_range(start, end);
         }

@@ -43,7 +43,9 @@ pub(crate) struct ParallelStats {
     /// Points inserted by workers (either pass).
     pub(crate) inserted: usize,
     /// Points pass 1 put off.
-    pub(crate) deferred: usize,
+    pub(crate) deferred_pass1: usize,
+    /// Points both passes put off, inserted sequentially.
+    pub(crate) sequential: usize,
 }
 
 impl Triangulation {
@@ -62,7 +64,7 @@ impl Triangulation {
         let todo = to.saturating_sub(from) as usize;
         if todo < 2 * threads || threads < 2 {
             self.insert_range(from, to);
-            return ParallelStats { inserted: todo, deferred: 0 };
+            return ParallelStats { inserted: todo, ..ParallelStats::default() };
         }
         // Room for the round: ~6.7 tets per point plus every worker's
         // partly used block, so running out stays rare.
@@ -95,7 +97,7 @@ impl Triangulation {
             deferred
         };
         self.insert_points(&deferred);
-        ParallelStats { inserted: todo - deferred.len(), deferred: pass1 }
+        ParallelStats { inserted: todo - deferred.len(), deferred_pass1: pass1, sequential: deferred.len() }
     }
 
     /// One parallel pass: worker `w` inserts `runs[w]` (in order) touching
@@ -236,7 +238,8 @@ mod tests {
             if (end - start) as usize >= min_round {
                 let s = t.insert_parallel(start, end, &keys, threads);
                 stats.inserted += s.inserted;
-                stats.deferred += s.deferred;
+                stats.deferred_pass1 += s.deferred_pass1;
+                stats.sequential += s.sequential;
             } else {
                 t.insert_range(start, end);
             }
@@ -261,7 +264,8 @@ mod tests {
             let want = canonical(&seq);
             for threads in [2, 3, 5] {
                 let (par, stats) = build(pts, threads, 1000);
-                assert!(stats.inserted > 0 && stats.deferred > 0 && stats.inserted < pts.len(), "{stats:?}");
+                assert!(stats.inserted > 0 && stats.deferred_pass1 > 0 && stats.inserted < pts.len(), "{stats:?}");
+                assert!(stats.sequential < stats.deferred_pass1, "{stats:?}");
                 check(&par, false);
                 assert_eq!(canonical(&par), want, "{threads} threads");
             }

@@ -470,12 +470,12 @@ impl ViewerApp {
     fn status_line(&self, ui: &mut egui::Ui) {
         let text = match &self.latest {
             Some((_, s)) => format!(
-                "{} | {}x{} | frame {:.1} ms | {:.2} M tets/s | drawn {} of {} ({:.1}% culled) | bake {:.1} ms | sort {:.1} ms{} | UI {:.0} ms",
+                "{} | {}x{} | frame {:.1} ms | {} tets/s | drawn {} of {} ({:.1}% culled) | bake {:.1} ms | sort {:.1} ms{} | UI {:.0} ms",
                 s.backend,
                 s.size[0],
                 s.size[1],
                 1e3 * s.frame_seconds,
-                s.tets_per_second() / 1e6,
+                si(s.tets_per_second()),
                 s.tets_drawn,
                 s.tets_total,
                 if s.tets_total > 0 { 100.0 * s.tets_culled as f64 / s.tets_total as f64 } else { 0.0 },
@@ -556,6 +556,19 @@ impl ViewerApp {
             s.requested = true;
             request_screenshot(ctx, s.path.clone(), self.shot_slot.clone());
         }
+    }
+}
+
+/// 1234567 → "1.23 M".
+fn si(v: f64) -> String {
+    if v >= 1e9 {
+        format!("{:.2} G", v / 1e9)
+    } else if v >= 1e6 {
+        format!("{:.2} M", v / 1e6)
+    } else if v >= 1e3 {
+        format!("{:.1} k", v / 1e3)
+    } else {
+        format!("{v:.0}")
     }
 }
 
@@ -689,7 +702,7 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
     painter.text(
         curve.left_top() + Vec2::new(4.0, 2.0),
         egui::Align2::LEFT_TOP,
-        format!("a ≤ {a_max:.3}   s ∈ [{lo:.4}, {hi:.4}]"),
+        format!("opacity to {a_max:.3}, scalar {lo:.4} to {hi:.4}"),
         egui::FontId::proportional(11.0),
         Color32::GRAY,
     );

@@ -344,4 +344,48 @@ mod tests {
         assert!(f.stats.rebaked && !f.stats.recomputed_cull && !f.stats.resorted);
         assert!(f.stats.backend.starts_with("CPU"));
     }
+
+    /// The same staging on the GPU path, and methods it lacks fall back to
+    /// the CPU with the reason in the backend line.
+    #[test]
+    fn gpu_stages_and_fallback() {
+        let bundle = sample_bundle();
+        let mut engine = Engine::new(&bundle, true).unwrap();
+        if !engine.has_gpu() {
+            if std::env::var_os("TETKIT_REQUIRE_GPU").is_some() {
+                panic!("TETKIT_REQUIRE_GPU is set but {}", engine.gpu_note());
+            }
+            println!("skipped: {}", engine.gpu_note());
+            return;
+        }
+        let s = engine.scene().scalar_range();
+        let mut model = TfModel::ramp(s, 0.5);
+        let mut req = request(&engine, &model, Method::Table3d, true);
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.backend.starts_with("GPU"), "{}", f.stats.backend);
+        assert!(f.stats.rebaked && f.stats.resorted && f.stats.recomputed_cull);
+        assert!(f.rgba8.chunks(4).any(|p| p[..3] != [0, 0, 0]), "something visible");
+        let gpu_image = f.image;
+
+        req.view = req.view.orbit(20.0, 5.0, 1.0);
+        let f = engine.render(&req).unwrap();
+        assert!(!f.stats.rebaked && f.stats.resorted && !f.stats.recomputed_cull);
+
+        model.move_opacity(1, s[1], 3.0);
+        req.tf = Arc::new(model.to_tf().unwrap());
+        req.tf_revision = model.revision();
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.rebaked && f.stats.recomputed_cull && !f.stats.resorted);
+
+        req.method = Method::Poly2;
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.backend.contains("not on the GPU"), "{}", f.stats.backend);
+
+        // The first GPU frame agrees with the CPU renderer's (same TF, view, table).
+        let mut cpu = Engine::new(&bundle, false).unwrap();
+        let model0 = TfModel::ramp(s, 0.5);
+        let cpu_image = cpu.render(&request(&cpu, &model0, Method::Table3d, false)).unwrap().image;
+        let d = tet_render::diff(&gpu_image, &cpu_image).unwrap();
+        assert!(d.max_abs < 2.0 / 255.0 && d.mean_abs < 0.5 / 255.0, "{d:?}");
+    }
 }

@@ -63,12 +63,27 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
             let (rep_tx, rep_rx) = channel::<Reply>();
             let ctx = cc.egui_ctx.clone();
             let has_gpu = engine.has_gpu();
-            let gpu_note = engine.gpu_note().to_string();
+            let start_on_gpu = has_gpu && (opts2.prefer_gpu || !engine.gpu_is_software());
+            let gpu_note = if has_gpu && !start_on_gpu {
+                format!("software GPU adapter {} off: tick GPU to use it", engine.gpu_note())
+            } else {
+                engine.gpu_note().to_string()
+            };
             std::thread::Builder::new()
                 .name("tetview-render".into())
                 .spawn(move || worker(engine, req_rx, rep_tx, ctx))
                 .map_err(|e| Box::new(e) as Box<dyn std::error::Error + Send + Sync>)?;
-            Ok(Box::new(ViewerApp::new(opts2, model, home, scalar_range, has_gpu, gpu_note, req_tx, rep_rx, result)))
+            Ok(Box::new(ViewerApp::new(
+                opts2,
+                model,
+                home,
+                scalar_range,
+                (has_gpu, start_on_gpu),
+                gpu_note,
+                req_tx,
+                rep_rx,
+                result,
+            )))
         }),
     )
     .map_err(|e| ViewerError::Window(e.to_string()))?;
@@ -155,6 +170,8 @@ struct ViewerApp {
     last_sent: Option<FrameRequest>,
     latest: Option<(u64, FrameStats)>,
     full_frame: Option<(Vec<u8>, [u32; 2])>,
+    /// Render size when nobody drags.
+    idle_size: [u32; 2],
     texture: Option<TextureHandle>,
     last_scroll: Option<Instant>,
     last_ui: Option<Instant>,
@@ -177,7 +194,7 @@ impl ViewerApp {
         model: TfModel,
         home: ViewSpec,
         scalar_range: [f64; 2],
-        has_gpu: bool,
+        (has_gpu, start_on_gpu): (bool, bool),
         gpu_note: String,
         tx: Sender<(u64, FrameRequest)>,
         rx: Receiver<Reply>,
@@ -204,7 +221,7 @@ impl ViewerApp {
             home,
             method: opts.method,
             table_n_s: 64,
-            prefer_gpu: has_gpu,
+            prefer_gpu: start_on_gpu,
             has_gpu,
             gpu_note,
             scale: 1.0,
@@ -217,6 +234,7 @@ impl ViewerApp {
             last_sent: None,
             latest: None,
             full_frame: None,
+            idle_size: [0, 0],
             texture: None,
             last_scroll: None,
             last_ui: None,
@@ -275,8 +293,9 @@ impl ViewerApp {
         }
     }
 
+    /// Whether a frame has the idle (not reduced-while-dragging) size.
     fn is_full_size(&self, v: &ViewSpec) -> bool {
-        self.last_sent.as_ref().is_some_and(|r| r.view.size == v.size)
+        v.size == self.idle_size
     }
 
     /// Whether the last request's frame is on screen.
@@ -417,9 +436,7 @@ impl ViewerApp {
             ui.text_edit_singleline(&mut self.view_path);
             if ui.button("save view JSON").clicked() {
                 let mut v = self.view.clone();
-                if let Some(r) = &self.last_sent {
-                    v.size = r.view.size;
-                }
+                v.size = self.idle_size;
                 self.status = match std::fs::write(&self.view_path, v.to_json()) {
                     Ok(()) => format!("saved {}", self.view_path),
                     Err(e) => format!("save view {}: {e}", self.view_path),
@@ -632,8 +649,10 @@ impl eframe::App for ViewerApp {
         egui::Panel::bottom("status").show(ui, |ui| self.status_line(ui));
         let (interacting, full) = egui::CentralPanel::default().show(ui, |ui| self.viewport(ui)).inner;
 
-        let scale = if interacting { self.scale * self.drag_scale } else { self.scale };
-        let size = full.map(|v| ((v as f32 * scale).round() as u32).max(16));
+        let interacting = interacting || self.editor.drag.is_some();
+        let scaled = |s: f32| full.map(|v| ((v as f32 * s).round() as u32).max(16));
+        self.idle_size = scaled(self.scale);
+        let size = if interacting { scaled(self.scale * self.drag_scale) } else { self.idle_size };
         match self.request(size) {
             Ok(req) => self.send(req),
             Err(e) => self.status = format!("transfer function: {e}"),

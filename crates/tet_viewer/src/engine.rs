@@ -149,6 +149,11 @@ impl Engine {
     pub fn has_gpu(&self) -> bool {
         self.gpu.is_some()
     }
+    /// Whether the GPU is a software adapter (lavapipe): on such a machine
+    /// tet_render's CPU renderer is much faster, so the window starts on it.
+    pub fn gpu_is_software(&self) -> bool {
+        self.gpu.as_ref().is_some_and(|g| g.ctx.is_software())
+    }
     pub fn scene(&self) -> &Scene {
         self.cpu.scene()
     }
@@ -162,8 +167,10 @@ impl Engine {
         if use_gpu {
             return self.render_gpu(req);
         }
-        let backend = if !req.prefer_gpu || self.gpu.is_none() {
+        let backend = if self.gpu.is_none() {
             format!("CPU ({})", self.gpu_note)
+        } else if !req.prefer_gpu {
+            format!("CPU (GPU {} not selected)", self.gpu_note)
         } else {
             format!("CPU (method {} is not on the GPU)", req.method)
         };

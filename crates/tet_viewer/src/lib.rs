@@ -77,6 +77,10 @@ pub struct ViewerOptions {
     pub view: Option<PathBuf>,
     /// Never open a GPU context (render on the CPU).
     pub cpu_only: bool,
+    /// Start on the GPU even when its adapter is a software one (by
+    /// default the window starts on the GPU only for hardware adapters;
+    /// the GPU checkbox switches either way).
+    pub prefer_gpu: bool,
     /// Window size in points.
     pub window_size: [f32; 2],
     /// Scripted run: render this many full-resolution frames, then save a
@@ -95,6 +99,7 @@ impl ViewerOptions {
             method: Method::PtLinear,
             view: None,
             cpu_only: false,
+            prefer_gpu: false,
             window_size: [1100.0, 720.0],
             frames: None,
             screenshot: None,

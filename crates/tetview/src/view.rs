@@ -26,8 +26,13 @@ pub struct ViewArgs {
     #[arg(long)]
     pub view: Option<PathBuf>,
     /// Render on the CPU even where a GPU adapter exists.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "gpu")]
     pub cpu: bool,
+    /// Start on the GPU even when the adapter is a software one (lavapipe);
+    /// by default the window starts on the GPU only for hardware adapters
+    /// (its GPU checkbox switches either way).
+    #[arg(long)]
+    pub gpu: bool,
     /// Window size WxH in points.
     #[arg(long, default_value = "1100x720", value_parser = parse_size)]
     pub window: [f32; 2],
@@ -46,7 +51,7 @@ pub struct ViewArgs {
 fn parse_size(s: &str) -> Result<[f32; 2], String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 1100x720")?;
     let p = |x: &str| match x.trim().parse::<f32>() {
-        Ok(v) if v >= 64.0 && v <= 16384.0 => Ok(v),
+        Ok(v) if (64.0..=16384.0).contains(&v) => Ok(v),
         Ok(v) => Err(format!("{v}: need 64 to 16384")),
         Err(e) => Err(format!("{x:?}: {e}")),
     };
@@ -60,6 +65,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     opts.method = method;
     opts.view = args.view.clone();
     opts.cpu_only = args.cpu;
+    opts.prefer_gpu = args.gpu;
     opts.window_size = args.window;
     opts.frames = args.frames;
     opts.screenshot = args.screenshot.clone();

@@ -95,7 +95,9 @@ fn view_renders_frames_and_saves_a_window_screenshot() {
         println!("skipped: Xvfb did not start");
         return;
     };
-    // CPU renderer, a baked table, and the default (GPU where an adapter exists).
+    // CPU renderer with a baked table; tet_gpu where an adapter exists (the
+    // engine falls back to the CPU otherwise); the default choice.
     scripted_view(&x, "table3d", &["--cpu"]);
-    scripted_view(&x, "pt-linear", &[]);
+    scripted_view(&x, "pt-linear", &["--gpu"]);
+    scripted_view(&x, "exact", &[]);
 }

@@ -13,8 +13,9 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use tet_analysis::{Axis, Histograms, Scale};
 use tet_bundle::Bundle;
-use tet_preint::{Method, TransferFunction};
+use tet_preint::{Method, Shape, TransferFunction};
 use tet_render::{Display, ToneMap, ViewSpec};
 
 type Reply = (u64, Result<Frame, String>);
@@ -45,6 +46,7 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
     if opts.frames.is_some() != opts.screenshot.is_some() {
         return Err(ViewerError::Input("--frames and --screenshot go together".into()));
     }
+    let histograms = bundle.analysis.as_ref().and_then(|a| a.histograms.clone());
     let script_result: ScriptResult = Arc::new(Mutex::new(None));
     let native = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
@@ -73,7 +75,7 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
                 .name("tetview-render".into())
                 .spawn(move || worker(engine, req_rx, rep_tx, ctx))
                 .map_err(|e| Box::new(e) as Box<dyn std::error::Error + Send + Sync>)?;
-            Ok(Box::new(ViewerApp::new(
+            let mut app = ViewerApp::new(
                 opts2,
                 model,
                 home,
@@ -83,7 +85,9 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
                 req_tx,
                 rep_rx,
                 result,
-            )))
+            );
+            app.histograms = histograms;
+            Ok(Box::new(app))
         }),
     )
     .map_err(|e| ViewerError::Window(e.to_string()))?;
@@ -153,6 +157,9 @@ struct ViewerApp {
     model: TfModel,
     scalar_range: [f64; 2],
     editor: EditorState,
+    widgets: WidgetState,
+    /// The bundle's joint (scalar, |∇s|) histogram, under the 2D widget editor.
+    histograms: Option<Histograms>,
     view: ViewSpec,
     home: ViewSpec,
     method: Method,
@@ -217,6 +224,8 @@ impl ViewerApp {
             model,
             scalar_range,
             editor: EditorState { drag: None, selected_color: None, a_max },
+            widgets: WidgetState::default(),
+            histograms: None,
             view: home.clone(),
             home,
             method: opts.method,
@@ -313,7 +322,11 @@ impl ViewerApp {
     }
 
     fn request(&self, size_px: [u32; 2]) -> Result<FrameRequest, String> {
-        let tf = self.model.to_tf().map_err(|e| e.to_string())?;
+        let mut tf = self.model.to_tf().map_err(|e| e.to_string())?;
+        if !self.method.is_bivariate() {
+            // 1D methods read only the 1D part (and refuse a TF with widgets).
+            tf = tf.without_widgets();
+        }
         let mut view = self.view.clone();
         view.size = size_px;
         Ok(FrameRequest {
@@ -426,6 +439,56 @@ impl ViewerApp {
         });
 
         ui.separator();
+        egui::CollapsingHeader::new(format!("2D widgets ({})", self.model.widgets().len()))
+            .default_open(self.histograms.is_some())
+            .show(ui, |ui| {
+                if !self.method.is_bivariate() {
+                    ui.colored_label(
+                        Color32::LIGHT_YELLOW,
+                        format!("{} ignores widgets: use biv-exact or biv-approx", self.method),
+                    );
+                }
+                match &self.histograms {
+                    Some(h) => widget_editor(ui, &mut self.model, &mut self.widgets, h),
+                    None => {
+                        ui.label("this bundle has no 2D histogram (tetprep convert --gradients --histogram)");
+                    }
+                }
+                ui.label(
+                "drag a widget to move it, shift-drag to resize; click empty space to add a box; right-click removes",
+            );
+                if let Some(i) = self.widgets.selected.filter(|&i| i < self.model.widgets().len()) {
+                    let w = self.model.widgets()[i];
+                    ui.horizontal(|ui| {
+                        let kind = match w.shape {
+                            Shape::Box { .. } => "box",
+                            Shape::Gaussian { .. } => "gaussian",
+                            Shape::Triangle { .. } => "triangle",
+                            Shape::Sine { .. } => "sine",
+                        };
+                        ui.label(format!("widget {i} ({kind})"));
+                        let mut rgb = w.color.map(|v| v.clamp(0.0, 1.0) as f32);
+                        let mut a = w.opacity;
+                        let c = ui.color_edit_button_rgb(&mut rgb).changed();
+                        let o = ui
+                            .add(egui::DragValue::new(&mut a).speed(0.02).range(0.0..=1e6).prefix("opacity "))
+                            .changed();
+                        if c || o {
+                            self.model.style_widget(i, rgb.map(f64::from), a);
+                        }
+                        if matches!(w.shape, Shape::Box { .. } | Shape::Gaussian { .. })
+                            && ui.button("box/gaussian").clicked()
+                        {
+                            self.model.toggle_widget_shape(i);
+                        }
+                        if ui.button("remove").clicked() && self.model.remove_widget(i) {
+                            self.widgets.selected = None;
+                        }
+                    });
+                }
+            });
+
+        ui.separator();
         ui.heading("View");
         ui.horizontal(|ui| {
             if ui.button("reset view (R)").clicked() {
@@ -470,6 +533,7 @@ impl ViewerApp {
         let tf = TransferFunction::from_json(&text).map_err(|e| e.to_string())?;
         self.model.replace(&tf, self.scalar_range).map_err(|e| e.to_string())?;
         self.editor.selected_color = None;
+        self.widgets.selected = None;
         self.editor.a_max = self.model.opacity_nodes().iter().map(|o| o.a).fold(self.editor.a_max, f64::max);
         Ok(())
     }
@@ -649,7 +713,7 @@ impl eframe::App for ViewerApp {
         egui::Panel::bottom("status").show(ui, |ui| self.status_line(ui));
         let (interacting, full) = egui::CentralPanel::default().show(ui, |ui| self.viewport(ui)).inner;
 
-        let interacting = interacting || self.editor.drag.is_some();
+        let interacting = interacting || self.editor.drag.is_some() || self.widgets.drag.is_some();
         let scaled = |s: f32| full.map(|v| ((v as f32 * s).round() as u32).max(16));
         self.idle_size = scaled(self.scale);
         let size = if interacting { scaled(self.scale * self.drag_scale) } else { self.idle_size };
@@ -781,6 +845,161 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
             }
         } else if let Some(i) = near_opacity(model) {
             model.remove_opacity(i);
+        }
+    }
+}
+
+/// Where `v` lies along a histogram axis, 0 at `lo` and 1 at `hi`.
+fn axis_frac(a: &Axis, v: f64) -> f64 {
+    match a.scale {
+        Scale::Linear => (v - a.lo) / (a.hi - a.lo),
+        Scale::Log => (v.max(f64::MIN_POSITIVE) / a.lo).ln() / (a.hi / a.lo).ln(),
+    }
+}
+
+fn axis_value(a: &Axis, f: f64) -> f64 {
+    match a.scale {
+        Scale::Linear => a.lo + f * (a.hi - a.lo),
+        Scale::Log => a.lo * (a.hi / a.lo).powf(f),
+    }
+}
+
+/// The 2D widget editor's UI state.
+#[derive(Default)]
+struct WidgetState {
+    selected: Option<usize>,
+    /// Widget dragged, and whether the drag resizes (shift) rather than moves.
+    drag: Option<(usize, bool)>,
+    texture: Option<TextureHandle>,
+}
+
+/// The joint (scalar, |∇s|) histogram as an image, log-scaled grey, |∇s| up.
+fn histogram_image(h: &Histograms) -> egui::ColorImage {
+    let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
+    let max = h.joint.iter().copied().fold(0.0, f64::max);
+    let mut px = Vec::with_capacity(ns * ng);
+    for row in 0..ng {
+        let g = ng - 1 - row;
+        for s in 0..ns {
+            let v = h.joint.get(g * ns + s).copied().unwrap_or(0.0);
+            let t = if max > 0.0 && v > 0.0 { (1.0 + 1e4 * v / max).ln() / (1.0 + 1e4f64).ln() } else { 0.0 };
+            px.push(Color32::from_gray((40.0 + 215.0 * t) as u8));
+        }
+    }
+    egui::ColorImage { size: [ns, ng], source_size: Vec2::new(ns as f32, ng as f32), pixels: px }
+}
+
+/// Box and Gaussian widgets drawn over the 2D histogram: drag a widget to
+/// move it, shift-drag to resize it, click or drag on empty space to add a
+/// box, right-click removes.
+fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h: &Histograms) {
+    let tex = st
+        .texture
+        .get_or_insert_with(|| ui.ctx().load_texture("histogram2d", histogram_image(h), egui::TextureOptions::NEAREST))
+        .clone();
+    let width = ui.available_width().max(120.0);
+    let (rect, resp) = ui.allocate_exact_size(Vec2::new(width, 180.0), Sense::click_and_drag());
+    let (sa, ga) = (&h.scalar_axis, &h.gradient_axis);
+    let to_px = |s: f64, g: f64| {
+        let fx = axis_frac(sa, s).clamp(-0.05, 1.05) as f32;
+        let fy = axis_frac(ga, g).clamp(-0.05, 1.05) as f32;
+        Pos2::new(rect.min.x + fx * rect.width(), rect.max.y - fy * rect.height())
+    };
+    let from_px = |p: Pos2| {
+        let fx = ((p.x - rect.min.x) / rect.width()) as f64;
+        let fy = ((rect.max.y - p.y) / rect.height()) as f64;
+        [axis_value(sa, fx), axis_value(ga, fy)]
+    };
+    let painter = ui.painter_at(rect);
+    painter.image(tex.id(), rect, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
+    // Displayed rectangle of each movable widget (a Gaussian's: centre ± σ).
+    let shown: Vec<Option<Rect>> = model
+        .widgets()
+        .iter()
+        .map(|w| match w.shape {
+            Shape::Box { center, width } | Shape::Gaussian { center, sigma: width } => {
+                let half = if matches!(w.shape, Shape::Box { .. }) { 0.5 } else { 1.0 };
+                let a = to_px(center[0] - half * width[0], center[1] - half * width[1]);
+                let b = to_px(center[0] + half * width[0], center[1] + half * width[1]);
+                Some(Rect::from_two_pos(a, b))
+            }
+            Shape::Triangle { .. } | Shape::Sine { .. } => None,
+        })
+        .collect();
+    for (i, (w, r)) in model.widgets().iter().zip(&shown).enumerate() {
+        let Some(r) = r else { continue };
+        let c = w.color.map(|v| (tet_render::image::linear_to_srgb(v.clamp(0.0, 1.0) as f32) * 255.0) as u8);
+        let fill = Color32::from_rgba_unmultiplied(c[0], c[1], c[2], 70);
+        let sel = st.selected == Some(i);
+        let stroke = Stroke::new(if sel { 2.5 } else { 1.2 }, if sel { Color32::YELLOW } else { Color32::WHITE });
+        if matches!(w.shape, Shape::Box { .. }) {
+            painter.rect(*r, 0.0, fill, stroke, egui::StrokeKind::Middle);
+        } else {
+            painter.circle(r.center(), 3.0, fill, stroke);
+            painter.rect(*r, r.width().min(r.height()) * 0.5, fill, stroke, egui::StrokeKind::Middle);
+        }
+    }
+    painter.text(
+        rect.left_top() + Vec2::new(4.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("|grad s| {:.3} to {:.3}", ga.lo, ga.hi),
+        egui::FontId::proportional(11.0),
+        Color32::LIGHT_GRAY,
+    );
+
+    let Some(p) = resp.interact_pointer_pos().or(resp.hover_pos()) else { return };
+    let hit = |selected: Option<usize>| {
+        // The selected widget first, then the topmost (last drawn).
+        let inside = |i: usize| shown[i].is_some_and(|r| r.expand(3.0).contains(p));
+        selected.filter(|&i| i < shown.len() && inside(i)).or_else(|| (0..shown.len()).rev().find(|&i| inside(i)))
+    };
+    let default_width = |at: [f64; 2]| {
+        let f = [axis_frac(sa, at[0]), axis_frac(ga, at[1])];
+        [
+            axis_value(sa, f[0] + 0.05) - axis_value(sa, f[0] - 0.05),
+            axis_value(ga, f[1] + 0.05) - axis_value(ga, f[1] - 0.05),
+        ]
+    };
+    if resp.drag_started() {
+        let shift = ui.input(|i| i.modifiers.shift);
+        st.drag = match hit(st.selected) {
+            Some(i) => Some((i, shift)),
+            None => {
+                let at = from_px(p);
+                model.add_box_widget(at, default_width(at), [1.0, 0.6, 0.2], 1.0).map(|i| (i, false))
+            }
+        };
+        st.selected = st.drag.map(|d| d.0);
+    }
+    if resp.dragged() {
+        if let Some((i, resize)) = st.drag {
+            let at = from_px(p);
+            if resize {
+                if let Some(Shape::Box { center, .. } | Shape::Gaussian { center, .. }) =
+                    model.widgets().get(i).map(|w| w.shape)
+                {
+                    let full = matches!(model.widgets()[i].shape, Shape::Box { .. });
+                    let k = if full { 2.0 } else { 1.0 };
+                    model.resize_widget(i, [k * (at[0] - center[0]).abs(), k * (at[1] - center[1]).abs()]);
+                }
+            } else {
+                model.move_widget(i, at);
+            }
+        }
+    }
+    if resp.drag_stopped() {
+        st.drag = None;
+    }
+    if resp.clicked() {
+        st.selected = hit(st.selected).or_else(|| {
+            let at = from_px(p);
+            model.add_box_widget(at, default_width(at), [1.0, 0.6, 0.2], 1.0)
+        });
+    }
+    if resp.secondary_clicked() {
+        if let Some(i) = hit(st.selected) {
+            model.remove_widget(i);
+            st.selected = None;
         }
     }
 }

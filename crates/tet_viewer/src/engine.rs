@@ -187,6 +187,12 @@ impl Engine {
         let start = Instant::now();
         let key = (req.tf_revision, req.method, req.table_n_s);
         let mut bake_seconds = 0.0;
+        if req.method.is_bivariate() && self.cpu.scene().gradients().is_none() {
+            // The 2D methods need per-vertex gradients: computed once, here.
+            let scene = self.cpu.scene().clone().ensure_gradients()?;
+            self.cpu = Renderer::new(scene);
+            self.cpu_key = None;
+        }
         let rebaked = self.cpu_key != Some(key);
         if rebaked {
             let t = Instant::now();

@@ -9,7 +9,7 @@
 //! The model works in data units: a normalized TF is mapped onto the
 //! bundle's scalar range when loaded, and saved denormalized.
 
-use tet_preint::{ColorNode, Emission, OpacityNode, TfError, TransferFunction, Widget};
+use tet_preint::{ColorNode, Emission, OpacityNode, Shape, TfError, TransferFunction, Widget};
 
 /// An editable transfer function over a scalar range (data units).
 #[derive(Debug, Clone, PartialEq)]
@@ -210,6 +210,109 @@ impl TfModel {
         }
     }
 
+    /// The 2D widgets (read by `biv-exact` and `biv-approx` only).
+    pub fn widgets(&self) -> &[Widget] {
+        &self.widgets
+    }
+
+    /// Adds a box widget over (scalar, |∇s|) centred at `center` with
+    /// `width` (non-positive or non-finite widths become a small positive
+    /// one); returns its index, or `None` for a non-finite centre.
+    pub fn add_box_widget(
+        &mut self,
+        center: [f64; 2],
+        width: [f64; 2],
+        color: [f64; 3],
+        opacity: f64,
+    ) -> Option<usize> {
+        if center.iter().any(|c| !c.is_finite()) {
+            return None;
+        }
+        let width = width.map(clean_width);
+        self.widgets.push(Widget {
+            shape: Shape::Box { center, width },
+            color: color.map(|c| clean_nonneg(c, 0.0)),
+            opacity: clean_nonneg(opacity, 0.0),
+            support: tet_preint::widget::box_support(center, width),
+        });
+        self.bump();
+        Some(self.widgets.len() - 1)
+    }
+
+    /// Moves a box or Gaussian widget's centre (band widgets have none).
+    pub fn move_widget(&mut self, i: usize, center: [f64; 2]) {
+        self.reshape_widget(i, Some(center), None);
+    }
+
+    /// Sets a box widget's widths or a Gaussian's standard deviations.
+    pub fn resize_widget(&mut self, i: usize, width: [f64; 2]) {
+        self.reshape_widget(i, None, Some(width.map(clean_width)));
+    }
+
+    fn reshape_widget(&mut self, i: usize, center: Option<[f64; 2]>, width: Option<[f64; 2]>) {
+        let Some(w) = self.widgets.get_mut(i) else { return };
+        if center.is_some_and(|c| c.iter().any(|v| !v.is_finite())) {
+            return;
+        }
+        let old = *w;
+        match &mut w.shape {
+            Shape::Box { center: c, width: wd } => {
+                *c = center.unwrap_or(*c);
+                *wd = width.unwrap_or(*wd);
+                w.support = tet_preint::widget::box_support(*c, *wd);
+            }
+            Shape::Gaussian { center: c, sigma } => {
+                *c = center.unwrap_or(*c);
+                *sigma = width.unwrap_or(*sigma);
+            }
+            Shape::Triangle { .. } | Shape::Sine { .. } => {}
+        }
+        if *w != old {
+            self.bump();
+        }
+    }
+
+    /// Switches a box to the Gaussian with σ = width/2 over the same centre
+    /// (unclipped), and a Gaussian to the box of width 2σ.
+    pub fn toggle_widget_shape(&mut self, i: usize) {
+        let Some(w) = self.widgets.get_mut(i) else { return };
+        match w.shape {
+            Shape::Box { center, width } => {
+                let sigma = width.map(|x| clean_width(0.5 * x));
+                w.shape = Shape::Gaussian { center, sigma };
+                w.support = tet_preint::widget::UNBOUNDED;
+            }
+            Shape::Gaussian { center, sigma } => {
+                let width = sigma.map(|x| clean_width(2.0 * x));
+                w.shape = Shape::Box { center, width };
+                w.support = tet_preint::widget::box_support(center, width);
+            }
+            Shape::Triangle { .. } | Shape::Sine { .. } => return,
+        }
+        self.bump();
+    }
+
+    /// Sets a widget's colour and maximum opacity (clamped to ≥ 0).
+    pub fn style_widget(&mut self, i: usize, color: [f64; 3], opacity: f64) {
+        let Some(w) = self.widgets.get_mut(i) else { return };
+        let color = [0, 1, 2].map(|k| clean_nonneg(color[k], w.color[k]));
+        let opacity = clean_nonneg(opacity, w.opacity);
+        if color != w.color || opacity != w.opacity {
+            w.color = color;
+            w.opacity = opacity;
+            self.bump();
+        }
+    }
+
+    pub fn remove_widget(&mut self, i: usize) -> bool {
+        if i >= self.widgets.len() {
+            return false;
+        }
+        self.widgets.remove(i);
+        self.bump();
+        true
+    }
+
     /// Replaces everything by `tf` (loaded or imported), keeping the range
     /// widened to its nodes; counts as one edit.
     pub fn replace(&mut self, tf: &TransferFunction, scalar_range: [f64; 2]) -> Result<(), TfError> {
@@ -238,6 +341,15 @@ impl TfModel {
     pub fn to_tf(&self) -> Result<TransferFunction, TfError> {
         TransferFunction::new(self.color.clone(), self.opacity.clone(), self.unit_distance, self.emission, false)?
             .with_widgets(self.widgets.clone())
+    }
+}
+
+/// A positive, finite width (tiny for bad input, so a widget stays valid).
+fn clean_width(w: f64) -> f64 {
+    if w.is_finite() && w > 0.0 {
+        w.min(f64::MAX / 4.0)
+    } else {
+        1e-9
     }
 }
 
@@ -325,6 +437,11 @@ mod tests {
         MoveC(usize, f64),
         SetC(usize, [f64; 3]),
         RemoveC(usize),
+        AddW([f64; 2], [f64; 2], f64),
+        MoveW(usize, [f64; 2]),
+        ResizeW(usize, [f64; 2]),
+        ToggleW(usize),
+        RemoveW(usize),
     }
 
     fn edit() -> impl Strategy<Value = Edit> {
@@ -338,11 +455,18 @@ mod tests {
             (0..8usize, x).prop_map(|(i, x)| Edit::MoveC(i, x)),
             (0..8usize, prop::array::uniform3(-1.0..2.0f64)).prop_map(|(i, c)| Edit::SetC(i, c)),
             (0..8usize).prop_map(Edit::RemoveC),
+            (prop::array::uniform2(-1.0..2.0f64), prop::array::uniform2(-0.5..1.0f64), -1.0..3.0f64)
+                .prop_map(|(c, w, a)| Edit::AddW(c, w, a)),
+            (0..4usize, prop::array::uniform2(-1.0..2.0f64)).prop_map(|(i, c)| Edit::MoveW(i, c)),
+            (0..4usize, prop::array::uniform2(-0.5..1.0f64)).prop_map(|(i, w)| Edit::ResizeW(i, w)),
+            (0..4usize).prop_map(Edit::ToggleW),
+            (0..4usize).prop_map(Edit::RemoveW),
         ]
     }
 
     proptest! {
         #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+        /// Every edit keeps the TF valid (JSON round trip included).
         #[test]
         fn any_edit_sequence_keeps_the_tf_valid(edits in prop::collection::vec(edit(), 0..60)) {
             let mut m = TfModel::ramp([0.0, 1.0], 0.5);
@@ -356,8 +480,15 @@ mod tests {
                     Edit::MoveC(i, x) => m.move_color(i, x),
                     Edit::SetC(i, c) => m.set_color(i, c),
                     Edit::RemoveC(i) => { m.remove_color(i); }
+                    Edit::AddW(c, w, a) => { m.add_box_widget(c, w, [1.0, 0.5, 0.0], a); }
+                    Edit::MoveW(i, c) => m.move_widget(i, c),
+                    Edit::ResizeW(i, w) => m.resize_widget(i, w),
+                    Edit::ToggleW(i) => m.toggle_widget_shape(i),
+                    Edit::RemoveW(i) => { m.remove_widget(i); }
                 }
                 valid(&m);
+                let tf = m.to_tf().unwrap();
+                prop_assert_eq!(TransferFunction::from_json(&tf.to_json()).unwrap(), tf);
                 // Node counts change by at most one per edit.
                 let after = m.to_tf().unwrap();
                 prop_assert!(after.opacity_nodes().len().abs_diff(before.opacity_nodes().len()) <= 1);

@@ -791,7 +791,7 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
     );
 
     let Some(p) = resp.interact_pointer_pos().or(resp.hover_pos()) else { return };
-    let near_opacity = |m: &TfModel| {
+    let near_opacity = |m: &TfModel, p: Pos2| {
         m.opacity_nodes()
             .iter()
             .enumerate()
@@ -800,7 +800,7 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|x| x.0)
     };
-    let near_color = |m: &TfModel| {
+    let near_color = |m: &TfModel, p: Pos2| {
         m.color_nodes()
             .iter()
             .enumerate()
@@ -809,12 +809,15 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|x| x.0)
     };
-    let in_bar = p.y >= bar.min.y - 3.0;
+    let in_bar = |p: Pos2| p.y >= bar.min.y - 3.0;
     if resp.drag_started() {
-        st.drag = if in_bar {
-            near_color(model).map(Drag::Color)
+        // Hit-test where the button went down: a drag starts only after the
+        // pointer has moved a few pixels.
+        let o = ui.input(|i| i.pointer.press_origin()).unwrap_or(p);
+        st.drag = if in_bar(o) {
+            near_color(model, o).map(Drag::Color)
         } else {
-            near_opacity(model).or_else(|| model.add_opacity(px_x(p.x), py_a(p.y))).map(Drag::Opacity)
+            near_opacity(model, o).or_else(|| model.add_opacity(px_x(o.x), py_a(o.y))).map(Drag::Opacity)
         };
         if let Some(Drag::Color(i)) = st.drag {
             st.selected_color = Some(i);
@@ -831,19 +834,19 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
         st.drag = None;
     }
     if resp.clicked() {
-        if in_bar {
-            st.selected_color = near_color(model).or_else(|| model.add_color(px_x(p.x)));
-        } else if near_opacity(model).is_none() {
+        if in_bar(p) {
+            st.selected_color = near_color(model, p).or_else(|| model.add_color(px_x(p.x)));
+        } else if near_opacity(model, p).is_none() {
             model.add_opacity(px_x(p.x), py_a(p.y));
         }
     }
     if resp.secondary_clicked() {
-        if in_bar {
-            if let Some(i) = near_color(model) {
+        if in_bar(p) {
+            if let Some(i) = near_color(model, p) {
                 model.remove_color(i);
                 st.selected_color = None;
             }
-        } else if let Some(i) = near_opacity(model) {
+        } else if let Some(i) = near_opacity(model, p) {
             model.remove_opacity(i);
         }
     }
@@ -948,7 +951,7 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
     );
 
     let Some(p) = resp.interact_pointer_pos().or(resp.hover_pos()) else { return };
-    let hit = |selected: Option<usize>| {
+    let hit = |selected: Option<usize>, p: Pos2| {
         // The selected widget first, then the topmost (last drawn).
         let inside = |i: usize| shown[i].is_some_and(|r| r.expand(3.0).contains(p));
         selected.filter(|&i| i < shown.len() && inside(i)).or_else(|| (0..shown.len()).rev().find(|&i| inside(i)))
@@ -962,10 +965,11 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
     };
     if resp.drag_started() {
         let shift = ui.input(|i| i.modifiers.shift);
-        st.drag = match hit(st.selected) {
+        let o = ui.input(|i| i.pointer.press_origin()).unwrap_or(p);
+        st.drag = match hit(st.selected, o) {
             Some(i) => Some((i, shift)),
             None => {
-                let at = from_px(p);
+                let at = from_px(o);
                 model.add_box_widget(at, default_width(at), [1.0, 0.6, 0.2], 1.0).map(|i| (i, false))
             }
         };
@@ -991,13 +995,13 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
         st.drag = None;
     }
     if resp.clicked() {
-        st.selected = hit(st.selected).or_else(|| {
+        st.selected = hit(st.selected, p).or_else(|| {
             let at = from_px(p);
             model.add_box_widget(at, default_width(at), [1.0, 0.6, 0.2], 1.0)
         });
     }
     if resp.secondary_clicked() {
-        if let Some(i) = hit(st.selected) {
+        if let Some(i) = hit(st.selected, p) {
             model.remove_widget(i);
             st.selected = None;
         }

@@ -871,8 +871,9 @@ fn axis_value(a: &Axis, f: f64) -> f64 {
 #[derive(Default)]
 struct WidgetState {
     selected: Option<usize>,
-    /// Widget dragged, and whether the drag resizes (shift) rather than moves.
-    drag: Option<(usize, bool)>,
+    /// Widget dragged, whether the drag resizes (shift) rather than moves,
+    /// and its centre minus the grab point (so a move does not jump).
+    drag: Option<(usize, bool, [f64; 2])>,
     texture: Option<TextureHandle>,
 }
 
@@ -966,17 +967,23 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
     if resp.drag_started() {
         let shift = ui.input(|i| i.modifiers.shift);
         let o = ui.input(|i| i.pointer.press_origin()).unwrap_or(p);
+        let grab = from_px(o);
         st.drag = match hit(st.selected, o) {
-            Some(i) => Some((i, shift)),
-            None => {
-                let at = from_px(o);
-                model.add_box_widget(at, default_width(at), [1.0, 0.6, 0.2], 1.0).map(|i| (i, false))
+            Some(i) => {
+                let offset = match model.widgets()[i].shape {
+                    Shape::Box { center, .. } | Shape::Gaussian { center, .. } => {
+                        [center[0] - grab[0], center[1] - grab[1]]
+                    }
+                    _ => [0.0; 2],
+                };
+                Some((i, shift, offset))
             }
+            None => model.add_box_widget(grab, default_width(grab), [1.0, 0.6, 0.2], 1.0).map(|i| (i, false, [0.0; 2])),
         };
         st.selected = st.drag.map(|d| d.0);
     }
     if resp.dragged() {
-        if let Some((i, resize)) = st.drag {
+        if let Some((i, resize, offset)) = st.drag {
             let at = from_px(p);
             if resize {
                 if let Some(Shape::Box { center, .. } | Shape::Gaussian { center, .. }) =
@@ -987,7 +994,7 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
                     model.resize_widget(i, [k * (at[0] - center[0]).abs(), k * (at[1] - center[1]).abs()]);
                 }
             } else {
-                model.move_widget(i, at);
+                model.move_widget(i, [at[0] + offset[0], at[1] + offset[1]]);
             }
         }
     }

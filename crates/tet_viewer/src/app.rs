@@ -10,7 +10,8 @@ use crate::{ViewerError, ViewerOptions};
 use eframe::egui;
 use egui::{Color32, PointerButton, Pos2, Rect, Sense, Stroke, TextureHandle, Vec2};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{channel, Receiver, Sender};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tet_analysis::{Axis, Histograms, Scale};
@@ -57,7 +58,12 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
     };
     let result = script_result.clone();
     let opts2 = opts.clone();
-    eframe::run_native(
+    // The worker is joined before returning: letting the process exit while
+    // it still owns a Vulkan device (lavapipe) crashed in Mesa's teardown.
+    let quit = Arc::new(AtomicBool::new(false));
+    let worker_handle: Arc<Mutex<Option<std::thread::JoinHandle<()>>>> = Arc::new(Mutex::new(None));
+    let (quit2, handle2) = (quit.clone(), worker_handle.clone());
+    let window = eframe::run_native(
         "tetview",
         native,
         Box::new(move |cc| {
@@ -71,10 +77,11 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
             } else {
                 engine.gpu_note().to_string()
             };
-            std::thread::Builder::new()
+            let handle = std::thread::Builder::new()
                 .name("tetview-render".into())
-                .spawn(move || worker(engine, req_rx, rep_tx, ctx))
+                .spawn(move || worker(engine, req_rx, rep_tx, ctx, quit2))
                 .map_err(|e| Box::new(e) as Box<dyn std::error::Error + Send + Sync>)?;
+            *handle2.lock().unwrap_or_else(|e| e.into_inner()) = Some(handle);
             let mut app = ViewerApp::new(
                 opts2,
                 model,
@@ -90,7 +97,12 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
             Ok(Box::new(app))
         }),
     )
-    .map_err(|e| ViewerError::Window(e.to_string()))?;
+    .map_err(|e| ViewerError::Window(e.to_string()));
+    quit.store(true, Ordering::Relaxed);
+    if let Some(h) = worker_handle.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        let _ = h.join();
+    }
+    window?;
     if opts.frames.is_some() {
         let outcome = script_result.lock().unwrap_or_else(|e| e.into_inner()).take();
         match outcome {
@@ -112,8 +124,22 @@ fn diagonal(lo: [f64; 3], hi: [f64; 3]) -> f64 {
 }
 
 /// Renders the newest request, replies, and wakes the UI.
-fn worker(mut engine: Engine, rx: Receiver<(u64, FrameRequest)>, tx: Sender<Reply>, ctx: egui::Context) {
-    while let Ok(mut msg) = rx.recv() {
+fn worker(
+    mut engine: Engine,
+    rx: Receiver<(u64, FrameRequest)>,
+    tx: Sender<Reply>,
+    ctx: egui::Context,
+    quit: Arc<AtomicBool>,
+) {
+    loop {
+        if quit.load(Ordering::Relaxed) {
+            return;
+        }
+        let mut msg = match rx.recv_timeout(Duration::from_millis(50)) {
+            Ok(m) => m,
+            Err(RecvTimeoutError::Timeout) => continue,
+            Err(RecvTimeoutError::Disconnected) => return,
+        };
         while let Ok(newer) = rx.try_recv() {
             msg = newer;
         }

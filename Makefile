@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build test test-gpu gpu-driver demo golden bench fuzz fuzz-build fmt lint clean
+.PHONY: all build test test-gpu gpu-driver viewer-deps demo golden bench fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -12,8 +12,9 @@ build:
 
 ## The whole test suite (unit, integration, doc tests) on the bundled data. GPU tests run
 ## on whatever Vulkan adapter exists (Mesa's software lavapipe is installed if missing) and
-## skip with a printed reason where none does.
-test: gpu-driver
+## skip with a printed reason where none does. The viewer's window test runs under Xvfb
+## (installed if missing) and skips with a printed reason where it is absent.
+test: gpu-driver viewer-deps
 	$(CARGO) test --workspace --all-targets
 	$(CARGO) test --workspace --doc
 
@@ -33,6 +34,17 @@ ifeq ($(VK_ICDS),)
 		|| echo "note: installing mesa-vulkan-drivers failed; GPU tests will skip"; \
 	else echo "note: no Vulkan driver, and mesa-vulkan-drivers cannot be installed here (needs apt-get and root or sudo); GPU tests will skip"; fi
 endif
+
+## Xvfb (a virtual X server) for the viewer's window test when it is missing; needs apt-get
+## and root or passwordless sudo, otherwise prints a note. OpenGL comes from Mesa (llvmpipe).
+viewer-deps:
+	@if ! command -v Xvfb >/dev/null 2>&1; then \
+		if command -v apt-get >/dev/null 2>&1 && { [ "$$(id -u)" = 0 ] || sudo -n true 2>/dev/null; }; then \
+			SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+			$$SUDO apt-get install -y xvfb libgl1-mesa-dri libegl1 || { $$SUDO apt-get update && $$SUDO apt-get install -y xvfb libgl1-mesa-dri libegl1; } \
+			|| echo "note: installing xvfb failed; the viewer's window test will skip"; \
+		else echo "note: no Xvfb, and it cannot be installed here (needs apt-get and root or sudo); the viewer's window test will skip"; fi; \
+	fi
 
 ## The main job on a bundled real dataset: NASA Blunt Fin (PLOT3D) → bundle with gradients and
 ## histograms → summary, 2D histogram PNG and a VTU for ParaView → table3d tables baked by

@@ -27,6 +27,10 @@ enum Command {
     /// Run time against image error of every method, on real bundles, against
     /// the reference render: markdown table, Pareto PNG, JSON.
     Bench(crate::bench::BenchArgs),
+    /// Open a window: orbit/zoom/pan, transfer-function editor, method and
+    /// resolution selectors, live statistics (CPU, or tet_gpu where an
+    /// adapter exists and the method is on the GPU).
+    View(crate::view::ViewArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -35,6 +39,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reference(args) => crate::reference::run(&args),
         Command::Diff(args) => crate::diff::run(&args),
         Command::Bench(args) => crate::bench::run(&args),
+        Command::View(args) => crate::view::run(&args),
     }
 }
 
@@ -70,6 +75,13 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
         }
         if cause.downcast_ref::<InputError>().is_some() || cause.downcast_ref::<tet_bundle::BundleError>().is_some() {
             return 3;
+        }
+        if let Some(v) = cause.downcast_ref::<tet_viewer::ViewerError>() {
+            match v {
+                tet_viewer::ViewerError::Input(_) | tet_viewer::ViewerError::Method(_) => return 2,
+                tet_viewer::ViewerError::Io { .. } => return 3,
+                _ => {}
+            }
         }
         if let Some(r) = cause.downcast_ref::<tet_render::RenderError>() {
             return match r {

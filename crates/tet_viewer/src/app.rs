@@ -1,0 +1,1042 @@
+//! The window: eframe/egui on glow. The UI thread only edits state and
+//! shows frames; a worker thread owns the [`Engine`] and renders the newest
+//! request (stale ones are dropped), so dragging stays responsive even when
+//! a full-resolution CPU frame takes long.
+
+use crate::engine::{gpu_supports, Engine, Frame, FrameRequest, FrameStats};
+use crate::nav;
+use crate::tf_model::TfModel;
+use crate::{ViewerError, ViewerOptions};
+use eframe::egui;
+use egui::{Color32, PointerButton, Pos2, Rect, Sense, Stroke, TextureHandle, Vec2};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tet_analysis::{Axis, Histograms, Scale};
+use tet_bundle::Bundle;
+use tet_preint::{Method, Shape, TransferFunction};
+use tet_render::{Display, ToneMap, ViewSpec};
+
+type Reply = (u64, Result<Frame, String>);
+
+/// The outcome of a scripted (`frames`) run, filled in by the window.
+type ScriptResult = Arc<Mutex<Option<Result<(), String>>>>;
+
+pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
+    let bundle = Bundle::read(&opts.bundle)?;
+    let engine = Engine::new(&bundle, !opts.cpu_only)?;
+    let scalar_range = engine.scene().scalar_range();
+    let (lo, hi) = engine.scene().bounds();
+    let model = match &opts.tf {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| ViewerError::Io { source: e, path: p.clone() })?;
+            TfModel::new(&TransferFunction::from_json(&text)?, scalar_range)?
+        }
+        // Opacity 1 everywhere: an optical depth of about 2 through the whole mesh.
+        None => TfModel::ramp(scalar_range, 0.5 * diagonal(lo, hi)),
+    };
+    let home = match &opts.view {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| ViewerError::Io { source: e, path: p.clone() })?;
+            ViewSpec::from_json(&text)?
+        }
+        None => ViewSpec::framing(lo, hi, [512, 512]),
+    };
+    if opts.frames.is_some() != opts.screenshot.is_some() {
+        return Err(ViewerError::Input("--frames and --screenshot go together".into()));
+    }
+    let histograms = bundle.analysis.as_ref().and_then(|a| a.histograms.clone());
+    let script_result: ScriptResult = Arc::new(Mutex::new(None));
+    let native = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_inner_size(opts.window_size)
+            .with_title(format!("tetview — {}", opts.bundle.display())),
+        renderer: eframe::Renderer::Glow,
+        ..Default::default()
+    };
+    let result = script_result.clone();
+    let opts2 = opts.clone();
+    // The worker is joined before returning: letting the process exit while
+    // it still owns a Vulkan device (lavapipe) crashed in Mesa's teardown.
+    let quit = Arc::new(AtomicBool::new(false));
+    let worker_handle: Arc<Mutex<Option<std::thread::JoinHandle<()>>>> = Arc::new(Mutex::new(None));
+    let (quit2, handle2) = (quit.clone(), worker_handle.clone());
+    let window = eframe::run_native(
+        "tetview",
+        native,
+        Box::new(move |cc| {
+            let (req_tx, req_rx) = channel::<(u64, FrameRequest)>();
+            let (rep_tx, rep_rx) = channel::<Reply>();
+            let ctx = cc.egui_ctx.clone();
+            let has_gpu = engine.has_gpu();
+            let start_on_gpu = has_gpu && (opts2.prefer_gpu || !engine.gpu_is_software());
+            let gpu_note = if has_gpu && !start_on_gpu {
+                format!("software GPU adapter {} off: tick GPU to use it", engine.gpu_note())
+            } else {
+                engine.gpu_note().to_string()
+            };
+            let handle = std::thread::Builder::new()
+                .name("tetview-render".into())
+                .spawn(move || worker(engine, req_rx, rep_tx, ctx, quit2))
+                .map_err(|e| Box::new(e) as Box<dyn std::error::Error + Send + Sync>)?;
+            *handle2.lock().unwrap_or_else(|e| e.into_inner()) = Some(handle);
+            let mut app = ViewerApp::new(
+                opts2,
+                model,
+                home,
+                scalar_range,
+                (has_gpu, start_on_gpu),
+                gpu_note,
+                req_tx,
+                rep_rx,
+                result,
+            );
+            app.histograms = histograms;
+            Ok(Box::new(app))
+        }),
+    )
+    .map_err(|e| ViewerError::Window(e.to_string()));
+    quit.store(true, Ordering::Relaxed);
+    if let Some(h) = worker_handle.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        let _ = h.join();
+    }
+    window?;
+    if opts.frames.is_some() {
+        let outcome = script_result.lock().unwrap_or_else(|e| e.into_inner()).take();
+        match outcome {
+            Some(Ok(())) => {}
+            Some(Err(e)) => return Err(ViewerError::Scripted(e)),
+            None => return Err(ViewerError::Scripted("the window closed before the screenshot".into())),
+        }
+    }
+    Ok(())
+}
+
+fn diagonal(lo: [f64; 3], hi: [f64; 3]) -> f64 {
+    let d = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+    if d > 0.0 && d.is_finite() {
+        d
+    } else {
+        1.0
+    }
+}
+
+/// Renders the newest request, replies, and wakes the UI.
+fn worker(
+    mut engine: Engine,
+    rx: Receiver<(u64, FrameRequest)>,
+    tx: Sender<Reply>,
+    ctx: egui::Context,
+    quit: Arc<AtomicBool>,
+) {
+    loop {
+        if quit.load(Ordering::Relaxed) {
+            return;
+        }
+        let mut msg = match rx.recv_timeout(Duration::from_millis(50)) {
+            Ok(m) => m,
+            Err(RecvTimeoutError::Timeout) => continue,
+            Err(RecvTimeoutError::Disconnected) => return,
+        };
+        while let Ok(newer) = rx.try_recv() {
+            msg = newer;
+        }
+        let res = engine.render(&msg.1).map_err(|e| e.to_string());
+        if tx.send((msg.0, res)).is_err() {
+            return;
+        }
+        ctx.request_repaint();
+    }
+}
+
+/// Render scale choices (fraction of the window's pixels along each axis).
+const SCALES: [(f32, &str); 4] = [(1.0, "100%"), (0.75, "75%"), (0.5, "50%"), (0.25, "25%")];
+const TABLE_SIZES: [usize; 5] = [16, 32, 64, 128, 256];
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Drag {
+    Opacity(usize),
+    Color(usize),
+}
+
+/// The TF editor's UI state (the TF itself is the [`TfModel`]).
+struct EditorState {
+    drag: Option<Drag>,
+    selected_color: Option<usize>,
+    /// Opacity at the top of the curve area.
+    a_max: f64,
+}
+
+struct Script {
+    frames: usize,
+    done: usize,
+    spin_deg: f64,
+    path: PathBuf,
+    requested: bool,
+    started: Instant,
+    result: ScriptResult,
+}
+
+struct ViewerApp {
+    model: TfModel,
+    scalar_range: [f64; 2],
+    editor: EditorState,
+    widgets: WidgetState,
+    /// The bundle's joint (scalar, |∇s|) histogram, under the 2D widget editor.
+    histograms: Option<Histograms>,
+    view: ViewSpec,
+    home: ViewSpec,
+    method: Method,
+    table_n_s: usize,
+    prefer_gpu: bool,
+    has_gpu: bool,
+    gpu_note: String,
+    scale: f32,
+    drag_scale: f32,
+    exposure: f32,
+    tonemap: bool,
+    tx: Sender<(u64, FrameRequest)>,
+    rx: Receiver<Reply>,
+    seq: u64,
+    last_sent: Option<FrameRequest>,
+    latest: Option<(u64, FrameStats)>,
+    full_frame: Option<(Vec<u8>, [u32; 2])>,
+    /// Render size when nobody drags.
+    idle_size: [u32; 2],
+    texture: Option<TextureHandle>,
+    last_scroll: Option<Instant>,
+    last_ui: Option<Instant>,
+    ui_ms: f64,
+    status: String,
+    tf_path: String,
+    preset_path: String,
+    preset_name: String,
+    view_path: String,
+    image_path: String,
+    shot_path: String,
+    shot_slot: Arc<Mutex<Option<Result<PathBuf, String>>>>,
+    script: Option<Script>,
+}
+
+impl ViewerApp {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        opts: ViewerOptions,
+        model: TfModel,
+        home: ViewSpec,
+        scalar_range: [f64; 2],
+        (has_gpu, start_on_gpu): (bool, bool),
+        gpu_note: String,
+        tx: Sender<(u64, FrameRequest)>,
+        rx: Receiver<Reply>,
+        result: ScriptResult,
+    ) -> ViewerApp {
+        let a_max = model.opacity_nodes().iter().map(|o| o.a).fold(1.0, f64::max);
+        let script = match (opts.frames, &opts.screenshot) {
+            (Some(frames), Some(path)) => Some(Script {
+                frames: frames.max(1),
+                done: 0,
+                spin_deg: opts.spin_deg,
+                path: path.clone(),
+                requested: false,
+                started: Instant::now(),
+                result,
+            }),
+            _ => None,
+        };
+        ViewerApp {
+            model,
+            scalar_range,
+            editor: EditorState { drag: None, selected_color: None, a_max },
+            widgets: WidgetState::default(),
+            histograms: None,
+            view: home.clone(),
+            home,
+            method: opts.method,
+            table_n_s: 64,
+            prefer_gpu: start_on_gpu,
+            has_gpu,
+            gpu_note,
+            scale: 1.0,
+            drag_scale: 0.5,
+            exposure: 1.0,
+            tonemap: true,
+            tx,
+            rx,
+            seq: 0,
+            last_sent: None,
+            latest: None,
+            full_frame: None,
+            idle_size: [0, 0],
+            texture: None,
+            last_scroll: None,
+            last_ui: None,
+            ui_ms: 0.0,
+            status: String::new(),
+            tf_path: opts.tf.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "tf.json".into()),
+            preset_path: String::new(),
+            preset_name: String::new(),
+            view_path: "view.json".into(),
+            image_path: "tetview.png".into(),
+            shot_path: "tetview_window.png".into(),
+            shot_slot: Arc::new(Mutex::new(None)),
+            script,
+        }
+    }
+
+    fn display(&self) -> Display {
+        Display {
+            background: [0.0; 3],
+            tonemap: if self.tonemap {
+                ToneMap::Reinhard { key: 0.18, exposure: self.exposure }
+            } else {
+                ToneMap::None
+            },
+        }
+    }
+
+    /// Takes replies; shows the newest frame.
+    fn receive(&mut self, ctx: &egui::Context) {
+        while let Ok((seq, res)) = self.rx.try_recv() {
+            match res {
+                Ok(frame) => {
+                    let [w, h] = frame.view.size;
+                    let img = egui::ColorImage::from_rgba_unmultiplied([w as usize, h as usize], &frame.rgba8);
+                    match &mut self.texture {
+                        Some(t) => t.set(img, egui::TextureOptions::LINEAR),
+                        None => self.texture = Some(ctx.load_texture("frame", img, egui::TextureOptions::LINEAR)),
+                    }
+                    if seq == self.seq && self.is_full_size(&frame.view) {
+                        self.full_frame = Some((frame.rgba8, frame.view.size));
+                    }
+                    self.latest = Some((seq, frame.stats));
+                    if seq == self.seq && self.status.starts_with("render error") {
+                        self.status.clear();
+                    }
+                }
+                Err(e) => {
+                    self.latest = self.latest.take().map(|(_, s)| (seq, s));
+                    self.status = format!("render error: {e}");
+                    if let Some(s) = &self.script {
+                        *s.result.lock().unwrap_or_else(|e| e.into_inner()) = Some(Err(self.status.clone()));
+                        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether a frame has the idle (not reduced-while-dragging) size.
+    fn is_full_size(&self, v: &ViewSpec) -> bool {
+        v.size == self.idle_size
+    }
+
+    /// Whether the last request's frame is on screen.
+    fn idle(&self) -> bool {
+        self.latest.as_ref().is_some_and(|(s, _)| *s == self.seq)
+    }
+
+    fn send(&mut self, req: FrameRequest) {
+        if self.last_sent.as_ref().is_some_and(|r| r.same_frame(&req)) {
+            return;
+        }
+        self.seq += 1;
+        let _ = self.tx.send((self.seq, req.clone()));
+        self.last_sent = Some(req);
+    }
+
+    fn request(&self, size_px: [u32; 2]) -> Result<FrameRequest, String> {
+        let mut tf = self.model.to_tf().map_err(|e| e.to_string())?;
+        if !self.method.is_bivariate() {
+            // 1D methods read only the 1D part (and refuse a TF with widgets).
+            tf = tf.without_widgets();
+        }
+        let mut view = self.view.clone();
+        view.size = size_px;
+        Ok(FrameRequest {
+            view,
+            tf: Arc::new(tf),
+            tf_revision: self.model.revision(),
+            method: self.method,
+            table_n_s: self.table_n_s,
+            prefer_gpu: self.prefer_gpu,
+            display: self.display(),
+        })
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Render");
+        egui::ComboBox::from_label("method").selected_text(self.method.id()).show_ui(ui, |ui| {
+            for m in Method::ALL {
+                let label = if gpu_supports(m) { format!("{} (GPU)", m.id()) } else { m.id().to_string() };
+                ui.selectable_value(&mut self.method, m, label);
+            }
+        });
+        if matches!(self.method, Method::Table3d | Method::Atlas2d) {
+            egui::ComboBox::from_label("table n_s (n_l = 2 n_s)").selected_text(self.table_n_s.to_string()).show_ui(
+                ui,
+                |ui| {
+                    for n in TABLE_SIZES {
+                        ui.selectable_value(&mut self.table_n_s, n, n.to_string());
+                    }
+                },
+            );
+        }
+        ui.add_enabled_ui(self.has_gpu, |ui| ui.checkbox(&mut self.prefer_gpu, "GPU (pt-linear, table3d)"))
+            .response
+            .on_disabled_hover_text(self.gpu_note.clone());
+        let label = |s: f32| SCALES.iter().find(|x| x.0 == s).map_or("?", |x| x.1);
+        egui::ComboBox::from_label("resolution").selected_text(label(self.scale)).show_ui(ui, |ui| {
+            for (s, l) in SCALES {
+                ui.selectable_value(&mut self.scale, s, l);
+            }
+        });
+        egui::ComboBox::from_label("while dragging").selected_text(label(self.drag_scale)).show_ui(ui, |ui| {
+            for (s, l) in SCALES {
+                ui.selectable_value(&mut self.drag_scale, s, l);
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut self.tonemap, "Reinhard");
+            ui.add_enabled(self.tonemap, egui::Slider::new(&mut self.exposure, 0.1..=10.0).logarithmic(true))
+                .on_hover_text("exposure");
+        });
+
+        ui.separator();
+        ui.heading("Transfer function");
+        tf_editor(ui, &mut self.model, &mut self.editor);
+        ui.horizontal(|ui| {
+            ui.label("opacity scale");
+            ui.add(egui::DragValue::new(&mut self.editor.a_max).speed(0.05).range(0.01..=1e6));
+            let mut u = self.model.unit_distance();
+            ui.label("unit distance");
+            let speed = u * 0.01;
+            if ui.add(egui::DragValue::new(&mut u).speed(speed).range(1e-12..=1e12)).changed() {
+                self.model.set_unit_distance(u);
+            }
+        });
+        if let Some(i) = self.editor.selected_color.filter(|&i| i < self.model.color_nodes().len()) {
+            let node = self.model.color_nodes()[i];
+            ui.horizontal(|ui| {
+                ui.label(format!("colour node {i} at {:.4}", node.x));
+                let mut rgb = node.rgb.map(|v| v.clamp(0.0, 1.0) as f32);
+                if ui.color_edit_button_rgb(&mut rgb).changed() {
+                    self.model.set_color(i, rgb.map(f64::from));
+                }
+                if ui.button("remove").clicked() && self.model.remove_color(i) {
+                    self.editor.selected_color = None;
+                }
+            });
+        }
+        ui.label("drag points; click the curve to add one, the colour bar to add a colour; right-click removes");
+        ui.horizontal(|ui| {
+            ui.text_edit_singleline(&mut self.tf_path);
+        });
+        ui.horizontal(|ui| {
+            if ui.button("load TF").clicked() {
+                self.status = match self.load_tf(Path::new(&self.tf_path.clone())) {
+                    Ok(()) => format!("loaded {}", self.tf_path),
+                    Err(e) => format!("load TF: {e}"),
+                };
+            }
+            if ui.button("save TF").clicked() {
+                self.status = match self.model.to_tf().map(|tf| std::fs::write(&self.tf_path, tf.to_json())) {
+                    Ok(Ok(())) => format!("saved {}", self.tf_path),
+                    Ok(Err(e)) => format!("save TF {}: {e}", self.tf_path),
+                    Err(e) => format!("save TF: {e}"),
+                };
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("ParaView preset");
+            ui.text_edit_singleline(&mut self.preset_path);
+        });
+        ui.horizontal(|ui| {
+            ui.label("name (optional)");
+            ui.text_edit_singleline(&mut self.preset_name);
+            if ui.button("import").clicked() {
+                self.status = match self.import_preset() {
+                    Ok(()) => format!("imported {}", self.preset_path),
+                    Err(e) => format!("import preset: {e}"),
+                };
+            }
+        });
+
+        ui.separator();
+        egui::CollapsingHeader::new(format!("2D widgets ({})", self.model.widgets().len()))
+            .default_open(self.histograms.is_some())
+            .show(ui, |ui| {
+                if !self.method.is_bivariate() {
+                    ui.colored_label(
+                        Color32::LIGHT_YELLOW,
+                        format!("{} ignores widgets: use biv-exact or biv-approx", self.method),
+                    );
+                }
+                match &self.histograms {
+                    Some(h) => widget_editor(ui, &mut self.model, &mut self.widgets, h),
+                    None => {
+                        ui.label("this bundle has no 2D histogram (tetprep convert --gradients --histogram)");
+                    }
+                }
+                ui.label(
+                "drag a widget to move it, shift-drag to resize; click empty space to add a box; right-click removes",
+            );
+                if let Some(i) = self.widgets.selected.filter(|&i| i < self.model.widgets().len()) {
+                    let w = self.model.widgets()[i];
+                    ui.horizontal(|ui| {
+                        let kind = match w.shape {
+                            Shape::Box { .. } => "box",
+                            Shape::Gaussian { .. } => "gaussian",
+                            Shape::Triangle { .. } => "triangle",
+                            Shape::Sine { .. } => "sine",
+                        };
+                        ui.label(format!("widget {i} ({kind})"));
+                        let mut rgb = w.color.map(|v| v.clamp(0.0, 1.0) as f32);
+                        let mut a = w.opacity;
+                        let c = ui.color_edit_button_rgb(&mut rgb).changed();
+                        let o = ui
+                            .add(egui::DragValue::new(&mut a).speed(0.02).range(0.0..=1e6).prefix("opacity "))
+                            .changed();
+                        if c || o {
+                            self.model.style_widget(i, rgb.map(f64::from), a);
+                        }
+                        if matches!(w.shape, Shape::Box { .. } | Shape::Gaussian { .. })
+                            && ui.button("box/gaussian").clicked()
+                        {
+                            self.model.toggle_widget_shape(i);
+                        }
+                        if ui.button("remove").clicked() && self.model.remove_widget(i) {
+                            self.widgets.selected = None;
+                        }
+                    });
+                }
+            });
+
+        ui.separator();
+        ui.heading("View");
+        ui.horizontal(|ui| {
+            if ui.button("reset view (R)").clicked() {
+                self.view = self.home.clone();
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.text_edit_singleline(&mut self.view_path);
+            if ui.button("save view JSON").clicked() {
+                let mut v = self.view.clone();
+                v.size = self.idle_size;
+                self.status = match std::fs::write(&self.view_path, v.to_json()) {
+                    Ok(()) => format!("saved {}", self.view_path),
+                    Err(e) => format!("save view {}: {e}", self.view_path),
+                };
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.text_edit_singleline(&mut self.image_path);
+            if ui.button("save image PNG").clicked() {
+                self.status = match &self.full_frame {
+                    Some((rgba, [w, h])) => {
+                        match tet_render::image::write_png_rgba8(Path::new(&self.image_path), *w, *h, rgba) {
+                            Ok(()) => format!("saved {} ({w}x{h})", self.image_path),
+                            Err(e) => format!("save image: {e}"),
+                        }
+                    }
+                    None => "no full-resolution frame yet".into(),
+                };
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.text_edit_singleline(&mut self.shot_path);
+            if ui.button("window screenshot").clicked() {
+                request_screenshot(ui.ctx(), PathBuf::from(&self.shot_path), self.shot_slot.clone());
+            }
+        });
+    }
+
+    fn load_tf(&mut self, path: &Path) -> Result<(), String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let tf = TransferFunction::from_json(&text).map_err(|e| e.to_string())?;
+        self.model.replace(&tf, self.scalar_range).map_err(|e| e.to_string())?;
+        self.editor.selected_color = None;
+        self.widgets.selected = None;
+        self.editor.a_max = self.model.opacity_nodes().iter().map(|o| o.a).fold(self.editor.a_max, f64::max);
+        Ok(())
+    }
+
+    fn import_preset(&mut self) -> Result<(), String> {
+        let text = std::fs::read_to_string(&self.preset_path).map_err(|e| format!("{}: {e}", self.preset_path))?;
+        let name = Some(self.preset_name.trim()).filter(|n| !n.is_empty());
+        let tf =
+            TransferFunction::from_paraview_json(&text, name, self.model.unit_distance()).map_err(|e| e.to_string())?;
+        self.model.replace(&tf, self.scalar_range).map_err(|e| e.to_string())?;
+        self.editor.selected_color = None;
+        Ok(())
+    }
+
+    fn status_line(&self, ui: &mut egui::Ui) {
+        let text = match &self.latest {
+            Some((_, s)) => format!(
+                "{} | {}x{} | frame {:.1} ms | {} tets/s | drawn {} of {} ({:.1}% culled) | bake {:.1} ms | sort {:.1} ms{} | UI {:.0} ms",
+                s.backend,
+                s.size[0],
+                s.size[1],
+                1e3 * s.frame_seconds,
+                si(s.tets_per_second()),
+                s.tets_drawn,
+                s.tets_total,
+                if s.tets_total > 0 { 100.0 * s.tets_culled as f64 / s.tets_total as f64 } else { 0.0 },
+                1e3 * s.last_bake_seconds,
+                1e3 * s.sort_seconds,
+                redone(s),
+                self.ui_ms,
+            ),
+            None => format!("rendering… ({})", self.gpu_note),
+        };
+        ui.label(text);
+        if !self.status.is_empty() {
+            ui.colored_label(Color32::LIGHT_YELLOW, &self.status);
+        }
+    }
+
+    /// The image with mouse navigation; returns whether the user is interacting.
+    fn viewport(&mut self, ui: &mut egui::Ui) -> (bool, [u32; 2]) {
+        let rect = ui.available_rect_before_wrap();
+        let resp = ui.allocate_rect(rect, Sense::click_and_drag());
+        let ppp = ui.ctx().pixels_per_point();
+        let full = [(rect.width() * ppp).round().max(16.0) as u32, (rect.height() * ppp).round().max(16.0) as u32];
+        if let Some(tex) = &self.texture {
+            let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
+            ui.painter().rect_filled(rect, 0.0, Color32::BLACK);
+            ui.painter().image(tex.id(), rect, uv, Color32::WHITE);
+        }
+        let delta = resp.drag_delta();
+        let shift = ui.input(|i| i.modifiers.shift);
+        if delta != Vec2::ZERO {
+            let (dx, dy) = (delta.x as f64, delta.y as f64);
+            if resp.dragged_by(PointerButton::Primary) && !shift {
+                self.view = nav::orbit(&self.view, dx, dy);
+            } else if resp.dragged_by(PointerButton::Secondary)
+                || resp.dragged_by(PointerButton::Middle)
+                || resp.dragged_by(PointerButton::Primary)
+            {
+                self.view = nav::pan(&self.view, dx, dy, rect.height() as f64);
+            }
+        }
+        if resp.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y) as f64;
+            if scroll != 0.0 {
+                self.view = nav::dolly(&self.view, (scroll * 0.003).exp());
+                self.last_scroll = Some(Instant::now());
+            }
+        }
+        if resp.double_clicked() {
+            self.view = self.home.clone();
+        }
+        let scrolling = self.last_scroll.is_some_and(|t| t.elapsed() < Duration::from_millis(250));
+        if scrolling {
+            ui.ctx().request_repaint_after(Duration::from_millis(260));
+        }
+        (resp.dragged() || scrolling, full)
+    }
+
+    fn run_script(&mut self, ctx: &egui::Context) {
+        let idle = self.idle();
+        let Some(s) = &mut self.script else { return };
+        if s.started.elapsed() > Duration::from_secs(300) {
+            *s.result.lock().unwrap_or_else(|e| e.into_inner()) = Some(Err("timed out after 300 s".into()));
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
+        if let Some(res) = self.shot_slot.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            *s.result.lock().unwrap_or_else(|e| e.into_inner()) = Some(res.map(|_| ()));
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
+        if !idle || s.requested {
+            return;
+        }
+        s.done += 1;
+        if s.done < s.frames {
+            self.view = nav::orbit(&self.view, -s.spin_deg / nav::ORBIT_DEG_PER_PX, 0.0);
+        } else {
+            s.requested = true;
+            request_screenshot(ctx, s.path.clone(), self.shot_slot.clone());
+        }
+    }
+}
+
+/// 1234567 → "1.23 M".
+fn si(v: f64) -> String {
+    if v >= 1e9 {
+        format!("{:.2} G", v / 1e9)
+    } else if v >= 1e6 {
+        format!("{:.2} M", v / 1e6)
+    } else if v >= 1e3 {
+        format!("{:.1} k", v / 1e3)
+    } else {
+        format!("{v:.0}")
+    }
+}
+
+fn redone(s: &FrameStats) -> String {
+    let mut v = Vec::new();
+    if s.rebaked {
+        v.push("baked");
+    }
+    if s.recomputed_cull {
+        v.push("culled");
+    }
+    if s.resorted {
+        v.push("sorted");
+    }
+    if v.is_empty() {
+        String::new()
+    } else {
+        format!(" | redid: {}", v.join(", "))
+    }
+}
+
+/// Asks for the window's pixels; the callback writes them as PNG and
+/// reports into `slot`.
+fn request_screenshot(ctx: &egui::Context, path: PathBuf, slot: Arc<Mutex<Option<Result<PathBuf, String>>>>) {
+    let wake = ctx.clone();
+    ctx.request_screenshot(move |image| {
+        let [w, h] = image.size;
+        let rgba: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
+        let res = tet_render::image::write_png_rgba8(&path, w as u32, h as u32, &rgba)
+            .map(|()| path.clone())
+            .map_err(|e| format!("screenshot {}: {e}", path.display()));
+        *slot.lock().unwrap_or_else(|e| e.into_inner()) = Some(res);
+        wake.request_repaint();
+    });
+}
+
+impl eframe::App for ViewerApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        let now = Instant::now();
+        if let Some(t) = self.last_ui {
+            self.ui_ms = 0.9 * self.ui_ms + 0.1 * 1e3 * (now - t).as_secs_f64();
+        }
+        self.last_ui = Some(now);
+        self.receive(&ctx);
+        if self.script.is_none() {
+            if let Some(res) = self.shot_slot.lock().unwrap_or_else(|e| e.into_inner()).take() {
+                self.status = match res {
+                    Ok(p) => format!("saved {}", p.display()),
+                    Err(e) => e,
+                };
+            }
+        }
+        if !ctx.egui_wants_keyboard_input() && ctx.input(|i| i.key_pressed(egui::Key::R)) {
+            self.view = self.home.clone();
+        }
+
+        egui::Panel::left("controls").resizable(true).default_size(300.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui));
+        });
+        egui::Panel::bottom("status").show(ui, |ui| self.status_line(ui));
+        let (interacting, full) = egui::CentralPanel::default().show(ui, |ui| self.viewport(ui)).inner;
+
+        let interacting = interacting || self.editor.drag.is_some() || self.widgets.drag.is_some();
+        let scaled = |s: f32| full.map(|v| ((v as f32 * s).round() as u32).max(16));
+        self.idle_size = scaled(self.scale);
+        let size = if interacting { scaled(self.scale * self.drag_scale) } else { self.idle_size };
+        match self.request(size) {
+            Ok(req) => self.send(req),
+            Err(e) => self.status = format!("transfer function: {e}"),
+        }
+        self.run_script(&ctx);
+    }
+}
+
+/// Draws and edits the 1D TF: the opacity curve (drag points; click adds,
+/// right-click removes) over a colour bar with its nodes (click adds or
+/// selects, drag moves, right-click removes).
+fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
+    let width = ui.available_width().max(120.0);
+    let (rect, resp) = ui.allocate_exact_size(Vec2::new(width, 170.0), Sense::click_and_drag());
+    let curve = Rect::from_min_max(rect.min, Pos2::new(rect.max.x, rect.max.y - 26.0));
+    let bar = Rect::from_min_max(Pos2::new(rect.min.x, rect.max.y - 20.0), rect.max);
+    let [lo, hi] = model.range();
+    let a_max = st.a_max.max(1e-9);
+    let x_px = |x: f64| curve.min.x + ((x - lo) / (hi - lo)) as f32 * curve.width();
+    let px_x = |p: f32| lo + ((p - curve.min.x) / curve.width()) as f64 * (hi - lo);
+    let a_py = |a: f64| curve.max.y - (a / a_max).min(1.05) as f32 * curve.height();
+    let py_a = |p: f32| ((curve.max.y - p) / curve.height()) as f64 * a_max;
+    let srgb = |rgb: [f64; 3]| {
+        let c = rgb.map(|v| (tet_render::image::linear_to_srgb(v.clamp(0.0, 1.0) as f32) * 255.0).round() as u8);
+        Color32::from_rgb(c[0], c[1], c[2])
+    };
+
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(curve, 2.0, Color32::from_gray(30));
+    let columns = 96;
+    for k in 0..columns {
+        let x0 = bar.min.x + bar.width() * k as f32 / columns as f32;
+        let x1 = bar.min.x + bar.width() * (k + 1) as f32 / columns as f32;
+        let x = px_x(0.5 * (x0 + x1));
+        painter.rect_filled(
+            Rect::from_min_max(Pos2::new(x0, bar.min.y), Pos2::new(x1, bar.max.y)),
+            0.0,
+            srgb(model.color_at(x)),
+        );
+    }
+    let nodes = model.opacity_nodes();
+    let mut line = vec![Pos2::new(curve.min.x, a_py(nodes[0].a))];
+    line.extend(nodes.iter().map(|o| Pos2::new(x_px(o.x), a_py(o.a))));
+    line.push(Pos2::new(curve.max.x, a_py(nodes[nodes.len() - 1].a)));
+    painter.add(egui::Shape::line(line, Stroke::new(1.5, Color32::WHITE)));
+    for (i, o) in nodes.iter().enumerate() {
+        let hot = st.drag == Some(Drag::Opacity(i));
+        painter.circle(
+            Pos2::new(x_px(o.x), a_py(o.a)),
+            if hot { 6.0 } else { 4.5 },
+            srgb(model.color_at(o.x)),
+            Stroke::new(1.5, Color32::WHITE),
+        );
+    }
+    for (i, c) in model.color_nodes().iter().enumerate() {
+        let sel = st.selected_color == Some(i);
+        let centre = Pos2::new(x_px(c.x), bar.center().y);
+        painter.rect(
+            Rect::from_center_size(centre, Vec2::new(8.0, 16.0)),
+            1.0,
+            srgb(c.rgb),
+            Stroke::new(if sel { 2.5 } else { 1.0 }, if sel { Color32::YELLOW } else { Color32::WHITE }),
+            egui::StrokeKind::Outside,
+        );
+    }
+    painter.text(
+        curve.left_top() + Vec2::new(4.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("opacity to {a_max:.3}, scalar {lo:.4} to {hi:.4}"),
+        egui::FontId::proportional(11.0),
+        Color32::GRAY,
+    );
+
+    let Some(p) = resp.interact_pointer_pos().or(resp.hover_pos()) else { return };
+    let near_opacity = |m: &TfModel, p: Pos2| {
+        m.opacity_nodes()
+            .iter()
+            .enumerate()
+            .map(|(i, o)| (i, Pos2::new(x_px(o.x), a_py(o.a)).distance(p)))
+            .filter(|(_, d)| *d < 9.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|x| x.0)
+    };
+    let near_color = |m: &TfModel, p: Pos2| {
+        m.color_nodes()
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (i, (x_px(c.x) - p.x).abs()))
+            .filter(|(_, d)| *d < 7.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|x| x.0)
+    };
+    let in_bar = |p: Pos2| p.y >= bar.min.y - 3.0;
+    if resp.drag_started() {
+        // Hit-test where the button went down: a drag starts only after the
+        // pointer has moved a few pixels.
+        let o = ui.input(|i| i.pointer.press_origin()).unwrap_or(p);
+        st.drag = if in_bar(o) {
+            near_color(model, o).map(Drag::Color)
+        } else {
+            near_opacity(model, o).or_else(|| model.add_opacity(px_x(o.x), py_a(o.y))).map(Drag::Opacity)
+        };
+        if let Some(Drag::Color(i)) = st.drag {
+            st.selected_color = Some(i);
+        }
+    }
+    if resp.dragged() {
+        match st.drag {
+            Some(Drag::Opacity(i)) => model.move_opacity(i, px_x(p.x), py_a(p.y).min(a_max)),
+            Some(Drag::Color(i)) => model.move_color(i, px_x(p.x)),
+            None => {}
+        }
+    }
+    if resp.drag_stopped() {
+        st.drag = None;
+    }
+    if resp.clicked() {
+        if in_bar(p) {
+            st.selected_color = near_color(model, p).or_else(|| model.add_color(px_x(p.x)));
+        } else if near_opacity(model, p).is_none() {
+            model.add_opacity(px_x(p.x), py_a(p.y));
+        }
+    }
+    if resp.secondary_clicked() {
+        if in_bar(p) {
+            if let Some(i) = near_color(model, p) {
+                model.remove_color(i);
+                st.selected_color = None;
+            }
+        } else if let Some(i) = near_opacity(model, p) {
+            model.remove_opacity(i);
+        }
+    }
+}
+
+/// Where `v` lies along a histogram axis, 0 at `lo` and 1 at `hi`.
+fn axis_frac(a: &Axis, v: f64) -> f64 {
+    match a.scale {
+        Scale::Linear => (v - a.lo) / (a.hi - a.lo),
+        Scale::Log => (v.max(f64::MIN_POSITIVE) / a.lo).ln() / (a.hi / a.lo).ln(),
+    }
+}
+
+fn axis_value(a: &Axis, f: f64) -> f64 {
+    match a.scale {
+        Scale::Linear => a.lo + f * (a.hi - a.lo),
+        Scale::Log => a.lo * (a.hi / a.lo).powf(f),
+    }
+}
+
+/// The 2D widget editor's UI state.
+#[derive(Default)]
+struct WidgetState {
+    selected: Option<usize>,
+    /// Widget dragged, whether the drag resizes (shift) rather than moves,
+    /// and its centre minus the grab point (so a move does not jump).
+    drag: Option<(usize, bool, [f64; 2])>,
+    texture: Option<TextureHandle>,
+}
+
+/// The joint (scalar, |∇s|) histogram as an image, log-scaled grey, |∇s| up.
+fn histogram_image(h: &Histograms) -> egui::ColorImage {
+    let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
+    let max = h.joint.iter().copied().fold(0.0, f64::max);
+    let mut px = Vec::with_capacity(ns * ng);
+    for row in 0..ng {
+        let g = ng - 1 - row;
+        for s in 0..ns {
+            let v = h.joint.get(g * ns + s).copied().unwrap_or(0.0);
+            let t = if max > 0.0 && v > 0.0 { (1.0 + 1e4 * v / max).ln() / (1.0 + 1e4f64).ln() } else { 0.0 };
+            px.push(Color32::from_gray((40.0 + 215.0 * t) as u8));
+        }
+    }
+    egui::ColorImage { size: [ns, ng], source_size: Vec2::new(ns as f32, ng as f32), pixels: px }
+}
+
+/// Box and Gaussian widgets drawn over the 2D histogram: drag a widget to
+/// move it, shift-drag to resize it, click or drag on empty space to add a
+/// box, right-click removes.
+fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h: &Histograms) {
+    let tex = st
+        .texture
+        .get_or_insert_with(|| ui.ctx().load_texture("histogram2d", histogram_image(h), egui::TextureOptions::NEAREST))
+        .clone();
+    let width = ui.available_width().max(120.0);
+    let (rect, resp) = ui.allocate_exact_size(Vec2::new(width, 180.0), Sense::click_and_drag());
+    let (sa, ga) = (&h.scalar_axis, &h.gradient_axis);
+    let to_px = |s: f64, g: f64| {
+        let fx = axis_frac(sa, s).clamp(-0.05, 1.05) as f32;
+        let fy = axis_frac(ga, g).clamp(-0.05, 1.05) as f32;
+        Pos2::new(rect.min.x + fx * rect.width(), rect.max.y - fy * rect.height())
+    };
+    let from_px = |p: Pos2| {
+        let fx = ((p.x - rect.min.x) / rect.width()) as f64;
+        let fy = ((rect.max.y - p.y) / rect.height()) as f64;
+        [axis_value(sa, fx), axis_value(ga, fy)]
+    };
+    let painter = ui.painter_at(rect);
+    painter.image(tex.id(), rect, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
+    // Displayed rectangle of each movable widget (a Gaussian's: centre ± σ).
+    let shown: Vec<Option<Rect>> = model
+        .widgets()
+        .iter()
+        .map(|w| match w.shape {
+            Shape::Box { center, width } | Shape::Gaussian { center, sigma: width } => {
+                let half = if matches!(w.shape, Shape::Box { .. }) { 0.5 } else { 1.0 };
+                let a = to_px(center[0] - half * width[0], center[1] - half * width[1]);
+                let b = to_px(center[0] + half * width[0], center[1] + half * width[1]);
+                Some(Rect::from_two_pos(a, b))
+            }
+            Shape::Triangle { .. } | Shape::Sine { .. } => None,
+        })
+        .collect();
+    for (i, (w, r)) in model.widgets().iter().zip(&shown).enumerate() {
+        let Some(r) = r else { continue };
+        let c = w.color.map(|v| (tet_render::image::linear_to_srgb(v.clamp(0.0, 1.0) as f32) * 255.0) as u8);
+        let fill = Color32::from_rgba_unmultiplied(c[0], c[1], c[2], 70);
+        let sel = st.selected == Some(i);
+        let stroke = Stroke::new(if sel { 2.5 } else { 1.2 }, if sel { Color32::YELLOW } else { Color32::WHITE });
+        if matches!(w.shape, Shape::Box { .. }) {
+            painter.rect(*r, 0.0, fill, stroke, egui::StrokeKind::Middle);
+        } else {
+            painter.circle(r.center(), 3.0, fill, stroke);
+            painter.rect(*r, r.width().min(r.height()) * 0.5, fill, stroke, egui::StrokeKind::Middle);
+        }
+    }
+    painter.text(
+        rect.left_top() + Vec2::new(4.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("|grad s| {:.3} to {:.3}", ga.lo, ga.hi),
+        egui::FontId::proportional(11.0),
+        Color32::LIGHT_GRAY,
+    );
+
+    let Some(p) = resp.interact_pointer_pos().or(resp.hover_pos()) else { return };
+    let hit = |selected: Option<usize>, p: Pos2| {
+        // The selected widget first, then the topmost (last drawn).
+        let inside = |i: usize| shown[i].is_some_and(|r| r.expand(3.0).contains(p));
+        selected.filter(|&i| i < shown.len() && inside(i)).or_else(|| (0..shown.len()).rev().find(|&i| inside(i)))
+    };
+    let default_width = |at: [f64; 2]| {
+        let f = [axis_frac(sa, at[0]), axis_frac(ga, at[1])];
+        [
+            axis_value(sa, f[0] + 0.05) - axis_value(sa, f[0] - 0.05),
+            axis_value(ga, f[1] + 0.05) - axis_value(ga, f[1] - 0.05),
+        ]
+    };
+    if resp.drag_started() {
+        let shift = ui.input(|i| i.modifiers.shift);
+        let o = ui.input(|i| i.pointer.press_origin()).unwrap_or(p);
+        let grab = from_px(o);
+        st.drag = match hit(st.selected, o) {
+            Some(i) => {
+                let offset = match model.widgets()[i].shape {
+                    Shape::Box { center, .. } | Shape::Gaussian { center, .. } => {
+                        [center[0] - grab[0], center[1] - grab[1]]
+                    }
+                    _ => [0.0; 2],
+                };
+                Some((i, shift, offset))
+            }
+            None => model.add_box_widget(grab, default_width(grab), [1.0, 0.6, 0.2], 1.0).map(|i| (i, false, [0.0; 2])),
+        };
+        st.selected = st.drag.map(|d| d.0);
+    }
+    if resp.dragged() {
+        if let Some((i, resize, offset)) = st.drag {
+            let at = from_px(p);
+            if resize {
+                if let Some(Shape::Box { center, .. } | Shape::Gaussian { center, .. }) =
+                    model.widgets().get(i).map(|w| w.shape)
+                {
+                    let full = matches!(model.widgets()[i].shape, Shape::Box { .. });
+                    let k = if full { 2.0 } else { 1.0 };
+                    model.resize_widget(i, [k * (at[0] - center[0]).abs(), k * (at[1] - center[1]).abs()]);
+                }
+            } else {
+                model.move_widget(i, [at[0] + offset[0], at[1] + offset[1]]);
+            }
+        }
+    }
+    if resp.drag_stopped() {
+        st.drag = None;
+    }
+    if resp.clicked() {
+        st.selected = hit(st.selected, p).or_else(|| {
+            let at = from_px(p);
+            model.add_box_widget(at, default_width(at), [1.0, 0.6, 0.2], 1.0)
+        });
+    }
+    if resp.secondary_clicked() {
+        if let Some(i) = hit(st.selected, p) {
+            model.remove_widget(i);
+            st.selected = None;
+        }
+    }
+}

@@ -1,0 +1,404 @@
+//! The viewer's renderer, without a window: a request (view, TF, method,
+//! display) in, an 8-bit image and statistics out, recomputing only what
+//! changed since the last request.
+//!
+//! * CPU: tet_render's staged [`Renderer`] — a new view re-sorts only; a
+//!   new TF revision, method or table resolution re-bakes the shader and
+//!   re-culls.
+//! * GPU (tet_gpu, methods `pt-linear` and `table3d`, when an adapter
+//!   exists): the GPU radix sort of centroid depths, recomputed only when
+//!   the camera moves (tet_gpu caches it), filtered by the CPU cull mask of
+//!   the current TF; shader (and table3d) rebuilt on a TF change.
+
+use crate::ViewerError;
+use std::sync::Arc;
+use std::time::Instant;
+use tet_bundle::Bundle;
+use tet_gpu::{GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
+use tet_preint::{BakeOptions, Method, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_render::cull::{cull, CullMask};
+use tet_render::{Camera, Display, Image, Renderer, Scene, TfCuller, ViewSpec};
+
+/// Everything a frame depends on.
+#[derive(Clone)]
+pub struct FrameRequest {
+    pub view: ViewSpec,
+    pub tf: Arc<TransferFunction>,
+    /// Changes whenever `tf` does (the engine compares revisions, not TFs).
+    pub tf_revision: u64,
+    pub method: Method,
+    /// table3d: samples along Sf and Sb (along l twice as many).
+    pub table_n_s: usize,
+    /// Use tet_gpu when it can render `method`.
+    pub prefer_gpu: bool,
+    pub display: Display,
+}
+
+impl FrameRequest {
+    /// Whether two requests render the same image.
+    pub fn same_frame(&self, other: &FrameRequest) -> bool {
+        self.view == other.view
+            && self.tf_revision == other.tf_revision
+            && self.method == other.method
+            && self.table_n_s == other.table_n_s
+            && self.prefer_gpu == other.prefer_gpu
+            && self.display == other.display
+    }
+}
+
+/// What a frame cost and what it recomputed.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FrameStats {
+    /// "CPU" or "GPU: <adapter>", with why the CPU was used when a GPU was asked for.
+    pub backend: String,
+    pub frame_seconds: f64,
+    /// Shader / table bake of this frame (0 when reused).
+    pub bake_seconds: f64,
+    /// The last bake, whenever it happened.
+    pub last_bake_seconds: f64,
+    pub sort_seconds: f64,
+    pub tets_total: usize,
+    pub tets_culled: usize,
+    pub tets_drawn: usize,
+    pub rebaked: bool,
+    pub recomputed_cull: bool,
+    pub resorted: bool,
+    pub size: [u32; 2],
+}
+
+impl FrameStats {
+    pub fn tets_per_second(&self) -> f64 {
+        if self.frame_seconds > 0.0 {
+            self.tets_drawn as f64 / self.frame_seconds
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A rendered frame: 8-bit sRGB RGBA after tone mapping over the background,
+/// and the linear image it came from.
+pub struct Frame {
+    pub rgba8: Vec<u8>,
+    pub image: Image,
+    pub view: ViewSpec,
+    pub stats: FrameStats,
+}
+
+/// The methods the GPU path renders.
+pub fn gpu_supports(method: Method) -> bool {
+    matches!(method, Method::PtLinear | Method::Table3d)
+}
+
+struct Gpu {
+    ctx: GpuContext,
+    scene: GpuScene,
+    renderer: GpuRenderer,
+    /// The shader of (tf revision, method, table n_s).
+    shader: Option<((u64, Method, usize), GpuShader)>,
+    /// Centroid order of the view it was sorted for.
+    order: Option<(ViewSpec, Vec<u32>)>,
+}
+
+/// The staged renderer behind the window.
+pub struct Engine {
+    cpu: Renderer,
+    domain: TableDomain,
+    gpu: Option<Gpu>,
+    /// Why there is no GPU path (shown in the status line).
+    gpu_note: String,
+    cpu_key: Option<(u64, Method, usize)>,
+    /// CPU cull mask of a TF revision (the GPU path's filter).
+    mask: Option<(u64, CullMask)>,
+    last_bake_seconds: f64,
+}
+
+impl Engine {
+    /// Loads the scene; with `try_gpu`, opens a headless tet_gpu context
+    /// (its failure is not an error: the CPU renders, and
+    /// [`Engine::gpu_note`] says why).
+    pub fn new(bundle: &Bundle, try_gpu: bool) -> Result<Engine, ViewerError> {
+        let scene = Scene::from_bundle(bundle)?;
+        let domain = TableDomain::from_bundle(bundle).map_err(|e| ViewerError::Input(e.to_string()))?;
+        let (gpu, gpu_note) = if try_gpu {
+            match open_gpu(bundle) {
+                Ok(g) => {
+                    let note = g.ctx.describe();
+                    (Some(g), note)
+                }
+                Err(e) => (None, format!("no GPU: {e}")),
+            }
+        } else {
+            (None, "GPU off (--cpu)".to_string())
+        };
+        Ok(Engine {
+            cpu: Renderer::new(scene),
+            domain,
+            gpu,
+            gpu_note,
+            cpu_key: None,
+            mask: None,
+            last_bake_seconds: 0.0,
+        })
+    }
+
+    /// The adapter's description, or why there is none.
+    pub fn gpu_note(&self) -> &str {
+        &self.gpu_note
+    }
+    pub fn has_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+    /// Whether the GPU is a software adapter (lavapipe): on such a machine
+    /// tet_render's CPU renderer is much faster, so the window starts on it.
+    pub fn gpu_is_software(&self) -> bool {
+        self.gpu.as_ref().is_some_and(|g| g.ctx.is_software())
+    }
+    pub fn scene(&self) -> &Scene {
+        self.cpu.scene()
+    }
+    pub fn domain(&self) -> &TableDomain {
+        &self.domain
+    }
+
+    /// Renders `req`, recomputing only what changed since the last call.
+    pub fn render(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
+        let use_gpu = req.prefer_gpu && self.gpu.is_some() && gpu_supports(req.method);
+        if use_gpu {
+            return self.render_gpu(req);
+        }
+        let backend = if self.gpu.is_none() {
+            format!("CPU ({})", self.gpu_note)
+        } else if !req.prefer_gpu {
+            format!("CPU (GPU {} not selected)", self.gpu_note)
+        } else {
+            format!("CPU (method {} is not on the GPU)", req.method)
+        };
+        self.render_cpu(req, backend)
+    }
+
+    fn bake_options(n_s: usize) -> BakeOptions {
+        let mut o = BakeOptions::default();
+        o.table3d = Table3dParams { n_s, n_l: 2 * n_s, ..o.table3d };
+        o
+    }
+
+    fn render_cpu(&mut self, req: &FrameRequest, backend: String) -> Result<Frame, ViewerError> {
+        let start = Instant::now();
+        let key = (req.tf_revision, req.method, req.table_n_s);
+        let mut bake_seconds = 0.0;
+        if req.method.is_bivariate() && self.cpu.scene().gradients().is_none() {
+            // The 2D methods need per-vertex gradients: computed once, here.
+            let scene = self.cpu.scene().clone().ensure_gradients()?;
+            self.cpu = Renderer::new(scene);
+            self.cpu_key = None;
+        }
+        let rebaked = self.cpu_key != Some(key);
+        if rebaked {
+            let t = Instant::now();
+            let shader: Box<dyn SegmentShader> =
+                tet_preint::make_shader(req.method, &req.tf, &self.domain, &Self::bake_options(req.table_n_s))
+                    .map_err(|e| ViewerError::Method(format!("{}: {e}", req.method)))?;
+            bake_seconds = t.elapsed().as_secs_f64();
+            self.last_bake_seconds = bake_seconds;
+            self.cpu.set_shader(shader.into());
+            // A new TF re-culls; a new method or resolution alone does not.
+            if self.cpu_key.map(|k| k.0) != Some(req.tf_revision) {
+                self.cpu.set_culler(Some(Arc::new(TfCuller::new(&req.tf))));
+            }
+            self.cpu_key = Some(key);
+        }
+        self.cpu.set_view(&req.view)?;
+        let (image, st) = self.cpu.render(&|_, _| {})?;
+        let rgba8 = image.to_rgba8(&req.display);
+        let stats = FrameStats {
+            backend,
+            frame_seconds: start.elapsed().as_secs_f64(),
+            bake_seconds,
+            last_bake_seconds: self.last_bake_seconds,
+            sort_seconds: st.sort_seconds + st.view_seconds,
+            tets_total: st.tets_total,
+            tets_culled: st.tets_culled,
+            tets_drawn: st.tets_drawn,
+            rebaked,
+            recomputed_cull: st.recomputed_cull,
+            resorted: st.recomputed_order,
+            size: req.view.size,
+        };
+        Ok(Frame { rgba8, image, view: req.view.clone(), stats })
+    }
+
+    fn render_gpu(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
+        let start = Instant::now();
+        let scene = self.cpu.scene();
+        let recomputed_cull = self.mask.as_ref().map(|m| m.0) != Some(req.tf_revision);
+        if recomputed_cull {
+            self.mask = Some((req.tf_revision, cull(scene, &TfCuller::new(&req.tf))));
+        }
+        let mask = &self.mask.as_ref().expect("set above").1;
+        let gpu = self.gpu.as_mut().expect("checked by render");
+        let key = (req.tf_revision, req.method, req.table_n_s);
+        let mut bake_seconds = 0.0;
+        let rebaked = gpu.shader.as_ref().map(|s| s.0) != Some(key);
+        if rebaked {
+            let t = Instant::now();
+            let tf =
+                tet_preint::tf_for_domain(&req.tf, &self.domain).map_err(|e| ViewerError::Method(e.to_string()))?;
+            let shader = match req.method {
+                Method::Table3d => {
+                    let params = Self::bake_options(req.table_n_s).table3d;
+                    let table = Table3d::build(&tf, &self.domain, &params)
+                        .map_err(|e| ViewerError::Method(format!("table3d: {e}")))?;
+                    GpuShader::table3d(&gpu.ctx, &table)?
+                }
+                _ => GpuShader::pt_linear(&gpu.ctx, &tf)?,
+            };
+            bake_seconds = t.elapsed().as_secs_f64();
+            self.last_bake_seconds = bake_seconds;
+            gpu.shader = Some((key, shader));
+        }
+        let camera = Camera::new(&req.view)?;
+        let t = Instant::now();
+        let resorted = gpu.order.as_ref().is_none_or(|o| o.0 != req.view);
+        if resorted {
+            let order = gpu.renderer.gpu_centroid_order(&gpu.ctx, &gpu.scene, &camera)?;
+            gpu.order = Some((req.view.clone(), order));
+        }
+        let sort_seconds = t.elapsed().as_secs_f64();
+        let order = &gpu.order.as_ref().expect("set above").1;
+        let tets: Vec<u32> = if mask.culled > 0 {
+            order.iter().copied().filter(|&t| mask.visible[t as usize]).collect()
+        } else {
+            order.clone()
+        };
+        let shader = &gpu.shader.as_ref().expect("set above").1;
+        let frame = gpu.renderer.render_with(
+            &gpu.ctx,
+            &gpu.scene,
+            &camera,
+            GpuOrder::Given(&tets),
+            shader,
+            RasterPath::Compute,
+        )?;
+        let tone = gpu.renderer.tonemap(&gpu.ctx, &frame, &req.display)?;
+        let stats = FrameStats {
+            backend: format!("GPU: {}", self.gpu_note),
+            frame_seconds: start.elapsed().as_secs_f64(),
+            bake_seconds,
+            last_bake_seconds: self.last_bake_seconds,
+            sort_seconds,
+            tets_total: scene.num_tets(),
+            tets_culled: mask.culled,
+            tets_drawn: tets.len(),
+            rebaked,
+            recomputed_cull,
+            resorted,
+            size: req.view.size,
+        };
+        Ok(Frame { rgba8: tone.rgba8, image: frame.image, view: req.view.clone(), stats })
+    }
+}
+
+fn open_gpu(bundle: &Bundle) -> Result<Gpu, tet_gpu::GpuError> {
+    let ctx = GpuContext::new_headless()?;
+    let m = &bundle.mesh;
+    let scene = GpuScene::new(&ctx, &m.points, &m.tets, &m.scalar)?;
+    let renderer = GpuRenderer::new(&ctx)?;
+    Ok(Gpu { ctx, scene, renderer, shader: None, order: None })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tf_model::TfModel;
+
+    fn request(engine: &Engine, model: &TfModel, method: Method, prefer_gpu: bool) -> FrameRequest {
+        let (lo, hi) = engine.scene().bounds();
+        FrameRequest {
+            view: ViewSpec::framing(lo, hi, [48, 40]),
+            tf: Arc::new(model.to_tf().unwrap()),
+            tf_revision: model.revision(),
+            method,
+            table_n_s: 32,
+            prefer_gpu,
+            display: Display::default(),
+        }
+    }
+
+    fn sample_bundle() -> Bundle {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/samples/cube5.tetb");
+        Bundle::read(std::path::Path::new(path)).unwrap()
+    }
+
+    /// Camera motion re-sorts only; a TF edit re-bakes and re-culls only.
+    #[test]
+    fn cpu_stages_recompute_only_what_changed() {
+        let bundle = sample_bundle();
+        let mut engine = Engine::new(&bundle, false).unwrap();
+        let s = engine.scene().scalar_range();
+        let mut model = TfModel::ramp(s, 0.5);
+        let mut req = request(&engine, &model, Method::Table3d, false);
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.rebaked && f.stats.resorted && f.stats.recomputed_cull);
+        assert!(f.rgba8.chunks(4).any(|p| p[..3] != [0, 0, 0]), "something visible");
+
+        req.view = req.view.orbit(20.0, 5.0, 1.0);
+        let f = engine.render(&req).unwrap();
+        assert!(!f.stats.rebaked && f.stats.resorted && !f.stats.recomputed_cull);
+
+        model.move_opacity(1, s[1], 3.0);
+        req.tf = Arc::new(model.to_tf().unwrap());
+        req.tf_revision = model.revision();
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.rebaked && f.stats.recomputed_cull && !f.stats.resorted);
+
+        req.table_n_s = 16;
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.rebaked && !f.stats.recomputed_cull && !f.stats.resorted);
+        assert!(f.stats.backend.starts_with("CPU"));
+    }
+
+    /// The same staging on the GPU path, and methods it lacks fall back to
+    /// the CPU with the reason in the backend line.
+    #[test]
+    fn gpu_stages_and_fallback() {
+        let bundle = sample_bundle();
+        let mut engine = Engine::new(&bundle, true).unwrap();
+        if !engine.has_gpu() {
+            if std::env::var_os("TETKIT_REQUIRE_GPU").is_some() {
+                panic!("TETKIT_REQUIRE_GPU is set but {}", engine.gpu_note());
+            }
+            println!("skipped: {}", engine.gpu_note());
+            return;
+        }
+        let s = engine.scene().scalar_range();
+        let mut model = TfModel::ramp(s, 0.5);
+        let mut req = request(&engine, &model, Method::Table3d, true);
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.backend.starts_with("GPU"), "{}", f.stats.backend);
+        assert!(f.stats.rebaked && f.stats.resorted && f.stats.recomputed_cull);
+        assert!(f.rgba8.chunks(4).any(|p| p[..3] != [0, 0, 0]), "something visible");
+        let gpu_image = f.image;
+
+        req.view = req.view.orbit(20.0, 5.0, 1.0);
+        let f = engine.render(&req).unwrap();
+        assert!(!f.stats.rebaked && f.stats.resorted && !f.stats.recomputed_cull);
+
+        model.move_opacity(1, s[1], 3.0);
+        req.tf = Arc::new(model.to_tf().unwrap());
+        req.tf_revision = model.revision();
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.rebaked && f.stats.recomputed_cull && !f.stats.resorted);
+
+        req.method = Method::Poly2;
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.backend.contains("not on the GPU"), "{}", f.stats.backend);
+
+        // The first GPU frame agrees with the CPU renderer's (same TF, view, table).
+        let mut cpu = Engine::new(&bundle, false).unwrap();
+        let model0 = TfModel::ramp(s, 0.5);
+        let cpu_image = cpu.render(&request(&cpu, &model0, Method::Table3d, false)).unwrap().image;
+        let d = tet_render::diff(&gpu_image, &cpu_image).unwrap();
+        assert!(d.max_abs < 2.0 / 255.0 && d.mean_abs < 0.5 / 255.0, "{d:?}");
+    }
+}

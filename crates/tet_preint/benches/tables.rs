@@ -2,8 +2,14 @@
 //! (slice recurrence vs incremental vs per-entry exact), atlas2d from that
 //! table (N and 4N planes), partial Ψ at 1024². TF: tests/data/vtk/tf_ramp.json
 //! over its node range, full square, l_max = 2.
-use criterion::{criterion_group, criterion_main, Criterion};
-use tet_preint::table3d::{Build3d, Table3dParams};
+//!
+//! Group `table3d_bluntfin`: the 1e-3 target configuration, the
+//! NASA Blunt Fin domain (s ∈ [0.1926, 4.9775], |Sf − Sb| ≤ 2.0032,
+//! l ≤ 3.6486) with formats/samples/tf_normalized.json: bake and
+//! `shade_span` over 100 000 uniform segments, uniform against tf-nodes
+//! scalar axis.
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use tet_preint::table3d::{Build3d, ScalarAxis, Table3dParams};
 use tet_preint::*;
 
 fn bench(c: &mut Criterion) {
@@ -32,5 +38,27 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+fn bench_bluntfin(c: &mut Criterion) {
+    let tf = TransferFunction::from_json(include_str!("../../../formats/samples/tf_normalized.json")).unwrap();
+    let d = TableDomain::new(0.1926, 4.9775, 2.0032, 3.6486).unwrap();
+    let tf = tf_for_domain(&tf, &d).unwrap();
+    let segs: Vec<Segment> = uniform_triples(&d, 100_000, 5)
+        .into_iter()
+        .map(|t| Segment { s_front: t[0], s_back: t[1], len_world: t[2], ..Default::default() })
+        .collect();
+    let mut out = vec![[0.0f32; 4]; segs.len()];
+    let mut g = c.benchmark_group("table3d_bluntfin");
+    g.sample_size(10);
+    for (name, s_axis) in [("uniform", ScalarAxis::Uniform), ("tf_nodes", ScalarAxis::TfNodes)] {
+        let p = Table3dParams { s_axis, ..Default::default() };
+        g.throughput(Throughput::Elements(1));
+        g.bench_function(format!("bake_128x128x256_{name}"), |b| b.iter(|| Table3d::build(&tf, &d, &p).unwrap()));
+        let t = Table3d::build(&tf, &d, &p).unwrap();
+        g.throughput(Throughput::Elements(segs.len() as u64));
+        g.bench_function(format!("shade_span_100k_{name}"), |b| b.iter(|| t.shade_span(&segs, &mut out)));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_bluntfin);
 criterion_main!(benches);

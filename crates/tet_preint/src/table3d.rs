@@ -143,9 +143,10 @@ pub(crate) struct Axis {
     seg_s1: Vec<f32>,
     seg_x0: Vec<f32>,
     seg_inv: Vec<f32>,
-    /// Per bucket of a uniform partition of [lo, hi]: a knot interval at
-    /// or before the one holding the bucket's start.
-    bucket: Vec<u32>,
+    /// Per bucket of a uniform partition of [lo, hi]: (s0, x0, 1/step) of
+    /// the knot interval holding the bucket's start, and the next knot if it
+    /// falls inside the bucket (+∞ otherwise; past it, the slow path).
+    bucket: Vec<[f32; 4]>,
     bucket_inv: f32,
 }
 
@@ -250,9 +251,10 @@ impl Axis {
         let bucket = (0..nb)
             .map(|b| {
                 let start = domain.s_lo + b as f64 * domain.scalar_span() / nb as f64;
-                // The interval holding `start`, one earlier for f32 rounding.
+                let end = domain.s_lo + (b + 1) as f64 * domain.scalar_span() / nb as f64;
                 let j = knot_s[1..nseg].partition_point(|&s| s <= start);
-                j.saturating_sub(1) as u32
+                let next = if j + 1 < nseg && knot_s[j + 1] < end { knot_s[j + 1] as f32 } else { f32::INFINITY };
+                [seg_s0[j], seg_x0[j], seg_inv[j], next]
             })
             .collect();
         Axis {
@@ -275,12 +277,17 @@ impl Axis {
     #[inline(always)]
     fn x_of(&self, s: f32) -> f32 {
         let b = (((s - self.lo) * self.bucket_inv) as usize).min(self.bucket.len() - 1);
-        let mut j = self.bucket[b] as usize;
-        while j + 1 < self.seg_s0.len() && s > self.seg_s1[j] {
-            j += 1;
-        }
+        let [s0, x0, inv, next] = self.bucket[b];
         let top = (self.grid.len() - 1) as f32;
-        (self.seg_x0[j] + (s - self.seg_s0[j]) * self.seg_inv[j]).max(0.0).min(top)
+        // f32 rounding may put s just outside its bucket; the map is
+        // continuous, so the neighbouring piece's line is off by rounding only.
+        let x = if s > next {
+            let j = self.seg_s1[..self.seg_s1.len() - 1].partition_point(|&k| k < s);
+            self.seg_x0[j] + (s - self.seg_s0[j]) * self.seg_inv[j]
+        } else {
+            x0 + (s - s0) * inv
+        };
+        x.max(0.0).min(top)
     }
 
     /// (scalar, index) knots.

@@ -2,8 +2,20 @@
 //! (slice recurrence vs incremental vs per-entry exact), atlas2d from that
 //! table (N and 4N planes), partial Ψ at 1024². TF: tests/data/vtk/tf_ramp.json
 //! over its node range, full square, l_max = 2.
-use criterion::{criterion_group, criterion_main, Criterion};
-use tet_preint::table3d::{Build3d, Table3dParams};
+//!
+//! Group `table3d_bluntfin`: the 1e-3 target configuration, the
+//! NASA Blunt Fin domain (s ∈ [0.1926, 4.9775], |Sf − Sb| ≤ 2.0032,
+//! l ≤ 3.6486) with formats/samples/tf_normalized.json: bake and
+//! `shade_span` over 100 000 uniform segments, uniform against tf-nodes
+//! scalar axis.
+//!
+//! Group `biv_gauss_independent`: `biv-exact` under the emission-only model
+//! on crates/tetlut/results/tf_gauss_independent.json (one Gaussian widget),
+//! 20 000 segments with s uniform over [0.19, 2], |∇s| over [0, 1.5], l up to
+//! 3.65: seed 004's Gaussian table against the quadrature path, and the
+//! table's build.
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use tet_preint::table3d::{Build3d, ScalarAxis, Table3dParams};
 use tet_preint::*;
 
 fn bench(c: &mut Criterion) {
@@ -32,5 +44,57 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+fn bench_bluntfin(c: &mut Criterion) {
+    let tf = TransferFunction::from_json(include_str!("../../../formats/samples/tf_normalized.json")).unwrap();
+    let d = TableDomain::new(0.1926, 4.9775, 2.0032, 3.6486).unwrap();
+    let tf = tf_for_domain(&tf, &d).unwrap();
+    let segs: Vec<Segment> = uniform_triples(&d, 100_000, 5)
+        .into_iter()
+        .map(|t| Segment { s_front: t[0], s_back: t[1], len_world: t[2], ..Default::default() })
+        .collect();
+    let mut out = vec![[0.0f32; 4]; segs.len()];
+    let mut g = c.benchmark_group("table3d_bluntfin");
+    g.sample_size(10);
+    for (name, s_axis) in [("uniform", ScalarAxis::Uniform), ("tf_nodes", ScalarAxis::TfNodes)] {
+        let p = Table3dParams { s_axis, ..Default::default() };
+        g.throughput(Throughput::Elements(1));
+        g.bench_function(format!("bake_128x128x256_{name}"), |b| b.iter(|| Table3d::build(&tf, &d, &p).unwrap()));
+        let t = Table3d::build(&tf, &d, &p).unwrap();
+        g.throughput(Throughput::Elements(segs.len() as u64));
+        g.bench_function(format!("shade_span_100k_{name}"), |b| b.iter(|| t.shade_span(&segs, &mut out)));
+    }
+    g.finish();
+}
+
+fn bench_biv_gauss(c: &mut Criterion) {
+    let tf = TransferFunction::from_json(include_str!("../../tetlut/results/tf_gauss_independent.json")).unwrap();
+    let mut state = 11u64;
+    let mut next = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 40) as f32 / (1u32 << 24) as f32
+    };
+    let segs: Vec<Segment> = (0..20_000)
+        .map(|_| Segment {
+            s_front: 0.19 + 1.81 * next(),
+            s_back: 0.19 + 1.81 * next(),
+            grad_front: 1.5 * next(),
+            grad_back: 1.5 * next(),
+            len_world: 3.65 * next(),
+        })
+        .collect();
+    let mut out = vec![[0.0f32; 4]; segs.len()];
+    let mut g = c.benchmark_group("biv_gauss_independent");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(segs.len() as u64));
+    let table = BivExact::new(tf.clone());
+    let quad = BivExact::with_gauss_table(tf.clone(), None);
+    g.bench_function("shade_20k_erf_table", |b| b.iter(|| table.shade_span(&segs, &mut out)));
+    g.bench_function("shade_20k_quadrature", |b| b.iter(|| quad.shade_span(&segs, &mut out)));
+    g.throughput(Throughput::Elements(1));
+    let (n_p, n_u, p_max) = tet_preint::biv_tables::DEFAULT_ERF_TABLE;
+    g.bench_function("build_erf_table_192x769", |b| b.iter(|| GaussErfTable::build(n_p, n_u, p_max)));
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_bluntfin, bench_biv_gauss);
 criterion_main!(benches);

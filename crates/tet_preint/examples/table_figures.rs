@@ -53,7 +53,7 @@ fn main() {
         let d = TableDomain::full(lo, hi, 2.0 * (hi - lo)).unwrap();
         {
             for &build in &builds {
-                let p = Table3dParams { n_s, n_l, build, precision: Precision::F32 };
+                let p = Table3dParams { n_s, n_l, build, precision: Precision::F32, s_axis: Default::default() };
                 let (t0, c0) = (Instant::now(), cpu_seconds());
                 let t = Table3d::build(&tf, &d, &p).unwrap();
                 let (secs, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);

@@ -19,13 +19,21 @@
 //! C = ∫ E·T is integrated by panelled 8-point Gauss–Legendre with T from the
 //! closed-form depths (agrees with the reference to ~1e-10, tested) — the
 //! composition rule is summed extinctions, not compositing of widgets.
+//!
+//! Emission-only model (`"emission": "independent"`), a piece carried by one
+//! Gaussian widget with the 1D part transparent and its colour constant on
+//! the piece: C = (κ₁D + c)·l/k·W(P, u₀, u₁) from seed 004's Gaussian table
+//! ([`GaussErfTable`], built once per `BivExact` when the TF has such a
+//! widget) instead of the quadrature; P beyond the table falls back to it.
 
+use crate::biv_tables::{GaussErfTable, DEFAULT_ERF_TABLE};
 use crate::exact::{integrate_segment_with, Rgba};
 use crate::method::{Method, Rgba32, Segment, SegmentShader};
 use crate::poly::{integrate_entry, Knot};
 use crate::special::erfcx;
 use crate::tf::{Emission, TransferFunction};
 use crate::widget::{Shape, Widget};
+use std::sync::Arc;
 
 /// A segment in f64: s and g at x = 0 and x = 1, length l.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -235,13 +243,60 @@ fn piece_depth(tf: &TransferFunction, seg: &Seg2, x0: f64, x1: f64) -> f64 {
 pub struct BivExact {
     tf: TransferFunction,
     tf1d: TransferFunction,
+    /// Seed 004's Gaussian table, for the emission-only model only.
+    gauss: Option<Arc<GaussErfTable>>,
 }
 
 impl BivExact {
-    /// Takes the TF as given (denormalize a normalized TF first).
+    /// Takes the TF as given (denormalize a normalized TF first). With
+    /// independent emission and a Gaussian widget this builds the default
+    /// [`GaussErfTable`] (a few ms; see [`BivExact::with_gauss_table`]).
     pub fn new(tf: TransferFunction) -> Self {
+        let wants = tf.emission() == Emission::Independent
+            && tf.widgets().iter().any(|w| matches!(w.shape, Shape::Gaussian { .. }));
+        let gauss = wants.then(|| {
+            let (n_p, n_u, p_max) = DEFAULT_ERF_TABLE;
+            Arc::new(GaussErfTable::build(n_p, n_u, p_max))
+        });
+        BivExact::with_gauss_table(tf, gauss)
+    }
+
+    /// As [`BivExact::new`] with a given Gaussian table (shared between
+    /// shaders, or `None` to integrate every Gaussian piece by quadrature).
+    pub fn with_gauss_table(tf: TransferFunction, gauss: Option<Arc<GaussErfTable>>) -> Self {
         let tf1d = tf.without_widgets();
-        BivExact { tf, tf1d }
+        BivExact { tf, tf1d, gauss }
+    }
+
+    /// The Gaussian table in use, if any.
+    pub fn gauss_table(&self) -> Option<&GaussErfTable> {
+        self.gauss.as_deref()
+    }
+
+    /// Emission-only colour of a piece carried by the single Gaussian `w`
+    /// with the 1D colour `k1d` constant on it, from the table; `None` where
+    /// the table does not apply.
+    fn gauss_table_color(
+        &self,
+        w: &Widget,
+        seg: &Seg2,
+        x0: f64,
+        x1: f64,
+        depth: f64,
+        k1d: [f64; 3],
+    ) -> Option<[f64; 3]> {
+        let table = self.gauss.as_deref()?;
+        let (a, b, c0) = gaussian_quadratic(w, seg)?;
+        let k = (0.5 * a).sqrt();
+        if k < 1e-12 {
+            return None;
+        }
+        let qmin = 0.5 * (c0 - b * b / a).max(0.0);
+        let p = w.opacity / self.tf.unit_distance() * seg.len * (-qmin).exp() * SQRT_PI_2 / k;
+        let shift = b / a;
+        let win = table.window(p, k * (x0 + shift), k * (x1 + shift), (-depth).exp())?;
+        let scale = seg.len / k * win;
+        Some(std::array::from_fn(|c| (k1d[c] + w.color[c]) * scale))
     }
     pub fn transfer_function(&self) -> &TransferFunction {
         &self.tf
@@ -279,6 +334,15 @@ impl BivExact {
                 }
                 Emission::Independent if in_support.is_empty() => {
                     integrate_segment_with(&self.tf1d, seg.s(x0), seg.s(x1), d, &mut scratch).color
+                }
+                Emission::Independent
+                    if !one_d
+                        && in_support.len() == 1
+                        && matches!(in_support[0].shape, Shape::Gaussian { .. })
+                        && tf.color(seg.s(x0)) == tf.color(seg.s(x1)) =>
+                {
+                    self.gauss_table_color(in_support[0], &seg, x0, x1, depth, tf.color(seg.s(x0)))
+                        .unwrap_or_else(|| quadrature_color(tf, &seg, x0, x1, depth))
                 }
                 _ => quadrature_color(tf, &seg, x0, x1, depth),
             };

@@ -13,7 +13,9 @@
 //! * [`PolyTable`] (module [`poly`]): `poly1`/`poly2`/`poly4`, seed 003's
 //!   mean-extinction table, 16-bit α table and chromaticity polynomial in l.
 //! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of seed 004;
-//!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]).
+//!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]);
+//!   [`GaussErfTable`] (module [`biv_tables`]), seed 004's Gaussian table
+//!   for the emission-only model.
 //!
 //! ```
 //! use tet_preint::{integrate_segment, TransferFunction};
@@ -57,6 +59,7 @@
 #![forbid(unsafe_code)]
 
 pub mod atlas2d;
+pub mod biv_tables;
 pub mod bivariate;
 pub mod domain;
 pub mod error;
@@ -73,6 +76,7 @@ pub mod tf;
 pub mod widget;
 
 pub use atlas2d::{Atlas2d, Atlas2dParams};
+pub use biv_tables::GaussErfTable;
 pub use bivariate::{BivApprox, BivExact, FbTable};
 pub use domain::{TableDomain, TableError};
 pub use error::{table_error, uniform_triples};
@@ -85,7 +89,7 @@ pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentSh
 pub use partial::{PartialShader, PsiParams, PsiTable};
 pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};
 pub use precision::{Accumulation, Precision, Storage};
-pub use table3d::{Build3d, ExtinctionPrefix, Table3d, Table3dParams};
+pub use table3d::{Build3d, ExtinctionPrefix, ScalarAxis, Table3d, Table3dParams};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
 pub use widget::{Shape, Widget};
 

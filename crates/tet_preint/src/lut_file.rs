@@ -16,7 +16,7 @@ use crate::method::{ExactShader, Method, PtLinearShader, SegmentShader};
 use crate::partial::{PartialShader, PsiParams, PsiTable};
 use crate::poly::{AlphaTable, PolyTable};
 use crate::precision::{Precision, Storage};
-use crate::table3d::{Table3d, Table3dParams};
+use crate::table3d::{ScalarAxis, Table3d, Table3dParams};
 use crate::tf::TransferFunction;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -25,8 +25,10 @@ use std::sync::Arc;
 
 /// First 8 bytes of every `.tetl` file (PNG-style: high byte, CR LF, ^Z).
 pub const LUT_MAGIC: [u8; 8] = *b"\x89TETL\r\n\x1a";
-/// Format version written, and the newest read.
-pub const LUT_FORMAT_VERSION: u32 = 1;
+/// Format version written, and the newest read. Version 2 added the
+/// non-uniform scalar axis of `table3d` (`params.s_axis`, section `SAXIS`);
+/// version-1 files read as before (their tables have a uniform axis).
+pub const LUT_FORMAT_VERSION: u32 = 2;
 const HEADER_LEN: usize = 32;
 const ENTRY_LEN: usize = 40;
 const NAME_LEN: usize = 16;
@@ -429,11 +431,12 @@ pub struct BakeOptions {
 }
 
 impl Default for BakeOptions {
-    /// table3d 128 × 128 × 256 f32 (slice recurrence, o = 2); atlas2d N
+    /// table3d 128 × 128 × 256 f32 (slice recurrence, o = 2, a grid sample
+    /// on every TF control point: [`Table3dParams::tf_nodes`]); atlas2d N
     /// planes; Ψ 1024² f32; poly 512² f32; F/B 128² f32 with 4 sub-segments.
     fn default() -> Self {
         BakeOptions {
-            table3d: Table3dParams::default(),
+            table3d: Table3dParams::tf_nodes(),
             atlas_planes_quarters: 4,
             psi: PsiParams::default(),
             poly_res: 512,
@@ -446,6 +449,8 @@ impl Default for BakeOptions {
 
 /// Section names used by this module's methods.
 pub const TABLE3D_SECTION: &str = "T3D";
+/// `table3d` with a non-uniform scalar axis: its knots.
+pub const TABLE3D_AXIS_SECTION: &str = "SAXIS";
 pub const ATLAS_SECTION: &str = "ATLAS";
 pub const PSI_SECTION: &str = "PSI";
 pub const POLY_RHO_SECTION: &str = "RHO";
@@ -739,6 +744,33 @@ fn domain_of(lut: &LutFile, path: &Path) -> Result<TableDomain, LutError> {
     })
 }
 
+/// The `SAXIS` section: f64 [K, 2] of (scalar, grid index) knots.
+fn axis_knots(lut: &LutFile, n_s: usize, path: &Path) -> Result<Vec<(f64, usize)>, LutError> {
+    let bad = |what: String| LutError::BadSection {
+        section: TABLE3D_AXIS_SECTION.into(),
+        offset: 0,
+        what,
+        path: path.into(),
+    };
+    let (info, bytes) = lut
+        .section(TABLE3D_AXIS_SECTION)
+        .ok_or_else(|| bad("missing: params.s_axis is tf-nodes but the file has no knots".into()))?;
+    if info.dtype != DType::F64 || info.dims.len() != 2 || info.dims[1] != 2 || bytes.len() % 16 != 0 {
+        return Err(bad(format!("expected f64 [K, 2], found {:?} {:?}", info.dtype, info.dims)));
+    }
+    let v: Vec<f64> = bytes.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
+    v.chunks_exact(2)
+        .map(|k| {
+            let i = k[1];
+            if i.fract() == 0.0 && (0.0..n_s as f64).contains(&i) {
+                Ok((k[0], i as usize))
+            } else {
+                Err(bad(format!("knot index {i} is not a grid index below {n_s}")))
+            }
+        })
+        .collect()
+}
+
 fn layout_error(section: &str, path: &Path) -> LutError {
     LutError::BadSection {
         section: section.into(),
@@ -756,6 +788,17 @@ impl Table3d {
         let n_l = self.params().n_l as u64;
         let pairs = self.storage().len() as u64 / (4 * n_l);
         f.push_storage(TABLE3D_SECTION, vec![pairs, n_l, 4], self.storage()).expect("valid name");
+        if self.params().s_axis != ScalarAxis::Uniform {
+            let knots = self.s_knots();
+            let bytes: Vec<u8> = knots.iter().flat_map(|&(s, i)| [s, i as f64]).flat_map(f64::to_le_bytes).collect();
+            let info = SectionInfo {
+                name: TABLE3D_AXIS_SECTION.into(),
+                dtype: DType::F64,
+                dims: vec![knots.len() as u64, 2],
+                scale: vec![],
+            };
+            f.push(info, bytes).expect("valid name");
+        }
         f
     }
 
@@ -763,7 +806,19 @@ impl Table3d {
         let params: Table3dParams = params_of(lut, Method::Table3d, path)?;
         let domain = domain_of(lut, path)?;
         let data = lut.storage(TABLE3D_SECTION, path)?;
-        Table3d::from_parts(domain, params, data).ok_or_else(|| layout_error(TABLE3D_SECTION, path))
+        let knots = match params.s_axis {
+            ScalarAxis::Uniform => None,
+            ScalarAxis::TfNodes => Some(axis_knots(lut, params.n_s, path)?),
+        };
+        Table3d::from_parts(domain, params, knots.as_deref(), data).ok_or_else(|| {
+            let what = if knots.is_some() { "size, precision or scalar-axis knots" } else { "size or precision" };
+            LutError::BadSection {
+                section: TABLE3D_SECTION.into(),
+                offset: 0,
+                what: format!("{what} do not match the header's params"),
+                path: path.into(),
+            }
+        })
     }
 }
 

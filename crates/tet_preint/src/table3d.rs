@@ -1,12 +1,14 @@
 //! `table3d`: the 3D pre-integration table T(Sf, Sb, l) of premultiplied RGBA
 //! with trilinear lookup (Roettger 2000, seed 000).
 //!
-//! Axes: Sf and Sb take `n_s` equally spaced values over the domain's scalar
-//! range, l takes `n_l` values k·Δl, k = 0..n_l−1, up to `len_max_world`
-//! (slice 0 is l = 0, all zeros). Only pairs in the band
-//! |Sf − Sb| ≤ `max_ds` (plus one grid step so trilinear corners exist) are
-//! stored: row a holds b ∈ [a − w, a + w] ∩ [0, n_s − 1], each pair's n_l
-//! entries contiguous.
+//! Axes: Sf and Sb take `n_s` values over the domain's scalar range, equally
+//! spaced or ([`ScalarAxis::TfNodes`]) piecewise equally spaced with a sample
+//! on every TF control point, which removes the dominant interpolation
+//! error (the TF's kinks); l takes `n_l` values k·Δl, k = 0..n_l−1, up to
+//! `len_max_world` (slice 0 is l = 0, all zeros). Only pairs in the band
+//! |Sf − Sb| ≤ `max_ds` (plus a grid step so trilinear corners exist) are
+//! stored: row a holds b ∈ [lo(a), hi(a)] (a ± w on a uniform axis), each
+//! pair's n_l entries contiguous.
 //!
 //! # Builds ([`Build3d`])
 //!
@@ -62,6 +64,30 @@ impl Default for Build3d {
     }
 }
 
+/// Where the `n_s` samples of the Sf and Sb axes lie.
+///
+/// The table's error is dominated by the TF's control points: ρ and κ have
+/// a kink there, so α and C have one along Sf = node and Sb = node (and a
+/// sharp bend near the diagonal), which a uniform grid straddles with an
+/// error of order |Δslope|·Δs·l. `TfNodes` puts a grid sample on every
+/// control point inside the scalar range (the steps between two control
+/// points are uniform, their count proportional to the gap, at least one),
+/// so trilinear interpolation never straddles a kink; on the Blunt Fin
+/// uniform set this lowers the max error of 128 × 128 × 256 from 2.4e-3 to
+/// below 1e-3 (crates/tetlut/results/bluntfin.md).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ScalarAxis {
+    /// Equal steps over [s_lo, s_hi] (format version 1's only axis; what the
+    /// GPU path of tet_gpu expects).
+    #[default]
+    Uniform,
+    /// Piecewise uniform with a sample on every TF control point; falls back
+    /// to uniform steps when the TF has more control points in range than
+    /// the axis has steps.
+    TfNodes,
+}
+
 /// Resolution, build and storage of a [`Table3d`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Table3dParams {
@@ -71,12 +97,202 @@ pub struct Table3dParams {
     pub n_l: usize,
     pub build: Build3d,
     pub precision: Precision,
+    /// Placement of the scalar samples; absent in format-1 files (uniform).
+    #[serde(default)]
+    pub s_axis: ScalarAxis,
 }
 
 impl Default for Table3dParams {
-    /// 128 × 128 × 256, slice recurrence with oversampling 2, f32.
+    /// 128 × 128 × 256, slice recurrence with oversampling 2, f32, uniform
+    /// scalar axis (the layout tet_gpu's shader reads; `BakeOptions`, what
+    /// tetlut and the CPU renderer bake with, defaults to
+    /// [`ScalarAxis::TfNodes`]).
     fn default() -> Self {
-        Table3dParams { n_s: 128, n_l: 256, build: Build3d::default(), precision: Precision::F32 }
+        Table3dParams {
+            n_s: 128,
+            n_l: 256,
+            build: Build3d::default(),
+            precision: Precision::F32,
+            s_axis: ScalarAxis::Uniform,
+        }
+    }
+}
+
+impl Table3dParams {
+    /// The defaults with a sample on every TF control point: the accurate
+    /// choice on the CPU.
+    pub fn tf_nodes() -> Self {
+        Table3dParams { s_axis: ScalarAxis::TfNodes, ..Default::default() }
+    }
+}
+
+/// The scalar axis of a table: knots (scalar, grid index) with uniform steps
+/// between consecutive knots, plus what the f32 lookup needs to map a
+/// scalar to a fractional grid index in O(1).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Axis {
+    uniform: bool,
+    knot_s: Vec<f64>,
+    knot_i: Vec<usize>,
+    /// Scalar of every grid index.
+    grid: Vec<f64>,
+    lo: f32,
+    hi: f32,
+    /// Per knot interval: first scalar, last scalar, first index, 1/step.
+    seg_s0: Vec<f32>,
+    seg_s1: Vec<f32>,
+    seg_x0: Vec<f32>,
+    seg_inv: Vec<f32>,
+    /// Per bucket of a uniform partition of [lo, hi]: (s0, x0, 1/step) of
+    /// the knot interval holding the bucket's start, and the next knot if it
+    /// falls inside the bucket (+∞ otherwise; past it, the slow path).
+    bucket: Vec<[f32; 4]>,
+    bucket_inv: f32,
+}
+
+impl Axis {
+    fn uniform(domain: &TableDomain, n_s: usize) -> Axis {
+        Axis::from_knots_unchecked(domain, n_s, vec![domain.s_lo, domain.s_hi], vec![0, n_s - 1], true)
+    }
+
+    /// Knots on the TF's control points (see [`ScalarAxis::TfNodes`]).
+    fn tf_nodes(tf: &TransferFunction, domain: &TableDomain, n_s: usize) -> Axis {
+        let (lo, hi) = (domain.s_lo, domain.s_hi);
+        let eps = 1e-9 * domain.scalar_span();
+        let mut nodes: Vec<f64> = tf
+            .color_nodes()
+            .iter()
+            .map(|c| c.x)
+            .chain(tf.opacity_nodes().iter().map(|o| o.x))
+            .filter(|&x| x > lo + eps && x < hi - eps)
+            .collect();
+        nodes.sort_by(f64::total_cmp);
+        nodes.dedup_by(|a, b| (*a - *b).abs() <= eps);
+        let steps = n_s - 1;
+        let intervals = nodes.len() + 1;
+        if nodes.is_empty() || intervals > steps {
+            return Axis::uniform(domain, n_s);
+        }
+        let mut knot_s = Vec::with_capacity(intervals + 1);
+        knot_s.push(lo);
+        knot_s.extend(&nodes);
+        knot_s.push(hi);
+        // Steps per interval ∝ its length, at least one, summing to `steps`
+        // (largest remainder).
+        let ideal: Vec<f64> = knot_s.windows(2).map(|w| steps as f64 * (w[1] - w[0]) / (hi - lo)).collect();
+        let mut count: Vec<usize> = ideal.iter().map(|&r| (r.floor() as usize).max(1)).collect();
+        let mut total: usize = count.iter().sum();
+        while total < steps {
+            let j = (0..intervals)
+                .max_by(|&x, &y| (ideal[x] - count[x] as f64).total_cmp(&(ideal[y] - count[y] as f64)))
+                .expect("intervals");
+            count[j] += 1;
+            total += 1;
+        }
+        while total > steps {
+            let j = (0..intervals)
+                .filter(|&j| count[j] > 1)
+                .min_by(|&x, &y| (ideal[x] - count[x] as f64).total_cmp(&(ideal[y] - count[y] as f64)))
+                .expect("intervals ≤ steps leaves one with more than one step");
+            count[j] -= 1;
+            total -= 1;
+        }
+        let mut knot_i = vec![0usize];
+        for c in count {
+            knot_i.push(knot_i.last().expect("nonempty") + c);
+        }
+        Axis::from_knots_unchecked(domain, n_s, knot_s, knot_i, false)
+    }
+
+    /// Validated knots (e.g. read from a file): `None` unless the first is
+    /// (s_lo, 0), the last (s_hi, n_s − 1) and both strictly increase.
+    pub(crate) fn from_knots(domain: &TableDomain, n_s: usize, knots: &[(f64, usize)]) -> Option<Axis> {
+        if knots.len() < 2 || knots.len() > n_s {
+            return None;
+        }
+        let (first, last) = (knots[0], knots[knots.len() - 1]);
+        let tol = 1e-12 * domain.scalar_span().max(domain.s_lo.abs()).max(domain.s_hi.abs());
+        if first.1 != 0
+            || last.1 != n_s - 1
+            || (first.0 - domain.s_lo).abs() > tol
+            || (last.0 - domain.s_hi).abs() > tol
+        {
+            return None;
+        }
+        if !knots.windows(2).all(|w| w[0].0 < w[1].0 && w[0].1 < w[1].1) || !knots.iter().all(|k| k.0.is_finite()) {
+            return None;
+        }
+        let mut s: Vec<f64> = knots.iter().map(|k| k.0).collect();
+        (s[0], *s.last_mut().expect("two knots")) = (domain.s_lo, domain.s_hi);
+        Some(Axis::from_knots_unchecked(domain, n_s, s, knots.iter().map(|k| k.1).collect(), knots.len() == 2))
+    }
+
+    fn from_knots_unchecked(
+        domain: &TableDomain,
+        n_s: usize,
+        knot_s: Vec<f64>,
+        knot_i: Vec<usize>,
+        uniform: bool,
+    ) -> Axis {
+        let mut grid = Vec::with_capacity(n_s);
+        for (w, wi) in knot_s.windows(2).zip(knot_i.windows(2)) {
+            let step = (w[1] - w[0]) / (wi[1] - wi[0]) as f64;
+            grid.extend((0..wi[1] - wi[0]).map(|k| w[0] + k as f64 * step));
+        }
+        grid.push(domain.s_hi);
+        let nseg = knot_s.len() - 1;
+        let seg_s0: Vec<f32> = knot_s[..nseg].iter().map(|&s| s as f32).collect();
+        let seg_s1: Vec<f32> = knot_s[1..].iter().map(|&s| s as f32).collect();
+        let seg_x0: Vec<f32> = knot_i[..nseg].iter().map(|&i| i as f32).collect();
+        let seg_inv: Vec<f32> =
+            (0..nseg).map(|j| ((knot_i[j + 1] - knot_i[j]) as f64 / (knot_s[j + 1] - knot_s[j])) as f32).collect();
+        let nb = 4 * n_s;
+        let bucket_inv = (nb as f64 / domain.scalar_span()) as f32;
+        let bucket = (0..nb)
+            .map(|b| {
+                let start = domain.s_lo + b as f64 * domain.scalar_span() / nb as f64;
+                let end = domain.s_lo + (b + 1) as f64 * domain.scalar_span() / nb as f64;
+                let j = knot_s[1..nseg].partition_point(|&s| s <= start);
+                let next = if j + 1 < nseg && knot_s[j + 1] < end { knot_s[j + 1] as f32 } else { f32::INFINITY };
+                [seg_s0[j], seg_x0[j], seg_inv[j], next]
+            })
+            .collect();
+        Axis {
+            uniform,
+            knot_s,
+            knot_i,
+            grid,
+            lo: domain.s_lo as f32,
+            hi: domain.s_hi as f32,
+            seg_s0,
+            seg_s1,
+            seg_x0,
+            seg_inv,
+            bucket,
+            bucket_inv,
+        }
+    }
+
+    /// Fractional grid index of a scalar already clamped to [lo, hi].
+    #[inline(always)]
+    fn x_of(&self, s: f32) -> f32 {
+        let b = (((s - self.lo) * self.bucket_inv) as usize).min(self.bucket.len() - 1);
+        let [s0, x0, inv, next] = self.bucket[b];
+        let top = (self.grid.len() - 1) as f32;
+        // f32 rounding may put s just outside its bucket; the map is
+        // continuous, so the neighbouring piece's line is off by rounding only.
+        let x = if s > next {
+            let j = self.seg_s1[..self.seg_s1.len() - 1].partition_point(|&k| k < s);
+            self.seg_x0[j] + (s - self.seg_s0[j]) * self.seg_inv[j]
+        } else {
+            x0 + (s - s0) * inv
+        };
+        x.max(0.0).min(top)
+    }
+
+    /// (scalar, index) knots.
+    pub(crate) fn knots(&self) -> Vec<(f64, usize)> {
+        self.knot_s.iter().copied().zip(self.knot_i.iter().copied()).collect()
     }
 }
 
@@ -145,6 +361,32 @@ pub(crate) struct Band {
 }
 
 impl Band {
+    /// The band of `axis`: for a uniform axis |a − b| ≤ w as in format 1;
+    /// otherwise row a holds every b a lookup with Sf within one step of
+    /// s_a and |Sf − Sb| ≤ max_ds can touch, plus one index of margin for
+    /// f32 rounding.
+    fn for_axis(n_s: usize, domain: &TableDomain, axis: &Axis) -> Band {
+        if axis.uniform {
+            return Band::new(n_s, domain);
+        }
+        let x = |s: f64| axis.x_of((s as f32).max(axis.lo).min(axis.hi)) as f64;
+        let mut row_lo = Vec::with_capacity(n_s);
+        let mut row_start = Vec::with_capacity(n_s + 1);
+        let (mut pairs, mut w) = (0, 0);
+        for a in 0..n_s {
+            let below = axis.grid[a.saturating_sub(1)] - domain.max_ds;
+            let above = axis.grid[(a + 1).min(n_s - 1)] + domain.max_ds;
+            let lo = ((x(below).floor() as usize).saturating_sub(1)).min(a);
+            let hi = (x(above).floor() as usize + 2).min(n_s - 1).max(a);
+            row_lo.push(lo);
+            row_start.push(pairs);
+            pairs += hi - lo + 1;
+            w = w.max(a - lo).max(hi - a);
+        }
+        row_start.push(pairs);
+        Band { n_s, w, reach: (n_s - 1) as f32, row_lo, row_start, pairs }
+    }
+
     pub fn new(n_s: usize, domain: &TableDomain) -> Band {
         let step = domain.scalar_span() / (n_s - 1) as f64;
         let reach_steps = (domain.max_ds / step).min((n_s - 1) as f64);
@@ -181,8 +423,10 @@ pub struct Table3d {
     domain: TableDomain,
     params: Table3dParams,
     band: Band,
+    /// Boxed: keeps `Table3d` (and `Baked`) small.
+    axis: Box<Axis>,
     data: Storage,
-    /// 1 / grid step along s and along l.
+    /// 1 / grid step along s (uniform axis) and along l.
     inv_ds: f32,
     inv_dl: f32,
 }
@@ -207,7 +451,11 @@ impl Table3d {
     pub fn build(tf: &TransferFunction, domain: &TableDomain, params: &Table3dParams) -> Result<Table3d, TableError> {
         check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
         check_res("table3d n_l", params.n_l, 2, MAX_AXIS)?;
-        let band = Band::new(params.n_s, domain);
+        let axis = match params.s_axis {
+            ScalarAxis::Uniform => Axis::uniform(domain, params.n_s),
+            ScalarAxis::TfNodes => Axis::tf_nodes(tf, domain, params.n_s),
+        };
+        let band = Band::for_axis(params.n_s, domain, &axis);
         let entries = band.pairs as u64 * params.n_l as u64;
         if entries > MAX_TABLE_ENTRIES {
             return Err(TableError::TooLarge { entries, max: MAX_TABLE_ENTRIES });
@@ -219,30 +467,46 @@ impl Table3d {
             Build3d::Blend { steps, .. } => check_res("blend steps", steps as usize, 1, 1 << 16)?,
             _ => {}
         }
-        let grid = Grid::new(domain, params);
+        let grid = Grid::new(domain, params, &axis);
         let values = match params.build {
             Build3d::SliceRecurrence { oversampling } => build_recurrence(tf, &grid, &band, oversampling),
             Build3d::Blend { steps, accumulation } => build_blend(tf, &grid, &band, steps as usize, accumulation),
-            Build3d::Incremental => build_incremental(tf, &grid, &band),
+            Build3d::Incremental => build_incremental(tf, &grid, &band, &axis, domain),
             Build3d::Exact => build_exact(tf, &grid, &band),
         };
         let data = Storage::encode(values, 4, params.precision);
-        Ok(Table3d::from_parts(*domain, *params, data).expect("built storage matches its layout"))
+        Ok(Table3d::assemble(domain, params, axis, data).expect("built storage matches its layout"))
     }
 
-    /// Reassembles a table from stored parts (e.g. a `.tetl` file); `None`
-    /// when `data` does not hold the band's entries in RGBA.
-    pub fn from_parts(domain: TableDomain, params: Table3dParams, data: Storage) -> Option<Table3d> {
+    /// Reassembles a table from stored parts (e.g. a `.tetl` file): the
+    /// scalar axis's knots (scalar, grid index) are required for
+    /// [`ScalarAxis::TfNodes`] and ignored for `Uniform`. `None` when the
+    /// knots are invalid or `data` does not hold the band's entries in RGBA.
+    pub fn from_parts(
+        domain: TableDomain,
+        params: Table3dParams,
+        s_knots: Option<&[(f64, usize)]>,
+        data: Storage,
+    ) -> Option<Table3d> {
         if params.n_s < 2 || params.n_l < 2 || params.n_s > MAX_AXIS || params.n_l > MAX_AXIS {
             return None;
         }
-        let band = Band::new(params.n_s, &domain);
+        let axis = match params.s_axis {
+            ScalarAxis::Uniform => Axis::uniform(&domain, params.n_s),
+            ScalarAxis::TfNodes => Axis::from_knots(&domain, params.n_s, s_knots?)?,
+        };
+        Table3d::assemble(&domain, &params, axis, data)
+    }
+
+    fn assemble(domain: &TableDomain, params: &Table3dParams, axis: Axis, data: Storage) -> Option<Table3d> {
+        let (domain, params) = (*domain, *params);
+        let band = Band::for_axis(params.n_s, &domain, &axis);
         if data.channels() != 4 || data.len() != band.pairs * params.n_l * 4 || data.precision() != params.precision {
             return None;
         }
         let inv_ds = ((params.n_s - 1) as f64 / domain.scalar_span()) as f32;
         let inv_dl = ((params.n_l - 1) as f64 / domain.len_max_world) as f32;
-        Some(Table3d { domain, params, band, data, inv_ds, inv_dl })
+        Some(Table3d { domain, params, band, axis: Box::new(axis), data, inv_ds, inv_dl })
     }
 
     pub fn domain(&self) -> &TableDomain {
@@ -262,14 +526,27 @@ impl Table3d {
     pub fn full_memory_bytes(&self) -> usize {
         self.params.n_s * self.params.n_s * self.params.n_l * 4 * self.params.precision.bytes()
     }
-    /// Stored half-width of the band in grid steps (n_s − 1 when full).
+    /// Stored half-width of the band in grid steps (n_s − 1 when full; the
+    /// widest row's for a non-uniform axis).
     pub fn band_half_width(&self) -> usize {
         self.band.w
     }
 
+    /// The scalar axis as (scalar, grid index) knots with uniform steps
+    /// between them: two knots for a uniform axis.
+    pub fn s_knots(&self) -> Vec<(f64, usize)> {
+        self.axis.knots()
+    }
+
+    /// Whether the scalar axis has equal steps (what a consumer that maps
+    /// scalars to indices by one scale, like tet_gpu's shader, needs).
+    pub fn is_uniform_axis(&self) -> bool {
+        self.axis.uniform
+    }
+
     /// Grid value: scalar of index `a`.
     pub fn scalar_at(&self, a: usize) -> f64 {
-        self.domain.s_lo + a as f64 * self.domain.scalar_span() / (self.params.n_s - 1) as f64
+        self.axis.grid[a]
     }
     /// Grid value: length of slice `k`.
     pub fn len_at(&self, k: usize) -> f64 {
@@ -278,7 +555,7 @@ impl Table3d {
 
     /// The stored entry at grid indices, `None` outside the band.
     pub fn entry(&self, a: usize, b: usize, k: usize) -> Option<Rgba32> {
-        if a >= self.params.n_s || b >= self.params.n_s || k >= self.params.n_l || a.abs_diff(b) > self.band.w {
+        if a >= self.params.n_s || b >= self.params.n_s || k >= self.params.n_l || !self.band.row(a).contains(&b) {
             return None;
         }
         Some(self.data.get4((self.band.pair(a, b) * self.params.n_l + k) * 4))
@@ -309,12 +586,7 @@ impl Table3d {
     /// storage accessor, or a direct f32 slice in [`SegmentShader::shade_span`]).
     #[inline(always)]
     fn lookup_with(&self, get4: impl Fn(usize) -> [f32; 4], sf: f32, sb: f32, len_world: f32) -> Rgba32 {
-        let top = (self.params.n_s - 1) as f32;
-        let lo = self.domain.s_lo as f32;
-        // f32::max/min drop NaN, so NaN lands on the low edge.
-        let xa = ((sf - lo) * self.inv_ds).max(0.0).min(top);
-        let xb = ((sb - lo) * self.inv_ds).max(0.0).min(top);
-        let xb = xb.max(xa - self.band.reach).min(xa + self.band.reach);
+        let (xa, xb) = self.band_coords(sf, sb);
         let xk = (len_world * self.inv_dl).max(0.0).min((self.params.n_l - 1) as f32);
         let split = |x: f32, n: usize| {
             let i = (x as usize).min(n - 2);
@@ -340,6 +612,27 @@ impl Table3d {
             }
         }
         out
+    }
+}
+
+impl Table3d {
+    /// Fractional grid indices (xa, xb) of a lookup: clamped to the axis,
+    /// and xb to within the domain's max_ds of xa (so every corner is in the
+    /// band). f32::max/min drop NaN, so NaN lands on the low edge.
+    #[inline(always)]
+    fn band_coords(&self, sf: f32, sb: f32) -> (f32, f32) {
+        if self.axis.uniform {
+            let top = (self.params.n_s - 1) as f32;
+            let lo = self.domain.s_lo as f32;
+            let xa = ((sf - lo) * self.inv_ds).max(0.0).min(top);
+            let xb = ((sb - lo) * self.inv_ds).max(0.0).min(top);
+            (xa, xb.max(xa - self.band.reach).min(xa + self.band.reach))
+        } else {
+            let (lo, hi, ds) = (self.axis.lo, self.axis.hi, self.domain.max_ds as f32);
+            let sf = sf.max(lo).min(hi);
+            let sb = sb.max(lo).min(hi).max(sf - ds).min(sf + ds);
+            (self.axis.x_of(sf), self.axis.x_of(sb))
+        }
     }
 }
 
@@ -374,25 +667,17 @@ impl SegmentShader for Table3d {
 
 /// Grid positions in f64.
 struct Grid {
-    s_lo: f64,
-    ds: f64,
+    scalars: Vec<f64>,
     dl: f64,
-    n_s: usize,
     n_l: usize,
 }
 
 impl Grid {
-    fn new(d: &TableDomain, p: &Table3dParams) -> Grid {
-        Grid {
-            s_lo: d.s_lo,
-            ds: d.scalar_span() / (p.n_s - 1) as f64,
-            dl: d.len_max_world / (p.n_l - 1) as f64,
-            n_s: p.n_s,
-            n_l: p.n_l,
-        }
+    fn new(d: &TableDomain, p: &Table3dParams, axis: &Axis) -> Grid {
+        Grid { scalars: axis.grid.clone(), dl: d.len_max_world / (p.n_l - 1) as f64, n_l: p.n_l }
     }
     fn s(&self, a: usize) -> f64 {
-        self.s_lo + a as f64 * self.ds
+        self.scalars[a]
     }
 }
 
@@ -730,7 +1015,7 @@ fn build_exact(tf: &TransferFunction, grid: &Grid, band: &Band) -> Vec<f32> {
     values
 }
 
-fn build_incremental(tf: &TransferFunction, grid: &Grid, band: &Band) -> Vec<f32> {
+fn build_incremental(tf: &TransferFunction, grid: &Grid, band: &Band, axis: &Axis, domain: &TableDomain) -> Vec<f32> {
     let n_l = grid.n_l;
     let prefix = ExtinctionPrefix::new(tf);
     let independent = tf.emission() == Emission::Independent;
@@ -755,7 +1040,21 @@ fn build_incremental(tf: &TransferFunction, grid: &Grid, band: &Band) -> Vec<f32
         };
         (kbar.map(|k| k * weight), alpha)
     };
+    // Lookups in the previous slice as `Table3d::lookup` clamps them.
     let reach = band.reach;
+    let coords = |sm: f64, b: usize| -> (f32, f32) {
+        if axis.uniform {
+            let top = (band.n_s - 1) as f32;
+            let ds = domain.scalar_span() / (band.n_s - 1) as f64;
+            let xm = (((sm - domain.s_lo) / ds) as f32).clamp(0.0, top);
+            (xm, (b as f32).max(xm - reach).min(xm + reach))
+        } else {
+            let (lo, hi, ds) = (axis.lo, axis.hi, domain.max_ds as f32);
+            let sm = (sm as f32).max(lo).min(hi);
+            let sb = (grid.s(b) as f32).max(lo).min(hi).max(sm - ds).min(sm + ds);
+            (axis.x_of(sm), axis.x_of(sb))
+        }
+    };
     for k in 1..n_l {
         let prev_ref = &prev;
         cur.par_chunks_mut(1024).enumerate().for_each(|(chunk, out)| {
@@ -774,9 +1073,7 @@ fn build_incremental(tf: &TransferFunction, grid: &Grid, band: &Band) -> Vec<f32
                 let back = if k == 1 {
                     [0.0; 4]
                 } else {
-                    let top = (grid.n_s - 1) as f32;
-                    let xm = (((sm - grid.s_lo) / grid.ds) as f32).clamp(0.0, top);
-                    let xb = (b as f32).max(xm - reach).min(xm + reach);
+                    let (xm, xb) = coords(sm, b);
                     bilinear(prev_ref, band, xm, xb)
                 };
                 let t = 1.0 - af as f32;

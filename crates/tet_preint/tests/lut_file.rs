@@ -13,7 +13,13 @@ fn tf() -> TransferFunction {
 
 fn opts(precision: Precision) -> BakeOptions {
     BakeOptions {
-        table3d: Table3dParams { n_s: 12, n_l: 6, build: Build3d::default(), precision },
+        table3d: Table3dParams {
+            n_s: 12,
+            n_l: 6,
+            build: Build3d::default(),
+            precision,
+            s_axis: tet_preint::ScalarAxis::TfNodes,
+        },
         atlas_planes_quarters: 16,
         psi: PsiParams { res: 32, first_moment: false, precision },
         ..Default::default()
@@ -58,8 +64,35 @@ fn committed_sample_reads_and_matches_exact() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/mild8.tetl");
     let lut = LutFile::read(&path).unwrap();
     assert_eq!(lut.header.method, "table3d");
+    assert_eq!(lut.header.params["s_axis"], "tf-nodes");
     let sh = load_shader(&lut, &path).unwrap();
-    // At grid nodes (s = i/7, l = 2k/3) the f16 exact-built table is within f16 rounding.
+    // Samples on tf_mild's control points 0.3 and 0.7: steps 2, 3 and 2.
+    let grid = [0.0, 0.15, 0.3, 0.3 + 0.4 / 3.0, 0.3 + 0.8 / 3.0, 0.7, 0.85, 1.0];
+    // At grid nodes (l = 2k/3) the f16 exact-built table is within f16 rounding.
+    let tf = lut.transfer_function().unwrap();
+    for (i, j, k) in [(0, 0, 1), (3, 5, 2), (7, 4, 3), (2, 2, 3), (5, 6, 3)] {
+        let (sf, sb, l) = (grid[i], grid[j], 2.0 * k as f64 / 3.0);
+        let got =
+            sh.shade(&Segment { s_front: sf as f32, s_back: sb as f32, len_world: l as f32, ..Default::default() });
+        let want = integrate_segment(&tf, sf, sb, l).to_array();
+        for c in 0..4 {
+            assert!((got[c] as f64 - want[c]).abs() < 2e-3, "{i} {j} {k}: {got:?} vs {want:?}");
+        }
+    }
+}
+
+/// Format version 1 (uniform scalar axis, no `s_axis` in params) still
+/// reads, as a uniform table.
+#[test]
+fn version_1_sample_reads_as_a_uniform_table() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/mild8_v1.tetl");
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 1);
+    let lut = LutFile::read(&path).unwrap();
+    assert!(lut.header.params.get("s_axis").is_none());
+    let t = tet_preint::Table3d::from_lut(&lut, &path).unwrap();
+    assert!(t.is_uniform_axis());
+    let sh = load_shader(&lut, &path).unwrap();
     let tf = lut.transfer_function().unwrap();
     for (i, j, k) in [(0, 0, 1), (3, 5, 2), (7, 4, 3), (2, 2, 3)] {
         let (sf, sb, l) = (i as f64 / 7.0, j as f64 / 7.0, 2.0 * k as f64 / 3.0);
@@ -72,9 +105,31 @@ fn committed_sample_reads_and_matches_exact() {
     }
 }
 
+/// A tf-nodes table whose knots section is missing or damaged gets an
+/// error naming the section, not a panic.
+#[test]
+fn tf_nodes_table_needs_valid_knots() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/mild8.tetl");
+    let lut = LutFile::read(&path).unwrap();
+    let mut no_axis = lut.clone();
+    let i = no_axis.header.sections.iter().position(|s| s.name == "SAXIS").unwrap();
+    no_axis.header.sections.remove(i);
+    no_axis.payloads.remove(i);
+    let e = load_shader(&no_axis, &path).err().unwrap().to_string();
+    assert!(e.contains("SAXIS"), "{e}");
+    let mut bad = lut.clone();
+    let p = &mut bad.payloads[i];
+    p[16..24].copy_from_slice(&0.9f64.to_le_bytes()); // second knot's scalar beyond the third's
+    let e = load_shader(&bad, &path).err().unwrap().to_string();
+    assert!(e.contains("T3D") && e.contains("knots"), "{e}");
+}
+
 fn sample_bytes() -> (Vec<u8>, std::path::PathBuf) {
     let domain = TableDomain::new(0.0, 1.0, 0.6, 2.0).unwrap();
-    let lut = bake(Method::Table3d, &tf(), &domain, &opts(Precision::F32)).unwrap();
+    // A uniform axis: no SAXIS section, T3D is the last payload.
+    let mut o = opts(Precision::F32);
+    o.table3d.s_axis = tet_preint::ScalarAxis::Uniform;
+    let lut = bake(Method::Table3d, &tf(), &domain, &o).unwrap();
     (lut.to_bytes(), "x.tetl".into())
 }
 
@@ -85,9 +140,9 @@ fn rejects_wrong_magic_newer_version_and_bad_checksums() {
     b[1] = b'X';
     assert!(matches!(LutFile::from_bytes(&b, &path), Err(LutError::BadMagic { .. })));
     let mut b = bytes.clone();
-    b[8..12].copy_from_slice(&2u32.to_le_bytes());
+    b[8..12].copy_from_slice(&3u32.to_le_bytes());
     let e = LutFile::from_bytes(&b, &path).unwrap_err();
-    assert!(matches!(e, LutError::NewerVersion { found: 2, supported: 1, .. }), "{e}");
+    assert!(matches!(e, LutError::NewerVersion { found: 3, supported: 2, .. }), "{e}");
     assert!(e.to_string().ends_with("x.tetl"));
     // Flip a byte in the table, the header JSON and the data payload.
     let last = bytes.len() - 3;

@@ -45,6 +45,52 @@ proptest! {
         }
     }
 
+    /// A table with samples on the TF's control points: every control point
+    /// in range is a grid sample, nodes match exact, and lookups anywhere
+    /// (clamped, NaN) stay in the band and finite, span and single alike.
+    #[test]
+    fn tf_nodes_axis_samples_the_nodes_and_lookups_stay_in_the_band(
+        tf in arb_tf(),
+        segs in prop::collection::vec((-0.3f32..1.3, -0.3f32..1.3, -0.5f32..2.5), 1..64),
+    ) {
+        let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
+        let p = Table3dParams {
+            n_s: 24,
+            n_l: 12,
+            build: Build3d::SliceRecurrence { oversampling: 6.0 },
+            s_axis: ScalarAxis::TfNodes,
+            ..Default::default()
+        };
+        let t = Table3d::build(&tf, &d, &p).unwrap();
+        let grid: Vec<f64> = (0..24).map(|a| t.scalar_at(a)).collect();
+        prop_assert!(grid.windows(2).all(|w| w[0] < w[1]) && grid[0] == 0.0 && grid[23] == 1.0);
+        let nodes = tf.opacity_nodes().iter().map(|o| o.x).chain(tf.color_nodes().iter().map(|c| c.x));
+        for x in nodes.filter(|&x| x > 1e-6 && x < 1.0 - 1e-6) {
+            prop_assert!(grid.iter().any(|&g| (g - x).abs() < 1e-9), "node {x} not on {grid:?}");
+        }
+        for a in 0..24 {
+            for b in 0..24 {
+                if let Some(e) = t.entry(a, b, 7) {
+                    let x = integrate_segment(&tf, grid[a], grid[b], t.len_at(7)).to_array();
+                    for c in 0..4 {
+                        prop_assert!((e[c] as f64 - x[c]).abs() < 1e-3, "({a},{b}) ch {c}: {} vs {}", e[c], x[c]);
+                    }
+                }
+            }
+        }
+        let segs: Vec<Segment> = segs
+            .into_iter()
+            .map(|(s_front, s_back, len_world)| Segment { s_front, s_back, len_world, ..Default::default() })
+            .chain([Segment { s_front: f32::NAN, s_back: 0.7, len_world: 1.0, ..Default::default() }])
+            .collect();
+        let mut out = vec![[0.0f32; 4]; segs.len()];
+        t.shade_span(&segs, &mut out);
+        for (s, o) in segs.iter().zip(&out) {
+            prop_assert_eq!(*o, t.shade(s));
+            prop_assert!(o.iter().all(|v| v.is_finite() && *v >= 0.0) && o[3] <= 1.0, "{:?}: {:?}", s, o);
+        }
+    }
+
     #[test]
     fn partial_matches_exact_and_lookups_are_finite(tf in arb_tf(), sf in -0.2f32..1.2, sb in -0.2f32..1.2, l in 0.0f32..3.0) {
         let psi = Arc::new(PsiTable::build(&PsiParams { res: 512, first_moment: true, ..Default::default() }).unwrap());

@@ -58,7 +58,8 @@ fn node_error(a: &Table3d, b: &Table3d) -> (f64, f64) {
 }
 
 fn build(tf: &TransferFunction, d: &TableDomain, n_s: usize, n_l: usize, build: Build3d) -> Table3d {
-    Table3d::build(tf, d, &Table3dParams { n_s, n_l, build, precision: Precision::F32 }).expect("valid table")
+    Table3d::build(tf, d, &Table3dParams { n_s, n_l, build, precision: Precision::F32, s_axis: Default::default() })
+        .expect("valid table")
 }
 
 /// The three tables as markdown; `quick` shrinks every size for a smoke run.

@@ -1027,32 +1027,43 @@ impl TetSetup {
     /// [0, longest edge], so no lane is ever NaN.
     #[inline]
     pub fn eval_lanes(&self, px0: u32, py: u32, out: &mut Lanes) {
+        self.eval_lanes_n::<LANES>(px0, py, out);
+    }
+
+    /// [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only (the
+    /// rest of `out` is left as it was): small tets' row spans are a few
+    /// pixels, and each lane costs a division per face plane. Every lane is
+    /// computed by the same operations whatever `N`, so the values are
+    /// bit-identical to the full width's.
+    #[inline]
+    pub fn eval_lanes_n<const N: usize>(&self, px0: u32, py: u32, out: &mut Lanes) {
+        const { assert!(N <= LANES) };
         let sp = &self.span;
         let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
         let j = (py as i32 - sp.ref_px[1]) as f32;
-        let ii: [f32; LANES] = std::array::from_fn(|l| i0 + l as f32);
-        let mut zf = [sp.zeta_near; LANES];
-        let mut zb = [f32::INFINITY; LANES];
+        let ii: [f32; N] = std::array::from_fn(|l| i0 + l as f32);
+        let mut zf = [sp.zeta_near; N];
+        let mut zb = [f32::INFINITY; N];
         for (k, p) in sp.planes[..sp.n_planes].iter().enumerate() {
             let (nr, dr) = (p.num.row(j), p.den.row(j));
             if k < sp.n_front {
-                for l in 0..LANES {
+                for l in 0..N {
                     let den = dr + p.den.dx * ii[l];
                     let z = (nr + p.num.dx * ii[l]) / den;
                     zf[l] = if den < 0.0 && z > zf[l] { z } else { zf[l] };
                 }
             } else {
-                for l in 0..LANES {
+                for l in 0..N {
                     let den = dr + p.den.dx * ii[l];
                     let z = (nr + p.num.dx * ii[l]) / den;
                     zb[l] = if den > 0.0 && z < zb[l] { z } else { zb[l] };
                 }
             }
         }
-        let mut dlen = [1.0f32; LANES];
+        let mut dlen = [1.0f32; N];
         if sp.perspective {
             let cy = sp.cy.row(j);
-            for l in 0..LANES {
+            for l in 0..N {
                 let cx = sp.cx.c + sp.cx.dx * ii[l];
                 dlen[l] = (1.0 + cx * cx + cy * cy).sqrt();
             }
@@ -1067,7 +1078,7 @@ impl TetSetup {
             }
         };
         let (s0r, sbr) = (sp.s0.row(j), sp.sb.row(j));
-        for l in 0..LANES {
+        for l in 0..N {
             let len = (zb[l] - zf[l]) * dlen[l];
             let ok = len > 0.0 && len < f32::INFINITY;
             out.len_world[l] = if ok { len.min(sp.len_max) } else { 0.0 };
@@ -1078,14 +1089,14 @@ impl TetSetup {
         }
         if sp.has_g {
             let (g0r, gbr) = (sp.g0.row(j), sp.gb.row(j));
-            for l in 0..LANES {
+            for l in 0..N {
                 let (g0, gb) = (g0r + sp.g0.dx * ii[l], gbr + sp.gb.dx * ii[l]);
                 out.g_front[l] = clamp(g0 + zf[l] * gb, sp.g_range);
                 out.g_back[l] = clamp(g0 + zb[l] * gb, sp.g_range);
             }
         } else {
-            out.g_front = [0.0; LANES];
-            out.g_back = [0.0; LANES];
+            out.g_front[..N].fill(0.0);
+            out.g_back[..N].fill(0.0);
         }
     }
 
@@ -1306,6 +1317,16 @@ mod tests {
                 }
                 covered += 1;
                 s.eval_lanes(px, py, &mut lanes);
+                // Narrow widths give the full width's lanes bit for bit.
+                let (mut l2, mut l4) = (Lanes::default(), Lanes::default());
+                s.eval_lanes_n::<2>(px, py, &mut l2);
+                s.eval_lanes_n::<4>(px, py, &mut l4);
+                let bits = |l: &Lanes, n: usize| {
+                    [l.s_front, l.s_back, l.g_front, l.g_back, l.len_world, l.zeta_mid]
+                        .map(|a| a[..n].iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+                };
+                assert_eq!(bits(&l2, 2), bits(&lanes, 2), "width 2 at ({px}, {py})");
+                assert_eq!(bits(&l4, 4), bits(&lanes, 4), "width 4 at ({px}, {py})");
                 let want = s.fragment(&geo.frame, x, y);
                 let got_len = lanes.len_world[0] as f64;
                 let want_len = want.map_or(0.0, |f| f.len_world);

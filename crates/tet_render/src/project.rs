@@ -669,12 +669,13 @@ fn bbox_of(pts: &[[f64; 2]], w: u32, h: u32) -> Option<[i32; 4]> {
     if !(lo[0].is_finite() && lo[1].is_finite() && hi[0].is_finite() && hi[1].is_finite()) {
         return None;
     }
-    // Centre i + ½ inside [lo, hi] ⇔ i ∈ [ceil(lo − ½), floor(hi − ½)].
-    let c = |v: f64, max: u32| v.clamp(-1.0, max as f64) as i32;
-    let x0 = c((lo[0] - 0.5).ceil(), w);
-    let y0 = c((lo[1] - 0.5).ceil(), h);
-    let x1 = c((hi[0] - 0.5).floor(), w - 1);
-    let y1 = c((hi[1] - 0.5).floor(), h - 1);
+    // Centre i + ½ inside [lo, hi] ⇔ i ∈ [ceil(lo − ½), floor(hi − ½)]
+    // (ceil_i64/floor_i64: no libm call per tet; exact for these finite values).
+    let c = |v: i64, max: u32| v.clamp(-1, i64::from(max)) as i32;
+    let x0 = c(ceil_i64(lo[0] - 0.5), w);
+    let y0 = c(ceil_i64(lo[1] - 0.5), h);
+    let x1 = c(floor_i64(hi[0] - 0.5), w - 1);
+    let y1 = c(floor_i64(hi[1] - 0.5), h - 1);
     let (x0, y0) = (x0.max(0), y0.max(0));
     if x0 > x1 || y0 > y1 || x1 < 0 || y1 < 0 {
         return None;
@@ -1382,6 +1383,39 @@ mod tests {
             span_matches_per_pixel([[0.0, -0.5, -0.5], [0.0, 0.5, -0.5], [0.0, 0.0, 0.5], [0.7, 0.0, 0.0]], &v);
             // Edges through pixel centres (axis-aligned cube corner).
             span_matches_per_pixel([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &v);
+        }
+    }
+
+    /// `bbox_of`'s libm-free rounding agrees with ceil/floor, on pixel
+    /// centres, half-integers, negatives and values past the image.
+    #[test]
+    fn bbox_rounding_matches_libm() {
+        let libm = |pts: &[[f64; 2]], w: u32, h: u32| -> Option<[i32; 4]> {
+            let lo = [
+                pts.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min),
+                pts.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min),
+            ];
+            let hi = [
+                pts.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max),
+                pts.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max),
+            ];
+            let c = |v: f64, max: u32| v.clamp(-1.0, max as f64) as i32;
+            let (x0, y0) = (c((lo[0] - 0.5).ceil(), w).max(0), c((lo[1] - 0.5).ceil(), h).max(0));
+            let (x1, y1) = (c((hi[0] - 0.5).floor(), w - 1), c((hi[1] - 0.5).floor(), h - 1));
+            (x0 <= x1 && y0 <= y1 && x1 >= 0 && y1 >= 0).then_some([x0, y0, x1, y1])
+        };
+        let mut rng = Rng(0x5eed_b0b5);
+        let specials = [0.0, 0.5, 1.5, -0.5, -3.25, 99.5, 100.0, 100.5, 1e12, -1e12, 1e300, -1e300];
+        for i in 0..20_000 {
+            let pick = |rng: &mut Rng, k: usize| {
+                if (i + k).is_multiple_of(3) {
+                    specials[(rng.next() * specials.len() as f64) as usize % specials.len()]
+                } else {
+                    rng.range(-20.0, 120.0)
+                }
+            };
+            let pts: Vec<[f64; 2]> = (0..3 + i % 4).map(|k| [pick(&mut rng, k), pick(&mut rng, k + 1)]).collect();
+            assert_eq!(bbox_of(&pts, 100, 80), libm(&pts, 100, 80), "{pts:?}");
         }
     }
 

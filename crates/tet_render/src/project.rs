@@ -157,17 +157,26 @@ impl ViewGeometry {
             .par_iter()
             .map(|t| {
                 let mut m = 0u8;
+                // Vertex − eye, shared by the tet's four faces: the same
+                // differences Shewchuk's orient3d forms with the eye as pd.
+                let d = t.map(|v| {
+                    let p = &pos[v as usize];
+                    [p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]]
+                });
                 for (f, fv) in FACE_OUTWARD.iter().enumerate() {
                     let ids = [t[fv[0]], t[fv[1]], t[fv[2]]];
                     let side = if frame.parallel {
                         parallel_side(pos, ids, frame.forward)
                     } else {
-                        side_of_oriented_plane(
-                            &pos[ids[0] as usize],
-                            &pos[ids[1] as usize],
-                            &pos[ids[2] as usize],
-                            &eye,
-                        )
+                        match orient3d_filtered(&d[fv[0]], &d[fv[1]], &d[fv[2]]) {
+                            Some(side) => side,
+                            None => side_of_oriented_plane(
+                                &pos[ids[0] as usize],
+                                &pos[ids[1] as usize],
+                                &pos[ids[2] as usize],
+                                &eye,
+                            ),
+                        }
                     };
                     match side {
                         TetOrientation::Positive => m |= 1 << f,
@@ -179,6 +188,43 @@ impl ViewGeometry {
             })
             .collect();
         ViewGeometry { frame, cam, px, face_mask }
+    }
+}
+
+/// Error bound of orient3d's floating-point filter (Shewchuk's
+/// `o3derrboundA`, as the `robust` crate defines it).
+const O3D_ERRBOUND_A: f64 = {
+    const EPS: f64 = f64::EPSILON * 0.5;
+    (7.0 + 56.0 * EPS) * EPS
+};
+
+/// The first, floating-point stage of Shewchuk's orient3d on the
+/// differences `a − eye`, `b − eye`, `c − eye` (the same operations in the
+/// same order as `robust::orient3d`), as what
+/// [`side_of_oriented_plane`]`(a, b, c, eye)` returns; `None` when the filter
+/// cannot certify the sign (then the exact predicate decides). Inlined per
+/// tet with the differences shared by its faces: the face masks are
+/// recomputed for every tet on every camera move.
+#[inline(always)]
+fn orient3d_filtered(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]) -> Option<TetOrientation> {
+    let [adx, ady, adz] = *a;
+    let [bdx, bdy, bdz] = *b;
+    let [cdx, cdy, cdz] = *c;
+    let (bdxcdy, cdxbdy) = (bdx * cdy, cdx * bdy);
+    let (cdxady, adxcdy) = (cdx * ady, adx * cdy);
+    let (adxbdy, bdxady) = (adx * bdy, bdx * ady);
+    let det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+    let permanent = (bdxcdy.abs() + cdxbdy.abs()) * adz.abs()
+        + (cdxady.abs() + adxcdy.abs()) * bdz.abs()
+        + (adxbdy.abs() + bdxady.abs()) * cdz.abs();
+    let errbound = O3D_ERRBOUND_A * permanent;
+    // tet_mesh's convention: orient3d < 0 is Positive. NaN fails both tests.
+    if det > errbound {
+        Some(TetOrientation::Negative)
+    } else if -det > errbound {
+        Some(TetOrientation::Positive)
+    } else {
+        None
     }
 }
 
@@ -1384,6 +1430,35 @@ mod tests {
             // Edges through pixel centres (axis-aligned cube corner).
             span_matches_per_pixel([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &v);
         }
+    }
+
+    /// The inlined orient3d filter never disagrees with the exact predicate,
+    /// and defers on eyes in (or numerically near) a face's plane.
+    #[test]
+    fn orient3d_filter_agrees_with_the_exact_predicate() {
+        let mut rng = Rng(0x0f11_7e25);
+        let mut deferred = 0;
+        for i in 0..50_000 {
+            let mut p = || [rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(1e3, 1e3 + 6.0)];
+            let (a, b, c) = (p(), p(), p());
+            let eye = match i % 3 {
+                0 => p(),
+                // On the plane through a, b, c (up to rounding): the hard case.
+                1 => {
+                    let (u, v) = (rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+                    std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]))
+                }
+                // Exactly on an edge's line, coplanar: Flat.
+                _ => std::array::from_fn(|k| a[k] + 2.0 * (b[k] - a[k])),
+            };
+            let d = |q: [f64; 3]| [q[0] - eye[0], q[1] - eye[1], q[2] - eye[2]];
+            let exact = side_of_oriented_plane(&a, &b, &c, &eye);
+            match orient3d_filtered(&d(a), &d(b), &d(c)) {
+                Some(side) => assert_eq!(side, exact, "{a:?} {b:?} {c:?} {eye:?}"),
+                None => deferred += 1,
+            }
+        }
+        assert!(deferred > 1000, "the near-plane cases should reach the exact predicate ({deferred})");
     }
 
     /// `bbox_of`'s libm-free rounding agrees with ceil/floor, on pixel

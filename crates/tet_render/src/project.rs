@@ -157,17 +157,26 @@ impl ViewGeometry {
             .par_iter()
             .map(|t| {
                 let mut m = 0u8;
+                // Vertex − eye, shared by the tet's four faces: the same
+                // differences Shewchuk's orient3d forms with the eye as pd.
+                let d = t.map(|v| {
+                    let p = &pos[v as usize];
+                    [p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]]
+                });
                 for (f, fv) in FACE_OUTWARD.iter().enumerate() {
                     let ids = [t[fv[0]], t[fv[1]], t[fv[2]]];
                     let side = if frame.parallel {
                         parallel_side(pos, ids, frame.forward)
                     } else {
-                        side_of_oriented_plane(
-                            &pos[ids[0] as usize],
-                            &pos[ids[1] as usize],
-                            &pos[ids[2] as usize],
-                            &eye,
-                        )
+                        match orient3d_filtered(&d[fv[0]], &d[fv[1]], &d[fv[2]]) {
+                            Some(side) => side,
+                            None => side_of_oriented_plane(
+                                &pos[ids[0] as usize],
+                                &pos[ids[1] as usize],
+                                &pos[ids[2] as usize],
+                                &eye,
+                            ),
+                        }
                     };
                     match side {
                         TetOrientation::Positive => m |= 1 << f,
@@ -179,6 +188,43 @@ impl ViewGeometry {
             })
             .collect();
         ViewGeometry { frame, cam, px, face_mask }
+    }
+}
+
+/// Error bound of orient3d's floating-point filter (Shewchuk's
+/// `o3derrboundA`, as the `robust` crate defines it).
+const O3D_ERRBOUND_A: f64 = {
+    const EPS: f64 = f64::EPSILON * 0.5;
+    (7.0 + 56.0 * EPS) * EPS
+};
+
+/// The first, floating-point stage of Shewchuk's orient3d on the
+/// differences `a − eye`, `b − eye`, `c − eye` (the same operations in the
+/// same order as `robust::orient3d`), as what
+/// [`side_of_oriented_plane`]`(a, b, c, eye)` returns; `None` when the filter
+/// cannot certify the sign (then the exact predicate decides). Inlined per
+/// tet with the differences shared by its faces: the face masks are
+/// recomputed for every tet on every camera move.
+#[inline(always)]
+fn orient3d_filtered(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]) -> Option<TetOrientation> {
+    let [adx, ady, adz] = *a;
+    let [bdx, bdy, bdz] = *b;
+    let [cdx, cdy, cdz] = *c;
+    let (bdxcdy, cdxbdy) = (bdx * cdy, cdx * bdy);
+    let (cdxady, adxcdy) = (cdx * ady, adx * cdy);
+    let (adxbdy, bdxady) = (adx * bdy, bdx * ady);
+    let det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+    let permanent = (bdxcdy.abs() + cdxbdy.abs()) * adz.abs()
+        + (cdxady.abs() + adxcdy.abs()) * bdz.abs()
+        + (adxbdy.abs() + bdxady.abs()) * cdz.abs();
+    let errbound = O3D_ERRBOUND_A * permanent;
+    // tet_mesh's convention: orient3d < 0 is Positive. NaN fails both tests.
+    if det > errbound {
+        Some(TetOrientation::Negative)
+    } else if -det > errbound {
+        Some(TetOrientation::Positive)
+    } else {
+        None
     }
 }
 
@@ -669,12 +715,13 @@ fn bbox_of(pts: &[[f64; 2]], w: u32, h: u32) -> Option<[i32; 4]> {
     if !(lo[0].is_finite() && lo[1].is_finite() && hi[0].is_finite() && hi[1].is_finite()) {
         return None;
     }
-    // Centre i + ½ inside [lo, hi] ⇔ i ∈ [ceil(lo − ½), floor(hi − ½)].
-    let c = |v: f64, max: u32| v.clamp(-1.0, max as f64) as i32;
-    let x0 = c((lo[0] - 0.5).ceil(), w);
-    let y0 = c((lo[1] - 0.5).ceil(), h);
-    let x1 = c((hi[0] - 0.5).floor(), w - 1);
-    let y1 = c((hi[1] - 0.5).floor(), h - 1);
+    // Centre i + ½ inside [lo, hi] ⇔ i ∈ [ceil(lo − ½), floor(hi − ½)]
+    // (ceil_i64/floor_i64: no libm call per tet; exact for these finite values).
+    let c = |v: i64, max: u32| v.clamp(-1, i64::from(max)) as i32;
+    let x0 = c(ceil_i64(lo[0] - 0.5), w);
+    let y0 = c(ceil_i64(lo[1] - 0.5), h);
+    let x1 = c(floor_i64(hi[0] - 0.5), w - 1);
+    let y1 = c(floor_i64(hi[1] - 0.5), h - 1);
     let (x0, y0) = (x0.max(0), y0.max(0));
     if x0 > x1 || y0 > y1 || x1 < 0 || y1 < 0 {
         return None;
@@ -1027,32 +1074,43 @@ impl TetSetup {
     /// [0, longest edge], so no lane is ever NaN.
     #[inline]
     pub fn eval_lanes(&self, px0: u32, py: u32, out: &mut Lanes) {
+        self.eval_lanes_n::<LANES>(px0, py, out);
+    }
+
+    /// [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only (the
+    /// rest of `out` is left as it was): small tets' row spans are a few
+    /// pixels, and each lane costs a division per face plane. Every lane is
+    /// computed by the same operations whatever `N`, so the values are
+    /// bit-identical to the full width's.
+    #[inline]
+    pub fn eval_lanes_n<const N: usize>(&self, px0: u32, py: u32, out: &mut Lanes) {
+        const { assert!(N <= LANES) };
         let sp = &self.span;
         let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
         let j = (py as i32 - sp.ref_px[1]) as f32;
-        let ii: [f32; LANES] = std::array::from_fn(|l| i0 + l as f32);
-        let mut zf = [sp.zeta_near; LANES];
-        let mut zb = [f32::INFINITY; LANES];
+        let ii: [f32; N] = std::array::from_fn(|l| i0 + l as f32);
+        let mut zf = [sp.zeta_near; N];
+        let mut zb = [f32::INFINITY; N];
         for (k, p) in sp.planes[..sp.n_planes].iter().enumerate() {
             let (nr, dr) = (p.num.row(j), p.den.row(j));
             if k < sp.n_front {
-                for l in 0..LANES {
+                for l in 0..N {
                     let den = dr + p.den.dx * ii[l];
                     let z = (nr + p.num.dx * ii[l]) / den;
                     zf[l] = if den < 0.0 && z > zf[l] { z } else { zf[l] };
                 }
             } else {
-                for l in 0..LANES {
+                for l in 0..N {
                     let den = dr + p.den.dx * ii[l];
                     let z = (nr + p.num.dx * ii[l]) / den;
                     zb[l] = if den > 0.0 && z < zb[l] { z } else { zb[l] };
                 }
             }
         }
-        let mut dlen = [1.0f32; LANES];
+        let mut dlen = [1.0f32; N];
         if sp.perspective {
             let cy = sp.cy.row(j);
-            for l in 0..LANES {
+            for l in 0..N {
                 let cx = sp.cx.c + sp.cx.dx * ii[l];
                 dlen[l] = (1.0 + cx * cx + cy * cy).sqrt();
             }
@@ -1067,7 +1125,7 @@ impl TetSetup {
             }
         };
         let (s0r, sbr) = (sp.s0.row(j), sp.sb.row(j));
-        for l in 0..LANES {
+        for l in 0..N {
             let len = (zb[l] - zf[l]) * dlen[l];
             let ok = len > 0.0 && len < f32::INFINITY;
             out.len_world[l] = if ok { len.min(sp.len_max) } else { 0.0 };
@@ -1078,14 +1136,14 @@ impl TetSetup {
         }
         if sp.has_g {
             let (g0r, gbr) = (sp.g0.row(j), sp.gb.row(j));
-            for l in 0..LANES {
+            for l in 0..N {
                 let (g0, gb) = (g0r + sp.g0.dx * ii[l], gbr + sp.gb.dx * ii[l]);
                 out.g_front[l] = clamp(g0 + zf[l] * gb, sp.g_range);
                 out.g_back[l] = clamp(g0 + zb[l] * gb, sp.g_range);
             }
         } else {
-            out.g_front = [0.0; LANES];
-            out.g_back = [0.0; LANES];
+            out.g_front[..N].fill(0.0);
+            out.g_back[..N].fill(0.0);
         }
     }
 
@@ -1306,6 +1364,16 @@ mod tests {
                 }
                 covered += 1;
                 s.eval_lanes(px, py, &mut lanes);
+                // Narrow widths give the full width's lanes bit for bit.
+                let (mut l2, mut l4) = (Lanes::default(), Lanes::default());
+                s.eval_lanes_n::<2>(px, py, &mut l2);
+                s.eval_lanes_n::<4>(px, py, &mut l4);
+                let bits = |l: &Lanes, n: usize| {
+                    [l.s_front, l.s_back, l.g_front, l.g_back, l.len_world, l.zeta_mid]
+                        .map(|a| a[..n].iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+                };
+                assert_eq!(bits(&l2, 2), bits(&lanes, 2), "width 2 at ({px}, {py})");
+                assert_eq!(bits(&l4, 4), bits(&lanes, 4), "width 4 at ({px}, {py})");
                 let want = s.fragment(&geo.frame, x, y);
                 let got_len = lanes.len_world[0] as f64;
                 let want_len = want.map_or(0.0, |f| f.len_world);
@@ -1361,6 +1429,68 @@ mod tests {
             span_matches_per_pixel([[0.0, -0.5, -0.5], [0.0, 0.5, -0.5], [0.0, 0.0, 0.5], [0.7, 0.0, 0.0]], &v);
             // Edges through pixel centres (axis-aligned cube corner).
             span_matches_per_pixel([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &v);
+        }
+    }
+
+    /// The inlined orient3d filter never disagrees with the exact predicate,
+    /// and defers on eyes in (or numerically near) a face's plane.
+    #[test]
+    fn orient3d_filter_agrees_with_the_exact_predicate() {
+        let mut rng = Rng(0x0f11_7e25);
+        let mut deferred = 0;
+        for i in 0..50_000 {
+            let mut p = || [rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(1e3, 1e3 + 6.0)];
+            let (a, b, c) = (p(), p(), p());
+            let eye = match i % 3 {
+                0 => p(),
+                // On the plane through a, b, c (up to rounding): the hard case.
+                1 => {
+                    let (u, v) = (rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+                    std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]))
+                }
+                // Exactly on an edge's line, coplanar: Flat.
+                _ => std::array::from_fn(|k| a[k] + 2.0 * (b[k] - a[k])),
+            };
+            let d = |q: [f64; 3]| [q[0] - eye[0], q[1] - eye[1], q[2] - eye[2]];
+            let exact = side_of_oriented_plane(&a, &b, &c, &eye);
+            match orient3d_filtered(&d(a), &d(b), &d(c)) {
+                Some(side) => assert_eq!(side, exact, "{a:?} {b:?} {c:?} {eye:?}"),
+                None => deferred += 1,
+            }
+        }
+        assert!(deferred > 1000, "the near-plane cases should reach the exact predicate ({deferred})");
+    }
+
+    /// `bbox_of`'s libm-free rounding agrees with ceil/floor, on pixel
+    /// centres, half-integers, negatives and values past the image.
+    #[test]
+    fn bbox_rounding_matches_libm() {
+        let libm = |pts: &[[f64; 2]], w: u32, h: u32| -> Option<[i32; 4]> {
+            let lo = [
+                pts.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min),
+                pts.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min),
+            ];
+            let hi = [
+                pts.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max),
+                pts.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max),
+            ];
+            let c = |v: f64, max: u32| v.clamp(-1.0, max as f64) as i32;
+            let (x0, y0) = (c((lo[0] - 0.5).ceil(), w).max(0), c((lo[1] - 0.5).ceil(), h).max(0));
+            let (x1, y1) = (c((hi[0] - 0.5).floor(), w - 1), c((hi[1] - 0.5).floor(), h - 1));
+            (x0 <= x1 && y0 <= y1 && x1 >= 0 && y1 >= 0).then_some([x0, y0, x1, y1])
+        };
+        let mut rng = Rng(0x5eed_b0b5);
+        let specials = [0.0, 0.5, 1.5, -0.5, -3.25, 99.5, 100.0, 100.5, 1e12, -1e12, 1e300, -1e300];
+        for i in 0..20_000 {
+            let pick = |rng: &mut Rng, k: usize| {
+                if (i + k).is_multiple_of(3) {
+                    specials[(rng.next() * specials.len() as f64) as usize % specials.len()]
+                } else {
+                    rng.range(-20.0, 120.0)
+                }
+            };
+            let pts: Vec<[f64; 2]> = (0..3 + i % 4).map(|k| [pick(&mut rng, k), pick(&mut rng, k + 1)]).collect();
+            assert_eq!(bbox_of(&pts, 100, 80), libm(&pts, 100, 80), "{pts:?}");
         }
     }
 

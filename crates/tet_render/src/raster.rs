@@ -319,7 +319,12 @@ fn draw_tet(
                     ctx.fragments += 1;
                 }
             } else {
-                s.eval_lanes(px0, py, &mut lanes);
+                // Narrower evaluation for short spans (same values per lane).
+                match n {
+                    1..=2 => s.eval_lanes_n::<2>(px0, py, &mut lanes),
+                    3..=4 => s.eval_lanes_n::<4>(px0, py, &mut lanes),
+                    _ => s.eval_lanes(px0, py, &mut lanes),
+                }
                 for l in 0..n {
                     if lanes.len_world[l] <= 0.0 || ctx.acc[base + l][3] >= opaque_alpha {
                         continue;

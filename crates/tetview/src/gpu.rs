@@ -91,6 +91,7 @@ pub fn render(
         Method::Table3d => {
             let domain = TableDomain::from_bundle(bundle)?;
             let tb = Instant::now();
+            crate::render::count_table_bake();
             let table = Table3d::build(tf, &domain, &Table3dParams::default())?;
             bake_seconds = tb.elapsed().as_secs_f64();
             GpuShader::table3d(&ctx, &table)?
@@ -134,6 +135,7 @@ pub fn render(
             "cull_seconds": cull_seconds,
             "sort_seconds": sort_seconds,
             "table_bake_seconds": bake_seconds,
+            "tables_baked": crate::render::tables_baked(),
             "setup_seconds": setup_seconds,
             "upload_seconds": s.upload_seconds,
             "classify_seconds": s.classify_seconds,

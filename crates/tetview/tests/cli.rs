@@ -109,6 +109,30 @@ fn renders_png_npy_and_view_with_json_stats() {
     assert_eq!(tet_render::Image::read_npy(&npy).unwrap(), tet_render::Image::read_npy(&npy2).unwrap());
 }
 
+/// Without `--method`, `render` uses table3d (the method that meets the
+/// accuracy target; see tests/golden.rs), baked once on the fly; pt-linear
+/// bakes nothing.
+#[test]
+fn default_method_is_table3d_baked_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let png = dir.path().join("a.png");
+    let stats = |extra: &[&str]| -> serde_json::Value {
+        let mut a = vec!["render", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--size", "24x24"];
+        a.extend_from_slice(&["-o", png.to_str().unwrap(), "--json"]);
+        a.extend_from_slice(extra);
+        let out = tetview(&a);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let s = stats(&[]);
+    assert_eq!(s["method"], "table3d");
+    assert_eq!(s["tables_baked"], 1, "{s}");
+    assert!(s["shader_seconds"].as_f64().is_some_and(|x| x > 0.0), "{s}");
+    let s = stats(&["--method", "pt-linear"]);
+    assert_eq!(s["tables_baked"], 0, "{s}");
+}
+
 /// Every method renders through `--tf --method` (tables baked on the fly)
 /// and close to `exact`; a baked `.tetl` renders through `--lut` like the
 /// same method baked on the fly.
@@ -264,9 +288,10 @@ fn gpu_render_matches_the_cpu_or_skips() {
         d
     };
     let (gpu, cpu) = (dir.path().join("gpu.npy"), dir.path().join("cpu.npy"));
-    let out = render(&["--gpu", "--json"], &gpu);
+    let out = render(&["--gpu", "--method", "pt-linear", "--json"], &gpu);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["tables_baked"], 0, "pt-linear needs no table");
     assert_eq!(stats["tets_drawn"], 5);
     assert_eq!(stats["sort_method"], "mpvo");
     assert_eq!(stats["method"], "pt-linear");
@@ -276,21 +301,24 @@ fn gpu_render_matches_the_cpu_or_skips() {
         assert!(stats[k].as_f64().is_some_and(|s| s >= 0.0), "{k}: {stats}");
     }
     assert!(std::fs::metadata(&png).unwrap().len() > 100);
-    let out = render(&[], &cpu);
+    let out = render(&["--method", "pt-linear"], &cpu);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d = diff(&gpu, &cpu);
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
 
     let gfx = dir.path().join("gfx.npy");
-    let out = render(&["--gpu", "--gpu-raster", "graphics", "--json"], &gfx);
+    let out = render(&["--gpu", "--method", "pt-linear", "--gpu-raster", "graphics", "--json"], &gfx);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(stats["raster_path"], "graphics");
     let d = diff(&gfx, &cpu);
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
 
-    let out = render(&["--gpu", "--method", "table3d"], &gpu);
+    // The table is baked once, for the GPU (not also for the CPU shader).
+    let out = render(&["--gpu", "--method", "table3d", "--json"], &gpu);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["tables_baked"], 1, "{stats}");
     let out = render(&["--method", "exact"], &cpu);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d = diff(&gpu, &cpu);

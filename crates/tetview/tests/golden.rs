@@ -14,9 +14,10 @@
 //! or a changed visibility order moves pixels by ≥ 1e-2, and even swapping
 //! table3d for exact (max 1.2e-3 apart on `post`) fails.
 //!
-//! The accuracy target of issue 6 (the method within 1/255 of the reference
-//! after tone mapping, and RMSE ≤ 1e-3 in linear RGBA) is checked here on
-//! the same scenes.
+//! The accuracy target of issue 6 (the default method within 1/255 of the
+//! reference after tone mapping, and RMSE ≤ 1e-3 in linear RGBA) is checked
+//! here on the same scenes for table3d, `tetview render`'s default; pt-linear's
+//! known miss is pinned to its measured range.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -28,6 +29,14 @@ use tet_render::{diff, Camera, Image, ReferenceOptions, ReferenceRenderer, Rende
 const MAX_ABS: f64 = 5e-4;
 const RMSE: f64 = 2e-5;
 const SIZE: [u32; 2] = [96, 96];
+/// pt-linear's measured error against the reference at [`SIZE`] (post: RMSE
+/// 1.448e-3, 8-bit max 6; Blunt Fin: RMSE 1.452e-3, 8-bit max 2), as ranges
+/// of about ±10% (the render is deterministic; the margin is for f32
+/// rounding changes in the rasterizer, far smaller than this).
+const PT_LINEAR_POST_RMSE: std::ops::RangeInclusive<f64> = 1.3e-3..=1.6e-3;
+const PT_LINEAR_POST_8BIT: std::ops::RangeInclusive<u8> = 5..=7;
+const PT_LINEAR_BLUNTFIN_RMSE: std::ops::RangeInclusive<f64> = 1.3e-3..=1.6e-3;
+const PT_LINEAR_BLUNTFIN_8BIT: std::ops::RangeInclusive<u8> = 2..=3;
 /// The methods with goldens.
 const METHODS: [Method; 3] = [Method::PtLinear, Method::Table3d, Method::Exact];
 
@@ -173,34 +182,45 @@ fn renders_match_golden_images() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// Asserts the accuracy target for `method` on every scene.
-fn meets_accuracy_target(method: Method) {
-    let mut failures = vec![];
-    for case in cases() {
-        let (r, img) = (reference(&case), render(&case, method));
-        let d = diff(&r, &img).unwrap();
-        let m8 = max_8bit(&r, &img);
-        eprintln!("{} {method}: RMSE {:.3e}, max abs {:.3e}, 8-bit max {m8}", case.name, d.rmse, d.max_abs);
-        if d.rmse > 1e-3 || m8 > 1 {
-            failures
-                .push(format!("{} {method}: RMSE {:.3e} (target 1e-3), 8-bit max {m8} (target 1)", case.name, d.rmse));
-        }
-    }
+/// The accuracy target's figures for `method` on every scene: (scene,
+/// RMSE in linear RGBA, largest 8-bit difference after tone mapping).
+fn accuracy(method: Method) -> Vec<(&'static str, f64, u8)> {
+    cases()
+        .into_iter()
+        .map(|case| {
+            let (r, img) = (reference(&case), render(&case, method));
+            let d = diff(&r, &img).unwrap();
+            let m8 = max_8bit(&r, &img);
+            eprintln!("{} {method}: RMSE {:.3e}, max abs {:.3e}, 8-bit max {m8}", case.name, d.rmse, d.max_abs);
+            (case.name, d.rmse, m8)
+        })
+        .collect()
+}
+
+/// table3d, `tetview render`'s default method (baked on the fly at its
+/// default 128×128×256 f32), meets the target on both scenes.
+#[test]
+fn default_method_table3d_meets_the_accuracy_target() {
+    let failures: Vec<String> = accuracy(Method::Table3d)
+        .into_iter()
+        .filter(|&(_, rmse, m8)| rmse > 1e-3 || m8 > 1)
+        .map(|(name, rmse, m8)| format!("{name} table3d: RMSE {rmse:.3e} (target 1e-3), 8-bit max {m8} (target 1)"))
+        .collect();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// table3d at its default resolution meets the target (the proposed default).
+/// pt-linear (the faster, less accurate method) misses the target: a
+/// measured fact, asserted as the range it was measured in so that a change
+/// either way shows (see the figures in the assertions).
 #[test]
-fn table3d_meets_the_accuracy_target() {
-    meets_accuracy_target(Method::Table3d);
-}
-
-/// pt-linear, today's `--method` default, misses the target on both scenes
-/// (measured at 96²: post RMSE 1.45e-3, 8-bit max 6; Blunt Fin RMSE
-/// 1.45e-3, 8-bit max 2): kept as a known failure, run with
-/// `cargo test -p tetview --test golden -- --ignored`.
-#[test]
-#[ignore = "pt-linear (the current default method) misses the accuracy target; see the doc comment"]
-fn default_method_pt_linear_meets_the_accuracy_target() {
-    meets_accuracy_target(Method::PtLinear);
+fn pt_linear_misses_the_accuracy_target_by_its_measured_margin() {
+    for (name, rmse, m8) in accuracy(Method::PtLinear) {
+        let (rmse_range, m8_range) = match name {
+            "post" => (PT_LINEAR_POST_RMSE, PT_LINEAR_POST_8BIT),
+            _ => (PT_LINEAR_BLUNTFIN_RMSE, PT_LINEAR_BLUNTFIN_8BIT),
+        };
+        assert!(rmse_range.contains(&rmse), "{name} pt-linear: RMSE {rmse:.3e} outside measured {rmse_range:?}");
+        assert!(m8_range.contains(&m8), "{name} pt-linear: 8-bit max {m8} outside measured {m8_range:?}");
+        assert!(rmse > 1e-3 || m8 > 1, "{name} pt-linear now meets the target: make it a candidate default");
+    }
 }

@@ -345,6 +345,19 @@ impl BandTable {
         BandTable::build(kind, n_p, cols, p_max)
     }
 
+    /// The table sized by a mesh's analysis (`tet_analysis`, stored in
+    /// the bundle): columns per period from the rule at the analysis's
+    /// tolerance times [`BandKind::default_refine`], default rows. In phase
+    /// units one period is the whole table, so the period itself (1 /
+    /// `frequency_limit_99`) drops out: Blunt Fin's 106 (sine) / 472
+    /// (triangle) samples per axis over ≈ 4.7 periods are the rule's 23 /
+    /// 100 per period.
+    pub fn for_resolution(kind: BandKind, res: &tet_analysis::TableResolution) -> BandTable {
+        let (n_p, p_max) = DEFAULT_BAND_ROWS;
+        let cols = kind.samples_per_period(res.tolerance) * kind.default_refine() + 1;
+        BandTable::build(kind, n_p, cols, p_max)
+    }
+
     /// Builds an `n_p` × `n_phase` table for P ∈ [0, p_max] (clamped into
     /// [4, 4096], [3, 1 << 16] and [1e-3, 1e5]; non-finite p_max gives 256).
     pub fn build(kind: BandKind, n_p: usize, n_phase: usize, p_max: f64) -> BandTable {
@@ -513,5 +526,9 @@ mod tests {
         assert_eq!(BandTable::build(BandKind::Triangle, 8, 10, 1.0).dims().1, 11);
         assert_eq!(BandKind::Sine.samples_per_period(0.01), 23);
         assert_eq!(BandKind::Triangle.samples_per_period(0.01), 100);
+        let res =
+            tet_analysis::TableResolution { tolerance: 0.01, period: 1.0, samples_sine: 106, samples_triangle: 472 };
+        assert_eq!(BandTable::for_resolution(BandKind::Sine, &res), BandTable::default_for(BandKind::Sine));
+        assert_eq!(BandTable::for_resolution(BandKind::Triangle, &res).dims(), (192, 201));
     }
 }

@@ -357,7 +357,7 @@ impl BivExact {
             _ => return None,
         };
         let dv = frequency * (seg.sb - seg.sf);
-        if !(dv.abs() > 1e-12) {
+        if dv.is_nan() || dv.abs() <= 1e-12 {
             return None;
         }
         let sign = dv.signum();

@@ -346,9 +346,10 @@ fn gauss_erf_table_matches_quadrature_and_reference() {
 fn band_tables_match_quadrature_and_reference() {
     use tet_preint::biv_tables::{band_window_quadrature, BandKind, BandTable};
     use tet_preint::BivTables;
-    for (kind, widget, win_bound, seg_bound) in
-        [(BandKind::Triangle, 2usize, WIN_BOUND_TRI, SEG_BOUND_TRI), (BandKind::Sine, 3, WIN_BOUND_SINE, SEG_BOUND_SINE)]
-    {
+    for (kind, widget, win_bound, seg_bound) in [
+        (BandKind::Triangle, 2usize, WIN_BOUND_TRI, SEG_BOUND_TRI),
+        (BandKind::Sine, 3, WIN_BOUND_SINE, SEG_BOUND_SINE),
+    ] {
         let t = BandTable::default_for(kind);
         let span = kind.period_phase();
         let mut next = lcg(43);

@@ -14,6 +14,11 @@
 //! 20 000 segments with s uniform over [0.19, 2], |∇s| over [0, 1.5], l up to
 //! 3.65: seed 004's Gaussian table against the quadrature path, and the
 //! table's build.
+//!
+//! Group `biv_band_independent`: the same for seed 004's triangle- and
+//! sine-wave tables, one band widget alone (frequency 5 / 3 bands per unit,
+//! the test TF's), emission-only, 20 000 segments with s over [−0.1, 1.1],
+//! |∇s| over [0, 2.5], l up to 2; and the tables' builds.
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use tet_preint::table3d::{Build3d, ScalarAxis, Table3dParams};
 use tet_preint::*;
@@ -96,5 +101,50 @@ fn bench_biv_gauss(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, bench_bluntfin, bench_biv_gauss);
+fn bench_biv_band(c: &mut Criterion) {
+    let mut state = 12u64;
+    let mut next = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 40) as f32 / (1u32 << 24) as f32
+    };
+    let segs: Vec<Segment> = (0..20_000)
+        .map(|_| Segment {
+            s_front: 1.2 * next() - 0.1,
+            s_back: 1.2 * next() - 0.1,
+            grad_front: 2.5 * next(),
+            grad_back: 2.5 * next(),
+            len_world: 2.0 * next(),
+        })
+        .collect();
+    let mut out = vec![[0.0f32; 4]; segs.len()];
+    let mut g = c.benchmark_group("biv_band_independent");
+    g.sample_size(10);
+    for (name, widget, kind) in [
+        (
+            "triangle",
+            r#"{"type": "triangle", "frequency": 5, "phase": 0.25, "color": [0, 0, 1], "opacity": 1.5, "clip": [[0.1, 0.9], [0.0, 2.0]]}"#,
+            BandKind::Triangle,
+        ),
+        (
+            "sine",
+            r#"{"type": "sine", "frequency": 3, "phase": 0.0, "color": [1, 1, 0], "opacity": 1, "clip": [[0.0, 1.0], [0.5, 3.0]]}"#,
+            BandKind::Sine,
+        ),
+    ] {
+        let json = format!(
+            r#"{{"color": [[0, 0, 0, 0]], "opacity": [[0, 0]], "unit_distance": 0.5, "emission": "independent", "widgets": [{widget}]}}"#
+        );
+        let tf = TransferFunction::from_json(&json).unwrap();
+        let table = BivExact::new(tf.clone());
+        let quad = BivExact::with_tables(tf, BivTables::default());
+        g.throughput(Throughput::Elements(segs.len() as u64));
+        g.bench_function(format!("shade_20k_{name}_table"), |b| b.iter(|| table.shade_span(&segs, &mut out)));
+        g.bench_function(format!("shade_20k_{name}_quadrature"), |b| b.iter(|| quad.shade_span(&segs, &mut out)));
+        g.throughput(Throughput::Elements(1));
+        g.bench_function(format!("build_{name}_table_default"), |b| b.iter(|| BandTable::default_for(kind)));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_bluntfin, bench_biv_gauss, bench_biv_band);
 criterion_main!(benches);

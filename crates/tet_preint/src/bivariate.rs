@@ -25,8 +25,12 @@
 //! the piece: C = (κ₁D + c)·l/k·W(P, u₀, u₁) from seed 004's Gaussian table
 //! ([`GaussErfTable`], built once per `BivExact` when the TF has such a
 //! widget) instead of the quadrature; P beyond the table falls back to it.
+//! Likewise a piece carried by one triangle- or sine-wave widget uses seed
+//! 004's band tables ([`BandTable`], one per kind present): the piece lies
+//! within half a period, so its phase φ is monotone and
+//! C = (κ₁D + c)·l/|dφ/dx|·W(P, φ₀, φ₁).
 
-use crate::biv_tables::{GaussErfTable, DEFAULT_ERF_TABLE};
+use crate::biv_tables::{BandKind, BandTable, GaussErfTable, DEFAULT_ERF_TABLE};
 use crate::exact::{integrate_segment_with, Rgba};
 use crate::method::{Method, Rgba32, Segment, SegmentShader};
 use crate::poly::{integrate_entry, Knot};
@@ -243,34 +247,69 @@ fn piece_depth(tf: &TransferFunction, seg: &Seg2, x0: f64, x1: f64) -> f64 {
 pub struct BivExact {
     tf: TransferFunction,
     tf1d: TransferFunction,
-    /// Seed 004's Gaussian table, for the emission-only model only.
-    gauss: Option<Arc<GaussErfTable>>,
+    tables: BivTables,
+}
+
+/// Seed 004's tables `biv-exact` may use under the emission-only model;
+/// each `None` sends its pieces to the quadrature.
+#[derive(Debug, Clone, Default)]
+pub struct BivTables {
+    pub gauss: Option<Arc<GaussErfTable>>,
+    pub triangle: Option<Arc<BandTable>>,
+    pub sine: Option<Arc<BandTable>>,
+}
+
+impl BivTables {
+    /// The default tables `tf` can use: none unless its emission is
+    /// independent, then one per widget kind present (Gaussian: a few ms;
+    /// band tables: [`BandTable::default_for`], ~1 ms).
+    pub fn for_tf(tf: &TransferFunction) -> BivTables {
+        if tf.emission() != Emission::Independent {
+            return BivTables::default();
+        }
+        let has = |f: fn(&Shape) -> bool| tf.widgets().iter().any(|w| f(&w.shape));
+        BivTables {
+            gauss: has(|s| matches!(s, Shape::Gaussian { .. })).then(|| {
+                let (n_p, n_u, p_max) = DEFAULT_ERF_TABLE;
+                Arc::new(GaussErfTable::build(n_p, n_u, p_max))
+            }),
+            triangle: has(|s| matches!(s, Shape::Triangle { .. }))
+                .then(|| Arc::new(BandTable::default_for(BandKind::Triangle))),
+            sine: has(|s| matches!(s, Shape::Sine { .. })).then(|| Arc::new(BandTable::default_for(BandKind::Sine))),
+        }
+    }
 }
 
 impl BivExact {
     /// Takes the TF as given (denormalize a normalized TF first). With
-    /// independent emission and a Gaussian widget this builds the default
-    /// [`GaussErfTable`] (a few ms; see [`BivExact::with_gauss_table`]).
+    /// independent emission this builds the default tables for the widget
+    /// kinds present ([`BivTables::for_tf`]).
     pub fn new(tf: TransferFunction) -> Self {
-        let wants = tf.emission() == Emission::Independent
-            && tf.widgets().iter().any(|w| matches!(w.shape, Shape::Gaussian { .. }));
-        let gauss = wants.then(|| {
-            let (n_p, n_u, p_max) = DEFAULT_ERF_TABLE;
-            Arc::new(GaussErfTable::build(n_p, n_u, p_max))
-        });
-        BivExact::with_gauss_table(tf, gauss)
+        let tables = BivTables::for_tf(&tf);
+        BivExact::with_tables(tf, tables)
     }
 
     /// As [`BivExact::new`] with a given Gaussian table (shared between
-    /// shaders, or `None` to integrate every Gaussian piece by quadrature).
+    /// shaders, or `None` to integrate every Gaussian piece by quadrature)
+    /// and no band tables.
     pub fn with_gauss_table(tf: TransferFunction, gauss: Option<Arc<GaussErfTable>>) -> Self {
+        BivExact::with_tables(tf, BivTables { gauss, ..BivTables::default() })
+    }
+
+    /// As [`BivExact::new`] with the given tables (`BivTables::default()`:
+    /// closed forms and quadrature only).
+    pub fn with_tables(tf: TransferFunction, tables: BivTables) -> Self {
         let tf1d = tf.without_widgets();
-        BivExact { tf, tf1d, gauss }
+        BivExact { tf, tf1d, tables }
     }
 
     /// The Gaussian table in use, if any.
     pub fn gauss_table(&self) -> Option<&GaussErfTable> {
-        self.gauss.as_deref()
+        self.tables.gauss.as_deref()
+    }
+    /// All tables in use.
+    pub fn tables(&self) -> &BivTables {
+        &self.tables
     }
 
     /// Emission-only colour of a piece carried by the single Gaussian `w`
@@ -285,7 +324,7 @@ impl BivExact {
         depth: f64,
         k1d: [f64; 3],
     ) -> Option<[f64; 3]> {
-        let table = self.gauss.as_deref()?;
+        let table = self.tables.gauss.as_deref()?;
         let (a, b, c0) = gaussian_quadratic(w, seg)?;
         let k = (0.5 * a).sqrt();
         if k < 1e-12 {
@@ -296,6 +335,45 @@ impl BivExact {
         let shift = b / a;
         let win = table.window(p, k * (x0 + shift), k * (x1 + shift), (-depth).exp())?;
         let scale = seg.len / k * win;
+        Some(std::array::from_fn(|c| (k1d[c] + w.color[c]) * scale))
+    }
+
+    /// As `gauss_table_color` for a piece carried by one band widget: the
+    /// piece lies between two half-period crossings, so with v = f·s − φ
+    /// (mirrored to increase along x) the phase within the period holding
+    /// the piece's midpoint runs monotonically from φ₀ to φ₁.
+    fn band_table_color(
+        &self,
+        w: &Widget,
+        seg: &Seg2,
+        x0: f64,
+        x1: f64,
+        depth: f64,
+        k1d: [f64; 3],
+    ) -> Option<[f64; 3]> {
+        let (frequency, phase, table) = match w.shape {
+            Shape::Triangle { frequency, phase } => (frequency, phase, self.tables.triangle.as_deref()?),
+            Shape::Sine { frequency, phase } => (frequency, phase, self.tables.sine.as_deref()?),
+            _ => return None,
+        };
+        let dv = frequency * (seg.sb - seg.sf);
+        if dv.is_nan() || dv.abs() <= 1e-12 {
+            return None;
+        }
+        let sign = dv.signum();
+        // Phase units per unit v, and the v at which the phase is 0: a
+        // trough (v = ½ mod 1) for the triangle, a peak (v ∈ ℤ) for the sine.
+        let (per_v, offset) = match table.kind() {
+            BandKind::Triangle => (2.0, 0.5),
+            BandKind::Sine => (2.0 * std::f64::consts::PI, 0.0),
+        };
+        let v = |x: f64| sign * (frequency * seg.s(x) - phase) + offset;
+        let base = v(0.5 * (x0 + x1)).floor();
+        let (phi0, phi1) = (per_v * (v(x0) - base), per_v * (v(x1) - base));
+        let dphi_dx = per_v * dv.abs();
+        let p = w.opacity / self.tf.unit_distance() * seg.len / dphi_dx;
+        let win = table.window(p, phi0, phi1, (-depth).exp())?;
+        let scale = seg.len / dphi_dx * win;
         Some(std::array::from_fn(|c| (k1d[c] + w.color[c]) * scale))
     }
     pub fn transfer_function(&self) -> &TransferFunction {
@@ -342,6 +420,15 @@ impl BivExact {
                         && tf.color(seg.s(x0)) == tf.color(seg.s(x1)) =>
                 {
                     self.gauss_table_color(in_support[0], &seg, x0, x1, depth, tf.color(seg.s(x0)))
+                        .unwrap_or_else(|| quadrature_color(tf, &seg, x0, x1, depth))
+                }
+                Emission::Independent
+                    if !one_d
+                        && in_support.len() == 1
+                        && matches!(in_support[0].shape, Shape::Triangle { .. } | Shape::Sine { .. })
+                        && tf.color(seg.s(x0)) == tf.color(seg.s(x1)) =>
+                {
+                    self.band_table_color(in_support[0], &seg, x0, x1, depth, tf.color(seg.s(x0)))
                         .unwrap_or_else(|| quadrature_color(tf, &seg, x0, x1, depth))
                 }
                 _ => quadrature_color(tf, &seg, x0, x1, depth),

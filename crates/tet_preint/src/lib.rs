@@ -14,8 +14,9 @@
 //!   mean-extinction table, 16-bit α table and chromaticity polynomial in l.
 //! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of seed 004;
 //!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]);
-//!   [`GaussErfTable`] (module [`biv_tables`]), seed 004's Gaussian table
-//!   for the emission-only model.
+//!   [`GaussErfTable`] and [`BandTable`] (module [`biv_tables`]), seed
+//!   004's Gaussian, triangle- and sine-wave tables for the emission-only
+//!   model ([`BivTables`]).
 //!
 //! ```
 //! use tet_preint::{integrate_segment, TransferFunction};
@@ -76,8 +77,8 @@ pub mod tf;
 pub mod widget;
 
 pub use atlas2d::{Atlas2d, Atlas2dParams};
-pub use biv_tables::GaussErfTable;
-pub use bivariate::{BivApprox, BivExact, FbTable};
+pub use biv_tables::{BandKind, BandTable, GaussErfTable};
+pub use bivariate::{BivApprox, BivExact, BivTables, FbTable};
 pub use domain::{TableDomain, TableError};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};

@@ -148,32 +148,7 @@ impl GaussErfTable {
     pub fn f(&self, p: f64, u: f64) -> f64 {
         let xp = (p.max(0.0).ln_1p() * self.inv_dlp).clamp(0.0, (self.n_p - 1) as f64);
         let xu = ((u + U_MAX) / self.du).clamp(0.0, (self.n_u - 1) as f64);
-        let j = (xu as usize).min(self.n_u - 2);
-        let t = xu - j as f64;
-        // Cubic Hermite along u in row i.
-        let hermite = |i: usize| {
-            let [f0, d0] = self.entries[i * self.n_u + j];
-            let [f1, d1] = self.entries[i * self.n_u + j + 1];
-            let (t2, t3) = (t * t, t * t * t);
-            (2.0 * t3 - 3.0 * t2 + 1.0) * f0
-                + (t3 - 2.0 * t2 + t) * self.du * d0
-                + (-2.0 * t3 + 3.0 * t2) * f1
-                + (t3 - t2) * self.du * d1
-        };
-        // 4-point Lagrange across rows i0..i0+3 containing xp.
-        let i0 = ((xp as usize).saturating_sub(1)).min(self.n_p - 4);
-        let s = xp - i0 as f64;
-        let mut out = 0.0;
-        for a in 0..4 {
-            let mut w = 1.0;
-            for b in 0..4 {
-                if a != b {
-                    w *= (s - b as f64) / (a as f64 - b as f64);
-                }
-            }
-            out += w * hermite(i0 + a);
-        }
-        out.max(0.0)
+        rows_hermite_cols_lagrange(&self.entries, self.n_p, self.n_u, self.du, xp, xu)
     }
 
     /// W(P, u₀, u₁) = ∫_{u₀}^{u₁} exp(−P·(erf τ − erf u₀)) dτ given the
@@ -419,30 +394,7 @@ impl BandTable {
     pub fn f(&self, p: f64, phi: f64) -> f64 {
         let xp = (p.max(0.0).ln_1p() * self.inv_dlp).clamp(0.0, (self.n_p - 1) as f64);
         let xu = (phi / self.dphi).clamp(0.0, (self.n_phase - 1) as f64);
-        let j = (xu as usize).min(self.n_phase - 2);
-        let t = xu - j as f64;
-        let hermite = |i: usize| {
-            let [f0, d0] = self.entries[i * self.n_phase + j];
-            let [f1, d1] = self.entries[i * self.n_phase + j + 1];
-            let (t2, t3) = (t * t, t * t * t);
-            (2.0 * t3 - 3.0 * t2 + 1.0) * f0
-                + (t3 - 2.0 * t2 + t) * self.dphi * d0
-                + (-2.0 * t3 + 3.0 * t2) * f1
-                + (t3 - t2) * self.dphi * d1
-        };
-        let i0 = ((xp as usize).saturating_sub(1)).min(self.n_p - 4);
-        let s = xp - i0 as f64;
-        let mut out = 0.0;
-        for a in 0..4 {
-            let mut w = 1.0;
-            for b in 0..4 {
-                if a != b {
-                    w *= (s - b as f64) / (a as f64 - b as f64);
-                }
-            }
-            out += w * hermite(i0 + a);
-        }
-        out.max(0.0)
+        rows_hermite_cols_lagrange(&self.entries, self.n_p, self.n_phase, self.dphi, xp, xu)
     }
 
     /// W(P, φ₀, φ₁) given the window's transmittance `t_seg`
@@ -465,6 +417,37 @@ impl BandTable {
         let fb = if b >= span { 0.0 } else { self.f(p, b) };
         Some((self.f(p, a) - t_seg * fb).max(0.0))
     }
+}
+
+/// Interpolates a table of (value, derivative) entries, `n_p` rows of
+/// `n_cols`: cubic Hermite along a row (column step `step`, fractional
+/// column `xu`), 4-point Lagrange across the rows around fractional row
+/// `xp`. Both fractional indices must already be clamped to the table.
+fn rows_hermite_cols_lagrange(entries: &[[f64; 2]], n_p: usize, n_cols: usize, step: f64, xp: f64, xu: f64) -> f64 {
+    let j = (xu as usize).min(n_cols - 2);
+    let t = xu - j as f64;
+    let hermite = |i: usize| {
+        let [f0, d0] = entries[i * n_cols + j];
+        let [f1, d1] = entries[i * n_cols + j + 1];
+        let (t2, t3) = (t * t, t * t * t);
+        (2.0 * t3 - 3.0 * t2 + 1.0) * f0
+            + (t3 - 2.0 * t2 + t) * step * d0
+            + (-2.0 * t3 + 3.0 * t2) * f1
+            + (t3 - t2) * step * d1
+    };
+    let i0 = ((xp as usize).saturating_sub(1)).min(n_p - 4);
+    let s = xp - i0 as f64;
+    let mut out = 0.0;
+    for a in 0..4 {
+        let mut w = 1.0;
+        for b in 0..4 {
+            if a != b {
+                w *= (s - b as f64) / (a as f64 - b as f64);
+            }
+        }
+        out += w * hermite(i0 + a);
+    }
+    out.max(0.0)
 }
 
 #[cfg(test)]

@@ -17,7 +17,11 @@
 //!   all four) nor relink it (B needs three). The same counting shows that
 //!   every tet A reads — the ones it owns, their neighbours, and the finite
 //!   tet behind a ghost neighbour's hull facet — is changed by no other
-//!   worker during the round, so A's reads are never torn.
+//!   worker during the round, so A's reads are never torn. The one
+//!   exception is the first tet of a worker that found no start tet of its
+//!   own (`start_tet`): it may be mid-rewrite by another worker, so the
+//!   ownership test (`owned_by`) rejects cavity markers, freed slots and
+//!   torn mixes, and the walk defers.
 //! - New tets go into the worker's freed slots or fresh slots taken from the
 //!   spare array in private blocks. Deferred points (near the partition
 //!   borders, or after a walk too long or slots run out) are inserted
@@ -28,7 +32,7 @@
 //! thread inserted what, or in which order.
 
 use crate::sort::SplitMix64;
-use crate::triangulation::{is_ghost, Deferred, Inserter, Triangulation, DEAD, INF, MAX_WORKERS};
+use crate::triangulation::{is_ghost, owned_by, Deferred, Inserter, Triangulation, DEAD, MAX_WORKERS};
 use std::sync::atomic::AtomicUsize;
 
 /// Fresh tet slots a worker takes from the spare array at a time.
@@ -187,21 +191,27 @@ impl Triangulation {
 
     /// A live tet owned by worker `me` near the start of its run, found by
     /// sequential walks before the workers start, for its first walk.
-    /// Falls back to the global start (the worker then defers until its
-    /// walks reach tets it owns — they never do, so its points go to the
-    /// sequential tail; correct, only slower, and not seen in practice).
+    /// When none of the sampled points lies in such a tet (small runs, or
+    /// runs along a partition border), the first live finite tet `me` owns
+    /// anywhere; failing that, the global start. A worker starting on a tet
+    /// it does not own reads that tet while others may rewrite it — the
+    /// torn read is rejected by `owned_by` — and defers its points to the
+    /// sequential tail: correct, only slower.
     fn start_tet(&self, probe: &mut Inserter, run: &[u32], owner: &[u8], me: u8) -> u32 {
+        let mine = |t: u32| {
+            let v = self.tets[t as usize].load().v;
+            v[0] != DEAD && !is_ghost(&v) && owned_by(owner, me, &v)
+        };
         let step = (run.len() / 16).max(1);
         for &v in run.iter().step_by(step).take(16) {
             // A sequential probe never defers; its walk reads only.
             if let Ok(t) = probe.locate(&self.pts[v as usize]) {
-                let v = self.tets[t as usize].load().v;
-                if !is_ghost(&v) && v.iter().all(|&x| x == INF || owner[x as usize] == me) {
+                if mine(t) {
                     return t;
                 }
             }
         }
-        self.last
+        (0..self.used as u32).find(|&t| mine(t)).unwrap_or(self.last)
     }
 }
 

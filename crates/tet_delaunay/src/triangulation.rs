@@ -402,6 +402,23 @@ pub(crate) struct Inserter<'a> {
     table_used: Vec<u32>,
 }
 
+/// Whether every finite vertex of `v` belongs to worker `me` under
+/// `owner`, `v` has at most one infinite slot, and no slot holds a
+/// non-vertex (`DEAD`, a cavity marker): the ownership test of
+/// [`Inserter::owns`], safe on torn reads.
+#[inline(always)]
+pub(crate) fn owned_by(owner: &[u8], me: u8, v: &[u32; 4]) -> bool {
+    let mut infinite = 0;
+    for &x in v {
+        if x == INF {
+            infinite += 1;
+        } else if owner.get(x as usize) != Some(&me) {
+            return false;
+        }
+    }
+    infinite <= 1
+}
+
 impl<'a> Inserter<'a> {
     /// An inserter on `tri`'s tets starting its walks at `last` (a live
     /// finite tet), allocating from `free` and then fresh slots from
@@ -462,11 +479,19 @@ impl<'a> Inserter<'a> {
     }
 
     /// Whether this inserter may rewrite a tet with these vertices.
+    ///
+    /// In a parallel round `v` may be a torn read of a tet another worker
+    /// is rewriting (only ever the first tet of a walk, when the worker
+    /// could not start on a tet of its own): its slots then hold that
+    /// worker's vertices, `INF`, `DEAD` or a cavity marker, mixed across
+    /// versions. Such a read is never ours: markers and `DEAD` are not
+    /// vertices, and a mix with three of our vertices cannot occur, so a
+    /// tet with more than one infinite slot is rejected as well.
     #[inline(always)]
     fn owns(&self, v: &[u32; 4]) -> bool {
         match self.owner {
             None => true,
-            Some(o) => v.iter().all(|&x| x == INF || o[x as usize] == self.me),
+            Some(o) => owned_by(o, self.me, v),
         }
     }
 
@@ -903,5 +928,40 @@ pub(crate) mod tests {
         let (tets, _) = t.finite_tets(None);
         assert_eq!(tets.len(), 299 * 299);
         assert!(tets.len() > before, "{} tets fit in the initial {before} slots", tets.len());
+    }
+    /// Regression (CI stop 10): a worker that could not start on a tet of
+    /// its own walked from a foreign tet while another worker had it in its
+    /// cavity, read the cavity marker as a vertex id and indexed out of
+    /// bounds. Such reads must defer the point, never panic.
+    #[test]
+    fn a_walk_from_a_foreign_tet_in_another_cavity_defers() {
+        let mut rng = SplitMix64(3);
+        let pts: Vec<[f64; 3]> = (0..200).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()]).collect();
+        let order = crate::sort::brio_order(&pts, (0..pts.len() as u32).collect(), 1);
+        let order = crate::initial_tet(&pts, order).unwrap();
+        let mut t = Triangulation::new(order.iter().map(|&i| pts[i as usize]).collect(), order);
+        t.insert_range(4, 150);
+        let start = (0..t.used as u32).find(|&s| !is_ghost(&t.tets[s as usize].load().v)).unwrap();
+        let owner = vec![0u8; 150];
+        let next = AtomicUsize::new(t.used);
+        let original = t.tets[start as usize].load();
+        // What worker 1 can observe of worker 0's tets mid-round: a cavity
+        // marker, a freed slot, and a torn mix of two ghosts.
+        let torn_reads = [
+            Tet { v: [IN_CAVITY, original.v[1], original.v[2], original.v[3]], n: original.n },
+            Tet { v: [DEAD, original.v[1], original.v[2], original.v[3]], n: original.n },
+            Tet { v: [INF, INF, original.v[2], original.v[3]], n: original.n },
+        ];
+        for seen in torn_reads {
+            t.tets[start as usize].store(seen);
+            let mut ins = Inserter::new(&t, &next, Some(&owner), 1, start, Vec::new(), SplitMix64(1));
+            assert_eq!(ins.insert(160), Err(Deferred::Foreign));
+            // None of them is a tet even worker 0 could own.
+            assert!(!owned_by(&owner, 0, &seen.v));
+        }
+        // Nothing was changed: the rest inserts into a valid triangulation.
+        t.tets[start as usize].store(original);
+        t.insert_range(150, 200);
+        check(&t, true);
     }
 }

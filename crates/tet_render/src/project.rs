@@ -1037,6 +1037,21 @@ impl TetSetup {
             // below usually just confirm the pixel next to it (a NaN or huge
             // crossing saturates, is clamped, and costs a longer walk).
             let x_cross = e.ax + e.x_per_y * (y - e.ay) - 0.5;
+            // Fast path: pixel i's test decides i + ½ against the edge's
+            // crossing, so when x_cross is farther from an integer than the
+            // rounding of x_cross and of the test itself (each a few ulps of
+            // `scale`; the margin is ~300× that), ⌈x_cross⌉ / ⌊x_cross⌋ is
+            // exactly the boundary the tests below would settle on.
+            let scale = e.ax.abs() + (e.x_per_y * (y - e.ay)).abs() + 1.0;
+            let frac = x_cross - floor_i64(x_cross) as f64;
+            if scale < 1e12 && frac > 1e-12 * scale && frac < 1.0 - 1e-12 * scale {
+                if slope < 0.0 {
+                    lo = lo.max(ceil_i64(x_cross).min(hi + 1));
+                } else {
+                    hi = hi.min(floor_i64(x_cross).max(lo - 1));
+                }
+                continue;
+            }
             if slope < 0.0 {
                 // Inside for x ≥ boundary: the first inside pixel ≥ lo.
                 let mut i = ceil_i64(x_cross).clamp(lo, hi + 1);
@@ -1429,6 +1444,11 @@ mod tests {
             span_matches_per_pixel([[0.0, -0.5, -0.5], [0.0, 0.5, -0.5], [0.0, 0.0, 0.5], [0.7, 0.0, 0.0]], &v);
             // Edges through pixel centres (axis-aligned cube corner).
             span_matches_per_pixel([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], &v);
+            // Edges a few ulps to 1e-9 pixel off pixel centres: row spans'
+            // fast path must hand these to the exact tests.
+            for d in [1e-15, 1e-13, 1e-11, 1e-9] {
+                span_matches_per_pixel([[d, d, 0.0], [1.0 + d, -d, 0.0], [-d, 1.0 + d, 0.0], [d, 0.0, 1.0]], &v);
+            }
         }
     }
 

@@ -36,7 +36,6 @@ mod layout;
 
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use tet_analysis::{Analysis, CellRanges, FrequencyLimits, GradientMethod, Histograms, SegmentFacts, VertexGradients};
 use tet_mesh::{Adjacency, Field, MeshStats, TetMesh, NO_NEIGHBOR};
@@ -201,33 +200,9 @@ impl Bundle {
     /// Writes atomically: a temporary file beside `path` is written, synced
     /// and renamed over `path`.
     pub fn write(&self, path: &Path) -> Result<(), BundleError> {
-        let io = |action: &'static str| move |source| BundleError::Io { action, source, path: path.to_path_buf() };
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let mut builder = tempfile::Builder::new();
-        builder.prefix(".tetb-").suffix(".tmp");
-        // Temporary files are private (0600); the bundle is an ordinary
-        // output file, readable like any other the user creates.
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            builder.permissions(std::fs::Permissions::from_mode(0o644));
-        }
-        let mut tmp = builder.tempfile_in(dir).map_err(io("create a temporary file beside"))?;
-        {
-            let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
-            layout::write_sections(&mut w, &self.sections_out()).map_err(io("write"))?;
-            w.flush().map_err(io("write"))?;
-        }
-        tmp.as_file().sync_all().map_err(io("sync"))?;
-        tmp.persist(path).map_err(|e| BundleError::Io {
-            action: "rename into place",
-            source: e.error,
-            path: path.to_path_buf(),
-        })?;
-        Ok(())
+        let sections = self.sections_out();
+        tet_container::write_atomic(path, ".tetb-", |w| layout::write_sections(w, &sections))
+            .map_err(|e| BundleError::Io { action: e.action, source: e.source, path: path.to_path_buf() })
     }
 
     /// Reads and verifies a bundle file.

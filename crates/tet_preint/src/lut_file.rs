@@ -1,9 +1,9 @@
 //! The `.tetl` lookup-table file (spec: `formats/lut.md`) and the bake /
 //! load entry points `tetlut` calls.
 //!
-//! Same container as the bundle: magic, version, a CRC-32'd section table,
-//! 16-byte aligned payloads each with its own CRC-32, written atomically
-//! (temporary file beside the target, fsync, rename). The `HEADER` section is
+//! The bundle's container (`tet_container`): magic, version, a CRC-32'd
+//! section table, 16-byte aligned payloads each with its own CRC-32, written
+//! atomically (temporary file beside the target, fsync, rename). The `HEADER` section is
 //! JSON naming the method, the TF it was baked from, the domain, the
 //! method's parameters and one [`SectionInfo`] (dtype, dims, channels,
 //! unorm scale) per data section, so new table kinds need no format change.
@@ -22,6 +22,7 @@ use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use tet_container::{ContainerError, ContainerFormat};
 
 /// First 8 bytes of every `.tetl` file (PNG-style: high byte, CR LF, ^Z).
 pub const LUT_MAGIC: [u8; 8] = *b"\x89TETL\r\n\x1a";
@@ -29,11 +30,9 @@ pub const LUT_MAGIC: [u8; 8] = *b"\x89TETL\r\n\x1a";
 /// non-uniform scalar axis of `table3d` (`params.s_axis`, section `SAXIS`);
 /// version-1 files read as before (their tables have a uniform axis).
 pub const LUT_FORMAT_VERSION: u32 = 2;
-const HEADER_LEN: usize = 32;
-const ENTRY_LEN: usize = 40;
-const NAME_LEN: usize = 16;
-const ALIGN: usize = 16;
-const MAX_SECTIONS: u32 = 1 << 12;
+/// The container format of `.tetl` files (see `tet_container`).
+const FORMAT: ContainerFormat =
+    ContainerFormat { magic: LUT_MAGIC, version: LUT_FORMAT_VERSION, max_sections: 1 << 12 };
 /// The JSON header section's name.
 pub const HEADER_SECTION: &str = "HEADER";
 
@@ -171,7 +170,7 @@ impl LutFile {
 
     /// Appends a data section.
     pub fn push(&mut self, info: SectionInfo, payload: Vec<u8>) -> Result<(), LutError> {
-        if info.name.is_empty() || info.name.len() > NAME_LEN || !info.name.is_ascii() || info.name == HEADER_SECTION {
+        if !tet_container::valid_section_name(&info.name) || info.name == HEADER_SECTION {
             return Err(LutError::SectionName(info.name));
         }
         self.header.sections.push(info);
@@ -212,73 +211,22 @@ impl LutFile {
         out
     }
 
-    fn write_to<W: Write>(&self, out: &mut W) -> std::io::Result<()> {
+    fn write_to(&self, out: &mut dyn Write) -> std::io::Result<()> {
         let header = serde_json::to_vec_pretty(&self.header).expect("header serializes");
         let mut sections: Vec<(&str, &[u8])> = vec![(HEADER_SECTION, &header)];
         for (info, p) in self.header.sections.iter().zip(&self.payloads) {
             sections.push((&info.name, p));
         }
-        let table_len = sections.len() * ENTRY_LEN;
-        let mut offset = align(HEADER_LEN + table_len);
-        let mut table = Vec::with_capacity(table_len);
-        let mut offsets = Vec::with_capacity(sections.len());
-        for (name, data) in &sections {
-            let mut n = [0u8; NAME_LEN];
-            n[..name.len()].copy_from_slice(name.as_bytes());
-            table.extend_from_slice(&n);
-            table.extend_from_slice(&(offset as u64).to_le_bytes());
-            table.extend_from_slice(&(data.len() as u64).to_le_bytes());
-            table.extend_from_slice(&crc32fast::hash(data).to_le_bytes());
-            table.extend_from_slice(&0u32.to_le_bytes());
-            offsets.push(offset);
-            offset = align(offset + data.len());
-        }
-        let mut head = Vec::with_capacity(HEADER_LEN);
-        head.extend_from_slice(&LUT_MAGIC);
-        head.extend_from_slice(&LUT_FORMAT_VERSION.to_le_bytes());
-        head.extend_from_slice(&(sections.len() as u32).to_le_bytes());
-        head.extend_from_slice(&(table_len as u64).to_le_bytes());
-        head.extend_from_slice(&crc32fast::hash(&table).to_le_bytes());
-        head.extend_from_slice(&0u32.to_le_bytes());
-        out.write_all(&head)?;
-        out.write_all(&table)?;
-        let mut pos = HEADER_LEN + table_len;
-        for ((_, data), off) in sections.iter().zip(offsets) {
-            out.write_all(&[0u8; ALIGN][..off - pos])?;
-            out.write_all(data)?;
-            pos = off + data.len();
-        }
-        // Nothing after the last payload: any truncation cuts into one.
-        Ok(())
+        tet_container::write_sections(out, &FORMAT, &sections)
     }
 
     /// Writes atomically: temporary file beside `path`, fsync, rename.
     pub fn write(&self, path: &Path) -> Result<(), LutError> {
-        let io = |action: &'static str| move |source| LutError::Io { action, source, path: path.to_path_buf() };
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let mut builder = tempfile::Builder::new();
-        builder.prefix(".tetl-").suffix(".tmp");
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            builder.permissions(std::fs::Permissions::from_mode(0o644));
-        }
-        let mut tmp = builder.tempfile_in(dir).map_err(io("create a temporary file beside"))?;
-        {
-            let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
-            self.write_to(&mut w).map_err(io("write"))?;
-            w.flush().map_err(io("write"))?;
-        }
-        tmp.as_file().sync_all().map_err(io("sync"))?;
-        tmp.persist(path).map_err(|e| LutError::Io {
-            action: "rename into place",
-            source: e.error,
+        tet_container::write_atomic(path, ".tetl-", |w| self.write_to(w)).map_err(|e| LutError::Io {
+            action: e.action,
+            source: e.source,
             path: path.to_path_buf(),
-        })?;
-        Ok(())
+        })
     }
 
     /// Reads and verifies a file.
@@ -294,72 +242,17 @@ impl LutFile {
     /// dims imply.
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<LutFile, LutError> {
         let p = || path.to_path_buf();
-        if bytes.len() < LUT_MAGIC.len() || bytes[..8] != LUT_MAGIC {
-            return Err(LutError::BadMagic { path: p() });
-        }
-        if bytes.len() < HEADER_LEN {
-            return Err(LutError::Truncated {
-                what: format!("header needs {HEADER_LEN} bytes"),
-                offset: bytes.len() as u64,
-                path: p(),
-            });
-        }
-        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-        let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
-        let version = u32_at(8);
-        if version > LUT_FORMAT_VERSION {
-            return Err(LutError::NewerVersion { found: version, supported: LUT_FORMAT_VERSION, path: p() });
-        }
-        if version == 0 {
-            return Err(LutError::Damaged { what: "format version 0".into(), path: p() });
-        }
-        let (count, table_len) = (u32_at(12), u64_at(16));
-        if count > MAX_SECTIONS || table_len != count as u64 * ENTRY_LEN as u64 {
-            return Err(LutError::Damaged {
-                what: format!("section table of {count} entries / {table_len} bytes is inconsistent"),
-                path: p(),
-            });
-        }
-        let table_end = HEADER_LEN + table_len as usize;
-        if bytes.len() < table_end {
-            return Err(LutError::Truncated {
-                what: format!("the section table ends at byte {table_end}"),
-                offset: bytes.len() as u64,
-                path: p(),
-            });
-        }
-        let table = &bytes[HEADER_LEN..table_end];
-        let (expected, found) = (u32_at(24), crc32fast::hash(table));
-        if expected != found {
-            return Err(LutError::BadChecksum {
-                section: "section table".into(),
-                offset: HEADER_LEN as u64,
-                expected,
-                found,
-                path: p(),
-            });
-        }
-        let mut entries: Vec<(String, u64, &[u8])> = Vec::with_capacity(count as usize);
-        for e in table.chunks_exact(ENTRY_LEN) {
-            let end = e[..NAME_LEN].iter().position(|&b| b == 0).unwrap_or(NAME_LEN);
-            let name = String::from_utf8_lossy(&e[..end]).into_owned();
-            let offset = u64::from_le_bytes(e[16..24].try_into().expect("8 bytes"));
-            let length = u64::from_le_bytes(e[24..32].try_into().expect("8 bytes"));
-            let crc = u32::from_le_bytes(e[32..36].try_into().expect("4 bytes"));
-            if offset.checked_add(length).is_none_or(|end| end > bytes.len() as u64) {
-                return Err(LutError::Truncated {
-                    what: format!("section '{name}' spans bytes {offset}..+{length}"),
-                    offset: bytes.len() as u64,
-                    path: p(),
-                });
+        let (_, table) = tet_container::parse(bytes, &FORMAT).map_err(|e| match e {
+            ContainerError::BadMagic => LutError::BadMagic { path: p() },
+            ContainerError::NewerVersion { found, supported } => LutError::NewerVersion { found, supported, path: p() },
+            ContainerError::Truncated { what, offset } => LutError::Truncated { what, offset, path: p() },
+            ContainerError::Damaged { what } => LutError::Damaged { what, path: p() },
+            ContainerError::BadChecksum { section, offset, expected, found } => {
+                LutError::BadChecksum { section, offset, expected, found, path: p() }
             }
-            let data = &bytes[offset as usize..(offset + length) as usize];
-            let found = crc32fast::hash(data);
-            if found != crc {
-                return Err(LutError::BadChecksum { section: name, offset, expected: crc, found, path: p() });
-            }
-            entries.push((name, offset, data));
-        }
+        })?;
+        let entries: Vec<(String, u64, &[u8])> =
+            table.into_iter().map(|e| (e.data(bytes), e)).map(|(d, e)| (e.name, e.offset, d)).collect();
         let (_, hoff, hbytes) = entries
             .iter()
             .find(|e| e.0 == HEADER_SECTION)
@@ -403,10 +296,6 @@ impl LutFile {
         Storage::from_le_bytes(bytes, count, channels, precision, scale)
             .ok_or_else(|| bad(format!("does not decode as {count} {precision} values in {channels} channels")))
     }
-}
-
-fn align(n: usize) -> usize {
-    n.div_ceil(ALIGN) * ALIGN
 }
 
 /// What `tetlut bake` and [`crate::make_shader`] ask for; each method reads

@@ -1,0 +1,327 @@
+//! The container both tetkit file formats use (`formats/bundle.md`,
+//! `formats/lut.md`): an 8-byte magic, a format version, a CRC-32'd
+//! section table, and 16-byte aligned payloads each with its own CRC-32.
+//!
+//! Main items: [`ContainerFormat`] (a format's magic, version and section
+//! limit), [`write_sections`] and [`parse`] (the byte layout),
+//! [`write_atomic`] (temporary file beside the target, fsync, rename, so an
+//! interrupted run never leaves a partial file under the final name),
+//! [`SectionEntry`] and [`ContainerError`]. Errors carry the byte offsets
+//! and section names; each format's crate adds the path and its own wording.
+//!
+//! ```
+//! use tet_container::{parse, write_sections, ContainerFormat};
+//! let fmt = ContainerFormat { magic: *b"\x89TEST\r\n\x1a", version: 1, max_sections: 16 };
+//! let mut bytes = Vec::new();
+//! write_sections(&mut bytes, &fmt, &[("A", b"hello"), ("B", &[1, 2, 3])]).unwrap();
+//! let (version, sections) = parse(&bytes, &fmt).unwrap();
+//! assert_eq!(version, 1);
+//! assert_eq!(sections[1].name, "B");
+//! assert_eq!(sections[1].data(&bytes), &[1, 2, 3]);
+//! bytes[sections[0].offset as usize] ^= 1; // a flipped bit fails its checksum
+//! assert!(parse(&bytes, &fmt).is_err());
+//! ```
+
+#![forbid(unsafe_code)]
+
+use std::io::{self, Write};
+use std::path::Path;
+
+/// Header bytes: magic, version, section count, table length, table CRC, reserved.
+pub const HEADER_LEN: usize = 32;
+/// Section table entry bytes: name, offset, length, CRC, reserved.
+pub const ENTRY_LEN: usize = 40;
+/// Longest section name (ASCII, zero-padded).
+pub const NAME_LEN: usize = 16;
+/// Payload alignment in bytes.
+pub const ALIGN: usize = 16;
+
+/// What distinguishes one format built on the container.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ContainerFormat {
+    /// First 8 bytes of every file.
+    pub magic: [u8; 8],
+    /// The version written, and the newest read.
+    pub version: u32,
+    /// More sections than this is a damaged table, not a real file.
+    pub max_sections: u32,
+}
+
+/// One section table entry; the payload is `bytes[offset..offset + length]`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SectionEntry {
+    pub name: String,
+    pub offset: u64,
+    pub length: u64,
+    pub crc32: u32,
+}
+
+impl SectionEntry {
+    /// The payload within the file bytes it was parsed from.
+    pub fn data<'b>(&self, bytes: &'b [u8]) -> &'b [u8] {
+        &bytes[self.offset as usize..(self.offset + self.length) as usize]
+    }
+}
+
+/// Why bytes are not a valid container of a format. Offsets are in bytes
+/// from the start of the file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ContainerError {
+    #[error("no magic at byte 0")]
+    BadMagic,
+    #[error("format version {found} is newer than this build reads (up to {supported})")]
+    NewerVersion { found: u32, supported: u32 },
+    #[error("truncated at byte {offset}: {what}")]
+    Truncated { what: String, offset: u64 },
+    #[error("{what}")]
+    Damaged { what: String },
+    #[error("section '{section}' at byte {offset} is corrupt (checksum {found:08x}, expected {expected:08x})")]
+    BadChecksum { section: String, offset: u64, expected: u32, found: u32 },
+}
+
+/// Whether `name` can name a section: 1–16 ASCII bytes with no NUL.
+pub fn valid_section_name(name: &str) -> bool {
+    !name.is_empty() && name.len() <= NAME_LEN && name.is_ascii() && !name.contains('\0')
+}
+
+/// Writes header, table and payloads (borrowed, so a large file streams to
+/// disk without an in-memory copy). Section names must satisfy
+/// [`valid_section_name`]; a longer one is an `InvalidInput` error.
+pub fn write_sections<W: Write + ?Sized>(
+    out: &mut W,
+    fmt: &ContainerFormat,
+    sections: &[(&str, &[u8])],
+) -> io::Result<()> {
+    if let Some((bad, _)) = sections.iter().find(|(n, _)| !valid_section_name(n)) {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("section name '{bad}' is not 1–16 ASCII bytes"),
+        ));
+    }
+    let table_len = sections.len() * ENTRY_LEN;
+    let mut offset = align(HEADER_LEN + table_len);
+    let mut table = Vec::with_capacity(table_len);
+    let mut offsets = Vec::with_capacity(sections.len());
+    for (name, data) in sections {
+        let mut n = [0u8; NAME_LEN];
+        n[..name.len()].copy_from_slice(name.as_bytes());
+        table.extend_from_slice(&n);
+        table.extend_from_slice(&(offset as u64).to_le_bytes());
+        table.extend_from_slice(&(data.len() as u64).to_le_bytes());
+        table.extend_from_slice(&crc32fast::hash(data).to_le_bytes());
+        table.extend_from_slice(&0u32.to_le_bytes());
+        offsets.push(offset);
+        offset = align(offset + data.len());
+    }
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    header.extend_from_slice(&fmt.magic);
+    header.extend_from_slice(&fmt.version.to_le_bytes());
+    header.extend_from_slice(&(sections.len() as u32).to_le_bytes());
+    header.extend_from_slice(&(table_len as u64).to_le_bytes());
+    header.extend_from_slice(&crc32fast::hash(&table).to_le_bytes());
+    header.extend_from_slice(&0u32.to_le_bytes());
+    debug_assert_eq!(header.len(), HEADER_LEN);
+    out.write_all(&header)?;
+    out.write_all(&table)?;
+    let mut pos = HEADER_LEN + table_len;
+    for ((_, data), off) in sections.iter().zip(offsets) {
+        out.write_all(&[0u8; ALIGN][..off - pos])?;
+        out.write_all(data)?;
+        pos = off + data.len();
+    }
+    // No padding after the last section: any truncation cuts into a section
+    // and so fails its bounds check or checksum.
+    Ok(())
+}
+
+fn align(n: usize) -> usize {
+    n.div_ceil(ALIGN) * ALIGN
+}
+
+/// Verifies the header, the table's and every section's checksum and
+/// bounds; returns the file's version and its sections in table order.
+pub fn parse(bytes: &[u8], fmt: &ContainerFormat) -> Result<(u32, Vec<SectionEntry>), ContainerError> {
+    if bytes.len() < fmt.magic.len() || bytes[..8] != fmt.magic {
+        return Err(ContainerError::BadMagic);
+    }
+    if bytes.len() < HEADER_LEN {
+        return Err(ContainerError::Truncated {
+            what: format!("the header needs {HEADER_LEN} bytes"),
+            offset: bytes.len() as u64,
+        });
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+    let version = u32_at(8);
+    if version > fmt.version {
+        return Err(ContainerError::NewerVersion { found: version, supported: fmt.version });
+    }
+    if version == 0 {
+        return Err(ContainerError::Damaged { what: "format version 0".into() });
+    }
+    let (count, table_len) = (u32_at(12), u64_at(16));
+    if count > fmt.max_sections || table_len != count as u64 * ENTRY_LEN as u64 {
+        return Err(ContainerError::Damaged {
+            what: format!("section table of {count} entries / {table_len} bytes is inconsistent"),
+        });
+    }
+    let table_end = HEADER_LEN + table_len as usize;
+    if bytes.len() < table_end {
+        return Err(ContainerError::Truncated {
+            what: format!("the section table ends at byte {table_end}"),
+            offset: bytes.len() as u64,
+        });
+    }
+    let table = &bytes[HEADER_LEN..table_end];
+    let (expected, found) = (u32_at(24), crc32fast::hash(table));
+    if expected != found {
+        return Err(ContainerError::BadChecksum {
+            section: "section table".into(),
+            offset: HEADER_LEN as u64,
+            expected,
+            found,
+        });
+    }
+    let mut entries = Vec::with_capacity(count as usize);
+    for e in table.chunks_exact(ENTRY_LEN) {
+        let end = e[..NAME_LEN].iter().position(|&b| b == 0).unwrap_or(NAME_LEN);
+        let name = String::from_utf8_lossy(&e[..end]).into_owned();
+        let offset = u64::from_le_bytes(e[16..24].try_into().expect("8 bytes"));
+        let length = u64::from_le_bytes(e[24..32].try_into().expect("8 bytes"));
+        let crc32 = u32::from_le_bytes(e[32..36].try_into().expect("4 bytes"));
+        if offset.checked_add(length).is_none_or(|end| end > bytes.len() as u64) {
+            return Err(ContainerError::Truncated {
+                what: format!("section '{name}' spans bytes {offset}..+{length}"),
+                offset: bytes.len() as u64,
+            });
+        }
+        let found = crc32fast::hash(&bytes[offset as usize..(offset + length) as usize]);
+        if found != crc32 {
+            return Err(ContainerError::BadChecksum { section: name, offset, expected: crc32, found });
+        }
+        entries.push(SectionEntry { name, offset, length, crc32 });
+    }
+    Ok((version, entries))
+}
+
+/// A failed [`write_atomic`]: the step and the I/O error (the caller adds the path).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot {action}: {source}")]
+pub struct AtomicWriteError {
+    /// "create a temporary file beside", "write", "sync" or "rename into place".
+    pub action: &'static str,
+    #[source]
+    pub source: io::Error,
+}
+
+/// Writes `path` atomically: `write` fills a temporary file (named
+/// `{tmp_prefix}XXXX.tmp`, permissions 0644 on Unix like any output) in the
+/// same directory through a 1 MiB buffer, which is synced and renamed over
+/// `path`. On error the temporary file is removed and `path` is untouched.
+pub fn write_atomic(
+    path: &Path,
+    tmp_prefix: &str,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<(), AtomicWriteError> {
+    let step = |action: &'static str| move |source| AtomicWriteError { action, source };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(tmp_prefix).suffix(".tmp");
+    // Temporary files are private (0600); the result is an ordinary output
+    // file, readable like any other the user creates.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    let mut tmp = builder.tempfile_in(dir).map_err(step("create a temporary file beside"))?;
+    {
+        let mut w = io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
+        write(&mut w).map_err(step("write"))?;
+        w.flush().map_err(step("write"))?;
+    }
+    tmp.as_file().sync_all().map_err(step("sync"))?;
+    tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FMT: ContainerFormat = ContainerFormat { magic: *b"\x89TEST\r\n\x1a", version: 3, max_sections: 8 };
+
+    fn sample() -> Vec<u8> {
+        let mut out = Vec::new();
+        write_sections(&mut out, &FMT, &[("ONE", &[7; 5]), ("TWO", &[]), ("THREE", &[1, 2, 3, 4, 5, 6, 7, 8, 9])])
+            .unwrap();
+        out
+    }
+
+    #[test]
+    fn round_trip_keeps_names_order_and_alignment() {
+        let bytes = sample();
+        let (version, s) = parse(&bytes, &FMT).unwrap();
+        assert_eq!(version, 3);
+        assert_eq!(s.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(), ["ONE", "TWO", "THREE"]);
+        assert!(s.iter().all(|e| (e.offset as usize).is_multiple_of(ALIGN)));
+        assert_eq!(s[2].data(&bytes), &[1, 2, 3, 4, 5, 6, 7, 8, 9]);
+        assert_eq!(bytes.len() as u64, s[2].offset + s[2].length, "no padding after the last section");
+    }
+
+    #[test]
+    fn every_truncation_and_every_flipped_bit_is_an_error() {
+        let bytes = sample();
+        for len in 0..bytes.len() {
+            assert!(parse(&bytes[..len], &FMT).is_err(), "truncated to {len}");
+        }
+        // Padding and the header's reserved word (bytes 28..32) are covered
+        // by no checksum; every other byte is.
+        let (_, s) = parse(&bytes, &FMT).unwrap();
+        let covered = |i: usize| {
+            i < HEADER_LEN + s.len() * ENTRY_LEN
+                || s.iter().any(|e| (e.offset..e.offset + e.length).contains(&(i as u64)))
+        };
+        for i in (0..bytes.len()).filter(|&i| covered(i) && !(28..32).contains(&i)) {
+            let mut b = bytes.clone();
+            b[i] ^= 0x10;
+            assert!(parse(&b, &FMT).is_err(), "bit flip at byte {i} went unnoticed");
+        }
+    }
+
+    #[test]
+    fn versions_and_names_are_checked() {
+        let mut bytes = sample();
+        bytes[8..12].copy_from_slice(&4u32.to_le_bytes());
+        assert_eq!(parse(&bytes, &FMT).unwrap_err(), ContainerError::NewerVersion { found: 4, supported: 3 });
+        bytes[8..12].copy_from_slice(&2u32.to_le_bytes());
+        assert_eq!(parse(&bytes, &FMT).unwrap().0, 2, "older versions read");
+        assert_eq!(
+            parse(b"not a container at all........................", &FMT).unwrap_err(),
+            ContainerError::BadMagic
+        );
+        let mut out = Vec::new();
+        assert!(write_sections(&mut out, &FMT, &[("SEVENTEEN_CHARS__", &[])]).is_err());
+        assert!(write_sections(&mut out, &FMT, &[("", &[])]).is_err());
+    }
+
+    #[test]
+    fn atomic_write_replaces_the_file_or_leaves_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.bin");
+        std::fs::write(&path, b"old").unwrap();
+        let err = write_atomic(&path, ".t-", |w: &mut dyn Write| {
+            w.write_all(b"partial")?;
+            Err(io::Error::other("disk full"))
+        })
+        .unwrap_err();
+        assert_eq!(err.action, "write");
+        assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        write_atomic(&path, ".t-", |w| w.write_all(b"new")).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"new");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
+    }
+}

@@ -63,9 +63,8 @@ pub fn populated_region(h: &Histograms, tail: f64) -> Option<[[f64; 2]; 2]> {
     }
     let mut s_marg = vec![0.0; ns];
     let mut g_marg = vec![0.0; ng];
-    for g in 0..ng {
-        for s in 0..ns {
-            let v = h.joint[g * ns + s];
+    for (g, row) in h.joint.chunks_exact(ns).enumerate() {
+        for (s, &v) in row.iter().enumerate() {
             if v.is_finite() && v > 0.0 {
                 s_marg[s] += v;
                 g_marg[g] += v;
@@ -73,7 +72,7 @@ pub fn populated_region(h: &Histograms, tail: f64) -> Option<[[f64; 2]; 2]> {
         }
     }
     let total: f64 = s_marg.iter().sum();
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return None;
     }
     let cut = total * if tail.is_finite() { tail.clamp(0.0, 0.49) } else { 0.0 };

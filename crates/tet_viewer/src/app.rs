@@ -4,8 +4,9 @@
 //! a full-resolution CPU frame takes long.
 
 use crate::engine::{gpu_supports, Engine, Frame, FrameRequest, FrameStats};
+use crate::file_dialog::{self, FileDialog, Mode, Outcome};
 use crate::nav;
-use crate::tf_model::TfModel;
+use crate::tf_model::{populated_region, TfModel, WidgetKind};
 use crate::{ViewerError, ViewerOptions};
 use eframe::egui;
 use egui::{Color32, PointerButton, Pos2, Rect, Sense, Stroke, TextureHandle, Vec2};
@@ -16,6 +17,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tet_analysis::{Axis, Histograms, Scale};
 use tet_bundle::Bundle;
+use tet_preint::widget::{MAX_FREQUENCY, UNBOUNDED};
 use tet_preint::{Method, Shape, TransferFunction};
 use tet_render::{Display, ToneMap, ViewSpec};
 
@@ -161,6 +163,42 @@ enum Drag {
     Color(usize),
 }
 
+/// Which path field a file dialog fills (and, for loads, what it loads).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Browse {
+    LoadTf,
+    SaveTf,
+    Preset,
+    View,
+    Image,
+    Shot,
+}
+
+impl Browse {
+    fn title(self) -> &'static str {
+        match self {
+            Browse::LoadTf => "Load transfer function",
+            Browse::SaveTf => "Save transfer function as",
+            Browse::Preset => "Import ParaView preset",
+            Browse::View => "Save view JSON as",
+            Browse::Image => "Save image PNG as",
+            Browse::Shot => "Save window screenshot as",
+        }
+    }
+    fn mode(self) -> Mode {
+        match self {
+            Browse::LoadTf | Browse::Preset => Mode::Open,
+            _ => Mode::Save,
+        }
+    }
+    fn extensions(self) -> &'static [&'static str] {
+        match self {
+            Browse::Image | Browse::Shot => &["png"],
+            _ => &["json"],
+        }
+    }
+}
+
 /// The TF editor's UI state (the TF itself is the [`TfModel`]).
 struct EditorState {
     drag: Option<Drag>,
@@ -217,6 +255,8 @@ struct ViewerApp {
     image_path: String,
     shot_path: String,
     shot_slot: Arc<Mutex<Option<Result<PathBuf, String>>>>,
+    /// The open file dialog and the field it fills.
+    dialog: Option<(FileDialog, Browse)>,
     script: Option<Script>,
 }
 
@@ -282,6 +322,7 @@ impl ViewerApp {
             image_path: "tetview.png".into(),
             shot_path: "tetview_window.png".into(),
             shot_slot: Arc::new(Mutex::new(None)),
+            dialog: None,
             script,
         }
     }
@@ -435,6 +476,8 @@ impl ViewerApp {
             ui.text_edit_singleline(&mut self.tf_path);
         });
         ui.horizontal(|ui| {
+            self.browse_button(ui, "Browse… (load)", Browse::LoadTf);
+            self.browse_button(ui, "Browse… (save)", Browse::SaveTf);
             if ui.button("load TF").clicked() {
                 self.status = match self.load_tf(Path::new(&self.tf_path.clone())) {
                     Ok(()) => format!("loaded {}", self.tf_path),
@@ -452,6 +495,7 @@ impl ViewerApp {
         ui.horizontal(|ui| {
             ui.label("ParaView preset");
             ui.text_edit_singleline(&mut self.preset_path);
+            self.browse_button(ui, "Browse…", Browse::Preset);
         });
         ui.horizontal(|ui| {
             ui.label("name (optional)");
@@ -474,25 +518,41 @@ impl ViewerApp {
                         format!("{} ignores widgets: use biv-exact or biv-approx", self.method),
                     );
                 }
+                // Where new widgets go: the histogram's populated region, 1% tails cut.
+                let mut region = None;
                 match &self.histograms {
-                    Some(h) => widget_editor(ui, &mut self.model, &mut self.widgets, h),
+                    Some(h) => {
+                        widget_editor(ui, &mut self.model, &mut self.widgets, h);
+                        region = populated_region(h, 0.01);
+                    }
                     None => {
                         ui.label("this bundle has no 2D histogram (tetprep convert --gradients --histogram)");
                     }
                 }
+                ui.horizontal(|ui| {
+                    ui.label("add");
+                    for kind in WidgetKind::ALL {
+                        let b = ui
+                            .add_enabled(region.is_some(), egui::Button::new(kind.id()))
+                            .on_hover_text("centred on the histogram's populated region")
+                            .on_disabled_hover_text("needs a 2D histogram with volume in it");
+                        if b.clicked() {
+                            if let Some(i) =
+                                region.and_then(|r| self.model.add_widget_in(kind, r, [1.0, 0.6, 0.2], 1.0))
+                            {
+                                self.widgets.selected = Some(i);
+                            }
+                        }
+                    }
+                });
                 ui.label(
-                "drag a widget to move it, shift-drag to resize; click empty space to add a box; right-click removes",
-            );
+                    "drag a widget (a band widget: its clip rectangle) to move it, shift-drag to resize; \
+                     click empty space to add a box; right-click removes",
+                );
                 if let Some(i) = self.widgets.selected.filter(|&i| i < self.model.widgets().len()) {
                     let w = self.model.widgets()[i];
                     ui.horizontal(|ui| {
-                        let kind = match w.shape {
-                            Shape::Box { .. } => "box",
-                            Shape::Gaussian { .. } => "gaussian",
-                            Shape::Triangle { .. } => "triangle",
-                            Shape::Sine { .. } => "sine",
-                        };
-                        ui.label(format!("widget {i} ({kind})"));
+                        ui.label(format!("widget {i} ({})", WidgetKind::of(&w.shape).id()));
                         let mut rgb = w.color.map(|v| v.clamp(0.0, 1.0) as f32);
                         let mut a = w.opacity;
                         let c = ui.color_edit_button_rgb(&mut rgb).changed();
@@ -502,15 +562,20 @@ impl ViewerApp {
                         if c || o {
                             self.model.style_widget(i, rgb.map(f64::from), a);
                         }
-                        if matches!(w.shape, Shape::Box { .. } | Shape::Gaussian { .. })
-                            && ui.button("box/gaussian").clicked()
-                        {
+                        let toggle = match w.shape {
+                            Shape::Box { .. } | Shape::Gaussian { .. } => "box/gaussian",
+                            Shape::Triangle { .. } | Shape::Sine { .. } => "triangle/sine",
+                        };
+                        if ui.button(toggle).clicked() {
                             self.model.toggle_widget_shape(i);
                         }
                         if ui.button("remove").clicked() && self.model.remove_widget(i) {
                             self.widgets.selected = None;
                         }
                     });
+                    if let Shape::Triangle { frequency, phase } | Shape::Sine { frequency, phase } = w.shape {
+                        band_controls(ui, &mut self.model, i, (frequency, phase), w.support, region);
+                    }
                 }
             });
 
@@ -523,6 +588,7 @@ impl ViewerApp {
         });
         ui.horizontal(|ui| {
             ui.text_edit_singleline(&mut self.view_path);
+            self.browse_button(ui, "Browse…", Browse::View);
             if ui.button("save view JSON").clicked() {
                 let mut v = self.view.clone();
                 v.size = self.idle_size;
@@ -534,6 +600,7 @@ impl ViewerApp {
         });
         ui.horizontal(|ui| {
             ui.text_edit_singleline(&mut self.image_path);
+            self.browse_button(ui, "Browse…", Browse::Image);
             if ui.button("save image PNG").clicked() {
                 self.status = match &self.full_frame {
                     Some((rgba, [w, h])) => {
@@ -548,10 +615,51 @@ impl ViewerApp {
         });
         ui.horizontal(|ui| {
             ui.text_edit_singleline(&mut self.shot_path);
+            self.browse_button(ui, "Browse…", Browse::Shot);
             if ui.button("window screenshot").clicked() {
                 request_screenshot(ui.ctx(), PathBuf::from(&self.shot_path), self.shot_slot.clone());
             }
         });
+    }
+
+    fn field(&mut self, b: Browse) -> &mut String {
+        match b {
+            Browse::LoadTf | Browse::SaveTf => &mut self.tf_path,
+            Browse::Preset => &mut self.preset_path,
+            Browse::View => &mut self.view_path,
+            Browse::Image => &mut self.image_path,
+            Browse::Shot => &mut self.shot_path,
+        }
+    }
+
+    /// A "Browse…" button that opens the file dialog for field `b`.
+    fn browse_button(&mut self, ui: &mut egui::Ui, label: &str, b: Browse) {
+        if ui.button(label).on_hover_text(b.title()).clicked() {
+            let field = self.field(b).clone();
+            self.dialog = Some((FileDialog::for_field(b.mode(), &field, b.extensions()), b));
+        }
+    }
+
+    /// Draws the open file dialog; on a choice fills its field and, for
+    /// loads, loads.
+    fn file_dialog(&mut self, ctx: &egui::Context) {
+        let Some((d, b)) = &mut self.dialog else { return };
+        let b = *b;
+        let Some(outcome) = file_dialog::show(ctx, b.title(), d) else { return };
+        self.dialog = None;
+        let Outcome::Chosen(path) = outcome else { return };
+        *self.field(b) = path.display().to_string();
+        self.status = match b {
+            Browse::LoadTf => match self.load_tf(&path) {
+                Ok(()) => format!("loaded {}", path.display()),
+                Err(e) => format!("load TF: {e}"),
+            },
+            Browse::Preset => match self.import_preset() {
+                Ok(()) => format!("imported {}", path.display()),
+                Err(e) => format!("import preset: {e}"),
+            },
+            _ => format!("{}: press save to write it", path.display()),
+        };
     }
 
     fn load_tf(&mut self, path: &Path) -> Result<(), String> {
@@ -738,6 +846,7 @@ impl eframe::App for ViewerApp {
         });
         egui::Panel::bottom("status").show(ui, |ui| self.status_line(ui));
         let (interacting, full) = egui::CentralPanel::default().show(ui, |ui| self.viewport(ui)).inner;
+        self.file_dialog(&ctx);
 
         let interacting = interacting || self.editor.drag.is_some() || self.widgets.drag.is_some();
         let scaled = |s: f32| full.map(|v| ((v as f32 * s).round() as u32).max(16));
@@ -878,6 +987,57 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
     }
 }
 
+/// Frequency, phase and clip of banded widget `i`. Bands run along s only
+/// (seed 004's triangle and sine widgets have no orientation); the clip
+/// rectangle limits them in s and |∇s|.
+fn band_controls(
+    ui: &mut egui::Ui,
+    model: &mut TfModel,
+    i: usize,
+    (frequency, phase): (f64, f64),
+    support: [[f64; 2]; 2],
+    region: Option<[[f64; 2]; 2]>,
+) {
+    ui.horizontal(|ui| {
+        let (mut f, mut p) = (frequency, phase);
+        let cf = ui
+            .add(
+                egui::DragValue::new(&mut f)
+                    .speed(0.005 * frequency)
+                    .range(1e-12..=MAX_FREQUENCY)
+                    .prefix("frequency ")
+                    .custom_formatter(|v, _| format!("{v:.5}")),
+            )
+            .on_hover_text("bands per scalar unit")
+            .changed();
+        let cp = ui
+            .add(egui::DragValue::new(&mut p).speed(0.01).prefix("phase ").custom_formatter(|v, _| format!("{v:.3}")))
+            .on_hover_text("peaks where frequency·s − phase is an integer")
+            .changed();
+        if cf || cp {
+            model.set_band(i, f, p);
+        }
+        ui.label(format!("period {:.4}", 1.0 / frequency));
+    });
+    ui.horizontal(|ui| {
+        if support == UNBOUNDED {
+            ui.label("unclipped");
+        } else {
+            let side = |v: f64| if v.abs() == f64::MAX { "∞".to_string() } else { format!("{v:.4}") };
+            let [[s0, s1], [g0, g1]] = support;
+            ui.label(format!("clip s {}..{}, |grad s| {}..{}", side(s0), side(s1), side(g0), side(g1)));
+        }
+        if let Some(r) = region {
+            if ui.button("clip to data").clicked() {
+                model.set_widget_clip(i, r);
+            }
+        }
+        if support != UNBOUNDED && ui.button("unclip").clicked() {
+            model.set_widget_clip(i, UNBOUNDED);
+        }
+    });
+}
+
 /// Where `v` lies along a histogram axis, 0 at `lo` and 1 at `hi`.
 fn axis_frac(a: &Axis, v: f64) -> f64 {
     match a.scale {
@@ -903,6 +1063,20 @@ struct WidgetState {
     texture: Option<TextureHandle>,
 }
 
+/// The point a drag moves: a box's or Gaussian's centre, a band widget's
+/// clip centre (on an unbounded axis: `None`, the move leaves it alone).
+fn widget_center(w: &tet_preint::Widget) -> Option<[f64; 2]> {
+    match w.shape {
+        Shape::Box { center, .. } | Shape::Gaussian { center, .. } => Some(center),
+        Shape::Triangle { .. } | Shape::Sine { .. } => Some([bounded_mid(w.support[0])?, bounded_mid(w.support[1])?]),
+    }
+}
+
+/// The middle of a clip side, `None` when it is unbounded (±`f64::MAX`).
+fn bounded_mid([lo, hi]: [f64; 2]) -> Option<f64> {
+    (lo.abs() < f64::MAX && hi.abs() < f64::MAX).then_some(0.5 * (lo + hi))
+}
+
 /// The joint (scalar, |∇s|) histogram as an image, log-scaled grey, |∇s| up.
 fn histogram_image(h: &Histograms) -> egui::ColorImage {
     let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
@@ -919,9 +1093,10 @@ fn histogram_image(h: &Histograms) -> egui::ColorImage {
     egui::ColorImage { size: [ns, ng], source_size: Vec2::new(ns as f32, ng as f32), pixels: px }
 }
 
-/// Box and Gaussian widgets drawn over the 2D histogram: drag a widget to
-/// move it, shift-drag to resize it, click or drag on empty space to add a
-/// box, right-click removes.
+/// Widgets drawn over the 2D histogram (band widgets as their clip
+/// rectangle with a line at each peak): drag a widget to move it,
+/// shift-drag to resize it, click or drag on empty space to add a box,
+/// right-click removes.
 fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h: &Histograms) {
     let tex = st
         .texture
@@ -953,7 +1128,11 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
                 let b = to_px(center[0] + half * width[0], center[1] + half * width[1]);
                 Some(Rect::from_two_pos(a, b))
             }
-            Shape::Triangle { .. } | Shape::Sine { .. } => None,
+            // The clip rectangle (unbounded sides at the histogram's edges).
+            Shape::Triangle { .. } | Shape::Sine { .. } => {
+                let [[s0, s1], [g0, g1]] = w.support;
+                Some(Rect::from_two_pos(to_px(s0, g0), to_px(s1, g1)))
+            }
         })
         .collect();
     for (i, (w, r)) in model.widgets().iter().zip(&shown).enumerate() {
@@ -962,7 +1141,26 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
         let fill = Color32::from_rgba_unmultiplied(c[0], c[1], c[2], 70);
         let sel = st.selected == Some(i);
         let stroke = Stroke::new(if sel { 2.5 } else { 1.2 }, if sel { Color32::YELLOW } else { Color32::WHITE });
-        if matches!(w.shape, Shape::Box { .. }) {
+        if let Shape::Triangle { frequency, phase } | Shape::Sine { frequency, phase } = w.shape {
+            painter.rect(
+                *r,
+                0.0,
+                Color32::from_rgba_unmultiplied(c[0], c[1], c[2], 25),
+                stroke,
+                egui::StrokeKind::Middle,
+            );
+            // Peak lines (x = f·s − φ ∈ ℤ) inside the clip, when few enough to see.
+            let s_lo = w.support[0][0].max(sa.lo);
+            let s_hi = w.support[0][1].min(sa.hi);
+            let (k0, k1) = ((frequency * s_lo - phase).ceil(), (frequency * s_hi - phase).floor());
+            if k1 >= k0 && k1 - k0 < 256.0 {
+                let line = Stroke::new(1.0, Color32::from_rgb(c[0], c[1], c[2]));
+                for k in 0..=(k1 - k0) as usize {
+                    let x = to_px((k0 + k as f64 + phase) / frequency, ga.lo).x;
+                    painter.line_segment([Pos2::new(x, r.min.y), Pos2::new(x, r.max.y)], line);
+                }
+            }
+        } else if matches!(w.shape, Shape::Box { .. }) {
             painter.rect(*r, 0.0, fill, stroke, egui::StrokeKind::Middle);
         } else {
             painter.circle(r.center(), 3.0, fill, stroke);
@@ -996,12 +1194,13 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
         let grab = from_px(o);
         st.drag = match hit(st.selected, o) {
             Some(i) => {
-                let offset = match model.widgets()[i].shape {
-                    Shape::Box { center, .. } | Shape::Gaussian { center, .. } => {
-                        [center[0] - grab[0], center[1] - grab[1]]
-                    }
-                    _ => [0.0; 2],
+                // On an unbounded clip axis the grab point itself (the move leaves that axis).
+                let w = model.widgets()[i];
+                let center = match w.shape {
+                    Shape::Box { center, .. } | Shape::Gaussian { center, .. } => center,
+                    _ => [0, 1].map(|k| bounded_mid(w.support[k]).unwrap_or(grab[k])),
                 };
+                let offset = [center[0] - grab[0], center[1] - grab[1]];
                 Some((i, shift, offset))
             }
             None => model.add_box_widget(grab, default_width(grab), [1.0, 0.6, 0.2], 1.0).map(|i| (i, false, [0.0; 2])),
@@ -1012,11 +1211,9 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
         if let Some((i, resize, offset)) = st.drag {
             let at = from_px(p);
             if resize {
-                if let Some(Shape::Box { center, .. } | Shape::Gaussian { center, .. }) =
-                    model.widgets().get(i).map(|w| w.shape)
-                {
-                    let full = matches!(model.widgets()[i].shape, Shape::Box { .. });
-                    let k = if full { 2.0 } else { 1.0 };
+                if let Some((w, center)) = model.widgets().get(i).and_then(|w| Some((*w, widget_center(w)?))) {
+                    // A box's and a clip's width is the full extent, a Gaussian's σ half of it.
+                    let k = if matches!(w.shape, Shape::Gaussian { .. }) { 1.0 } else { 2.0 };
                     model.resize_widget(i, [k * (at[0] - center[0]).abs(), k * (at[1] - center[1]).abs()]);
                 }
             } else {

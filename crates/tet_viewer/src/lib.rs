@@ -15,6 +15,8 @@
 //! * [`TfModel`] (module [`tf_model`]): the editor's control points, valid
 //!   after every add, drag and remove.
 //! * [`nav`]: orbit, pan and dolly on a `ViewSpec`.
+//! * [`FileDialog`] (module [`file_dialog`]): the in-window file browser
+//!   behind the "Browse…" buttons (no system dialog library needed).
 //!
 //! ```
 //! use tet_viewer::TfModel;
@@ -30,10 +32,12 @@
 
 mod app;
 pub mod engine;
+pub mod file_dialog;
 pub mod nav;
 pub mod tf_model;
 
 pub use engine::{gpu_supports, Engine, Frame, FrameRequest, FrameStats};
+pub use file_dialog::FileDialog;
 pub use tf_model::TfModel;
 
 use std::path::PathBuf;

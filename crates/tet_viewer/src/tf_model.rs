@@ -9,7 +9,106 @@
 //! The model works in data units: a normalized TF is mapped onto the
 //! bundle's scalar range when loaded, and saved denormalized.
 
+use tet_analysis::Histograms;
+use tet_preint::widget::{box_support, MAX_FREQUENCY, UNBOUNDED};
 use tet_preint::{ColorNode, Emission, OpacityNode, Shape, TfError, TransferFunction, Widget};
+
+/// The four widget kinds of seed 004, for creating one with defaults
+/// ([`TfModel::add_widget_in`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WidgetKind {
+    Box,
+    Gaussian,
+    /// Triangle-wave bands in s.
+    Triangle,
+    /// Sine-wave bands in s.
+    Sine,
+}
+
+impl WidgetKind {
+    pub const ALL: [WidgetKind; 4] = [WidgetKind::Box, WidgetKind::Gaussian, WidgetKind::Triangle, WidgetKind::Sine];
+
+    /// The name used in TF JSON (`"box"`, `"gaussian"`, `"triangle"`, `"sine"`).
+    pub fn id(self) -> &'static str {
+        match self {
+            WidgetKind::Box => "box",
+            WidgetKind::Gaussian => "gaussian",
+            WidgetKind::Triangle => "triangle",
+            WidgetKind::Sine => "sine",
+        }
+    }
+
+    pub fn of(shape: &Shape) -> WidgetKind {
+        match shape {
+            Shape::Box { .. } => WidgetKind::Box,
+            Shape::Gaussian { .. } => WidgetKind::Gaussian,
+            Shape::Triangle { .. } => WidgetKind::Triangle,
+            Shape::Sine { .. } => WidgetKind::Sine,
+        }
+    }
+}
+
+/// How many bands a new banded widget puts across its region.
+pub const DEFAULT_BANDS: f64 = 4.0;
+
+/// The (scalar, |∇s|) rectangle `[[s_lo, s_hi], [g_lo, g_hi]]` that holds
+/// the joint histogram's volume but for a fraction `tail` (clamped to
+/// [0, 0.49]) cut from each end of each marginal, snapped out to bin edges;
+/// `None` when the joint histogram is empty or its arrays do not match its
+/// axes. New widgets are placed in it, where the data are.
+pub fn populated_region(h: &Histograms, tail: f64) -> Option<[[f64; 2]; 2]> {
+    let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
+    if h.joint.len() != ns.checked_mul(ng)? || ns == 0 || ng == 0 {
+        return None;
+    }
+    let mut s_marg = vec![0.0; ns];
+    let mut g_marg = vec![0.0; ng];
+    for (g, row) in h.joint.chunks_exact(ns).enumerate() {
+        for (s, &v) in row.iter().enumerate() {
+            if v.is_finite() && v > 0.0 {
+                s_marg[s] += v;
+                g_marg[g] += v;
+            }
+        }
+    }
+    let total: f64 = s_marg.iter().sum();
+    if total.is_nan() || total <= 0.0 {
+        return None;
+    }
+    let cut = total * if tail.is_finite() { tail.clamp(0.0, 0.49) } else { 0.0 };
+    // First bin whose cumulative volume passes `cut` (and holds volume).
+    let first = |m: &[f64]| {
+        let mut acc = 0.0;
+        m.iter().position(|&v| {
+            acc += v;
+            v > 0.0 && acc > cut
+        })
+    };
+    let span = |m: &[f64]| -> Option<[usize; 2]> {
+        let lo = first(m)?;
+        let rev: Vec<f64> = m.iter().rev().copied().collect();
+        let hi = m.len() - 1 - first(&rev)?;
+        Some([lo, hi.max(lo)])
+    };
+    let [s0, s1] = span(&s_marg)?;
+    let [g0, g1] = span(&g_marg)?;
+    Some([
+        [h.scalar_axis.edge(s0), h.scalar_axis.edge(s1 + 1)],
+        [h.gradient_axis.edge(g0), h.gradient_axis.edge(g1 + 1)],
+    ])
+}
+
+/// Frequency and phase of `bands` bands across `s_range` with a peak at its
+/// centre (x = f·s − φ is 0 there).
+pub fn band_defaults(s_range: [f64; 2], bands: f64) -> (f64, f64) {
+    let width = s_range[1] - s_range[0];
+    let width = if width.is_finite() && width > 0.0 { width } else { 1.0 };
+    let bands = if bands.is_finite() && bands > 0.0 { bands } else { DEFAULT_BANDS };
+    let frequency = (bands / width).min(MAX_FREQUENCY);
+    let centre = 0.5 * (s_range[0] + s_range[1]);
+    let phase = frequency * centre;
+    (frequency, if phase.is_finite() { phase } else { 0.0 })
+}
 
 /// An editable transfer function over a scalar range (data units).
 #[derive(Debug, Clone, PartialEq)]
@@ -229,22 +328,118 @@ impl TfModel {
             return None;
         }
         let width = width.map(clean_width);
+        self.push_widget(Shape::Box { center, width }, box_support(center, width), color, opacity)
+    }
+
+    /// Adds a widget of `kind` placed in `region` ([[s_lo, s_hi], [g_lo,
+    /// g_hi]], e.g. from [`populated_region`]): a box of half the region's
+    /// size at its centre; a Gaussian there with σ a sixth of the region
+    /// (unclipped); or [`DEFAULT_BANDS`] triangle or sine bands across the
+    /// region's s range, peaking at its centre and clipped to the region.
+    /// `None` when the region is not finite.
+    pub fn add_widget_in(
+        &mut self,
+        kind: WidgetKind,
+        region: [[f64; 2]; 2],
+        color: [f64; 3],
+        opacity: f64,
+    ) -> Option<usize> {
+        if region.iter().flatten().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let center = region.map(|r| 0.5 * (r[0] + r[1]));
+        let size = region.map(|r| (r[1] - r[0]).abs());
+        match kind {
+            WidgetKind::Box => self.add_box_widget(center, size.map(|x| 0.5 * x), color, opacity),
+            WidgetKind::Gaussian => {
+                let sigma = size.map(|x| clean_width(x / 6.0));
+                self.push_widget(Shape::Gaussian { center, sigma }, UNBOUNDED, color, opacity)
+            }
+            WidgetKind::Triangle | WidgetKind::Sine => {
+                let (frequency, phase) = band_defaults(region[0], DEFAULT_BANDS);
+                self.add_band_widget(kind, frequency, phase, region, color, opacity)
+            }
+        }
+    }
+
+    /// Adds triangle- or sine-wave bands (`kind` Triangle or Sine; `None`
+    /// for the others, for a frequency outside (0, [`MAX_FREQUENCY`]] or a
+    /// non-finite phase). `clip` bounds the support: NaN sides are
+    /// unbounded, reversed sides are swapped.
+    pub fn add_band_widget(
+        &mut self,
+        kind: WidgetKind,
+        frequency: f64,
+        phase: f64,
+        clip: [[f64; 2]; 2],
+        color: [f64; 3],
+        opacity: f64,
+    ) -> Option<usize> {
+        if !(frequency > 0.0 && frequency <= MAX_FREQUENCY && phase.is_finite()) {
+            return None;
+        }
+        let shape = match kind {
+            WidgetKind::Triangle => Shape::Triangle { frequency, phase },
+            WidgetKind::Sine => Shape::Sine { frequency, phase },
+            WidgetKind::Box | WidgetKind::Gaussian => return None,
+        };
+        self.push_widget(shape, clean_clip(clip), color, opacity)
+    }
+
+    fn push_widget(&mut self, shape: Shape, support: [[f64; 2]; 2], color: [f64; 3], opacity: f64) -> Option<usize> {
         self.widgets.push(Widget {
-            shape: Shape::Box { center, width },
+            shape,
             color: color.map(|c| clean_nonneg(c, 0.0)),
             opacity: clean_nonneg(opacity, 0.0),
-            support: tet_preint::widget::box_support(center, width),
+            support,
         });
         self.bump();
         Some(self.widgets.len() - 1)
     }
 
-    /// Moves a box or Gaussian widget's centre (band widgets have none).
+    /// Sets a banded widget's frequency (bands per scalar unit, clamped to
+    /// [`MAX_FREQUENCY`]; non-positive or non-finite keeps the old one) and
+    /// phase (non-finite keeps the old one). Other widgets are unchanged.
+    pub fn set_band(&mut self, i: usize, frequency: f64, phase: f64) {
+        let Some(w) = self.widgets.get_mut(i) else { return };
+        let old = *w;
+        if let Shape::Triangle { frequency: f, phase: p } | Shape::Sine { frequency: f, phase: p } = &mut w.shape {
+            if frequency > 0.0 && frequency.is_finite() {
+                *f = frequency.min(MAX_FREQUENCY);
+            }
+            if phase.is_finite() {
+                *p = phase;
+            }
+        }
+        if *w != old {
+            self.bump();
+        }
+    }
+
+    /// Sets the clip rectangle of a Gaussian or banded widget (as in
+    /// [`add_band_widget`](Self::add_band_widget); [`UNBOUNDED`] removes
+    /// it). A box's support is its shape: use `move_widget`/`resize_widget`.
+    pub fn set_widget_clip(&mut self, i: usize, clip: [[f64; 2]; 2]) {
+        let Some(w) = self.widgets.get_mut(i) else { return };
+        if matches!(w.shape, Shape::Box { .. }) {
+            return;
+        }
+        let clip = clean_clip(clip);
+        if clip != w.support {
+            w.support = clip;
+            self.bump();
+        }
+    }
+
+    /// Moves a box or Gaussian widget's centre, or a banded widget's clip
+    /// rectangle (its bounded axes) to be centred at `center` — the bands
+    /// stay where they are in s.
     pub fn move_widget(&mut self, i: usize, center: [f64; 2]) {
         self.reshape_widget(i, Some(center), None);
     }
 
-    /// Sets a box widget's widths or a Gaussian's standard deviations.
+    /// Sets a box widget's widths, a Gaussian's standard deviations, or the
+    /// widths of a banded widget's clip rectangle (its bounded axes).
     pub fn resize_widget(&mut self, i: usize, width: [f64; 2]) {
         self.reshape_widget(i, None, Some(width.map(clean_width)));
     }
@@ -259,13 +454,26 @@ impl TfModel {
             Shape::Box { center: c, width: wd } => {
                 *c = center.unwrap_or(*c);
                 *wd = width.unwrap_or(*wd);
-                w.support = tet_preint::widget::box_support(*c, *wd);
+                w.support = box_support(*c, *wd);
             }
             Shape::Gaussian { center: c, sigma } => {
                 *c = center.unwrap_or(*c);
                 *sigma = width.unwrap_or(*sigma);
             }
-            Shape::Triangle { .. } | Shape::Sine { .. } => {}
+            Shape::Triangle { .. } | Shape::Sine { .. } => {
+                for k in 0..2 {
+                    let [lo, hi] = w.support[k];
+                    if lo.abs() == f64::MAX || hi.abs() == f64::MAX {
+                        continue; // unbounded on this axis: nothing to move
+                    }
+                    let c = center.map_or(0.5 * (lo + hi), |c| c[k]);
+                    let half = width.map_or(0.5 * (hi - lo), |wd| 0.5 * wd[k]);
+                    let side = [c - half, c + half];
+                    if side.iter().all(|v| v.is_finite() && v.abs() < f64::MAX) {
+                        w.support[k] = side;
+                    }
+                }
+            }
         }
         if *w != old {
             self.bump();
@@ -273,21 +481,23 @@ impl TfModel {
     }
 
     /// Switches a box to the Gaussian with σ = width/2 over the same centre
-    /// (unclipped), and a Gaussian to the box of width 2σ.
+    /// (unclipped), a Gaussian to the box of width 2σ, and triangle bands to
+    /// sine bands of the same frequency, phase and clip (and back).
     pub fn toggle_widget_shape(&mut self, i: usize) {
         let Some(w) = self.widgets.get_mut(i) else { return };
         match w.shape {
             Shape::Box { center, width } => {
                 let sigma = width.map(|x| clean_width(0.5 * x));
                 w.shape = Shape::Gaussian { center, sigma };
-                w.support = tet_preint::widget::UNBOUNDED;
+                w.support = UNBOUNDED;
             }
             Shape::Gaussian { center, sigma } => {
                 let width = sigma.map(|x| clean_width(2.0 * x));
                 w.shape = Shape::Box { center, width };
-                w.support = tet_preint::widget::box_support(center, width);
+                w.support = box_support(center, width);
             }
-            Shape::Triangle { .. } | Shape::Sine { .. } => return,
+            Shape::Triangle { frequency, phase } => w.shape = Shape::Sine { frequency, phase },
+            Shape::Sine { frequency, phase } => w.shape = Shape::Triangle { frequency, phase },
         }
         self.bump();
     }
@@ -351,6 +561,16 @@ fn clean_width(w: f64) -> f64 {
     } else {
         1e-9
     }
+}
+
+/// A clip rectangle a widget accepts: NaN sides unbounded (±`f64::MAX`),
+/// infinities to ±`f64::MAX`, reversed sides swapped.
+fn clean_clip(clip: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
+    clip.map(|[a, b]| {
+        let a = if a.is_nan() { -f64::MAX } else { a.clamp(-f64::MAX, f64::MAX) };
+        let b = if b.is_nan() { f64::MAX } else { b.clamp(-f64::MAX, f64::MAX) };
+        [a.min(b), a.max(b)]
+    })
 }
 
 fn clean_nonneg(v: f64, fallback: f64) -> f64 {
@@ -447,6 +667,122 @@ mod tests {
         assert!(m.remove_widget(i) && !m.remove_widget(i));
     }
 
+    fn histograms(joint_at: &[(usize, usize, f64)]) -> Histograms {
+        use tet_analysis::{Axis, Scale};
+        let scalar_axis = Axis::new(0.0, 10.0, 10, Scale::Linear).unwrap();
+        let gradient_axis = Axis::new(0.01, 100.0, 4, Scale::Log).unwrap();
+        let mut joint = vec![0.0; 40];
+        for &(g, s, v) in joint_at {
+            joint[g * 10 + s] = v;
+        }
+        let total = joint.iter().sum();
+        Histograms {
+            scalar_axis,
+            gradient_axis,
+            scalar: vec![0.0; 10],
+            scalar_below: 0.0,
+            scalar_above: 0.0,
+            joint,
+            joint_outside: 0.0,
+            total_volume: total,
+        }
+    }
+
+    #[test]
+    fn populated_region_snaps_to_the_occupied_bins() {
+        // Volume in scalar bins 2..=6 and gradient bins 1..=2 (edges 0.1 .. 10).
+        let h = histograms(&[(1, 2, 1.0), (2, 6, 3.0), (1, 4, 0.001)]);
+        let r = populated_region(&h, 0.0).unwrap();
+        assert_eq!(r[0], [2.0, 7.0]);
+        assert!((r[1][0] - 0.1).abs() < 1e-12 && (r[1][1] - 10.0).abs() < 1e-9, "{r:?}");
+        // The ends hold 1 and 3 of 4.001: a 1% tail cuts nothing.
+        assert_eq!(populated_region(&h, 0.01).unwrap(), r);
+        // A 30% tail cuts bin 2 (25%) and the speck in bin 4 after it.
+        assert_eq!(populated_region(&h, 0.3).unwrap()[0], [6.0, 7.0]);
+        assert_eq!(populated_region(&histograms(&[]), 0.0), None);
+        let mut bad = histograms(&[(0, 0, 1.0)]);
+        bad.joint.pop();
+        assert_eq!(populated_region(&bad, 0.0), None, "arrays not matching the axes");
+    }
+
+    #[test]
+    fn every_widget_kind_is_created_centred_in_a_region() {
+        let region = [[2.0, 6.0], [0.5, 1.5]];
+        let mut m = TfModel::ramp([0.0, 10.0], 1.0);
+        for kind in WidgetKind::ALL {
+            let i = m.add_widget_in(kind, region, [1.0, 0.5, 0.0], 2.0).unwrap();
+            let w = m.widgets()[i];
+            assert_eq!(WidgetKind::of(&w.shape), kind);
+            // Full strength at the region's centre, none outside the region for clipped kinds.
+            assert!((w.shape_at(4.0, 1.0) - 1.0).abs() < 1e-12, "{kind:?}");
+            match w.shape {
+                Shape::Box { width, .. } => assert_eq!(width, [2.0, 0.5]),
+                Shape::Gaussian { sigma, .. } => {
+                    assert!((sigma[0] - 4.0 / 6.0).abs() < 1e-12);
+                    assert_eq!(w.support, UNBOUNDED);
+                }
+                Shape::Triangle { frequency, .. } | Shape::Sine { frequency, .. } => {
+                    assert_eq!(frequency, DEFAULT_BANDS / 4.0);
+                    assert_eq!(w.support, region);
+                    // Peaks one band apart, zero half a band from a peak, nothing outside the clip.
+                    assert!((w.shape_at(5.0, 1.0) - 1.0).abs() < 1e-12);
+                    assert!(w.shape_at(4.5, 1.0).abs() < 1e-12);
+                    assert_eq!(w.shape_at(5.0, 1.6), 0.0);
+                    assert_eq!(w.shape_at(7.0, 1.0), 0.0);
+                }
+            }
+        }
+        valid(&m);
+        let tf = m.to_tf().unwrap();
+        let back = TransferFunction::from_json(&tf.to_json()).unwrap();
+        let kinds: Vec<_> = back.widgets().iter().map(|w| WidgetKind::of(&w.shape).id()).collect();
+        assert_eq!(kinds, ["box", "gaussian", "triangle", "sine"]);
+        assert_eq!(m.add_widget_in(WidgetKind::Sine, [[0.0, f64::NAN], [0.0, 1.0]], [1.0; 3], 1.0), None);
+    }
+
+    #[test]
+    fn band_widgets_edit_frequency_phase_clip_and_kind() {
+        let mut m = TfModel::ramp([0.0, 10.0], 1.0);
+        assert_eq!(m.add_band_widget(WidgetKind::Box, 1.0, 0.0, UNBOUNDED, [1.0; 3], 1.0), None);
+        assert_eq!(m.add_band_widget(WidgetKind::Sine, 0.0, 0.0, UNBOUNDED, [1.0; 3], 1.0), None);
+        assert_eq!(m.add_band_widget(WidgetKind::Sine, 2.0 * MAX_FREQUENCY, 0.0, UNBOUNDED, [1.0; 3], 1.0), None);
+        assert_eq!(m.add_band_widget(WidgetKind::Sine, 1.0, f64::NAN, UNBOUNDED, [1.0; 3], 1.0), None);
+        let i =
+            m.add_band_widget(WidgetKind::Triangle, 1.0, 0.0, [[8.0, 2.0], [f64::NAN, 3.0]], [1.0; 3], 1.0).unwrap();
+        assert_eq!(m.widgets()[i].support, [[2.0, 8.0], [-f64::MAX, 3.0]], "swapped, NaN side unbounded");
+        let r = m.revision();
+        m.set_band(i, 2.5, 0.25);
+        assert_eq!(m.widgets()[i].shape, Shape::Triangle { frequency: 2.5, phase: 0.25 });
+        m.set_band(i, -1.0, f64::INFINITY);
+        m.set_band(i, f64::NAN, f64::NAN);
+        assert_eq!(m.widgets()[i].shape, Shape::Triangle { frequency: 2.5, phase: 0.25 }, "bad values keep the old");
+        assert_eq!(m.revision(), r + 1);
+        m.set_band(i, 1e300, 0.25);
+        assert_eq!(m.widgets()[i].frequency(), Some(MAX_FREQUENCY));
+        m.set_band(i, 2.5, 0.25);
+        // Moving shifts the bounded clip axes only; resizing sets their widths.
+        m.move_widget(i, [6.0, 100.0]);
+        assert_eq!(m.widgets()[i].support, [[3.0, 9.0], [-f64::MAX, 3.0]]);
+        m.resize_widget(i, [2.0, 50.0]);
+        assert_eq!(m.widgets()[i].support, [[5.0, 7.0], [-f64::MAX, 3.0]]);
+        m.toggle_widget_shape(i);
+        assert_eq!(m.widgets()[i].shape, Shape::Sine { frequency: 2.5, phase: 0.25 });
+        assert_eq!(m.widgets()[i].support[0], [5.0, 7.0]);
+        m.toggle_widget_shape(i);
+        assert!(matches!(m.widgets()[i].shape, Shape::Triangle { .. }));
+        m.set_widget_clip(i, UNBOUNDED);
+        assert_eq!(m.widgets()[i].support, UNBOUNDED);
+        // A box's support follows its shape: set_widget_clip leaves it alone.
+        let b = m.add_box_widget([5.0, 1.0], [1.0, 1.0], [1.0; 3], 1.0).unwrap();
+        let before = m.widgets()[b];
+        m.set_widget_clip(b, [[0.0, 1.0], [0.0, 1.0]]);
+        m.set_band(b, 3.0, 0.0);
+        assert_eq!(m.widgets()[b], before);
+        valid(&m);
+        let tf = m.to_tf().unwrap();
+        assert_eq!(TransferFunction::from_json(&tf.to_json()).unwrap().widgets()[i].shape, m.widgets()[i].shape);
+    }
+
     #[derive(Debug, Clone)]
     enum Edit {
         AddO(f64, f64),
@@ -461,6 +797,9 @@ mod tests {
         ResizeW(usize, [f64; 2]),
         ToggleW(usize),
         RemoveW(usize),
+        AddKind(usize, [f64; 2], [f64; 2]),
+        SetBand(usize, f64, f64),
+        SetClip(usize, [f64; 4]),
     }
 
     fn edit() -> impl Strategy<Value = Edit> {
@@ -480,6 +819,10 @@ mod tests {
             (0..4usize, prop::array::uniform2(-0.5..1.0f64)).prop_map(|(i, w)| Edit::ResizeW(i, w)),
             (0..4usize).prop_map(Edit::ToggleW),
             (0..4usize).prop_map(Edit::RemoveW),
+            (0..4usize, prop::array::uniform2(-1.0..2.0f64), prop::array::uniform2(-1.0..2.0f64))
+                .prop_map(|(k, s, g)| Edit::AddKind(k, s, g)),
+            (0..4usize, -1.0..100.0f64, -5.0..5.0f64).prop_map(|(i, f, p)| Edit::SetBand(i, f, p)),
+            (0..4usize, prop::array::uniform4(-1.0..2.0f64)).prop_map(|(i, c)| Edit::SetClip(i, c)),
         ]
     }
 
@@ -504,6 +847,9 @@ mod tests {
                     Edit::ResizeW(i, w) => m.resize_widget(i, w),
                     Edit::ToggleW(i) => m.toggle_widget_shape(i),
                     Edit::RemoveW(i) => { m.remove_widget(i); }
+                    Edit::AddKind(k, s, g) => { m.add_widget_in(WidgetKind::ALL[k], [s, g], [0.2, 0.5, 1.0], 1.0); }
+                    Edit::SetBand(i, f, p) => m.set_band(i, f, p),
+                    Edit::SetClip(i, c) => m.set_widget_clip(i, [[c[0], c[1]], [c[2], c[3]]]),
                 }
                 valid(&m);
                 // Saved JSON loads back valid. (Equal up to an ulp: serde_json's

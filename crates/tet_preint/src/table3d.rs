@@ -538,6 +538,22 @@ impl Table3d {
         self.axis.knots()
     }
 
+    /// The knots [`Table3d::s_knots`] would return for a table built from
+    /// these inputs, without building it: for bakes outside this crate
+    /// (tet_gpu's compute-shader bake) that must use the same axis.
+    pub fn axis_knots(
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        params: &Table3dParams,
+    ) -> Result<Vec<(f64, usize)>, TableError> {
+        check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
+        let axis = match params.s_axis {
+            ScalarAxis::Uniform => Axis::uniform(domain, params.n_s),
+            ScalarAxis::TfNodes => Axis::tf_nodes(tf, domain, params.n_s),
+        };
+        Ok(axis.knots())
+    }
+
     /// Whether the scalar axis has equal steps (what a consumer that maps
     /// scalars to indices by one scale, like tet_gpu's shader, needs).
     pub fn is_uniform_axis(&self) -> bool {

@@ -78,8 +78,7 @@ impl Default for Build3d {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ScalarAxis {
-    /// Equal steps over [s_lo, s_hi] (format version 1's only axis; what the
-    /// GPU path of tet_gpu expects).
+    /// Equal steps over [s_lo, s_hi] (format version 1's only axis).
     #[default]
     Uniform,
     /// Piecewise uniform with a sample on every TF control point; falls back
@@ -104,8 +103,8 @@ pub struct Table3dParams {
 
 impl Default for Table3dParams {
     /// 128 × 128 × 256, slice recurrence with oversampling 2, f32, uniform
-    /// scalar axis (the layout tet_gpu's shader reads; `BakeOptions`, what
-    /// tetlut and the CPU renderer bake with, defaults to
+    /// scalar axis (format version 1's layout; `BakeOptions`, what tetlut,
+    /// the CPU renderer and tetview's GPU path bake with, defaults to
     /// [`ScalarAxis::TfNodes`]).
     fn default() -> Self {
         Table3dParams {
@@ -554,8 +553,8 @@ impl Table3d {
         Ok(axis.knots())
     }
 
-    /// Whether the scalar axis has equal steps (what a consumer that maps
-    /// scalars to indices by one scale, like tet_gpu's shader, needs).
+    /// Whether the scalar axis has equal steps (a consumer may then map
+    /// scalars to indices by one scale; tet_gpu's shader reads either axis).
     pub fn is_uniform_axis(&self) -> bool {
         self.axis.uniform
     }

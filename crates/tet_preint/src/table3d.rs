@@ -1278,6 +1278,18 @@ mod tests {
     }
 
     #[test]
+    fn axis_knots_are_the_built_tables() {
+        let f = ramp();
+        let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
+        for s_axis in [ScalarAxis::Uniform, ScalarAxis::TfNodes] {
+            let p = Table3dParams { n_s: 40, n_l: 4, s_axis, ..Default::default() };
+            let t = Table3d::build(&f, &d, &p).unwrap();
+            assert_eq!(Table3d::axis_knots(&f, &d, &p).unwrap(), t.s_knots());
+        }
+        assert!(Table3d::axis_knots(&f, &d, &Table3dParams { n_s: 1, ..Default::default() }).is_err());
+    }
+
+    #[test]
     fn rejects_bad_params() {
         let f = ramp();
         let d = TableDomain::full(0.0, 1.0, 2.0).unwrap();

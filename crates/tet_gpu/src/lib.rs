@@ -34,7 +34,9 @@
 //!   axis) straight into the 3D texture [`GpuShader::table3d_baked`]
 //!   samples; [`GpuAccumulation::F16`] rounds its running sums to f16 for
 //!   the precision study. [`GpuShader::probe_table3d`] runs the
-//!   per-fragment lookup on given (Sf, Sb, l) triples.
+//!   per-fragment lookup on given (Sf, Sb, l) triples. [`bake_poly`]
+//!   bakes the poly1/2/4 tables (ρ̂ and the colour polynomials) in a
+//!   compute shader and reads them back into a `PolyTable`.
 //! * [`gpu_types`]: every CPU↔GPU struct, `Pod`, mirrored in the WGSL.
 //!
 //! ```
@@ -65,11 +67,13 @@ mod bake;
 mod binning;
 pub mod gpu_types;
 mod gpusort;
+mod poly_bake;
 mod render;
 mod tonemap;
 mod workspace;
 
 pub use bake::{GpuAccumulation, GpuBakeStats, GpuTable3d};
+pub use poly_bake::bake_poly;
 pub use render::{centroid_order, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer, GpuScene, GpuShader, RasterPath};
 pub use tonemap::ToneResult;
 
@@ -177,6 +181,7 @@ pub fn shader_sources() -> Vec<(&'static str, String)> {
         ("tonemap", shader_source_plain(TONEMAP_WGSL)),
         ("bake", shader_source_plain(BAKE_WGSL)),
         ("probe", shader_source_fragment(PROBE_WGSL)),
+        ("poly_bake", shader_source_plain(POLY_BAKE_WGSL)),
     ]
 }
 
@@ -189,6 +194,7 @@ const SORT_WGSL: &str = include_str!("../shaders/sort.wgsl");
 const TONEMAP_WGSL: &str = include_str!("../shaders/tonemap.wgsl");
 const BAKE_WGSL: &str = include_str!("../shaders/bake.wgsl");
 const PROBE_WGSL: &str = include_str!("../shaders/probe.wgsl");
+const POLY_BAKE_WGSL: &str = include_str!("../shaders/poly_bake.wgsl");
 
 /// common.wgsl + `body` (classify).
 fn shader_source(body: &str) -> String {

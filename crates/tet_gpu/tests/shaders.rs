@@ -4,7 +4,7 @@
 #[test]
 fn every_shader_parses_and_validates() {
     let sources = tet_gpu::shader_sources();
-    assert_eq!(sources.len(), 7);
+    assert_eq!(sources.len(), 8);
     for (name, src) in sources {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}.wgsl does not parse:\n{}", e.emit_to_string(&src)));
@@ -22,6 +22,7 @@ fn every_shader_parses_and_validates() {
             "tonemap" => &["reduce", "fit", "map"],
             "bake" => &["bake"],
             "probe" => &["probe"],
+            "poly_bake" => &["poly_bake"],
             other => panic!("unexpected module {other}"),
         };
         for w in want {
@@ -47,6 +48,7 @@ fn shader_files_on_disk_are_all_included() {
             "classify.wgsl",
             "common.wgsl",
             "fragment.wgsl",
+            "poly_bake.wgsl",
             "probe.wgsl",
             "raster.wgsl",
             "sort.wgsl",

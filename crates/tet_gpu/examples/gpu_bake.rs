@@ -6,7 +6,10 @@
 //!   (`uniform_triples`, fixed seed), each table looked up as a fragment
 //!   would (the CPU table by `Table3d::lookup`, the GPU tables by the
 //!   renderer's own lookup through `GpuShader::probe_table3d`);
-//! * GPU entries against the CPU table's, over every stored entry.
+//! * GPU entries against the CPU table's, over every stored entry;
+//!
+//! then the same for the poly1/2/4 tables (`tet_gpu::bake_poly` against
+//! `PolyTable::build`; both looked up on the CPU).
 //!
 //! cargo run --release -p tet_gpu --example gpu_bake -- [TF.json] [S_LO S_HI MAX_DS LEN_MAX] [N] [REPEATS]
 //!
@@ -109,6 +112,41 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (d_sum / d_n.max(1) as f64).sqrt()
             );
         }
+    }
+    println!();
+    println!("| table | bake | bake ms | setup ms | RMS vs exact | max vs exact | max diff of lookups vs CPU table |");
+    println!("|---|---|---:|---:|---:|---:|---:|");
+    for (degree, res) in [(1, 128), (2, 128), (4, 128), (2, 512)] {
+        let p = tet_preint::PolyParams::new(degree, res, domain.s_lo, domain.s_hi, domain.len_max_world)
+            .with_max_ds(domain.max_ds);
+        let mut cpu_ms = f64::INFINITY;
+        let mut cpu = None;
+        for _ in 0..repeats {
+            let t = Instant::now();
+            let table = tet_preint::PolyTable::build(&tf, &p)?;
+            cpu_ms = cpu_ms.min(t.elapsed().as_secs_f64() * 1e3);
+            cpu = Some(table);
+        }
+        let cpu = cpu.expect("one repeat");
+        let cpu_vals: Vec<[f32; 4]> = triples.iter().map(|t| cpu.lookup(t[0], t[1], t[2])).collect();
+        let (rms, max) = err(&cpu_vals);
+        println!("| poly{degree} {res}² | CPU (f64) | {cpu_ms:.1} | - | {rms:.2e} | {max:.2e} | - |");
+        let (mut bake_ms, mut setup_ms) = (f64::INFINITY, f64::INFINITY);
+        let mut gpu = None;
+        for _ in 0..repeats {
+            let (g, stats) = tet_gpu::bake_poly(&ctx, &tf, &p)?;
+            bake_ms = bake_ms.min(stats.bake_seconds * 1e3);
+            setup_ms = setup_ms.min(stats.setup_seconds * 1e3);
+            gpu = Some(g);
+        }
+        let gpu = gpu.expect("one repeat");
+        let vals: Vec<[f32; 4]> = triples.iter().map(|t| gpu.lookup(t[0], t[1], t[2])).collect();
+        let (rms, max) = err(&vals);
+        let d =
+            vals.iter().zip(&cpu_vals).flat_map(|(a, b)| (0..4).map(move |c| (a[c] - b[c]).abs())).fold(0.0, f32::max);
+        println!(
+            "| poly{degree} {res}² | GPU (f32) | {bake_ms:.1} | {setup_ms:.1} | {rms:.2e} | {max:.2e} | {d:.2e} |"
+        );
     }
     Ok(())
 }

@@ -85,7 +85,8 @@ pub fn bake_poly(
     if ![1, 2, 4].contains(&p.degree) || !(2..=16384).contains(&p.res) {
         return Err(bad(format!("degree {} must be 1, 2 or 4 and res {} in [2, 16384]", p.degree, p.res)));
     }
-    if !(p.s_lo.is_finite() && p.s_hi.is_finite() && p.s_lo < p.s_hi) || !(p.l_max > 0.0 && p.l_max.is_finite()) {
+    let range_ok = p.s_lo.is_finite() && p.s_hi.is_finite() && p.s_lo < p.s_hi;
+    if !(range_ok && p.l_max > 0.0 && p.l_max.is_finite()) {
         return Err(bad(format!(
             "range [{}, {}] and l_max {} must be finite, ordered, positive",
             p.s_lo, p.s_hi, p.l_max
@@ -104,7 +105,7 @@ pub fn bake_poly(
     let cells = res * row_len;
     let rho_bytes = (cells * 4) as u64;
     let coef_bytes = (cells * stride * 4) as u64;
-    let limit = ctx.device.limits().max_storage_buffer_binding_size as u64;
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
     crate::render::check_size("poly coefficients", coef_bytes, limit)?;
     if row_len > 65535 * 64 || res > 65535 {
         return Err(bad(format!("res {res} exceeds one dispatch")));

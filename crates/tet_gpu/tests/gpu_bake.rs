@@ -186,6 +186,16 @@ fn unsupported_bakes_are_errors() {
     assert!(GpuTable3d::bake(&ctx, &tf(), &domain, &params(1, 8, ScalarAxis::Uniform), GpuAccumulation::F32).is_err());
     let pt = GpuShader::pt_linear(&ctx, &tf()).unwrap();
     assert!(pt.probe_table3d(&ctx, &[[0.5, 0.5, 0.5]]).is_err());
+    for bad in [
+        tet_preint::PolyParams::new(3, 16, 0.0, 1.0, 1.0),
+        tet_preint::PolyParams::new(2, 1, 0.0, 1.0, 1.0),
+        tet_preint::PolyParams::new(2, 16, 1.0, 0.0, 1.0),
+        tet_preint::PolyParams::new(2, 16, 0.0, 1.0, f64::NAN),
+        tet_preint::PolyParams::new(2, 16, 0.0, 1.0, 1.0).with_max_ds(-1.0),
+    ] {
+        let e = tet_gpu::bake_poly(&ctx, &tf(), &bad).err().unwrap();
+        assert!(e.to_string().contains("GPU poly bake"), "{e}");
+    }
 }
 
 /// The poly1/2/4 tables baked on the GPU (f32) against `PolyTable::build`

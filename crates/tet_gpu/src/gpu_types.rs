@@ -181,6 +181,30 @@ pub struct BakeParams {
     pub bend: f32,
 }
 
+/// Parameters of the poly1/2/4 bake (`PolyBakeParams` in poly_bake.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct PolyBakeParams {
+    /// Polynomial degree n (1, 2 or 4).
+    pub degree: u32,
+    /// Table resolution N and entries per stored row (N, or 2·band + 1).
+    pub res: u32,
+    pub row_len: u32,
+    /// Band half-width, `u32::MAX` for the full square.
+    pub band: u32,
+    /// Merged TF nodes in the `nodes` buffer.
+    pub n_nodes: u32,
+    /// 1 for independent emission, 0 for density emission.
+    pub independent: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    /// Longest segment (world units).
+    pub l_max: f32,
+    pub _pad2: f32,
+    pub _pad3: f32,
+    pub _pad4: f32,
+}
+
 /// Workgroup size of the bake along l (`BAKE_WG` in bake.wgsl).
 pub const BAKE_WG: u32 = 64;
 /// Workgroup size of the table probe (probe.wgsl).
@@ -230,6 +254,7 @@ mod tests {
         assert_eq!(size_of::<SortParams>(), 48);
         assert_eq!(size_of::<BinParams>(), 32);
         assert_eq!(size_of::<BakeParams>(), 48);
+        assert_eq!(size_of::<PolyBakeParams>(), 48);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
             (size_of::<TetGeom>(), align_of::<TetGeom>()),
@@ -239,6 +264,7 @@ mod tests {
             (size_of::<SortParams>(), align_of::<SortParams>()),
             (size_of::<BinParams>(), align_of::<BinParams>()),
             (size_of::<BakeParams>(), align_of::<BakeParams>()),
+            (size_of::<PolyBakeParams>(), align_of::<PolyBakeParams>()),
         ] {
             assert_eq!(s % 16, 0);
             assert_eq!(a, 4);

@@ -4,6 +4,7 @@
 //! with it).
 
 use crate::bake::GpuBakeStats;
+use crate::gpu_types::PolyBakeParams;
 use crate::render::storage_entry;
 use crate::{map_read, shader_source_plain, GpuContext, GpuError, POLY_BAKE_WGSL};
 use std::time::Instant;
@@ -51,24 +52,6 @@ fn inverse_vandermonde(n: usize) -> Vec<f64> {
         }
     }
     (0..m).flat_map(|r| (0..m).map(move |c| (r, c))).map(|(r, c)| a[r * 2 * m + m + c]).collect()
-}
-
-/// `PolyBakeParams` in poly_bake.wgsl.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct PolyBakeParams {
-    degree: u32,
-    res: u32,
-    row_len: u32,
-    band: u32,
-    n_nodes: u32,
-    independent: u32,
-    _pad0: u32,
-    _pad1: u32,
-    l_max: f32,
-    _pad2: f32,
-    _pad3: f32,
-    _pad4: f32,
 }
 
 /// Bakes `PolyTable::build(tf, p)`'s tables on the GPU (f32 throughout,

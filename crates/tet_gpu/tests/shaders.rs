@@ -114,6 +114,11 @@ fn pod_layouts_match_the_wgsl_structs() {
             "BakeParams",
             [n_s, n_l, n_color, n_opacity, n_breaks, row_width, independent, f16, dl, len_max, oversampling, bend]
         ),
+        layout!(
+            PolyBakeParams,
+            "PolyBakeParams",
+            [degree, res, row_len, band, n_nodes, independent, _pad0, _pad1, l_max, _pad2, _pad3, _pad4]
+        ),
     ];
     let modules: Vec<naga::Module> =
         tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();

@@ -25,7 +25,7 @@ struct Frame {
     table_n_s: u32,
     table_n_l: u32,
     groups_x: u32,
-    _pad: u32,
+    table_axis_segs: u32,
 }
 
 struct TetGeom {

@@ -5,13 +5,42 @@
 // Table3d as an n_s × n_s × n_l cube: texel (k, b, a) = T(s_a, s_b, l_k).
 @group(0) @binding(8) var table: texture_3d<f32>;
 
+// Fractional grid index of scalar s (already clamped to the axis) on a
+// non-uniform table3d axis: the line of its knot interval, the intervals
+// stored after the TF nodes as (s0, s1, x0, 1/step), as Table3d's axis maps
+// it (the first interval whose end is not below s).
+fn table_axis_x(fr: Frame, s: f32, top: f32) -> f32 {
+    let o = fr.n_color_nodes + fr.n_opacity_nodes;
+    let n = fr.table_axis_segs;
+    var j = 0u;
+    while j + 1u < n && tf_nodes[o + j].y < s {
+        j++;
+    }
+    let g = tf_nodes[o + j];
+    return clamp(g.z + (s - g.x) * g.w, 0.0, top);
+}
+
 // Trilinear lookup with Table3d::lookup's normalisation: inputs clamped to
-// the grid, Sb clamped to within the band's reach of Sf.
+// the grid, Sb clamped to within the band's reach of Sf (in grid steps on a
+// uniform axis, in scalar units, before the index map, on a non-uniform one).
 fn table_lookup(fr: Frame, sf: f32, sb: f32, len: f32) -> vec4<f32> {
     let top = f32(fr.table_n_s - 1u);
-    let xa = clamp((sf - fr.table_s_lo) * fr.table_inv_ds, 0.0, top);
-    let xb0 = clamp((sb - fr.table_s_lo) * fr.table_inv_ds, 0.0, top);
-    let xb = min(max(xb0, xa - fr.table_reach), xa + fr.table_reach);
+    var xa: f32;
+    var xb: f32;
+    if fr.table_axis_segs == 0u {
+        xa = clamp((sf - fr.table_s_lo) * fr.table_inv_ds, 0.0, top);
+        let xb0 = clamp((sb - fr.table_s_lo) * fr.table_inv_ds, 0.0, top);
+        xb = min(max(xb0, xa - fr.table_reach), xa + fr.table_reach);
+    } else {
+        let o = fr.n_color_nodes + fr.n_opacity_nodes;
+        let lo = tf_nodes[o].x;
+        let hi = tf_nodes[o + fr.table_axis_segs - 1u].y;
+        let ds = fr.table_reach;
+        let sfc = min(max(sf, lo), hi);
+        let sbc = min(max(min(max(sb, lo), hi), sfc - ds), sfc + ds);
+        xa = table_axis_x(fr, sfc, top);
+        xb = table_axis_x(fr, sbc, top);
+    }
     let xk = clamp(len * fr.table_inv_dl, 0.0, f32(fr.table_n_l - 1u));
     let a0 = min(u32(xa), fr.table_n_s - 2u);
     let b0 = min(u32(xb), fr.table_n_s - 2u);

@@ -37,7 +37,9 @@ pub struct FrameUniforms {
     pub method: u32,
     pub n_color_nodes: u32,
     pub n_opacity_nodes: u32,
-    /// Table3d grid: lowest scalar, 1/Δs, 1/Δl, band reach in grid steps.
+    /// Table3d grid: lowest scalar, 1/Δs, 1/Δl, and the band's reach: in
+    /// grid steps on a uniform axis, the domain's max_ds (scalar units) on a
+    /// non-uniform one (`table_axis_segs` > 0), as `Table3d::lookup` clamps.
     pub table_s_lo: f32,
     pub table_inv_ds: f32,
     pub table_inv_dl: f32,
@@ -46,7 +48,10 @@ pub struct FrameUniforms {
     pub table_n_l: u32,
     /// Workgroups along x of the classify dispatch (2D for > 4M tets).
     pub groups_x: u32,
-    pub _pad: u32,
+    /// Knot intervals of a non-uniform table3d scalar axis, stored after the
+    /// TF nodes in the `tf_nodes` buffer as (s0, s1, x0, 1/step); 0 for a
+    /// uniform axis (one scale, `table_s_lo` and `table_inv_ds`).
+    pub table_axis_segs: u32,
 }
 
 /// Per draw slot, written by the classify pass and read by the vertex
@@ -150,6 +155,61 @@ pub struct BinParams {
     pub n_pairs: u32,
 }
 
+/// Parameters of the table3d bake (`BakeParams` in bake.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct BakeParams {
+    pub n_s: u32,
+    pub n_l: u32,
+    /// TF rows in the `tf` buffer: colour nodes, then opacity nodes.
+    pub n_color: u32,
+    pub n_opacity: u32,
+    /// Distinct TF node positions in the `breaks` buffer.
+    pub n_breaks: u32,
+    /// Widest row of the band (the dispatch's y extent).
+    pub row_width: u32,
+    /// 1 for independent emission, 0 for density emission.
+    pub independent: u32,
+    /// 1: round the running sums to f16 after every piece (precision study).
+    pub f16: u32,
+    /// Δl and the longest length (world units).
+    pub dl: f32,
+    pub len_max: f32,
+    /// Pieces per scalar grid step along a segment.
+    pub oversampling: f32,
+    /// Largest l_max·|Δρ|·Δu of one piece before it is split.
+    pub bend: f32,
+}
+
+/// Parameters of the poly1/2/4 bake (`PolyBakeParams` in poly_bake.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct PolyBakeParams {
+    /// Polynomial degree n (1, 2 or 4).
+    pub degree: u32,
+    /// Table resolution N and entries per stored row (N, or 2·band + 1).
+    pub res: u32,
+    pub row_len: u32,
+    /// Band half-width, `u32::MAX` for the full square.
+    pub band: u32,
+    /// Merged TF nodes in the `nodes` buffer.
+    pub n_nodes: u32,
+    /// 1 for independent emission, 0 for density emission.
+    pub independent: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    /// Longest segment (world units).
+    pub l_max: f32,
+    pub _pad2: f32,
+    pub _pad3: f32,
+    pub _pad4: f32,
+}
+
+/// Workgroup size of the bake along l (`BAKE_WG` in bake.wgsl).
+pub const BAKE_WG: u32 = 64;
+/// Workgroup size of the table probe (probe.wgsl).
+pub const PROBE_WG: u32 = 64;
+
 /// Side of a compute-raster tile in pixels (`TILE` in bin.wgsl; the
 /// composite workgroup is TILE × TILE).
 pub const TILE_PX: u32 = 16;
@@ -193,6 +253,8 @@ mod tests {
         assert_eq!(size_of::<ToneFit>(), 16);
         assert_eq!(size_of::<SortParams>(), 48);
         assert_eq!(size_of::<BinParams>(), 32);
+        assert_eq!(size_of::<BakeParams>(), 48);
+        assert_eq!(size_of::<PolyBakeParams>(), 48);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
             (size_of::<TetGeom>(), align_of::<TetGeom>()),
@@ -201,6 +263,8 @@ mod tests {
             (size_of::<ToneFit>(), align_of::<ToneFit>()),
             (size_of::<SortParams>(), align_of::<SortParams>()),
             (size_of::<BinParams>(), align_of::<BinParams>()),
+            (size_of::<BakeParams>(), align_of::<BakeParams>()),
+            (size_of::<PolyBakeParams>(), align_of::<PolyBakeParams>()),
         ] {
             assert_eq!(s % 16, 0);
             assert_eq!(a, 4);

@@ -29,6 +29,14 @@
 //! * [`GpuOrder`]: the visibility order — given (tet_render's MPVO, the
 //!   exact option, or the CPU [`centroid_order`]) or `GpuCentroid`, a GPU
 //!   radix sort of centroid depths recomputed only when the camera moves.
+//! * [`GpuTable3d`]: GPU pre-integration — table3d baked by a compute
+//!   shader (the CPU's slice-recurrence integration per entry, same scalar
+//!   axis) straight into the 3D texture [`GpuShader::table3d_baked`]
+//!   samples; [`GpuAccumulation::F16`] rounds its running sums to f16 for
+//!   the precision study. [`GpuShader::probe_table3d`] runs the
+//!   per-fragment lookup on given (Sf, Sb, l) triples. [`bake_poly`]
+//!   bakes the poly1/2/4 tables (ρ̂ and the colour polynomials) in a
+//!   compute shader and reads them back into a `PolyTable`.
 //! * [`gpu_types`]: every CPU↔GPU struct, `Pod`, mirrored in the WGSL.
 //!
 //! ```
@@ -55,13 +63,17 @@
 //! ```
 #![forbid(unsafe_code)]
 
+mod bake;
 mod binning;
 pub mod gpu_types;
 mod gpusort;
+mod poly_bake;
 mod render;
 mod tonemap;
 mod workspace;
 
+pub use bake::{GpuAccumulation, GpuBakeStats, GpuTable3d};
+pub use poly_bake::bake_poly;
 pub use render::{centroid_order, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer, GpuScene, GpuShader, RasterPath};
 pub use tonemap::ToneResult;
 
@@ -167,6 +179,9 @@ pub fn shader_sources() -> Vec<(&'static str, String)> {
         ("bin", shader_source_fragment(BIN_WGSL)),
         ("sort", shader_source_plain(SORT_WGSL)),
         ("tonemap", shader_source_plain(TONEMAP_WGSL)),
+        ("bake", shader_source_plain(BAKE_WGSL)),
+        ("probe", shader_source_fragment(PROBE_WGSL)),
+        ("poly_bake", shader_source_plain(POLY_BAKE_WGSL)),
     ]
 }
 
@@ -177,6 +192,9 @@ const RASTER_WGSL: &str = include_str!("../shaders/raster.wgsl");
 const BIN_WGSL: &str = include_str!("../shaders/bin.wgsl");
 const SORT_WGSL: &str = include_str!("../shaders/sort.wgsl");
 const TONEMAP_WGSL: &str = include_str!("../shaders/tonemap.wgsl");
+const BAKE_WGSL: &str = include_str!("../shaders/bake.wgsl");
+const PROBE_WGSL: &str = include_str!("../shaders/probe.wgsl");
+const POLY_BAKE_WGSL: &str = include_str!("../shaders/poly_bake.wgsl");
 
 /// common.wgsl + `body` (classify).
 fn shader_source(body: &str) -> String {
@@ -189,7 +207,7 @@ fn shader_source_fragment(body: &str) -> String {
     format!("{COMMON_WGSL}\n{FRAGMENT_WGSL}\n{body}")
 }
 
-/// A module on its own (sort, tonemap).
+/// A module on its own (sort, tonemap, bake).
 fn shader_source_plain(body: &str) -> String {
     body.to_string()
 }

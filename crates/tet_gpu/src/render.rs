@@ -16,7 +16,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::Instant;
-use tet_preint::{Table3d, TransferFunction};
+use tet_preint::{Table3d, TableDomain, TransferFunction};
 use tet_render::ViewSpec;
 use tet_render::{Camera, Image};
 use wgpu::util::DeviceExt;
@@ -123,7 +123,7 @@ impl GpuScene {
     }
 }
 
-fn check_size(what: &'static str, bytes: u64, limit: u64) -> Result<(), GpuError> {
+pub(crate) fn check_size(what: &'static str, bytes: u64, limit: u64) -> Result<(), GpuError> {
     if bytes > limit {
         return Err(GpuError::TooLarge { what, bytes, limit });
     }
@@ -155,12 +155,53 @@ pub fn centroid_order(scene: &GpuScene, camera: &Camera) -> Vec<u32> {
 /// What colours fragments: a method with its data on the GPU.
 pub struct GpuShader {
     method: u32,
-    tf_nodes: wgpu::Buffer,
-    n_color: u32,
-    n_opacity: u32,
-    table: wgpu::Texture,
-    table_params: [f32; 4],
-    table_dims: [u32; 2],
+    pub(crate) tf_nodes: wgpu::Buffer,
+    pub(crate) n_color: u32,
+    pub(crate) n_opacity: u32,
+    pub(crate) table: wgpu::Texture,
+    pub(crate) table_params: [f32; 4],
+    pub(crate) table_dims: [u32; 2],
+    /// Knot intervals of a non-uniform scalar axis (after the TF nodes in
+    /// `tf_nodes`); 0 for a uniform axis.
+    pub(crate) axis_segs: u32,
+}
+
+/// How a table3d's grid reaches the shaders: `FrameUniforms`' table fields
+/// and, for a non-uniform scalar axis, the knot intervals.
+pub(crate) struct TableGrid {
+    pub params: [f32; 4],
+    pub dims: [u32; 2],
+    pub axis: Vec<[f32; 4]>,
+}
+
+impl TableGrid {
+    /// The same f64 → f32 steps as `Table3d::from_parts`, `Band::new` and
+    /// the axis's knot intervals, so the grid coordinates agree with the
+    /// CPU lookup (bit for bit on a uniform axis; on a non-uniform one up to
+    /// f32 rounding where a scalar sits on a knot, the map being continuous).
+    pub fn new(domain: &TableDomain, n_s: usize, n_l: usize, knots: &[(f64, usize)], uniform: bool) -> TableGrid {
+        let d = domain;
+        let span = d.scalar_span();
+        let step = span / (n_s - 1) as f64;
+        let inv_ds = ((n_s - 1) as f64 / span) as f32;
+        let inv_dl = ((n_l - 1) as f64 / d.len_max_world) as f32;
+        if uniform {
+            let reach = (d.max_ds / step).min((n_s - 1) as f64) as f32;
+            return TableGrid {
+                params: [d.s_lo as f32, inv_ds, inv_dl, reach],
+                dims: [n_s as u32, n_l as u32],
+                axis: vec![],
+            };
+        }
+        let axis = knots
+            .windows(2)
+            .map(|w| {
+                let ((s0, i0), (s1, i1)) = (w[0], w[1]);
+                [s0 as f32, s1 as f32, i0 as f32, ((i1 - i0) as f64 / (s1 - s0)) as f32]
+            })
+            .collect();
+        TableGrid { params: [d.s_lo as f32, inv_ds, inv_dl, d.max_ds as f32], dims: [n_s as u32, n_l as u32], axis }
+    }
 }
 
 impl GpuShader {
@@ -169,28 +210,21 @@ impl GpuShader {
     /// the silhouette. Clipped tets are shaded per fragment.
     pub fn pt_linear(ctx: &GpuContext, tf: &TransferFunction) -> Result<GpuShader, GpuError> {
         let dummy = table_texture(ctx, [1, 1, 1], &[[0.0; 4]])?;
-        GpuShader::with_table(ctx, METHOD_PT_LINEAR, Some(tf), dummy, [0.0, 1.0, 1.0, 0.0], [2, 2])
+        let grid = TableGrid { params: [0.0, 1.0, 1.0, 0.0], dims: [2, 2], axis: vec![] };
+        GpuShader::with_table(ctx, METHOD_PT_LINEAR, Some(tf), dummy, grid)
     }
 
     /// `table3d`: the band of the table expanded into a full
     /// n_l × n_s × n_s Rgba32Float 3D texture (zeros outside the band, which
     /// a lookup never reaches) and looked up trilinearly per fragment with
     /// `Table3d::lookup`'s clamping (8 texel loads; no hardware filtering,
-    /// whose 8-bit weights would differ from the CPU).
+    /// whose 8-bit weights would differ from the CPU). Either scalar axis:
+    /// a non-uniform one ([`tet_preint::ScalarAxis::TfNodes`]) maps scalars
+    /// to grid indices through its knot intervals as the CPU does.
     pub fn table3d(ctx: &GpuContext, table: &Table3d) -> Result<GpuShader, GpuError> {
         let p = table.params();
-        let d = table.domain();
         let (n_s, n_l) = (p.n_s, p.n_l);
-        let max3d = ctx.device.limits().max_texture_dimension_3d as usize;
-        if n_s > max3d || n_l > max3d {
-            return Err(GpuError::TooLarge {
-                what: "table3d axis (texels)",
-                bytes: n_s.max(n_l) as u64,
-                limit: max3d as u64,
-            });
-        }
-        let bytes = (n_s * n_s * n_l * 16) as u64;
-        check_size("table3d as a full cube", bytes, 1 << 31)?;
+        check_table_dims(ctx, n_s, n_l)?;
         let mut texels = vec![[0.0f32; 4]; n_s * n_s * n_l];
         texels.par_chunks_mut(n_s * n_l).enumerate().for_each(|(a, plane)| {
             for b in 0..n_s {
@@ -202,42 +236,25 @@ impl GpuShader {
             }
         });
         let tex = table_texture(ctx, [n_l as u32, n_s as u32, n_s as u32], &texels)?;
-        // The same f64 → f32 steps as Table3d::from_parts and Band::new, so
-        // the grid coordinates agree bit for bit with the CPU lookup.
-        let span = d.scalar_span();
-        let step = span / (n_s - 1) as f64;
-        let reach = (d.max_ds / step).min((n_s - 1) as f64) as f32;
-        let inv_ds = ((n_s - 1) as f64 / span) as f32;
-        let inv_dl = ((n_l - 1) as f64 / d.len_max_world) as f32;
-        GpuShader::with_table(
-            ctx,
-            METHOD_TABLE3D,
-            None,
-            tex,
-            [d.s_lo as f32, inv_ds, inv_dl, reach],
-            [n_s as u32, n_l as u32],
-        )
+        let grid = TableGrid::new(table.domain(), n_s, n_l, &table.s_knots(), table.is_uniform_axis());
+        GpuShader::with_table(ctx, METHOD_TABLE3D, None, tex, grid)
     }
 
-    fn with_table(
+    pub(crate) fn with_table(
         ctx: &GpuContext,
         method: u32,
         tf: Option<&TransferFunction>,
         table: wgpu::Texture,
-        table_params: [f32; 4],
-        table_dims: [u32; 2],
+        grid: TableGrid,
     ) -> Result<GpuShader, GpuError> {
         let mut nodes: Vec<[f32; 4]> = Vec::new();
         let (mut n_color, mut n_opacity) = (0, 0);
         if let Some(tf) = tf {
-            nodes.extend(
-                tf.color_nodes().iter().map(|c| [c.x as f32, c.rgb[0] as f32, c.rgb[1] as f32, c.rgb[2] as f32]),
-            );
-            let u = tf.unit_distance();
-            nodes.extend(tf.opacity_nodes().iter().map(|o| [o.x as f32, (o.a / u) as f32, 0.0, 0.0]));
+            nodes.extend(tf_node_rows(tf));
             n_color = tf.color_nodes().len() as u32;
             n_opacity = tf.opacity_nodes().len() as u32;
         }
+        nodes.extend(&grid.axis);
         if nodes.is_empty() {
             nodes.push([0.0; 4]);
         }
@@ -248,7 +265,16 @@ impl GpuShader {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         })?;
-        Ok(GpuShader { method, tf_nodes, n_color, n_opacity, table, table_params, table_dims })
+        Ok(GpuShader {
+            method,
+            tf_nodes,
+            n_color,
+            n_opacity,
+            table,
+            table_params: grid.params,
+            table_dims: grid.dims,
+            axis_segs: grid.axis.len() as u32,
+        })
     }
 
     /// The method id (`pt-linear` or `table3d`).
@@ -259,6 +285,34 @@ impl GpuShader {
             "pt-linear"
         }
     }
+
+    pub(crate) fn method(&self) -> u32 {
+        self.method
+    }
+}
+
+/// The TF as the shaders read it: colour nodes (x, r, g, b), then opacity
+/// nodes (x, ρ, 0, 0) with ρ = a / unit_distance.
+pub(crate) fn tf_node_rows(tf: &TransferFunction) -> Vec<[f32; 4]> {
+    let u = tf.unit_distance();
+    tf.color_nodes()
+        .iter()
+        .map(|c| [c.x as f32, c.rgb[0] as f32, c.rgb[1] as f32, c.rgb[2] as f32])
+        .chain(tf.opacity_nodes().iter().map(|o| [o.x as f32, (o.a / u) as f32, 0.0, 0.0]))
+        .collect()
+}
+
+/// A table's axes within the device's 3D texture limit and the cube within 2 GiB.
+pub(crate) fn check_table_dims(ctx: &GpuContext, n_s: usize, n_l: usize) -> Result<(), GpuError> {
+    let max3d = ctx.device.limits().max_texture_dimension_3d as usize;
+    if n_s > max3d || n_l > max3d {
+        return Err(GpuError::TooLarge {
+            what: "table3d axis (texels)",
+            bytes: n_s.max(n_l) as u64,
+            limit: max3d as u64,
+        });
+    }
+    check_size("table3d as a full cube", (n_s * n_s * n_l * 16) as u64, 1 << 31)
 }
 
 fn table_texture(ctx: &GpuContext, size: [u32; 3], texels: &[[f32; 4]]) -> Result<wgpu::Texture, GpuError> {
@@ -1200,6 +1254,6 @@ fn frame_uniforms(camera: &Camera, centre: DVec3, n_slots: u32, shader: &GpuShad
         table_n_s: shader.table_dims[0],
         table_n_l: shader.table_dims[1],
         groups_x,
-        _pad: 0,
+        table_axis_segs: shader.axis_segs,
     }
 }

@@ -7,7 +7,7 @@ mod common;
 
 use common::{gpu, grid, single_tet, Mesh};
 use tet_gpu::{centroid_order, GpuRenderer, GpuScene, GpuShader};
-use tet_preint::{PtLinearShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_preint::{PtLinearShader, ScalarAxis, Table3d, Table3dParams, TableDomain, TransferFunction};
 use tet_render::{diff, Camera, Display, Image, ToneMap, ViewSpec};
 
 fn tf() -> TransferFunction {
@@ -18,10 +18,18 @@ fn tf() -> TransferFunction {
     .unwrap()
 }
 
+/// The table the CPU renders with by default: a grid sample on every TF
+/// control point (`ScalarAxis::TfNodes`, a non-uniform axis here).
 fn table_for(mesh: &Mesh) -> Table3d {
+    table_on_axis(mesh, ScalarAxis::TfNodes)
+}
+
+fn table_on_axis(mesh: &Mesh, s_axis: ScalarAxis) -> Table3d {
     let (max_ds, len) = mesh.cell_limits();
     let domain = TableDomain::new(0.0, 1.0, max_ds, len).unwrap();
-    Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, ..Default::default() }).unwrap()
+    let t = Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, s_axis, ..Default::default() }).unwrap();
+    assert_eq!(t.is_uniform_axis(), s_axis == ScalarAxis::Uniform);
+    t
 }
 
 fn view(mesh: &Mesh, size: [u32; 2], az: f64, el: f64) -> Camera {
@@ -220,32 +228,37 @@ fn bad_input_is_an_error_not_a_panic() {
 }
 
 /// Against tet_render's CPU projected-tetrahedra renderer with the same
-/// (MPVO) order: table3d per fragment, and pt-linear's interpolated thick
-/// point.
+/// (MPVO) order: table3d per fragment on both scalar axes, and pt-linear's
+/// interpolated thick point.
 #[test]
 fn grid_matches_the_cpu_pt_renderer() {
     let Some(ctx) = gpu() else { return };
     let mesh = grid(8);
     let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
     let renderer = GpuRenderer::new(&ctx).unwrap();
-    let table = std::sync::Arc::new(table_for(&mesh));
     let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
-    let shaders: [(GpuShader, std::sync::Arc<dyn tet_preint::SegmentShader>); 2] = [
-        (GpuShader::table3d(&ctx, &table).unwrap(), table.clone()),
-        (GpuShader::pt_linear(&ctx, &tf()).unwrap(), std::sync::Arc::new(PtLinearShader::new(tf()))),
-    ];
+    let mut shaders: Vec<(String, GpuShader, std::sync::Arc<dyn tet_preint::SegmentShader>)> = Vec::new();
+    for axis in [ScalarAxis::TfNodes, ScalarAxis::Uniform] {
+        let table = std::sync::Arc::new(table_on_axis(&mesh, axis));
+        shaders.push((format!("table3d {axis:?} axis"), GpuShader::table3d(&ctx, &table).unwrap(), table));
+    }
+    shaders.push((
+        "pt-linear".into(),
+        GpuShader::pt_linear(&ctx, &tf()).unwrap(),
+        std::sync::Arc::new(PtLinearShader::new(tf())),
+    ));
     for (az, el) in [(30.0, 20.0), (-130.0, -40.0)] {
         let (lo, hi) = mesh.bounds();
         let spec = ViewSpec::framing(lo, hi, [120, 100]).orbit(az, el, 1.0);
         let cam = Camera::new(&spec).unwrap();
         cpu.set_view(&spec).unwrap();
-        for (gpu_shader, cpu_shader) in &shaders {
+        for (name, gpu_shader, cpu_shader) in &shaders {
             cpu.set_shader(cpu_shader.clone());
             let (want, _) = cpu.render(&|_, _| {}).unwrap();
             let order = cpu.order().unwrap().tets.clone();
             let got = renderer.render(&ctx, &scene, &cam, &order, gpu_shader).unwrap().image;
-            let d = report(&format!("grid 8³×5 {} vs CPU PT az {az} el {el}", gpu_shader.method_id()), &got, &want);
+            let d = report(&format!("grid 8³×5 {name} vs CPU PT az {az} el {el}"), &got, &want);
             assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
         }
     }

@@ -4,7 +4,7 @@
 #[test]
 fn every_shader_parses_and_validates() {
     let sources = tet_gpu::shader_sources();
-    assert_eq!(sources.len(), 5);
+    assert_eq!(sources.len(), 8);
     for (name, src) in sources {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}.wgsl does not parse:\n{}", e.emit_to_string(&src)));
@@ -20,6 +20,9 @@ fn every_shader_parses_and_validates() {
             "bin" => &["bin_count", "bin_fill", "tile_ranges", "composite"],
             "sort" => &["scan_blocks", "scan_sums", "scan_add", "depth_keys", "rs_hist", "rs_scatter"],
             "tonemap" => &["reduce", "fit", "map"],
+            "bake" => &["bake"],
+            "probe" => &["probe"],
+            "poly_bake" => &["poly_bake"],
             other => panic!("unexpected module {other}"),
         };
         for w in want {
@@ -39,7 +42,18 @@ fn shader_files_on_disk_are_all_included() {
     names.sort();
     assert_eq!(
         names,
-        ["bin.wgsl", "classify.wgsl", "common.wgsl", "fragment.wgsl", "raster.wgsl", "sort.wgsl", "tonemap.wgsl"]
+        [
+            "bake.wgsl",
+            "bin.wgsl",
+            "classify.wgsl",
+            "common.wgsl",
+            "fragment.wgsl",
+            "poly_bake.wgsl",
+            "probe.wgsl",
+            "raster.wgsl",
+            "sort.wgsl",
+            "tonemap.wgsl"
+        ]
     );
 }
 
@@ -82,7 +96,7 @@ fn pod_layouts_match_the_wgsl_structs() {
                 table_n_s,
                 table_n_l,
                 groups_x,
-                _pad
+                table_axis_segs
             ]
         ),
         layout!(TetGeom, "TetGeom", [hull, thick, n_hull, mode]),
@@ -95,6 +109,16 @@ fn pod_layouts_match_the_wgsl_structs() {
         layout!(ToneFit, "ToneFit", [scale, white_sq, log_average, _pad]),
         layout!(SortParams, "SortParams", [eye_rel, forward, n, shift, n_blocks, groups_x]),
         layout!(BinParams, "BinParams", [tiles_x, tiles_y, n_slots, groups_x, slot_lo, slot_hi, pair_base, n_pairs]),
+        layout!(
+            BakeParams,
+            "BakeParams",
+            [n_s, n_l, n_color, n_opacity, n_breaks, row_width, independent, f16, dl, len_max, oversampling, bend]
+        ),
+        layout!(
+            PolyBakeParams,
+            "PolyBakeParams",
+            [degree, res, row_len, band, n_nodes, independent, _pad0, _pad1, l_max, _pad2, _pad3, _pad4]
+        ),
     ];
     let modules: Vec<naga::Module> =
         tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();

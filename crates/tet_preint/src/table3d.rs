@@ -78,8 +78,7 @@ impl Default for Build3d {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ScalarAxis {
-    /// Equal steps over [s_lo, s_hi] (format version 1's only axis; what the
-    /// GPU path of tet_gpu expects).
+    /// Equal steps over [s_lo, s_hi] (format version 1's only axis).
     #[default]
     Uniform,
     /// Piecewise uniform with a sample on every TF control point; falls back
@@ -104,8 +103,8 @@ pub struct Table3dParams {
 
 impl Default for Table3dParams {
     /// 128 × 128 × 256, slice recurrence with oversampling 2, f32, uniform
-    /// scalar axis (the layout tet_gpu's shader reads; `BakeOptions`, what
-    /// tetlut and the CPU renderer bake with, defaults to
+    /// scalar axis (format version 1's layout; `BakeOptions`, what tetlut,
+    /// the CPU renderer and tetview's GPU path bake with, defaults to
     /// [`ScalarAxis::TfNodes`]).
     fn default() -> Self {
         Table3dParams {
@@ -538,8 +537,24 @@ impl Table3d {
         self.axis.knots()
     }
 
-    /// Whether the scalar axis has equal steps (what a consumer that maps
-    /// scalars to indices by one scale, like tet_gpu's shader, needs).
+    /// The knots [`Table3d::s_knots`] would return for a table built from
+    /// these inputs, without building it: for bakes outside this crate
+    /// (tet_gpu's compute-shader bake) that must use the same axis.
+    pub fn axis_knots(
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        params: &Table3dParams,
+    ) -> Result<Vec<(f64, usize)>, TableError> {
+        check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
+        let axis = match params.s_axis {
+            ScalarAxis::Uniform => Axis::uniform(domain, params.n_s),
+            ScalarAxis::TfNodes => Axis::tf_nodes(tf, domain, params.n_s),
+        };
+        Ok(axis.knots())
+    }
+
+    /// Whether the scalar axis has equal steps (a consumer may then map
+    /// scalars to indices by one scale; tet_gpu's shader reads either axis).
     pub fn is_uniform_axis(&self) -> bool {
         self.axis.uniform
     }
@@ -1260,6 +1275,18 @@ mod tests {
         let bl8 = Build3d::Blend { steps: 64, accumulation: Accumulation::new(8).unwrap() };
         let b8 = Table3d::build(&f, &d, &Table3dParams { n_s: 32, n_l: 32, build: bl8, ..Default::default() }).unwrap();
         assert!(node_error(&b8, &f) > node_error(&blend, &f));
+    }
+
+    #[test]
+    fn axis_knots_are_the_built_tables() {
+        let f = ramp();
+        let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
+        for s_axis in [ScalarAxis::Uniform, ScalarAxis::TfNodes] {
+            let p = Table3dParams { n_s: 40, n_l: 4, s_axis, ..Default::default() };
+            let t = Table3d::build(&f, &d, &p).unwrap();
+            assert_eq!(Table3d::axis_knots(&f, &d, &p).unwrap(), t.s_knots());
+        }
+        assert!(Table3d::axis_knots(&f, &d, &Table3dParams { n_s: 1, ..Default::default() }).is_err());
     }
 
     #[test]

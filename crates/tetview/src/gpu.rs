@@ -11,8 +11,10 @@ use crate::render::RenderArgs;
 use anyhow::{Context, Result};
 use std::time::Instant;
 use tet_bundle::Bundle;
-use tet_gpu::{GpuContext, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
-use tet_preint::{Method, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_gpu::{
+    GpuAccumulation, GpuContext, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader, GpuTable3d, RasterPath,
+};
+use tet_preint::{BakeOptions, Method, Table3d, TableDomain, TransferFunction};
 use tet_render::cull::{cull, CullMask};
 use tet_render::project::ViewGeometry;
 use tet_render::{visibility_order, Camera, Display, Scene, SortMethod, TfCuller, ViewSpec};
@@ -40,6 +42,9 @@ pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
     }
     if args.light || args.silhouette.is_some() {
         return Err(UsageError("--gpu: --light and --silhouette are CPU-only for now".into()).into());
+    }
+    if args.gpu_bake && method != Method::Table3d {
+        return Err(UsageError(format!("--gpu-bake: method {method} has no table to bake (only table3d)")).into());
     }
     Ok(())
 }
@@ -87,12 +92,23 @@ pub fn render(
 
     let t = Instant::now();
     let mut bake_seconds = 0.0;
+    let mut bake_setup_seconds = 0.0;
     let shader = match method {
+        // The CPU renderer's table parameters (BakeOptions: tf-nodes axis),
+        // so --gpu and CPU images agree.
+        Method::Table3d if args.gpu_bake => {
+            let domain = TableDomain::from_bundle(bundle)?;
+            crate::render::count_table_bake();
+            let table = GpuTable3d::bake(&ctx, tf, &domain, &BakeOptions::default().table3d, GpuAccumulation::F32)?;
+            bake_seconds = table.stats().bake_seconds;
+            bake_setup_seconds = table.stats().setup_seconds;
+            GpuShader::table3d_baked(&ctx, &table)?
+        }
         Method::Table3d => {
             let domain = TableDomain::from_bundle(bundle)?;
             let tb = Instant::now();
             crate::render::count_table_bake();
-            let table = Table3d::build(tf, &domain, &Table3dParams::default())?;
+            let table = Table3d::build(tf, &domain, &BakeOptions::default().table3d)?;
             bake_seconds = tb.elapsed().as_secs_f64();
             GpuShader::table3d(&ctx, &table)?
         }
@@ -135,6 +151,8 @@ pub fn render(
             "cull_seconds": cull_seconds,
             "sort_seconds": sort_seconds,
             "table_bake_seconds": bake_seconds,
+            "table_bake_device": if method != Method::Table3d { "none" } else if args.gpu_bake { "gpu" } else { "cpu" },
+            "table_bake_setup_seconds": bake_setup_seconds,
             "tables_baked": crate::render::tables_baked(),
             "setup_seconds": setup_seconds,
             "upload_seconds": s.upload_seconds,

@@ -97,6 +97,11 @@ pub struct RenderArgs {
     /// rasterizer with blending (same images; speed differs by device).
     #[arg(long, value_enum, default_value = "compute", requires = "gpu")]
     pub gpu_raster: crate::gpu::GpuRasterArg,
+    /// With --gpu and table3d: bake the table on the GPU (a compute shader,
+    /// the CPU bake's integration; matches it to ~1e-5) straight into the
+    /// texture the renderer samples, instead of on the CPU and uploading it.
+    #[arg(long, requires = "gpu")]
+    pub gpu_bake: bool,
 }
 
 fn parse_pair(s: &str) -> Result<(f64, f64), String> {

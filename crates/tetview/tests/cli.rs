@@ -325,6 +325,25 @@ fn gpu_render_matches_the_cpu_or_skips() {
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
     let img = tet_render::Image::read_npy(&gpu).unwrap();
     assert!(img.pixels().iter().any(|p| p[3] > 0.2));
+    // The same table as the CPU renderer's (tf-nodes axis): the golden-scene
+    // tolerance against CPU table3d, baked on the CPU or (--gpu-bake) on the GPU.
+    let cpu_t3 = dir.path().join("cpu_t3.npy");
+    let out = render(&["--method", "table3d"], &cpu_t3);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let d = diff(&gpu, &cpu_t3);
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    let baked = dir.path().join("gpu_bake.npy");
+    let out = render(&["--gpu", "--method", "table3d", "--gpu-bake", "--json"], &baked);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["table_bake_device"], "gpu", "{stats}");
+    assert_eq!(stats["tables_baked"], 1, "{stats}");
+    assert!(stats["table_bake_seconds"].as_f64().is_some_and(|s| s > 0.0), "{stats}");
+    let d = diff(&baked, &cpu_t3);
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    // --gpu-bake bakes table3d only.
+    let out = render(&["--gpu", "--method", "pt-linear", "--gpu-bake"], &baked);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
 
     // A backend with no adapter (GL is not compiled in): exit code 4 and a
     // clear message; the CPU path is unaffected.

@@ -1,0 +1,18 @@
+// Table3d lookups at given (Sf, Sb, l): fragment.wgsl's `table_lookup`, the
+// function every rendered fragment calls, evaluated for a list of triples
+// so tests and measurements compare it with `Table3d::lookup` and with the
+// exact integral directly (`GpuShader::probe_table3d`).
+
+@group(0) @binding(0) var<uniform> fr: Frame;
+@group(0) @binding(12) var<storage, read> probe_in: array<vec4<f32>>;
+@group(0) @binding(13) var<storage, read_write> probe_out: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&probe_out) {
+        return;
+    }
+    let q = probe_in[i];
+    probe_out[i] = table_lookup(fr, q.x, q.y, q.z);
+}

@@ -1,0 +1,458 @@
+//! GPU pre-integration: table3d baked by a compute shader (shaders/bake.wgsl)
+//! straight into the 3D texture the renderer samples, and a probe that runs
+//! the renderer's per-fragment lookup on given (Sf, Sb, l) triples.
+//!
+//! The bake integrates every entry as tet_preint's default build
+//! (`Build3d::SliceRecurrence`): the same scalar axis
+//! ([`Table3d::axis_knots`]), the same pieces along the segment and the
+//! same closed forms per piece; bake.wgsl says where it differs (at
+//! rounding level). [`GpuAccumulation::F16`] rounds the running sums to f16
+//! after every piece, for the precision study.
+
+use crate::gpu_types::{BakeParams, FrameUniforms, BAKE_WG, METHOD_TABLE3D, PROBE_WG};
+use crate::render::{check_table_dims, storage_entry, texture_entry, tf_node_rows, GpuShader, TableGrid};
+use crate::{map_read, shader_source_fragment, shader_source_plain, GpuContext, GpuError, BAKE_WGSL, PROBE_WGSL};
+use std::time::Instant;
+use tet_preint::{Build3d, Emission, Precision, Table3d, Table3dParams, TableDomain, TransferFunction};
+use wgpu::util::DeviceExt;
+
+/// The CPU build's split thresholds (`BEND_INDEPENDENT`, `BEND_DENSITY` in
+/// tet_preint's table3d.rs): how far ln T may bend over one piece.
+const BEND_INDEPENDENT: f32 = 0.01;
+const BEND_DENSITY: f32 = 1.0;
+
+/// Precision of the bake's running sums (transmittance and colour).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GpuAccumulation {
+    #[default]
+    F32,
+    /// Rounded to f16 after every piece (emulated by bit arithmetic, ties to
+    /// even, so it runs without the SHADER_F16 feature); the texture stays f32.
+    F16,
+}
+
+impl GpuAccumulation {
+    pub fn id(self) -> &'static str {
+        match self {
+            GpuAccumulation::F32 => "f32",
+            GpuAccumulation::F16 => "f16",
+        }
+    }
+}
+
+/// Timings of one bake (wall clock, seconds).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct GpuBakeStats {
+    /// Shader compilation, pipeline and buffer creation.
+    pub setup_seconds: f64,
+    /// The compute dispatch, from submission until the device is idle.
+    pub bake_seconds: f64,
+    /// Entries computed (the band's (a, b) pairs × n_l).
+    pub entries: u64,
+}
+
+/// A table3d baked on the GPU: an n_l × n_s × n_s Rgba32Float 3D texture
+/// (texel (k, b, a) = T(s_a, s_b, l_k), zeros outside the band) laid out as
+/// [`GpuShader::table3d`] uploads a CPU table, plus its grid.
+pub struct GpuTable3d {
+    texture: wgpu::Texture,
+    domain: TableDomain,
+    params: Table3dParams,
+    knots: Vec<(f64, usize)>,
+    grid: Vec<f64>,
+    uniform: bool,
+    stats: GpuBakeStats,
+}
+
+impl GpuTable3d {
+    /// Bakes `tf` (x in data units) over `domain` at `params`' resolution
+    /// and scalar axis. Only the slice-recurrence build at f32 storage is
+    /// on the GPU (other builds and precisions are an input error).
+    pub fn bake(
+        ctx: &GpuContext,
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        params: &Table3dParams,
+        accumulation: GpuAccumulation,
+    ) -> Result<GpuTable3d, GpuError> {
+        let t_setup = Instant::now();
+        let Build3d::SliceRecurrence { oversampling } = params.build else {
+            return Err(GpuError::Input(format!(
+                "GPU bake: build {:?} is CPU-only (the GPU bakes the slice recurrence)",
+                params.build
+            )));
+        };
+        if !(0.01..=1024.0).contains(&oversampling) {
+            return Err(GpuError::Input(format!("GPU bake: oversampling {oversampling} must be in [0.01, 1024]")));
+        }
+        if params.precision != Precision::F32 {
+            return Err(GpuError::Input(format!(
+                "GPU bake: storage precision {} is CPU-only (the texture is f32)",
+                params.precision.id()
+            )));
+        }
+        let (n_s, n_l) = (params.n_s, params.n_l);
+        if n_l < 2 {
+            return Err(GpuError::Input(format!("GPU bake: n_l {n_l} must be at least 2")));
+        }
+        check_table_dims(ctx, n_s, n_l)?;
+        let knots = Table3d::axis_knots(tf, domain, params).map_err(|e| GpuError::Input(format!("GPU bake: {e}")))?;
+        let uniform = knots.len() == 2;
+        let grid = grid_of(domain, n_s, &knots);
+        let rows = band_rows(domain, n_s, &knots, &grid, uniform);
+        let row_width = rows.iter().map(|r| r[1] - r[0] + 1).max().unwrap_or(1);
+        let entries = rows.iter().map(|r| (r[1] - r[0] + 1) as u64).sum::<u64>() * n_l as u64;
+
+        let mut breaks: Vec<f32> =
+            tf.color_nodes().iter().map(|c| c.x as f32).chain(tf.opacity_nodes().iter().map(|o| o.x as f32)).collect();
+        breaks.sort_by(f32::total_cmp);
+        breaks.dedup();
+        let independent = tf.emission() == Emission::Independent;
+        let bp = BakeParams {
+            n_s: n_s as u32,
+            n_l: n_l as u32,
+            n_color: tf.color_nodes().len() as u32,
+            n_opacity: tf.opacity_nodes().len() as u32,
+            n_breaks: breaks.len() as u32,
+            row_width,
+            independent: independent as u32,
+            f16: (accumulation == GpuAccumulation::F16) as u32,
+            dl: (domain.len_max_world / (n_l - 1) as f64) as f32,
+            len_max: domain.len_max_world as f32,
+            oversampling,
+            bend: if independent { BEND_INDEPENDENT } else { BEND_DENSITY },
+        };
+        let grid_f32: Vec<f32> = grid.iter().map(|&s| s as f32).collect();
+        if breaks.is_empty() {
+            breaks.push(0.0);
+        }
+        let dev = &ctx.device;
+        let (texture, pipeline, group) = ctx.checked(|| {
+            let texture = dev.create_texture(&wgpu::TextureDescriptor {
+                label: Some("table3d (GPU bake)"),
+                size: wgpu::Extent3d { width: n_l as u32, height: n_s as u32, depth_or_array_layers: n_s as u32 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::STORAGE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let cs = wgpu::ShaderStages::COMPUTE;
+            let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("bake"),
+                entries: &[
+                    crate::render::uniform_entry(0, cs),
+                    storage_entry(1, cs, true),
+                    storage_entry(2, cs, true),
+                    storage_entry(3, cs, true),
+                    storage_entry(4, cs, true),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 5,
+                        visibility: cs,
+                        ty: wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: wgpu::TextureFormat::Rgba32Float,
+                            view_dimension: wgpu::TextureViewDimension::D3,
+                        },
+                        count: None,
+                    },
+                ],
+            });
+            let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("bake.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(shader_source_plain(BAKE_WGSL).into()),
+            });
+            let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("bake"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("bake"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some("bake"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            let buf = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+                dev.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+            };
+            let storage = wgpu::BufferUsages::STORAGE;
+            let params_buf = buf("bake params", bytemuck::bytes_of(&bp), wgpu::BufferUsages::UNIFORM);
+            let tf_buf = buf("bake tf", bytemuck::cast_slice(&tf_node_rows(tf)), storage);
+            let grid_buf = buf("bake grid", bytemuck::cast_slice(&grid_f32), storage);
+            let rows_buf = buf("bake rows", bytemuck::cast_slice(&rows), storage);
+            let breaks_buf = buf("bake breaks", bytemuck::cast_slice(&breaks), storage);
+            let view = texture.create_view(&Default::default());
+            let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("bake"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: tf_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: grid_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: rows_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: breaks_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&view) },
+                ],
+            });
+            (texture, pipeline, group)
+        })?;
+        // Pipelines compile lazily on some drivers: finish setup first.
+        ctx.wait()?;
+        let setup_seconds = t_setup.elapsed().as_secs_f64();
+
+        let t_bake = Instant::now();
+        ctx.checked(|| {
+            let mut enc = dev.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &group, &[]);
+                pass.dispatch_workgroups((n_l as u32).div_ceil(BAKE_WG), row_width, n_s as u32);
+            }
+            ctx.queue.submit([enc.finish()]);
+        })?;
+        ctx.wait()?;
+        let bake_seconds = t_bake.elapsed().as_secs_f64();
+        Ok(GpuTable3d {
+            texture,
+            domain: *domain,
+            params: *params,
+            knots,
+            grid,
+            uniform,
+            stats: GpuBakeStats { setup_seconds, bake_seconds, entries },
+        })
+    }
+
+    pub fn stats(&self) -> GpuBakeStats {
+        self.stats
+    }
+    pub fn params(&self) -> &Table3dParams {
+        &self.params
+    }
+    pub fn domain(&self) -> &TableDomain {
+        &self.domain
+    }
+    /// The scalar axis as (scalar, grid index) knots, as `Table3d::s_knots`.
+    pub fn s_knots(&self) -> &[(f64, usize)] {
+        &self.knots
+    }
+    /// Grid value: scalar of index `a`.
+    pub fn scalar_at(&self, a: usize) -> f64 {
+        self.grid[a]
+    }
+
+    /// The whole cube read back: entry (a, b, k) at `(a·n_s + b)·n_l + k`
+    /// (zeros outside the band). For tests and measurements; rendering
+    /// samples the texture where it is.
+    pub fn read_back(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
+        let (n_s, n_l) = (self.params.n_s as u32, self.params.n_l as u32);
+        let row = n_l as u64 * 16;
+        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64;
+        let padded = row.div_ceil(align) * align;
+        let size = padded * n_s as u64 * n_s as u64;
+        crate::render::check_size("table3d read-back", size, ctx.device.limits().max_buffer_size)?;
+        let buf = ctx.checked(|| {
+            let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("table3d read-back"),
+                size,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            enc.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &self.texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: Default::default(),
+                },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &buf,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(padded as u32),
+                        rows_per_image: Some(n_s),
+                    },
+                },
+                wgpu::Extent3d { width: n_l, height: n_s, depth_or_array_layers: n_s },
+            );
+            ctx.queue.submit([enc.finish()]);
+            buf
+        })?;
+        let bytes = map_read(ctx, &buf)?;
+        let mut out = Vec::with_capacity(n_s as usize * n_s as usize * n_l as usize);
+        for line in bytes.chunks_exact(padded as usize) {
+            out.extend(line[..row as usize].chunks_exact(16).map(|px| {
+                let f = |i: usize| f32::from_le_bytes([px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]]);
+                [f(0), f(1), f(2), f(3)]
+            }));
+        }
+        Ok(out)
+    }
+}
+
+/// Scalar of every grid index from the knots, as tet_preint's axis computes it.
+fn grid_of(domain: &TableDomain, n_s: usize, knots: &[(f64, usize)]) -> Vec<f64> {
+    let mut grid = Vec::with_capacity(n_s);
+    for w in knots.windows(2) {
+        let ((s0, i0), (s1, i1)) = (w[0], w[1]);
+        let step = (s1 - s0) / (i1 - i0) as f64;
+        grid.extend((0..i1 - i0).map(|k| s0 + k as f64 * step));
+    }
+    grid.push(domain.s_hi);
+    grid
+}
+
+/// Per row a, the b range the bake computes: a superset (one index wider
+/// each side) of the band tet_preint stores, so every corner a lookup can
+/// touch is baked.
+fn band_rows(domain: &TableDomain, n_s: usize, knots: &[(f64, usize)], grid: &[f64], uniform: bool) -> Vec<[u32; 2]> {
+    let top = n_s - 1;
+    if uniform {
+        let step = domain.scalar_span() / top as f64;
+        let reach = (domain.max_ds / step).min(top as f64);
+        let w = ((reach - 1e-9).max(0.0).ceil() as usize + 2).min(top);
+        return (0..n_s).map(|a| [a.saturating_sub(w) as u32, (a + w).min(top) as u32]).collect();
+    }
+    // Fractional index of a scalar: the knot interval's line.
+    let x = |s: f64| -> f64 {
+        let s = s.clamp(domain.s_lo, domain.s_hi);
+        let j = knots[1..knots.len() - 1].partition_point(|k| k.0 < s);
+        let ((s0, i0), (s1, i1)) = (knots[j], knots[j + 1]);
+        i0 as f64 + (s - s0) * (i1 - i0) as f64 / (s1 - s0)
+    };
+    (0..n_s)
+        .map(|a| {
+            let below = grid[a.saturating_sub(1)] - domain.max_ds;
+            let above = grid[(a + 1).min(top)] + domain.max_ds;
+            let lo = ((x(below).floor() as usize).saturating_sub(2)).min(a);
+            let hi = (x(above).floor() as usize + 3).min(top).max(a);
+            [lo as u32, hi as u32]
+        })
+        .collect()
+}
+
+impl GpuShader {
+    /// `table3d` from a table baked on the GPU: the baked texture is
+    /// sampled where it is (no CPU round trip).
+    pub fn table3d_baked(ctx: &GpuContext, table: &GpuTable3d) -> Result<GpuShader, GpuError> {
+        let p = &table.params;
+        let grid = TableGrid::new(&table.domain, p.n_s, p.n_l, &table.knots, table.uniform);
+        GpuShader::with_table(ctx, METHOD_TABLE3D, None, table.texture.clone(), grid)
+    }
+
+    /// The renderer's per-fragment table lookup (fragment.wgsl's
+    /// `table_lookup`) at each (Sf, Sb, l), read back: what a fragment with
+    /// that segment gets. `table3d` shaders only; at most 4 194 240 triples a call.
+    pub fn probe_table3d(&self, ctx: &GpuContext, triples: &[[f32; 3]]) -> Result<Vec<[f32; 4]>, GpuError> {
+        if self.method() != METHOD_TABLE3D {
+            return Err(GpuError::Input(format!("probe_table3d: the shader is {}, not table3d", self.method_id())));
+        }
+        let max = 65535 * PROBE_WG as usize;
+        if triples.len() > max {
+            return Err(GpuError::Input(format!("probe_table3d: {} triples, at most {max} a call", triples.len())));
+        }
+        if triples.is_empty() {
+            return Ok(Vec::new());
+        }
+        let fr = FrameUniforms {
+            method: METHOD_TABLE3D,
+            n_color_nodes: self.n_color,
+            n_opacity_nodes: self.n_opacity,
+            table_s_lo: self.table_params[0],
+            table_inv_ds: self.table_params[1],
+            table_inv_dl: self.table_params[2],
+            table_reach: self.table_params[3],
+            table_n_s: self.table_dims[0],
+            table_n_l: self.table_dims[1],
+            table_axis_segs: self.axis_segs,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let input: Vec<[f32; 4]> = triples.iter().map(|t| [t[0], t[1], t[2], 0.0]).collect();
+        let bytes = (triples.len() * 16) as u64;
+        let dev = &ctx.device;
+        let readback = ctx.checked(|| {
+            let cs = wgpu::ShaderStages::COMPUTE;
+            let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("probe"),
+                entries: &[
+                    crate::render::uniform_entry(0, cs),
+                    storage_entry(7, cs, true),
+                    texture_entry(8, cs, wgpu::TextureViewDimension::D3),
+                    storage_entry(12, cs, true),
+                    storage_entry(13, cs, false),
+                ],
+            });
+            let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("probe.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(shader_source_fragment(PROBE_WGSL).into()),
+            });
+            let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("probe"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("probe"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some("probe"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            let uni = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("probe frame"),
+                contents: bytemuck::bytes_of(&fr),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let inp = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("probe in"),
+                contents: bytemuck::cast_slice(&input),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+            let out = dev.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("probe out"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let readback = dev.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("probe read-back"),
+                size: bytes,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            let view = self.table.create_view(&Default::default());
+            let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("probe"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: uni.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: self.tf_nodes.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&view) },
+                    wgpu::BindGroupEntry { binding: 12, resource: inp.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 13, resource: out.as_entire_binding() },
+                ],
+            });
+            let mut enc = dev.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &group, &[]);
+                pass.dispatch_workgroups((triples.len() as u32).div_ceil(PROBE_WG), 1, 1);
+            }
+            enc.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
+            ctx.queue.submit([enc.finish()]);
+            readback
+        })?;
+        let raw = map_read(ctx, &readback)?;
+        Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&raw))
+    }
+}

@@ -1,0 +1,220 @@
+//! The poly1/2/4 tables (tet_preint's `PolyTable`, seed 003) baked by a
+//! compute shader (shaders/poly_bake.wgsl) in f32 and read back into a
+//! `PolyTable` (the GPU renderer has no poly method, so the CPU shades
+//! with it).
+
+use crate::bake::GpuBakeStats;
+use crate::gpu_types::PolyBakeParams;
+use crate::render::storage_entry;
+use crate::{map_read, shader_source_plain, GpuContext, GpuError, POLY_BAKE_WGSL};
+use std::time::Instant;
+use tet_preint::{AlphaTable, Emission, PolyParams, PolyTable, TransferFunction};
+use wgpu::util::DeviceExt;
+
+/// Band half-width as tet_preint's `band_for` (the same storage layout).
+fn band_for(res: usize, s_lo: f64, s_hi: f64, max_ds: f64) -> Option<usize> {
+    let step = (s_hi - s_lo) / (res - 1) as f64;
+    let m = max_ds / step;
+    if !m.is_finite() || m + 2.0 >= res as f64 {
+        return None;
+    }
+    let b = m.ceil() as usize + 1;
+    (2 * b + 1 < res).then_some(b)
+}
+
+/// (Vandermonde at tᵢ = i/n)⁻¹ in f64, row-major, by Gauss–Jordan.
+fn inverse_vandermonde(n: usize) -> Vec<f64> {
+    let m = n + 1;
+    let mut a = vec![0.0f64; m * 2 * m];
+    for i in 0..m {
+        let t = i as f64 / n as f64;
+        for k in 0..m {
+            a[i * 2 * m + k] = t.powi(k as i32);
+        }
+        a[i * 2 * m + m + i] = 1.0;
+    }
+    for c in 0..m {
+        let p = (c..m).max_by(|&x, &y| a[x * 2 * m + c].abs().total_cmp(&a[y * 2 * m + c].abs())).expect("rows");
+        for k in 0..2 * m {
+            a.swap(c * 2 * m + k, p * 2 * m + k);
+        }
+        let d = a[c * 2 * m + c];
+        for k in 0..2 * m {
+            a[c * 2 * m + k] /= d;
+        }
+        for r in 0..m {
+            if r != c {
+                let f = a[r * 2 * m + c];
+                for k in 0..2 * m {
+                    a[r * 2 * m + k] -= f * a[c * 2 * m + k];
+                }
+            }
+        }
+    }
+    (0..m).flat_map(|r| (0..m).map(move |c| (r, c))).map(|(r, c)| a[r * 2 * m + m + c]).collect()
+}
+
+/// Bakes `PolyTable::build(tf, p)`'s tables on the GPU (f32 throughout,
+/// where the CPU integrates in f64) and reads them back into a
+/// [`PolyTable`] with the standard α table. Errors: parameters the CPU
+/// build rejects, a TF with widgets (as the CPU), device limits.
+pub fn bake_poly(
+    ctx: &GpuContext,
+    tf: &TransferFunction,
+    p: &PolyParams,
+) -> Result<(PolyTable, GpuBakeStats), GpuError> {
+    let t_setup = Instant::now();
+    let bad = |why: String| GpuError::Input(format!("GPU poly bake: {why}"));
+    if ![1, 2, 4].contains(&p.degree) || !(2..=16384).contains(&p.res) {
+        return Err(bad(format!("degree {} must be 1, 2 or 4 and res {} in [2, 16384]", p.degree, p.res)));
+    }
+    let range_ok = p.s_lo.is_finite() && p.s_hi.is_finite() && p.s_lo < p.s_hi;
+    if !(range_ok && p.l_max > 0.0 && p.l_max.is_finite()) {
+        return Err(bad(format!(
+            "range [{}, {}] and l_max {} must be finite, ordered, positive",
+            p.s_lo, p.s_hi, p.l_max
+        )));
+    }
+    if p.max_ds.is_nan() || p.max_ds <= 0.0 {
+        return Err(bad(format!("max_ds {} must be positive", p.max_ds)));
+    }
+    if !tf.widgets().is_empty() {
+        return Err(bad(format!("{} TF widgets: rasterize them first", tf.widgets().len())));
+    }
+    let (n, res) = (p.degree, p.res);
+    let band = band_for(res, p.s_lo, p.s_hi, p.max_ds);
+    let row_len = band.map_or(res, |b| 2 * b + 1);
+    let stride = 3 * (n + 1);
+    let cells = res * row_len;
+    let rho_bytes = (cells * 4) as u64;
+    let coef_bytes = (cells * stride * 4) as u64;
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    crate::render::check_size("poly coefficients", coef_bytes, limit)?;
+    if row_len > 65535 * 64 || res > 65535 {
+        return Err(bad(format!("res {res} exceeds one dispatch")));
+    }
+    let step = (p.s_hi - p.s_lo) / (res - 1) as f64;
+    let grid: Vec<f32> =
+        (0..res).map(|i| if i + 1 == res { p.s_hi } else { p.s_lo + i as f64 * step } as f32).collect();
+    let mut xs: Vec<f64> = tf.color_nodes().iter().map(|c| c.x).chain(tf.opacity_nodes().iter().map(|o| o.x)).collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    let nodes: Vec<[f32; 4]> = xs
+        .iter()
+        .flat_map(|&x| {
+            let k = tf.color(x);
+            [[x as f32, tf.extinction(x) as f32, 0.0, 0.0], [k[0] as f32, k[1] as f32, k[2] as f32, 0.0]]
+        })
+        .collect();
+    let vinv: Vec<f32> = inverse_vandermonde(n).iter().map(|&v| v as f32).collect();
+    let params = PolyBakeParams {
+        degree: n as u32,
+        res: res as u32,
+        row_len: row_len as u32,
+        band: band.map_or(u32::MAX, |b| b as u32),
+        n_nodes: xs.len() as u32,
+        independent: (tf.emission() == Emission::Independent) as u32,
+        l_max: p.l_max as f32,
+        ..bytemuck::Zeroable::zeroed()
+    };
+    let dev = &ctx.device;
+    let (pipeline, group, rho_buf, coef_buf, rho_read, coef_read) = ctx.checked(|| {
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("poly bake"),
+            entries: &[
+                crate::render::uniform_entry(0, cs),
+                storage_entry(1, cs, true),
+                storage_entry(2, cs, true),
+                storage_entry(3, cs, true),
+                storage_entry(4, cs, false),
+                storage_entry(5, cs, false),
+            ],
+        });
+        let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("poly_bake.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shader_source_plain(POLY_BAKE_WGSL).into()),
+        });
+        let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("poly bake"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("poly bake"),
+            layout: Some(&pl),
+            module: &module,
+            entry_point: Some("poly_bake"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let init = |label: &str, contents: &[u8], usage| {
+            dev.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let empty = |label: &str, size: u64, usage| {
+            dev.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+        };
+        let st = wgpu::BufferUsages::STORAGE;
+        let out = st | wgpu::BufferUsages::COPY_SRC;
+        let read = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ;
+        let uni = init("poly params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+        let nodes_buf = init("poly nodes", bytemuck::cast_slice(&nodes), st);
+        let vinv_buf = init("poly vinv", bytemuck::cast_slice(&vinv), st);
+        let grid_buf = init("poly grid", bytemuck::cast_slice(&grid), st);
+        let rho_buf = empty("poly rho", rho_bytes, out);
+        let coef_buf = empty("poly coef", coef_bytes, out);
+        let rho_read = empty("poly rho read-back", rho_bytes, read);
+        let coef_read = empty("poly coef read-back", coef_bytes, read);
+        let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("poly bake"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uni.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: nodes_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: vinv_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: grid_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: rho_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: coef_buf.as_entire_binding() },
+            ],
+        });
+        (pipeline, group, rho_buf, coef_buf, rho_read, coef_read)
+    })?;
+    ctx.wait()?;
+    let setup_seconds = t_setup.elapsed().as_secs_f64();
+    let t_bake = Instant::now();
+    ctx.checked(|| {
+        let mut enc = dev.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups((row_len as u32).div_ceil(64), res as u32, 1);
+        }
+        ctx.queue.submit([enc.finish()]);
+    })?;
+    ctx.wait()?;
+    let bake_seconds = t_bake.elapsed().as_secs_f64();
+    ctx.checked(|| {
+        let mut enc = dev.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&rho_buf, 0, &rho_read, 0, rho_bytes);
+        enc.copy_buffer_to_buffer(&coef_buf, 0, &coef_read, 0, coef_bytes);
+        ctx.queue.submit([enc.finish()]);
+    })?;
+    let rho: Vec<f32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &rho_read)?);
+    let coef: Vec<f32> = bytemuck::pod_collect_to_vec(&map_read(ctx, &coef_read)?);
+    let mc = tf.max_color();
+    let table = PolyTable::from_parts(
+        n,
+        res,
+        band,
+        [p.s_lo as f32, p.s_hi as f32],
+        p.l_max as f32,
+        tf.emission(),
+        [mc[0] as f32, mc[1] as f32, mc[2] as f32],
+        rho,
+        coef,
+        AlphaTable::standard(),
+    )
+    .map_err(|e| GpuError::Readback(format!("GPU poly bake: {e}")))?;
+    Ok((table, GpuBakeStats { setup_seconds, bake_seconds, entries: cells as u64 }))
+}

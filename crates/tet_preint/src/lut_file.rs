@@ -165,6 +165,9 @@ impl LutFile {
     /// An empty file for `method`.
     pub fn new(method: Method, tf: &TransferFunction, domain: Option<TableDomain>, params: serde_json::Value) -> Self {
         let tf = serde_json::from_str(&tf.to_json()).expect("a TF's JSON parses");
+        // The header holds what the file stores: a domain's quantiles are
+        // not written (the axis knots they shaped are).
+        let domain = domain.map(|d| TableDomain { s_quantiles: None, ..d });
         LutFile {
             header: LutHeader { writer: writer(), method: method.id().into(), tf, domain, params, sections: vec![] },
             payloads: vec![],

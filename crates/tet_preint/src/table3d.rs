@@ -692,6 +692,12 @@ impl Table3d {
     /// storage accessor, or a direct f32 slice in [`SegmentShader::shade_span`]).
     #[inline(always)]
     fn lookup_with(&self, get4: impl Fn(usize) -> [f32; 4], sf: f32, sb: f32, len_world: f32) -> Rgba32 {
+        self.gather(get4, &self.cell_of(sf, sb, len_world))
+    }
+
+    /// The lower corner and fractions of a lookup's cell (no table access).
+    #[inline(always)]
+    fn cell_of(&self, sf: f32, sb: f32, len_world: f32) -> Cell {
         let (xa, xb) = self.band_coords(sf, sb);
         let xk = (len_world * self.inv_dl).max(0.0).min((self.params.n_l - 1) as f32);
         let split = |x: f32, n: usize| {
@@ -701,6 +707,13 @@ impl Table3d {
         let (a0, fa) = split(xa, self.params.n_s);
         let (b0, fb) = split(xb, self.params.n_s);
         let (k0, fk) = split(xk, self.params.n_l);
+        Cell { a0, b0, k0, fa, fb, fk }
+    }
+
+    /// Trilinear interpolation of the 8 entries around `c`.
+    #[inline(always)]
+    fn gather(&self, get4: impl Fn(usize) -> [f32; 4], c: &Cell) -> Rgba32 {
+        let Cell { a0, b0, k0, fa, fb, fk } = *c;
         let nl = self.params.n_l;
         let mut out = [0.0f32; 4];
         for (da, wa) in [(0, 1.0 - fa), (1, fa)] {
@@ -720,6 +733,21 @@ impl Table3d {
         out
     }
 }
+
+/// A lookup's lower grid corner and fractional position in its cell.
+#[derive(Debug, Clone, Copy, Default)]
+struct Cell {
+    a0: usize,
+    b0: usize,
+    k0: usize,
+    fa: f32,
+    fb: f32,
+    fk: f32,
+}
+
+/// Segments whose cells [`SegmentShader::shade_span`] locates before
+/// reading any entry.
+const SPAN_BLOCK: usize = 64;
 
 impl Table3d {
     /// Fractional grid indices (xa, xb) of a lookup: clamped to the axis,
@@ -758,8 +786,20 @@ impl SegmentShader for Table3d {
                     let e = &d[i..i + 4];
                     [e[0], e[1], e[2], e[3]]
                 };
-                for (seg, o) in segs.iter().zip(out.iter_mut()) {
-                    *o = self.lookup_with(get4, seg.s_front, seg.s_back, seg.len_world);
+                // Two passes per block: locating a cell is arithmetic (and,
+                // on a non-uniform axis, a bucket lookup and a rare search);
+                // the entries are cache misses. Kept apart, the second loop
+                // is short enough that the CPU overlaps many segments'
+                // misses, whatever the axis (one loop: 91 ns per segment on
+                // the TF-node axis against 42 on the uniform, on Blunt Fin).
+                let mut cells = [Cell::default(); SPAN_BLOCK];
+                for (sb, ob) in segs.chunks(SPAN_BLOCK).zip(out.chunks_mut(SPAN_BLOCK)) {
+                    for (seg, c) in sb.iter().zip(cells.iter_mut()) {
+                        *c = self.cell_of(seg.s_front, seg.s_back, seg.len_world);
+                    }
+                    for (c, o) in cells.iter().zip(ob.iter_mut()) {
+                        *o = self.gather(get4, c);
+                    }
                 }
             }
             None => {

@@ -178,9 +178,10 @@ pub const DATA_AXIS_UNIFORM_SHARE: f64 = 0.5;
 pub const DATA_AXIS_DENSITY_POWER: f64 = 0.5;
 
 impl Axis {
-    /// [`ScalarAxis::Data`]: grid s_i = G⁻¹(i / (n_s − 1)) with G = w·(s − lo)/span
-    /// + (1 − w)·CDF(s), then the nearest free interior sample set onto
-    /// every TF control point; every sample is a knot.
+    /// [`ScalarAxis::Data`]: with the measure G(s) = w·(s − lo)/span plus
+    /// (1 − w)·(cumulative √density of the data), each interval between TF
+    /// control points gets steps ∝ its G-measure and its samples at equal
+    /// steps of G; every sample is a knot.
     fn data(tf: &TransferFunction, domain: &TableDomain, n_s: usize) -> Axis {
         let Some(mut q) = domain.s_quantiles else { return Axis::tf_nodes(tf, domain, n_s) };
         let (lo, hi) = (domain.s_lo, domain.s_hi);

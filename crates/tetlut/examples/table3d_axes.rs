@@ -87,6 +87,25 @@ fn main() {
                 (0..4).map(|c| (f64::from(got[c]) - r[c]).abs()).fold(0.0, f64::max)
             })
             .collect();
+        // Single-thread shade_span cost over the cell segments (best of 3).
+        let ts: Vec<tet_preint::Segment> = segs
+            .iter()
+            .map(|s| tet_preint::Segment {
+                s_front: s.s_front as f32,
+                s_back: s.s_back as f32,
+                len_world: s.len_world as f32,
+                ..Default::default()
+            })
+            .collect();
+        let mut out = vec![[0.0f32; 4]; ts.len()];
+        let ns = (0..3)
+            .map(|_| {
+                let t0 = Instant::now();
+                t.shade_span(&ts, &mut out);
+                t0.elapsed().as_secs_f64() * 1e9 / ts.len() as f64
+            })
+            .fold(f64::INFINITY, f64::min);
+        println!("{name}: shade_span {ns:.0} ns/segment");
         let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt();
         let max = errs.iter().copied().fold(0.0, f64::max);
         println!(

@@ -4,7 +4,8 @@
 //! Axes: Sf and Sb take `n_s` values over the domain's scalar range, equally
 //! spaced or ([`ScalarAxis::TfNodes`]) piecewise equally spaced with a sample
 //! on every TF control point, which removes the dominant interpolation
-//! error (the TF's kinks); l takes `n_l` values k·Δl, k = 0..n_l−1, up to
+//! error (the TF's kinks), or ([`ScalarAxis::Data`]) denser where the
+//! bundle's scalars are; l takes `n_l` values k·Δl, k = 0..n_l−1, up to
 //! `len_max_world` (slice 0 is l = 0, all zeros). Only pairs in the band
 //! |Sf − Sb| ≤ `max_ds` (plus a grid step so trilinear corners exist) are
 //! stored: row a holds b ∈ [lo(a), hi(a)] (a ± w on a uniform axis), each

@@ -12,9 +12,17 @@
 fn table_axis_x(fr: Frame, s: f32, top: f32) -> f32 {
     let o = fr.n_color_nodes + fr.n_opacity_nodes;
     let n = fr.table_axis_segs;
+    // Binary search (interval ends increase): a data-driven axis has one
+    // interval per grid step, so a linear scan would cost O(n_s).
     var j = 0u;
-    while j + 1u < n && tf_nodes[o + j].y < s {
-        j++;
+    var hi = n - 1u;
+    while j < hi {
+        let mid = (j + hi) / 2u;
+        if tf_nodes[o + mid].y < s {
+            j = mid + 1u;
+        } else {
+            hi = mid;
+        }
     }
     let g = tf_nodes[o + j];
     return clamp(g.z + (s - g.x) * g.w, 0.0, top);

@@ -260,6 +260,13 @@ pub struct BivTables {
 }
 
 impl BivTables {
+    /// Bytes of the tables held (Gaussian erf table and band tables).
+    pub fn memory_bytes(&self) -> usize {
+        self.gauss.as_ref().map_or(0, |t| t.memory_bytes())
+            + self.triangle.as_ref().map_or(0, |t| t.memory_bytes())
+            + self.sine.as_ref().map_or(0, |t| t.memory_bytes())
+    }
+
     /// The default tables `tf` can use: none unless its emission is
     /// independent, then one per widget kind present (Gaussian: a few ms;
     /// band tables: [`BandTable::default_for`], ~1 ms).

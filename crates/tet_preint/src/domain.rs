@@ -36,6 +36,52 @@ pub struct TableDomain {
     pub max_ds: f64,
     /// Largest segment length baked, world units (> 0).
     pub len_max_world: f64,
+    /// Where the data's scalars lie ([`ScalarQuantiles`]), when the domain
+    /// came from a bundle: what [`crate::ScalarAxis::Data`] places its
+    /// samples by. Not stored in `.tetl` headers (the axis's knots are).
+    #[serde(skip)]
+    pub s_quantiles: Option<ScalarQuantiles>,
+}
+
+/// Probabilities of [`ScalarQuantiles`]: 0, 1/QUANTILES, …, 1.
+pub const QUANTILES: usize = 32;
+
+/// The scalar at probabilities k / [`QUANTILES`] of a bundle's per-vertex
+/// scalars (k = 0..=QUANTILES; non-decreasing, first = min, last = max):
+/// a summary small enough to keep [`TableDomain`] `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScalarQuantiles(pub [f64; QUANTILES + 1]);
+
+impl ScalarQuantiles {
+    /// Quantiles of the finite values of `scalars`; `None` when there are none.
+    pub fn of(scalars: &[f64]) -> Option<ScalarQuantiles> {
+        let mut v: Vec<f64> = scalars.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_unstable_by(f64::total_cmp);
+        let n = v.len() - 1;
+        let mut q = [0.0; QUANTILES + 1];
+        for (k, qk) in q.iter_mut().enumerate() {
+            *qk = v[(k * n + QUANTILES / 2) / QUANTILES];
+        }
+        Some(ScalarQuantiles(q))
+    }
+
+    /// The data's cumulative share at `s`, piecewise linear through the
+    /// quantiles (a run of equal quantiles is a step).
+    pub fn cdf(&self, s: f64) -> f64 {
+        let q = &self.0;
+        if s <= q[0] {
+            return 0.0;
+        }
+        if s >= q[QUANTILES] {
+            return 1.0;
+        }
+        let k = q.partition_point(|&x| x <= s) - 1;
+        let (a, b) = (q[k], q[k + 1]);
+        (k as f64 + if b > a { (s - a) / (b - a) } else { 0.0 }) / QUANTILES as f64
+    }
 }
 
 impl TableDomain {
@@ -52,7 +98,7 @@ impl TableDomain {
         if !(len_max_world > 0.0 && len_max_world.is_finite()) {
             return bad(format!("largest segment length {len_max_world} must be positive and finite"));
         }
-        Ok(TableDomain { s_lo, s_hi, max_ds: max_ds.min(s_hi - s_lo), len_max_world })
+        Ok(TableDomain { s_lo, s_hi, max_ds: max_ds.min(s_hi - s_lo), len_max_world, s_quantiles: None })
     }
 
     /// The whole square [s_lo, s_hi]² × [0, len_max_world] (no band).
@@ -91,7 +137,9 @@ impl TableDomain {
             lo -= pad;
             hi += pad;
         }
-        Self::new(lo, hi, max_ds, len)
+        let mut d = Self::new(lo, hi, max_ds, len)?;
+        d.s_quantiles = ScalarQuantiles::of(&bundle.mesh.scalar);
+        Ok(d)
     }
 
     /// s_hi − s_lo.
@@ -127,5 +175,18 @@ mod tests {
         let d = TableDomain::new(0.0, 2.0, 5.0, 1.0).unwrap();
         assert_eq!(d.max_ds, 2.0);
         assert!(d.is_full());
+    }
+
+    #[test]
+    fn quantiles_and_cdf() {
+        let v: Vec<f64> = (0..=320).map(|i| (i as f64 / 320.0).powi(3)).collect();
+        let q = ScalarQuantiles::of(&v).unwrap();
+        assert_eq!(q.0[0], 0.0);
+        assert_eq!(q.0[QUANTILES], 1.0);
+        assert!((q.0[16] - 0.125).abs() < 1e-12);
+        assert!((q.cdf(0.125) - 0.5).abs() < 1e-12);
+        assert_eq!(q.cdf(-1.0), 0.0);
+        assert_eq!(q.cdf(2.0), 1.0);
+        assert!(ScalarQuantiles::of(&[f64::NAN]).is_none());
     }
 }

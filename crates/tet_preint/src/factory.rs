@@ -216,7 +216,10 @@ impl Baked {
             Baked::Partial(s) => s.psi().memory_bytes(),
             Baked::Poly(t, p) => (t.rho().len() + t.coef().len()) * p.bytes() + 2 * t.alpha_table().data().len(),
             Baked::BivApprox(s, p) => (s.table().f().len() + s.table().b().len()) * p.bytes(),
-            Baked::Exact(_) | Baked::PtLinear(_) | Baked::BivExact(_) => 0,
+            // Seed 004's erf and band tables (none unless the emission is
+            // independent and the TF has the matching widgets).
+            Baked::BivExact(s) => s.tables().memory_bytes(),
+            Baked::Exact(_) | Baked::PtLinear(_) => 0,
         }
     }
 
@@ -274,6 +277,20 @@ mod tests {
 
     fn tf(json: &str) -> TransferFunction {
         TransferFunction::from_json(json).unwrap()
+    }
+
+    /// biv-exact's memory counts seed 004's erf table (one Gaussian widget,
+    /// independent emission).
+    #[test]
+    fn biv_exact_memory_counts_its_tables() {
+        let t = tf(include_str!("../../tetlut/results/tf_gauss_independent.json"));
+        let d = TableDomain::new(0.0, 2.0, 2.0, 3.0).unwrap();
+        let b = Baked::build(Method::BivExact, &t, &d, &BakeOptions::default()).unwrap();
+        let Baked::BivExact(s) = &b else { panic!("biv-exact") };
+        let erf = s.gauss_table().expect("a Gaussian widget under independent emission").memory_bytes();
+        assert!(erf > 0);
+        assert_eq!(b.memory_bytes(), erf);
+        assert_eq!(b.full_memory_bytes(), erf);
     }
 
     const TF: &str = r#"{"color": [[0, 1, 0, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5], [1, 3]], "unit_distance": 1}"#;

@@ -79,7 +79,7 @@ pub mod widget;
 pub use atlas2d::{Atlas2d, Atlas2dParams};
 pub use biv_tables::{BandKind, BandTable, GaussErfTable};
 pub use bivariate::{BivApprox, BivExact, BivTables, FbTable};
-pub use domain::{TableDomain, TableError};
+pub use domain::{ScalarQuantiles, TableDomain, TableError, QUANTILES};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
 pub use factory::{make_shader, tf_for_domain, Baked};

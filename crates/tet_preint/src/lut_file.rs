@@ -29,7 +29,9 @@ pub const LUT_MAGIC: [u8; 8] = *b"\x89TETL\r\n\x1a";
 /// Format version written, and the newest read. Version 2 added the
 /// non-uniform scalar axis of `table3d` (`params.s_axis`, section `SAXIS`);
 /// version-1 files read as before (their tables have a uniform axis).
-pub const LUT_FORMAT_VERSION: u32 = 2;
+/// Version 3 added the `"data"` scalar axis (knots in `SAXIS` as for
+/// `"tf-nodes"`); versions 1 and 2 read as before.
+pub const LUT_FORMAT_VERSION: u32 = 3;
 /// The container format of `.tetl` files (see `tet_container`).
 const FORMAT: ContainerFormat =
     ContainerFormat { magic: LUT_MAGIC, version: LUT_FORMAT_VERSION, max_sections: 1 << 12 };
@@ -162,6 +164,9 @@ impl LutFile {
     /// An empty file for `method`.
     pub fn new(method: Method, tf: &TransferFunction, domain: Option<TableDomain>, params: serde_json::Value) -> Self {
         let tf = serde_json::from_str(&tf.to_json()).expect("a TF's JSON parses");
+        // The header holds what the file stores: a domain's quantiles are
+        // not written (the axis knots they shaped are).
+        let domain = domain.map(|d| TableDomain { s_quantiles: None, ..d });
         LutFile {
             header: LutHeader { writer: writer(), method: method.id().into(), tf, domain, params, sections: vec![] },
             payloads: vec![],
@@ -320,12 +325,13 @@ pub struct BakeOptions {
 }
 
 impl Default for BakeOptions {
-    /// table3d 128 × 128 × 256 f32 (slice recurrence, o = 2, a grid sample
-    /// on every TF control point: [`Table3dParams::tf_nodes`]); atlas2d N
+    /// table3d 128 × 128 × 256 f32 (slice recurrence, o = 2, samples
+    /// following the data's scalars and on every TF control point:
+    /// [`Table3dParams::data`]); atlas2d N
     /// planes; Ψ 1024² f32; poly 512² f32; F/B 128² f32 with 4 sub-segments.
     fn default() -> Self {
         BakeOptions {
-            table3d: Table3dParams::tf_nodes(),
+            table3d: Table3dParams::data(),
             atlas_planes_quarters: 4,
             psi: PsiParams::default(),
             poly_res: 512,
@@ -697,7 +703,7 @@ impl Table3d {
         let data = lut.storage(TABLE3D_SECTION, path)?;
         let knots = match params.s_axis {
             ScalarAxis::Uniform => None,
-            ScalarAxis::TfNodes => Some(axis_knots(lut, params.n_s, path)?),
+            ScalarAxis::TfNodes | ScalarAxis::Data => Some(axis_knots(lut, params.n_s, path)?),
         };
         Table3d::from_parts(domain, params, knots.as_deref(), data).ok_or_else(|| {
             let what = if knots.is_some() { "size, precision or scalar-axis knots" } else { "size or precision" };

@@ -140,9 +140,9 @@ fn rejects_wrong_magic_newer_version_and_bad_checksums() {
     b[1] = b'X';
     assert!(matches!(LutFile::from_bytes(&b, &path), Err(LutError::BadMagic { .. })));
     let mut b = bytes.clone();
-    b[8..12].copy_from_slice(&3u32.to_le_bytes());
+    b[8..12].copy_from_slice(&4u32.to_le_bytes());
     let e = LutFile::from_bytes(&b, &path).unwrap_err();
-    assert!(matches!(e, LutError::NewerVersion { found: 3, supported: 2, .. }), "{e}");
+    assert!(matches!(e, LutError::NewerVersion { found: 4, supported: 3, .. }), "{e}");
     assert!(e.to_string().ends_with("x.tetl"));
     // Flip a byte in the table, the header JSON and the data payload.
     let last = bytes.len() - 3;
@@ -193,4 +193,32 @@ fn inconsistent_sections_are_rejected() {
     // Reading a missing file names it.
     let e = LutFile::read(Path::new("/nonexistent/z.tetl")).unwrap_err();
     assert!(e.to_string().contains("/nonexistent/z.tetl"));
+}
+
+/// A data-following scalar axis (format version 3) round trips: same knots,
+/// same lookups, and its knots follow the quantiles it was built from.
+#[test]
+fn data_axis_round_trips_through_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut domain = TableDomain::new(0.0, 1.0, 0.6, 2.0).unwrap();
+    let scalars: Vec<f64> = (0..=500).map(|i| (i as f64 / 500.0).powi(4)).collect();
+    domain.s_quantiles = tet_preint::ScalarQuantiles::of(&scalars);
+    let mut o = opts(Precision::F32);
+    o.table3d = Table3dParams { n_s: 24, n_l: 6, ..Table3dParams::data() };
+    let lut = bake(Method::Table3d, &tf(), &domain, &o).unwrap();
+    let path = dir.path().join("data.tetl");
+    lut.write(&path).unwrap();
+    let back = LutFile::read(&path).unwrap();
+    assert_eq!(back, lut);
+    let (a, b) = (load_shader(&lut, &path).unwrap(), load_shader(&back, &path).unwrap());
+    for s in segs() {
+        assert_eq!(a.shade(&s), b.shade(&s));
+    }
+    let t = tet_preint::Table3d::from_lut(&back, &path).unwrap();
+    assert_eq!(t.params().s_axis, tet_preint::ScalarAxis::Data);
+    // Every sample is a knot, and over twice the uniform share (23 steps ×
+    // 0.0625) lie below the data's median (0.5^4).
+    assert_eq!(t.s_knots().len(), 24);
+    let below = (0..24).filter(|&i| t.scalar_at(i) < 0.0625).count();
+    assert!(below as f64 > 2.0 * 23.0 * 0.0625, "{below}");
 }

@@ -91,6 +91,73 @@ proptest! {
         }
     }
 
+    /// A data-following axis ([`ScalarAxis::Data`]) over skewed scalars:
+    /// strictly increasing, on every TF node, grid entries match exact within 1e-3, and a lookup
+    /// on the data's own segments lies within the range of its cell's 8
+    /// entries.
+    #[test]
+    fn data_axis_follows_the_data_and_bounds_the_error(
+        tf in arb_tf(),
+        power in 2.0f64..6.0,
+        segs in prop::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f32..2.0), 1..64),
+    ) {
+        let scalars: Vec<f64> = (0..=1000).map(|i| (i as f64 / 1000.0).powf(power)).collect();
+        let mut d = TableDomain::new(0.0, 1.0, 1.0, 2.0).unwrap();
+        d.s_quantiles = ScalarQuantiles::of(&scalars);
+        let p = Table3dParams {
+            n_s: 32,
+            n_l: 16,
+            build: Build3d::SliceRecurrence { oversampling: 6.0 },
+            s_axis: ScalarAxis::Data,
+            ..Default::default()
+        };
+        let t = Table3d::build(&tf, &d, &p).unwrap();
+        let grid: Vec<f64> = (0..32).map(|a| t.scalar_at(a)).collect();
+        prop_assert!(grid.windows(2).all(|w| w[0] < w[1]) && grid[0] == 0.0 && grid[31] == 1.0);
+        prop_assert!(!t.is_uniform_axis());
+        let nodes = tf.opacity_nodes().iter().map(|o| o.x).chain(tf.color_nodes().iter().map(|c| c.x));
+        for x in nodes.filter(|&x| x > 1e-6 && x < 1.0 - 1e-6) {
+            prop_assert!(grid.iter().any(|&g| (g - x).abs() < 1e-9), "node {x} not on {grid:?}");
+        }
+        for a in (0..32).step_by(5) {
+            for b in (0..32).step_by(3) {
+                let e = t.entry(a, b, 9).unwrap();
+                let x = integrate_segment(&tf, grid[a], grid[b], t.len_at(9)).to_array();
+                for c in 0..4 {
+                    prop_assert!((e[c] as f64 - x[c]).abs() < 1e-3, "({a},{b}) ch {c}: {} vs {}", e[c], x[c]);
+                }
+            }
+        }
+        // A lookup is a convex combination of the 8 grid entries around it
+        // (so its error is bounded by theirs plus the cell's spread): checks
+        // that the f32 scalar → index map finds the right cell.
+        for (u, v, len_world) in segs {
+            // Scalars distributed as the data: u^power.
+            let (sf, sb) = (u.powf(power) as f32, v.powf(power) as f32);
+            let seg = Segment { s_front: sf, s_back: sb, len_world, ..Default::default() };
+            let got = t.shade(&seg);
+            let mut out = [[0.0f32; 4]];
+            t.shade_span(&[seg], &mut out);
+            prop_assert_eq!(out[0], got);
+            let cell = |x: f64| grid.partition_point(|&g| g <= x).clamp(1, 31) - 1;
+            let (a0, b0) = (cell(sf as f64), cell(sb as f64));
+            let k0 = ((len_world as f64 / t.len_at(1)) as usize).min(14);
+            let mut lo = [f64::INFINITY; 4];
+            let mut hi = [f64::NEG_INFINITY; 4];
+            for (a, b, k) in (0..8).map(|i| (a0 + (i & 1), b0 + ((i >> 1) & 1), k0 + (i >> 2))) {
+                let e = t.entry(a, b, k).unwrap();
+                for c in 0..4 {
+                    lo[c] = lo[c].min(e[c] as f64);
+                    hi[c] = hi[c].max(e[c] as f64);
+                }
+            }
+            for c in 0..4 {
+                let g = got[c] as f64;
+                prop_assert!(g >= lo[c] - 1e-5 && g <= hi[c] + 1e-5, "{seg:?} ch {c}: {g} outside [{}, {}]", lo[c], hi[c]);
+            }
+        }
+    }
+
     #[test]
     fn partial_matches_exact_and_lookups_are_finite(tf in arb_tf(), sf in -0.2f32..1.2, sb in -0.2f32..1.2, l in 0.0f32..3.0) {
         let psi = Arc::new(PsiTable::build(&PsiParams { res: 512, first_moment: true, ..Default::default() }).unwrap());

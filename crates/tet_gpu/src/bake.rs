@@ -141,9 +141,10 @@ impl GpuTable3d {
                 view_formats: &[],
             });
             let cs = wgpu::ShaderStages::COMPUTE;
-            let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("bake"),
-                entries: &[
+            let (layout, pipeline) = crate::render::compute_pipeline(
+                dev,
+                "bake",
+                &[
                     crate::render::uniform_entry(0, cs),
                     storage_entry(1, cs, true),
                     storage_entry(2, cs, true),
@@ -160,24 +161,9 @@ impl GpuTable3d {
                         count: None,
                     },
                 ],
-            });
-            let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("bake.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(shader_source_plain(BAKE_WGSL).into()),
-            });
-            let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("bake"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-            let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("bake"),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some("bake"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+                shader_source_plain(BAKE_WGSL),
+                "bake",
+            );
             let buf = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
                 dev.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
             };
@@ -380,33 +366,19 @@ impl GpuShader {
         let dev = &ctx.device;
         let readback = ctx.checked(|| {
             let cs = wgpu::ShaderStages::COMPUTE;
-            let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("probe"),
-                entries: &[
+            let (layout, pipeline) = crate::render::compute_pipeline(
+                dev,
+                "probe",
+                &[
                     crate::render::uniform_entry(0, cs),
                     storage_entry(7, cs, true),
                     texture_entry(8, cs, wgpu::TextureViewDimension::D3),
                     storage_entry(12, cs, true),
                     storage_entry(13, cs, false),
                 ],
-            });
-            let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("probe.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(shader_source_fragment(PROBE_WGSL).into()),
-            });
-            let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("probe"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-            let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("probe"),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some("probe"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+                shader_source_fragment(PROBE_WGSL),
+                "probe",
+            );
             let uni = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("probe frame"),
                 contents: bytemuck::bytes_of(&fr),

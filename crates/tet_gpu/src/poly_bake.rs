@@ -8,51 +8,9 @@ use crate::gpu_types::PolyBakeParams;
 use crate::render::storage_entry;
 use crate::{map_read, shader_source_plain, GpuContext, GpuError, POLY_BAKE_WGSL};
 use std::time::Instant;
+use tet_preint::poly::{band_for, inverse_vandermonde};
 use tet_preint::{AlphaTable, Emission, PolyParams, PolyTable, TransferFunction};
 use wgpu::util::DeviceExt;
-
-/// Band half-width as tet_preint's `band_for` (the same storage layout).
-fn band_for(res: usize, s_lo: f64, s_hi: f64, max_ds: f64) -> Option<usize> {
-    let step = (s_hi - s_lo) / (res - 1) as f64;
-    let m = max_ds / step;
-    if !m.is_finite() || m + 2.0 >= res as f64 {
-        return None;
-    }
-    let b = m.ceil() as usize + 1;
-    (2 * b + 1 < res).then_some(b)
-}
-
-/// (Vandermonde at tᵢ = i/n)⁻¹ in f64, row-major, by Gauss–Jordan.
-fn inverse_vandermonde(n: usize) -> Vec<f64> {
-    let m = n + 1;
-    let mut a = vec![0.0f64; m * 2 * m];
-    for i in 0..m {
-        let t = i as f64 / n as f64;
-        for k in 0..m {
-            a[i * 2 * m + k] = t.powi(k as i32);
-        }
-        a[i * 2 * m + m + i] = 1.0;
-    }
-    for c in 0..m {
-        let p = (c..m).max_by(|&x, &y| a[x * 2 * m + c].abs().total_cmp(&a[y * 2 * m + c].abs())).expect("rows");
-        for k in 0..2 * m {
-            a.swap(c * 2 * m + k, p * 2 * m + k);
-        }
-        let d = a[c * 2 * m + c];
-        for k in 0..2 * m {
-            a[c * 2 * m + k] /= d;
-        }
-        for r in 0..m {
-            if r != c {
-                let f = a[r * 2 * m + c];
-                for k in 0..2 * m {
-                    a[r * 2 * m + k] -= f * a[c * 2 * m + k];
-                }
-            }
-        }
-    }
-    (0..m).flat_map(|r| (0..m).map(move |c| (r, c))).map(|(r, c)| a[r * 2 * m + m + c]).collect()
-}
 
 /// Bakes `PolyTable::build(tf, p)`'s tables on the GPU (f32 throughout,
 /// where the CPU integrates in f64) and reads them back into a
@@ -120,9 +78,10 @@ pub fn bake_poly(
     let dev = &ctx.device;
     let (pipeline, group, rho_buf, coef_buf, rho_read, coef_read) = ctx.checked(|| {
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("poly bake"),
-            entries: &[
+        let (layout, pipeline) = crate::render::compute_pipeline(
+            dev,
+            "poly bake",
+            &[
                 crate::render::uniform_entry(0, cs),
                 storage_entry(1, cs, true),
                 storage_entry(2, cs, true),
@@ -130,24 +89,9 @@ pub fn bake_poly(
                 storage_entry(4, cs, false),
                 storage_entry(5, cs, false),
             ],
-        });
-        let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("poly_bake.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shader_source_plain(POLY_BAKE_WGSL).into()),
-        });
-        let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("poly bake"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("poly bake"),
-            layout: Some(&pl),
-            module: &module,
-            entry_point: Some("poly_bake"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+            shader_source_plain(POLY_BAKE_WGSL),
+            "poly_bake",
+        );
         let init = |label: &str, contents: &[u8], usage| {
             dev.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };

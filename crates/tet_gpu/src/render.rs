@@ -492,6 +492,37 @@ pub struct GpuRenderer {
     ws: Mutex<Workspace>,
 }
 
+/// A compute pipeline over one bind group: the group's layout from
+/// `entries`, the module from `source` (already assembled by a
+/// `shader_source_*` function), and entry point `entry`.
+pub(crate) fn compute_pipeline(
+    dev: &wgpu::Device,
+    label: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+    source: String,
+    entry: &str,
+) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+    let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
+    let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pl),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    (layout, pipeline)
+}
+
 pub(crate) fn storage_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,

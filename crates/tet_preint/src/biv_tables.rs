@@ -57,6 +57,11 @@ use crate::bivariate::GL8_NODES as GL8;
 /// ∫_a^b exp(−P·(erf τ − erf a)) dτ by 8-point Gauss–Legendre on `panels`
 /// equal panels (the reference and the short-window path).
 pub fn window_quadrature(p: f64, a: f64, b: f64, panels: usize) -> f64 {
+    gl8_panels(a, b, panels, |x| (-p * erf_diff(a, x)).exp())
+}
+
+/// ∫_a^b f by 8-point Gauss–Legendre on `panels` equal panels (0 when b ≤ a).
+fn gl8_panels(a: f64, b: f64, panels: usize, f: impl Fn(f64) -> f64) -> f64 {
     if b <= a {
         return 0.0;
     }
@@ -65,7 +70,7 @@ pub fn window_quadrature(p: f64, a: f64, b: f64, panels: usize) -> f64 {
     for i in 0..panels {
         let x0 = a + i as f64 * h;
         for &(t, w) in &GL8 {
-            sum += w * (-p * erf_diff(a, x0 + h * t)).exp();
+            sum += w * f(x0 + h * t);
         }
     }
     sum * h
@@ -243,18 +248,7 @@ impl BandKind {
 /// ∫_a^b exp(−P·(M(τ) − M(a))) dτ by 8-point Gauss–Legendre on `panels`
 /// equal panels (the reference and the short-window path of [`BandTable`]).
 pub fn band_window_quadrature(kind: BandKind, p: f64, a: f64, b: f64, panels: usize) -> f64 {
-    if b <= a {
-        return 0.0;
-    }
-    let h = (b - a) / panels as f64;
-    let mut sum = 0.0;
-    for i in 0..panels {
-        let x0 = a + i as f64 * h;
-        for &(t, w) in &GL8 {
-            sum += w * (-p * kind.depth_between(a, x0 + h * t)).exp();
-        }
-    }
-    sum * h
+    gl8_panels(a, b, panels, |x| (-p * kind.depth_between(a, x)).exp())
 }
 
 /// Seed 004's triangle- and sine-wave tables for the emission-only model,

@@ -193,8 +193,9 @@ fn check_params(p: &PolyParams) -> Result<(), PolyError> {
 }
 
 /// Band half-width (in samples) needed for |Sf − Sb| ≤ max_ds, or None when
-/// the band would be as wide as the square.
-fn band_for(res: usize, s_lo: f64, s_hi: f64, max_ds: f64) -> Option<usize> {
+/// the band would be as wide as the square: the storage layout of
+/// [`PolyTable`]'s banded tables, for bakes outside this crate (tet_gpu).
+pub fn band_for(res: usize, s_lo: f64, s_hi: f64, max_ds: f64) -> Option<usize> {
     let step = (s_hi - s_lo) / (res - 1) as f64;
     let m = max_ds / step;
     // Bilinear corners lie up to one sample further from the diagonal.
@@ -205,8 +206,9 @@ fn band_for(res: usize, s_lo: f64, s_hi: f64, max_ds: f64) -> Option<usize> {
     (2 * b + 1 < res).then_some(b)
 }
 
-/// (Vandermonde at tᵢ = i/n)⁻¹ in f64, row-major (n+1)²: C̃ = V⁻¹ Ĉ.
-fn inverse_vandermonde(n: usize) -> Vec<f64> {
+/// (Vandermonde at tᵢ = i/n)⁻¹ in f64, row-major (n+1)²: C̃ = V⁻¹ Ĉ
+/// (the chromaticity polynomials' fit, also used by tet_gpu's bake).
+pub fn inverse_vandermonde(n: usize) -> Vec<f64> {
     let m = n + 1;
     let mut a = vec![0.0f64; m * 2 * m];
     for i in 0..m {

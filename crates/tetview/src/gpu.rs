@@ -94,7 +94,7 @@ pub fn render(
     let mut bake_seconds = 0.0;
     let mut bake_setup_seconds = 0.0;
     let shader = match method {
-        // The CPU renderer's table parameters (BakeOptions: tf-nodes axis),
+        // The CPU renderer's table parameters (BakeOptions: the data-driven scalar axis),
         // so --gpu and CPU images agree.
         Method::Table3d if args.gpu_bake => {
             let domain = TableDomain::from_bundle(bundle)?;

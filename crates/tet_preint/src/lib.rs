@@ -86,7 +86,9 @@ pub use factory::{make_shader, tf_for_domain, Baked};
 pub use lut_file::{
     bake, load_shader, BakeOptions, FbFileParams, LutError, LutFile, LutHeader, PolyFileParams, SectionInfo,
 };
-pub use method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentShader, UnknownMethod};
+pub use method::{
+    ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentBatch, SegmentShader, UnknownMethod, BATCH,
+};
 pub use partial::{PartialShader, PsiParams, PsiTable};
 pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};
 pub use precision::{Accumulation, Precision, Storage};

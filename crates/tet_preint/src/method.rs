@@ -100,6 +100,77 @@ pub struct Segment {
 /// [0, 1] for A and [0, A·max κ] for RGB.
 pub type Rgba32 = [f32; 4];
 
+/// Capacity of a [`SegmentBatch`].
+pub const BATCH: usize = 64;
+
+/// Up to [`BATCH`] segments in structure-of-arrays form: what a rasterizer
+/// collects (the fragments of one or more tets, in compositing order)
+/// before one shader call, so a table's index arithmetic vectorizes over
+/// them and its memory reads for many fragments overlap. Lanes at and above
+/// `len` hold stale but finite values: a shader may compute them and must
+/// not write their results.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentBatch {
+    pub s_front: [f32; BATCH],
+    pub s_back: [f32; BATCH],
+    pub grad_front: [f32; BATCH],
+    pub grad_back: [f32; BATCH],
+    pub len_world: [f32; BATCH],
+    pub len: usize,
+}
+
+impl Default for SegmentBatch {
+    fn default() -> Self {
+        SegmentBatch {
+            s_front: [0.0; BATCH],
+            s_back: [0.0; BATCH],
+            grad_front: [0.0; BATCH],
+            grad_back: [0.0; BATCH],
+            len_world: [0.0; BATCH],
+            len: 0,
+        }
+    }
+}
+
+impl SegmentBatch {
+    /// Segment `i` (below `len`).
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Segment {
+        Segment {
+            s_front: self.s_front[i],
+            s_back: self.s_back[i],
+            grad_front: self.grad_front[i],
+            grad_back: self.grad_back[i],
+            len_world: self.len_world[i],
+        }
+    }
+
+    /// Appends a segment; `false` (and nothing stored) when full.
+    #[inline(always)]
+    pub fn push(&mut self, seg: Segment) -> bool {
+        let i = self.len;
+        if i >= BATCH {
+            return false;
+        }
+        self.s_front[i] = seg.s_front;
+        self.s_back[i] = seg.s_back;
+        self.grad_front[i] = seg.grad_front;
+        self.grad_back[i] = seg.grad_back;
+        self.len_world[i] = seg.len_world;
+        self.len = i + 1;
+        true
+    }
+
+    /// Builds a batch from up to [`BATCH`] segments (the rest are ignored).
+    pub fn from_segments(segs: &[Segment]) -> SegmentBatch {
+        let mut b = SegmentBatch::default();
+        for s in segs.iter().take(BATCH) {
+            b.push(*s);
+        }
+        b
+    }
+}
+
 /// What the renderer asks of every method: (C, α) for one segment.
 pub trait SegmentShader: Send + Sync {
     /// The method this shader implements.
@@ -115,6 +186,17 @@ pub trait SegmentShader: Send + Sync {
     fn shade_span(&self, segs: &[Segment], out: &mut [Rgba32]) {
         for (seg, o) in segs.iter().zip(out.iter_mut()) {
             *o = self.shade(seg);
+        }
+    }
+
+    /// Shades a batch: `out[i] = self.shade(&segs.get(i))` for every
+    /// `i < segs.len`, `out[segs.len..]` untouched. The rasterizer's call: one
+    /// dynamic call per up to [`BATCH`] fragments, in a layout a table's
+    /// index arithmetic vectorizes over. Overrides must return the same
+    /// values as [`SegmentShader::shade`].
+    fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; BATCH]) {
+        for (i, o) in out.iter_mut().enumerate().take(segs.len.min(BATCH)) {
+            *o = self.shade(&segs.get(i));
         }
     }
 }

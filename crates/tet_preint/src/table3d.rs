@@ -37,9 +37,10 @@
 
 use crate::domain::{check_res, TableDomain, TableError, MAX_TABLE_ENTRIES};
 use crate::exact::integrate_segment_with;
-use crate::method::{Method, Rgba32, Segment, SegmentShader};
+use crate::method::{self, Method, Rgba32, Segment, SegmentBatch, SegmentShader};
 use crate::precision::{Accumulation, Precision, Storage};
 use crate::tf::{Emission, TransferFunction};
+use glam::Vec4;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -324,7 +325,9 @@ impl Axis {
     /// Fractional grid index of a scalar already clamped to [lo, hi].
     #[inline(always)]
     fn x_of(&self, s: f32) -> f32 {
-        let b = (((s - self.lo) * self.bucket_inv) as usize).min(self.bucket.len() - 1);
+        // s ≥ lo, so the product is ≥ 0: an i32 cast (cheaper than a
+        // saturating cast to usize) is exact below the bucket count.
+        let b = (((s - self.lo) * self.bucket_inv) as i32).min(self.bucket.len() as i32 - 1) as usize;
         let [s0, x0, inv, next] = self.bucket[b];
         let top = (self.grid.len() - 1) as f32;
         // f32 rounding may put s just outside its bucket; the map is
@@ -336,6 +339,33 @@ impl Axis {
             x0 + (s - s0) * inv
         };
         x.max(0.0).min(top)
+    }
+
+    /// [`Axis::x_of`] for `W` scalars already clamped to [lo, hi], the same
+    /// values lane by lane; lanes from `m` on are stale and not fixed up.
+    #[inline(always)]
+    fn x_of_lanes(&self, s: &[f32; W], m: usize) -> [f32; W] {
+        let nb = self.bucket.len() as i32 - 1;
+        let top = (self.grid.len() - 1) as f32;
+        let mut b = [0i32; W];
+        for l in 0..W {
+            b[l] = small_floor((s[l] - self.lo) * self.bucket_inv, nb);
+        }
+        let (mut x, mut next) = ([0.0f32; W], [0.0f32; W]);
+        for l in 0..W {
+            let [s0, x0, inv, nx] = self.bucket[b[l].max(0) as usize];
+            x[l] = x0 + (s[l] - s0) * inv;
+            next[l] = nx;
+        }
+        for l in 0..m {
+            if s[l] > next[l] {
+                x[l] = self.x_of(s[l]);
+            }
+        }
+        for v in &mut x {
+            *v = at_most(at_least(*v, 0.0), top);
+        }
+        x
     }
 
     /// (scalar, index) knots.
@@ -535,6 +565,9 @@ pub struct Table3d {
     /// 1 / grid step along s (uniform axis) and along l.
     inv_ds: f32,
     inv_dl: f32,
+    /// Per row a, `band.row_start[a] − band.row_lo[a]` (wrapping): pair
+    /// (a, b) is entry block `pair_off[a] + b`, one load instead of two.
+    pair_off: Box<[usize]>,
 }
 
 /// Smallest λ for which ∫T = (Tᵢ − Tᵢ₊₁)/λ is used (below, the series).
@@ -613,7 +646,8 @@ impl Table3d {
         }
         let inv_ds = ((params.n_s - 1) as f64 / domain.scalar_span()) as f32;
         let inv_dl = ((params.n_l - 1) as f64 / domain.len_max_world) as f32;
-        Some(Table3d { domain, params, band, axis: Box::new(axis), data, inv_ds, inv_dl })
+        let pair_off = (0..params.n_s).map(|a| band.row_start[a].wrapping_sub(band.row_lo[a])).collect();
+        Some(Table3d { domain, params, band, axis: Box::new(axis), data, inv_ds, inv_dl, pair_off })
     }
 
     pub fn domain(&self) -> &TableDomain {
@@ -718,14 +752,40 @@ impl Table3d {
     fn cell_of(&self, sf: f32, sb: f32, len_world: f32) -> Cell {
         let (xa, xb) = self.band_coords(sf, sb);
         let xk = (len_world * self.inv_dl).max(0.0).min((self.params.n_l - 1) as f32);
+        // x is in [0, n − 1] (clamped, never NaN): an i32 cast is exact and
+        // far cheaper than a saturating cast to usize.
         let split = |x: f32, n: usize| {
-            let i = (x as usize).min(n - 2);
-            (i, x - i as f32)
+            let i = (x as i32).min(n as i32 - 2);
+            (i as usize, x - i as f32)
         };
         let (a0, fa) = split(xa, self.params.n_s);
         let (b0, fb) = split(xb, self.params.n_s);
         let (k0, fk) = split(xk, self.params.n_l);
         Cell { a0, b0, k0, fa, fb, fk }
+    }
+
+    /// [`Table3d::gather`] on f32 storage: the 4 (Sf, Sb) corners' two
+    /// l-neighbours are 8 contiguous floats each; the same arithmetic in the
+    /// same order, so bit-identical to it.
+    #[inline(always)]
+    fn gather_f32(&self, d: &[f32], c: &Cell) -> Rgba32 {
+        let Cell { a0, b0, k0, fa, fb, fk } = *c;
+        let nl = self.params.n_l;
+        // Per corner: entries k0 and k0 + 1, interpolated in l (e0 + fk·(e1 − e0)).
+        let lerp = |base: usize| -> Vec4 {
+            let e: &[f32; 8] = d[base..base + 8].try_into().expect("8 floats");
+            let (e0, e1) = (Vec4::new(e[0], e[1], e[2], e[3]), Vec4::new(e[4], e[5], e[6], e[7]));
+            e0 + (e1 - e0) * fk
+        };
+        // Pair (a, b + 1) follows pair (a, b) in its row.
+        let base0 = (self.pair_off[a0].wrapping_add(b0) * nl + k0) * 4;
+        let base1 = (self.pair_off[a0 + 1].wrapping_add(b0) * nl + k0) * 4;
+        let (wa0, wa1, wb0, wb1) = (1.0 - fa, fa, 1.0 - fb, fb);
+        let out = lerp(base0) * (wa0 * wb0)
+            + lerp(base0 + nl * 4) * (wa0 * wb1)
+            + lerp(base1) * (wa1 * wb0)
+            + lerp(base1 + nl * 4) * (wa1 * wb1);
+        out.to_array()
     }
 
     /// Trilinear interpolation of the 8 entries around `c`.
@@ -788,6 +848,73 @@ impl Table3d {
     }
 }
 
+impl Table3d {
+    /// [`Table3d::band_coords`] for `W` lanes (the first `m` valid; the rest
+    /// computed on stale, finite inputs and ignored).
+    #[inline(always)]
+    fn band_coords_lanes(&self, sf_in: &[f32; W], sb_in: &[f32; W], m: usize) -> ([f32; W], [f32; W]) {
+        let (mut xa, mut xb) = ([0.0f32; W], [0.0f32; W]);
+        if self.axis.uniform {
+            let top = (self.params.n_s - 1) as f32;
+            let (lo, inv, reach) = (self.domain.s_lo as f32, self.inv_ds, self.band.reach);
+            for l in 0..W {
+                xa[l] = at_most(at_least((sf_in[l] - lo) * inv, 0.0), top);
+                let b = at_most(at_least((sb_in[l] - lo) * inv, 0.0), top);
+                xb[l] = at_most(at_least(b, xa[l] - reach), xa[l] + reach);
+            }
+        } else {
+            let (lo, hi, ds) = (self.axis.lo, self.axis.hi, self.domain.max_ds as f32);
+            let (mut sf, mut sb) = ([0.0f32; W], [0.0f32; W]);
+            for l in 0..W {
+                sf[l] = at_most(at_least(sf_in[l], lo), hi);
+                let b = at_most(at_least(sb_in[l], lo), hi);
+                sb[l] = at_most(at_least(b, sf[l] - ds), sf[l] + ds);
+            }
+            xa = self.axis.x_of_lanes(&sf, m);
+            xb = self.axis.x_of_lanes(&sb, m);
+        }
+        (xa, xb)
+    }
+}
+
+/// Lanes of [`SegmentShader::shade_batch`]'s lane-wise arithmetic.
+const W: usize = 8;
+
+/// min(⌊x⌋, top) for 0 ≤ x < 2²², top ≥ 0: `(x as i32).min(top)` by float
+/// operations and a bit mask that vectorize (Rust's saturating float → int
+/// cast does not): x + 2²³ rounds x to an integer in the mantissa, one is
+/// taken off where that rounded up.
+#[inline(always)]
+fn small_floor(x: f32, top: i32) -> i32 {
+    const MAGIC: f32 = 8_388_608.0; // 2²³
+    let t = x + MAGIC;
+    let r = t - MAGIC;
+    let down = if r > x { 1.0 } else { 0.0 };
+    let f = at_most(r - down, top as f32);
+    ((f + MAGIC).to_bits() & 0x007f_ffff) as i32
+}
+
+/// `v` when above `lo`, else `lo` (NaN → lo): `f32::max`'s value for every
+/// input here, as one compare-and-select that vectorizes to `maxps`.
+#[inline(always)]
+fn at_least(v: f32, lo: f32) -> f32 {
+    if v > lo {
+        v
+    } else {
+        lo
+    }
+}
+
+/// `v` when below `hi`, else `hi` (NaN → hi): see [`at_least`].
+#[inline(always)]
+fn at_most(v: f32, hi: f32) -> f32 {
+    if v < hi {
+        v
+    } else {
+        hi
+    }
+}
+
 impl SegmentShader for Table3d {
     fn method(&self) -> Method {
         Method::Table3d
@@ -797,13 +924,57 @@ impl SegmentShader for Table3d {
     }
     /// Same values as `shade`; f32 storage is indexed directly (one storage
     /// dispatch per call instead of eight per segment).
+    /// Eight segments at a time: the cells are located with the same values
+    /// as [`Table3d::cell_of`] by lane-wise arithmetic that vectorizes (only
+    /// the non-uniform axis's bucket reads and the entries are per lane).
+    fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH]) {
+        let n = segs.len.min(method::BATCH);
+        let Some(d) = self.data.as_f32() else {
+            for (i, o) in out.iter_mut().enumerate().take(n) {
+                *o = self.lookup(segs.s_front[i], segs.s_back[i], segs.len_world[i]);
+            }
+            return;
+        };
+        let (top_s, top_l) = (self.params.n_s as i32 - 2, self.params.n_l as i32 - 2);
+        let xk_max = (self.params.n_l - 1) as f32;
+        // Three passes: locate every cell (lane-wise arithmetic), read one
+        // value of each of its four entry pairs (so the batch's cache misses
+        // are all in flight at once, not a few per gather), then gather.
+        let mut cells = [Cell::default(); method::BATCH];
+        for blk in (0..n).step_by(W) {
+            let m = (n - blk).min(W);
+            let lanes = |a: &[f32; method::BATCH]| -> [f32; W] {
+                a[blk..blk + W].try_into().expect("BATCH is a multiple of W")
+            };
+            let (sf, sb, len) = (lanes(&segs.s_front), lanes(&segs.s_back), lanes(&segs.len_world));
+            let (xa, xb) = self.band_coords_lanes(&sf, &sb, m);
+            let mut xk = [0.0f32; W];
+            let (mut a0, mut b0, mut k0) = ([0i32; W], [0i32; W], [0i32; W]);
+            for l in 0..W {
+                xk[l] = at_most(at_least(len[l] * self.inv_dl, 0.0), xk_max);
+                a0[l] = small_floor(xa[l], top_s);
+                b0[l] = small_floor(xb[l], top_s);
+                k0[l] = small_floor(xk[l], top_l);
+            }
+            for l in 0..m {
+                cells[blk + l] = Cell {
+                    a0: a0[l] as usize,
+                    b0: b0[l] as usize,
+                    k0: k0[l] as usize,
+                    fa: xa[l] - a0[l] as f32,
+                    fb: xb[l] - b0[l] as f32,
+                    fk: xk[l] - k0[l] as f32,
+                };
+            }
+        }
+        for (c, o) in cells[..n].iter().zip(out.iter_mut()) {
+            *o = self.gather_f32(d, c);
+        }
+    }
+
     fn shade_span(&self, segs: &[Segment], out: &mut [Rgba32]) {
         match self.data.as_f32() {
             Some(d) => {
-                let get4 = |i: usize| -> [f32; 4] {
-                    let e = &d[i..i + 4];
-                    [e[0], e[1], e[2], e[3]]
-                };
                 // Two passes per block: locating a cell is arithmetic (and,
                 // on a non-uniform axis, a bucket lookup and a rare search);
                 // the entries are cache misses. Kept apart, the second loop
@@ -816,7 +987,7 @@ impl SegmentShader for Table3d {
                         *c = self.cell_of(seg.s_front, seg.s_back, seg.len_world);
                     }
                     for (c, o) in cells.iter().zip(ob.iter_mut()) {
-                        *o = self.gather(get4, c);
+                        *o = self.gather_f32(d, c);
                     }
                 }
             }

@@ -156,9 +156,9 @@ fn bench(c: &mut Criterion) {
             // One cold frame (view, cull, sort) for the stage report.
             let (_, st) = r.render(&|_, _| {}).unwrap();
             eprintln!(
-                "{name} {method}: {} tets, cold frame {:.3} s (view {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} fragments, {:.2} M tets/s",
+                "{name} {method}: {} tets, cold frame {:.3} s (view {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} fragments, {} setups, {:.2} M tets/s",
                 st.tets_drawn, st.total_seconds, st.view_seconds, st.sort_method, st.sort_seconds,
-                st.project_seconds, st.raster_seconds, st.fragments, st.tets_per_second() / 1e6
+                st.project_seconds, st.raster_seconds, st.fragments, st.setups, st.tets_per_second() / 1e6
             );
             // Best of 3 warm frames, printed so a run filtered to no benchmark
             // (`-- none`) still gives every configuration's figure quickly.

@@ -44,6 +44,8 @@ pub struct RenderStats {
     pub cycles_broken: usize,
     pub sort_method: String,
     pub fragments: u64,
+    /// Per-tile tet setups (a tet spanning k tiles is set up k times).
+    pub setups: u64,
     pub tiles_terminated: usize,
     /// Which stages this call recomputed.
     pub recomputed_view: bool,
@@ -195,6 +197,7 @@ impl Renderer {
         stats.cycles_broken = order.cycles_broken;
         stats.sort_method = order.method.id().to_string();
         stats.fragments = rs.fragments;
+        stats.setups = rs.setups;
         stats.tiles_terminated = rs.tiles_terminated;
         stats.project_seconds = rs.bin_seconds;
         stats.raster_seconds = rs.raster_seconds;

@@ -355,6 +355,8 @@ pub(crate) struct Edge {
     dx: f64,
     dy: f64,
     sign: f64,
+    /// `sign·dy`: the edge function changes by −slope per unit x.
+    slope: f64,
     tie: bool,
     /// dx/dy (0 when horizontal): where the edge's line crosses a row, for
     /// the starting guess of [`TetSetup::row_span`] only.
@@ -370,7 +372,7 @@ impl Edge {
         // the two directions does.
         let (ddx, ddy) = (sign * dx, sign * dy);
         let x_per_y = if dy != 0.0 { dx / dy } else { 0.0 };
-        Edge { ax: a[0], ay: a[1], dx, dy, sign, tie: ddy > 0.0 || (ddy == 0.0 && ddx > 0.0), x_per_y }
+        Edge { ax: a[0], ay: a[1], dx, dy, sign, slope: ddy, tie: ddy > 0.0 || (ddy == 0.0 && ddx > 0.0), x_per_y }
     }
 
     #[inline(always)]
@@ -550,6 +552,138 @@ impl SpanEval {
             self.ramps[k] = Affine32::rebased(*r, xr, yr);
         }
         self.n_ramps = ramps.len();
+    }
+
+    /// The segments of [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only (the
+    /// rest of `out` is left as it was): small tets' row spans are a few
+    /// pixels, and each lane costs a division per face plane. Every lane is
+    /// computed by the same operations whatever `N`, so the values are
+    /// bit-identical to the full width's.
+    #[inline]
+    pub(crate) fn eval_lanes_n<const N: usize>(&self, px0: u32, py: u32, out: &mut Lanes) {
+        const { assert!(N <= LANES) };
+        let sp = self;
+        let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
+        let j = (py as i32 - sp.ref_px[1]) as f32;
+        let ii: [f32; N] = std::array::from_fn(|l| i0 + l as f32);
+        let mut zf = [sp.zeta_near; N];
+        let mut zb = [f32::INFINITY; N];
+        for (k, p) in sp.planes[..sp.n_planes].iter().enumerate() {
+            let (nr, dr) = (p.num.row(j), p.den.row(j));
+            if k < sp.n_front {
+                for l in 0..N {
+                    let den = dr + p.den.dx * ii[l];
+                    let z = (nr + p.num.dx * ii[l]) / den;
+                    zf[l] = if den < 0.0 && z > zf[l] { z } else { zf[l] };
+                }
+            } else {
+                for l in 0..N {
+                    let den = dr + p.den.dx * ii[l];
+                    let z = (nr + p.num.dx * ii[l]) / den;
+                    zb[l] = if den > 0.0 && z < zb[l] { z } else { zb[l] };
+                }
+            }
+        }
+        let mut dlen = [1.0f32; N];
+        if sp.perspective {
+            let cy = sp.cy.row(j);
+            for l in 0..N {
+                let cx = sp.cx.c + sp.cx.dx * ii[l];
+                dlen[l] = (1.0 + cx * cx + cy * cy).sqrt();
+            }
+        }
+        let clamp = |v: f32, r: [f32; 2]| {
+            // NaN fails both comparisons and lands on r[0].
+            let v = if v < r[1] { v } else { r[1] };
+            if v > r[0] {
+                v
+            } else {
+                r[0]
+            }
+        };
+        let (s0r, sbr) = (sp.s0.row(j), sp.sb.row(j));
+        for l in 0..N {
+            let len = (zb[l] - zf[l]) * dlen[l];
+            let ok = len > 0.0 && len < f32::INFINITY;
+            out.len_world[l] = if ok { len.min(sp.len_max) } else { 0.0 };
+            let (s0, sb) = (s0r + sp.s0.dx * ii[l], sbr + sp.sb.dx * ii[l]);
+            out.s_front[l] = clamp(s0 + zf[l] * sb, sp.s_range);
+            out.s_back[l] = clamp(s0 + zb[l] * sb, sp.s_range);
+            out.zeta_mid[l] = if ok { 0.5 * (zf[l] + zb[l]) } else { 0.0 };
+        }
+        if sp.has_g {
+            let (g0r, gbr) = (sp.g0.row(j), sp.gb.row(j));
+            for l in 0..N {
+                let (g0, gb) = (g0r + sp.g0.dx * ii[l], gbr + sp.gb.dx * ii[l]);
+                out.g_front[l] = clamp(g0 + zf[l] * gb, sp.g_range);
+                out.g_back[l] = clamp(g0 + zb[l] * gb, sp.g_range);
+            }
+        } else {
+            out.g_front[..N].fill(0.0);
+            out.g_back[..N].fill(0.0);
+        }
+    }
+
+    /// The segments of `LANES` arbitrary pixels of the tet, given as offsets
+    /// (`i`, `j`) from its reference pixel: the values
+    /// [`SpanEval::eval_lanes_n`] gives those pixels (each lane computed by
+    /// the same operations, a row's terms per lane), for a tet's covered
+    /// pixels gathered across its rows so that every lane is used.
+    #[inline]
+    pub(crate) fn eval_pixels(&self, i: &[f32; LANES], j: &[f32; LANES], out: &mut Lanes) {
+        let sp = self;
+        let mut zf = [sp.zeta_near; LANES];
+        let mut zb = [f32::INFINITY; LANES];
+        for (k, p) in sp.planes[..sp.n_planes].iter().enumerate() {
+            if k < sp.n_front {
+                for l in 0..LANES {
+                    let den = p.den.row(j[l]) + p.den.dx * i[l];
+                    let z = (p.num.row(j[l]) + p.num.dx * i[l]) / den;
+                    // `&` on the comparisons, not `&&`: no branch, so the lanes vectorize.
+                    zf[l] = if (den < 0.0) & (z > zf[l]) { z } else { zf[l] };
+                }
+            } else {
+                for l in 0..LANES {
+                    let den = p.den.row(j[l]) + p.den.dx * i[l];
+                    let z = (p.num.row(j[l]) + p.num.dx * i[l]) / den;
+                    zb[l] = if (den > 0.0) & (z < zb[l]) { z } else { zb[l] };
+                }
+            }
+        }
+        let mut dlen = [1.0f32; LANES];
+        if sp.perspective {
+            for l in 0..LANES {
+                let (cx, cy) = (sp.cx.c + sp.cx.dx * i[l], sp.cy.row(j[l]));
+                dlen[l] = (1.0 + cx * cx + cy * cy).sqrt();
+            }
+        }
+        let clamp = |v: f32, r: [f32; 2]| {
+            let v = if v < r[1] { v } else { r[1] };
+            if v > r[0] {
+                v
+            } else {
+                r[0]
+            }
+        };
+        for l in 0..LANES {
+            let len = (zb[l] - zf[l]) * dlen[l];
+            let ok = (len > 0.0) & (len < f32::INFINITY);
+            out.len_world[l] = if ok { len.min(sp.len_max) } else { 0.0 };
+            let (s0, sb) = (sp.s0.row(j[l]) + sp.s0.dx * i[l], sp.sb.row(j[l]) + sp.sb.dx * i[l]);
+            out.s_front[l] = clamp(s0 + zf[l] * sb, sp.s_range);
+            out.s_back[l] = clamp(s0 + zb[l] * sb, sp.s_range);
+            out.zeta_mid[l] = if ok { 0.5 * (zf[l] + zb[l]) } else { 0.0 };
+        }
+        if sp.has_g {
+            for l in 0..LANES {
+                let (g0, gb) = (sp.g0.row(j[l]) + sp.g0.dx * i[l], sp.gb.row(j[l]) + sp.gb.dx * i[l]);
+                out.g_front[l] = clamp(g0 + zf[l] * gb, sp.g_range);
+                out.g_back[l] = clamp(g0 + zb[l] * gb, sp.g_range);
+            }
+        } else {
+            out.g_front.fill(0.0);
+            out.g_back.fill(0.0);
+        }
     }
 
     /// Planes and fields from the tet's camera-space vertices `x`, vertex
@@ -768,6 +902,92 @@ fn screen_points(view: &ViewGeometry, tet: &[u32; 4], pts: &mut [[f64; 2]; 6], k
         }
     }
     n
+}
+
+/// [`TetSetup::row_span`] over the silhouette edges `edges`.
+#[inline]
+fn row_span_of(edges: &[Edge], py: u32, x_lo: u32, x_hi: u32) -> Option<(u32, u32)> {
+    let y = py as f64 + 0.5;
+    let (mut lo, mut hi) = (x_lo as i64, x_hi as i64);
+    for e in edges {
+        if lo > hi {
+            return None;
+        }
+        let at = |i: i64| e.inside(i as f64 + 0.5, y);
+        let slope = e.slope;
+        if slope == 0.0 {
+            if !at(lo) {
+                return None;
+            }
+            continue;
+        }
+        // The crossing's x, off by far less than a pixel: the exact tests
+        // below usually just confirm the pixel next to it (a NaN or huge
+        // crossing saturates, is clamped, and costs a longer walk).
+        let run = e.x_per_y * (y - e.ay);
+        let x_cross = e.ax + run - 0.5;
+        // Fast path: pixel i's test decides i + ½ against the edge's
+        // crossing, so when x_cross is farther from an integer than the
+        // rounding of x_cross and of the test itself (each a few ulps of
+        // `scale`; the margin is ~300× that), ⌈x_cross⌉ / ⌊x_cross⌋ is
+        // exactly the boundary the tests below would settle on.
+        let scale = e.ax.abs() + run.abs() + 1.0;
+        if scale < 1e12 {
+            let fl = floor_below_2_51(x_cross);
+            let frac = x_cross - fl;
+            if frac > 1e-12 * scale && frac < 1.0 - 1e-12 * scale {
+                // frac > 0: ⌈x_cross⌉ = ⌊x_cross⌋ + 1.
+                let f = fl as i64;
+                if slope < 0.0 {
+                    lo = lo.max((f + 1).min(hi + 1));
+                } else {
+                    hi = hi.min(f.max(lo - 1));
+                }
+                continue;
+            }
+        }
+        if slope < 0.0 {
+            // Inside for x ≥ boundary: the first inside pixel ≥ lo.
+            let mut i = ceil_i64(x_cross).clamp(lo, hi + 1);
+            if i <= hi && at(i) {
+                while i > lo && at(i - 1) {
+                    i -= 1;
+                }
+            } else {
+                while i <= hi && !at(i) {
+                    i += 1;
+                }
+            }
+            lo = i;
+        } else {
+            // Inside for x ≤ boundary: the last inside pixel ≤ hi.
+            let mut i = floor_i64(x_cross).clamp(lo - 1, hi);
+            if i >= lo && at(i) {
+                while i < hi && at(i + 1) {
+                    i += 1;
+                }
+            } else {
+                while i >= lo && !at(i) {
+                    i -= 1;
+                }
+            }
+            hi = i;
+        }
+    }
+    (lo <= hi).then_some((lo as u32, hi as u32))
+}
+
+/// ⌊v⌋ for |v| < 2⁵¹, exactly, without a libm call or an integer round
+/// trip: adding 1.5·2⁵² rounds v to an integer in the mantissa.
+#[inline(always)]
+fn floor_below_2_51(v: f64) -> f64 {
+    const M: f64 = 6_755_399_441_055_744.0;
+    let r = (v + M) - M;
+    if r > v {
+        r - 1.0
+    } else {
+        r
+    }
 }
 
 /// ⌈v⌉ for |v| ≤ 1e15 (beyond: ±1e15; NaN → 0), without a libm call on
@@ -1019,68 +1239,7 @@ impl TetSetup {
     /// boundary is estimated from the edge's crossing and then settled with
     /// the exact test.
     pub fn row_span(&self, py: u32, x_lo: u32, x_hi: u32) -> Option<(u32, u32)> {
-        let y = py as f64 + 0.5;
-        let (mut lo, mut hi) = (x_lo as i64, x_hi as i64);
-        for e in &self.edges[..self.n_hull] {
-            if lo > hi {
-                return None;
-            }
-            let at = |i: i64| e.inside(i as f64 + 0.5, y);
-            let slope = e.sign * e.dy; // the edge function changes by −slope per unit x
-            if slope == 0.0 {
-                if !at(lo) {
-                    return None;
-                }
-                continue;
-            }
-            // The crossing's x, off by far less than a pixel: the exact tests
-            // below usually just confirm the pixel next to it (a NaN or huge
-            // crossing saturates, is clamped, and costs a longer walk).
-            let x_cross = e.ax + e.x_per_y * (y - e.ay) - 0.5;
-            // Fast path: pixel i's test decides i + ½ against the edge's
-            // crossing, so when x_cross is farther from an integer than the
-            // rounding of x_cross and of the test itself (each a few ulps of
-            // `scale`; the margin is ~300× that), ⌈x_cross⌉ / ⌊x_cross⌋ is
-            // exactly the boundary the tests below would settle on.
-            let scale = e.ax.abs() + (e.x_per_y * (y - e.ay)).abs() + 1.0;
-            let frac = x_cross - floor_i64(x_cross) as f64;
-            if scale < 1e12 && frac > 1e-12 * scale && frac < 1.0 - 1e-12 * scale {
-                if slope < 0.0 {
-                    lo = lo.max(ceil_i64(x_cross).min(hi + 1));
-                } else {
-                    hi = hi.min(floor_i64(x_cross).max(lo - 1));
-                }
-                continue;
-            }
-            if slope < 0.0 {
-                // Inside for x ≥ boundary: the first inside pixel ≥ lo.
-                let mut i = ceil_i64(x_cross).clamp(lo, hi + 1);
-                if i <= hi && at(i) {
-                    while i > lo && at(i - 1) {
-                        i -= 1;
-                    }
-                } else {
-                    while i <= hi && !at(i) {
-                        i += 1;
-                    }
-                }
-                lo = i;
-            } else {
-                // Inside for x ≤ boundary: the last inside pixel ≤ hi.
-                let mut i = floor_i64(x_cross).clamp(lo - 1, hi);
-                if i >= lo && at(i) {
-                    while i < hi && at(i + 1) {
-                        i += 1;
-                    }
-                } else {
-                    while i >= lo && !at(i) {
-                        i -= 1;
-                    }
-                }
-                hi = i;
-            }
-        }
-        (lo <= hi).then_some((lo as u32, hi as u32))
+        row_span_of(&self.edges[..self.n_hull], py, x_lo, x_hi)
     }
 
     /// Segments for the `LANES` pixels `(px0 + l, py)`, l = 0..LANES, in f32
@@ -1092,74 +1251,11 @@ impl TetSetup {
         self.eval_lanes_n::<LANES>(px0, py, out);
     }
 
-    /// [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only (the
-    /// rest of `out` is left as it was): small tets' row spans are a few
-    /// pixels, and each lane costs a division per face plane. Every lane is
-    /// computed by the same operations whatever `N`, so the values are
-    /// bit-identical to the full width's.
+    /// [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only: see
+    /// [`SpanEval::eval_lanes_n`].
     #[inline]
     pub fn eval_lanes_n<const N: usize>(&self, px0: u32, py: u32, out: &mut Lanes) {
-        const { assert!(N <= LANES) };
-        let sp = &self.span;
-        let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
-        let j = (py as i32 - sp.ref_px[1]) as f32;
-        let ii: [f32; N] = std::array::from_fn(|l| i0 + l as f32);
-        let mut zf = [sp.zeta_near; N];
-        let mut zb = [f32::INFINITY; N];
-        for (k, p) in sp.planes[..sp.n_planes].iter().enumerate() {
-            let (nr, dr) = (p.num.row(j), p.den.row(j));
-            if k < sp.n_front {
-                for l in 0..N {
-                    let den = dr + p.den.dx * ii[l];
-                    let z = (nr + p.num.dx * ii[l]) / den;
-                    zf[l] = if den < 0.0 && z > zf[l] { z } else { zf[l] };
-                }
-            } else {
-                for l in 0..N {
-                    let den = dr + p.den.dx * ii[l];
-                    let z = (nr + p.num.dx * ii[l]) / den;
-                    zb[l] = if den > 0.0 && z < zb[l] { z } else { zb[l] };
-                }
-            }
-        }
-        let mut dlen = [1.0f32; N];
-        if sp.perspective {
-            let cy = sp.cy.row(j);
-            for l in 0..N {
-                let cx = sp.cx.c + sp.cx.dx * ii[l];
-                dlen[l] = (1.0 + cx * cx + cy * cy).sqrt();
-            }
-        }
-        let clamp = |v: f32, r: [f32; 2]| {
-            // NaN fails both comparisons and lands on r[0].
-            let v = if v < r[1] { v } else { r[1] };
-            if v > r[0] {
-                v
-            } else {
-                r[0]
-            }
-        };
-        let (s0r, sbr) = (sp.s0.row(j), sp.sb.row(j));
-        for l in 0..N {
-            let len = (zb[l] - zf[l]) * dlen[l];
-            let ok = len > 0.0 && len < f32::INFINITY;
-            out.len_world[l] = if ok { len.min(sp.len_max) } else { 0.0 };
-            let (s0, sb) = (s0r + sp.s0.dx * ii[l], sbr + sp.sb.dx * ii[l]);
-            out.s_front[l] = clamp(s0 + zf[l] * sb, sp.s_range);
-            out.s_back[l] = clamp(s0 + zb[l] * sb, sp.s_range);
-            out.zeta_mid[l] = if ok { 0.5 * (zf[l] + zb[l]) } else { 0.0 };
-        }
-        if sp.has_g {
-            let (g0r, gbr) = (sp.g0.row(j), sp.gb.row(j));
-            for l in 0..N {
-                let (g0, gb) = (g0r + sp.g0.dx * ii[l], gbr + sp.gb.dx * ii[l]);
-                out.g_front[l] = clamp(g0 + zf[l] * gb, sp.g_range);
-                out.g_back[l] = clamp(g0 + zb[l] * gb, sp.g_range);
-            }
-        } else {
-            out.g_front[..N].fill(0.0);
-            out.g_back[..N].fill(0.0);
-        }
+        self.span.eval_lanes_n::<N>(px0, py, out);
     }
 
     /// The `pt-linear` tent weights for the `LANES` pixels `(px0 + l, py)`
@@ -1267,6 +1363,146 @@ impl TetSetup {
         }
         lam.clamp(0.0, 1.0)
     }
+}
+
+/// Which pixels of its bounding box a prepared tet covers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Cover {
+    /// Bounding box at most [`MASK_SIDE`] pixels wide and high: bit
+    /// `8·j + i` is pixel (bbox x0 + i, bbox y0 + j).
+    Mask(u64),
+    /// Larger: one inclusive pixel range per row of the bounding box, from
+    /// this index on in the rows list (`[1, 0]` for an empty row).
+    Rows(u32),
+}
+
+/// Side of the bounding boxes whose coverage is a [`Cover::Mask`].
+pub(crate) const MASK_SIDE: i32 = 8;
+
+/// What [`prepare_span`] made of a tet.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Prepared {
+    /// Covers no pixel (what [`TetSetup::build`] returns `false` for).
+    Nothing,
+    /// Crosses the near plane: only [`TetSetup::build`] clips.
+    Clipped,
+    /// `span` holds the tet's planes and fields; `cover` its pixels.
+    Span { bbox: [i32; 4], cover: Cover },
+}
+
+/// The per-fragment (span) setup of one unclipped tet, once per tet rather
+/// than once per tile it touches: the same silhouette, bounding box, edge
+/// tests and [`SpanEval`] as [`TetSetup::build`] with `want_span`, so the
+/// rasterizer's fast path draws the same fragments with the same values.
+/// The row spans over the whole bounding box are computed here, where the
+/// edges are at hand ([`row_span_of`] on a sub-range of a row gives that
+/// sub-range of the full span).
+pub(crate) fn prepare_span(inp: &SetupInputs, t: usize, span: &mut SpanEval, rows: &mut Vec<[u16; 2]>) -> Prepared {
+    let scene = inp.scene;
+    let view = inp.view;
+    let frame = &view.frame;
+    let tet = &scene.tets()[t];
+    if !frame.parallel && tet.iter().any(|&v| view.cam[v as usize][2] < frame.near_depth) {
+        return Prepared::Clipped;
+    }
+    let p4 = tet.map(|v| view.px[v as usize]);
+    let class = classify_projection(&p4);
+    let (sil, ns) = class.silhouette();
+    if ns < 3 {
+        return Prepared::Nothing;
+    }
+    let mut hull = [[0.0; 2]; 4];
+    let mut hull_keys = [0u64; 4];
+    for k in 0..ns {
+        hull[k] = p4[sil[k]];
+        hull_keys[k] = vertex_key(tet[sil[k]]);
+    }
+    let area: f64 = (0..ns)
+        .map(|k| {
+            let (u, v) = (hull[k], hull[(k + 1) % ns]);
+            u[0] * v[1] - u[1] * v[0]
+        })
+        .sum();
+    if area < 0.0 {
+        hull[..ns].reverse();
+        hull_keys[..ns].reverse();
+    }
+    let Some(bbox) = bbox_of(&hull[..ns], frame.width, frame.height) else { return Prepared::Nothing };
+    let x = tet.map(|v| DVec3::from(view.cam[v as usize]));
+    let (e1, e2, e3) = (x[1] - x[0], x[2] - x[0], x[3] - x[0]);
+    let det = e1.dot(e2.cross(e3));
+    if det == 0.0 || !det.is_finite() {
+        return Prepared::Nothing;
+    }
+    let sv = tet.map(|v| scene.scalar()[v as usize]);
+    let range = |f: &[f64; 4]| {
+        [f.iter().copied().fold(f64::INFINITY, f64::min), f.iter().copied().fold(f64::NEG_INFINITY, f64::max)]
+    };
+    let g_vals = match (inp.want_grad_mag, scene.gradient_magnitudes()) {
+        (true, Some(gm)) => Some(tet.map(|v| gm[v as usize])),
+        _ => None,
+    };
+    let g_range = g_vals.as_ref().map_or([0.0, 0.0], range);
+    let mut len_max: f64 = 0.0;
+    for i in 0..4 {
+        for j in i + 1..4 {
+            len_max = len_max.max((x[i] - x[j]).length_squared());
+        }
+    }
+    *span = SpanEval::new(frame, bbox);
+    let ranges = (range(&sv), g_range, len_max.sqrt());
+    if !span.set_segments(frame, &x, &sv, g_vals.as_ref(), view.face_mask[t], None, ranges) {
+        return Prepared::Nothing;
+    }
+    let mut edges = [Edge::default(); 4];
+    for k in 0..ns {
+        let j = (k + 1) % ns;
+        edges[k] = Edge::new(hull[k], hull_keys[k], hull[j], hull_keys[j]);
+    }
+    let (w, h) = (bbox[2] - bbox[0] + 1, bbox[3] - bbox[1] + 1);
+    if w <= MASK_SIDE && h <= MASK_SIDE {
+        return Prepared::Span { bbox, cover: Cover::Mask(cover_mask(&edges[..ns], bbox)) };
+    }
+    let first = rows.len() as u32;
+    for py in bbox[1]..=bbox[3] {
+        let r = row_span_of(&edges[..ns], py as u32, bbox[0] as u32, bbox[2] as u32);
+        rows.push(r.map_or([1, 0], |(a, b)| [a as u16, b as u16]));
+    }
+    Prepared::Span { bbox, cover: Cover::Rows(first) }
+}
+
+/// The pixel centres of a bounding box at most [`MASK_SIDE`] square that
+/// every edge accepts, as a [`Cover::Mask`]: [`Edge::inside`] for each,
+/// with its row term `dx·(y − ay)` and column term `dy·(x − ax)` computed
+/// once per row and column (the same operations, so the same decisions),
+/// eight columns at a time.
+fn cover_mask(edges: &[Edge], bbox: [i32; 4]) -> u64 {
+    const S: usize = MASK_SIDE as usize;
+    let (w, h) = ((bbox[2] - bbox[0] + 1) as usize, (bbox[3] - bbox[1] + 1) as usize);
+    let cols: u64 = (1u64 << w) - 1;
+    let mut mask = 0u64;
+    for j in 0..h {
+        mask |= cols << (S * j);
+    }
+    for e in edges {
+        let mut col = [0.0f64; S];
+        for (i, c) in col.iter_mut().enumerate() {
+            *c = e.dy * ((bbox[0] + i as i32) as f64 + 0.5 - e.ax);
+        }
+        let mut m = 0u64;
+        for j in 0..h {
+            let row = e.dx * ((bbox[1] + j as i32) as f64 + 0.5 - e.ay);
+            let mut bits = 0u64;
+            for (i, &c) in col.iter().enumerate() {
+                let v = e.sign * (row - c);
+                let inside = (v > 0.0) | ((v == 0.0) & e.tie);
+                bits |= (inside as u64) << i;
+            }
+            m |= bits << (S * j);
+        }
+        mask &= m;
+    }
+    mask
 }
 
 #[cfg(test)]

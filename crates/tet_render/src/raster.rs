@@ -16,12 +16,15 @@
 //! batches through [`SegmentShader::shade_span`] before compositing.
 
 use crate::image::Image;
-use crate::project::{tet_bbox, Fragment, Lanes, SetupInputs, TetSetup, ViewGeometry, LANES};
+use crate::project::{
+    prepare_span, tet_bbox, Cover, Fragment, Lanes, Prepared, SetupInputs, SpanEval, TetSetup, ViewGeometry, LANES,
+    MASK_SIDE,
+};
 use crate::scene::Scene;
 use crate::shading::Shading;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use tet_preint::{Method, Rgba32, Segment, SegmentShader};
+use tet_preint::{Method, Rgba32, Segment, SegmentBatch, SegmentShader, BATCH};
 
 /// Rasterizer settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -32,11 +35,17 @@ pub struct RasterOptions {
     /// (what it misses is at most 1 − opaque_alpha of the remaining colour).
     pub opaque_alpha: f32,
     pub shading: Shading,
+    /// Per-fragment methods without lighting: set each tet up once (not
+    /// once per tile it touches), in chunks of the order, and draw it from
+    /// that record ([`crate::project::prepare_span`]). The images are
+    /// bit-identical to the per-tile path's (`false`), which remains for
+    /// tests and comparisons.
+    pub fast_path: bool,
 }
 
 impl Default for RasterOptions {
     fn default() -> Self {
-        RasterOptions { tile: 32, opaque_alpha: 0.9999, shading: Shading::default() }
+        RasterOptions { tile: 32, opaque_alpha: 0.9999, shading: Shading::default(), fast_path: true }
     }
 }
 
@@ -65,6 +74,9 @@ pub fn rasterize(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Image, RasterStats) {
     let frame = &view.frame;
+    if opts.fast_path && !opts.shading.is_active() && shader.method() != Method::PtLinear && frame.width <= 1 << 15 {
+        return rasterize_chunked(scene, view, order, shader, opts, progress);
+    }
     let (w, h) = (frame.width, frame.height);
     let tile = opts.tile.clamp(4, 1024);
     let (tx, ty) = (w.div_ceil(tile) as usize, h.div_ceil(tile) as usize);
@@ -114,15 +126,7 @@ pub fn rasterize(
                 let (i, j) = ((ti % tx) as u32, (ti / tx) as u32);
                 [i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1]
             };
-            let mut ctx = TileCtx {
-                rect,
-                stride: (rect[2] - rect[0] + 1) as usize,
-                acc: vec![[0.0f32; 4]; ((rect[2] - rect[0] + 1) * (rect[3] - rect[1] + 1)) as usize],
-                opaque: 0,
-                fragments: 0,
-                setups: 0,
-                batch: Batch::new(),
-            };
+            let mut ctx = TileCtx::new(rect);
             let all = ctx.acc.len();
             let mut setup = TetSetup::default();
             'tets: for chunk in &bins {
@@ -137,6 +141,7 @@ pub fn rasterize(
                     }
                 }
             }
+            ctx.flush_frags(shader, opts.opaque_alpha);
             fragments.fetch_add(ctx.fragments, Ordering::Relaxed);
             setups.fetch_add(ctx.setups, Ordering::Relaxed);
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, n_tiles);
@@ -165,6 +170,257 @@ pub fn rasterize(
     (img, stats)
 }
 
+/// Tets per chunk of the order in [`rasterize_chunked`]: their records
+/// (~250 bytes each) stay in the last-level cache between setup and raster.
+const CHUNK: usize = 16 * 1024;
+
+/// One tet of a chunk, set up once for every tile it touches.
+enum Rec {
+    /// Planes and fields, and the covered pixels.
+    Span { span: SpanEval, bbox: [i32; 4], cover: Cover },
+    /// Crosses the near plane: set up per tile by [`TetSetup::build`].
+    Clipped(u32),
+}
+
+/// A contiguous part of a chunk, set up by one worker: records in order,
+/// row spans, and per tile the records that touch it (in order).
+struct Part {
+    recs: Vec<Rec>,
+    rows: Vec<[u16; 2]>,
+    bins: Vec<Vec<u32>>,
+}
+
+impl Part {
+    fn new(n_tiles: usize) -> Part {
+        Part { recs: Vec::new(), rows: Vec::new(), bins: vec![Vec::new(); n_tiles] }
+    }
+
+    /// Sets up `tets` and bins them into `tile`-pixel tiles (`tx` per row).
+    fn prepare(&mut self, inputs: &SetupInputs, tets: &[u32], tile: u32, tx: usize) {
+        self.recs.clear();
+        self.rows.clear();
+        for b in &mut self.bins {
+            b.clear();
+        }
+        let mut span = SpanEval::default();
+        for &t in tets {
+            let (rec, bbox) = match prepare_span(inputs, t as usize, &mut span, &mut self.rows) {
+                Prepared::Nothing => continue,
+                Prepared::Span { bbox, cover } => (Rec::Span { span, bbox, cover }, Some(bbox)),
+                Prepared::Clipped => (Rec::Clipped(t), tet_bbox(inputs.view, &inputs.scene.tets()[t as usize])),
+            };
+            let Some([x0, y0, x1, y1]) = bbox else { continue };
+            let r = self.recs.len() as u32;
+            self.recs.push(rec);
+            for j in y0 as u32 / tile..=y1 as u32 / tile {
+                for i in x0 as u32 / tile..=x1 as u32 / tile {
+                    self.bins[j as usize * tx + i as usize].push(r);
+                }
+            }
+        }
+    }
+}
+
+/// [`rasterize`]'s fast path: the order in chunks; each chunk's tets set up
+/// once ([`prepare_span`]) and binned by parallel parts, then its tiles
+/// composited in parallel into accumulators that persist across chunks.
+/// Same fragments, values and per-pixel order as the per-tile path.
+fn rasterize_chunked(
+    scene: &Scene,
+    view: &ViewGeometry,
+    order: &[u32],
+    shader: &dyn SegmentShader,
+    opts: &RasterOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> (Image, RasterStats) {
+    let frame = &view.frame;
+    let (w, h) = (frame.width, frame.height);
+    let tile = opts.tile.clamp(4, 1024);
+    let (tx, ty) = (w.div_ceil(tile) as usize, h.div_ceil(tile) as usize);
+    let n_tiles = tx * ty;
+    let inputs = SetupInputs {
+        scene,
+        view,
+        want_grad_mag: shader.method().is_bivariate(),
+        want_normals: false,
+        want_thick: false,
+        want_span: true,
+    };
+    let mut tiles: Vec<TileCtx> = (0..n_tiles)
+        .map(|ti| {
+            let (i, j) = ((ti % tx) as u32, (ti / tx) as u32);
+            TileCtx::new([i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1])
+        })
+        .collect();
+    let mut parts: Vec<Part> = (0..rayon::current_num_threads() * 2).map(|_| Part::new(n_tiles)).collect();
+    let (mut bin_seconds, mut raster_seconds, mut prepared) = (0.0, 0.0, 0u64);
+    let n_chunks = order.len().div_ceil(CHUNK);
+    for (c, chunk) in order.chunks(CHUNK).enumerate() {
+        let t0 = std::time::Instant::now();
+        let part_len = chunk.len().div_ceil(parts.len()).max(1);
+        parts.par_iter_mut().enumerate().for_each(|(k, part)| {
+            let lo = (k * part_len).min(chunk.len());
+            let hi = ((k + 1) * part_len).min(chunk.len());
+            part.prepare(&inputs, &chunk[lo..hi], tile, tx);
+        });
+        prepared += parts.iter().map(|p| p.recs.len() as u64).sum::<u64>();
+        let t1 = std::time::Instant::now();
+        bin_seconds += (t1 - t0).as_secs_f64();
+        let parts = &parts;
+        tiles.par_iter_mut().enumerate().for_each(|(ti, ctx)| {
+            if ctx.done {
+                return;
+            }
+            let all = ctx.acc.len();
+            let mut setup: Option<Box<TetSetup>> = None;
+            for part in parts {
+                for &r in &part.bins[ti] {
+                    if ctx.opaque == all {
+                        ctx.done = true;
+                        return;
+                    }
+                    match &part.recs[r as usize] {
+                        Rec::Span { span, bbox, cover } => {
+                            draw_span(ctx, span, *bbox, *cover, &part.rows, shader, opts.opaque_alpha)
+                        }
+                        Rec::Clipped(t) => {
+                            ctx.setups += 1;
+                            let s = setup.get_or_insert_with(Default::default);
+                            if s.build(&inputs, *t as usize) {
+                                draw_tet(ctx, s, view, shader, opts, false);
+                            }
+                        }
+                    }
+                }
+            }
+        });
+        raster_seconds += t1.elapsed().as_secs_f64();
+        progress(c + 1, n_chunks);
+    }
+
+    tiles.par_iter_mut().for_each(|ctx| ctx.flush_frags(shader, opts.opaque_alpha));
+    let mut img = Image::new(w, h);
+    let px = img.pixels_mut();
+    let (mut fragments, mut setups, mut terminated) = (0, prepared, 0);
+    for ctx in &tiles {
+        let [x0, y0, x1, _] = ctx.rect;
+        let tw = (x1 - x0 + 1) as usize;
+        for (r, row) in ctx.acc.chunks_exact(tw).enumerate() {
+            let start = (y0 as usize + r) * w as usize + x0 as usize;
+            px[start..start + tw].copy_from_slice(row);
+        }
+        fragments += ctx.fragments;
+        setups += ctx.setups;
+        terminated += ctx.done as usize;
+    }
+    (img, RasterStats { fragments, setups, tiles_terminated: terminated, bin_seconds, raster_seconds })
+}
+
+/// Draws one prepared tet into the tile: its covered pixels in the tile,
+/// gathered across rows and evaluated `LANES` at a time (small tets cover
+/// a few pixels per row), then queued for shading (what [`draw_tet`] does
+/// for an unlit per-fragment method, from the record).
+fn draw_span(
+    ctx: &mut TileCtx,
+    sp: &SpanEval,
+    bbox: [i32; 4],
+    cover: Cover,
+    rows: &[[u16; 2]],
+    shader: &dyn SegmentShader,
+    opaque_alpha: f32,
+) {
+    let [rx0, ry0, rx1, ry1] = ctx.rect;
+    let (ref_x, ref_y) = (sp.ref_px[0], sp.ref_px[1]);
+    let mut q = PixelQueue::default();
+    match cover {
+        Cover::Mask(mut m) => {
+            // Keep the bits inside the tile (rows and columns of the bbox).
+            let s = MASK_SIDE as u32;
+            let (bx, by) = (bbox[0] as u32, bbox[1] as u32);
+            let i_lo = rx0.saturating_sub(bx).min(s);
+            let i_hi = (rx1 + 1).saturating_sub(bx).min(s);
+            let j_lo = ry0.saturating_sub(by).min(s);
+            let j_hi = (ry1 + 1).saturating_sub(by).min(s);
+            if i_lo >= i_hi || j_lo >= j_hi {
+                return;
+            }
+            let cols = ((1u64 << (i_hi - i_lo)) - 1) << i_lo;
+            let mut keep = 0u64;
+            for j in j_lo..j_hi {
+                keep |= cols << (s * j);
+            }
+            m &= keep;
+            while m != 0 {
+                let b = m.trailing_zeros();
+                m &= m - 1;
+                let (px, py) = (bx + b % s, by + b / s);
+                let pix = (py - ry0) as usize * ctx.stride + (px - rx0) as usize;
+                q.push((px as i32 - ref_x) as f32, (py as i32 - ref_y) as f32, pix as u32);
+                if q.n == LANES {
+                    q.flush(ctx, sp, shader, opaque_alpha);
+                }
+            }
+        }
+        Cover::Rows(first) => {
+            let y0 = (bbox[1] as u32).max(ry0);
+            let y1 = (bbox[3] as u32).min(ry1);
+            for py in y0..=y1 {
+                let [a, b] = rows[first as usize + (py - bbox[1] as u32) as usize];
+                let (xa, xb) = ((a as u32).max(rx0), (b as u32).min(rx1));
+                if xa > xb || a > b {
+                    continue;
+                }
+                let row = (py - ry0) as usize * ctx.stride;
+                let j = (py as i32 - ref_y) as f32;
+                for px in xa..=xb {
+                    q.push((px as i32 - ref_x) as f32, j, (row + (px - rx0) as usize) as u32);
+                    if q.n == LANES {
+                        q.flush(ctx, sp, shader, opaque_alpha);
+                    }
+                }
+            }
+        }
+    }
+    if q.n > 0 {
+        q.flush(ctx, sp, shader, opaque_alpha);
+    }
+}
+
+/// Up to `LANES` pixels of one tet waiting for [`SpanEval::eval_pixels`]:
+/// offsets from its reference pixel and index in the tile.
+#[derive(Default)]
+struct PixelQueue {
+    i: [f32; LANES],
+    j: [f32; LANES],
+    pix: [u32; LANES],
+    n: usize,
+}
+
+impl PixelQueue {
+    #[inline(always)]
+    fn push(&mut self, i: f32, j: f32, pix: u32) {
+        self.i[self.n] = i;
+        self.j[self.n] = j;
+        self.pix[self.n] = pix;
+        self.n += 1;
+    }
+
+    fn flush(&mut self, ctx: &mut TileCtx, sp: &SpanEval, shader: &dyn SegmentShader, opaque_alpha: f32) {
+        let mut lanes = Lanes::default();
+        sp.eval_pixels(&self.i, &self.j, &mut lanes);
+        ctx.push_pixels(&lanes, &self.pix, self.n, shader, opaque_alpha);
+        self.n = 0;
+    }
+}
+
+/// Unlit fragments waiting for one [`SegmentShader::shade_batch`] call,
+/// across tets in drawing order, with their pixel (index into the tile).
+struct FragBatch {
+    segs: SegmentBatch,
+    pixel: [u32; BATCH],
+    rgba: [Rgba32; BATCH],
+}
+
 struct TileCtx {
     rect: [u32; 4],
     stride: usize,
@@ -173,31 +429,128 @@ struct TileCtx {
     fragments: u64,
     setups: u64,
     batch: Batch,
+    frags: Box<FragBatch>,
+    /// Every pixel reached `opaque_alpha`: later chunks skip the tile.
+    done: bool,
+}
+
+impl TileCtx {
+    /// An empty tile over the inclusive pixel rectangle `[x0, y0, x1, y1]`.
+    fn new(rect: [u32; 4]) -> TileCtx {
+        TileCtx {
+            rect,
+            stride: (rect[2] - rect[0] + 1) as usize,
+            acc: vec![[0.0f32; 4]; ((rect[2] - rect[0] + 1) * (rect[3] - rect[1] + 1)) as usize],
+            opaque: 0,
+            fragments: 0,
+            setups: 0,
+            batch: Batch::new(),
+            frags: Box::new(FragBatch { segs: SegmentBatch::default(), pixel: [0; BATCH], rgba: [[0.0; 4]; BATCH] }),
+            done: false,
+        }
+    }
+
+    /// Queues the first `n` lanes (pixels `pix[l]` of the tile) that have a
+    /// segment and whose pixel is not yet opaque; shades and composites when
+    /// the batch is full.
+    #[inline]
+    fn push_pixels(
+        &mut self,
+        lanes: &Lanes,
+        pix: &[u32; LANES],
+        n: usize,
+        shader: &dyn SegmentShader,
+        opaque_alpha: f32,
+    ) {
+        for l in 0..n {
+            if lanes.len_world[l] <= 0.0 || self.acc[pix[l] as usize][3] >= opaque_alpha {
+                continue;
+            }
+            let f = &mut *self.frags;
+            let k = f.segs.len;
+            f.segs.s_front[k] = lanes.s_front[l];
+            f.segs.s_back[k] = lanes.s_back[l];
+            f.segs.grad_front[k] = lanes.g_front[l];
+            f.segs.grad_back[k] = lanes.g_back[l];
+            f.segs.len_world[k] = lanes.len_world[l];
+            f.pixel[k] = pix[l];
+            f.segs.len = k + 1;
+            if k + 1 == BATCH {
+                self.flush_frags(shader, opaque_alpha);
+            }
+        }
+    }
+
+    /// Queues the first `n` lanes (pixels `base + l` of the tile) that have
+    /// a segment and whose pixel is not yet opaque; shades and composites
+    /// when the batch is full.
+    #[inline]
+    fn push_lanes(&mut self, lanes: &Lanes, n: usize, base: usize, shader: &dyn SegmentShader, opaque_alpha: f32) {
+        for l in 0..n {
+            if lanes.len_world[l] <= 0.0 || self.acc[base + l][3] >= opaque_alpha {
+                continue;
+            }
+            let f = &mut *self.frags;
+            let k = f.segs.len;
+            f.segs.s_front[k] = lanes.s_front[l];
+            f.segs.s_back[k] = lanes.s_back[l];
+            f.segs.grad_front[k] = lanes.g_front[l];
+            f.segs.grad_back[k] = lanes.g_back[l];
+            f.segs.len_world[k] = lanes.len_world[l];
+            f.pixel[k] = (base + l) as u32;
+            f.segs.len = k + 1;
+            if k + 1 == BATCH {
+                self.flush_frags(shader, opaque_alpha);
+            }
+        }
+    }
+
+    /// Shades the queued fragments and composites them in order. A pixel
+    /// may be queued more than once (several tets'); the queueing test saw
+    /// the pixel before the batch, so opacity is tested again here: the
+    /// same fragments reach `under`, in the same order, as when each is
+    /// composited at once.
+    fn flush_frags(&mut self, shader: &dyn SegmentShader, opaque_alpha: f32) {
+        let f = &mut *self.frags;
+        let n = f.segs.len;
+        if n == 0 {
+            return;
+        }
+        shader.shade_batch(&f.segs, &mut f.rgba);
+        for k in 0..n {
+            let acc = &mut self.acc[f.pixel[k] as usize];
+            if acc[3] < opaque_alpha {
+                under(acc, f.rgba[k], opaque_alpha, &mut self.opaque);
+                self.fragments += 1;
+            }
+        }
+        f.segs.len = 0;
+    }
 }
 
 /// Fragments of one tet waiting to be shaded in one
 /// [`SegmentShader::shade_span`] call and composited.
 struct Batch {
-    segs: [Segment; BATCH],
+    segs: [Segment; LIT_BATCH],
     /// Index into the tile's `acc`.
-    pixel: [u32; BATCH],
+    pixel: [u32; LIT_BATCH],
     /// Pixel position and ζ at the segment midpoint (lighting only).
-    at: [[u32; 2]; BATCH],
-    zeta_mid: [f32; BATCH],
-    rgba: [Rgba32; BATCH],
+    at: [[u32; 2]; LIT_BATCH],
+    zeta_mid: [f32; LIT_BATCH],
+    rgba: [Rgba32; LIT_BATCH],
     n: usize,
 }
 
-const BATCH: usize = 64;
+const LIT_BATCH: usize = 64;
 
 impl Batch {
     fn new() -> Batch {
         Batch {
-            segs: [Segment::default(); BATCH],
-            pixel: [0; BATCH],
-            at: [[0; 2]; BATCH],
-            zeta_mid: [0.0; BATCH],
-            rgba: [[0.0; 4]; BATCH],
+            segs: [Segment::default(); LIT_BATCH],
+            pixel: [0; LIT_BATCH],
+            at: [[0; 2]; LIT_BATCH],
+            zeta_mid: [0.0; LIT_BATCH],
+            rgba: [[0.0; 4]; LIT_BATCH],
             n: 0,
         }
     }
@@ -299,6 +652,9 @@ fn draw_tet(
         None
     };
     let opaque_alpha = opts.opaque_alpha;
+    // Lighting needs the tet's setup per fragment: those go through the
+    // batch, flushed per tet.
+    let lit = opts.shading.is_active();
     let mut lanes = Lanes::default();
     let mut tent = [0.0f32; LANES];
     for py in y0..=y1 {
@@ -325,6 +681,11 @@ fn draw_tet(
                     3..=4 => s.eval_lanes_n::<4>(px0, py, &mut lanes),
                     _ => s.eval_lanes(px0, py, &mut lanes),
                 }
+                if !lit {
+                    ctx.push_lanes(&lanes, n, base, shader, opaque_alpha);
+                    px0 += LANES as u32;
+                    continue;
+                }
                 for l in 0..n {
                     if lanes.len_world[l] <= 0.0 || ctx.acc[base + l][3] >= opaque_alpha {
                         continue;
@@ -341,7 +702,7 @@ fn draw_tet(
                     b.at[b.n] = [px0 + l as u32, py];
                     b.zeta_mid[b.n] = lanes.zeta_mid[l];
                     b.n += 1;
-                    if b.n == BATCH {
+                    if b.n == LIT_BATCH {
                         flush(ctx, s, view, shader, opts);
                     }
                 }

@@ -1,0 +1,81 @@
+//! Renders one bundle with a baked `.tetl` repeatedly and prints each
+//! frame's stages: the loop to run under a profiler (`perf record`,
+//! `valgrind --tool=callgrind` with `RAYON_NUM_THREADS=1`) or to compare
+//! two builds' frame times and CPU time per fragment.
+//!
+//! `cargo run --release -p tet_render --example frame_profile -- B.tetb L.tetl [frames] [WxH] [azimuth] [elevation]`
+//!
+//! The first frame is cold (view, cull, sort); the others reuse the order.
+//! `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
+//! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
+//! frame (linear premultiplied RGBA) for `tetview diff`.
+
+use std::path::Path;
+use std::sync::Arc;
+use tet_bundle::Bundle;
+use tet_preint::{load_shader, LutFile};
+use tet_render::{RasterOptions, Renderer, Scene, TfCuller, ViewSpec};
+
+/// User + system CPU seconds of this process, all threads (Linux; 0 elsewhere).
+fn process_cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 3 {
+        eprintln!("usage: frame_profile BUNDLE LUT [frames] [WxH] [azimuth] [elevation]");
+        std::process::exit(2);
+    }
+    let bundle = Bundle::read(Path::new(&args[1])).expect("bundle reads");
+    let lut_path = Path::new(&args[2]);
+    let lut = LutFile::read(lut_path).expect("lut reads");
+    let tf = lut.transfer_function().expect("lut's transfer function");
+    let shader: Arc<dyn tet_preint::SegmentShader> = load_shader(&lut, lut_path).expect("shader").into();
+    let frames: usize = args.get(3).map_or(3, |s| s.parse().expect("frames"));
+    let size: [u32; 2] = args.get(4).map_or([512, 512], |s| {
+        let (w, h) = s.split_once('x').expect("WxH");
+        [w.parse().expect("width"), h.parse().expect("height")]
+    });
+    let az: f64 = args.get(5).map_or(30.0, |s| s.parse().expect("azimuth"));
+    let el: f64 = args.get(6).map_or(20.0, |s| s.parse().expect("elevation"));
+
+    let scene = Scene::from_bundle(&bundle).expect("scene");
+    let (lo, hi) = scene.bounds();
+    let mut r = Renderer::new(scene);
+    r.set_view(&ViewSpec::framing(lo, hi, size).orbit(az, el, 1.0)).expect("view");
+    r.set_shader(shader);
+    r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
+    let fast_path = std::env::var("TET_GENERAL_PATH").is_err();
+    r.set_raster_options(RasterOptions { fast_path, ..Default::default() });
+    for f in 0..frames.max(1) {
+        let c0 = process_cpu_seconds();
+        let (img, st) = r.render(&|_, _| {}).expect("render");
+        if f + 1 == frames.max(1) {
+            if let Ok(p) = std::env::var("TET_FRAME_NPY") {
+                img.write_npy(Path::new(&p)).expect("npy written");
+            }
+        }
+        let cpu = process_cpu_seconds() - c0;
+        println!(
+            "frame {f}: {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} setups, {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            st.total_seconds,
+            st.view_seconds,
+            st.cull_seconds,
+            st.sort_method,
+            st.sort_seconds,
+            st.project_seconds,
+            st.raster_seconds,
+            st.tets_drawn,
+            st.fragments,
+            st.setups,
+            st.tets_per_second() / 1e6,
+            cpu,
+            cpu * 1e9 / st.fragments.max(1) as f64
+        );
+    }
+}

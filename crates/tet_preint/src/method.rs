@@ -228,13 +228,30 @@ impl SegmentShader for ExactShader {
         let px = SCRATCH.with(|scratch| {
             integrate_segment_with(
                 &self.tf,
-                seg.s_front as f64,
-                seg.s_back as f64,
+                finite_scalar(&self.tf, seg.s_front),
+                finite_scalar(&self.tf, seg.s_back),
                 (seg.len_world as f64).max(0.0),
                 &mut scratch.borrow_mut(),
             )
         });
         [px.color[0] as f32, px.color[1] as f32, px.color[2] as f32, px.alpha as f32]
+    }
+}
+
+/// A segment end's scalar for the integrator: finite values unchanged; NaN
+/// and −∞ at the transfer function's first control point and +∞ at its
+/// last (it is constant beyond them), as a table lookup lands NaN on the
+/// low edge of its domain. Keeps [`SegmentShader::shade`]'s "never NaN".
+fn finite_scalar(tf: &TransferFunction, s: f32) -> f64 {
+    if s.is_finite() {
+        return s as f64;
+    }
+    let first = tf.color_nodes()[0].x.min(tf.opacity_nodes()[0].x);
+    let last = tf.color_nodes()[tf.color_nodes().len() - 1].x.max(tf.opacity_nodes()[tf.opacity_nodes().len() - 1].x);
+    if s == f32::INFINITY {
+        last
+    } else {
+        first
     }
 }
 
@@ -300,5 +317,23 @@ mod tests {
         assert_eq!(zero, [0.0; 4]);
         let pt = PtLinearShader::new(tf).shade(&Segment { len_world: 0.0, ..seg });
         assert_eq!(pt, [0.0; 4]);
+    }
+
+    /// Regression: `ExactShader` returned NaN for a NaN or infinite scalar
+    /// (found by the `shade_batch` property test); it now lands NaN and −∞
+    /// on the first control point and +∞ on the last.
+    #[test]
+    fn exact_shader_is_finite_for_non_finite_scalars() {
+        let tf = TransferFunction::from_json(
+            r#"{"color": [[0, 1, 0, 0], [1, 0, 0, 1]], "opacity": [[0, 1], [1, 4]], "unit_distance": 1}"#,
+        )
+        .unwrap();
+        let sh = ExactShader::new(tf.clone());
+        for (sf, at) in [(f32::NAN, 0.0), (f32::NEG_INFINITY, 0.0), (f32::INFINITY, 1.0)] {
+            let got = sh.shade(&Segment { s_front: sf, s_back: at, len_world: 0.5, ..Default::default() });
+            assert!(got.iter().all(|v| v.is_finite()), "{sf}: {got:?}");
+            let want = sh.shade(&Segment { s_front: at, s_back: at, len_world: 0.5, ..Default::default() });
+            assert_eq!(got, want, "{sf}");
+        }
     }
 }

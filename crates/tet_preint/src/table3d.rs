@@ -43,6 +43,7 @@ use crate::tf::{Emission, TransferFunction};
 use glam::Vec4;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use wide::{f32x8, CmpEq, CmpGt};
 
 /// How the table is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -341,31 +342,32 @@ impl Axis {
         x.max(0.0).min(top)
     }
 
-    /// [`Axis::x_of`] for `W` scalars already clamped to [lo, hi], the same
-    /// values lane by lane; lanes from `m` on are stale and not fixed up.
+    /// [`Axis::x_of`] for eight scalars already clamped to [lo, hi], the
+    /// same values lane by lane; lanes from `m` on are stale and not fixed up.
     #[inline(always)]
-    fn x_of_lanes(&self, s: &[f32; W], m: usize) -> [f32; W] {
-        let nb = self.bucket.len() as i32 - 1;
-        let top = (self.grid.len() - 1) as f32;
-        let mut b = [0i32; W];
+    fn x_of_lanes(&self, s: f32x8, m: usize) -> f32x8 {
+        let nb = f32x8::splat((self.bucket.len() - 1) as f32);
+        let top = f32x8::splat((self.grid.len() - 1) as f32);
+        // (s − lo)·inv ≥ 0, so truncation is the floor (min first: in range).
+        let b = vmin((s - f32x8::splat(self.lo)) * f32x8::splat(self.bucket_inv), nb).fast_trunc_int().to_array();
+        let (mut s0, mut x0, mut inv, mut next) = ([0.0f32; W], [0.0f32; W], [0.0f32; W], [0.0f32; W]);
         for l in 0..W {
-            b[l] = small_floor((s[l] - self.lo) * self.bucket_inv, nb);
+            [s0[l], x0[l], inv[l], next[l]] = self.bucket[b[l] as usize];
         }
-        let (mut x, mut next) = ([0.0f32; W], [0.0f32; W]);
-        for l in 0..W {
-            let [s0, x0, inv, nx] = self.bucket[b[l].max(0) as usize];
-            x[l] = x0 + (s[l] - s0) * inv;
-            next[l] = nx;
-        }
-        for l in 0..m {
-            if s[l] > next[l] {
-                x[l] = self.x_of(s[l]);
+        let x = f32x8::from(x0) + (s - f32x8::from(s0)) * f32x8::from(inv);
+        let mut slow = s.cmp_gt(f32x8::from(next)).move_mask() as u32 & ((1u32 << m) - 1);
+        let x = if slow == 0 {
+            x
+        } else {
+            let (mut xs, ss) = (x.to_array(), s.to_array());
+            while slow != 0 {
+                let l = slow.trailing_zeros() as usize;
+                slow &= slow - 1;
+                xs[l] = self.x_of(ss[l]);
             }
-        }
-        for v in &mut x {
-            *v = at_most(at_least(*v, 0.0), top);
-        }
-        x
+            f32x8::from(xs)
+        };
+        vmin(vmax(x, f32x8::ZERO), top)
     }
 
     /// (scalar, index) knots.
@@ -769,7 +771,7 @@ impl Table3d {
     /// same order, so bit-identical to it.
     #[inline(always)]
     fn gather_f32(&self, d: &[f32], c: &Cell) -> Rgba32 {
-        let Cell { a0, b0, k0, fa, fb, fk } = *c;
+        let Cell { fa, fb, fk, .. } = *c;
         let nl = self.params.n_l;
         // Per corner: entries k0 and k0 + 1, interpolated in l (e0 + fk·(e1 − e0)).
         let lerp = |base: usize| -> Vec4 {
@@ -777,15 +779,24 @@ impl Table3d {
             let (e0, e1) = (Vec4::new(e[0], e[1], e[2], e[3]), Vec4::new(e[4], e[5], e[6], e[7]));
             e0 + (e1 - e0) * fk
         };
-        // Pair (a, b + 1) follows pair (a, b) in its row.
-        let base0 = (self.pair_off[a0].wrapping_add(b0) * nl + k0) * 4;
-        let base1 = (self.pair_off[a0 + 1].wrapping_add(b0) * nl + k0) * 4;
+        let (base0, base1) = self.cell_bases(c);
         let (wa0, wa1, wb0, wb1) = (1.0 - fa, fa, 1.0 - fb, fb);
         let out = lerp(base0) * (wa0 * wb0)
             + lerp(base0 + nl * 4) * (wa0 * wb1)
             + lerp(base1) * (wa1 * wb0)
             + lerp(base1 + nl * 4) * (wa1 * wb1);
         out.to_array()
+    }
+
+    /// Float offsets of entries (a0, b0, k0) and (a0 + 1, b0, k0); pair
+    /// (a, b + 1) follows pair (a, b) in its row, so the other two corners
+    /// are n_l entries further.
+    #[inline(always)]
+    fn cell_bases(&self, c: &Cell) -> (usize, usize) {
+        let nl = self.params.n_l;
+        let base0 = (self.pair_off[c.a0].wrapping_add(c.b0) * nl + c.k0) * 4;
+        let base1 = (self.pair_off[c.a0 + 1].wrapping_add(c.b0) * nl + c.k0) * 4;
+        (base0, base1)
     }
 
     /// Trilinear interpolation of the 8 entries around `c`.
@@ -849,70 +860,50 @@ impl Table3d {
 }
 
 impl Table3d {
-    /// [`Table3d::band_coords`] for `W` lanes (the first `m` valid; the rest
-    /// computed on stale, finite inputs and ignored).
+    /// [`Table3d::band_coords`] for eight lanes (the first `m` valid; the
+    /// rest computed on stale, finite inputs and ignored). NaN inputs are
+    /// replaced first by what `f32::max` makes of them in the scalar path.
     #[inline(always)]
-    fn band_coords_lanes(&self, sf_in: &[f32; W], sb_in: &[f32; W], m: usize) -> ([f32; W], [f32; W]) {
-        let (mut xa, mut xb) = ([0.0f32; W], [0.0f32; W]);
+    fn band_coords_lanes(&self, sf_in: f32x8, sb_in: f32x8, m: usize) -> (f32x8, f32x8) {
         if self.axis.uniform {
-            let top = (self.params.n_s - 1) as f32;
-            let (lo, inv, reach) = (self.domain.s_lo as f32, self.inv_ds, self.band.reach);
-            for l in 0..W {
-                xa[l] = at_most(at_least((sf_in[l] - lo) * inv, 0.0), top);
-                let b = at_most(at_least((sb_in[l] - lo) * inv, 0.0), top);
-                xb[l] = at_most(at_least(b, xa[l] - reach), xa[l] + reach);
-            }
+            let top = f32x8::splat((self.params.n_s - 1) as f32);
+            let lo = f32x8::splat(self.domain.s_lo as f32);
+            let (inv, reach) = (f32x8::splat(self.inv_ds), f32x8::splat(self.band.reach));
+            let (sf, sb) = (no_nan(sf_in, lo), no_nan(sb_in, lo));
+            let xa = vmin(vmax((sf - lo) * inv, f32x8::ZERO), top);
+            let b = vmin(vmax((sb - lo) * inv, f32x8::ZERO), top);
+            (xa, vmin(vmax(b, xa - reach), xa + reach))
         } else {
-            let (lo, hi, ds) = (self.axis.lo, self.axis.hi, self.domain.max_ds as f32);
-            let (mut sf, mut sb) = ([0.0f32; W], [0.0f32; W]);
-            for l in 0..W {
-                sf[l] = at_most(at_least(sf_in[l], lo), hi);
-                let b = at_most(at_least(sb_in[l], lo), hi);
-                sb[l] = at_most(at_least(b, sf[l] - ds), sf[l] + ds);
-            }
-            xa = self.axis.x_of_lanes(&sf, m);
-            xb = self.axis.x_of_lanes(&sb, m);
+            let (lo, hi) = (f32x8::splat(self.axis.lo), f32x8::splat(self.axis.hi));
+            let ds = f32x8::splat(self.domain.max_ds as f32);
+            let sf = vmin(vmax(no_nan(sf_in, lo), lo), hi);
+            let b = vmin(vmax(no_nan(sb_in, lo), lo), hi);
+            let sb = vmin(vmax(b, sf - ds), sf + ds);
+            (self.axis.x_of_lanes(sf, m), self.axis.x_of_lanes(sb, m))
         }
-        (xa, xb)
     }
 }
 
 /// Lanes of [`SegmentShader::shade_batch`]'s lane-wise arithmetic.
 const W: usize = 8;
 
-/// min(⌊x⌋, top) for 0 ≤ x < 2²², top ≥ 0: `(x as i32).min(top)` by float
-/// operations and a bit mask that vectorize (Rust's saturating float → int
-/// cast does not): x + 2²³ rounds x to an integer in the mantissa, one is
-/// taken off where that rounded up.
+/// `v` where it is above `lo`, else `lo`: `maxps`, the scalar path's
+/// `f32::max` for the NaN-free lanes it gets.
 #[inline(always)]
-fn small_floor(x: f32, top: i32) -> i32 {
-    const MAGIC: f32 = 8_388_608.0; // 2²³
-    let t = x + MAGIC;
-    let r = t - MAGIC;
-    let down = if r > x { 1.0 } else { 0.0 };
-    let f = at_most(r - down, top as f32);
-    ((f + MAGIC).to_bits() & 0x007f_ffff) as i32
+fn vmax(v: f32x8, lo: f32x8) -> f32x8 {
+    v.fast_max(lo)
 }
 
-/// `v` when above `lo`, else `lo` (NaN → lo): `f32::max`'s value for every
-/// input here, as one compare-and-select that vectorizes to `maxps`.
+/// `v` where it is below `hi`, else `hi` (`minps`); see [`vmax`].
 #[inline(always)]
-fn at_least(v: f32, lo: f32) -> f32 {
-    if v > lo {
-        v
-    } else {
-        lo
-    }
+fn vmin(v: f32x8, hi: f32x8) -> f32x8 {
+    v.fast_min(hi)
 }
 
-/// `v` when below `hi`, else `hi` (NaN → hi): see [`at_least`].
+/// `v` with NaN lanes replaced by `fill`.
 #[inline(always)]
-fn at_most(v: f32, hi: f32) -> f32 {
-    if v < hi {
-        v
-    } else {
-        hi
-    }
+fn no_nan(v: f32x8, fill: f32x8) -> f32x8 {
+    v.cmp_eq(v).blend(v, fill)
 }
 
 impl SegmentShader for Table3d {
@@ -935,35 +926,35 @@ impl SegmentShader for Table3d {
             }
             return;
         };
-        let (top_s, top_l) = (self.params.n_s as i32 - 2, self.params.n_l as i32 - 2);
-        let xk_max = (self.params.n_l - 1) as f32;
-        // Three passes: locate every cell (lane-wise arithmetic), read one
-        // value of each of its four entry pairs (so the batch's cache misses
-        // are all in flight at once, not a few per gather), then gather.
+        // Two passes: locate every cell (lane-wise arithmetic), then gather
+        // (a short loop of independent reads whose cache misses overlap).
         let mut cells = [Cell::default(); method::BATCH];
+        let (top_s, top_l) = (f32x8::splat((self.params.n_s - 2) as f32), f32x8::splat((self.params.n_l - 2) as f32));
+        let (inv_dl, xk_max) = (f32x8::splat(self.inv_dl), f32x8::splat((self.params.n_l - 1) as f32));
         for blk in (0..n).step_by(W) {
             let m = (n - blk).min(W);
-            let lanes = |a: &[f32; method::BATCH]| -> [f32; W] {
-                a[blk..blk + W].try_into().expect("BATCH is a multiple of W")
+            let lanes = |a: &[f32; method::BATCH]| -> f32x8 {
+                let v: [f32; W] = a[blk..blk + W].try_into().expect("BATCH is a multiple of W");
+                f32x8::from(v)
             };
-            let (sf, sb, len) = (lanes(&segs.s_front), lanes(&segs.s_back), lanes(&segs.len_world));
-            let (xa, xb) = self.band_coords_lanes(&sf, &sb, m);
-            let mut xk = [0.0f32; W];
-            let (mut a0, mut b0, mut k0) = ([0i32; W], [0i32; W], [0i32; W]);
-            for l in 0..W {
-                xk[l] = at_most(at_least(len[l] * self.inv_dl, 0.0), xk_max);
-                a0[l] = small_floor(xa[l], top_s);
-                b0[l] = small_floor(xb[l], top_s);
-                k0[l] = small_floor(xk[l], top_l);
-            }
+            let (xa, xb) = self.band_coords_lanes(lanes(&segs.s_front), lanes(&segs.s_back), m);
+            let len = no_nan(lanes(&segs.len_world), f32x8::ZERO);
+            let xk = vmin(vmax(len * inv_dl, f32x8::ZERO), xk_max);
+            // Cell corner min(⌊x⌋, n − 2) (x ≥ 0: truncation of the clamped value) and fraction.
+            let (a0, b0, k0) =
+                (vmin(xa, top_s).fast_trunc_int(), vmin(xb, top_s).fast_trunc_int(), vmin(xk, top_l).fast_trunc_int());
+            let fa = (xa - f32x8::from_i32x8(a0)).to_array();
+            let fb = (xb - f32x8::from_i32x8(b0)).to_array();
+            let fk = (xk - f32x8::from_i32x8(k0)).to_array();
+            let (a0, b0, k0) = (a0.to_array(), b0.to_array(), k0.to_array());
             for l in 0..m {
                 cells[blk + l] = Cell {
                     a0: a0[l] as usize,
                     b0: b0[l] as usize,
                     k0: k0[l] as usize,
-                    fa: xa[l] - a0[l] as f32,
-                    fb: xb[l] - b0[l] as f32,
-                    fk: xk[l] - k0[l] as f32,
+                    fa: fa[l],
+                    fb: fb[l],
+                    fk: fk[l],
                 };
             }
         }

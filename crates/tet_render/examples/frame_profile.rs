@@ -6,7 +6,7 @@
 //! `cargo run --release -p tet_render --example frame_profile -- B.tetb L.tetl [frames] [WxH] [azimuth] [elevation]`
 //!
 //! The first frame is cold (view, cull, sort); the others reuse the order.
-//! `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
+//! `TET_TILE=16` sets the tile side; `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
 //! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
 //! frame (linear premultiplied RGBA) for `tetview diff`.
 
@@ -51,7 +51,8 @@ fn main() {
     r.set_shader(shader);
     r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     let fast_path = std::env::var("TET_GENERAL_PATH").is_err();
-    r.set_raster_options(RasterOptions { fast_path, ..Default::default() });
+    let tile = std::env::var("TET_TILE").ok().and_then(|t| t.parse().ok()).unwrap_or(RasterOptions::default().tile);
+    r.set_raster_options(RasterOptions { fast_path, tile, ..Default::default() });
     for f in 0..frames.max(1) {
         let c0 = process_cpu_seconds();
         let (img, st) = r.render(&|_, _| {}).expect("render");

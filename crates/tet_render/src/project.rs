@@ -34,6 +34,7 @@ use rayon::prelude::*;
 use robust::{orient2d, Coord};
 use tet_mesh::predicates::{side_of_oriented_plane, TetOrientation};
 use tet_mesh::FACE_OUTWARD;
+use wide::{f64x4, CmpEq, CmpGt};
 
 /// The camera in the scene's frame (positions relative to the mesh centre),
 /// with the pixel ↔ camera-space maps the rasterizer needs.
@@ -447,6 +448,8 @@ pub(crate) struct TetSetup {
     /// point and 0 on the edge (edges the thick point lies on are skipped).
     tent_ramps: [[f64; 3]; 6],
     n_ramps: usize,
+    /// The tent ramps in f32, re-based at the span's reference pixel.
+    span_ramps: [Affine32; 6],
     pub clipped: bool,
     /// The f32 form of the planes and fields the span loop evaluates.
     pub span: SpanEval,
@@ -518,9 +521,6 @@ pub(crate) struct SpanEval {
     perspective: bool,
     cx: Affine32,
     cy: Affine32,
-    /// The tent ramps of `pt-linear`, re-based.
-    ramps: [Affine32; 6],
-    n_ramps: usize,
 }
 
 impl SpanEval {
@@ -545,13 +545,13 @@ impl SpanEval {
         (frame.ax * xr + frame.bx, frame.ay * yr + frame.by)
     }
 
-    /// The `pt-linear` tent ramps (absolute pixel coordinates), re-based.
-    fn set_ramps(&mut self, ramps: &[[f64; 3]]) {
+    /// The `pt-linear` tent ramps (absolute pixel coordinates), re-based at
+    /// the reference pixel into `out`.
+    fn rebase_ramps(&self, ramps: &[[f64; 3]], out: &mut [Affine32; 6]) {
         let (xr, yr) = (self.ref_px[0] as f64 + 0.5, self.ref_px[1] as f64 + 0.5);
         for (k, r) in ramps.iter().enumerate() {
-            self.ramps[k] = Affine32::rebased(*r, xr, yr);
+            out[k] = Affine32::rebased(*r, xr, yr);
         }
-        self.n_ramps = ramps.len();
     }
 
     /// The segments of [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only (the
@@ -1173,7 +1173,7 @@ impl TetSetup {
                     }
                 }
             }
-            self.span.set_ramps(&self.tent_ramps[..self.n_ramps]);
+            self.span.rebase_ramps(&self.tent_ramps[..self.n_ramps], &mut self.span_ramps);
             if !self.set_f64_planes(frame, &x, view.face_mask[t]) {
                 return false;
             }
@@ -1266,7 +1266,7 @@ impl TetSetup {
         let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
         let j = (py as i32 - sp.ref_px[1]) as f32;
         *out = [1.0; LANES];
-        for r in &sp.ramps[..sp.n_ramps] {
+        for r in &self.span_ramps[..self.n_ramps] {
             let rr = r.row(j);
             for (l, o) in out.iter_mut().enumerate() {
                 let v = rr + r.dx * (i0 + l as f32);
@@ -1484,21 +1484,21 @@ fn cover_mask(edges: &[Edge], bbox: [i32; 4]) -> u64 {
     for j in 0..h {
         mask |= cols << (S * j);
     }
+    let x = |i: usize| (bbox[0] + i as i32) as f64 + 0.5;
+    let (x_lo, x_hi) = (f64x4::from([x(0), x(1), x(2), x(3)]), f64x4::from([x(4), x(5), x(6), x(7)]));
+    let zero = f64x4::ZERO;
     for e in edges {
-        let mut col = [0.0f64; S];
-        for (i, c) in col.iter_mut().enumerate() {
-            *c = e.dy * ((bbox[0] + i as i32) as f64 + 0.5 - e.ax);
-        }
+        let (ax, dy, sign) = (f64x4::splat(e.ax), f64x4::splat(e.dy), f64x4::splat(e.sign));
+        let (c_lo, c_hi) = (dy * (x_lo - ax), dy * (x_hi - ax));
+        let tie = if e.tie { f64x4::splat(f64::from_bits(u64::MAX)) } else { zero };
         let mut m = 0u64;
         for j in 0..h {
-            let row = e.dx * ((bbox[1] + j as i32) as f64 + 0.5 - e.ay);
-            let mut bits = 0u64;
-            for (i, &c) in col.iter().enumerate() {
-                let v = e.sign * (row - c);
-                let inside = (v > 0.0) | ((v == 0.0) & e.tie);
-                bits |= (inside as u64) << i;
-            }
-            m |= bits << (S * j);
+            let row = f64x4::splat(e.dx * ((bbox[1] + j as i32) as f64 + 0.5 - e.ay));
+            let bits = |c: f64x4| {
+                let v = sign * (row - c);
+                (v.cmp_gt(zero) | (v.cmp_eq(zero) & tie)).move_mask() as u64
+            };
+            m |= (bits(c_lo) | bits(c_hi) << 4) << (S * j);
         }
         mask &= m;
     }

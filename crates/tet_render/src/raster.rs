@@ -29,7 +29,9 @@ use tet_preint::{Method, Rgba32, Segment, SegmentBatch, SegmentShader, BATCH};
 /// Rasterizer settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RasterOptions {
-    /// Tile side in pixels.
+    /// Tile side in pixels. 16 (the default) keeps a tile's accumulators
+    /// (4 KiB) and the table entries its tets share in the L1 cache; on the
+    /// 1.2M-tet grid at 512² it measured ~10% faster than 32.
     pub tile: u32,
     /// A pixel at or above this accumulated α takes no more fragments
     /// (what it misses is at most 1 − opaque_alpha of the remaining colour).
@@ -45,7 +47,7 @@ pub struct RasterOptions {
 
 impl Default for RasterOptions {
     fn default() -> Self {
-        RasterOptions { tile: 32, opaque_alpha: 0.9999, shading: Shading::default(), fast_path: true }
+        RasterOptions { tile: 16, opaque_alpha: 0.9999, shading: Shading::default(), fast_path: true }
     }
 }
 
@@ -175,6 +177,9 @@ pub fn rasterize(
 const CHUNK: usize = 16 * 1024;
 
 /// One tet of a chunk, set up once for every tile it touches.
+// Records live side by side in a per-part Vec (one write, reads from every
+// tile it touches); boxing the large variant would add an allocation per tet.
+#[allow(clippy::large_enum_variant)]
 enum Rec {
     /// Planes and fields, and the covered pixels.
     Span { span: SpanEval, bbox: [i32; 4], cover: Cover },
@@ -462,8 +467,8 @@ impl TileCtx {
         shader: &dyn SegmentShader,
         opaque_alpha: f32,
     ) {
-        for l in 0..n {
-            if lanes.len_world[l] <= 0.0 || self.acc[pix[l] as usize][3] >= opaque_alpha {
+        for (l, &p) in pix.iter().enumerate().take(n) {
+            if lanes.len_world[l] <= 0.0 || self.acc[p as usize][3] >= opaque_alpha {
                 continue;
             }
             let f = &mut *self.frags;
@@ -473,7 +478,7 @@ impl TileCtx {
             f.segs.grad_front[k] = lanes.g_front[l];
             f.segs.grad_back[k] = lanes.g_back[l];
             f.segs.len_world[k] = lanes.len_world[l];
-            f.pixel[k] = pix[l];
+            f.pixel[k] = p;
             f.segs.len = k + 1;
             if k + 1 == BATCH {
                 self.flush_frags(shader, opaque_alpha);

@@ -71,6 +71,7 @@ pub mod method;
 pub mod partial;
 pub mod poly;
 pub mod precision;
+mod simd;
 pub mod special;
 pub mod table3d;
 pub mod tf;

@@ -39,11 +39,12 @@ use crate::domain::{check_res, TableDomain, TableError, MAX_TABLE_ENTRIES};
 use crate::exact::integrate_segment_with;
 use crate::method::{self, Method, Rgba32, Segment, SegmentBatch, SegmentShader};
 use crate::precision::{Accumulation, Precision, Storage};
+use crate::simd::{no_nan, vmax, vmin};
 use crate::tf::{Emission, TransferFunction};
 use glam::Vec4;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use wide::{f32x8, CmpEq, CmpGt};
+use wide::{f32x8, CmpGt};
 
 /// How the table is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -886,25 +887,6 @@ impl Table3d {
 
 /// Lanes of [`SegmentShader::shade_batch`]'s lane-wise arithmetic.
 const W: usize = 8;
-
-/// `v` where it is above `lo`, else `lo`: `maxps`, the scalar path's
-/// `f32::max` for the NaN-free lanes it gets.
-#[inline(always)]
-fn vmax(v: f32x8, lo: f32x8) -> f32x8 {
-    v.fast_max(lo)
-}
-
-/// `v` where it is below `hi`, else `hi` (`minps`); see [`vmax`].
-#[inline(always)]
-fn vmin(v: f32x8, hi: f32x8) -> f32x8 {
-    v.fast_min(hi)
-}
-
-/// `v` with NaN lanes replaced by `fill`.
-#[inline(always)]
-fn no_nan(v: f32x8, fill: f32x8) -> f32x8 {
-    v.cmp_eq(v).blend(v, fill)
-}
 
 impl SegmentShader for Table3d {
     fn method(&self) -> Method {

@@ -1,6 +1,7 @@
 //! `SegmentShader::shade_batch` (the rasterizer's call) returns what `shade`
 //! returns, lane by lane, for table3d's lane-wise override on every scalar
-//! axis and for every other method's default; inputs include NaN, ±∞,
+//! axis, poly1/2/4's (banded and full, both emission models) and the
+//! default of the others; inputs include NaN, ±∞,
 //! scalars outside the domain, |Sf − Sb| beyond the band and lengths beyond
 //! the table, and batches of every length (partial blocks of eight).
 use proptest::prelude::*;
@@ -69,6 +70,14 @@ fn tables() -> Vec<Box<dyn SegmentShader>> {
     // A decoded (non-f32) table takes the per-lane path.
     let p = Table3dParams { n_s: 24, n_l: 12, precision: Precision::F16, ..Default::default() };
     v.push(Box::new(Table3d::build(&tf, &d, &p).unwrap()));
+    for degree in [1, 2, 4] {
+        for max_ds in [0.3, 2.0] {
+            let p = PolyParams::new(degree, 48, 0.0, 1.0, 2.0).with_max_ds(max_ds);
+            v.push(Box::new(PolyTable::build(&tf, &p).unwrap()));
+        }
+    }
+    let ind = tf.clone().with_emission(Emission::Independent);
+    v.push(Box::new(PolyTable::build(&ind, &PolyParams::new(2, 32, 0.0, 1.0, 2.0)).unwrap()));
     v.push(Box::new(PtLinearShader::new(tf.clone())));
     v.push(Box::new(ExactShader::new(tf)));
     v

@@ -554,81 +554,19 @@ impl SpanEval {
         }
     }
 
-    /// The segments of [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only (the
-    /// rest of `out` is left as it was): small tets' row spans are a few
-    /// pixels, and each lane costs a division per face plane. Every lane is
-    /// computed by the same operations whatever `N`, so the values are
-    /// bit-identical to the full width's.
+    /// The segments of [`TetSetup::eval_lanes`]: pixels `(px0 + l, py)`.
     #[inline]
-    pub(crate) fn eval_lanes_n<const N: usize>(&self, px0: u32, py: u32, out: &mut Lanes) {
-        const { assert!(N <= LANES) };
-        let sp = self;
-        let i0 = (px0 as i32 - sp.ref_px[0]) as f32;
-        let j = (py as i32 - sp.ref_px[1]) as f32;
-        let ii: [f32; N] = std::array::from_fn(|l| i0 + l as f32);
-        let mut zf = [sp.zeta_near; N];
-        let mut zb = [f32::INFINITY; N];
-        for (k, p) in sp.planes[..sp.n_planes].iter().enumerate() {
-            let (nr, dr) = (p.num.row(j), p.den.row(j));
-            if k < sp.n_front {
-                for l in 0..N {
-                    let den = dr + p.den.dx * ii[l];
-                    let z = (nr + p.num.dx * ii[l]) / den;
-                    zf[l] = if den < 0.0 && z > zf[l] { z } else { zf[l] };
-                }
-            } else {
-                for l in 0..N {
-                    let den = dr + p.den.dx * ii[l];
-                    let z = (nr + p.num.dx * ii[l]) / den;
-                    zb[l] = if den > 0.0 && z < zb[l] { z } else { zb[l] };
-                }
-            }
-        }
-        let mut dlen = [1.0f32; N];
-        if sp.perspective {
-            let cy = sp.cy.row(j);
-            for l in 0..N {
-                let cx = sp.cx.c + sp.cx.dx * ii[l];
-                dlen[l] = (1.0 + cx * cx + cy * cy).sqrt();
-            }
-        }
-        let clamp = |v: f32, r: [f32; 2]| {
-            // NaN fails both comparisons and lands on r[0].
-            let v = if v < r[1] { v } else { r[1] };
-            if v > r[0] {
-                v
-            } else {
-                r[0]
-            }
-        };
-        let (s0r, sbr) = (sp.s0.row(j), sp.sb.row(j));
-        for l in 0..N {
-            let len = (zb[l] - zf[l]) * dlen[l];
-            let ok = len > 0.0 && len < f32::INFINITY;
-            out.len_world[l] = if ok { len.min(sp.len_max) } else { 0.0 };
-            let (s0, sb) = (s0r + sp.s0.dx * ii[l], sbr + sp.sb.dx * ii[l]);
-            out.s_front[l] = clamp(s0 + zf[l] * sb, sp.s_range);
-            out.s_back[l] = clamp(s0 + zb[l] * sb, sp.s_range);
-            out.zeta_mid[l] = if ok { 0.5 * (zf[l] + zb[l]) } else { 0.0 };
-        }
-        if sp.has_g {
-            let (g0r, gbr) = (sp.g0.row(j), sp.gb.row(j));
-            for l in 0..N {
-                let (g0, gb) = (g0r + sp.g0.dx * ii[l], gbr + sp.gb.dx * ii[l]);
-                out.g_front[l] = clamp(g0 + zf[l] * gb, sp.g_range);
-                out.g_back[l] = clamp(g0 + zb[l] * gb, sp.g_range);
-            }
-        } else {
-            out.g_front[..N].fill(0.0);
-            out.g_back[..N].fill(0.0);
-        }
+    pub(crate) fn eval_row(&self, px0: u32, py: u32, out: &mut Lanes) {
+        let i0 = (px0 as i32 - self.ref_px[0]) as f32;
+        let j = (py as i32 - self.ref_px[1]) as f32;
+        self.eval_pixels(&std::array::from_fn(|l| i0 + l as f32), &[j; LANES], out);
     }
 
     /// The segments of `LANES` arbitrary pixels of the tet, given as offsets
     /// (`i`, `j`) from its reference pixel: the values
-    /// [`SpanEval::eval_lanes_n`] gives those pixels (each lane computed by
-    /// the same operations, a row's terms per lane), for a tet's covered
-    /// pixels gathered across its rows so that every lane is used.
+    /// [`SpanEval::eval_row`] gives those pixels (each lane computed by the
+    /// same operations), for a tet's covered pixels gathered across its
+    /// rows so that every lane is used.
     #[inline]
     pub(crate) fn eval_pixels(&self, i: &[f32; LANES], j: &[f32; LANES], out: &mut Lanes) {
         let sp = self;
@@ -1081,23 +1019,7 @@ impl TetSetup {
             (hull_of(&pts[..n], &keys[..n], &mut hull, &mut hull_keys), None)
         } else {
             let p4 = [pts[0], pts[1], pts[2], pts[3]];
-            let class = classify_projection(&p4);
-            let (sil, ns) = class.silhouette();
-            for k in 0..ns {
-                hull[k] = p4[sil[k]];
-                hull_keys[k] = keys[sil[k]];
-            }
-            // Positive orientation (interior on the left of each directed edge).
-            let area: f64 = (0..ns)
-                .map(|k| {
-                    let (u, v) = (hull[k], hull[(k + 1) % ns]);
-                    u[0] * v[1] - u[1] * v[0]
-                })
-                .sum();
-            if area < 0.0 {
-                hull[..ns].reverse();
-                hull_keys[..ns].reverse();
-            }
+            let (class, ns) = silhouette_hull(&p4, &[keys[0], keys[1], keys[2], keys[3]], &mut hull, &mut hull_keys);
             (ns, class.thick_point(&p4))
         };
         if n_hull < 3 {
@@ -1248,14 +1170,7 @@ impl TetSetup {
     /// [0, longest edge], so no lane is ever NaN.
     #[inline]
     pub fn eval_lanes(&self, px0: u32, py: u32, out: &mut Lanes) {
-        self.eval_lanes_n::<LANES>(px0, py, out);
-    }
-
-    /// [`TetSetup::eval_lanes`] for the first `N ≤ LANES` lanes only: see
-    /// [`SpanEval::eval_lanes_n`].
-    #[inline]
-    pub fn eval_lanes_n<const N: usize>(&self, px0: u32, py: u32, out: &mut Lanes) {
-        self.span.eval_lanes_n::<N>(px0, py, out);
+        self.span.eval_row(px0, py, out);
     }
 
     /// The `pt-linear` tent weights for the `LANES` pixels `(px0 + l, py)`
@@ -1379,6 +1294,35 @@ pub(crate) enum Cover {
 /// Side of the bounding boxes whose coverage is a [`Cover::Mask`].
 pub(crate) const MASK_SIDE: i32 = 8;
 
+/// The silhouette of an unclipped tet's projected vertices `p4` (keys
+/// `keys4`) in `hull`/`hull_keys`, positively oriented (interior on the left
+/// of each directed edge): its Shirley–Tuchman class and vertex count (0
+/// when degenerate).
+fn silhouette_hull(
+    p4: &[[f64; 2]; 4],
+    keys4: &[u64; 4],
+    hull: &mut [[f64; 2]; 6],
+    hull_keys: &mut [u64; 6],
+) -> (ProjClass, usize) {
+    let class = classify_projection(p4);
+    let (sil, ns) = class.silhouette();
+    for k in 0..ns {
+        hull[k] = p4[sil[k]];
+        hull_keys[k] = keys4[sil[k]];
+    }
+    let area: f64 = (0..ns)
+        .map(|k| {
+            let (u, v) = (hull[k], hull[(k + 1) % ns]);
+            u[0] * v[1] - u[1] * v[0]
+        })
+        .sum();
+    if area < 0.0 {
+        hull[..ns].reverse();
+        hull_keys[..ns].reverse();
+    }
+    (class, ns)
+}
+
 /// What [`prepare_span`] made of a tet.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Prepared {
@@ -1406,26 +1350,11 @@ pub(crate) fn prepare_span(inp: &SetupInputs, t: usize, span: &mut SpanEval, row
         return Prepared::Clipped;
     }
     let p4 = tet.map(|v| view.px[v as usize]);
-    let class = classify_projection(&p4);
-    let (sil, ns) = class.silhouette();
+    let mut hull = [[0.0; 2]; 6];
+    let mut hull_keys = [0u64; 6];
+    let (_, ns) = silhouette_hull(&p4, &tet.map(vertex_key), &mut hull, &mut hull_keys);
     if ns < 3 {
         return Prepared::Nothing;
-    }
-    let mut hull = [[0.0; 2]; 4];
-    let mut hull_keys = [0u64; 4];
-    for k in 0..ns {
-        hull[k] = p4[sil[k]];
-        hull_keys[k] = vertex_key(tet[sil[k]]);
-    }
-    let area: f64 = (0..ns)
-        .map(|k| {
-            let (u, v) = (hull[k], hull[(k + 1) % ns]);
-            u[0] * v[1] - u[1] * v[0]
-        })
-        .sum();
-    if area < 0.0 {
-        hull[..ns].reverse();
-        hull_keys[..ns].reverse();
     }
     let Some(bbox) = bbox_of(&hull[..ns], frame.width, frame.height) else { return Prepared::Nothing };
     let x = tet.map(|v| DVec3::from(view.cam[v as usize]));
@@ -1615,16 +1544,17 @@ mod tests {
                 }
                 covered += 1;
                 s.eval_lanes(px, py, &mut lanes);
-                // Narrow widths give the full width's lanes bit for bit.
-                let (mut l2, mut l4) = (Lanes::default(), Lanes::default());
-                s.eval_lanes_n::<2>(px, py, &mut l2);
-                s.eval_lanes_n::<4>(px, py, &mut l4);
-                let bits = |l: &Lanes, n: usize| {
-                    [l.s_front, l.s_back, l.g_front, l.g_back, l.len_world, l.zeta_mid]
-                        .map(|a| a[..n].iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+                // The fast path's gathered evaluation (this pixel in lane 3
+                // among others) gives the row's lane bit for bit.
+                let mut one = Lanes::default();
+                let (ri, rj) = ((px as i32 - s.span.ref_px[0]) as f32, (py as i32 - s.span.ref_px[1]) as f32);
+                let mut i = [ri + 5.0; LANES];
+                i[3] = ri;
+                s.span.eval_pixels(&i, &[rj; LANES], &mut one);
+                let bits = |l: &Lanes, k: usize| {
+                    [l.s_front, l.s_back, l.g_front, l.g_back, l.len_world, l.zeta_mid].map(|a| a[k].to_bits())
                 };
-                assert_eq!(bits(&l2, 2), bits(&lanes, 2), "width 2 at ({px}, {py})");
-                assert_eq!(bits(&l4, 4), bits(&lanes, 4), "width 4 at ({px}, {py})");
+                assert_eq!(bits(&one, 3), bits(&lanes, 0), "gathered lane at ({px}, {py})");
                 let want = s.fragment(&geo.frame, x, y);
                 let got_len = lanes.len_world[0] as f64;
                 let want_len = want.map_or(0.0, |f| f.len_world);

@@ -486,30 +486,6 @@ impl TileCtx {
         }
     }
 
-    /// Queues the first `n` lanes (pixels `base + l` of the tile) that have
-    /// a segment and whose pixel is not yet opaque; shades and composites
-    /// when the batch is full.
-    #[inline]
-    fn push_lanes(&mut self, lanes: &Lanes, n: usize, base: usize, shader: &dyn SegmentShader, opaque_alpha: f32) {
-        for l in 0..n {
-            if lanes.len_world[l] <= 0.0 || self.acc[base + l][3] >= opaque_alpha {
-                continue;
-            }
-            let f = &mut *self.frags;
-            let k = f.segs.len;
-            f.segs.s_front[k] = lanes.s_front[l];
-            f.segs.s_back[k] = lanes.s_back[l];
-            f.segs.grad_front[k] = lanes.g_front[l];
-            f.segs.grad_back[k] = lanes.g_back[l];
-            f.segs.len_world[k] = lanes.len_world[l];
-            f.pixel[k] = (base + l) as u32;
-            f.segs.len = k + 1;
-            if k + 1 == BATCH {
-                self.flush_frags(shader, opaque_alpha);
-            }
-        }
-    }
-
     /// Shades the queued fragments and composites them in order. A pixel
     /// may be queued more than once (several tets'); the queueing test saw
     /// the pixel before the batch, so opacity is tested again here: the
@@ -680,14 +656,10 @@ fn draw_tet(
                     ctx.fragments += 1;
                 }
             } else {
-                // Narrower evaluation for short spans (same values per lane).
-                match n {
-                    1..=2 => s.eval_lanes_n::<2>(px0, py, &mut lanes),
-                    3..=4 => s.eval_lanes_n::<4>(px0, py, &mut lanes),
-                    _ => s.eval_lanes(px0, py, &mut lanes),
-                }
+                s.eval_lanes(px0, py, &mut lanes);
                 if !lit {
-                    ctx.push_lanes(&lanes, n, base, shader, opaque_alpha);
+                    let pix = std::array::from_fn(|l| (base + l) as u32);
+                    ctx.push_pixels(&lanes, &pix, n, shader, opaque_alpha);
                     px0 += LANES as u32;
                     continue;
                 }

@@ -15,7 +15,11 @@
 //! * [`Renderer`] (module [`pipeline`]): projected tetrahedra with cached
 //!   stages — view geometry ([`project`]), culling ([`cull`]), visibility
 //!   order ([`sort`]: MPVO, MPVONC, radix), tile-parallel rasterization
-//!   ([`raster`]) and optional lighting/silhouettes ([`shading`]).
+//!   ([`raster`]: per-fragment methods without lighting take a fast path
+//!   that sets each tet up once per frame and shades fragments in SoA
+//!   batches through [`tet_preint::SegmentShader::shade_batch`], with images
+//!   bit-identical to the per-tile path) and optional lighting/silhouettes
+//!   ([`shading`]).
 //!
 //! ```
 //! use std::sync::Arc;

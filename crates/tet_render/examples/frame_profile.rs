@@ -78,5 +78,8 @@ fn main() {
             cpu,
             cpu * 1e9 / st.fragments.max(1) as f64
         );
+        if f == 0 {
+            println!("kept per-tet setup: {:.1} MiB", r.setup_bytes() as f64 / (1 << 20) as f64);
+        }
     }
 }

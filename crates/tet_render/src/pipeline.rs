@@ -3,11 +3,16 @@
 //!
 //! | change | invalidates |
 //! |---|---|
-//! | [`Renderer::set_view`] | view geometry (vertex transform, face sides) and the order |
-//! | [`Renderer::set_culler`] (a new TF) | the cull mask; the order only for the radix sort, which sorts visible tets only |
+//! | [`Renderer::set_view`] | view geometry (vertex transform, face sides), the order and the per-tet setup |
+//! | [`Renderer::set_culler`] (a new TF) | the cull mask; the order (and setup) only for the radix sort, which sorts visible tets only |
 //! | [`Renderer::set_shader`] | nothing cached (shading happens per fragment) |
-//! | [`Renderer::set_sort`] | the order |
-//! | [`Renderer::set_raster_options`] | nothing cached |
+//! | [`Renderer::set_sort`] | the order and the per-tet setup |
+//! | [`Renderer::set_raster_options`] | the per-tet setup |
+//!
+//! The per-tet setup (the rasterizer's fast path: each tet's planes, fields
+//! and covered pixels for this view, [`crate::raster::PreparedFrame`]) is
+//! kept within [`RasterOptions::setup_cache_bytes`], so a frame after a
+//! new transfer function or shader only shades and composites.
 //!
 //! [`Renderer::render`] recomputes what is stale and reports what it redid
 //! in [`RenderStats`].
@@ -16,7 +21,7 @@ use crate::camera::{Camera, ViewSpec};
 use crate::cull::{cull, CellCuller, CullMask};
 use crate::image::Image;
 use crate::project::ViewGeometry;
-use crate::raster::{rasterize, RasterOptions, RasterStats};
+use crate::raster::{rasterize, rasterize_cached, PreparedFrame, RasterOptions, RasterStats};
 use crate::scene::Scene;
 use crate::sort::{visibility_order, SortMethod, VisibilityOrder};
 use crate::RenderError;
@@ -51,6 +56,9 @@ pub struct RenderStats {
     pub recomputed_view: bool,
     pub recomputed_cull: bool,
     pub recomputed_order: bool,
+    /// The fast path's per-tet setup came from the previous frame (same view
+    /// and order): no tet was set up.
+    pub reused_setup: bool,
 }
 
 impl RenderStats {
@@ -75,6 +83,8 @@ pub struct Renderer {
     sort: SortMethod,
     order: Option<VisibilityOrder>,
     raster: RasterOptions,
+    /// The fast path's per-tet setup of the current view and order.
+    prepared: Option<PreparedFrame>,
 }
 
 impl Renderer {
@@ -89,6 +99,7 @@ impl Renderer {
             sort: SortMethod::Auto,
             order: None,
             raster: RasterOptions::default(),
+            prepared: None,
         }
     }
 
@@ -131,12 +142,19 @@ impl Renderer {
     }
 
     pub fn set_raster_options(&mut self, opts: RasterOptions) {
+        if opts != self.raster {
+            self.prepared = None;
+        }
         self.raster = opts;
     }
 
     /// The current order, if computed.
     pub fn order(&self) -> Option<&VisibilityOrder> {
         self.order.as_ref()
+    }
+    /// Bytes held by the kept per-tet setup of the current view (0 when none).
+    pub fn setup_bytes(&self) -> usize {
+        self.prepared.as_ref().map_or(0, PreparedFrame::memory_bytes)
     }
     /// The current view geometry, if computed.
     pub fn view_geometry(&self) -> Option<&ViewGeometry> {
@@ -153,6 +171,9 @@ impl Renderer {
         }
         let mut stats = RenderStats { tets_total: self.scene.num_tets(), ..Default::default() };
 
+        if self.view.is_none() || self.order.is_none() {
+            self.prepared = None;
+        }
         if self.view.is_none() {
             let t = Instant::now();
             self.view = Some(ViewGeometry::new(&self.scene, camera));
@@ -182,18 +203,32 @@ impl Renderer {
             stats.recomputed_order = true;
         }
         let order = self.order.as_ref().expect("computed above");
-        let filtered: Vec<u32>;
-        let tets: &[u32] = if mask.culled > 0 && order.method != SortMethod::Radix {
-            filtered = order.tets.iter().copied().filter(|&t| mask.visible[t as usize]).collect();
-            &filtered
+        // Drawn: the order's visible tets (a radix order holds only those).
+        let drawn = if order.method == SortMethod::Radix {
+            order.tets.len()
         } else {
-            &order.tets
+            order.tets.iter().filter(|&&t| mask.visible[t as usize]).count()
         };
-        let (image, rs): (Image, RasterStats) =
-            rasterize(&self.scene, view, tets, shader.as_ref(), &self.raster, progress);
+        let (image, rs): (Image, RasterStats) = if self.raster.setup_cache_bytes > 0 {
+            let prepared = &mut self.prepared;
+            rasterize_cached(
+                &self.scene,
+                view,
+                &order.tets,
+                &mask.visible,
+                shader.as_ref(),
+                &self.raster,
+                prepared,
+                progress,
+            )
+        } else {
+            let filtered: Vec<u32> = order.tets.iter().copied().filter(|&t| mask.visible[t as usize]).collect();
+            rasterize(&self.scene, view, &filtered, shader.as_ref(), &self.raster, progress)
+        };
+        stats.reused_setup = rs.reused_setup;
         stats.tets_culled = mask.culled;
         stats.fraction_culled = mask.fraction_culled();
-        stats.tets_drawn = tets.len();
+        stats.tets_drawn = drawn;
         stats.cycles_broken = order.cycles_broken;
         stats.sort_method = order.method.id().to_string();
         stats.fragments = rs.fragments;

@@ -43,11 +43,22 @@ pub struct RasterOptions {
     /// bit-identical to the per-tile path's (`false`), which remains for
     /// tests and comparisons.
     pub fast_path: bool,
+    /// Most bytes [`rasterize_cached`] keeps of a view's setup across
+    /// frames (about 290 bytes a tet: 337 MiB for the 1.2M-tet grid):
+    /// 512 MiB covers ~1.8M tets; larger meshes set up every frame. 0 keeps
+    /// nothing.
+    pub setup_cache_bytes: usize,
 }
 
 impl Default for RasterOptions {
     fn default() -> Self {
-        RasterOptions { tile: 16, opaque_alpha: 0.9999, shading: Shading::default(), fast_path: true }
+        RasterOptions {
+            tile: 16,
+            opaque_alpha: 0.9999,
+            shading: Shading::default(),
+            fast_path: true,
+            setup_cache_bytes: 512 << 20,
+        }
     }
 }
 
@@ -60,6 +71,8 @@ pub struct RasterStats {
     pub setups: u64,
     /// Tiles left early because every pixel was opaque.
     pub tiles_terminated: usize,
+    /// The fast path's per-tet setup was taken from the cache (none redone).
+    pub reused_setup: bool,
     pub bin_seconds: f64,
     pub raster_seconds: f64,
 }
@@ -76,8 +89,8 @@ pub fn rasterize(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Image, RasterStats) {
     let frame = &view.frame;
-    if opts.fast_path && !opts.shading.is_active() && shader.method() != Method::PtLinear && frame.width <= 1 << 15 {
-        return rasterize_chunked(scene, view, order, shader, opts, progress);
+    if fast_path_applies(view, shader, opts) {
+        return rasterize_chunked(scene, view, order, None, shader, opts, None, progress);
     }
     let (w, h) = (frame.width, frame.height);
     let tile = opts.tile.clamp(4, 1024);
@@ -166,6 +179,7 @@ pub fn rasterize(
         fragments: fragments.into_inner(),
         setups: setups.into_inner(),
         tiles_terminated: terminated.into_inner(),
+        reused_setup: false,
         bin_seconds,
         raster_seconds: t1.elapsed().as_secs_f64(),
     };
@@ -181,10 +195,46 @@ const CHUNK: usize = 16 * 1024;
 // tile it touches); boxing the large variant would add an allocation per tet.
 #[allow(clippy::large_enum_variant)]
 enum Rec {
-    /// Planes and fields, and the covered pixels.
-    Span { span: SpanEval, bbox: [i32; 4], cover: Cover },
+    /// Tet `tet`'s planes and fields, and the covered pixels.
+    Span { span: SpanEval, bbox: [i32; 4], cover: Cover, tet: u32 },
     /// Crosses the near plane: set up per tile by [`TetSetup::build`].
     Clipped(u32),
+}
+
+impl Rec {
+    fn tet(&self) -> u32 {
+        match *self {
+            Rec::Span { tet, .. } | Rec::Clipped(tet) => tet,
+        }
+    }
+}
+
+/// The fast path's per-tet setup of one view and one order, kept by
+/// [`crate::Renderer`] across frames while neither changes: a new transfer
+/// function (re-bake, re-cull), shader or method re-renders from it without
+/// setting a tet up again. Culled tets stay in it (they are skipped when
+/// drawn), so a new cull mask keeps it valid.
+pub struct PreparedFrame {
+    /// Per chunk of the order, its parts.
+    chunks: Vec<Vec<Part>>,
+    tile: u32,
+    want_grad_mag: bool,
+    /// Tets the order had (the records are for exactly that order).
+    order_len: usize,
+    bytes: usize,
+}
+
+impl std::fmt::Debug for PreparedFrame {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PreparedFrame").field("chunks", &self.chunks.len()).field("bytes", &self.bytes).finish()
+    }
+}
+
+impl PreparedFrame {
+    /// Bytes held (records, row spans, tile lists).
+    pub fn memory_bytes(&self) -> usize {
+        self.bytes
+    }
 }
 
 /// A contiguous part of a chunk, set up by one worker: records in order,
@@ -200,8 +250,9 @@ impl Part {
         Part { recs: Vec::new(), rows: Vec::new(), bins: vec![Vec::new(); n_tiles] }
     }
 
-    /// Sets up `tets` and bins them into `tile`-pixel tiles (`tx` per row).
-    fn prepare(&mut self, inputs: &SetupInputs, tets: &[u32], tile: u32, tx: usize) {
+    /// Sets up `tets` (those `visible` when given) and bins them into
+    /// `tile`-pixel tiles (`tx` per row).
+    fn prepare(&mut self, inputs: &SetupInputs, tets: &[u32], visible: Option<&[bool]>, tile: u32, tx: usize) {
         self.recs.clear();
         self.rows.clear();
         for b in &mut self.bins {
@@ -209,9 +260,12 @@ impl Part {
         }
         let mut span = SpanEval::default();
         for &t in tets {
+            if visible.is_some_and(|v| !v[t as usize]) {
+                continue;
+            }
             let (rec, bbox) = match prepare_span(inputs, t as usize, &mut span, &mut self.rows) {
                 Prepared::Nothing => continue,
-                Prepared::Span { bbox, cover } => (Rec::Span { span, bbox, cover }, Some(bbox)),
+                Prepared::Span { bbox, cover } => (Rec::Span { span, bbox, cover, tet: t }, Some(bbox)),
                 Prepared::Clipped => (Rec::Clipped(t), tet_bbox(inputs.view, &inputs.scene.tets()[t as usize])),
             };
             let Some([x0, y0, x1, y1]) = bbox else { continue };
@@ -224,18 +278,62 @@ impl Part {
             }
         }
     }
+
+    fn memory_bytes(&self) -> usize {
+        self.recs.capacity() * std::mem::size_of::<Rec>()
+            + self.rows.capacity() * 4
+            + self.bins.iter().map(|b| b.capacity() * 4 + std::mem::size_of::<Vec<u32>>()).sum::<usize>()
+    }
+}
+
+/// Whether [`rasterize`] takes the fast path for these options and shader
+/// (per-fragment methods without lighting, images up to 32768 wide).
+pub fn fast_path_applies(view: &ViewGeometry, shader: &dyn SegmentShader, opts: &RasterOptions) -> bool {
+    opts.fast_path && !opts.shading.is_active() && shader.method() != Method::PtLinear && view.frame.width <= 1 << 15
+}
+
+/// [`rasterize`] with a per-view cache of the fast path's setup: `order`
+/// is the whole visibility order and `visible` the cull mask (culled tets
+/// are skipped). When `cache` holds the setup of this view and order (the
+/// caller clears it when either changes) nothing is set up again; when it
+/// is empty and the setup fits in [`RasterOptions::setup_cache_bytes`], it
+/// is filled. Where the fast path does not apply, this is [`rasterize`] of
+/// the visible tets.
+#[allow(clippy::too_many_arguments)]
+pub fn rasterize_cached(
+    scene: &Scene,
+    view: &ViewGeometry,
+    order: &[u32],
+    visible: &[bool],
+    shader: &dyn SegmentShader,
+    opts: &RasterOptions,
+    cache: &mut Option<PreparedFrame>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> (Image, RasterStats) {
+    if !fast_path_applies(view, shader, opts) {
+        let filtered: Vec<u32> = order.iter().copied().filter(|&t| visible[t as usize]).collect();
+        return rasterize(scene, view, &filtered, shader, opts, progress);
+    }
+    rasterize_chunked(scene, view, order, Some(visible), shader, opts, Some(cache), progress)
 }
 
 /// [`rasterize`]'s fast path: the order in chunks; each chunk's tets set up
 /// once ([`prepare_span`]) and binned by parallel parts, then its tiles
 /// composited in parallel into accumulators that persist across chunks.
+/// Same fragments, values and per-pixel order as the per-tile path. With a
+/// `cache`, the setup of the whole order is kept in (or taken from) it.
+/// once ([`prepare_span`]) and binned by parallel parts, then its tiles
+/// composited in parallel into accumulators that persist across chunks.
 /// Same fragments, values and per-pixel order as the per-tile path.
+#[allow(clippy::too_many_arguments)]
 fn rasterize_chunked(
     scene: &Scene,
     view: &ViewGeometry,
     order: &[u32],
+    visible: Option<&[bool]>,
     shader: &dyn SegmentShader,
     opts: &RasterOptions,
+    mut cache: Option<&mut Option<PreparedFrame>>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Image, RasterStats) {
     let frame = &view.frame;
@@ -257,21 +355,63 @@ fn rasterize_chunked(
             TileCtx::new([i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1])
         })
         .collect();
-    let mut parts: Vec<Part> = (0..rayon::current_num_threads() * 2).map(|_| Part::new(n_tiles)).collect();
-    let (mut bin_seconds, mut raster_seconds, mut prepared) = (0.0, 0.0, 0u64);
-    let n_chunks = order.len().div_ceil(CHUNK);
-    for (c, chunk) in order.chunks(CHUNK).enumerate() {
-        let t0 = std::time::Instant::now();
-        let part_len = chunk.len().div_ceil(parts.len()).max(1);
+    let n_parts = rayon::current_num_threads() * 2;
+    let prepare_chunk = |chunk: &[u32], parts: &mut Vec<Part>, visible: Option<&[bool]>| {
+        parts.resize_with(n_parts, || Part::new(n_tiles));
+        let part_len = chunk.len().div_ceil(n_parts).max(1);
         parts.par_iter_mut().enumerate().for_each(|(k, part)| {
             let lo = (k * part_len).min(chunk.len());
             let hi = ((k + 1) * part_len).min(chunk.len());
-            part.prepare(&inputs, &chunk[lo..hi], tile, tx);
+            part.prepare(&inputs, &chunk[lo..hi], visible, tile, tx);
         });
-        prepared += parts.iter().map(|p| p.recs.len() as u64).sum::<u64>();
+    };
+    let (mut bin_seconds, mut raster_seconds, mut prepared) = (0.0, 0.0, 0u64);
+    let n_chunks = order.len().div_ceil(CHUNK);
+    // A kept setup is for this view and order (the caller's contract); it is
+    // valid for these records if built with the same tile size and fields.
+    let want_grad_mag = inputs.want_grad_mag;
+    let reuse = cache
+        .as_deref()
+        .and_then(Option::as_ref)
+        .is_some_and(|pf| pf.tile == tile && pf.want_grad_mag == want_grad_mag && pf.order_len == order.len());
+    if let Some(slot) = cache.as_deref_mut() {
+        if !reuse {
+            *slot = None;
+            // Records are for every tet, culled or not, so a new cull mask
+            // keeps them valid; kept only within the memory budget.
+            if order.len().saturating_mul(std::mem::size_of::<Rec>() + 16) <= opts.setup_cache_bytes {
+                let t0 = std::time::Instant::now();
+                let chunks: Vec<Vec<Part>> = order
+                    .chunks(CHUNK)
+                    .map(|chunk| {
+                        let mut parts = Vec::new();
+                        prepare_chunk(chunk, &mut parts, None);
+                        parts
+                    })
+                    .collect();
+                prepared = chunks.iter().flatten().map(|p| p.recs.len() as u64).sum();
+                let bytes = chunks.iter().flatten().map(Part::memory_bytes).sum();
+                *slot = Some(PreparedFrame { chunks, tile, want_grad_mag, order_len: order.len(), bytes });
+                bin_seconds += t0.elapsed().as_secs_f64();
+            }
+        }
+    }
+    let kept = cache.as_deref().and_then(Option::as_ref);
+    // Kept records include culled tets: skip them when drawing.
+    let skip = |r: &Rec| kept.is_some() && visible.is_some_and(|v| !v[r.tet() as usize]);
+    let mut scratch: Vec<Part> = Vec::new();
+    for (c, chunk) in order.chunks(CHUNK).enumerate() {
+        let t0 = std::time::Instant::now();
+        let parts: &[Part] = match kept {
+            Some(pf) => &pf.chunks[c],
+            None => {
+                prepare_chunk(chunk, &mut scratch, visible);
+                prepared += scratch.iter().map(|p| p.recs.len() as u64).sum::<u64>();
+                &scratch
+            }
+        };
         let t1 = std::time::Instant::now();
         bin_seconds += (t1 - t0).as_secs_f64();
-        let parts = &parts;
         tiles.par_iter_mut().enumerate().for_each(|(ti, ctx)| {
             if ctx.done {
                 return;
@@ -284,8 +424,12 @@ fn rasterize_chunked(
                         ctx.done = true;
                         return;
                     }
-                    match &part.recs[r as usize] {
-                        Rec::Span { span, bbox, cover } => {
+                    let rec = &part.recs[r as usize];
+                    if skip(rec) {
+                        continue;
+                    }
+                    match rec {
+                        Rec::Span { span, bbox, cover, .. } => {
                             draw_span(ctx, span, *bbox, *cover, &part.rows, shader, opts.opaque_alpha)
                         }
                         Rec::Clipped(t) => {
@@ -318,7 +462,15 @@ fn rasterize_chunked(
         setups += ctx.setups;
         terminated += ctx.done as usize;
     }
-    (img, RasterStats { fragments, setups, tiles_terminated: terminated, bin_seconds, raster_seconds })
+    let stats = RasterStats {
+        fragments,
+        setups,
+        tiles_terminated: terminated,
+        reused_setup: reuse,
+        bin_seconds,
+        raster_seconds,
+    };
+    (img, stats)
 }
 
 /// Draws one prepared tet into the tile: its covered pixels in the tile,

@@ -73,18 +73,24 @@ fn each_change_recomputes_only_what_it_invalidates() {
     let (_, st) = r.render(&|_, _| {}).unwrap();
     assert!(st.recomputed_view && st.recomputed_cull && st.recomputed_order);
     assert_eq!(st.sort_method, "mpvo");
-    // Same view again: nothing recomputed.
+    assert!(!st.reused_setup && st.setups > 0);
+    // Same view again: nothing recomputed, not even the per-tet setup.
     r.set_view(&view()).unwrap();
     let (_, st) = r.render(&|_, _| {}).unwrap();
     assert!(!st.recomputed_view && !st.recomputed_cull && !st.recomputed_order);
-    // A new TF: recull only (the MPVO order covers every tet).
+    assert!(st.reused_setup && st.setups == 0);
+    // A new TF: recull only (the MPVO order and the setup cover every tet).
     r.set_culler(Some(Arc::new(TfCuller::new(&tf(TF)))));
     let (_, st) = r.render(&|_, _| {}).unwrap();
-    assert!(!st.recomputed_view && st.recomputed_cull && !st.recomputed_order);
-    // A new view: view and order, not culling.
+    assert!(!st.recomputed_view && st.recomputed_cull && !st.recomputed_order && st.reused_setup);
+    // A new view: view, order and setup, not culling.
     r.set_view(&view().orbit(10.0, 0.0, 1.0)).unwrap();
     let (_, st) = r.render(&|_, _| {}).unwrap();
-    assert!(st.recomputed_view && !st.recomputed_cull && st.recomputed_order);
+    assert!(st.recomputed_view && !st.recomputed_cull && st.recomputed_order && !st.reused_setup);
+    // New raster options: the setup again.
+    r.set_raster_options(RasterOptions { tile: 8, ..Default::default() });
+    let (_, st) = r.render(&|_, _| {}).unwrap();
+    assert!(!st.recomputed_order && !st.reused_setup);
     // Radix sorts only visible tets, so a new TF resorts too.
     r.set_sort(SortMethod::Radix);
     let (_, st) = r.render(&|_, _| {}).unwrap();
@@ -111,6 +117,33 @@ fn culling_skips_invisible_tets_without_changing_the_image() {
     assert!((st1.fraction_culled - st1.tets_culled as f64 / n as f64).abs() < 1e-12);
     let d = tet_render::diff(&full, &culled).unwrap();
     assert!(full == culled, "culled tets contributed: max {} rmse {}", d.max_abs, d.rmse);
+}
+
+/// A frame drawn from the kept per-tet setup (new TF, new cull mask, new
+/// shader) is bit-identical to a fresh renderer's frame of the same state,
+/// and to one with the cache off.
+#[test]
+fn kept_setup_renders_what_a_fresh_renderer_renders() {
+    let (p, t, s) = grid_mesh(6, 0.3, [0.0; 3], 8, wave);
+    let scene = Scene::new(&p, t, s).unwrap();
+    let fresh = |tf_json: &str, cache: bool| {
+        let mut r = Renderer::new(scene.clone());
+        r.set_view(&view()).unwrap();
+        let opts = RasterOptions { setup_cache_bytes: if cache { 1 << 30 } else { 0 }, ..Default::default() };
+        r.set_raster_options(opts);
+        r.set_shader(Arc::new(ExactShader::new(tf(tf_json))));
+        r.set_culler(Some(Arc::new(TfCuller::new(&tf(tf_json)))));
+        r.render(&|_, _| {}).unwrap().0
+    };
+    let mut r = Renderer::new(scene.clone());
+    r.set_view(&view()).unwrap();
+    for tf_json in [TF, SPARSE, TF] {
+        r.set_shader(Arc::new(ExactShader::new(tf(tf_json))));
+        r.set_culler(Some(Arc::new(TfCuller::new(&tf(tf_json)))));
+        let (img, _) = r.render(&|_, _| {}).unwrap();
+        assert!(img == fresh(tf_json, true), "kept setup differs from a fresh renderer");
+        assert!(img == fresh(tf_json, false), "kept setup differs from no cache");
+    }
 }
 
 #[test]

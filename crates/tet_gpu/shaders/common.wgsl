@@ -44,6 +44,9 @@ struct TetShade {
 
 const METHOD_PT_LINEAR: u32 = 0u;
 const METHOD_TABLE3D: u32 = 1u;
+const METHOD_POLY: u32 = 2u;
+const METHOD_PARTIAL: u32 = 3u;
+const METHOD_ATLAS2D: u32 = 4u;
 const GEOM_NONE: u32 = 0u;
 const GEOM_THICK: u32 = 1u;
 const GEOM_CLIPPED: u32 = 2u;

@@ -14,12 +14,20 @@
 // index in the sorted distinct scalars, and each interval [lo, hi] by the
 // half-open rank range [first rank ≥ lo, first rank > hi), so the GPU's
 // decision equals the CPU's f64 one exactly (no f32 rounding at interval ends).
+// With 2D widgets (TfCuller's bivariate test) a cell in an invisible
+// interval stays visible when its (scalar, |∇s|) rank box meets the support
+// rectangle of a widget that can show, mapped onto ranks the same way (the
+// |∇s| sides only when the scene has gradient magnitudes).
 
 struct CullParams {
     n: u32,
     n_intervals: u32,
     groups_x: u32,
-    _pad: u32,
+    n_widgets: u32,
+    use_g: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> cp: CullParams;
@@ -29,6 +37,9 @@ struct CullParams {
 @group(0) @binding(4) var<storage, read> order_in: array<u32>;
 @group(0) @binding(5) var<storage, read_write> flags: array<u32>;
 @group(0) @binding(6) var<storage, read_write> order_out: array<u32>;
+@group(0) @binding(7) var<storage, read> g_ranks: array<u32>;
+// Per widget: [first s rank ≥ s0, first s rank > s1, same for g).
+@group(0) @binding(8) var<storage, read> widgets: array<vec4<u32>>;
 
 const CULL_WG: u32 = 64u;
 
@@ -54,7 +65,26 @@ fn visible(t: u32) -> bool {
             b = mid;
         }
     }
-    return !(a < cp.n_intervals && intervals[a].x <= lo);
+    if !(a < cp.n_intervals && intervals[a].x <= lo) {
+        return true;
+    }
+    if cp.n_widgets == 0u {
+        return false;
+    }
+    var glo = 0u;
+    var ghi = 0u;
+    if cp.use_g != 0u {
+        let q = vec4<u32>(g_ranks[v.x], g_ranks[v.y], g_ranks[v.z], g_ranks[v.w]);
+        glo = min(min(q.x, q.y), min(q.z, q.w));
+        ghi = max(max(q.x, q.y), max(q.z, q.w));
+    }
+    for (var w = 0u; w < cp.n_widgets; w++) {
+        let r = widgets[w];
+        if hi >= r.x && lo < r.y && (cp.use_g == 0u || (ghi >= r.z && glo < r.w)) {
+            return true;
+        }
+    }
+    return false;
 }
 
 @compute @workgroup_size(64)

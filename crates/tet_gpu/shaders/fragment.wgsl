@@ -90,9 +90,9 @@ struct ShadeParams {
     cols: u32,
     knots: u32,
     n_knots: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    widgets: u32,
+    n_widgets: u32,
+    subsegments: u32,
 }
 
 // The method's 2D tables: poly — layer r holds C̃ᵣ (rgb) of entry (i, j) at
@@ -382,6 +382,135 @@ fn partial_shade(sf: f32, sb: f32, len: f32) -> vec4<f32> {
 // with its own code only (the renderer builds one set per method).
 override SHADE_METHOD: u32 = 1u;
 
+// ---- biv-approx (seed 004 §5): 2D widgets, the F/B table ------------------
+
+// Widget w's rows after the TF rows: (shape parameters), (colour, ρ_w =
+// opacity / unit distance), (support s0, s1, g0, g1), (kind, 0, 0, 0).
+const WIDGET_BOX: u32 = 0u;
+const WIDGET_GAUSSIAN: u32 = 1u;
+const WIDGET_TRIANGLE: u32 = 2u;
+const WIDGET_SINE: u32 = 3u;
+
+fn widget_row(w: u32, r: u32) -> vec4<f32> {
+    return tf_nodes[shp.widgets + 4u * w + r];
+}
+
+fn widget_contains(w: u32, s: f32, g: f32) -> bool {
+    let sup = widget_row(w, 2u);
+    return s >= sup.x && s <= sup.y && g >= sup.z && g <= sup.w;
+}
+
+// Widget::shape_unclipped: m(s, g) ∈ [0, 1].
+fn widget_shape(w: u32, s: f32, g: f32) -> f32 {
+    let p = widget_row(w, 0u);
+    let kind = u32(widget_row(w, 3u).x);
+    if kind == WIDGET_GAUSSIAN {
+        let ds = (s - p.x) / p.z;
+        let dg = (g - p.y) / p.w;
+        return exp(-0.5 * (ds * ds + dg * dg));
+    }
+    if kind == WIDGET_TRIANGLE || kind == WIDGET_SINE {
+        let x = p.x * s - p.y;
+        // Rust's round: half away from zero.
+        let r = sign(x) * floor(abs(x) + 0.5);
+        if kind == WIDGET_TRIANGLE {
+            return 1.0 - 2.0 * abs(x - r);
+        }
+        return 0.5 * (1.0 + cos(6.283185307179586 * (x - r)));
+    }
+    return 1.0;
+}
+
+// The TF at (s, g): colour κ(s, g) (xyz) and extinction ρ(s, g) (w), as
+// TransferFunction::color2 and extinction2 (the 1D part from the merged
+// knots plus every widget; summed extinctions).
+fn tf2_eval(s: f32, g: f32) -> vec4<f32> {
+    let one = knot_eval(s);
+    var rho = one.w;
+    var em = one.xyz;
+    if shp.independent == 0u {
+        em = one.xyz * one.w;
+    }
+    for (var w = 0u; w < shp.n_widgets; w++) {
+        if !widget_contains(w, s, g) {
+            continue;
+        }
+        let c = widget_row(w, 1u);
+        let rw = c.w * widget_shape(w, s, g);
+        rho += rw;
+        if shp.independent == 0u {
+            em += c.xyz * rw;
+        } else {
+            em += c.xyz;
+        }
+    }
+    if shp.independent == 0u {
+        if rho > 0.0 {
+            em = em / rho;
+        } else {
+            em = one.xyz;
+        }
+    }
+    return vec4<f32>(em, rho);
+}
+
+// FbTable::lookup: (F, B) at (α_f, α_b), bilinear, clamped to [0, 1]²
+// (texel (j, i) holds entry (α_f index i, α_b index j)).
+fn fb_lookup(alpha_f: f32, alpha_b: f32) -> vec2<f32> {
+    let top = f32(shp.res - 1u);
+    let u = min(max(alpha_f * top, 0.0), top);
+    let v = min(max(alpha_b * top, 0.0), top);
+    let i = min(u32(u), shp.res - 2u);
+    let j = min(u32(v), shp.res - 2u);
+    let fu = u - f32(i);
+    let fv = v - f32(j);
+    let t00 = textureLoad(table2d, vec2<i32>(i32(j), i32(i)), 0, 0).xy;
+    let t01 = textureLoad(table2d, vec2<i32>(i32(j + 1u), i32(i)), 0, 0).xy;
+    let t10 = textureLoad(table2d, vec2<i32>(i32(j), i32(i + 1u)), 0, 0).xy;
+    let t11 = textureLoad(table2d, vec2<i32>(i32(j + 1u), i32(i + 1u)), 0, 0).xy;
+    return (1.0 - fu) * ((1.0 - fv) * t00 + fv * t01) + fu * ((1.0 - fv) * t10 + fv * t11);
+}
+
+// BivApprox::integrate: k equal sub-segments; κ and ρ at their ends
+// (s and g linear along the segment), each looked up in the F/B table and
+// composited front to back.
+fn biv_approx(seg: Seg) -> vec4<f32> {
+    if !(seg.len > 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let k = shp.subsegments;
+    let d = min(seg.len, 1.0e30) / f32(k);
+    var e0 = tf2_eval(seg.sf, seg.gf);
+    var acc = vec3<f32>(0.0);
+    var trans = 1.0;
+    for (var j = 1u; j <= k; j++) {
+        let x = f32(j) / f32(k);
+        let e1 = tf2_eval(seg.sf + x * (seg.sb - seg.sf), seg.gf + x * (seg.gb - seg.gf));
+        let a0 = e0.w * d;
+        let a1 = e1.w * d;
+        let fb = fb_lookup(one_minus_exp(a0), one_minus_exp(a1));
+        let depth = 0.5 * (a0 + a1);
+        let alpha = one_minus_exp(depth);
+        var scale = 1.0;
+        if shp.independent != 0u {
+            if depth > 1.0e-8 {
+                scale = alpha * d / depth;
+            } else {
+                scale = d * (1.0 - 0.5 * depth);
+            }
+        }
+        acc += trans * scale * (e0.xyz * fb.x + e1.xyz * fb.y);
+        trans *= 1.0 - alpha;
+        e0 = e1;
+    }
+    return vec4<f32>(acc, 1.0 - trans);
+}
+
+// Per slot, the gradient magnitude as a linear field (classify.wgsl, the
+// bivariate methods only): two rows like TetShade's s_a, s_b (w: the tet's
+// smallest and largest vertex value).
+@group(0) @binding(18) var<storage, read> gshades: array<vec4<f32>>;
+
 // (C, α) of one segment with the pipeline's method (pt-linear per fragment:
 // clipped tets and the probe).
 fn shade_segment(fr: Frame, seg: Seg) -> vec4<f32> {
@@ -397,6 +526,9 @@ fn shade_segment(fr: Frame, seg: Seg) -> vec4<f32> {
         }
         case METHOD_ATLAS2D: {
             return atlas_lookup(seg.sf, seg.sb, seg.len);
+        }
+        case METHOD_BIV_APPROX: {
+            return biv_approx(seg);
         }
         default: {
             return shade_pt_linear(fr, seg);
@@ -429,9 +561,19 @@ fn fragment_color(fr: Frame, mode: u32, thick_rgba: vec4<f32>, tent: f32, slot: 
         out.ok = true;
         return out;
     }
-    let seg = segment_at(fr, shades[slot], x, y);
+    var seg = segment_at(fr, shades[slot], x, y);
     if !seg.ok {
         return out;
+    }
+    if SHADE_METHOD == METHOD_BIV_APPROX {
+        // The gradient magnitude's field at the entry and exit depths,
+        // clamped to the tet's vertex range (TetSetup::fragment).
+        let ga = gshades[2u * slot];
+        let gb = gshades[2u * slot + 1u];
+        let base_a = ga.x + ga.y * x + ga.z * y;
+        let base_b = gb.x + gb.y * x + gb.z * y;
+        seg.gf = clamp(base_a + seg.zf * base_b, ga.w, gb.w);
+        seg.gb = clamp(base_a + seg.zb * base_b, ga.w, gb.w);
     }
     out.ok = true;
     out.rgba = shade_segment(fr, seg);

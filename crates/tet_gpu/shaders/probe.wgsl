@@ -14,11 +14,14 @@ fn probe(@builtin(global_invocation_id) gid: vec3<u32>) {
     if i >= arrayLength(&probe_out) {
         return;
     }
-    let q = probe_in[i];
+    let q = probe_in[2u * i];
+    let g = probe_in[2u * i + 1u];
     var seg: Seg;
     seg.sf = q.x;
     seg.sb = q.y;
     seg.len = q.z;
     seg.ok = true;
+    seg.gf = g.x;
+    seg.gb = g.y;
     probe_out[i] = shade_segment(fr, seg);
 }

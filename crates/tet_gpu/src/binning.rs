@@ -47,6 +47,7 @@ impl BinPipelines {
                 texture_entry(14, cs, wgpu::TextureViewDimension::D2Array),
                 uint_texture_entry(15, cs, wgpu::TextureViewDimension::D1),
                 uniform_entry(16, cs),
+                storage_entry(18, cs, true),
             ],
         });
         let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -24,44 +24,69 @@ pub struct GpuCull {
     pub(crate) scene_id: u64,
     pub(crate) intervals: wgpu::Buffer,
     pub(crate) n_intervals: u32,
+    widgets: wgpu::Buffer,
+    n_widgets: u32,
+    use_g: bool,
     zero: Vec<[f64; 2]>,
 }
 
 impl GpuCull {
     /// The culling of `tf` (x in data units, as the renderer's) for `scene`:
     /// [`TfCuller::new`]'s invisible intervals, mapped onto the ranks of
-    /// the scene's distinct scalars. A TF with 2D widgets is
-    /// [`GpuError::Unsupported`] (its culling needs |∇s| ranges; cull on the
-    /// CPU with `TfCuller` and pass the filtered order).
+    /// the scene's distinct scalars; with 2D widgets, the supports of the
+    /// widgets that can show (opacity > 0, or colour > 0 under independent
+    /// emission), mapped onto scalar and — where the scene has them
+    /// ([`GpuScene::with_gradient_magnitudes`]) — |∇s| ranks, as
+    /// `TransferFunction::cell_is_invisible` tests them (without gradient
+    /// magnitudes any |∇s| ≥ 0 is possible, as on the CPU).
     pub fn new(ctx: &GpuContext, scene: &GpuScene, tf: &TransferFunction) -> Result<GpuCull, GpuError> {
-        if !tf.widgets().is_empty() {
-            return Err(GpuError::Unsupported(format!(
-                "culling a transfer function with {} 2D widget(s) (needs gradient ranges); cull on the CPU",
-                tf.widgets().len()
-            )));
-        }
         let zero = TfCuller::new(tf).zero_intervals().to_vec();
         let distinct = scene.distinct_scalars();
-        // [lo, hi] → [first rank with scalar ≥ lo, first rank with scalar > hi).
-        let mut rows: Vec<[u32; 2]> = zero
+        // [lo, hi] → [first rank with value ≥ lo, first rank with value > hi).
+        let to_ranks = |v: &[f64], lo: f64, hi: f64| {
+            [v.partition_point(|&s| s < lo) as u32, v.partition_point(|&s| s <= hi) as u32]
+        };
+        let mut rows: Vec<[u32; 2]> =
+            zero.iter().map(|&[lo, hi]| to_ranks(distinct, lo, hi)).filter(|r| r[0] < r[1]).collect();
+        let independent = tf.emission() == tet_preint::Emission::Independent;
+        let g_distinct = scene.distinct_gradient_magnitudes();
+        let use_g = g_distinct.is_some();
+        let mut rects: Vec<[u32; 4]> = tf
+            .widgets()
             .iter()
-            .map(|&[lo, hi]| {
-                [distinct.partition_point(|&s| s < lo) as u32, distinct.partition_point(|&s| s <= hi) as u32]
+            .filter(|w| w.opacity > 0.0 || (independent && w.color.iter().any(|&c| c > 0.0)))
+            .filter_map(|w| {
+                let [[s0, s1], [g0, g1]] = w.support;
+                let s = to_ranks(distinct, s0, s1);
+                match g_distinct {
+                    Some(g) => {
+                        let g = to_ranks(g, g0, g1);
+                        Some([s[0], s[1], g[0], g[1]])
+                    }
+                    // |∇s| ∈ [0, ∞) meets [g0, g1] unless g1 < 0.
+                    None => (g1 >= 0.0).then_some([s[0], s[1], 0, 0]),
+                }
             })
-            .filter(|r| r[0] < r[1])
             .collect();
+        let n_widgets = rects.len() as u32;
+        if rects.is_empty() {
+            rects.push([0; 4]);
+        }
         let n_intervals = rows.len() as u32;
         if rows.is_empty() {
             rows.push([0, 0]);
         }
-        let intervals = ctx.checked(|| {
+        let init = |label: &str, contents: &[u8]| {
             ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("cull intervals"),
-                contents: bytemuck::cast_slice(&rows),
+                label: Some(label),
+                contents,
                 usage: wgpu::BufferUsages::STORAGE,
             })
+        };
+        let (intervals, widgets) = ctx.checked(|| {
+            (init("cull intervals", bytemuck::cast_slice(&rows)), init("cull widgets", bytemuck::cast_slice(&rects)))
         })?;
-        Ok(GpuCull { scene_id: scene.id(), intervals, n_intervals, zero })
+        Ok(GpuCull { scene_id: scene.id(), intervals, n_intervals, widgets, n_widgets, use_g, zero })
     }
 
     /// The transfer function's invisible intervals (data units, ±∞ at the
@@ -107,6 +132,8 @@ impl CullPipelines {
                 storage_entry(4, cs, true),
                 storage_entry(5, cs, false),
                 storage_entry(6, cs, false),
+                storage_entry(7, cs, true),
+                storage_entry(8, cs, true),
             ],
         });
         let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -146,7 +173,16 @@ impl CullPipelines {
         bufs: &CullBuffers<'_>,
     ) -> Result<(), GpuError> {
         let (gx, gy) = split_groups(n.div_ceil(CULL_WG));
-        let o = prm.push(&CullParams { n, n_intervals: cull.n_intervals, groups_x: gx, _pad: 0 })?;
+        let o = prm.push(&CullParams {
+            n,
+            n_intervals: cull.n_intervals,
+            groups_x: gx,
+            n_widgets: cull.n_widgets,
+            use_g: cull.use_g as u32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        })?;
         let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull"),
             layout: &self.layout,
@@ -158,6 +194,8 @@ impl CullPipelines {
                 wgpu::BindGroupEntry { binding: 4, resource: bufs.order_in.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 5, resource: bufs.flags.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 6, resource: bufs.order_out.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: scene.g_ranks().as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: cull.widgets.as_entire_binding() },
             ],
         });
         {

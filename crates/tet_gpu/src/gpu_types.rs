@@ -235,13 +235,15 @@ pub struct ShadeParams {
     /// Atlas2d: planes P and tiles per image row.
     pub planes: u32,
     pub cols: u32,
-    /// Partial: the TF's merged control points in `tf_nodes` from row
-    /// `knots`, two rows each ((x, κ), (ρ, 0, 0, 0)), `n_knots` of them.
+    /// Partial and biv-approx: the TF's merged control points in `tf_nodes`
+    /// from row `knots`, two rows each ((x, κ), (ρ, 0, 0, 0)), `n_knots` of them.
     pub knots: u32,
     pub n_knots: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// Biv-approx: the 2D widgets in `tf_nodes` from row `widgets`, four
+    /// rows each (see fragment.wgsl), and the sub-segments per segment (k).
+    pub widgets: u32,
+    pub n_widgets: u32,
+    pub subsegments: u32,
 }
 
 /// [`ShadeParams::band`] of a poly table stored as the full square.
@@ -257,7 +259,15 @@ pub struct CullParams {
     pub n_intervals: u32,
     /// Workgroups along x of the 2D dispatch.
     pub groups_x: u32,
-    pub _pad: u32,
+    /// 2D widgets that can make a cell visible, as rank rectangles in the
+    /// `widgets` buffer.
+    pub n_widgets: u32,
+    /// 1 when the rectangles' |∇s| sides are compared (the scene has
+    /// gradient magnitudes), 0 when any |∇s| is possible.
+    pub use_g: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Workgroup size of the culling passes (`CULL_WG` in cull.wgsl).
@@ -293,6 +303,7 @@ pub const METHOD_TABLE3D: u32 = 1;
 pub const METHOD_POLY: u32 = 2;
 pub const METHOD_PARTIAL: u32 = 3;
 pub const METHOD_ATLAS2D: u32 = 4;
+pub const METHOD_BIV_APPROX: u32 = 5;
 
 pub const GEOM_NONE: u32 = 0;
 pub const GEOM_THICK: u32 = 1;
@@ -317,7 +328,7 @@ mod tests {
         assert_eq!(size_of::<BakeParams>(), 48);
         assert_eq!(size_of::<PolyBakeParams>(), 48);
         assert_eq!(size_of::<ShadeParams>(), 80);
-        assert_eq!(size_of::<CullParams>(), 16);
+        assert_eq!(size_of::<CullParams>(), 32);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
             (size_of::<TetGeom>(), align_of::<TetGeom>()),

@@ -20,15 +20,19 @@
 //!     bake or [`bake_poly`]);
 //!   - `partial`: the TF-independent Ψ table as a 2D texture, each segment
 //!     split at the TF's control points per fragment, as `PartialShader`
-//!     (density emission; independent emission is [`GpuError::Unsupported`]).
+//!     (density emission; independent emission is [`GpuError::Unsupported`]);
+//!   - `biv-approx`: 2D widgets over (s, |∇s|) and seed 004's F/B table,
+//!     k sub-segments per fragment, as `BivApprox`, with per-vertex gradient
+//!     magnitudes on the scene ([`GpuScene::with_gradient_magnitudes`]).
 //!
 //!   Every lookup reads texels and interpolates with the CPU's weights and
 //!   clamps, so the GPU agrees with the CPU shader to f32 rounding;
 //!   [`GpuShader::probe`] evaluates the per-fragment function on given
-//!   (Sf, Sb, l). Not on the GPU: `exact`, `biv-exact`, `biv-approx`.
+//!   (Sf, Sb, l). Not on the GPU: `exact`, `biv-exact`.
 //! * [`GpuCull`]: per-cell culling with tet_render's `TfCuller` semantics,
-//!   computed on the GPU from the cells' scalar ranges (compared as ranks of
-//!   the scene's distinct f64 scalars, so exactly the CPU's decision), and
+//!   computed on the GPU from the cells' scalar ranges and, with 2D widgets,
+//!   |∇s| ranges (compared as ranks of the scene's distinct f64 values, so
+//!   exactly the CPU's decision), and
 //!   the visibility order compacted by a prefix sum so culled tets are
 //!   neither classified nor rasterized ([`FrameOptions::cull`];
 //!   `tets_culled` and [`GpuRenderStats::fraction_culled`] in the stats).

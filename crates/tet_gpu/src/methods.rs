@@ -9,19 +9,29 @@
 //! agree to f32 rounding: no hardware filtering (8-bit weights).
 
 use crate::gpu_types::{
-    FrameUniforms, ShadeParams, METHOD_ATLAS2D, METHOD_PARTIAL, METHOD_POLY, METHOD_PT_LINEAR, METHOD_TABLE3D, NO_BAND,
-    PROBE_WG,
+    FrameUniforms, ShadeParams, METHOD_ATLAS2D, METHOD_BIV_APPROX, METHOD_PARTIAL, METHOD_POLY, METHOD_PT_LINEAR,
+    METHOD_TABLE3D, NO_BAND, PROBE_WG,
 };
 use crate::render::{
     storage_entry, table_texture, texture_entry, uint_texture_entry, uniform_entry, GpuShader, TableGrid,
 };
 use crate::{map_read, shader_source_fragment, GpuContext, GpuError, PROBE_WGSL};
-use tet_preint::{Atlas2d, Baked, Emission, Method, PartialShader, PolyTable, TransferFunction};
+use tet_preint::{
+    Atlas2d, Baked, BivApprox, Emission, Method, PartialShader, PolyTable, Segment, Shape, TransferFunction,
+};
 use wgpu::util::DeviceExt;
 
 /// The methods [`GpuShader::from_baked`] accepts, in DESIGN.md's order.
-pub const GPU_METHODS: [Method; 7] =
-    [Method::PtLinear, Method::Table3d, Method::Atlas2d, Method::Poly1, Method::Poly2, Method::Poly4, Method::Partial];
+pub const GPU_METHODS: [Method; 8] = [
+    Method::PtLinear,
+    Method::Table3d,
+    Method::Atlas2d,
+    Method::Poly1,
+    Method::Poly2,
+    Method::Poly4,
+    Method::Partial,
+    Method::BivApprox,
+];
 
 /// The 2D tables of a shader and their parameters, before upload of the TF rows.
 pub(crate) struct Tables2d {
@@ -235,8 +245,40 @@ impl GpuShader {
         GpuShader::assemble(ctx, METHOD_ATLAS2D, Method::Atlas2d, None, placeholder_3d(ctx)?, no_grid(), tables)
     }
 
+    /// `biv-approx` (seed 004 §5): the F/B table as an Rgba32Float 2D
+    /// texture over (α_f, α_b), the 1D TF as merged control points and the
+    /// 2D widgets (box, Gaussian, triangle and sine bands with their
+    /// supports) as rows; per fragment the segment's scalar and gradient
+    /// magnitude (interpolated from per-vertex values:
+    /// [`crate::GpuScene::with_gradient_magnitudes`]) are sampled at the ends
+    /// of k equal sub-segments, each looked up in F/B and composited, as
+    /// `BivApprox::integrate` (in f32 where the CPU accumulates in f64).
+    pub fn biv_approx(ctx: &GpuContext, shader: &BivApprox) -> Result<GpuShader, GpuError> {
+        let tf = shader.transfer_function();
+        let fb = shader.table();
+        let res = fb.res();
+        let texels: Vec<[f32; 4]> = fb.f().iter().zip(fb.b()).map(|(&f, &b)| [f, b, 0.0, 0.0]).collect();
+        let table2d = texture_2d_array(ctx, [res as u32, res as u32, 1], &texels)?;
+        let mut rows = merged_knots(tf);
+        let n_knots = (rows.len() / 2) as u32;
+        // Relative to the first extra row here; `assemble` adds the offset.
+        let widgets = rows.len() as u32;
+        rows.extend(widget_rows(tf));
+        let params = ShadeParams {
+            res: res as u32,
+            independent: (tf.emission() == Emission::Independent) as u32,
+            n_knots,
+            widgets,
+            n_widgets: tf.widgets().len() as u32,
+            subsegments: shader.subsegments() as u32,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let tables = Tables2d { table2d, alpha: alpha_texture(ctx, &[0])?, params, extra_rows: rows };
+        GpuShader::assemble(ctx, METHOD_BIV_APPROX, Method::BivApprox, None, placeholder_3d(ctx)?, no_grid(), tables)
+    }
+
     /// The GPU form of a baked method ([`GPU_METHODS`]); the others
-    /// (`exact`, `biv-exact`, `biv-approx`) are [`GpuError::Unsupported`].
+    /// (`exact`, `biv-exact`) are [`GpuError::Unsupported`].
     pub fn from_baked(ctx: &GpuContext, baked: &Baked) -> Result<GpuShader, GpuError> {
         match baked {
             Baked::PtLinear(s) => GpuShader::pt_linear(ctx, s.transfer_function()),
@@ -244,6 +286,7 @@ impl GpuShader {
             Baked::Atlas2d(a) => GpuShader::atlas2d(ctx, a),
             Baked::Poly(t, _) => GpuShader::poly(ctx, t),
             Baked::Partial(s) => GpuShader::partial(ctx, s),
+            Baked::BivApprox(s, _) => GpuShader::biv_approx(ctx, s),
             other => Err(GpuError::Unsupported(format!(
                 "method {} (GPU methods: {})",
                 other.method(),
@@ -270,11 +313,21 @@ impl GpuShader {
     /// back: what a fragment with that segment gets (pt-linear: the
     /// per-fragment form clipped tets use). At most 4 194 240 triples a call.
     pub fn probe(&self, ctx: &GpuContext, triples: &[[f32; 3]]) -> Result<Vec<[f32; 4]>, GpuError> {
+        let segs: Vec<Segment> = triples
+            .iter()
+            .map(|t| Segment { s_front: t[0], s_back: t[1], len_world: t[2], ..Default::default() })
+            .collect();
+        self.probe_segments(ctx, &segs)
+    }
+
+    /// [`GpuShader::probe`] on whole segments: the gradient magnitudes at
+    /// entry and exit too (the bivariate methods read them).
+    pub fn probe_segments(&self, ctx: &GpuContext, segs: &[Segment]) -> Result<Vec<[f32; 4]>, GpuError> {
         let max = 65535 * PROBE_WG as usize;
-        if triples.len() > max {
-            return Err(GpuError::Input(format!("probe: {} triples, at most {max} a call", triples.len())));
+        if segs.len() > max {
+            return Err(GpuError::Input(format!("probe: {} segments, at most {max} a call", segs.len())));
         }
-        if triples.is_empty() {
+        if segs.is_empty() {
             return Ok(Vec::new());
         }
         let fr = FrameUniforms {
@@ -290,8 +343,11 @@ impl GpuShader {
             table_axis_segs: self.axis_segs,
             ..bytemuck::Zeroable::zeroed()
         };
-        let input: Vec<[f32; 4]> = triples.iter().map(|t| [t[0], t[1], t[2], 0.0]).collect();
-        let bytes = (triples.len() * 16) as u64;
+        let input: Vec<[f32; 4]> = segs
+            .iter()
+            .flat_map(|s| [[s.s_front, s.s_back, s.len_world, 0.0], [s.grad_front, s.grad_back, 0.0, 0.0]])
+            .collect();
+        let bytes = (segs.len() * 16) as u64;
         let dev = &ctx.device;
         let readback = ctx.checked(|| {
             let cs = wgpu::ShaderStages::COMPUTE;
@@ -308,6 +364,7 @@ impl GpuShader {
                     texture_entry(14, cs, wgpu::TextureViewDimension::D2Array),
                     uint_texture_entry(15, cs, wgpu::TextureViewDimension::D1),
                     uniform_entry(16, cs),
+                    storage_entry(18, cs, true),
                 ],
                 shader_source_fragment(PROBE_WGSL),
                 "probe",
@@ -322,6 +379,12 @@ impl GpuShader {
                 label: Some("probe in"),
                 contents: bytemuck::cast_slice(&input),
                 usage: wgpu::BufferUsages::STORAGE,
+            });
+            let gshades = dev.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("probe gshades"),
+                size: 32,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
             });
             let out = dev.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("probe out"),
@@ -349,6 +412,8 @@ impl GpuShader {
                     wgpu::BindGroupEntry { binding: 14, resource: wgpu::BindingResource::TextureView(&t2) },
                     wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(&a) },
                     wgpu::BindGroupEntry { binding: 16, resource: self.shade_buf.as_entire_binding() },
+                    // No slots: the probe's segments carry their gradient magnitudes.
+                    wgpu::BindGroupEntry { binding: 18, resource: gshades.as_entire_binding() },
                 ],
             });
             let mut enc = dev.create_command_encoder(&Default::default());
@@ -356,7 +421,7 @@ impl GpuShader {
                 let mut pass = enc.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&pipeline);
                 pass.set_bind_group(0, &group, &[]);
-                pass.dispatch_workgroups((triples.len() as u32).div_ceil(PROBE_WG), 1, 1);
+                pass.dispatch_workgroups((segs.len() as u32).div_ceil(PROBE_WG), 1, 1);
             }
             enc.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
             ctx.queue.submit([enc.finish()]);
@@ -392,6 +457,32 @@ fn merged_knots(tf: &TransferFunction) -> Vec<[f32; 4]> {
         .flat_map(|&x| {
             let k = tf.color(x);
             [[x as f32, k[0] as f32, k[1] as f32, k[2] as f32], [tf.extinction(x) as f32, 0.0, 0.0, 0.0]]
+        })
+        .collect()
+}
+
+/// The TF's 2D widgets as four rows each (fragment.wgsl's `widget_row`):
+/// shape parameters, (colour, opacity / unit distance), the support
+/// (±f32::MAX where unbounded) and the kind.
+fn widget_rows(tf: &TransferFunction) -> Vec<[f32; 4]> {
+    let u = tf.unit_distance();
+    let f = |x: f64| x.clamp(-f32::MAX as f64, f32::MAX as f64) as f32;
+    tf.widgets()
+        .iter()
+        .flat_map(|w| {
+            let (kind, p) = match w.shape {
+                Shape::Box { center, width } => (0.0, [center[0], center[1], width[0], width[1]]),
+                Shape::Gaussian { center, sigma } => (1.0, [center[0], center[1], sigma[0], sigma[1]]),
+                Shape::Triangle { frequency, phase } => (2.0, [frequency, phase, 0.0, 0.0]),
+                Shape::Sine { frequency, phase } => (3.0, [frequency, phase, 0.0, 0.0]),
+            };
+            let [[s0, s1], [g0, g1]] = w.support;
+            [
+                p.map(f),
+                [f(w.color[0]), f(w.color[1]), f(w.color[2]), f(w.opacity / u)],
+                [f(s0), f(s1), f(g0), f(g1)],
+                [kind, 0.0, 0.0, 0.0],
+            ]
         })
         .collect()
 }

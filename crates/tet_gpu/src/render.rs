@@ -5,8 +5,8 @@
 use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
 use crate::cull::{CullBuffers, CullPipelines};
 use crate::gpu_types::{
-    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_PT_LINEAR, METHOD_TABLE3D, RADIX_BLOCK,
-    SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
+    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_APPROX, METHOD_PT_LINEAR,
+    METHOD_TABLE3D, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
 use crate::gpusort::SortPipelines;
 use crate::methods::Tables2d;
@@ -46,6 +46,12 @@ pub struct GpuScene {
     /// among them on the GPU: what culling compares ([`crate::GpuCull`]).
     distinct: Vec<f64>,
     ranks: wgpu::Buffer,
+    /// Per-vertex gradient magnitudes (bivariate methods), f32.
+    gmags: Option<wgpu::Buffer>,
+    /// Their distinct values ascending and each vertex's rank among them
+    /// (culling with 2D widgets).
+    g_distinct: Option<Vec<f64>>,
+    g_ranks: Option<wgpu::Buffer>,
 }
 
 impl GpuScene {
@@ -92,10 +98,7 @@ impl GpuScene {
         let pos_rel: Vec<[f32; 3]> = points.iter().map(|p| (DVec3::from(*p) - centre).as_vec3().to_array()).collect();
         let pos4: Vec<[f32; 4]> = pos_rel.iter().map(|p| [p[0], p[1], p[2], 0.0]).collect();
         let s32: Vec<f32> = scalar.iter().map(|&s| s as f32).collect();
-        let mut distinct = scalar.to_vec();
-        distinct.par_sort_unstable_by(f64::total_cmp);
-        distinct.dedup();
-        let ranks: Vec<u32> = scalar.par_iter().map(|s| distinct.partition_point(|d| d < s) as u32).collect();
+        let (distinct, ranks) = distinct_and_ranks(scalar);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let init = |label: &str, contents: &[u8]| {
             ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -124,7 +127,46 @@ impl GpuScene {
             scalars,
             distinct,
             ranks,
+            gmags: None,
+            g_distinct: None,
+            g_ranks: None,
         })
+    }
+
+    /// The scene with per-vertex gradient magnitudes |∇s| (what the
+    /// bivariate methods interpolate along a segment; tet_render's
+    /// `Scene::gradient_magnitudes`). One finite value ≥ 0 per point.
+    pub fn with_gradient_magnitudes(mut self, ctx: &GpuContext, g: &[f64]) -> Result<GpuScene, GpuError> {
+        if g.len() != self.n_points {
+            return Err(GpuError::Input(format!("{} gradient magnitudes for {} points", g.len(), self.n_points)));
+        }
+        if let Some(i) = g.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(GpuError::Input(format!("gradient magnitude of point {i} is {}: need finite ≥ 0", g[i])));
+        }
+        let g32: Vec<f32> = g.iter().map(|&v| v as f32).collect();
+        let (distinct, ranks) = distinct_and_ranks(g);
+        let init = |label: &str, contents: &[u8]| {
+            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            })
+        };
+        let (gmags, g_ranks) = ctx.checked(|| {
+            (
+                init("gradient magnitudes", bytemuck::cast_slice(&g32)),
+                init("gradient ranks", bytemuck::cast_slice(&ranks)),
+            )
+        })?;
+        self.gmags = Some(gmags);
+        self.g_ranks = Some(g_ranks);
+        self.g_distinct = Some(distinct);
+        Ok(self)
+    }
+
+    /// Whether the scene carries gradient magnitudes.
+    pub fn has_gradient_magnitudes(&self) -> bool {
+        self.gmags.is_some()
     }
 
     pub(crate) fn id(&self) -> u64 {
@@ -139,6 +181,13 @@ impl GpuScene {
     pub(crate) fn distinct_scalars(&self) -> &[f64] {
         &self.distinct
     }
+    pub(crate) fn distinct_gradient_magnitudes(&self) -> Option<&[f64]> {
+        self.g_distinct.as_deref()
+    }
+    /// The gradient-magnitude ranks (the scalar ranks where the scene has none: unread then).
+    pub(crate) fn g_ranks(&self) -> &wgpu::Buffer {
+        self.g_ranks.as_ref().unwrap_or(&self.ranks)
+    }
 
     pub fn centre_in_world(&self) -> DVec3 {
         self.centre_in_world
@@ -149,6 +198,15 @@ impl GpuScene {
     pub fn num_points(&self) -> usize {
         self.n_points
     }
+}
+
+/// The distinct values ascending, and each value's index among them.
+fn distinct_and_ranks(values: &[f64]) -> (Vec<f64>, Vec<u32>) {
+    let mut distinct = values.to_vec();
+    distinct.par_sort_unstable_by(f64::total_cmp);
+    distinct.dedup();
+    let ranks = values.par_iter().map(|s| distinct.partition_point(|d| d < s) as u32).collect();
+    (distinct, ranks)
 }
 
 pub(crate) fn check_size(what: &'static str, bytes: u64, limit: u64) -> Result<(), GpuError> {
@@ -290,7 +348,7 @@ impl GpuShader {
 
     /// A shader from its parts: `tables.extra_rows` go after the TF nodes
     /// and the table3d axis in `tf_nodes` (their first row's index is set in
-    /// `tables.params.knots`).
+    /// `tables.params.knots` and added to `tables.params.widgets`).
     pub(crate) fn assemble(
         ctx: &GpuContext,
         method: u32,
@@ -309,7 +367,10 @@ impl GpuShader {
         }
         nodes.extend(&grid.axis);
         if !tables.extra_rows.is_empty() {
+            // The extra rows start with the merged knots; the widgets'
+            // offset is given relative to them.
             tables.params.knots = nodes.len() as u32;
+            tables.params.widgets += nodes.len() as u32;
             nodes.extend(&tables.extra_rows);
         }
         if nodes.is_empty() {
@@ -541,6 +602,8 @@ struct Workspace {
     pair_vals: [Grow; 2],
     depth_keys: [Grow; 2],
     depth_vals: [Grow; 2],
+    /// Bivariate methods: the gradient magnitude's field per slot.
+    gshades: Grow,
     cull_flags: Grow,
     cull_order: Grow,
     readback: Grow,
@@ -570,6 +633,7 @@ impl Workspace {
             pair_vals: two("pair values 0", "pair values 1"),
             depth_keys: two("depth keys 0", "depth keys 1"),
             depth_vals: two("depth order 0", "depth order 1"),
+            gshades: Grow::storage("gradient-magnitude fields"),
             cull_flags: Grow::storage("cull flags"),
             cull_order: Grow::storage("culled order"),
             readback: Grow::new("readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
@@ -756,6 +820,8 @@ impl GpuRenderer {
                     storage_entry(5, cs, false),
                     storage_entry(6, cs, false),
                     storage_entry(7, cs, true),
+                    storage_entry(17, cs, true),
+                    storage_entry(18, cs, false),
                 ],
             });
             let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -787,6 +853,7 @@ impl GpuRenderer {
                     texture_entry(14, fs, wgpu::TextureViewDimension::D2Array),
                     uint_texture_entry(15, fs, wgpu::TextureViewDimension::D1),
                     uniform_entry(16, fs),
+                    storage_entry(18, fs, true),
                 ],
             });
             let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -997,6 +1064,12 @@ impl GpuRenderer {
                 return Err(GpuError::Input("the GpuCull was built for another scene".into()));
             }
         }
+        if shader.method() == METHOD_BIV_APPROX && scene.gmags.is_none() {
+            return Err(GpuError::Input(format!(
+                "{} needs per-vertex gradient magnitudes: GpuScene::with_gradient_magnitudes",
+                shader.method_id()
+            )));
+        }
         if let GpuOrder::Given(order) = order {
             if order.len() > scene.num_tets() {
                 return Err(GpuError::Input(format!(
@@ -1127,6 +1200,8 @@ impl GpuRenderer {
         let chunk = cap.min(n.max(1));
         stats.buffers_grown += ws.geoms.ensure(ctx, chunk as u64 * 64, limit)? as usize;
         stats.buffers_grown += ws.shades.ensure(ctx, chunk as u64 * 112, limit)? as usize;
+        let bivariate = shader.method() == METHOD_BIV_APPROX;
+        stats.buffers_grown += ws.gshades.ensure(ctx, if bivariate { chunk as u64 * 32 } else { 16 }, limit)? as usize;
         let compute = stats.raster_path == RasterPath::Compute && n > 0;
         let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
         if compute {
@@ -1207,6 +1282,8 @@ impl GpuRenderer {
                         bind(5, ws.geoms.get()),
                         bind(6, ws.shades.get()),
                         bind(7, &shader.tf_nodes),
+                        bind(17, scene.gmags.as_ref().unwrap_or(&scene.scalars)),
+                        bind(18, ws.gshades.get()),
                     ],
                 });
                 let mut enc = dev.create_command_encoder(&Default::default());
@@ -1264,6 +1341,7 @@ impl GpuRenderer {
                                 resource: wgpu::BindingResource::TextureView(&alpha_view),
                             },
                             bind(16, &shader.shade_buf),
+                            bind(18, ws.gshades.get()),
                         ],
                     });
                     let mut enc = dev.create_command_encoder(&Default::default());
@@ -1492,6 +1570,7 @@ impl GpuRenderer {
                 wgpu::BindGroupEntry { binding: 14, resource: wgpu::BindingResource::TextureView(env.table2d_view) },
                 wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(env.alpha_view) },
                 bind(16, &env.shader.shade_buf),
+                bind(18, ws.gshades.get()),
             ],
         }))
     }

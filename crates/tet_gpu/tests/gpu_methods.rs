@@ -25,6 +25,22 @@ fn tf() -> TransferFunction {
     .unwrap()
 }
 
+/// A 1D part plus 2D widgets over (s, |∇s|) (the grid's |∇s| is about 0–4):
+/// a Gaussian, a clipped box and clipped triangle bands.
+fn tf_with_widgets(emission: &str) -> TransferFunction {
+    TransferFunction::from_json(&format!(
+        r#"{{"color": [[0, 0.1, 0.2, 1], [1, 1, 0.1, 0.1]], "opacity": [[0, 0.2], [1, 1]], "unit_distance": 1,
+            "emission": "{emission}",
+            "widgets": [
+              {{"type": "gaussian", "center": [0.5, 1.5], "width": [0.1, 0.8], "color": [1, 0.9, 0.2], "opacity": 6}},
+              {{"type": "box", "center": [0.3, 2.2], "width": [0.13, 1.7], "color": [0.1, 1, 0.3], "opacity": 3}},
+              {{"type": "triangle", "frequency": 7.3, "phase": 0.2, "color": [0.8, 0.2, 1], "opacity": 2,
+                "clip": [[0.55, 0.95], [0.3, 3.1]]}}
+            ]}}"#
+    ))
+    .unwrap()
+}
+
 /// Zero opacity below 0.3 and above 0.7: cells whose range lies there are culled.
 fn tf_with_gaps() -> TransferFunction {
     TransferFunction::from_json(
@@ -304,6 +320,151 @@ fn gpu_culling_matches_the_cpu_culler() {
     assert_eq!((f.stats.tets_culled, f.stats.tets_drawn), (0, order.len()));
 }
 
+/// biv-approx: per segment (probe with gradient magnitudes) and per image
+/// against tet_render's CPU renderer with the scene's per-vertex |∇s|,
+/// under both emission models.
+#[test]
+fn biv_approx_matches_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(6);
+    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone())
+        .unwrap()
+        .ensure_gradients()
+        .unwrap();
+    let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
+    let g_max = gm.iter().copied().fold(0.0f64, f64::max);
+    eprintln!("|∇s| up to {g_max:.3}");
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
+        .unwrap()
+        .with_gradient_magnitudes(&ctx, &gm)
+        .unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let mut cpu = tet_render::Renderer::new(cpu_scene);
+    let len = domain(&mesh).len_max_world as f32;
+    let mut rng = tet_mesh::SplitMix64(0xb1f);
+    let segs: Vec<Segment> = (0..20_000)
+        .map(|i| {
+            let s_front = rng.next_f64() as f32 * 1.2 - 0.1;
+            let s_back = if i % 2 == 0 { s_front + (rng.next_f64() as f32 - 0.5) * 0.3 } else { rng.next_f64() as f32 };
+            let grad_front = rng.next_f64() as f32 * 4.0;
+            let grad_back = if i % 3 == 0 { grad_front } else { rng.next_f64() as f32 * 4.0 };
+            let len_world = [0.0, 1e-5, rng.next_f64() as f32 * 1.3 * len][i % 3];
+            Segment { s_front, s_back, grad_front, grad_back, len_world }
+        })
+        .collect();
+    let (lo, hi) = mesh.bounds();
+    for emission in ["density", "independent"] {
+        let tf = tf_with_widgets(emission);
+        let baked = bake(Method::BivApprox, &tf, &mesh);
+        let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
+        assert_eq!(shader.method_id(), "biv-approx");
+        let got = shader.probe_segments(&ctx, &segs).unwrap();
+        let mut worst = (0.0f32, 0);
+        for (i, (seg, g)) in segs.iter().zip(&got).enumerate() {
+            let want = baked.shader().shade(seg);
+            for c in 0..4 {
+                assert!(g[c].is_finite(), "{seg:?}: {g:?}");
+                // Independent emission's C grows like l·κ: relative to max(1, |C|).
+                let d = (g[c] - want[c]).abs() / want[c].abs().max(1.0);
+                if d > worst.0 {
+                    worst = (d, i);
+                }
+            }
+        }
+        eprintln!("biv-approx {emission}: GPU probe vs CPU shade max |Δ| {:.3e} at {:?}", worst.0, segs[worst.1]);
+        assert!(worst.0 <= 2e-5, "{emission}: {worst:?} {:?}", segs[worst.1]);
+
+        let cpu_shader: Arc<dyn SegmentShader> = Arc::from(baked.into_shader());
+        cpu.set_shader(cpu_shader);
+        for (view, spec) in [
+            ("az 30 el 20", ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0)),
+            ("az -120 el -35", ViewSpec::framing(lo, hi, [80, 72]).orbit(-120.0, -35.0, 1.3)),
+        ] {
+            let cam = Camera::new(&spec).unwrap();
+            cpu.set_view(&spec).unwrap();
+            let (want, _) = cpu.render(&|_, _| {}).unwrap();
+            let order = cpu.order().unwrap().tets.clone();
+            let got = renderer.render(&ctx, &scene, &cam, &order, &shader).unwrap().image;
+            let d = report(&format!("grid 6³×5 biv-approx {emission} vs CPU PT, {view}"), &got, &want);
+            assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{emission} {view}: {d:?}");
+        }
+    }
+    // Without gradient magnitudes on the scene: an input error.
+    let bare = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let shader = GpuShader::from_baked(&ctx, &bake(Method::BivApprox, &tf_with_widgets("density"), &mesh)).unwrap();
+    let cam = Camera::new(&ViewSpec::framing(lo, hi, [16, 16])).unwrap();
+    let err = renderer.render(&ctx, &bare, &cam, &[0], &shader).err().unwrap();
+    assert!(err.to_string().contains("gradient magnitudes"), "{err}");
+    assert!(GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
+        .unwrap()
+        .with_gradient_magnitudes(&ctx, &gm[1..])
+        .is_err());
+}
+
+/// Culling with 2D widgets (TfCuller's bivariate test): the same culled
+/// count as the CPU with and without per-vertex |∇s|, and biv-approx images
+/// culled on the GPU against the CPU renderer culled on the CPU.
+#[test]
+fn gpu_culling_with_widgets_matches_the_cpu_culler() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(8);
+    // The 1D part is invisible outside [0.3, 0.7]; clipped widgets show
+    // some of those cells, depending on |∇s| (0 to ~3.7 here).
+    let tf = TransferFunction::from_json(
+        r#"{"color": [[0, 0.1, 0.2, 1], [1, 1, 0.1, 0.1]],
+            "opacity": [[0, 0], [0.3, 0], [0.5, 3], [0.7, 0], [1, 0]], "unit_distance": 1,
+            "widgets": [
+              {"type": "box", "center": [0.14, 1.2], "width": [0.04, 0.8], "color": [0.1, 1, 0.3], "opacity": 3},
+              {"type": "gaussian", "center": [0.82, 2.0], "width": [0.05, 0.5], "color": [1, 0.9, 0.2], "opacity": 6,
+               "clip": [[0.8, 0.84], [1.5, 2.5]]},
+              {"type": "box", "center": [0.9, 3.0], "width": [0.2, 1.0], "color": [1, 0, 0], "opacity": 0}
+            ]}"#,
+    )
+    .unwrap();
+    let bare_cpu = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let cpu_scene = bare_cpu.clone().ensure_gradients().unwrap();
+    let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
+    let culler = TfCuller::new(&tf);
+    let (with_g, without_g) = (cull(&cpu_scene, &culler), cull(&bare_cpu, &culler));
+    eprintln!("CPU TfCuller with widgets: {} culled with |∇s|, {} without", with_g.culled, without_g.culled);
+    assert!(with_g.culled > without_g.culled && without_g.culled > 0);
+    let bare = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
+        .unwrap()
+        .with_gradient_magnitudes(&ctx, &gm)
+        .unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let (lo, hi) = mesh.bounds();
+    let spec = ViewSpec::framing(lo, hi, [96, 80]).orbit(50.0, 30.0, 1.0);
+    let cam = Camera::new(&spec).unwrap();
+    let order = mesh.mpvo_order(&cam);
+    let baked = bake(Method::BivApprox, &tf, &mesh);
+    let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
+    let pt = GpuShader::pt_linear(&ctx, &tf.without_widgets()).unwrap();
+    for (what, sc, mask, sh) in [("with |∇s|", &scene, &with_g, &shader), ("without |∇s|", &bare, &without_g, &pt)]
+    {
+        let gcull = GpuCull::new(&ctx, sc, &tf).unwrap();
+        let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
+        let frame = renderer.render_frame(&ctx, sc, &cam, GpuOrder::Given(&order), sh, &opts).unwrap();
+        eprintln!("GPU culling {what}: {} culled", frame.stats.tets_culled);
+        assert_eq!(frame.stats.tets_culled, mask.culled, "{what}");
+        let kept: Vec<u32> = order.iter().copied().filter(|&t| mask.visible[t as usize]).collect();
+        let want = renderer.render(&ctx, sc, &cam, &kept, sh).unwrap().image;
+        assert_eq!(diff(&frame.image, &want).unwrap().max_abs, 0.0, "{what}");
+    }
+    let mut cpu = tet_render::Renderer::new(cpu_scene);
+    cpu.set_view(&spec).unwrap();
+    cpu.set_culler(Some(Arc::new(TfCuller::new(&tf))));
+    cpu.set_shader(Arc::from(baked.into_shader()));
+    let (want, st) = cpu.render(&|_, _| {}).unwrap();
+    assert_eq!(st.tets_culled, with_g.culled);
+    let gcull = GpuCull::new(&ctx, &scene, &tf).unwrap();
+    let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
+    let got = renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, &opts).unwrap().image;
+    let d = report("biv-approx with widgets, culled on the GPU vs CPU PT culled", &got, &want);
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+}
+
 #[test]
 fn unsupported_inputs_are_errors() {
     let Some(ctx) = gpu() else { return };
@@ -317,13 +478,7 @@ fn unsupported_inputs_are_errors() {
     assert!(matches!(err, GpuError::Unsupported(_)), "{err}");
     let err = GpuShader::from_baked(&ctx, &bake(Method::Exact, &tf(), &mesh)).err().unwrap();
     assert!(err.to_string().contains("exact"), "{err}");
-    // Culling with 2D widgets, and a GpuCull of another scene.
-    let widgets = TransferFunction::from_json(
-        r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 0], [1, 0]], "unit_distance": 1,
-            "widgets": [{"type": "box", "center": [0.5, 2.0], "width": [0.2, 1.0], "color": [1, 0, 0], "opacity": 1}]}"#,
-    )
-    .unwrap();
-    assert!(matches!(GpuCull::new(&ctx, &scene, &widgets), Err(GpuError::Unsupported(_))));
+    // A GpuCull of another scene.
     let c = GpuCull::new(&ctx, &other, &tf_with_gaps()).unwrap();
     let shader = GpuShader::pt_linear(&ctx, &tf()).unwrap();
     let cam = Camera::new(&ViewSpec::framing([0.0; 3], [1.0; 3], [16, 16])).unwrap();

@@ -139,12 +139,12 @@ fn pod_layouts_match_the_wgsl_structs() {
                 cols,
                 knots,
                 n_knots,
-                _pad0,
-                _pad1,
-                _pad2
+                widgets,
+                n_widgets,
+                subsegments
             ]
         ),
-        layout!(CullParams, "CullParams", [n, n_intervals, groups_x, _pad]),
+        layout!(CullParams, "CullParams", [n, n_intervals, groups_x, n_widgets, use_g, _pad0, _pad1, _pad2]),
     ];
     let modules: Vec<naga::Module> =
         tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();

@@ -128,7 +128,12 @@ pub fn render(
         }
     };
     let mesh = &bundle.mesh;
-    let gpu_scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)?;
+    let mut gpu_scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)?;
+    if method.is_bivariate() {
+        // The CPU scene's per-vertex |∇s| (computed above for bivariate methods).
+        let g = scene.gradient_magnitudes().context("the bivariate method needs gradient magnitudes")?;
+        gpu_scene = gpu_scene.with_gradient_magnitudes(&ctx, g)?;
+    }
     let renderer = GpuRenderer::new(&ctx)?;
     let t_cull = Instant::now();
     let gpu_cull = if args.no_cull { None } else { Some(GpuCull::new(&ctx, &gpu_scene, tf).map_err(unsupported)?) };

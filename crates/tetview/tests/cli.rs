@@ -265,7 +265,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
     let out = render(&["--gpu", "--method", "exact"], &dir.path().join("x.npy"));
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr)
-        .contains("GPU methods: pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial"));
+        .contains("GPU methods: pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial, biv-approx"));
 
     if let Err(e) = tet_gpu::GpuContext::new_headless() {
         if std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {
@@ -346,10 +346,10 @@ fn gpu_render_matches_the_cpu_or_skips() {
     let out = render(&["--gpu", "--method", "pt-linear", "--gpu-bake"], &baked);
     assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
 
-    // The 2D-table methods: the same bake as the CPU path, one table each,
+    // The 2D-table methods and biv-approx (|∇s| from the CPU scene): the same bake as the CPU path, one table each,
     // culled on the GPU, within the golden-scene tolerance of the CPU image.
     // (poly1 and poly2 run the same shader as poly4: tet_gpu's tests cover them.)
-    for method in ["atlas2d", "poly4", "partial"] {
+    for method in ["atlas2d", "poly4", "partial", "biv-approx"] {
         let (g, c) = (dir.path().join(format!("gpu_{method}.npy")), dir.path().join(format!("cpu_{method}.npy")));
         let out = render(&["--gpu", "--method", method, "--json"], &g);
         assert!(out.status.success(), "{method}: {}", String::from_utf8_lossy(&out.stderr));

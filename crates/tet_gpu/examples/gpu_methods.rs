@@ -4,10 +4,11 @@
 //! `GpuCull` compaction on the GPU): for every method `GpuShader::from_baked`
 //! accepts, the CPU bake and upload times, GPU frame times by stage (mean
 //! of the frames after the first), one CPU frame, the culled fraction and
-//! the GPU-vs-CPU image difference.
+//! the GPU-vs-CPU image difference. biv-approx runs twice: with the 1D TF
+//! and with two 2D widgets added (per-vertex |∇s| from tet_render).
 //!
-//! cargo run --release -p tet_gpu --example gpu_methods -- [CELLS] [SIZE] [FRAMES]
-//! (default 30 256 3: 135 000 tets at 256²).
+//! cargo run --release -p tet_gpu --example gpu_methods -- [CELLS] [SIZE] [FRAMES] [compute|graphics]
+//! (default 30 256 3 compute: 135 000 tets at 256², the compute rasterizer).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -76,12 +77,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cells: usize = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(30);
     let size: u32 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(256);
     let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(3).max(2);
+    let raster: RasterPath = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or_default();
 
     let ctx = GpuContext::new_headless()?;
     println!("adapter: {}", ctx.describe());
     let mesh = grid(cells);
     let (points, tets, scalar) = &mesh;
-    println!("mesh: {cells}³ cells × 5 = {} tets, {} points; image {size}²", tets.len(), points.len());
+    println!(
+        "mesh: {cells}³ cells × 5 = {} tets, {} points; image {size}², {} rasterizer",
+        tets.len(),
+        points.len(),
+        raster.id()
+    );
     // Opacity 0 below 0.3 and above 0.7: the cells there are culled.
     let tf = TransferFunction::from_json(
         r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
@@ -91,10 +98,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let domain = TableDomain::new(0.0, 1.0, max_ds, len)?;
     let opts = BakeOptions::default();
 
-    let scene = GpuScene::new(&ctx, points, tets, scalar)?;
+    let widgets_tf = TransferFunction::from_json(
+        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
+            "opacity": [[0, 0], [0.3, 0], [0.45, 6], [0.55, 2], [0.7, 0], [1, 0]], "unit_distance": 0.1,
+            "widgets": [
+              {"type": "gaussian", "center": [0.6, 1.5], "width": [0.08, 0.6], "color": [1, 0.9, 0.2], "opacity": 1},
+              {"type": "box", "center": [0.3, 2.2], "width": [0.1, 1.5], "color": [0.1, 1, 0.3], "opacity": 0.5}
+            ]}"#,
+    )?;
+    let t = Instant::now();
+    let cpu_scene = Scene::new(points, tets.clone(), scalar.clone())?.ensure_gradients()?;
+    let gm = cpu_scene.gradient_magnitudes().expect("ensured").to_vec();
+    println!("per-vertex gradients on the CPU: {:.3} s", t.elapsed().as_secs_f64());
+    let scene = GpuScene::new(&ctx, points, tets, scalar)?.with_gradient_magnitudes(&ctx, &gm)?;
     let renderer = GpuRenderer::new(&ctx)?;
-    let gcull = GpuCull::new(&ctx, &scene, &tf)?;
-    let cpu_scene = Scene::new(points, tets.clone(), scalar.clone())?;
     let spec = ViewSpec::framing([0.0; 3], [1.0; 3], [size, size]).orbit(30.0, 20.0, 1.0);
     let camera = Camera::new(&spec)?;
     let t = Instant::now();
@@ -103,19 +120,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut cpu = Renderer::new(cpu_scene);
     cpu.set_view(&spec)?;
     cpu.set_sort(SortMethod::Mpvo);
-    cpu.set_culler(Some(Arc::new(TfCuller::new(&tf))));
 
     println!(
-        "method     bake_s  upload_s  gpu_frame_s  cull_s   classify_s  bin_s   raster_s  culled   cpu_frame_s  mean|Δ|/255  max|Δ|/255"
+        "method                bake_s  upload_s  gpu_frame_s  cull_s   classify_s  bin_s   raster_s  culled   cpu_frame_s  mean|Δ|/255  max|Δ|/255"
     );
-    for method in GPU_METHODS {
+    let runs = GPU_METHODS.iter().map(|&m| (m, &tf, m.id().to_string())).chain([(
+        tet_preint::Method::BivApprox,
+        &widgets_tf,
+        "biv-approx+2 widgets".to_string(),
+    )]);
+    for (method, tf, name) in runs {
+        let gcull = GpuCull::new(&ctx, &scene, tf)?;
+        cpu.set_culler(Some(Arc::new(TfCuller::new(tf))));
         let t = Instant::now();
-        let baked = Baked::build(method, &tf, &domain, &opts)?;
+        let baked = Baked::build(method, tf, &domain, &opts)?;
         let bake_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let shader = GpuShader::from_baked(&ctx, &baked)?;
         let upload_s = t.elapsed().as_secs_f64();
-        let fo = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
+        let fo = FrameOptions { raster, cull: Some(&gcull) };
         let mut sums = [0.0f64; 5];
         let mut last = None;
         for f in 0..frames {
@@ -142,8 +165,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         assert_eq!(st.tets_culled, frame.stats.tets_culled, "GPU and CPU culled counts");
         let d = tet_render::diff(&frame.image, &want)?;
         println!(
-            "{:<9}  {bake_s:>6.3}  {upload_s:>8.3}  {:>11.4}  {:>6.4}  {:>10.4}  {:>6.4}  {:>8.4}  {:>5.1}%  {cpu_s:>11.4}  {:>11.4}  {:>10.4}",
-            method.id(),
+            "{:<20}  {bake_s:>6.3}  {upload_s:>8.3}  {:>11.4}  {:>6.4}  {:>10.4}  {:>6.4}  {:>8.4}  {:>5.1}%  {cpu_s:>11.4}  {:>11.4}  {:>10.4}",
+            name,
             sums[0],
             sums[1],
             sums[2],
@@ -155,9 +178,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     // Culling's effect on one method's frame time.
+    let gcull = GpuCull::new(&ctx, &scene, &tf)?;
     let shader = GpuShader::from_baked(&ctx, &Baked::build(tet_preint::Method::Table3d, &tf, &domain, &opts)?)?;
     for (what, c) in [("without culling", None), ("with GPU culling", Some(&gcull))] {
-        let fo = FrameOptions { raster: RasterPath::Compute, cull: c };
+        let fo = FrameOptions { raster, cull: c };
         let mut total = 0.0;
         for f in 0..frames {
             let s = renderer.render_frame(&ctx, &scene, &camera, GpuOrder::Given(&order), &shader, &fo)?.stats;

@@ -68,7 +68,7 @@ pub struct TetGeom {
     pub n_hull: u32,
     /// `GEOM_NONE` (draw nothing), `GEOM_THICK` (Shirley–Tuchman fan of
     /// `n_hull` triangles around the thick point) or `GEOM_CLIPPED` (fan of
-    /// `n_hull − 2` triangles from hull[0]; the tet crosses the near plane).
+    /// `n_hull − 2` triangles from `hull[0]`; the tet crosses the near plane).
     pub mode: u32,
 }
 

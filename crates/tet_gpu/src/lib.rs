@@ -46,7 +46,10 @@
 //!     with early termination;
 //!   - `Graphics`: the hardware rasterizer with blending.
 //!
-//!   Both call the same per-fragment function (shaders/fragment.wgsl).
+//!   Both call the same per-fragment function (shaders/fragment.wgsl),
+//!   specialised per method by a pipeline-overridable constant
+//!   (`SHADE_METHOD`): each method's pipelines hold only its own code and
+//!   are built at its first frame.
 //!   Buffers persist across frames and grow only when needed; orders whose
 //!   per-tet data exceeds one storage binding are drawn in chunks.
 //!   [`GpuRenderer::tonemap`] fits and applies Reinhard's operator on the

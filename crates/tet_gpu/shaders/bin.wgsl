@@ -253,7 +253,7 @@ fn composite(
                     continue;
                 }
                 var tent = 0.0;
-                if g.mode == GEOM_THICK && fr.method == METHOD_PT_LINEAR {
+                if g.mode == GEOM_THICK && SHADE_METHOD == METHOD_PT_LINEAR {
                     tent = tent_at(g, p);
                 }
                 let f = fragment_color(fr, g.mode, vec4<f32>(g.hull[4], g.hull[5]), tent, b_slot[k], p.x, p.y);

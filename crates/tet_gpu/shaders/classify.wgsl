@@ -13,6 +13,10 @@
 @group(0) @binding(4) var<storage, read> order: array<u32>;
 @group(0) @binding(5) var<storage, read_write> geoms: array<TetGeom>;
 @group(0) @binding(6) var<storage, read_write> shades: array<TetShade>;
+// Bivariate methods: per-vertex gradient magnitudes in, per-slot linear
+// field out (two rows a slot, as TetShade's s_a, s_b).
+@group(0) @binding(17) var<storage, read> gmags: array<f32>;
+@group(0) @binding(18) var<storage, read_write> gshades: array<vec4<f32>>;
 
 // tet_mesh::FACE_OUTWARD: face f is opposite vertex f, outward for a
 // positively oriented tet.
@@ -233,6 +237,28 @@ fn classify(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     sh.s_a.w = min(min(s[0], s[1]), min(s[2], s[3]));
     sh.s_b.w = max(max(s[0], s[1]), max(s[2], s[3]));
+    if fr.method == METHOD_BIV_APPROX {
+        // The gradient magnitude as the same kind of linear field.
+        var gv: array<f32, 4>;
+        for (var k = 0u; k < 4u; k++) {
+            gv[k] = gmags[ids[k]];
+        }
+        let gg = (c23 * (gv[1] - gv[0]) + c31 * (gv[2] - gv[0]) + c12 * (gv[3] - gv[0])) / det;
+        let g0 = gv[0] - dot(gg, x[0]);
+        var ga: vec4<f32>;
+        var gb: vec4<f32>;
+        if fr.parallel != 0u {
+            ga = vec4<f32>(g0 + gg.x * fr.bx + gg.y * fr.by, gg.x * fr.ax, gg.y * fr.ay, 0.0);
+            gb = vec4<f32>(gg.z, 0.0, 0.0, 0.0);
+        } else {
+            ga = vec4<f32>(g0, 0.0, 0.0, 0.0);
+            gb = vec4<f32>(gg.x * fr.bx + gg.y * fr.by + gg.z, gg.x * fr.ax, gg.y * fr.ay, 0.0);
+        }
+        ga.w = min(min(gv[0], gv[1]), min(gv[2], gv[3]));
+        gb.w = max(max(gv[0], gv[1]), max(gv[2], gv[3]));
+        gshades[2u * slot] = ga;
+        gshades[2u * slot + 1u] = gb;
+    }
     var len_sq = 0.0;
     for (var i = 0u; i < 4u; i++) {
         for (var j = i + 1u; j < 4u; j++) {

@@ -44,17 +44,27 @@ struct TetShade {
 
 const METHOD_PT_LINEAR: u32 = 0u;
 const METHOD_TABLE3D: u32 = 1u;
+const METHOD_POLY: u32 = 2u;
+const METHOD_PARTIAL: u32 = 3u;
+const METHOD_ATLAS2D: u32 = 4u;
+const METHOD_BIV_APPROX: u32 = 5u;
 const GEOM_NONE: u32 = 0u;
 const GEOM_THICK: u32 = 1u;
 const GEOM_CLIPPED: u32 = 2u;
 const VERTS_PER_SLOT: u32 = 12u;
 
-// One ray segment through a tet; ok = false where the ray misses it.
+// One ray segment through a tet; ok = false where the ray misses it. zf, zb:
+// the entry and exit depth values (as `segment_at` finds them); gf, gb: the
+// gradient magnitudes there (bivariate methods; set by `fragment_color`).
 struct Seg {
     sf: f32,
     sb: f32,
     len: f32,
     ok: bool,
+    zf: f32,
+    zb: f32,
+    gf: f32,
+    gb: f32,
 }
 
 // World length per unit of depth along the ray through pixel (x, y).
@@ -121,6 +131,8 @@ fn segment_at(fr: Frame, sh: TetShade, x: f32, y: f32) -> Seg {
     }
     let base_a = sh.s_a.x + sh.s_a.y * x + sh.s_a.z * y;
     let base_b = sh.s_b.x + sh.s_b.y * x + sh.s_b.z * y;
+    out.zf = zf;
+    out.zb = zb;
     out.sf = clamp(base_a + zf * base_b, sh.s_a.w, sh.s_b.w);
     out.sb = clamp(base_a + zb * base_b, sh.s_a.w, sh.s_b.w);
     out.len = min((zb - zf) * len_per_depth(fr, x, y), sh.extra.x);

@@ -1,6 +1,6 @@
 //! GPU pre-integration: table3d baked by a compute shader (shaders/bake.wgsl)
-//! straight into the 3D texture the renderer samples, and a probe that runs
-//! the renderer's per-fragment lookup on given (Sf, Sb, l) triples.
+//! straight into the 3D texture the renderer samples (the probe that runs
+//! the renderer's per-fragment lookup on given triples is in methods.rs).
 //!
 //! The bake integrates every entry as tet_preint's default build
 //! (`Build3d::SliceRecurrence`): the same scalar axis
@@ -9,9 +9,9 @@
 //! rounding level). [`GpuAccumulation::F16`] rounds the running sums to f16
 //! after every piece, for the precision study.
 
-use crate::gpu_types::{BakeParams, FrameUniforms, BAKE_WG, METHOD_TABLE3D, PROBE_WG};
-use crate::render::{check_table_dims, storage_entry, texture_entry, tf_node_rows, GpuShader, TableGrid};
-use crate::{map_read, shader_source_fragment, shader_source_plain, GpuContext, GpuError, BAKE_WGSL, PROBE_WGSL};
+use crate::gpu_types::{BakeParams, BAKE_WG, METHOD_TABLE3D};
+use crate::render::{check_table_dims, storage_entry, tf_node_rows, GpuShader, TableGrid};
+use crate::{map_read, shader_source_plain, GpuContext, GpuError, BAKE_WGSL};
 use std::time::Instant;
 use tet_preint::{Build3d, Emission, Precision, Table3d, Table3dParams, TableDomain, TransferFunction};
 use wgpu::util::DeviceExt;
@@ -332,99 +332,5 @@ impl GpuShader {
         let p = &table.params;
         let grid = TableGrid::new(&table.domain, p.n_s, p.n_l, &table.knots, table.uniform);
         GpuShader::with_table(ctx, METHOD_TABLE3D, None, table.texture.clone(), grid)
-    }
-
-    /// The renderer's per-fragment table lookup (fragment.wgsl's
-    /// `table_lookup`) at each (Sf, Sb, l), read back: what a fragment with
-    /// that segment gets. `table3d` shaders only; at most 4 194 240 triples a call.
-    pub fn probe_table3d(&self, ctx: &GpuContext, triples: &[[f32; 3]]) -> Result<Vec<[f32; 4]>, GpuError> {
-        if self.method() != METHOD_TABLE3D {
-            return Err(GpuError::Input(format!("probe_table3d: the shader is {}, not table3d", self.method_id())));
-        }
-        let max = 65535 * PROBE_WG as usize;
-        if triples.len() > max {
-            return Err(GpuError::Input(format!("probe_table3d: {} triples, at most {max} a call", triples.len())));
-        }
-        if triples.is_empty() {
-            return Ok(Vec::new());
-        }
-        let fr = FrameUniforms {
-            method: METHOD_TABLE3D,
-            n_color_nodes: self.n_color,
-            n_opacity_nodes: self.n_opacity,
-            table_s_lo: self.table_params[0],
-            table_inv_ds: self.table_params[1],
-            table_inv_dl: self.table_params[2],
-            table_reach: self.table_params[3],
-            table_n_s: self.table_dims[0],
-            table_n_l: self.table_dims[1],
-            table_axis_segs: self.axis_segs,
-            ..bytemuck::Zeroable::zeroed()
-        };
-        let input: Vec<[f32; 4]> = triples.iter().map(|t| [t[0], t[1], t[2], 0.0]).collect();
-        let bytes = (triples.len() * 16) as u64;
-        let dev = &ctx.device;
-        let readback = ctx.checked(|| {
-            let cs = wgpu::ShaderStages::COMPUTE;
-            let (layout, pipeline) = crate::render::compute_pipeline(
-                dev,
-                "probe",
-                &[
-                    crate::render::uniform_entry(0, cs),
-                    storage_entry(7, cs, true),
-                    texture_entry(8, cs, wgpu::TextureViewDimension::D3),
-                    storage_entry(12, cs, true),
-                    storage_entry(13, cs, false),
-                ],
-                shader_source_fragment(PROBE_WGSL),
-                "probe",
-            );
-            let uni = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("probe frame"),
-                contents: bytemuck::bytes_of(&fr),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            let inp = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("probe in"),
-                contents: bytemuck::cast_slice(&input),
-                usage: wgpu::BufferUsages::STORAGE,
-            });
-            let out = dev.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("probe out"),
-                size: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let readback = dev.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("probe read-back"),
-                size: bytes,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
-            let view = self.table.create_view(&Default::default());
-            let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("probe"),
-                layout: &layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: uni.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: self.tf_nodes.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&view) },
-                    wgpu::BindGroupEntry { binding: 12, resource: inp.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 13, resource: out.as_entire_binding() },
-                ],
-            });
-            let mut enc = dev.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &group, &[]);
-                pass.dispatch_workgroups((triples.len() as u32).div_ceil(PROBE_WG), 1, 1);
-            }
-            enc.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
-            ctx.queue.submit([enc.finish()]);
-            readback
-        })?;
-        let raw = map_read(ctx, &readback)?;
-        Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&raw))
     }
 }

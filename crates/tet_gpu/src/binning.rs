@@ -2,7 +2,7 @@
 //! into tiles and compositing each tile in a workgroup.
 
 use crate::gpu_types::BinParams;
-use crate::render::{storage_entry, texture_entry, uniform_dyn_entry, HDR_FORMAT};
+use crate::render::{storage_entry, texture_entry, uint_texture_entry, uniform_dyn_entry, uniform_entry, HDR_FORMAT};
 use crate::{shader_source_fragment, GpuContext, BIN_WGSL};
 
 pub(crate) struct BinPipelines {
@@ -10,7 +10,8 @@ pub(crate) struct BinPipelines {
     pub(crate) count: wgpu::ComputePipeline,
     pub(crate) fill: wgpu::ComputePipeline,
     pub(crate) ranges: wgpu::ComputePipeline,
-    pub(crate) composite: wgpu::ComputePipeline,
+    module: wgpu::ShaderModule,
+    pl: wgpu::PipelineLayout,
 }
 
 pub(crate) const BIN_PARAMS_SIZE: u64 = std::mem::size_of::<BinParams>() as u64;
@@ -43,6 +44,10 @@ impl BinPipelines {
                     },
                     count: None,
                 },
+                texture_entry(14, cs, wgpu::TextureViewDimension::D2Array),
+                uint_texture_entry(15, cs, wgpu::TextureViewDimension::D1),
+                uniform_entry(16, cs),
+                storage_entry(18, cs, true),
             ],
         });
         let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -68,8 +73,25 @@ impl BinPipelines {
             count: make("bin_count"),
             fill: make("bin_fill"),
             ranges: make("tile_ranges"),
-            composite: make("composite"),
             layout,
+            module,
+            pl,
         }
+    }
+
+    /// The composite pass specialised by `options` (the method's `SHADE_METHOD`).
+    pub(crate) fn composite_for(
+        &self,
+        ctx: &GpuContext,
+        options: &wgpu::PipelineCompilationOptions<'_>,
+    ) -> wgpu::ComputePipeline {
+        ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("composite"),
+            layout: Some(&self.pl),
+            module: &self.module,
+            entry_point: Some("composite"),
+            compilation_options: options.clone(),
+            cache: None,
+        })
     }
 }

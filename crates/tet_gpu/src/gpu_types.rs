@@ -68,7 +68,7 @@ pub struct TetGeom {
     pub n_hull: u32,
     /// `GEOM_NONE` (draw nothing), `GEOM_THICK` (Shirley–Tuchman fan of
     /// `n_hull` triangles around the thick point) or `GEOM_CLIPPED` (fan of
-    /// `n_hull − 2` triangles from hull[0]; the tet crosses the near plane).
+    /// `n_hull − 2` triangles from `hull[0]`; the tet crosses the near plane).
     pub mode: u32,
 }
 
@@ -205,6 +205,74 @@ pub struct PolyBakeParams {
     pub _pad4: f32,
 }
 
+/// What the 2D-table methods need besides the `Frame` (`ShadeParams` in
+/// fragment.wgsl), one uniform per [`crate::GpuShader`]; fields a method
+/// does not use are 0.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct ShadeParams {
+    /// Lowest scalar of the table's range (poly, atlas2d).
+    pub s_lo: f32,
+    /// Scalar → table axis: (res − 1)/(s_hi − s_lo) grid steps (poly),
+    /// 1/(s_hi − s_lo) (atlas2d's normalisation).
+    pub s_scale: f32,
+    /// 1/l_max (poly's t = l/l_max, atlas2d's normalised l).
+    pub inv_l_max: f32,
+    /// Entries of the α table per unit optical depth (poly).
+    pub alpha_inv_step: f32,
+    /// Largest κ per channel (poly's clamp); w unused.
+    pub max_color: [f32; 4],
+    /// Table side: poly N, partial's Ψ side, atlas2d's plane side.
+    pub res: u32,
+    /// Poly band half-width, [`NO_BAND`] for the full square.
+    pub band: u32,
+    /// Poly degree n.
+    pub degree: u32,
+    /// 1 for independent emission, 0 for density emission.
+    pub independent: u32,
+    /// Entries of the 16-bit α table (poly).
+    pub alpha_len: u32,
+    /// Atlas2d: planes P and tiles per image row.
+    pub planes: u32,
+    pub cols: u32,
+    /// Partial and biv-approx: the TF's merged control points in `tf_nodes`
+    /// from row `knots`, two rows each ((x, κ), (ρ, 0, 0, 0)), `n_knots` of them.
+    pub knots: u32,
+    pub n_knots: u32,
+    /// Biv-approx: the 2D widgets in `tf_nodes` from row `widgets`, four
+    /// rows each (see fragment.wgsl), and the sub-segments per segment (k).
+    pub widgets: u32,
+    pub n_widgets: u32,
+    pub subsegments: u32,
+}
+
+/// [`ShadeParams::band`] of a poly table stored as the full square.
+pub const NO_BAND: u32 = u32::MAX;
+
+/// Parameters of the culling compaction (`CullParams` in cull.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct CullParams {
+    /// Slots of the order to compact.
+    pub n: u32,
+    /// Invisible scalar-rank intervals in the `intervals` buffer.
+    pub n_intervals: u32,
+    /// Workgroups along x of the 2D dispatch.
+    pub groups_x: u32,
+    /// 2D widgets that can make a cell visible, as rank rectangles in the
+    /// `widgets` buffer.
+    pub n_widgets: u32,
+    /// 1 when the rectangles' |∇s| sides are compared (the scene has
+    /// gradient magnitudes), 0 when any |∇s| is possible.
+    pub use_g: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// Workgroup size of the culling passes (`CULL_WG` in cull.wgsl).
+pub const CULL_WG: u32 = 64;
+
 /// Workgroup size of the bake along l (`BAKE_WG` in bake.wgsl).
 pub const BAKE_WG: u32 = 64;
 /// Workgroup size of the table probe (probe.wgsl).
@@ -232,6 +300,10 @@ pub const VERTS_PER_SLOT: u32 = 12;
 
 pub const METHOD_PT_LINEAR: u32 = 0;
 pub const METHOD_TABLE3D: u32 = 1;
+pub const METHOD_POLY: u32 = 2;
+pub const METHOD_PARTIAL: u32 = 3;
+pub const METHOD_ATLAS2D: u32 = 4;
+pub const METHOD_BIV_APPROX: u32 = 5;
 
 pub const GEOM_NONE: u32 = 0;
 pub const GEOM_THICK: u32 = 1;
@@ -255,6 +327,8 @@ mod tests {
         assert_eq!(size_of::<BinParams>(), 32);
         assert_eq!(size_of::<BakeParams>(), 48);
         assert_eq!(size_of::<PolyBakeParams>(), 48);
+        assert_eq!(size_of::<ShadeParams>(), 80);
+        assert_eq!(size_of::<CullParams>(), 32);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
             (size_of::<TetGeom>(), align_of::<TetGeom>()),
@@ -265,6 +339,8 @@ mod tests {
             (size_of::<BinParams>(), align_of::<BinParams>()),
             (size_of::<BakeParams>(), align_of::<BakeParams>()),
             (size_of::<PolyBakeParams>(), align_of::<PolyBakeParams>()),
+            (size_of::<ShadeParams>(), align_of::<ShadeParams>()),
+            (size_of::<CullParams>(), align_of::<CullParams>()),
         ] {
             assert_eq!(s % 16, 0);
             assert_eq!(a, 4);

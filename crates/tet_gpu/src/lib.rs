@@ -7,9 +7,35 @@
 //!   Debian package `mesa-vulkan-drivers`, is a software adapter).
 //! * [`GpuScene`]: a mesh on the GPU — positions relative to the mesh
 //!   centre in f32, tets, scalars.
-//! * [`GpuShader`]: what colours a fragment — `pt-linear` (transfer function
-//!   nodes) or `table3d` (the table as a 3D texture, trilinear lookup with
-//!   `Table3d::lookup`'s normalisation).
+//! * [`GpuShader`]: what colours a fragment, per method id ([`GPU_METHODS`];
+//!   [`GpuShader::from_baked`] takes any of them from tet_preint's `Baked`):
+//!   - `pt-linear`: transfer function nodes, the thick point shaded once;
+//!   - `table3d`: the table as a 3D texture, trilinear lookup with
+//!     `Table3d::lookup`'s normalisation;
+//!   - `atlas2d`: seed 000's tiled cylindrical atlas as one 2D texture,
+//!     pseudo-angle and L∞ radius per fragment as `Atlas2d::lookup`;
+//!   - `poly1/2/4`: ρ̂ and the colour polynomials' coefficients as a 2D
+//!     array texture (full square or diagonal bands), the 16-bit α table as
+//!     an R16Uint 1D texture, as `PolyTable::lookup` (tables from the CPU
+//!     bake or [`bake_poly`]);
+//!   - `partial`: the TF-independent Ψ table as a 2D texture, each segment
+//!     split at the TF's control points per fragment, as `PartialShader`
+//!     (density emission; independent emission is [`GpuError::Unsupported`]);
+//!   - `biv-approx`: 2D widgets over (s, |∇s|) and seed 004's F/B table,
+//!     k sub-segments per fragment, as `BivApprox`, with per-vertex gradient
+//!     magnitudes on the scene ([`GpuScene::with_gradient_magnitudes`]).
+//!
+//!   Every lookup reads texels and interpolates with the CPU's weights and
+//!   clamps, so the GPU agrees with the CPU shader to f32 rounding;
+//!   [`GpuShader::probe`] evaluates the per-fragment function on given
+//!   (Sf, Sb, l). Not on the GPU: `exact`, `biv-exact`.
+//! * [`GpuCull`]: per-cell culling with tet_render's `TfCuller` semantics,
+//!   computed on the GPU from the cells' scalar ranges and, with 2D widgets,
+//!   |∇s| ranges (compared as ranks of the scene's distinct f64 values, so
+//!   exactly the CPU's decision), and
+//!   the visibility order compacted by a prefix sum so culled tets are
+//!   neither classified nor rasterized ([`FrameOptions::cull`];
+//!   `tets_culled` and [`GpuRenderStats::fraction_culled`] in the stats).
 //! * [`GpuRenderer`]: the classify compute pass (Shirley–Tuchman
 //!   classification, near-plane clipping, face planes), then one of two
 //!   rasterizers ([`RasterPath`]) compositing front to back ("under") into
@@ -20,7 +46,10 @@
 //!     with early termination;
 //!   - `Graphics`: the hardware rasterizer with blending.
 //!
-//!   Both call the same per-fragment function (shaders/fragment.wgsl).
+//!   Both call the same per-fragment function (shaders/fragment.wgsl),
+//!   specialised per method by a pipeline-overridable constant
+//!   (`SHADE_METHOD`): each method's pipelines hold only its own code and
+//!   are built at its first frame.
 //!   Buffers persist across frames and grow only when needed; orders whose
 //!   per-tet data exceeds one storage binding are drawn in chunks.
 //!   [`GpuRenderer::tonemap`] fits and applies Reinhard's operator on the
@@ -36,7 +65,8 @@
 //!   the precision study. [`GpuShader::probe_table3d`] runs the
 //!   per-fragment lookup on given (Sf, Sb, l) triples. [`bake_poly`]
 //!   bakes the poly1/2/4 tables (ρ̂ and the colour polynomials) in a
-//!   compute shader and reads them back into a `PolyTable`.
+//!   compute shader and reads them back into a `PolyTable`, which
+//!   [`GpuShader::poly`] renders with.
 //! * [`gpu_types`]: every CPU↔GPU struct, `Pod`, mirrored in the WGSL.
 //!
 //! ```
@@ -65,16 +95,22 @@
 
 mod bake;
 mod binning;
+mod cull;
 pub mod gpu_types;
 mod gpusort;
+mod methods;
 mod poly_bake;
 mod render;
 mod tonemap;
 mod workspace;
 
 pub use bake::{GpuAccumulation, GpuBakeStats, GpuTable3d};
+pub use cull::GpuCull;
+pub use methods::GPU_METHODS;
 pub use poly_bake::bake_poly;
-pub use render::{centroid_order, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer, GpuScene, GpuShader, RasterPath};
+pub use render::{
+    centroid_order, FrameOptions, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer, GpuScene, GpuShader, RasterPath,
+};
 pub use tonemap::ToneResult;
 
 use tet_render::Image;
@@ -92,6 +128,8 @@ pub enum GpuError {
     TooLarge { what: &'static str, bytes: u64, limit: u64 },
     #[error("input: {0}")]
     Input(String),
+    #[error("not on the GPU: {0}")]
+    Unsupported(String),
     #[error("GPU validation: {0}")]
     Validation(String),
     #[error("reading back from the GPU: {0}")]
@@ -182,6 +220,7 @@ pub fn shader_sources() -> Vec<(&'static str, String)> {
         ("bake", shader_source_plain(BAKE_WGSL)),
         ("probe", shader_source_fragment(PROBE_WGSL)),
         ("poly_bake", shader_source_plain(POLY_BAKE_WGSL)),
+        ("cull", shader_source_plain(CULL_WGSL)),
     ]
 }
 
@@ -195,6 +234,7 @@ const TONEMAP_WGSL: &str = include_str!("../shaders/tonemap.wgsl");
 const BAKE_WGSL: &str = include_str!("../shaders/bake.wgsl");
 const PROBE_WGSL: &str = include_str!("../shaders/probe.wgsl");
 const POLY_BAKE_WGSL: &str = include_str!("../shaders/poly_bake.wgsl");
+const CULL_WGSL: &str = include_str!("../shaders/cull.wgsl");
 
 /// common.wgsl + `body` (classify).
 fn shader_source(body: &str) -> String {

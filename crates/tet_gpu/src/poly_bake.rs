@@ -1,7 +1,7 @@
 //! The poly1/2/4 tables (tet_preint's `PolyTable`, seed 003) baked by a
 //! compute shader (shaders/poly_bake.wgsl) in f32 and read back into a
-//! `PolyTable` (the GPU renderer has no poly method, so the CPU shades
-//! with it).
+//! `PolyTable`, which the CPU shades with and `GpuShader::poly` uploads
+//! for the GPU renderer.
 
 use crate::bake::GpuBakeStats;
 use crate::gpu_types::PolyBakeParams;

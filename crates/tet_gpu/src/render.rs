@@ -1,12 +1,15 @@
-//! Scene upload, shaders (pt-linear, table3d), the classify and raster
-//! passes, and the centroid visibility order.
+//! Scene upload, shaders (pt-linear, table3d; the 2D-table methods are in
+//! methods.rs), culling compaction, the classify and raster passes, and the
+//! centroid visibility order.
 
 use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
+use crate::cull::{CullBuffers, CullPipelines};
 use crate::gpu_types::{
-    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_PT_LINEAR, METHOD_TABLE3D, RADIX_BLOCK,
-    SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
+    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_APPROX, METHOD_PT_LINEAR,
+    METHOD_TABLE3D, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
 use crate::gpusort::SortPipelines;
+use crate::methods::Tables2d;
 use crate::workspace::{split_groups, Grow, Params};
 use crate::{
     map_read_range, read_texture, shader_source, shader_source_fragment, GpuContext, GpuError, CLASSIFY_WGSL,
@@ -14,9 +17,10 @@ use crate::{
 };
 use glam::DVec3;
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::sync::Mutex;
 use std::time::Instant;
-use tet_preint::{Table3d, TableDomain, TransferFunction};
+use tet_preint::{Method, Table3d, TableDomain, TransferFunction};
 use tet_render::ViewSpec;
 use tet_render::{Camera, Image};
 use wgpu::util::DeviceExt;
@@ -38,6 +42,16 @@ pub struct GpuScene {
     positions: wgpu::Buffer,
     tet_buf: wgpu::Buffer,
     scalars: wgpu::Buffer,
+    /// The distinct vertex scalars, ascending (f64), and each vertex's index
+    /// among them on the GPU: what culling compares ([`crate::GpuCull`]).
+    distinct: Vec<f64>,
+    ranks: wgpu::Buffer,
+    /// Per-vertex gradient magnitudes (bivariate methods), f32.
+    gmags: Option<wgpu::Buffer>,
+    /// Their distinct values ascending and each vertex's rank among them
+    /// (culling with 2D widgets).
+    g_distinct: Option<Vec<f64>>,
+    g_ranks: Option<wgpu::Buffer>,
 }
 
 impl GpuScene {
@@ -84,6 +98,7 @@ impl GpuScene {
         let pos_rel: Vec<[f32; 3]> = points.iter().map(|p| (DVec3::from(*p) - centre).as_vec3().to_array()).collect();
         let pos4: Vec<[f32; 4]> = pos_rel.iter().map(|p| [p[0], p[1], p[2], 0.0]).collect();
         let s32: Vec<f32> = scalar.iter().map(|&s| s as f32).collect();
+        let (distinct, ranks) = distinct_and_ranks(scalar);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let init = |label: &str, contents: &[u8]| {
             ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -92,11 +107,12 @@ impl GpuScene {
                 usage: storage,
             })
         };
-        let (positions, tet_buf, scalars) = ctx.checked(|| {
+        let (positions, tet_buf, scalars, ranks) = ctx.checked(|| {
             (
                 init("positions", bytemuck::cast_slice(&pos4)),
                 init("tets", bytemuck::cast_slice(tets)),
                 init("scalars", bytemuck::cast_slice(&s32)),
+                init("scalar ranks", bytemuck::cast_slice(&ranks)),
             )
         })?;
         static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
@@ -109,7 +125,68 @@ impl GpuScene {
             positions,
             tet_buf,
             scalars,
+            distinct,
+            ranks,
+            gmags: None,
+            g_distinct: None,
+            g_ranks: None,
         })
+    }
+
+    /// The scene with per-vertex gradient magnitudes |∇s| (what the
+    /// bivariate methods interpolate along a segment; tet_render's
+    /// `Scene::gradient_magnitudes`). One finite value ≥ 0 per point.
+    pub fn with_gradient_magnitudes(mut self, ctx: &GpuContext, g: &[f64]) -> Result<GpuScene, GpuError> {
+        if g.len() != self.n_points {
+            return Err(GpuError::Input(format!("{} gradient magnitudes for {} points", g.len(), self.n_points)));
+        }
+        if let Some(i) = g.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(GpuError::Input(format!("gradient magnitude of point {i} is {}: need finite ≥ 0", g[i])));
+        }
+        let g32: Vec<f32> = g.iter().map(|&v| v as f32).collect();
+        let (distinct, ranks) = distinct_and_ranks(g);
+        let init = |label: &str, contents: &[u8]| {
+            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            })
+        };
+        let (gmags, g_ranks) = ctx.checked(|| {
+            (
+                init("gradient magnitudes", bytemuck::cast_slice(&g32)),
+                init("gradient ranks", bytemuck::cast_slice(&ranks)),
+            )
+        })?;
+        self.gmags = Some(gmags);
+        self.g_ranks = Some(g_ranks);
+        self.g_distinct = Some(distinct);
+        Ok(self)
+    }
+
+    /// Whether the scene carries gradient magnitudes.
+    pub fn has_gradient_magnitudes(&self) -> bool {
+        self.gmags.is_some()
+    }
+
+    pub(crate) fn id(&self) -> u64 {
+        self.id
+    }
+    pub(crate) fn tet_buf(&self) -> &wgpu::Buffer {
+        &self.tet_buf
+    }
+    pub(crate) fn ranks(&self) -> &wgpu::Buffer {
+        &self.ranks
+    }
+    pub(crate) fn distinct_scalars(&self) -> &[f64] {
+        &self.distinct
+    }
+    pub(crate) fn distinct_gradient_magnitudes(&self) -> Option<&[f64]> {
+        self.g_distinct.as_deref()
+    }
+    /// The gradient-magnitude ranks (the scalar ranks where the scene has none: unread then).
+    pub(crate) fn g_ranks(&self) -> &wgpu::Buffer {
+        self.g_ranks.as_ref().unwrap_or(&self.ranks)
     }
 
     pub fn centre_in_world(&self) -> DVec3 {
@@ -121,6 +198,15 @@ impl GpuScene {
     pub fn num_points(&self) -> usize {
         self.n_points
     }
+}
+
+/// The distinct values ascending, and each value's index among them.
+fn distinct_and_ranks(values: &[f64]) -> (Vec<f64>, Vec<u32>) {
+    let mut distinct = values.to_vec();
+    distinct.par_sort_unstable_by(f64::total_cmp);
+    distinct.dedup();
+    let ranks = values.par_iter().map(|s| distinct.partition_point(|d| d < s) as u32).collect();
+    (distinct, ranks)
 }
 
 pub(crate) fn check_size(what: &'static str, bytes: u64, limit: u64) -> Result<(), GpuError> {
@@ -155,6 +241,8 @@ pub fn centroid_order(scene: &GpuScene, camera: &Camera) -> Vec<u32> {
 /// What colours fragments: a method with its data on the GPU.
 pub struct GpuShader {
     method: u32,
+    /// The method id (`METHOD_POLY` serves poly1, poly2 and poly4).
+    pub(crate) id: Method,
     pub(crate) tf_nodes: wgpu::Buffer,
     pub(crate) n_color: u32,
     pub(crate) n_opacity: u32,
@@ -164,6 +252,12 @@ pub struct GpuShader {
     /// Knot intervals of a non-uniform scalar axis (after the TF nodes in
     /// `tf_nodes`); 0 for a uniform axis.
     pub(crate) axis_segs: u32,
+    /// The 2D-table methods' tables (1×1 placeholders for the others):
+    /// an Rgba32Float 2D array texture and poly's 16-bit α table.
+    pub(crate) table2d: wgpu::Texture,
+    pub(crate) alpha: wgpu::Texture,
+    /// `ShadeParams` as a uniform buffer.
+    pub(crate) shade_buf: wgpu::Buffer,
 }
 
 /// How a table3d's grid reaches the shaders: `FrameUniforms`' table fields
@@ -247,6 +341,23 @@ impl GpuShader {
         table: wgpu::Texture,
         grid: TableGrid,
     ) -> Result<GpuShader, GpuError> {
+        let id = if method == METHOD_TABLE3D { Method::Table3d } else { Method::PtLinear };
+        let tables = Tables2d::placeholder(ctx)?;
+        GpuShader::assemble(ctx, method, id, tf, table, grid, tables)
+    }
+
+    /// A shader from its parts: `tables.extra_rows` go after the TF nodes
+    /// and the table3d axis in `tf_nodes` (their first row's index is set in
+    /// `tables.params.knots` and added to `tables.params.widgets`).
+    pub(crate) fn assemble(
+        ctx: &GpuContext,
+        method: u32,
+        id: Method,
+        tf: Option<&TransferFunction>,
+        table: wgpu::Texture,
+        grid: TableGrid,
+        mut tables: Tables2d,
+    ) -> Result<GpuShader, GpuError> {
         let mut nodes: Vec<[f32; 4]> = Vec::new();
         let (mut n_color, mut n_opacity) = (0, 0);
         if let Some(tf) = tf {
@@ -255,9 +366,25 @@ impl GpuShader {
             n_opacity = tf.opacity_nodes().len() as u32;
         }
         nodes.extend(&grid.axis);
+        if !tables.extra_rows.is_empty() {
+            // The extra rows start with the merged knots; the widgets'
+            // offset is given relative to them.
+            tables.params.knots = nodes.len() as u32;
+            tables.params.widgets += nodes.len() as u32;
+            nodes.extend(&tables.extra_rows);
+        }
         if nodes.is_empty() {
             nodes.push([0.0; 4]);
         }
+        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        check_size("transfer function rows (16 bytes each)", nodes.len() as u64 * 16, limit)?;
+        let shade_buf = ctx.checked(|| {
+            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("shade params"),
+                contents: bytemuck::bytes_of(&tables.params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        })?;
         let tf_nodes = ctx.checked(|| {
             ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("tf nodes"),
@@ -267,6 +394,7 @@ impl GpuShader {
         })?;
         Ok(GpuShader {
             method,
+            id,
             tf_nodes,
             n_color,
             n_opacity,
@@ -274,16 +402,20 @@ impl GpuShader {
             table_params: grid.params,
             table_dims: grid.dims,
             axis_segs: grid.axis.len() as u32,
+            table2d: tables.table2d,
+            alpha: tables.alpha,
+            shade_buf,
         })
     }
 
-    /// The method id (`pt-linear` or `table3d`).
+    /// The method id (`pt-linear`, `table3d`, `poly2`, …).
     pub fn method_id(&self) -> &'static str {
-        if self.method == METHOD_TABLE3D {
-            "table3d"
-        } else {
-            "pt-linear"
-        }
+        self.id.id()
+    }
+
+    /// The method.
+    pub fn method_kind(&self) -> Method {
+        self.id
     }
 
     pub(crate) fn method(&self) -> u32 {
@@ -315,7 +447,7 @@ pub(crate) fn check_table_dims(ctx: &GpuContext, n_s: usize, n_l: usize) -> Resu
     check_size("table3d as a full cube", (n_s * n_s * n_l * 16) as u64, 1 << 31)
 }
 
-fn table_texture(ctx: &GpuContext, size: [u32; 3], texels: &[[f32; 4]]) -> Result<wgpu::Texture, GpuError> {
+pub(crate) fn table_texture(ctx: &GpuContext, size: [u32; 3], texels: &[[f32; 4]]) -> Result<wgpu::Texture, GpuError> {
     ctx.checked(|| {
         let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] };
         let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
@@ -405,7 +537,13 @@ pub struct GpuRenderStats {
     pub raster_seconds: f64,
     pub readback_seconds: f64,
     pub total_seconds: f64,
+    /// Culling on the GPU: flags, prefix sum, compaction and the count's
+    /// read-back (0 without [`FrameOptions::cull`]).
+    pub cull_seconds: f64,
+    /// Tets of the order classified and rasterized (after culling).
     pub tets_drawn: usize,
+    /// Tets of the order culled on the GPU.
+    pub tets_culled: usize,
     /// Chunks the order was split into (per-slot data beyond one storage
     /// binding).
     pub chunks: usize,
@@ -417,6 +555,27 @@ pub struct GpuRenderStats {
     pub sorted_on_gpu: bool,
     /// Persistent buffers (re)allocated by this frame.
     pub buffers_grown: usize,
+}
+
+impl GpuRenderStats {
+    /// Culled tets over the order's tets (drawn + culled); 0 for an empty order.
+    pub fn fraction_culled(&self) -> f64 {
+        let all = self.tets_drawn + self.tets_culled;
+        if all == 0 {
+            0.0
+        } else {
+            self.tets_culled as f64 / all as f64
+        }
+    }
+}
+
+/// How to render a frame besides the order and the shader.
+#[derive(Clone, Copy, Default)]
+pub struct FrameOptions<'a> {
+    pub raster: RasterPath,
+    /// Cull on the GPU: the order's tets that the TF makes invisible are
+    /// compacted out before classification (see [`crate::GpuCull`]).
+    pub cull: Option<&'a crate::GpuCull>,
 }
 
 /// One rendered frame: the linear premultiplied image and the HDR texture
@@ -443,6 +602,10 @@ struct Workspace {
     pair_vals: [Grow; 2],
     depth_keys: [Grow; 2],
     depth_vals: [Grow; 2],
+    /// Bivariate methods: the gradient magnitude's field per slot.
+    gshades: Grow,
+    cull_flags: Grow,
+    cull_order: Grow,
     readback: Grow,
     /// The GPU centroid order in `depth_vals[.2]`, valid for scene `.0`
     /// seen from `.1`.
@@ -470,6 +633,9 @@ impl Workspace {
             pair_vals: two("pair values 0", "pair values 1"),
             depth_keys: two("depth keys 0", "depth keys 1"),
             depth_vals: two("depth order 0", "depth order 1"),
+            gshades: Grow::storage("gradient-magnitude fields"),
+            cull_flags: Grow::storage("cull flags"),
+            cull_order: Grow::storage("culled order"),
             readback: Grow::new("readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
             sorted: None,
             hdr: None,
@@ -479,15 +645,35 @@ impl Workspace {
     }
 }
 
+/// Which pipeline shades fragments: the graphics raster or the compute
+/// rasterizer's composite pass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum ShadePass {
+    Raster,
+    Composite,
+}
+
+/// A fragment-shading pipeline specialised to one method.
+#[derive(Clone)]
+enum ShadePipeline {
+    Raster(wgpu::RenderPipeline),
+    Composite(wgpu::ComputePipeline),
+}
+
 /// Pipelines of the classify, raster (graphics and compute), sort and
 /// tone-mapping passes, and the buffers they reuse across frames.
 pub struct GpuRenderer {
     classify_layout: wgpu::BindGroupLayout,
     classify: wgpu::ComputePipeline,
     raster_layout: wgpu::BindGroupLayout,
-    raster: wgpu::RenderPipeline,
+    raster_module: wgpu::ShaderModule,
+    raster_pl: wgpu::PipelineLayout,
+    /// The pipelines that shade fragments, per method (fragment.wgsl's
+    /// `SHADE_METHOD` override) and rasterizer, each built at its first frame.
+    per_method: Mutex<HashMap<(u32, ShadePass), ShadePipeline>>,
     bin: BinPipelines,
     sort: SortPipelines,
+    cull: CullPipelines,
     pub(crate) tone: crate::tonemap::TonePipelines,
     ws: Mutex<Workspace>,
 }
@@ -501,6 +687,18 @@ pub(crate) fn compute_pipeline(
     entries: &[wgpu::BindGroupLayoutEntry],
     source: String,
     entry: &str,
+) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+    compute_pipeline_with(dev, label, entries, source, entry, &[])
+}
+
+/// [`compute_pipeline`] with values for the module's overridable constants.
+pub(crate) fn compute_pipeline_with(
+    dev: &wgpu::Device,
+    label: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+    source: String,
+    entry: &str,
+    constants: &[(&str, f64)],
 ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
     let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
     let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -517,7 +715,7 @@ pub(crate) fn compute_pipeline(
         layout: Some(&pl),
         module: &module,
         entry_point: Some(entry),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
         cache: None,
     });
     (layout, pipeline)
@@ -567,6 +765,24 @@ pub(crate) fn uniform_dyn_entry(binding: u32, visibility: wgpu::ShaderStages) ->
     }
 }
 
+/// An unsigned-integer texture (poly's 16-bit α table), read with textureLoad.
+pub(crate) fn uint_texture_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    dim: wgpu::TextureViewDimension,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: dim,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 pub(crate) fn texture_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,
@@ -604,6 +820,8 @@ impl GpuRenderer {
                     storage_entry(5, cs, false),
                     storage_entry(6, cs, false),
                     storage_entry(7, cs, true),
+                    storage_entry(17, cs, true),
+                    storage_entry(18, cs, false),
                 ],
             });
             let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -632,6 +850,10 @@ impl GpuRenderer {
                     storage_entry(6, fs, true),
                     storage_entry(7, fs, true),
                     texture_entry(8, fs, wgpu::TextureViewDimension::D3),
+                    texture_entry(14, fs, wgpu::TextureViewDimension::D2Array),
+                    uint_texture_entry(15, fs, wgpu::TextureViewDimension::D1),
+                    uniform_entry(16, fs),
+                    storage_entry(18, fs, true),
                 ],
             });
             let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -643,6 +865,37 @@ impl GpuRenderer {
                 bind_group_layouts: &[Some(&raster_layout)],
                 immediate_size: 0,
             });
+            let tone = crate::tonemap::TonePipelines::new(ctx);
+            GpuRenderer {
+                classify_layout,
+                classify,
+                raster_layout,
+                raster_module: module,
+                raster_pl: layout,
+                per_method: Mutex::new(HashMap::new()),
+                bin: BinPipelines::new(ctx),
+                sort: SortPipelines::new(ctx),
+                cull: CullPipelines::new(ctx),
+                tone,
+                ws: Mutex::new(Workspace::new(ctx)),
+            }
+        })
+    }
+
+    /// The fragment-shading pipeline of `method` for `pass` (built now
+    /// unless cached: a method compiles only what its frames use).
+    fn shade_pipeline(&self, ctx: &GpuContext, method: u32, pass: ShadePass) -> Result<ShadePipeline, GpuError> {
+        let mut cache = self.per_method.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = cache.get(&(method, pass)) {
+            return Ok(p.clone());
+        }
+        let constants = [("SHADE_METHOD", method as f64)];
+        let options = wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() };
+        let dev = &ctx.device;
+        let pipeline = ctx.checked(|| {
+            if pass == ShadePass::Composite {
+                return ShadePipeline::Composite(self.bin.composite_for(ctx, &options));
+            }
             // Front to back "under": dst += (1 − dst.α)·src, for colour and α.
             let under = wgpu::BlendComponent {
                 src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
@@ -651,20 +904,20 @@ impl GpuRenderer {
             };
             let raster = dev.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("raster"),
-                layout: Some(&layout),
+                layout: Some(&self.raster_pl),
                 vertex: wgpu::VertexState {
-                    module: &module,
+                    module: &self.raster_module,
                     entry_point: Some("vs"),
-                    compilation_options: Default::default(),
+                    compilation_options: options.clone(),
                     buffers: &[],
                 },
                 primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
                 depth_stencil: None,
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
-                    module: &module,
+                    module: &self.raster_module,
                     entry_point: Some("fs"),
-                    compilation_options: Default::default(),
+                    compilation_options: options.clone(),
                     targets: &[Some(wgpu::ColorTargetState {
                         format: HDR_FORMAT,
                         blend: Some(wgpu::BlendState { color: under, alpha: under }),
@@ -674,18 +927,10 @@ impl GpuRenderer {
                 multiview_mask: None,
                 cache: None,
             });
-            let tone = crate::tonemap::TonePipelines::new(ctx);
-            GpuRenderer {
-                classify_layout,
-                classify,
-                raster_layout,
-                raster,
-                bin: BinPipelines::new(ctx),
-                sort: SortPipelines::new(ctx),
-                tone,
-                ws: Mutex::new(Workspace::new(ctx)),
-            }
-        })
+            ShadePipeline::Raster(raster)
+        })?;
+        cache.insert((method, pass), pipeline.clone());
+        Ok(pipeline)
     }
 
     /// Lowers the chunking thresholds below what the device's storage
@@ -796,7 +1041,35 @@ impl GpuRenderer {
         shader: &GpuShader,
         raster: RasterPath,
     ) -> Result<GpuFrame, GpuError> {
+        self.render_frame(ctx, scene, camera, order, shader, &FrameOptions { raster, cull: None })
+    }
+
+    /// [`GpuRenderer::render_with`] with options: with
+    /// [`FrameOptions::cull`], the order's invisible tets are flagged,
+    /// counted by a prefix sum and compacted out on the GPU before
+    /// classification (`stats.tets_culled`, `stats.cull_seconds`).
+    pub fn render_frame(
+        &self,
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        camera: &Camera,
+        order: GpuOrder<'_>,
+        shader: &GpuShader,
+        opts: &FrameOptions<'_>,
+    ) -> Result<GpuFrame, GpuError> {
+        let raster = opts.raster;
         let start = Instant::now();
+        if let Some(c) = opts.cull {
+            if c.scene_id != scene.id() {
+                return Err(GpuError::Input("the GpuCull was built for another scene".into()));
+            }
+        }
+        if shader.method() == METHOD_BIV_APPROX && scene.gmags.is_none() {
+            return Err(GpuError::Input(format!(
+                "{} needs per-vertex gradient magnitudes: GpuScene::with_gradient_magnitudes",
+                shader.method_id()
+            )));
+        }
         if let GpuOrder::Given(order) = order {
             if order.len() > scene.num_tets() {
                 return Err(GpuError::Input(format!(
@@ -872,6 +1145,47 @@ impl GpuRenderer {
                 scene.num_tets()
             }
         };
+        // (An empty given order uploads nothing; bind something.)
+        stats.buffers_grown += ws.order.ensure(ctx, 16, lim.max_buffer_size)? as usize;
+        let source_order = match order {
+            GpuOrder::Given(_) => ws.order.get().clone(),
+            GpuOrder::GpuCentroid => ws.depth_vals[ws.sorted.as_ref().map(|s| s.2).unwrap_or(0)].get().clone(),
+        };
+        // Culling: flag, scan and compact the order; the visible count comes back.
+        let mut compacted: Option<wgpu::Buffer> = None;
+        let n = match opts.cull {
+            Some(cull) if n > 0 && !cull.culls_nothing() => {
+                let t = Instant::now();
+                let bytes = n as u64 * 4;
+                stats.buffers_grown += ws.cull_flags.ensure(ctx, bytes, limit)? as usize;
+                stats.buffers_grown += ws.cull_order.ensure(ctx, bytes, limit)? as usize;
+                stats.buffers_grown += ws.sums.ensure(ctx, SortPipelines::sums_bytes(n as u32), limit)? as usize;
+                stats.buffers_grown += ws.readback.ensure(ctx, 256, u64::MAX)? as usize;
+                let blocks = (n as u32).div_ceil(SCAN_BLOCK).max(1);
+                ctx.checked(|| -> Result<(), GpuError> {
+                    let mut enc = dev.create_command_encoder(&Default::default());
+                    let bufs = CullBuffers {
+                        order_in: &source_order,
+                        flags: ws.cull_flags.get(),
+                        order_out: ws.cull_order.get(),
+                        sums: ws.sums.get(),
+                    };
+                    self.cull.encode(ctx, &mut enc, &mut ws.params, &self.sort, scene, cull, n as u32, &bufs)?;
+                    enc.copy_buffer_to_buffer(ws.sums.get(), blocks as u64 * 4, ws.readback.get(), 0, 4);
+                    ws.params.flush(ctx);
+                    ctx.queue.submit([enc.finish()]);
+                    Ok(())
+                })??;
+                let visible =
+                    u32::from_le_bytes(map_read_range(ctx, ws.readback.get(), 4)?[..4].try_into().expect("4 bytes"));
+                let visible = (visible as usize).min(n);
+                stats.tets_culled = n - visible;
+                stats.cull_seconds = t.elapsed().as_secs_f64();
+                compacted = Some(ws.cull_order.get().clone());
+                visible
+            }
+            _ => n,
+        };
         stats.tets_drawn = n;
 
         // Chunks: slot offsets into the order must meet the binding offset
@@ -886,6 +1200,8 @@ impl GpuRenderer {
         let chunk = cap.min(n.max(1));
         stats.buffers_grown += ws.geoms.ensure(ctx, chunk as u64 * 64, limit)? as usize;
         stats.buffers_grown += ws.shades.ensure(ctx, chunk as u64 * 112, limit)? as usize;
+        let bivariate = shader.method() == METHOD_BIV_APPROX;
+        stats.buffers_grown += ws.gshades.ensure(ctx, if bivariate { chunk as u64 * 32 } else { 16 }, limit)? as usize;
         let compute = stats.raster_path == RasterPath::Compute && n > 0;
         let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
         if compute {
@@ -902,6 +1218,10 @@ impl GpuRenderer {
             stats.buffers_grown += ws.readback.ensure(ctx, 256, u64::MAX)? as usize;
         }
         let table_view = shader.table.create_view(&Default::default());
+        let shade_pass =
+            if stats.raster_path == RasterPath::Compute { ShadePass::Composite } else { ShadePass::Raster };
+        let pipeline = self.shade_pipeline(ctx, shader.method(), shade_pass)?;
+        let (table2d_view, alpha_view) = shader.views_2d();
 
         if n == 0 {
             // Nothing to draw: a cleared image.
@@ -925,11 +1245,12 @@ impl GpuRenderer {
             ctx.queue.submit([enc.finish()]);
         }
 
-        // (An empty given order uploads nothing; bind something.)
-        stats.buffers_grown += ws.order.ensure(ctx, 16, lim.max_buffer_size)? as usize;
-        let order_buf = match order {
-            GpuOrder::Given(_) => ws.order.get().clone(),
-            GpuOrder::GpuCentroid => ws.depth_vals[ws.sorted.as_ref().map(|s| s.2).unwrap_or(0)].get().clone(),
+        let order_buf = match compacted {
+            Some(b) => b,
+            None => match order {
+                GpuOrder::Given(_) => ws.order.get().clone(),
+                GpuOrder::GpuCentroid => ws.depth_vals[ws.sorted.as_ref().map(|s| s.2).unwrap_or(0)].get().clone(),
+            },
         };
         let mut s0 = 0;
         while s0 < n {
@@ -961,6 +1282,8 @@ impl GpuRenderer {
                         bind(5, ws.geoms.get()),
                         bind(6, ws.shades.get()),
                         bind(7, &shader.tf_nodes),
+                        bind(17, scene.gmags.as_ref().unwrap_or(&scene.scalars)),
+                        bind(18, ws.gshades.get()),
                     ],
                 });
                 let mut enc = dev.create_command_encoder(&Default::default());
@@ -982,7 +1305,10 @@ impl GpuRenderer {
                     uniforms: &uniforms,
                     hdr_view: &hdr_view,
                     table_view: &table_view,
+                    table2d_view: &table2d_view,
+                    alpha_view: &alpha_view,
                     shader,
+                    pipeline: &pipeline,
                     tiles: [tiles_x, tiles_y],
                     m: m as u32,
                     first,
@@ -1006,6 +1332,16 @@ impl GpuRenderer {
                                 binding: 8,
                                 resource: wgpu::BindingResource::TextureView(&table_view),
                             },
+                            wgpu::BindGroupEntry {
+                                binding: 14,
+                                resource: wgpu::BindingResource::TextureView(&table2d_view),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 15,
+                                resource: wgpu::BindingResource::TextureView(&alpha_view),
+                            },
+                            bind(16, &shader.shade_buf),
+                            bind(18, ws.gshades.get()),
                         ],
                     });
                     let mut enc = dev.create_command_encoder(&Default::default());
@@ -1025,7 +1361,9 @@ impl GpuRenderer {
                             occlusion_query_set: None,
                             multiview_mask: None,
                         });
-                        pass.set_pipeline(&self.raster);
+                        if let ShadePipeline::Raster(p) = &pipeline {
+                            pass.set_pipeline(p);
+                        }
                         pass.set_bind_group(0, &bg, &[fo]);
                         pass.draw(0..m as u32 * VERTS_PER_SLOT, 0..1);
                     }
@@ -1189,7 +1527,9 @@ impl GpuRenderer {
                 let mut enc = dev.create_command_encoder(&Default::default());
                 {
                     let mut pass = enc.begin_compute_pass(&Default::default());
-                    pass.set_pipeline(&self.bin.composite);
+                    if let ShadePipeline::Composite(p) = env.pipeline {
+                        pass.set_pipeline(p);
+                    }
                     pass.set_bind_group(0, &bg, &[fo, bo]);
                     pass.dispatch_workgroups(tiles_x, tiles_y, 1);
                 }
@@ -1227,6 +1567,10 @@ impl GpuRenderer {
                 bind(9, ws.ranges.get()),
                 bind(10, ws.accum.get()),
                 wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(env.hdr_view) },
+                wgpu::BindGroupEntry { binding: 14, resource: wgpu::BindingResource::TextureView(env.table2d_view) },
+                wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(env.alpha_view) },
+                bind(16, &env.shader.shade_buf),
+                bind(18, ws.gshades.get()),
             ],
         }))
     }
@@ -1237,7 +1581,10 @@ struct BinEnv<'a> {
     uniforms: &'a FrameUniforms,
     hdr_view: &'a wgpu::TextureView,
     table_view: &'a wgpu::TextureView,
+    table2d_view: &'a wgpu::TextureView,
+    alpha_view: &'a wgpu::TextureView,
     shader: &'a GpuShader,
+    pipeline: &'a ShadePipeline,
     tiles: [u32; 2],
     /// Slots in the chunk.
     m: u32,

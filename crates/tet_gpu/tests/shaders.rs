@@ -4,7 +4,7 @@
 #[test]
 fn every_shader_parses_and_validates() {
     let sources = tet_gpu::shader_sources();
-    assert_eq!(sources.len(), 8);
+    assert_eq!(sources.len(), 9);
     for (name, src) in sources {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}.wgsl does not parse:\n{}", e.emit_to_string(&src)));
@@ -23,6 +23,7 @@ fn every_shader_parses_and_validates() {
             "bake" => &["bake"],
             "probe" => &["probe"],
             "poly_bake" => &["poly_bake"],
+            "cull" => &["cull_flags", "cull_scatter"],
             other => panic!("unexpected module {other}"),
         };
         for w in want {
@@ -47,6 +48,7 @@ fn shader_files_on_disk_are_all_included() {
             "bin.wgsl",
             "classify.wgsl",
             "common.wgsl",
+            "cull.wgsl",
             "fragment.wgsl",
             "poly_bake.wgsl",
             "probe.wgsl",
@@ -119,6 +121,30 @@ fn pod_layouts_match_the_wgsl_structs() {
             "PolyBakeParams",
             [degree, res, row_len, band, n_nodes, independent, _pad0, _pad1, l_max, _pad2, _pad3, _pad4]
         ),
+        layout!(
+            ShadeParams,
+            "ShadeParams",
+            [
+                s_lo,
+                s_scale,
+                inv_l_max,
+                alpha_inv_step,
+                max_color,
+                res,
+                band,
+                degree,
+                independent,
+                alpha_len,
+                planes,
+                cols,
+                knots,
+                n_knots,
+                widgets,
+                n_widgets,
+                subsegments
+            ]
+        ),
+        layout!(CullParams, "CullParams", [n, n_intervals, groups_x, n_widgets, use_g, _pad0, _pad1, _pad2]),
     ];
     let modules: Vec<naga::Module> =
         tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();

@@ -730,6 +730,9 @@ impl BivApprox {
     pub fn table(&self) -> &FbTable {
         &self.table
     }
+    pub fn transfer_function(&self) -> &TransferFunction {
+        &self.tf
+    }
     pub fn subsegments(&self) -> usize {
         self.k
     }

@@ -268,6 +268,9 @@ impl PtLinearShader {
     pub fn new(tf: TransferFunction) -> Self {
         PtLinearShader { tf }
     }
+    pub fn transfer_function(&self) -> &TransferFunction {
+        &self.tf
+    }
 }
 
 impl SegmentShader for PtLinearShader {

@@ -1,10 +1,12 @@
 //! `tetview render --gpu`: the same outputs as the CPU path (PNG, `--float`
 //! .npy, `--save-view`, `--json` statistics), rendered by tet_gpu.
 //!
-//! The visibility order and the cull mask come from tet_render exactly as
-//! the CPU renderer computes them (`visibility_order` with `--sort`,
-//! `TfCuller` unless `--no-cull`), so GPU and CPU images agree; only the
-//! projection, rasterization, compositing and tone mapping run on the GPU.
+//! The visibility order comes from tet_render exactly as the CPU renderer
+//! computes it (`visibility_order` with `--sort`) and the tables from the
+//! same bake (tet_preint's `Baked` with the default options, or the `--lut`
+//! file), so GPU and CPU images agree; culling (`TfCuller`'s semantics,
+//! unless `--no-cull`), projection, rasterization, compositing and tone
+//! mapping run on the GPU.
 
 use crate::cli::UsageError;
 use crate::render::RenderArgs;
@@ -12,15 +14,25 @@ use anyhow::{Context, Result};
 use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_gpu::{
-    GpuAccumulation, GpuContext, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader, GpuTable3d, RasterPath,
+    FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader,
+    GpuTable3d, RasterPath, GPU_METHODS,
 };
-use tet_preint::{BakeOptions, Method, Table3d, TableDomain, TransferFunction};
-use tet_render::cull::{cull, CullMask};
+use tet_preint::{BakeOptions, Baked, LutFile, Method, TableDomain, TransferFunction};
 use tet_render::project::ViewGeometry;
-use tet_render::{visibility_order, Camera, Display, Scene, SortMethod, TfCuller, ViewSpec};
+use tet_render::{visibility_order, Camera, Display, Scene, ViewSpec};
 
-/// The methods `--gpu` renders.
-pub const GPU_METHODS: &str = "pt-linear, table3d";
+/// The methods `--gpu` renders, comma-separated.
+pub fn gpu_methods() -> String {
+    GPU_METHODS.iter().map(|m| m.id()).collect::<Vec<_>>().join(", ")
+}
+
+/// A method or input the GPU path lacks is a usage error (exit code 2).
+fn unsupported(e: GpuError) -> anyhow::Error {
+    match e {
+        GpuError::Unsupported(_) => UsageError(format!("--gpu: {e}; run without --gpu to render on the CPU")).into(),
+        e => e.into(),
+    }
+}
 
 /// No GPU adapter (exit code 4): `tetview render` without `--gpu` works.
 #[derive(Debug)]
@@ -35,10 +47,12 @@ impl std::error::Error for NoGpuError {}
 
 /// Checks what the GPU path cannot do before any work (exit code 2).
 pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
-    if !matches!(method, Method::PtLinear | Method::Table3d) {
-        return Err(
-            UsageError(format!("--gpu: method {method} is not on the GPU yet (GPU methods: {GPU_METHODS})")).into()
-        );
+    if !GPU_METHODS.contains(&method) {
+        return Err(UsageError(format!(
+            "--gpu: method {method} is not on the GPU yet (GPU methods: {})",
+            gpu_methods()
+        ))
+        .into());
     }
     if args.light || args.silhouette.is_some() {
         return Err(UsageError("--gpu: --light and --silhouette are CPU-only for now".into()).into());
@@ -59,6 +73,7 @@ pub fn render(
     method: Method,
     view: &ViewSpec,
     display: &Display,
+    lut: Option<&(LutFile, std::path::PathBuf)>,
 ) -> Result<()> {
     let start = Instant::now();
     let t = Instant::now();
@@ -74,20 +89,10 @@ pub fn render(
     let t = Instant::now();
     let geometry = ViewGeometry::new(scene, &camera);
     let view_seconds = t.elapsed().as_secs_f64();
+    // Every tet is ordered; the GPU compacts the culled ones out of the order.
     let t = Instant::now();
-    let mask = if args.no_cull { CullMask::all(scene.num_tets()) } else { cull(scene, &TfCuller::new(tf)) };
-    let cull_seconds = t.elapsed().as_secs_f64();
-    // As tet_render's Renderer: graph sorts order every tet and are
-    // filtered, the radix sort sorts visible tets only.
-    let t = Instant::now();
-    let radix = args.sort.resolve(scene) == SortMethod::Radix;
-    let visible = (radix && mask.culled > 0).then_some(mask.visible.as_slice());
-    let order = visibility_order(scene, &geometry, args.sort, visible);
-    let tets: Vec<u32> = if mask.culled > 0 && order.method != SortMethod::Radix {
-        order.tets.iter().copied().filter(|&t| mask.visible[t as usize]).collect()
-    } else {
-        order.tets.clone()
-    };
+    let order = visibility_order(scene, &geometry, args.sort, None);
+    let tets = &order.tets;
     let sort_seconds = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
@@ -104,26 +109,43 @@ pub fn render(
             bake_setup_seconds = table.stats().setup_seconds;
             GpuShader::table3d_baked(&ctx, &table)?
         }
-        Method::Table3d => {
-            let domain = TableDomain::from_bundle(bundle)?;
+        // The CPU renderer's tables: the same bake (or the same file).
+        _ => {
             let tb = Instant::now();
-            crate::render::count_table_bake();
-            let table = Table3d::build(tf, &domain, &BakeOptions::default().table3d)?;
-            bake_seconds = tb.elapsed().as_secs_f64();
-            GpuShader::table3d(&ctx, &table)?
+            let baked = match lut {
+                Some((lut, path)) => Baked::from_lut(lut, path)?,
+                None => {
+                    if method != Method::PtLinear {
+                        crate::render::count_table_bake();
+                    }
+                    Baked::build(method, tf, &TableDomain::from_bundle(bundle)?, &BakeOptions::default())?
+                }
+            };
+            if method != Method::PtLinear {
+                bake_seconds = tb.elapsed().as_secs_f64();
+            }
+            GpuShader::from_baked(&ctx, &baked).map_err(unsupported)?
         }
-        _ => GpuShader::pt_linear(&ctx, tf)?,
     };
     let mesh = &bundle.mesh;
-    let gpu_scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)?;
+    let mut gpu_scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)?;
+    if method.is_bivariate() {
+        // The CPU scene's per-vertex |∇s| (computed above for bivariate methods).
+        let g = scene.gradient_magnitudes().context("the bivariate method needs gradient magnitudes")?;
+        gpu_scene = gpu_scene.with_gradient_magnitudes(&ctx, g)?;
+    }
     let renderer = GpuRenderer::new(&ctx)?;
+    let t_cull = Instant::now();
+    let gpu_cull = if args.no_cull { None } else { Some(GpuCull::new(&ctx, &gpu_scene, tf).map_err(unsupported)?) };
+    let cull_setup_seconds = t_cull.elapsed().as_secs_f64();
     let setup_seconds = t.elapsed().as_secs_f64();
 
     let raster = match args.gpu_raster {
         GpuRasterArg::Compute => RasterPath::Compute,
         GpuRasterArg::Graphics => RasterPath::Graphics,
     };
-    let frame = renderer.render_with(&ctx, &gpu_scene, &camera, GpuOrder::Given(&tets), &shader, raster)?;
+    let opts = FrameOptions { raster, cull: gpu_cull.as_ref() };
+    let frame = renderer.render_frame(&ctx, &gpu_scene, &camera, GpuOrder::Given(tets), &shader, &opts)?;
     let tone = renderer.tonemap(&ctx, &frame, display)?;
     tet_render::image::write_png_rgba8(&args.output, view.size[0], view.size[1], &tone.rgba8)?;
     if let Some(p) = &args.float {
@@ -143,15 +165,17 @@ pub fn render(
             "sort_method": order.method.id(),
             "cycles_broken": order.cycles_broken,
             "tets_total": scene.num_tets(),
-            "tets_culled": mask.culled,
-            "tets_drawn": tets.len(),
-            "fraction_culled": mask.fraction_culled(),
+            "tets_culled": s.tets_culled,
+            "tets_drawn": s.tets_drawn,
+            "fraction_culled": s.fraction_culled(),
+            "cull_device": if args.no_cull { "none" } else { "gpu" },
             "device_seconds": device_seconds,
             "view_seconds": view_seconds,
-            "cull_seconds": cull_seconds,
+            "cull_seconds": s.cull_seconds,
+            "cull_setup_seconds": cull_setup_seconds,
             "sort_seconds": sort_seconds,
             "table_bake_seconds": bake_seconds,
-            "table_bake_device": if method != Method::Table3d { "none" } else if args.gpu_bake { "gpu" } else { "cpu" },
+            "table_bake_device": if method == Method::PtLinear { "none" } else if args.gpu_bake { "gpu" } else { "cpu" },
             "table_bake_setup_seconds": bake_setup_seconds,
             "tables_baked": crate::render::tables_baked(),
             "setup_seconds": setup_seconds,
@@ -165,26 +189,27 @@ pub fn render(
             "tonemap_seconds": tone.seconds,
             "gpu_seconds": gpu_seconds,
             "total_seconds": total_seconds,
-            "tets_per_second": if gpu_seconds > 0.0 { tets.len() as f64 / gpu_seconds } else { 0.0 },
+            "tets_per_second": if gpu_seconds > 0.0 { s.tets_drawn as f64 / gpu_seconds } else { 0.0 },
             "output": args.output.display().to_string(),
             "size": view.size,
         });
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         eprintln!(
-            "{} on {} ({} raster): {} of {} tets drawn ({:.1}% culled, sort {} {:.3} s), {}x{}: GPU {:.3} s \
-             (classify {:.3}, bin {:.3}, raster {:.3}, tonemap {:.3}), total {:.3} s → {}",
+            "{} on {} ({} raster): {} of {} tets drawn ({:.1}% culled on the GPU, sort {} {:.3} s), {}x{}: GPU {:.3} s \
+             (cull {:.3}, classify {:.3}, bin {:.3}, raster {:.3}, tonemap {:.3}), total {:.3} s → {}",
             method,
             ctx.describe(),
             s.raster_path.id(),
-            tets.len(),
+            s.tets_drawn,
             scene.num_tets(),
-            100.0 * mask.fraction_culled(),
+            100.0 * s.fraction_culled(),
             order.method.id(),
             sort_seconds,
             view.size[0],
             view.size[1],
             gpu_seconds,
+            s.cull_seconds,
             s.classify_seconds,
             s.bin_seconds,
             s.raster_seconds,

@@ -88,9 +88,11 @@ pub struct RenderArgs {
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
-    /// Render on the GPU (tet_gpu; methods pt-linear and table3d, the same
-    /// visibility order and culling as the CPU). Exit code 4 where no GPU
-    /// adapter exists; without --gpu tetview renders on the CPU.
+    /// Render on the GPU (tet_gpu; methods pt-linear, table3d, atlas2d,
+    /// poly1/2/4, partial with density emission and biv-approx; the same
+    /// visibility order and tables as the CPU, culling on the GPU). Exit
+    /// code 4 where no GPU adapter exists; without --gpu tetview renders on
+    /// the CPU.
     #[arg(long)]
     pub gpu: bool,
     /// With --gpu: the compute-shader tile rasterizer or the hardware
@@ -222,7 +224,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.gpu {
         // The GPU path bakes its own table (or none): building the CPU
         // shader first would bake table3d twice.
-        return crate::gpu::render(args, &bundle, &scene, &tf, method, &view, &display);
+        return crate::gpu::render(args, &bundle, &scene, &tf, method, &view, &display, lut.as_ref());
     }
     let t = Instant::now();
     let shader: Arc<dyn SegmentShader> = match &lut {

@@ -264,7 +264,8 @@ fn gpu_render_matches_the_cpu_or_skips() {
     // whether or not an adapter exists.
     let out = render(&["--gpu", "--method", "exact"], &dir.path().join("x.npy"));
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("GPU methods: pt-linear, table3d"));
+    assert!(String::from_utf8_lossy(&out.stderr)
+        .contains("GPU methods: pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial, biv-approx"));
 
     if let Err(e) = tet_gpu::GpuContext::new_headless() {
         if std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {
@@ -344,6 +345,25 @@ fn gpu_render_matches_the_cpu_or_skips() {
     // --gpu-bake bakes table3d only.
     let out = render(&["--gpu", "--method", "pt-linear", "--gpu-bake"], &baked);
     assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // The 2D-table methods and biv-approx (|∇s| from the CPU scene): the same bake as the CPU path, one table each,
+    // culled on the GPU, within the golden-scene tolerance of the CPU image.
+    // (poly1 and poly2 run the same shader as poly4: tet_gpu's tests cover them.)
+    for method in ["atlas2d", "poly4", "partial", "biv-approx"] {
+        let (g, c) = (dir.path().join(format!("gpu_{method}.npy")), dir.path().join(format!("cpu_{method}.npy")));
+        let out = render(&["--gpu", "--method", method, "--json"], &g);
+        assert!(out.status.success(), "{method}: {}", String::from_utf8_lossy(&out.stderr));
+        let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(stats["method"], method, "{stats}");
+        assert_eq!(stats["tables_baked"], 1, "{stats}");
+        assert_eq!(stats["cull_device"], "gpu", "{stats}");
+        assert_eq!(stats["tets_drawn"].as_u64().unwrap() + stats["tets_culled"].as_u64().unwrap(), 5, "{stats}");
+        let out = render(&["--method", method], &c);
+        assert!(out.status.success(), "{method}: {}", String::from_utf8_lossy(&out.stderr));
+        let d = diff(&g, &c);
+        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{method}: {d:?}");
+        assert!(tet_render::Image::read_npy(&g).unwrap().pixels().iter().any(|p| p[3] > 0.05), "{method}");
+    }
 
     // A backend with no adapter (GL is not compiled in): exit code 4 and a
     // clear message; the CPU path is unaffected.

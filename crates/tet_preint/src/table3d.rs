@@ -86,15 +86,17 @@ pub enum ScalarAxis {
     /// to uniform steps when the TF has more control points in range than
     /// the axis has steps.
     TfNodes,
-    /// Half the steps spread evenly over the scalar range, half with a
-    /// density ∝ √(the data's scalar density) (from the domain's
-    /// [`ScalarQuantiles`]),
-    /// then the nearest sample moved onto every TF control point. A table's
-    /// error grows with l·|dρ/ds|·Δs where the segments are, so a bundle whose
-    /// scalars crowd into a sliver of the range (the stars' luminosities:
-    /// half below 3e-4 of it, all inside the first step of a uniform
-    /// 128-sample axis) needs its samples there. Falls back to `TfNodes`
-    /// when the domain carries no quantiles.
+    /// Samples with a density that is half uniform over the scalar range,
+    /// half ∝ √(the data's scalar density) (from the domain's
+    /// [`ScalarQuantiles`]; all uniform when it has none), refined near
+    /// every TF control point (steps there half the uniform step, growing
+    /// as √distance: [`node_step_cap`]), and a sample on every control
+    /// point. A table's error grows with l·|dρ/ds|·Δs where the segments
+    /// are, so a bundle whose scalars crowd into a sliver of the range (the
+    /// stars' luminosities: half below 3e-4 of it, all inside the first
+    /// step of a uniform 128-sample axis) needs its samples there; and
+    /// across a control point the error is first order in the step there,
+    /// wherever the samples are, so those steps must be small too.
     ///
     /// [`ScalarQuantiles`]: crate::domain::ScalarQuantiles
     Data,
@@ -176,62 +178,169 @@ pub const DATA_AXIS_UNIFORM_SHARE: f64 = 0.5;
 /// 1/2 gave 9.1e-5, 1/3 7.9e-5 but worse at 96 samples
 /// (crates/tetlut/examples/table3d_axes.rs).
 pub const DATA_AXIS_DENSITY_POWER: f64 = 0.5;
+/// The step next to a TF control point on a [`ScalarAxis::Data`] axis, as
+/// a share of the uniform step u = span / (n_s − 1); farther out, at
+/// distance r, steps up to √(h₀·r) (h₀ this share of u), until the data's
+/// own spacing takes over ([`node_step_cap`]). 0.5 halves the worst error
+/// of the uniform step's (Blunt Fin, `tf_normalized.json`, 128 × 128 × 256,
+/// uniform set: 9.6e-4 at u, 4.8e-4 at u/2, 2.9e-4 at 0.35·u;
+/// crates/tetlut/examples/table3d_worst.rs).
+pub const DATA_AXIS_NODE_STEP: f64 = 0.5;
+/// Largest share of a [`ScalarAxis::Data`] axis's steps the refinement near
+/// TF control points may take (a TF with many control points gets a
+/// proportionally weaker refinement).
+pub const DATA_AXIS_NODE_BUDGET: f64 = 0.5;
+/// Cells per axis step of the fine partition a [`ScalarAxis::Data`] axis's
+/// density is integrated on.
+const FINE_PER_STEP: usize = 64;
+
+/// A [`ScalarAxis::Data`] axis's minimum sample density at `s` (samples per
+/// scalar unit) for the TF's control points `nodes` (sorted), u the uniform
+/// step: 1/max(h₀, √(h₀·r)), r the distance to the nearest control point,
+/// h₀ = [`DATA_AXIS_NODE_STEP`]·u.
+///
+/// Why: across a control point x₀ where ρ's slope jumps by Δk, the mean
+/// extinction ρ̂(x₀ − x, x₀ + y) = ρ(x₀) + (k_R·y² − k_L·x²)/(2(x + y)) is
+/// homogeneous of degree one around (x₀, x₀), not smooth: the table cell
+/// that has the control point at its corner errs by ∝ Δk·h·l (h its step),
+/// whatever the samples' placement, and a cell of step h at distance r by
+/// ∝ Δk·h²/r (the function's second derivatives fall off as 1/r). Steps of
+/// h₀ at the control point and √(h₀·r) away from it spread that error
+/// evenly; the first-order error on the Blunt Fin case was the
+/// step next to the control point (crates/tetlut/results/bluntfin.md).
+pub fn node_step_cap(nodes: &[f64], s: f64, u: f64) -> f64 {
+    let k = nodes.partition_point(|&x| x < s);
+    let r = [k.checked_sub(1), Some(k)]
+        .into_iter()
+        .flatten()
+        .filter_map(|j| nodes.get(j))
+        .map(|&x| (s - x).abs())
+        .fold(f64::INFINITY, f64::min);
+    if !r.is_finite() {
+        return 0.0;
+    }
+    let h0 = DATA_AXIS_NODE_STEP * u;
+    1.0 / h0.max((h0 * r).sqrt())
+}
+
+/// A [`ScalarAxis::Data`] axis's sample density from the data alone,
+/// normalized to integrate to 1 over the domain's range: a share
+/// [`DATA_AXIS_UNIFORM_SHARE`] uniform, the rest ∝ the data's density to
+/// the power [`DATA_AXIS_DENSITY_POWER`] (from the domain's quantiles; all
+/// uniform without them).
+fn data_density(domain: &TableDomain) -> impl Fn(f64) -> f64 {
+    let span = domain.scalar_span();
+    let (w, gamma) = (DATA_AXIS_UNIFORM_SHARE, DATA_AXIS_DENSITY_POWER);
+    // Per quantile bin, density ∝ (its width)^−γ, i.e. a measure ∝ width^(1−γ).
+    let bins: Vec<(f64, f64)> = match domain.s_quantiles {
+        Some(mut q) => {
+            // Repeated quantiles (many equal scalars) would make the density
+            // infinite: spread them by a hair.
+            let hair = 1e-6 * span;
+            for k in 1..q.0.len() {
+                q.0[k] = q.0[k].max(q.0[k - 1] + hair);
+            }
+            let total: f64 = q.0.windows(2).map(|b| (b[1] - b[0]).powf(1.0 - gamma)).sum();
+            q.0.windows(2).map(|b| (b[1], (b[1] - b[0]).powf(-gamma) / total)).collect()
+        }
+        None => vec![],
+    };
+    let first = domain.s_quantiles.map_or(f64::INFINITY, |q| q.0[0]);
+    move |s: f64| {
+        let data = if bins.is_empty() {
+            1.0 / span
+        } else if s < first {
+            0.0
+        } else {
+            bins.get(bins.partition_point(|b| b.0 < s)).map_or(0.0, |b| b.1)
+        };
+        w / span + (1.0 - w) * data
+    }
+}
+
+/// The TF's colour and opacity control points strictly inside the domain's
+/// range, sorted, without duplicates.
+fn tf_nodes_in(tf: &TransferFunction, domain: &TableDomain) -> Vec<f64> {
+    let (lo, hi) = (domain.s_lo, domain.s_hi);
+    let eps = 1e-9 * domain.scalar_span();
+    let mut nodes: Vec<f64> = tf
+        .color_nodes()
+        .iter()
+        .map(|c| c.x)
+        .chain(tf.opacity_nodes().iter().map(|o| o.x))
+        .filter(|&x| x > lo + eps && x < hi - eps)
+        .collect();
+    nodes.sort_by(f64::total_cmp);
+    nodes.dedup_by(|a, b| (*a - *b).abs() <= eps);
+    nodes
+}
 
 impl Axis {
-    /// [`ScalarAxis::Data`]: with the measure G(s) = w·(s − lo)/span plus
-    /// (1 − w)·(cumulative √density of the data), each interval between TF
-    /// control points gets steps ∝ its G-measure and its samples at equal
-    /// steps of G; every sample is a knot.
+    /// [`ScalarAxis::Data`]: the samples follow the density
+    /// D(s) = max(λ·g(s), cap(s)), with g the data's density (a share
+    /// [`DATA_AXIS_UNIFORM_SHARE`] uniform, the rest ∝ the data's density to
+    /// the power [`DATA_AXIS_DENSITY_POWER`]; uniform when the domain has no
+    /// quantiles), cap(s) the refinement near the TF's control points
+    /// ([`node_step_cap`]) and λ chosen so that D has n_s − 1 steps. Each
+    /// interval between control points gets steps ∝ its D-measure (so every
+    /// control point is a sample) and its samples at equal steps of D's
+    /// integral; every sample is a knot.
     fn data(tf: &TransferFunction, domain: &TableDomain, n_s: usize) -> Axis {
-        let Some(mut q) = domain.s_quantiles else { return Axis::tf_nodes(tf, domain, n_s) };
-        let (lo, hi) = (domain.s_lo, domain.s_hi);
-        // Repeated quantiles (many equal scalars) would make the CDF jump and
-        // several samples coincide: spread them by a hair.
-        let hair = 1e-6 * domain.scalar_span();
-        for k in 1..q.0.len() {
-            q.0[k] = q.0[k].max(q.0[k - 1] + hair);
+        let (lo, hi, span) = (domain.s_lo, domain.s_hi, domain.scalar_span());
+        let steps = (n_s - 1) as f64;
+        // D on a fine partition of the range (midpoint values), integrated
+        // into the piecewise-linear measure G.
+        let fine = FINE_PER_STEP * (n_s - 1);
+        let dx = span / fine as f64;
+        let mid = |i: usize| lo + (i as f64 + 0.5) * dx;
+        let data_density = data_density(domain);
+        let g: Vec<f64> = (0..fine).map(|i| data_density(mid(i))).collect();
+        let nodes = tf_nodes_in(tf, domain);
+        let u = span / steps;
+        let mut cap: Vec<f64> = (0..fine).map(|i| node_step_cap(&nodes, mid(i), u)).collect();
+        // Many control points: the refinement may take at most its budget.
+        let cap_steps: f64 = cap.iter().sum::<f64>() * dx;
+        if cap_steps > DATA_AXIS_NODE_BUDGET * steps {
+            let f = DATA_AXIS_NODE_BUDGET * steps / cap_steps;
+            cap.iter_mut().for_each(|c| *c *= f);
         }
-        let (w, gamma) = (DATA_AXIS_UNIFORM_SHARE, DATA_AXIS_DENSITY_POWER);
-        // Sample density ∝ (data density)^γ: cumulative weight per quantile bin.
-        let mut cum = vec![0.0f64; q.0.len()];
-        for k in 1..q.0.len() {
-            cum[k] = cum[k - 1] + (q.0[k] - q.0[k - 1]).powf(1.0 - gamma);
+        // λ: ∫ max(λ·g, cap) = steps (increasing in λ; λ = steps overshoots
+        // as ∫g = 1).
+        let total = |lam: f64| -> f64 { g.iter().zip(&cap).map(|(&g, &c)| (lam * g).max(c)).sum::<f64>() * dx };
+        let (mut a, mut b) = (0.0, steps);
+        for _ in 0..100 {
+            let m = 0.5 * (a + b);
+            if total(m) < steps {
+                a = m;
+            } else {
+                b = m;
+            }
         }
-        let total = cum[cum.len() - 1];
-        let data_cdf = |s: f64| {
-            let k = q.0.partition_point(|&x| x <= s);
-            if k == 0 {
-                return 0.0;
-            }
-            if k == q.0.len() {
-                return 1.0;
-            }
-            let (a, b) = (q.0[k - 1], q.0[k]);
-            (cum[k - 1] + (cum[k] - cum[k - 1]) * (s - a) / (b - a)) / total
+        let lam = b;
+        let mut cum = Vec::with_capacity(fine + 1);
+        cum.push(0.0f64);
+        for (&gi, &ci) in g.iter().zip(&cap) {
+            cum.push(cum[cum.len() - 1] + (lam * gi).max(ci) * dx);
+        }
+        let measure = |s: f64| -> f64 {
+            let x = ((s - lo) / dx).clamp(0.0, fine as f64);
+            let i = (x as usize).min(fine - 1);
+            cum[i] + (x - i as f64) * (cum[i + 1] - cum[i])
         };
-        let g = |s: f64| w * (s - lo) / (hi - lo) + (1.0 - w) * data_cdf(s);
-        // The TF-node knots with steps per interval ∝ its G-measure (so every
-        // control point is a sample), then the samples inside each interval
-        // at equal steps of G.
-        let Some((knot_s, knot_i)) = node_knots(tf, domain, n_s, &g) else { return Axis::tf_nodes(tf, domain, n_s) };
+        // Inverse of `measure` (strictly increasing: D ≥ λ·g > 0).
+        let inverse = |t: f64| -> f64 {
+            let i = cum.partition_point(|&c| c <= t).clamp(1, fine) - 1;
+            lo + (i as f64 + ((t - cum[i]) / (cum[i + 1] - cum[i])).clamp(0.0, 1.0)) * dx
+        };
+        let Some((knot_s, knot_i)) = node_knots(tf, domain, n_s, &measure) else {
+            return Axis::tf_nodes(tf, domain, n_s);
+        };
         let mut grid = Vec::with_capacity(n_s);
         for (ks, ki) in knot_s.windows(2).zip(knot_i.windows(2)) {
-            let (g0, g1) = (g(ks[0]), g(ks[1]));
-            let steps = ki[1] - ki[0];
+            let (g0, g1) = (measure(ks[0]), measure(ks[1]));
+            let n = ki[1] - ki[0];
             grid.push(ks[0]);
-            for j in 1..steps {
-                let target = g0 + (g1 - g0) * j as f64 / steps as f64;
-                let (mut a, mut b) = (ks[0], ks[1]);
-                for _ in 0..100 {
-                    let m = 0.5 * (a + b);
-                    if g(m) < target {
-                        a = m;
-                    } else {
-                        b = m;
-                    }
-                }
-                grid.push(0.5 * (a + b));
-            }
+            grid.extend((1..n).map(|j| inverse(g0 + (g1 - g0) * j as f64 / n as f64)));
         }
         grid.push(hi);
         let knots: Vec<(f64, usize)> = grid.into_iter().enumerate().map(|(i, s)| (s, i)).collect();
@@ -355,16 +464,7 @@ fn node_knots(
     g: &dyn Fn(f64) -> f64,
 ) -> Option<(Vec<f64>, Vec<usize>)> {
     let (lo, hi) = (domain.s_lo, domain.s_hi);
-    let eps = 1e-9 * domain.scalar_span();
-    let mut nodes: Vec<f64> = tf
-        .color_nodes()
-        .iter()
-        .map(|c| c.x)
-        .chain(tf.opacity_nodes().iter().map(|o| o.x))
-        .filter(|&x| x > lo + eps && x < hi - eps)
-        .collect();
-    nodes.sort_by(f64::total_cmp);
-    nodes.dedup_by(|a, b| (*a - *b).abs() <= eps);
+    let nodes = tf_nodes_in(tf, domain);
     let steps = n_s - 1;
     let intervals = nodes.len() + 1;
     if intervals > steps {
@@ -548,6 +648,18 @@ const LANES: usize = 8;
 /// weights T by Δκ.
 const BEND_INDEPENDENT: f64 = 0.01;
 const BEND_DENSITY: f64 = 1.0;
+/// Largest estimated error of the colour integral, per unit of u (so at most
+/// this over a segment), that the chord rule (ln T linear on an interval)
+/// may make before an interval is split; r pieces divide an interval's
+/// error by r². ln T bends from its chord by up to l·|Δρ|·Δu/8 over an
+/// interval, and ∫ of the bend is 2/3 of that, so the estimate is
+/// |Δκ|·l_max·|Δρ|·Δu/12 for density emission (the by-parts form weights
+/// ∫T by Δκ) and κ·l_max²·|Δρ|·Δu²/12 for independent emission (C = l·∫κT).
+/// The bend limits above alone let a steep colour ramp inside one interval
+/// where ρ is steep (density), or a long bright segment (independent), err
+/// by 1.0e-3–1.7e-3 at the grid nodes (tests/tables_prop.rs's pinned
+/// cases); on Blunt Fin's smooth TF it splits no density interval.
+const SPLIT_ERROR: f64 = 1e-4;
 /// Most pieces one interval is split into.
 const MAX_SPLIT: usize = 64;
 
@@ -562,6 +674,40 @@ impl Table3d {
             ScalarAxis::TfNodes => Axis::tf_nodes(tf, domain, params.n_s),
             ScalarAxis::Data => Axis::data(tf, domain, params.n_s),
         };
+        Table3d::build_on_axis(tf, domain, params, axis)
+    }
+
+    /// Bakes the table on a given scalar axis, (scalar, grid index) knots as
+    /// [`Table3d::s_knots`] returns them (e.g. an earlier table's, so that a
+    /// TF edit that moved a node keeps the old samples; or knots placed by
+    /// the caller). `params.s_axis` must not be `Uniform` (the knots say
+    /// where the samples are); invalid knots are an error.
+    pub fn build_with_knots(
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        params: &Table3dParams,
+        knots: &[(f64, usize)],
+    ) -> Result<Table3d, TableError> {
+        check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
+        check_res("table3d n_l", params.n_l, 2, MAX_AXIS)?;
+        if params.s_axis == ScalarAxis::Uniform {
+            return Err(TableError::Invalid("knots given for a uniform scalar axis".into()));
+        }
+        let axis = Axis::from_knots(domain, params.n_s, knots).ok_or_else(|| {
+            TableError::Invalid(format!(
+                "{} scalar axis knots: need (s_lo, 0) … (s_hi, n_s − 1), both strictly increasing",
+                knots.len()
+            ))
+        })?;
+        Table3d::build_on_axis(tf, domain, params, axis)
+    }
+
+    fn build_on_axis(
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        params: &Table3dParams,
+        axis: Axis,
+    ) -> Result<Table3d, TableError> {
         let band = Band::for_axis(params.n_s, domain, &axis);
         let entries = band.pairs as u64 * params.n_l as u64;
         if entries > MAX_TABLE_ENTRIES {
@@ -904,7 +1050,8 @@ fn recurrence_pair(
     // Sample positions u ∈ [0, 1] along the segment: a uniform grid of
     // ⌈o·|b − a|⌉ intervals plus every TF node in between (so κ and ρ are
     // linear on each interval), and intervals over which ρ changes enough
-    // to bend ln T (by l_max·|Δρ|·Δu) are split further.
+    // to bend ln T (by l_max·|Δρ|·Δu), or whose estimated colour error is
+    // too large (SPLIT_ERROR), are split further.
     sc.u.clear();
     sc.u.push(0.0);
     if a != b {
@@ -921,9 +1068,24 @@ fn recurrence_pair(
         let mut split = Vec::with_capacity(sc.u.len());
         split.push(0.0);
         let mut rho0 = tf.extinction(sf);
+        let mut kap0 = tf.color(sf);
         for w in sc.u.windows(2) {
-            let rho1 = tf.extinction(sf + (sb - sf) * w[1]);
-            let r = ((len_max * (rho1 - rho0).abs() * (w[1] - w[0]) / bend).ceil() as usize).clamp(1, MAX_SPLIT);
+            let s1 = sf + (sb - sf) * w[1];
+            let rho1 = tf.extinction(s1);
+            let du = w[1] - w[0];
+            let l_drho = len_max * (rho1 - rho0).abs();
+            let kap1 = tf.color(s1);
+            // Error estimate per unit u times r² (SPLIT_ERROR).
+            let err_r2 = if independent {
+                let k = (0..3).map(|c| kap0[c].max(kap1[c])).fold(0.0, f64::max);
+                k * len_max * l_drho * du / 12.0
+            } else {
+                let dk = (0..3).map(|c| (kap1[c] - kap0[c]).abs()).fold(0.0, f64::max);
+                dk * l_drho / 12.0
+            };
+            let r = (l_drho * du / bend).ceil().max((err_r2 / SPLIT_ERROR).sqrt().ceil());
+            let r = (r as usize).clamp(1, MAX_SPLIT);
+            kap0 = kap1;
             split.extend((1..r).map(|j| w[0] + (w[1] - w[0]) * (j as f64 / r as f64)));
             split.push(w[1]);
             rho0 = rho1;

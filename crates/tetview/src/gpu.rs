@@ -14,7 +14,7 @@ use tet_bundle::Bundle;
 use tet_gpu::{
     GpuAccumulation, GpuContext, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader, GpuTable3d, RasterPath,
 };
-use tet_preint::{BakeOptions, Method, Table3d, TableDomain, TransferFunction};
+use tet_preint::{BakeOptions, Build3d, Method, Table3d, Table3dParams, TableDomain, TransferFunction};
 use tet_render::cull::{cull, CullMask};
 use tet_render::project::ViewGeometry;
 use tet_render::{visibility_order, Camera, Display, Scene, SortMethod, TfCuller, ViewSpec};
@@ -99,7 +99,10 @@ pub fn render(
         Method::Table3d if args.gpu_bake => {
             let domain = TableDomain::from_bundle(bundle)?;
             crate::render::count_table_bake();
-            let table = GpuTable3d::bake(&ctx, tf, &domain, &BakeOptions::default().table3d, GpuAccumulation::F32)?;
+            // The GPU bakes the slice recurrence (the CPU default is the
+            // adaptive build): same axis and resolution, entries within ~1e-5.
+            let params = Table3dParams { build: Build3d::default(), ..BakeOptions::default().table3d };
+            let table = GpuTable3d::bake(&ctx, tf, &domain, &params, GpuAccumulation::F32)?;
             bake_seconds = table.stats().bake_seconds;
             bake_setup_seconds = table.stats().setup_seconds;
             GpuShader::table3d_baked(&ctx, &table)?

@@ -1019,15 +1019,16 @@ impl Table3d {
     /// (colour, extinction and control points there; the optical depth is
     /// integrated from Sf, not from a prefix over the whole TF), so a value
     /// or colour edit of one control point re-bakes the pairs that meet the
-    /// span between its neighbours. A full bake happens ([`FullRebake`])
-    /// when the axis the new TF gets differs (on a `TfNodes` or `Data` axis
-    /// every control point is a sample, so moving, adding or removing one
-    /// moves samples: every entry moves with them), when a global field
-    /// changed, for the `Incremental` build and for storage other than f32.
+    /// span between its neighbours. Every pair is baked again
+    /// ([`RebakeStats::full`] says why) when the axis the new TF gets
+    /// differs (on a `TfNodes` or `Data` axis every control point is a
+    /// sample, so moving, adding or removing one moves samples, and every
+    /// entry moves with them) or a global field changed, both in the
+    /// table's own buffer; and by [`Table3d::build`] for the `Incremental`
+    /// build and for storage other than f32.
     /// `old_tf` must be the TF the table was baked from; otherwise the
     /// unchanged pairs keep the old TF's values.
     pub fn rebake(&mut self, old_tf: &TransferFunction, new_tf: &TransferFunction) -> Result<RebakeStats, TableError> {
-        let pairs = self.band.pairs;
         let full = |t: &mut Table3d, why: FullRebake| -> Result<RebakeStats, TableError> {
             *t = Table3d::build(new_tf, &t.domain, &t.params)?;
             Ok(RebakeStats { pairs: t.band.pairs, pairs_rebaked: t.band.pairs, full: Some(why) })
@@ -1039,10 +1040,31 @@ impl Table3d {
             return full(self, FullRebake::Precision);
         }
         let axis = Axis::for_params(new_tf, &self.domain, &self.params)?;
-        if axis != *self.axis {
-            return full(self, FullRebake::AxisChanged);
-        }
-        let Some(spans) = changed_spans(old_tf, new_tf) else { return full(self, FullRebake::GlobalChange) };
+        let spans = if axis != *self.axis {
+            Err(FullRebake::AxisChanged)
+        } else {
+            changed_spans(old_tf, new_tf).ok_or(FullRebake::GlobalChange)
+        };
+        let n_l = self.params.n_l;
+        let spans = match spans {
+            Ok(spans) => spans,
+            Err(why) => {
+                // Every pair, into the same buffer (resized when the band
+                // changed with the axis): no fresh 44 MiB to fault in.
+                let band = Band::for_axis(self.params.n_s, &self.domain, &axis);
+                let entries = band.pairs as u64 * n_l as u64;
+                if entries > MAX_TABLE_ENTRIES {
+                    return Err(TableError::TooLarge { entries, max: MAX_TABLE_ENTRIES });
+                }
+                let grid = Grid::new(&self.domain, &self.params, &axis);
+                let values = self.data.f32_vec_mut().expect("f32 storage checked above");
+                values.resize(band.pairs * n_l * 4, 0.0);
+                bake_pairs(new_tf, &grid, &band, self.params.build, values, &|_, _| true);
+                let pairs = band.pairs;
+                (self.axis, self.band) = (Box::new(axis), band);
+                return Ok(RebakeStats { pairs, pairs_rebaked: pairs, full: Some(why) });
+            }
+        };
         let grid = Grid::new(&self.domain, &self.params, &self.axis);
         let dirty = |a: usize, b: usize| {
             let (lo, hi) = (grid.s(a).min(grid.s(b)), grid.s(a).max(grid.s(b)));
@@ -1050,10 +1072,9 @@ impl Table3d {
         };
         let pairs_rebaked: usize =
             (0..self.params.n_s).map(|a| self.band.row(a).filter(|&b| dirty(a, b)).count()).sum();
-        // In place, also when every pair changed (no allocation).
         let values = self.data.as_f32_mut().expect("f32 storage checked above");
         bake_pairs(new_tf, &grid, &self.band, self.params.build, values, &dirty);
-        Ok(RebakeStats { pairs, pairs_rebaked, full: None })
+        Ok(RebakeStats { pairs: self.band.pairs, pairs_rebaked, full: None })
     }
 }
 

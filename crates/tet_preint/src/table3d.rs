@@ -1477,9 +1477,11 @@ fn fill_transmittance(x: f64, t: &mut [f32]) {
 /// slice recurrence plus its first-order correction. The O(β²) remainder,
 /// |Δκᵢ|·β²/60 at most, falls as r⁻⁴ when a piece is cut into r intervals,
 /// so a piece gets the fewest intervals with
-/// |Δκ|·(l_max·Δρ)²·Δu/(240·r⁴) ≤ tolerance·Δu (per unit u, so at most
-/// `tolerance` over the segment) and β ≤ 1/2. Smooth TFs need a handful
-/// of intervals where the slice recurrence takes 2 per grid step.
+/// |Δκ|·(l_max·Δρ)²·Δu·A(τ₀)/(240·r⁴) ≤ tolerance·Δu (per unit u, so at
+/// most `tolerance` over the segment; A = [`attenuation`] of the optical
+/// depth τ₀ in front of the piece at l_max) and β ≤ 1/2. Smooth TFs need a
+/// handful of intervals where the slice recurrence takes 2 per grid step,
+/// and pieces deep inside an opaque segment one.
 ///
 /// Vectorized over l: per interval, T at its end for every slice
 /// ([`fill_transmittance`]), then λ = k·cᵢ splits the slices into the
@@ -1524,6 +1526,8 @@ fn adaptive_pair(
         let mut ends = Vec::with_capacity(2 * pieces + 1);
         ends.push(0.0);
         let (mut rho0, mut kap0) = (tf.extinction(sf), k_first);
+        // Optical depth at l_max from the entry to the piece's start.
+        let mut depth0 = 0.0f64;
         for p in 0..pieces {
             let (u0, u1) = (sc.u[p], sc.u[p + 1]);
             let s1 = s_of(u1);
@@ -1531,13 +1535,17 @@ fn adaptive_pair(
             let du = u1 - u0;
             let dk = (0..3).map(|c| (kap1[c] - kap0[c]).abs()).fold(0.0, f64::max);
             let l_drho = len_max * (rho1 - rho0).abs();
-            let by_error = (dk * l_drho * l_drho * du / (240.0 * tolerance)).powf(0.25);
+            // The remainder at slice l = x·l_max is weighted by T ≤ e^{−x·τ₀}
+            // and grows as β(l)² ∝ x²: at most attenuation(τ₀) of its l_max value.
+            let by_error = (dk * l_drho * l_drho * du * attenuation(depth0) / (240.0 * tolerance)).powf(0.25);
             // Only the colour needs the intervals (α is exact from the
-            // prefix integral): a piece of constant colour stays whole.
-            let r = if dk == 0.0 { 1.0 } else { by_error.max(l_drho * du).ceil() };
+            // depth): a piece of constant colour stays whole. β ≤ 1/2 on
+            // every interval (r² ≥ l_max·|Δρ|·Δu) keeps the expansion valid.
+            let r = if dk == 0.0 { 1.0 } else { by_error.max((l_drho * du).sqrt()).ceil() };
             let r = (r as usize).clamp(1, ADAPTIVE_MAX_SPLIT);
             ends.extend((1..r).map(|j| u0 + du * (j as f64 / r as f64)));
             ends.push(u1);
+            depth0 += len_max * du * 0.5 * (rho0 + rho1);
             (rho0, kap0) = (rho1, kap1);
         }
         // D: ∫₀^u ρ dv by the trapezoid rule, exact and local as in
@@ -1571,6 +1579,17 @@ fn adaptive_pair(
             o[ch] = (k_first[ch] as f32 - k_last[ch] as f32 * t_end + sc.acc[ch][k]).max(0.0);
         }
         o[3] = (1.0 - t_end).clamp(0.0, 1.0);
+    }
+}
+
+/// max over x ∈ [0, 1] of x²·e^{−x·τ}: how much of its l_max value an
+/// interval's bend remainder (∝ β² ∝ x², weighted by the transmittance
+/// ≤ e^{−x·τ} in front of it) can reach at any slice.
+fn attenuation(tau: f64) -> f64 {
+    if tau <= 2.0 {
+        (-tau).exp()
+    } else {
+        4.0 * (-2.0f64).exp() / (tau * tau)
     }
 }
 

@@ -1977,8 +1977,9 @@ mod tests {
         let ind = f.clone().with_emission(Emission::Independent);
         let t = Table3d::build(&ind, &d, &p).unwrap();
         let e = node_error(&t, &ind);
-        // Full-grid max here is 1.15e-3 (independent emission weights T directly).
-        assert!(e < 2e-3, "independent max node error {e}");
+        // Measured 9.0e-5 on these nodes; before the SPLIT_ERROR rule the
+        // full grid's max was 1.15e-3 (independent emission weights T directly).
+        assert!(e < 1e-3, "independent max node error {e}");
     }
 
     #[test]

@@ -1296,25 +1296,31 @@ fn recurrence_pair(
         split.push(0.0);
         let mut rho0 = tf.extinction(sf);
         let mut kap0 = tf.color(sf);
+        // Optical depth at l_max in front of the interval.
+        let mut depth0 = 0.0f64;
         for w in sc.u.windows(2) {
             let s1 = sf + (sb - sf) * w[1];
             let rho1 = tf.extinction(s1);
             let du = w[1] - w[0];
             let l_drho = len_max * (rho1 - rho0).abs();
             let kap1 = tf.color(s1);
-            // Error estimate per unit u times r² (SPLIT_ERROR).
+            // Error estimate per unit u times r² (SPLIT_ERROR), at the
+            // slice where it peaks: at l = x·l_max the bend is x times its
+            // l_max value (x² with independent emission's l·∫κT) and the
+            // transmittance in front at most e^{−x·depth0}.
             let err_r2 = if independent {
                 let k = (0..3).map(|c| kap0[c].max(kap1[c])).fold(0.0, f64::max);
-                k * len_max * l_drho * du / 12.0
+                k * len_max * l_drho * du / 12.0 * attenuation(depth0)
             } else {
                 let dk = (0..3).map(|c| (kap1[c] - kap0[c]).abs()).fold(0.0, f64::max);
-                dk * l_drho / 12.0
+                dk * l_drho / 12.0 * attenuation_linear(depth0)
             };
             let r = (l_drho * du / bend).ceil().max((err_r2 / SPLIT_ERROR).sqrt().ceil());
             let r = (r as usize).clamp(1, MAX_SPLIT);
             kap0 = kap1;
             split.extend((1..r).map(|j| w[0] + (w[1] - w[0]) * (j as f64 / r as f64)));
             split.push(w[1]);
+            depth0 += len_max * du * 0.5 * (rho0 + rho1);
             rho0 = rho1;
         }
         sc.u = split;
@@ -1579,6 +1585,16 @@ fn adaptive_pair(
             o[ch] = (k_first[ch] as f32 - k_last[ch] as f32 * t_end + sc.acc[ch][k]).max(0.0);
         }
         o[3] = (1.0 - t_end).clamp(0.0, 1.0);
+    }
+}
+
+/// max over x ∈ [0, 1] of x·e^{−x·τ}: [`attenuation`] for an error that
+/// grows linearly with l.
+fn attenuation_linear(tau: f64) -> f64 {
+    if tau <= 1.0 {
+        (-tau).exp()
+    } else {
+        (-1.0f64).exp() / tau
     }
 }
 

@@ -7,7 +7,7 @@
 //! `cargo run --release -p tetlut --example table3d_worst -- B.tetb tf.json [samples] [axes]`
 //!
 //! axes: comma-separated of `uniform`, `tf-nodes`, `data`, or
-//! `graded:C:P:BUDGET` — the data axis with steps near every TF node capped
+//! `graded:C:P` — the data axis with steps near every TF node capped
 //! at max(C·u, (C·u)^(1−P)·r^P) (u the uniform step, r the distance to the
 //! node), prototyped here before it went into `tet_preint`.
 

@@ -6,8 +6,9 @@
 // `recurrence_pair`) per entry: the segment u ∈ [0, 1] is cut at
 // ⌈o·|b − a|⌉ equal steps and at every TF node in between (so κ and ρ are
 // linear on each piece), a piece over which ρ changes enough to bend ln T
-// (l_max·|Δρ|·Δu > bend) is split evenly (at most 64 ways), and on each
-// piece T falls exponentially:
+// (l_max·|Δρ|·Δu > bend), or whose estimated colour error (SPLIT_ERROR,
+// weighted by the transmittance at l_max in front of it) is too large, is
+// split evenly (at most 64 ways), and on each piece T falls exponentially:
 //   density emission:     C = κ_f − κ_b·T_end + Σ Δκᵢ·q̄ᵢ      (by parts)
 //   independent emission: C = l·Σ Δuᵢ·(κᵢ·q̄ᵢ + Δκᵢ·m̄ᵢ)
 // with q̄ = ∫₀¹ T dx and m̄ = ∫₀¹ x·T dx over the piece (series below
@@ -52,6 +53,25 @@ const LAM_SMALL: f32 = 0.05;
 const LAM_SMALL_1: f32 = 0.3;
 const T_FLUSH: f32 = 1.0e-30;
 const MAX_SPLIT: f32 = 64.0;
+// tet_preint's SPLIT_ERROR (table3d.rs): largest estimated colour error per
+// unit u of the chord rule on a piece, times r² for r pieces.
+const SPLIT_ERROR: f32 = 1.0e-4;
+
+// max over x ∈ [0, 1] of x·e^{−x·τ} (tet_preint's attenuation_linear).
+fn attenuation_linear(tau: f32) -> f32 {
+    if tau <= 1.0 {
+        return exp(-tau);
+    }
+    return exp(-1.0) / tau;
+}
+
+// max over x ∈ [0, 1] of x²·e^{−x·τ} (tet_preint's attenuation).
+fn attenuation(tau: f32) -> f32 {
+    if tau <= 2.0 {
+        return exp(-tau);
+    }
+    return 4.0 * exp(-2.0) / (tau * tau);
+}
 const BAKE_WG: u32 = 64u;
 
 // κ(s), clamped outside the nodes.
@@ -165,6 +185,8 @@ fn bake_entry(a: u32, b: u32, k: u32) -> vec4<f32> {
     var kap0 = bake_color(sf);
     var t = 1.0;
     var acc = vec3<f32>(0.0);
+    // Optical depth at l_max in front of the piece (the split rule's).
+    var depth0 = 0.0;
     var i = 1u;
     // Pieces: at most m uniform steps plus one per TF node.
     let guard = m + bp.n_breaks + 2u;
@@ -190,7 +212,18 @@ fn bake_entry(a: u32, b: u32, k: u32) -> vec4<f32> {
         let rho1 = bake_rho(s1);
         let kap1 = bake_color(s1);
         let du = u1 - u0;
-        let r = u32(clamp(ceil(bend_scale * abs(rho1 - rho0) * du), 1.0, MAX_SPLIT));
+        let l_drho = bp.len_max * abs(rho1 - rho0);
+        var err_r2: f32;
+        if independent {
+            let kmax = max(kap0, kap1);
+            err_r2 = max(kmax.x, max(kmax.y, kmax.z)) * bp.len_max * l_drho * du / 12.0 * attenuation(depth0);
+        } else {
+            let dk = abs(kap1 - kap0);
+            err_r2 = max(dk.x, max(dk.y, dk.z)) * l_drho / 12.0 * attenuation_linear(depth0);
+        }
+        let r_bend = ceil(bend_scale * abs(rho1 - rho0) * du);
+        let r = u32(clamp(max(r_bend, ceil(sqrt(err_r2 / SPLIT_ERROR))), 1.0, MAX_SPLIT));
+        depth0 += bp.len_max * du * 0.5 * (rho0 + rho1);
         let inv_r = 1.0 / f32(r);
         var pr = rho0;
         var pk = kap0;

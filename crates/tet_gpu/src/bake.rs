@@ -17,7 +17,8 @@ use tet_preint::{Build3d, Emission, Precision, Table3d, Table3dParams, TableDoma
 use wgpu::util::DeviceExt;
 
 /// The CPU build's split thresholds (`BEND_INDEPENDENT`, `BEND_DENSITY` in
-/// tet_preint's table3d.rs): how far ln T may bend over one piece.
+/// tet_preint's table3d.rs): how far ln T may bend over one piece (its
+/// `SPLIT_ERROR` rule is a constant in bake.wgsl).
 const BEND_INDEPENDENT: f32 = 0.01;
 const BEND_DENSITY: f32 = 1.0;
 

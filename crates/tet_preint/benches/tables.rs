@@ -7,7 +7,16 @@
 //! NASA Blunt Fin domain (s ∈ [0.1926, 4.9775], |Sf − Sb| ≤ 2.0032,
 //! l ≤ 3.6486) with formats/samples/tf_normalized.json: bake and
 //! `shade_span` over 100 000 uniform segments, uniform against tf-nodes
-//! scalar axis.
+//! scalar axis, and the default (`BakeOptions`: data axis from the
+//! bundle's scalars, adaptive build) against the same with the slice
+//! recurrence.
+//!
+//! Group `table3d_rebake_bluntfin`: `Table3d::rebake` of the default table
+//! after edits of `tf_normalized.json`'s control points (on a copy of the
+//! table made outside the timing): the middle node's opacity (every pair),
+//! the last node's opacity (the pairs above the middle node), the middle
+//! node's colour, and the middle node moved along s (a new axis: every
+//! pair, in place); and the full bake it replaces.
 //!
 //! Group `biv_gauss_independent`: `biv-exact` under the emission-only model
 //! on crates/tetlut/results/tf_gauss_independent.json (one Gaussian widget),
@@ -146,5 +155,69 @@ fn bench_biv_band(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, bench_bluntfin, bench_biv_gauss, bench_biv_band);
+/// The Blunt Fin bundle's domain as `TableDomain::from_bundle` makes it
+/// (scalar range, largest per-cell range and diameter, quantiles).
+fn bluntfin_domain() -> TableDomain {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/plot3d");
+    let opts = tet_io::ReadOptions { q_path: Some(data.join("bluntfinq.bin")), ..Default::default() };
+    let src = tet_io::read_file(&data.join("bluntfinxyz.bin"), &opts).unwrap();
+    let conv = tet_mesh::ConvertOptions { scalar: Some("density".into()), ..Default::default() };
+    let (mesh, _) = tet_mesh::tetrahedralize(&src, &conv, &mut |_| {}).unwrap();
+    let adj = tet_mesh::build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let bundle = tet_bundle::Bundle::new(mesh, adj, Default::default());
+    TableDomain::from_bundle(&bundle).unwrap()
+}
+
+fn bench_default_and_rebake(c: &mut Criterion) {
+    let d = bluntfin_domain();
+    let tf = TransferFunction::from_json(include_str!("../../../formats/samples/tf_normalized.json")).unwrap();
+    let tf = tf_for_domain(&tf, &d).unwrap();
+    let p = BakeOptions::default().table3d;
+    let segs: Vec<Segment> = uniform_triples(&d, 100_000, 5)
+        .into_iter()
+        .map(|t| Segment { s_front: t[0], s_back: t[1], len_world: t[2], ..Default::default() })
+        .collect();
+    let mut out = vec![[0.0f32; 4]; segs.len()];
+    let mut g = c.benchmark_group("table3d_bluntfin");
+    g.sample_size(10);
+    for (name, build) in [("data_adaptive", p.build), ("data_slice_recurrence", Build3d::default())] {
+        let q = Table3dParams { build, ..p };
+        g.throughput(Throughput::Elements(1));
+        g.bench_function(format!("bake_128x128x256_{name}"), |b| b.iter(|| Table3d::build(&tf, &d, &q).unwrap()));
+    }
+    let t = Table3d::build(&tf, &d, &p).unwrap();
+    g.throughput(Throughput::Elements(segs.len() as u64));
+    g.bench_function("shade_span_100k_data", |b| b.iter(|| t.shade_span(&segs, &mut out)));
+    g.finish();
+
+    let (col, op) = (tf.color_nodes().to_vec(), tf.opacity_nodes().to_vec());
+    let edited = |col: Vec<ColorNode>, op: Vec<OpacityNode>| {
+        TransferFunction::new(col, op, tf.unit_distance(), tf.emission(), false).unwrap()
+    };
+    let mut mid_opacity = op.clone();
+    mid_opacity[1].a *= 1.5;
+    let mut last_opacity = op.clone();
+    last_opacity[2].a *= 0.8;
+    let mut mid_colour = col.clone();
+    mid_colour[1].rgb = [0.5, 0.4, 0.3];
+    let mut moved = op.clone();
+    moved[1].x += 0.02 * (op[2].x - op[1].x);
+    let edits = [
+        ("mid_opacity", edited(col.clone(), mid_opacity)),
+        ("last_opacity", edited(col.clone(), last_opacity)),
+        ("mid_colour", edited(mid_colour, op.clone())),
+        ("mid_moved", edited(col.clone(), moved)),
+    ];
+    let mut g = c.benchmark_group("table3d_rebake_bluntfin");
+    g.sample_size(10);
+    for (name, new) in &edits {
+        g.bench_function(format!("rebake_{name}"), |b| {
+            b.iter_batched_ref(|| t.clone(), |table| table.rebake(&tf, new).unwrap(), criterion::BatchSize::LargeInput)
+        });
+    }
+    g.bench_function("full_bake_mid_opacity", |b| b.iter(|| Table3d::build(&edits[0].1, &d, &p).unwrap()));
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_bluntfin, bench_default_and_rebake, bench_biv_gauss, bench_biv_band);
 criterion_main!(benches);

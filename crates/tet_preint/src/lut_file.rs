@@ -30,8 +30,10 @@ pub const LUT_MAGIC: [u8; 8] = *b"\x89TETL\r\n\x1a";
 /// non-uniform scalar axis of `table3d` (`params.s_axis`, section `SAXIS`);
 /// version-1 files read as before (their tables have a uniform axis).
 /// Version 3 added the `"data"` scalar axis (knots in `SAXIS` as for
-/// `"tf-nodes"`); versions 1 and 2 read as before.
-pub const LUT_FORMAT_VERSION: u32 = 3;
+/// `"tf-nodes"`); versions 1 and 2 read as before. Version 4 added the
+/// `"adaptive"` table3d build kind (`params.build`; the sections mean the
+/// same); versions 1–3 read as before.
+pub const LUT_FORMAT_VERSION: u32 = 4;
 /// The container format of `.tetl` files (see `tet_container`).
 const FORMAT: ContainerFormat =
     ContainerFormat { magic: LUT_MAGIC, version: LUT_FORMAT_VERSION, max_sections: 1 << 12 };
@@ -325,8 +327,8 @@ pub struct BakeOptions {
 }
 
 impl Default for BakeOptions {
-    /// table3d 128 × 128 × 256 f32 (slice recurrence, o = 2, samples
-    /// following the data's scalars and on every TF control point:
+    /// table3d 128 × 128 × 256 f32 (adaptive build, samples following the
+    /// data's scalars, refined at and placed on every TF control point:
     /// [`Table3dParams::data`]); atlas2d N
     /// planes; Ψ 1024² f32; poly 512² f32; F/B 128² f32 with 4 sub-segments.
     fn default() -> Self {

@@ -13,11 +13,21 @@
 //!
 //! # Builds ([`Build3d`])
 //!
-//! * `SliceRecurrence` (default): per (Sf, Sb) pair the segment is cut into n
+//! * `Adaptive` (what [`crate::BakeOptions`] bakes with): per (Sf, Sb)
+//!   pair, density emission, the segment is cut at the TF's control points
+//!   into pieces where ρ and κ are linear, and each piece into the fewest
+//!   intervals whose estimated colour error stays below the tolerance. On
+//!   an interval ln T is the chord plus a bend βx(1 − x) (exact, ρ linear),
+//!   integrated to first order in β in closed form, so the error falls as
+//!   (intervals)⁻⁴: a smooth TF needs a handful per pair where the slice
+//!   recurrence takes two per grid step. All slices of an interval at once
+//!   (vectorized over l). Independent emission: the slice recurrence.
+//! * `SliceRecurrence` (`Build3d::default()`, tet_gpu's compute-shader
+//!   bake): per (Sf, Sb) pair the segment is cut into n
 //!   intervals (n = ⌈o·|b − a|⌉, o the oversampling factor per grid step;
 //!   one interval on the diagonal, where it is exact). The optical depth from
-//!   the entry to sample i is l·Dᵢ with Dᵢ exact from the prefix integral of
-//!   the piecewise-linear ρ, so Tᵢ(l_k) = exp(−k·Δl·Dᵢ) = Tᵢ(l_{k−1})·Gᵢ:
+//!   the entry to sample i is l·Dᵢ with Dᵢ = ∫₀^{uᵢ} ρ exact (trapezoids:
+//!   ρ is linear between samples), so Tᵢ(l_k) = exp(−k·Δl·Dᵢ) = Tᵢ(l_{k−1})·Gᵢ:
 //!   slice k comes from slice k−1's transmittances by one multiplication per
 //!   sample, no exp. Colour, density emission, integrated by parts:
 //!   C = κ₀ − κₙTₙ + Σᵢ Δκᵢ·∫ᵢT du, with ∫ᵢT = (Tᵢ − Tᵢ₊₁)/λᵢ (exact when ρ
@@ -34,6 +44,11 @@
 //!   slice k−1 looked up bilinearly at (Sm, Sb), as VTK's incremental table.
 //! * `Exact`: every entry by the f64 [`crate::integrate_segment`] (the
 //!   per-entry reference build).
+//!
+//! Every build but `Incremental` computes a pair from the TF over the
+//! pair's own interval [Sf, Sb] only (the optical depth is integrated from
+//! Sf), which lets [`Table3d::rebake`] recompute after a TF edit only the
+//! pairs the edit reaches, bit for bit as a full bake.
 
 use crate::domain::{check_res, TableDomain, TableError, MAX_TABLE_ENTRIES};
 use crate::exact::integrate_segment_with;
@@ -53,6 +68,12 @@ pub enum Build3d {
     /// Transmittance recurrence over l with `oversampling` intervals per
     /// scalar grid step (module docs).
     SliceRecurrence { oversampling: f32 },
+    /// Density emission: per (Sf, Sb) pair the fewest pieces whose
+    /// estimated colour error is at most `tolerance` (absolute, per
+    /// entry), each integrated with the bend of ln T to first order, and
+    /// every slice l at once (module docs). Independent emission: the slice
+    /// recurrence with oversampling 2.
+    Adaptive { tolerance: f32 },
     /// Seed 000's frame-buffer integration: `steps` samples per segment, sums
     /// rounded to `accumulation` after each step.
     Blend { steps: u32, accumulation: Accumulation },
@@ -67,6 +88,13 @@ impl Default for Build3d {
         Build3d::SliceRecurrence { oversampling: 2.0 }
     }
 }
+
+/// [`Build3d::Adaptive`]'s tolerance in [`Table3dParams::data`] (so in
+/// `BakeOptions`): estimated colour error per entry. On Blunt Fin with
+/// `tf_normalized.json` the entries' max error against the per-entry exact
+/// build is 1.1e-5 (slice recurrence, o = 2: 1.5e-5) at about 1/7 of the
+/// slice recurrence's bake time (crates/tetlut/results/bluntfin.md).
+pub const ADAPTIVE_TOLERANCE: f32 = 1e-5;
 
 /// Where the `n_s` samples of the Sf and Sb axes lie.
 ///
@@ -89,15 +117,17 @@ pub enum ScalarAxis {
     /// to uniform steps when the TF has more control points in range than
     /// the axis has steps.
     TfNodes,
-    /// Half the steps spread evenly over the scalar range, half with a
-    /// density ∝ √(the data's scalar density) (from the domain's
-    /// [`ScalarQuantiles`]),
-    /// then the nearest sample moved onto every TF control point. A table's
-    /// error grows with l·|dρ/ds|·Δs where the segments are, so a bundle whose
-    /// scalars crowd into a sliver of the range (the stars' luminosities:
-    /// half below 3e-4 of it, all inside the first step of a uniform
-    /// 128-sample axis) needs its samples there. Falls back to `TfNodes`
-    /// when the domain carries no quantiles.
+    /// Samples with a density that is half uniform over the scalar range,
+    /// half ∝ √(the data's scalar density) (from the domain's
+    /// [`ScalarQuantiles`]; all uniform when it has none), refined near
+    /// every TF control point (steps there half the uniform step, growing
+    /// as √distance: [`node_step_cap`]), and a sample on every control
+    /// point. A table's error grows with l·|dρ/ds|·Δs where the segments
+    /// are, so a bundle whose scalars crowd into a sliver of the range (the
+    /// stars' luminosities: half below 3e-4 of it, all inside the first
+    /// step of a uniform 128-sample axis) needs its samples there; and
+    /// across a control point the error is first order in the step there,
+    /// wherever the samples are, so those steps must be small too.
     ///
     /// [`ScalarQuantiles`]: crate::domain::ScalarQuantiles
     Data,
@@ -120,8 +150,8 @@ pub struct Table3dParams {
 impl Default for Table3dParams {
     /// 128 × 128 × 256, slice recurrence with oversampling 2, f32, uniform
     /// scalar axis (format version 1's layout; `BakeOptions`, what tetlut,
-    /// the CPU renderer and tetview's GPU path bake with, defaults to
-    /// [`ScalarAxis::TfNodes`]).
+    /// the CPU renderer and tetview bake with, defaults to
+    /// [`Table3dParams::data`]).
     fn default() -> Self {
         Table3dParams {
             n_s: 128,
@@ -141,9 +171,17 @@ impl Table3dParams {
     }
 
     /// The defaults with samples following the data and on every TF control
-    /// point ([`ScalarAxis::Data`]): what [`crate::BakeOptions`] bakes with.
+    /// point ([`ScalarAxis::Data`]), built adaptively
+    /// ([`Build3d::Adaptive`] at [`ADAPTIVE_TOLERANCE`]): what
+    /// [`crate::BakeOptions`] bakes with. tet_gpu's compute-shader bake
+    /// runs the slice recurrence: give it `build: Build3d::default()` (the
+    /// same axis; entries agree to ~1e-5).
     pub fn data() -> Self {
-        Table3dParams { s_axis: ScalarAxis::Data, ..Default::default() }
+        Table3dParams {
+            s_axis: ScalarAxis::Data,
+            build: Build3d::Adaptive { tolerance: ADAPTIVE_TOLERANCE },
+            ..Default::default()
+        }
     }
 }
 
@@ -179,66 +217,183 @@ pub const DATA_AXIS_UNIFORM_SHARE: f64 = 0.5;
 /// 1/2 gave 9.1e-5, 1/3 7.9e-5 but worse at 96 samples
 /// (crates/tetlut/examples/table3d_axes.rs).
 pub const DATA_AXIS_DENSITY_POWER: f64 = 0.5;
+/// The step next to a TF control point on a [`ScalarAxis::Data`] axis, as
+/// a share of the uniform step u = span / (n_s − 1); farther out, at
+/// distance r, steps up to √(h₀·r) (h₀ this share of u), until the data's
+/// own spacing takes over ([`node_step_cap`]). 0.5 halves the worst error
+/// of the uniform step's (Blunt Fin, `tf_normalized.json`, 128 × 128 × 256,
+/// uniform set: 9.6e-4 at u, 4.8e-4 at u/2, 2.9e-4 at 0.35·u;
+/// crates/tetlut/examples/table3d_worst.rs).
+pub const DATA_AXIS_NODE_STEP: f64 = 0.5;
+/// Largest share of a [`ScalarAxis::Data`] axis's steps the refinement near
+/// TF control points may take (a TF with many control points gets a
+/// proportionally weaker refinement).
+pub const DATA_AXIS_NODE_BUDGET: f64 = 0.5;
+/// Cells per axis step of the fine partition a [`ScalarAxis::Data`] axis's
+/// density is integrated on.
+const FINE_PER_STEP: usize = 64;
+
+/// A [`ScalarAxis::Data`] axis's minimum sample density at `s` (samples per
+/// scalar unit) for the TF's control points `nodes` (sorted), u the uniform
+/// step: 1/max(h₀, √(h₀·r)), r the distance to the nearest control point,
+/// h₀ = [`DATA_AXIS_NODE_STEP`]·u.
+///
+/// Why: across a control point x₀ where ρ's slope jumps by Δk, the mean
+/// extinction ρ̂(x₀ − x, x₀ + y) = ρ(x₀) + (k_R·y² − k_L·x²)/(2(x + y)) is
+/// homogeneous of degree one around (x₀, x₀), not smooth: the table cell
+/// that has the control point at its corner errs by ∝ Δk·h·l (h its step),
+/// whatever the samples' placement, and a cell of step h at distance r by
+/// ∝ Δk·h²/r (the function's second derivatives fall off as 1/r). Steps of
+/// h₀ at the control point and √(h₀·r) away from it spread that error
+/// evenly; the first-order error on the Blunt Fin case was the
+/// step next to the control point (crates/tetlut/results/bluntfin.md).
+pub fn node_step_cap(nodes: &[f64], s: f64, u: f64) -> f64 {
+    let k = nodes.partition_point(|&x| x < s);
+    let r = [k.checked_sub(1), Some(k)]
+        .into_iter()
+        .flatten()
+        .filter_map(|j| nodes.get(j))
+        .map(|&x| (s - x).abs())
+        .fold(f64::INFINITY, f64::min);
+    if !r.is_finite() {
+        return 0.0;
+    }
+    let h0 = DATA_AXIS_NODE_STEP * u;
+    1.0 / h0.max((h0 * r).sqrt())
+}
+
+/// A [`ScalarAxis::Data`] axis's sample density from the data alone,
+/// normalized to integrate to 1 over the domain's range: a share
+/// [`DATA_AXIS_UNIFORM_SHARE`] uniform, the rest ∝ the data's density to
+/// the power [`DATA_AXIS_DENSITY_POWER`] (from the domain's quantiles; all
+/// uniform without them).
+fn data_density(domain: &TableDomain) -> impl Fn(f64) -> f64 {
+    let span = domain.scalar_span();
+    let (w, gamma) = (DATA_AXIS_UNIFORM_SHARE, DATA_AXIS_DENSITY_POWER);
+    // Per quantile bin, density ∝ (its width)^−γ, i.e. a measure ∝ width^(1−γ).
+    let bins: Vec<(f64, f64)> = match domain.s_quantiles {
+        Some(mut q) => {
+            // Repeated quantiles (many equal scalars) would make the density
+            // infinite: spread them by a hair.
+            let hair = 1e-6 * span;
+            for k in 1..q.0.len() {
+                q.0[k] = q.0[k].max(q.0[k - 1] + hair);
+            }
+            let total: f64 = q.0.windows(2).map(|b| (b[1] - b[0]).powf(1.0 - gamma)).sum();
+            q.0.windows(2).map(|b| (b[1], (b[1] - b[0]).powf(-gamma) / total)).collect()
+        }
+        None => vec![],
+    };
+    let first = domain.s_quantiles.map_or(f64::INFINITY, |q| q.0[0]);
+    move |s: f64| {
+        let data = if bins.is_empty() {
+            1.0 / span
+        } else if s < first {
+            0.0
+        } else {
+            bins.get(bins.partition_point(|b| b.0 < s)).map_or(0.0, |b| b.1)
+        };
+        w / span + (1.0 - w) * data
+    }
+}
+
+/// The TF's colour and opacity control points strictly inside the domain's
+/// range, sorted, without duplicates.
+fn tf_nodes_in(tf: &TransferFunction, domain: &TableDomain) -> Vec<f64> {
+    let (lo, hi) = (domain.s_lo, domain.s_hi);
+    let eps = 1e-9 * domain.scalar_span();
+    let mut nodes: Vec<f64> = tf
+        .color_nodes()
+        .iter()
+        .map(|c| c.x)
+        .chain(tf.opacity_nodes().iter().map(|o| o.x))
+        .filter(|&x| x > lo + eps && x < hi - eps)
+        .collect();
+    nodes.sort_by(f64::total_cmp);
+    nodes.dedup_by(|a, b| (*a - *b).abs() <= eps);
+    nodes
+}
 
 impl Axis {
-    /// [`ScalarAxis::Data`]: with the measure G(s) = w·(s − lo)/span plus
-    /// (1 − w)·(cumulative √density of the data), each interval between TF
-    /// control points gets steps ∝ its G-measure and its samples at equal
-    /// steps of G; every sample is a knot.
+    /// [`ScalarAxis::Data`]: the samples follow the density
+    /// D(s) = max(λ·g(s), cap(s)), with g the data's density (a share
+    /// [`DATA_AXIS_UNIFORM_SHARE`] uniform, the rest ∝ the data's density to
+    /// the power [`DATA_AXIS_DENSITY_POWER`]; uniform when the domain has no
+    /// quantiles), cap(s) the refinement near the TF's control points
+    /// ([`node_step_cap`]) and λ chosen so that D has n_s − 1 steps. Each
+    /// interval between control points gets steps ∝ its D-measure (so every
+    /// control point is a sample) and its samples at equal steps of D's
+    /// integral; every sample is a knot.
     fn data(tf: &TransferFunction, domain: &TableDomain, n_s: usize) -> Axis {
-        let Some(mut q) = domain.s_quantiles else { return Axis::tf_nodes(tf, domain, n_s) };
-        let (lo, hi) = (domain.s_lo, domain.s_hi);
-        // Repeated quantiles (many equal scalars) would make the CDF jump and
-        // several samples coincide: spread them by a hair.
-        let hair = 1e-6 * domain.scalar_span();
-        for k in 1..q.0.len() {
-            q.0[k] = q.0[k].max(q.0[k - 1] + hair);
+        let (lo, hi, span) = (domain.s_lo, domain.s_hi, domain.scalar_span());
+        let steps = (n_s - 1) as f64;
+        // D on a fine partition of the range (midpoint values), integrated
+        // into the piecewise-linear measure G.
+        let fine = FINE_PER_STEP * (n_s - 1);
+        let dx = span / fine as f64;
+        let mid = |i: usize| lo + (i as f64 + 0.5) * dx;
+        let data_density = data_density(domain);
+        let g: Vec<f64> = (0..fine).map(|i| data_density(mid(i))).collect();
+        let nodes = tf_nodes_in(tf, domain);
+        let u = span / steps;
+        let mut cap: Vec<f64> = (0..fine).map(|i| node_step_cap(&nodes, mid(i), u)).collect();
+        // Many control points: the refinement may take at most its budget.
+        let cap_steps: f64 = cap.iter().sum::<f64>() * dx;
+        if cap_steps > DATA_AXIS_NODE_BUDGET * steps {
+            let f = DATA_AXIS_NODE_BUDGET * steps / cap_steps;
+            cap.iter_mut().for_each(|c| *c *= f);
         }
-        let (w, gamma) = (DATA_AXIS_UNIFORM_SHARE, DATA_AXIS_DENSITY_POWER);
-        // Sample density ∝ (data density)^γ: cumulative weight per quantile bin.
-        let mut cum = vec![0.0f64; q.0.len()];
-        for k in 1..q.0.len() {
-            cum[k] = cum[k - 1] + (q.0[k] - q.0[k - 1]).powf(1.0 - gamma);
+        // λ: ∫ max(λ·g, cap) = steps (increasing in λ; λ = steps overshoots
+        // as ∫g = 1).
+        let total = |lam: f64| -> f64 { g.iter().zip(&cap).map(|(&g, &c)| (lam * g).max(c)).sum::<f64>() * dx };
+        let (mut a, mut b) = (0.0, steps);
+        for _ in 0..100 {
+            let m = 0.5 * (a + b);
+            if total(m) < steps {
+                a = m;
+            } else {
+                b = m;
+            }
         }
-        let total = cum[cum.len() - 1];
-        let data_cdf = |s: f64| {
-            let k = q.0.partition_point(|&x| x <= s);
-            if k == 0 {
-                return 0.0;
-            }
-            if k == q.0.len() {
-                return 1.0;
-            }
-            let (a, b) = (q.0[k - 1], q.0[k]);
-            (cum[k - 1] + (cum[k] - cum[k - 1]) * (s - a) / (b - a)) / total
+        let lam = b;
+        let mut cum = Vec::with_capacity(fine + 1);
+        cum.push(0.0f64);
+        for (&gi, &ci) in g.iter().zip(&cap) {
+            cum.push(cum[cum.len() - 1] + (lam * gi).max(ci) * dx);
+        }
+        let measure = |s: f64| -> f64 {
+            let x = ((s - lo) / dx).clamp(0.0, fine as f64);
+            let i = (x as usize).min(fine - 1);
+            cum[i] + (x - i as f64) * (cum[i + 1] - cum[i])
         };
-        let g = |s: f64| w * (s - lo) / (hi - lo) + (1.0 - w) * data_cdf(s);
-        // The TF-node knots with steps per interval ∝ its G-measure (so every
-        // control point is a sample), then the samples inside each interval
-        // at equal steps of G.
-        let Some((knot_s, knot_i)) = node_knots(tf, domain, n_s, &g) else { return Axis::tf_nodes(tf, domain, n_s) };
+        // Inverse of `measure` (strictly increasing: D ≥ λ·g > 0).
+        let inverse = |t: f64| -> f64 {
+            let i = cum.partition_point(|&c| c <= t).clamp(1, fine) - 1;
+            lo + (i as f64 + ((t - cum[i]) / (cum[i + 1] - cum[i])).clamp(0.0, 1.0)) * dx
+        };
+        let Some((knot_s, knot_i)) = node_knots(tf, domain, n_s, &measure) else {
+            return Axis::tf_nodes(tf, domain, n_s);
+        };
         let mut grid = Vec::with_capacity(n_s);
         for (ks, ki) in knot_s.windows(2).zip(knot_i.windows(2)) {
-            let (g0, g1) = (g(ks[0]), g(ks[1]));
-            let steps = ki[1] - ki[0];
+            let (g0, g1) = (measure(ks[0]), measure(ks[1]));
+            let n = ki[1] - ki[0];
             grid.push(ks[0]);
-            for j in 1..steps {
-                let target = g0 + (g1 - g0) * j as f64 / steps as f64;
-                let (mut a, mut b) = (ks[0], ks[1]);
-                for _ in 0..100 {
-                    let m = 0.5 * (a + b);
-                    if g(m) < target {
-                        a = m;
-                    } else {
-                        b = m;
-                    }
-                }
-                grid.push(0.5 * (a + b));
-            }
+            grid.extend((1..n).map(|j| inverse(g0 + (g1 - g0) * j as f64 / n as f64)));
         }
         grid.push(hi);
         let knots: Vec<(f64, usize)> = grid.into_iter().enumerate().map(|(i, s)| (s, i)).collect();
         Axis::from_knots(domain, n_s, &knots).unwrap_or_else(|| Axis::tf_nodes(tf, domain, n_s))
+    }
+
+    /// The axis [`Table3d::build`] gives `params` for `tf` over `domain`.
+    fn for_params(tf: &TransferFunction, domain: &TableDomain, params: &Table3dParams) -> Result<Axis, TableError> {
+        check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
+        Ok(match params.s_axis {
+            ScalarAxis::Uniform => Axis::uniform(domain, params.n_s),
+            ScalarAxis::TfNodes => Axis::tf_nodes(tf, domain, params.n_s),
+            ScalarAxis::Data => Axis::data(tf, domain, params.n_s),
+        })
     }
 
     fn uniform(domain: &TableDomain, n_s: usize) -> Axis {
@@ -388,16 +543,7 @@ fn node_knots(
     g: &dyn Fn(f64) -> f64,
 ) -> Option<(Vec<f64>, Vec<usize>)> {
     let (lo, hi) = (domain.s_lo, domain.s_hi);
-    let eps = 1e-9 * domain.scalar_span();
-    let mut nodes: Vec<f64> = tf
-        .color_nodes()
-        .iter()
-        .map(|c| c.x)
-        .chain(tf.opacity_nodes().iter().map(|o| o.x))
-        .filter(|&x| x > lo + eps && x < hi - eps)
-        .collect();
-    nodes.sort_by(f64::total_cmp);
-    nodes.dedup_by(|a, b| (*a - *b).abs() <= eps);
+    let nodes = tf_nodes_in(tf, domain);
     let steps = n_s - 1;
     let intervals = nodes.len() + 1;
     if intervals > steps {
@@ -584,6 +730,18 @@ const LANES: usize = 8;
 /// weights T by Δκ.
 const BEND_INDEPENDENT: f64 = 0.01;
 const BEND_DENSITY: f64 = 1.0;
+/// Largest estimated error of the colour integral, per unit of u (so at most
+/// this over a segment), that the chord rule (ln T linear on an interval)
+/// may make before an interval is split; r pieces divide an interval's
+/// error by r². ln T bends from its chord by up to l·|Δρ|·Δu/8 over an
+/// interval, and ∫ of the bend is 2/3 of that, so the estimate is
+/// |Δκ|·l_max·|Δρ|·Δu/12 for density emission (the by-parts form weights
+/// ∫T by Δκ) and κ·l_max²·|Δρ|·Δu²/12 for independent emission (C = l·∫κT).
+/// The bend limits above alone let a steep colour ramp inside one interval
+/// where ρ is steep (density), or a long bright segment (independent), err
+/// by 1.0e-3–1.7e-3 at the grid nodes (tests/tables_prop.rs's pinned
+/// cases); on Blunt Fin's smooth TF it splits no density interval.
+const SPLIT_ERROR: f64 = 1e-4;
 /// Most pieces one interval is split into.
 const MAX_SPLIT: usize = 64;
 
@@ -593,11 +751,41 @@ impl Table3d {
     pub fn build(tf: &TransferFunction, domain: &TableDomain, params: &Table3dParams) -> Result<Table3d, TableError> {
         check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
         check_res("table3d n_l", params.n_l, 2, MAX_AXIS)?;
-        let axis = match params.s_axis {
-            ScalarAxis::Uniform => Axis::uniform(domain, params.n_s),
-            ScalarAxis::TfNodes => Axis::tf_nodes(tf, domain, params.n_s),
-            ScalarAxis::Data => Axis::data(tf, domain, params.n_s),
-        };
+        let axis = Axis::for_params(tf, domain, params)?;
+        Table3d::build_on_axis(tf, domain, params, axis)
+    }
+
+    /// Bakes the table on a given scalar axis, (scalar, grid index) knots as
+    /// [`Table3d::s_knots`] returns them (e.g. an earlier table's, so that a
+    /// TF edit that moved a node keeps the old samples; or knots placed by
+    /// the caller). `params.s_axis` must not be `Uniform` (the knots say
+    /// where the samples are); invalid knots are an error.
+    pub fn build_with_knots(
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        params: &Table3dParams,
+        knots: &[(f64, usize)],
+    ) -> Result<Table3d, TableError> {
+        check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
+        check_res("table3d n_l", params.n_l, 2, MAX_AXIS)?;
+        if params.s_axis == ScalarAxis::Uniform {
+            return Err(TableError::Invalid("knots given for a uniform scalar axis".into()));
+        }
+        let axis = Axis::from_knots(domain, params.n_s, knots).ok_or_else(|| {
+            TableError::Invalid(format!(
+                "{} scalar axis knots: need (s_lo, 0) … (s_hi, n_s − 1), both strictly increasing",
+                knots.len()
+            ))
+        })?;
+        Table3d::build_on_axis(tf, domain, params, axis)
+    }
+
+    fn build_on_axis(
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        params: &Table3dParams,
+        axis: Axis,
+    ) -> Result<Table3d, TableError> {
         let band = Band::for_axis(params.n_s, domain, &axis);
         let entries = band.pairs as u64 * params.n_l as u64;
         if entries > MAX_TABLE_ENTRIES {
@@ -607,15 +795,20 @@ impl Table3d {
             Build3d::SliceRecurrence { oversampling } if !(0.01..=1024.0).contains(&oversampling) => {
                 return Err(TableError::Invalid(format!("oversampling {oversampling} must be in [0.01, 1024]")));
             }
+            Build3d::Adaptive { tolerance } if !(1e-8..=1e-2).contains(&tolerance) => {
+                return Err(TableError::Invalid(format!("tolerance {tolerance} must be in [1e-8, 1e-2]")));
+            }
             Build3d::Blend { steps, .. } => check_res("blend steps", steps as usize, 1, 1 << 16)?,
             _ => {}
         }
         let grid = Grid::new(domain, params, &axis);
         let values = match params.build {
-            Build3d::SliceRecurrence { oversampling } => build_recurrence(tf, &grid, &band, oversampling),
-            Build3d::Blend { steps, accumulation } => build_blend(tf, &grid, &band, steps as usize, accumulation),
             Build3d::Incremental => build_incremental(tf, &grid, &band, &axis, domain),
-            Build3d::Exact => build_exact(tf, &grid, &band),
+            build => {
+                let mut values = vec![0.0f32; band.pairs * grid.n_l * 4];
+                bake_pairs(tf, &grid, &band, build, &mut values, &|_, _| true);
+                values
+            }
         };
         let data = Storage::encode(values, 4, params.precision);
         Ok(Table3d::assemble(domain, params, axis, data).expect("built storage matches its layout"))
@@ -690,13 +883,7 @@ impl Table3d {
         domain: &TableDomain,
         params: &Table3dParams,
     ) -> Result<Vec<(f64, usize)>, TableError> {
-        check_res("table3d n_s", params.n_s, 2, MAX_AXIS)?;
-        let axis = match params.s_axis {
-            ScalarAxis::Uniform => Axis::uniform(domain, params.n_s),
-            ScalarAxis::TfNodes => Axis::tf_nodes(tf, domain, params.n_s),
-            ScalarAxis::Data => Axis::data(tf, domain, params.n_s),
-        };
-        Ok(axis.knots())
+        Ok(Axis::for_params(tf, domain, params)?.knots())
     }
 
     /// Whether the scalar axis has equal steps (a consumer may then map
@@ -821,6 +1008,145 @@ impl Table3d {
             }
         }
         out
+    }
+}
+
+/// What [`Table3d::rebake`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RebakeStats {
+    /// (Sf, Sb) pairs the table stores.
+    pub pairs: usize,
+    /// Pairs computed again (all of them after a full bake).
+    pub pairs_rebaked: usize,
+    /// Why the whole table was baked again, if it was.
+    pub full: Option<FullRebake>,
+}
+
+/// Why [`Table3d::rebake`] baked the whole table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FullRebake {
+    /// The new TF puts the scalar samples elsewhere (a control point was
+    /// added, removed or moved along s, on a non-uniform axis).
+    AxisChanged,
+    /// Unit distance, emission model, widgets or normalization changed:
+    /// every entry depends on them.
+    GlobalChange,
+    /// The build is not per pair (`Incremental`).
+    Build,
+    /// Storage other than f32 (unorm's scale is the whole table's; f16
+    /// is rebuilt for simplicity).
+    Precision,
+}
+
+/// Where two TFs differ, as closed scalar intervals outside which both
+/// evaluate (colour, extinction, control points) bit for bit alike: per
+/// node list, from the last node of their common prefix to the first of
+/// their common suffix (±∞ when there is none). `None`: they differ
+/// everywhere (unit distance, emission, normalization, widgets).
+fn changed_spans(old: &TransferFunction, new: &TransferFunction) -> Option<Vec<(f64, f64)>> {
+    if old.unit_distance().to_bits() != new.unit_distance().to_bits()
+        || old.emission() != new.emission()
+        || old.normalized() != new.normalized()
+        || old.widgets() != new.widgets()
+    {
+        return None;
+    }
+    fn span<T>(old: &[T], new: &[T], x: impl Fn(&T) -> f64, same: impl Fn(&T, &T) -> bool) -> Option<(f64, f64)> {
+        let prefix = old.iter().zip(new).take_while(|(a, b)| same(a, b)).count();
+        if prefix == old.len() && prefix == new.len() {
+            return None;
+        }
+        let suffix = old.iter().rev().zip(new.iter().rev()).take_while(|(a, b)| same(a, b)).count();
+        // The common prefix and suffix may overlap when one list is the
+        // other with a node removed: keep them apart.
+        let suffix = suffix.min(old.len() - prefix).min(new.len() - prefix);
+        let lo = if prefix == 0 { f64::NEG_INFINITY } else { x(&old[prefix - 1]) };
+        let hi = if suffix == 0 { f64::INFINITY } else { x(&old[old.len() - suffix]) };
+        Some((lo, hi))
+    }
+    let bits = |v: f64| v.to_bits();
+    let colour = span(
+        old.color_nodes(),
+        new.color_nodes(),
+        |c| c.x,
+        |a, b| bits(a.x) == bits(b.x) && a.rgb.map(bits) == b.rgb.map(bits),
+    );
+    let opacity = span(
+        old.opacity_nodes(),
+        new.opacity_nodes(),
+        |o| o.x,
+        |a, b| bits(a.x) == bits(b.x) && bits(a.a) == bits(b.a),
+    );
+    Some(colour.into_iter().chain(opacity).collect())
+}
+
+impl Table3d {
+    /// Re-bakes this table, baked from `old_tf`, for `new_tf` (both in data
+    /// units, as [`Table3d::build`] takes them), computing again only the
+    /// (Sf, Sb) pairs whose scalar interval meets the part of the TF that
+    /// changed: the result equals `Table3d::build(new_tf, self.domain(),
+    /// self.params())` bit for bit (tests/table3d_rebake.rs).
+    ///
+    /// An entry depends on the TF only over its pair's interval [Sf, Sb]
+    /// (colour, extinction and control points there; the optical depth is
+    /// integrated from Sf, not from a prefix over the whole TF), so a value
+    /// or colour edit of one control point re-bakes the pairs that meet the
+    /// span between its neighbours. Every pair is baked again
+    /// ([`RebakeStats::full`] says why) when the axis the new TF gets
+    /// differs (on a `TfNodes` or `Data` axis every control point is a
+    /// sample, so moving, adding or removing one moves samples, and every
+    /// entry moves with them) or a global field changed, both in the
+    /// table's own buffer; and by [`Table3d::build`] for the `Incremental`
+    /// build and for storage other than f32.
+    /// `old_tf` must be the TF the table was baked from; otherwise the
+    /// unchanged pairs keep the old TF's values.
+    pub fn rebake(&mut self, old_tf: &TransferFunction, new_tf: &TransferFunction) -> Result<RebakeStats, TableError> {
+        let full = |t: &mut Table3d, why: FullRebake| -> Result<RebakeStats, TableError> {
+            *t = Table3d::build(new_tf, &t.domain, &t.params)?;
+            Ok(RebakeStats { pairs: t.band.pairs, pairs_rebaked: t.band.pairs, full: Some(why) })
+        };
+        if self.params.build == Build3d::Incremental {
+            return full(self, FullRebake::Build);
+        }
+        if self.params.precision != Precision::F32 {
+            return full(self, FullRebake::Precision);
+        }
+        let axis = Axis::for_params(new_tf, &self.domain, &self.params)?;
+        let spans = if axis != *self.axis {
+            Err(FullRebake::AxisChanged)
+        } else {
+            changed_spans(old_tf, new_tf).ok_or(FullRebake::GlobalChange)
+        };
+        let n_l = self.params.n_l;
+        let spans = match spans {
+            Ok(spans) => spans,
+            Err(why) => {
+                // Every pair, into the same buffer (resized when the band
+                // changed with the axis): no fresh 44 MiB to fault in.
+                let band = Band::for_axis(self.params.n_s, &self.domain, &axis);
+                let entries = band.pairs as u64 * n_l as u64;
+                if entries > MAX_TABLE_ENTRIES {
+                    return Err(TableError::TooLarge { entries, max: MAX_TABLE_ENTRIES });
+                }
+                let grid = Grid::new(&self.domain, &self.params, &axis);
+                let values = self.data.f32_vec_mut().expect("f32 storage checked above");
+                values.resize(band.pairs * n_l * 4, 0.0);
+                bake_pairs(new_tf, &grid, &band, self.params.build, values, &|_, _| true);
+                let pairs = band.pairs;
+                (self.axis, self.band) = (Box::new(axis), band);
+                return Ok(RebakeStats { pairs, pairs_rebaked: pairs, full: Some(why) });
+            }
+        };
+        let grid = Grid::new(&self.domain, &self.params, &self.axis);
+        let dirty = |a: usize, b: usize| {
+            let (lo, hi) = (grid.s(a).min(grid.s(b)), grid.s(a).max(grid.s(b)));
+            spans.iter().any(|&(x0, x1)| x0 <= hi && lo <= x1)
+        };
+        let pairs_rebaked: usize =
+            (0..self.params.n_s).map(|a| self.band.row(a).filter(|&b| dirty(a, b)).count()).sum();
+        let values = self.data.as_f32_mut().expect("f32 storage checked above");
+        bake_pairs(new_tf, &grid, &self.band, self.params.build, values, &dirty);
+        Ok(RebakeStats { pairs: self.band.pairs, pairs_rebaked, full: None })
     }
 }
 
@@ -1018,24 +1344,71 @@ struct PairScratch {
     nodes: Vec<f64>,
 }
 
-fn build_recurrence(tf: &TransferFunction, grid: &Grid, band: &Band, oversampling: f32) -> Vec<f32> {
+/// Computes, in place, every pair (a, b) of `values` (the band's layout)
+/// that `select` picks, by a build whose entries depend only on the TF over
+/// the pair's own scalar interval (every build but `Incremental`): what a
+/// full bake and [`Table3d::rebake`] share, so a re-baked pair is
+/// bit-for-bit the full bake's.
+fn bake_pairs(
+    tf: &TransferFunction,
+    grid: &Grid,
+    band: &Band,
+    build: Build3d,
+    values: &mut [f32],
+    select: &(dyn Fn(usize, usize) -> bool + Sync),
+) {
     let n_l = grid.n_l;
-    let mut values = vec![0.0f32; band.pairs * n_l * 4];
-    let prefix = ExtinctionPrefix::new(tf);
     let independent = tf.emission() == Emission::Independent;
-    rows_mut(&mut values, band, n_l).into_par_iter().for_each_init(PairScratch::default, |sc, (a, row)| {
+    let rows = rows_mut(values, band, n_l)
+        .into_iter()
+        .filter(|(a, _)| band.row(*a).any(|b| select(*a, b)))
+        .collect::<Vec<_>>();
+    let pairs = |row: &mut [f32], a: usize, f: &mut dyn FnMut(usize, &mut [f32])| {
         for (j, b) in band.row(a).enumerate() {
-            let out = &mut row[j * n_l * 4..(j + 1) * n_l * 4];
-            recurrence_pair(tf, &prefix, grid, a, b, oversampling, independent, sc, out);
+            if select(a, b) {
+                f(b, &mut row[j * n_l * 4..(j + 1) * n_l * 4]);
+            }
         }
-    });
-    values
+    };
+    let recurrence = |rows: Vec<(usize, &mut [f32])>, o: f32| {
+        rows.into_par_iter().for_each_init(PairScratch::default, |sc, (a, row)| {
+            pairs(row, a, &mut |b, out| recurrence_pair(tf, grid, a, b, o, independent, sc, out));
+        })
+    };
+    match build {
+        Build3d::SliceRecurrence { oversampling } => recurrence(rows, oversampling),
+        Build3d::Adaptive { .. } if independent => recurrence(rows, ADAPTIVE_INDEPENDENT_OVERSAMPLING),
+        Build3d::Adaptive { tolerance } => {
+            let kf: Vec<f32> = (0..n_l).map(|k| k as f32).collect();
+            let inv_k: Vec<f32> = (0..n_l).map(|k| if k == 0 { 0.0 } else { 1.0 / k as f32 }).collect();
+            rows.into_par_iter().for_each_init(AdaptiveScratch::default, |sc, (a, row)| {
+                pairs(row, a, &mut |b, out| adaptive_pair(tf, grid, a, b, tolerance as f64, &kf, &inv_k, sc, out));
+            })
+        }
+        Build3d::Blend { steps, accumulation } => rows.into_par_iter().for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(rho, kap), (a, row)| {
+                pairs(row, a, &mut |b, out| blend_pair(tf, grid, a, b, steps as usize, accumulation, rho, kap, out));
+            },
+        ),
+        Build3d::Exact => rows.into_par_iter().for_each_init(Vec::new, |scratch, (a, row)| {
+            pairs(row, a, &mut |b, out| {
+                out[..4].fill(0.0);
+                for k in 1..n_l {
+                    let px = integrate_segment_with(tf, grid.s(a), grid.s(b), k as f64 * grid.dl, scratch);
+                    for (oc, v) in out[k * 4..k * 4 + 4].iter_mut().zip(px.to_array()) {
+                        *oc = v as f32;
+                    }
+                }
+            });
+        }),
+        Build3d::Incremental => unreachable!("bake_pairs: the incremental build is not per pair"),
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
 fn recurrence_pair(
     tf: &TransferFunction,
-    prefix: &ExtinctionPrefix,
     grid: &Grid,
     a: usize,
     b: usize,
@@ -1048,7 +1421,8 @@ fn recurrence_pair(
     // Sample positions u ∈ [0, 1] along the segment: a uniform grid of
     // ⌈o·|b − a|⌉ intervals plus every TF node in between (so κ and ρ are
     // linear on each interval), and intervals over which ρ changes enough
-    // to bend ln T (by l_max·|Δρ|·Δu) are split further.
+    // to bend ln T (by l_max·|Δρ|·Δu), or whose estimated colour error is
+    // too large (SPLIT_ERROR), are split further.
     sc.u.clear();
     sc.u.push(0.0);
     if a != b {
@@ -1065,11 +1439,32 @@ fn recurrence_pair(
         let mut split = Vec::with_capacity(sc.u.len());
         split.push(0.0);
         let mut rho0 = tf.extinction(sf);
+        let mut kap0 = tf.color(sf);
+        // Optical depth at l_max in front of the interval.
+        let mut depth0 = 0.0f64;
         for w in sc.u.windows(2) {
-            let rho1 = tf.extinction(sf + (sb - sf) * w[1]);
-            let r = ((len_max * (rho1 - rho0).abs() * (w[1] - w[0]) / bend).ceil() as usize).clamp(1, MAX_SPLIT);
+            let s1 = sf + (sb - sf) * w[1];
+            let rho1 = tf.extinction(s1);
+            let du = w[1] - w[0];
+            let l_drho = len_max * (rho1 - rho0).abs();
+            let kap1 = tf.color(s1);
+            // Error estimate per unit u times r² (SPLIT_ERROR), at the
+            // slice where it peaks: at l = x·l_max the bend is x times its
+            // l_max value (x² with independent emission's l·∫κT) and the
+            // transmittance in front at most e^{−x·depth0}.
+            let err_r2 = if independent {
+                let k = (0..3).map(|c| kap0[c].max(kap1[c])).fold(0.0, f64::max);
+                k * len_max * l_drho * du / 12.0 * attenuation(depth0)
+            } else {
+                let dk = (0..3).map(|c| (kap1[c] - kap0[c]).abs()).fold(0.0, f64::max);
+                dk * l_drho / 12.0 * attenuation_linear(depth0)
+            };
+            let r = (l_drho * du / bend).ceil().max((err_r2 / SPLIT_ERROR).sqrt().ceil());
+            let r = (r as usize).clamp(1, MAX_SPLIT);
+            kap0 = kap1;
             split.extend((1..r).map(|j| w[0] + (w[1] - w[0]) * (j as f64 / r as f64)));
             split.push(w[1]);
+            depth0 += len_max * du * 0.5 * (rho0 + rho1);
             rho0 = rho1;
         }
         sc.u = split;
@@ -1079,19 +1474,23 @@ fn recurrence_pair(
     let n = sc.u.len() - 1;
     let n_pad = n.div_ceil(LANES) * LANES;
     let s_of = |u: f64| if u >= 1.0 { sb } else { sf + (sb - sf) * u };
-    // D_i: ∫₀^{u_i} ρ(s(v)) dv, exact from the prefix integral.
+    // D_i: ∫₀^{u_i} ρ(s(v)) dv, exact by the trapezoid rule (ρ is linear
+    // on every interval) and local: it depends on the TF over [Sf, Sb] only
+    // (a prefix integral from the TF's first node would carry the rounding
+    // of everything before Sf, and a TF edit there would change this pair
+    // by rounding: Table3d::rebake relies on it not doing so).
     sc.p.clear();
     if a == b {
         let rho = tf.extinction(sf);
         sc.p.extend([0.0, rho]);
     } else {
-        let p0 = prefix.at(sf);
-        let inv = 1.0 / (sb - sf);
-        sc.p.extend(sc.u.iter().map(|&u| ((prefix.at(s_of(u)) - p0) * inv).max(0.0)));
-        sc.p[0] = 0.0;
-        // D is non-decreasing in exact arithmetic; keep it so after rounding.
-        for i in 1..=n {
-            sc.p[i] = sc.p[i].max(sc.p[i - 1]);
+        sc.p.push(0.0);
+        let mut rho0 = tf.extinction(sf);
+        for w in sc.u.windows(2) {
+            let rho1 = tf.extinction(s_of(w[1]));
+            let d = sc.p[sc.p.len() - 1] + (w[1] - w[0]) * 0.5 * (rho0 + rho1);
+            sc.p.push(d);
+            rho0 = rho1;
         }
     }
     let d = &sc.p;
@@ -1167,6 +1566,251 @@ fn recurrence_pair(
             o[ch] = v.max(0.0);
         }
         o[3] = (1.0 - t_end).clamp(0.0, 1.0);
+    }
+}
+
+/// [`Build3d::Adaptive`] under independent emission: the slice recurrence
+/// with this oversampling.
+const ADAPTIVE_INDEPENDENT_OVERSAMPLING: f32 = 2.0;
+/// Below this λ, [`Build3d::Adaptive`] takes ∫₀¹ x(1−x)e^{−λx} dx from its
+/// series (seven terms, relative error < 1e-7); above, from the moments'
+/// recursion, whose rounding grows as 1/λ².
+const LAM_SMALL_2: f32 = 0.5;
+/// Most pieces [`Build3d::Adaptive`] cuts one TF piece of a segment into.
+const ADAPTIVE_MAX_SPLIT: usize = 256;
+
+/// Per-pair arrays of the adaptive build (length n_l), reused across pairs.
+#[derive(Default)]
+struct AdaptiveScratch {
+    /// Interval ends along the segment, u ∈ [0, 1].
+    u: Vec<f64>,
+    nodes: Vec<f64>,
+    /// T at the current interval's start and end, per slice.
+    t0: Vec<f32>,
+    t1: Vec<f32>,
+    acc: [Vec<f32>; 3],
+}
+
+/// T(l_k) = e^{−k·x} for k = 0..n (f32, flushed below [`T_FLUSH`]): the
+/// first eight from f64 powers, then eight lanes stepping by e^{−8x}.
+fn fill_transmittance(x: f64, t: &mut [f32]) {
+    let g = (-x).exp();
+    let mut p = 1.0f64;
+    for v in t.iter_mut().take(LANES) {
+        *v = p as f32;
+        p *= g;
+    }
+    let g8 = (-(LANES as f64) * x).exp() as f32;
+    let mut k = LANES;
+    while k + LANES <= t.len() {
+        let (head, tail) = t.split_at_mut(k);
+        let prev: &[f32; LANES] = head[k - LANES..].try_into().expect("LANES");
+        for (d, &s) in tail[..LANES].iter_mut().zip(prev) {
+            let v = s * g8;
+            *d = if v >= T_FLUSH { v } else { 0.0 };
+        }
+        k += LANES;
+    }
+    for i in k..t.len() {
+        let v = t[i - LANES] * g8;
+        t[i] = if v >= T_FLUSH { v } else { 0.0 };
+    }
+}
+
+/// One (Sf, Sb) pair of [`Build3d::Adaptive`], density emission, all slices.
+///
+/// C = κ₀ − κₙTₙ + Σᵢ Δκᵢ·qᵢ with qᵢ = ∫₀¹ T(uᵢ + x·Δuᵢ) dx over interval
+/// i, where ρ and κ are linear (intervals end at every TF control point).
+/// There ln T = ln Tᵢ − λx + βx(1 − x) exactly (λ the interval's optical
+/// depth, β = l·Δuᵢ·(ρᵢ₊₁ − ρᵢ)/2 its bend), so
+/// qᵢ = Tᵢ·(∫e^{−λx} + β∫x(1−x)e^{−λx}) + O(β²): the chord rule of the
+/// slice recurrence plus its first-order correction. The O(β²) remainder,
+/// |Δκᵢ|·β²/60 at most, falls as r⁻⁴ when a piece is cut into r intervals,
+/// so a piece gets the fewest intervals with
+/// |Δκ|·(l_max·Δρ)²·Δu·A(τ₀)/(240·r⁴) ≤ tolerance·Δu (per unit u, so at
+/// most `tolerance` over the segment; A = [`attenuation`] of the optical
+/// depth τ₀ in front of the piece at l_max) and β ≤ 1/2. Smooth TFs need a
+/// handful of intervals where the slice recurrence takes 2 per grid step,
+/// and pieces deep inside an opaque segment one.
+///
+/// Vectorized over l: per interval, T at its end for every slice
+/// ([`fill_transmittance`]), then λ = k·cᵢ splits the slices into the
+/// ranges where q and the correction use their series or their closed
+/// forms (no per-entry select).
+#[allow(clippy::too_many_arguments)]
+fn adaptive_pair(
+    tf: &TransferFunction,
+    grid: &Grid,
+    a: usize,
+    b: usize,
+    tolerance: f64,
+    kf: &[f32],
+    inv_k: &[f32],
+    sc: &mut AdaptiveScratch,
+    out: &mut [f32],
+) {
+    let n_l = grid.n_l;
+    let (sf, sb) = (grid.s(a), grid.s(b));
+    let (k_first, k_last) = (tf.color(sf), tf.color(sb));
+    sc.t0.clear();
+    sc.t0.resize(n_l, 1.0);
+    sc.t1.clear();
+    sc.t1.resize(n_l, 0.0);
+    for acc in sc.acc.iter_mut() {
+        acc.clear();
+        acc.resize(n_l, 0.0);
+    }
+    if a != b {
+        let len_max = grid.dl * (n_l - 1) as f64;
+        // TF pieces along the segment, each cut into r equal intervals.
+        sc.nodes.clear();
+        tf.breakpoints_between(sf.min(sb), sf.max(sb), &mut sc.nodes);
+        sc.u.clear();
+        sc.u.push(0.0);
+        sc.u.extend(sc.nodes.iter().map(|&x| (x - sf) / (sb - sf)).filter(|&u| u > 0.0 && u < 1.0));
+        sc.u.push(1.0);
+        sc.u.sort_by(f64::total_cmp);
+        sc.u.dedup();
+        let s_of = |u: f64| if u >= 1.0 { sb } else { sf + (sb - sf) * u };
+        let pieces = sc.u.len() - 1;
+        let mut ends = Vec::with_capacity(2 * pieces + 1);
+        ends.push(0.0);
+        let (mut rho0, mut kap0) = (tf.extinction(sf), k_first);
+        // Optical depth at l_max from the entry to the piece's start.
+        let mut depth0 = 0.0f64;
+        for p in 0..pieces {
+            let (u0, u1) = (sc.u[p], sc.u[p + 1]);
+            let s1 = s_of(u1);
+            let (rho1, kap1) = (tf.extinction(s1), tf.color(s1));
+            let du = u1 - u0;
+            let dk = (0..3).map(|c| (kap1[c] - kap0[c]).abs()).fold(0.0, f64::max);
+            let l_drho = len_max * (rho1 - rho0).abs();
+            // The remainder at slice l = x·l_max is weighted by T ≤ e^{−x·τ₀}
+            // and grows as β(l)² ∝ x²: at most attenuation(τ₀) of its l_max value.
+            let by_error = (dk * l_drho * l_drho * du * attenuation(depth0) / (240.0 * tolerance)).powf(0.25);
+            // Only the colour needs the intervals (α is exact from the
+            // depth): a piece of constant colour stays whole. β ≤ 1/2 on
+            // every interval (r² ≥ l_max·|Δρ|·Δu) keeps the expansion valid.
+            let r = if dk == 0.0 { 1.0 } else { by_error.max((l_drho * du).sqrt()).ceil() };
+            let r = (r as usize).clamp(1, ADAPTIVE_MAX_SPLIT);
+            ends.extend((1..r).map(|j| u0 + du * (j as f64 / r as f64)));
+            ends.push(u1);
+            depth0 += len_max * du * 0.5 * (rho0 + rho1);
+            (rho0, kap0) = (rho1, kap1);
+        }
+        // D: ∫₀^u ρ dv by the trapezoid rule, exact and local as in
+        // `recurrence_pair`.
+        let mut d0 = 0.0f64;
+        let (mut rho0, mut kap0) = (tf.extinction(sf), k_first);
+        for w in ends.windows(2) {
+            let s1 = s_of(w[1]);
+            let (rho1, kap1) = (tf.extinction(s1), tf.color(s1));
+            let d1 = d0 + (w[1] - w[0]) * 0.5 * (rho0 + rho1);
+            fill_transmittance(grid.dl * d1, &mut sc.t1);
+            let c = (grid.dl * (d1 - d0)) as f32;
+            // β per unit slice index: β(k) = k·e.
+            let e = (grid.dl * (w[1] - w[0]) * (rho1 - rho0) * 0.5) as f32;
+            let dkap = [0, 1, 2].map(|ch| (kap1[ch] - kap0[ch]) as f32);
+            if dkap != [0.0; 3] {
+                interval_sums(&sc.t0, &sc.t1, c, e, dkap, kf, inv_k, &mut sc.acc);
+            }
+            std::mem::swap(&mut sc.t0, &mut sc.t1);
+            (d0, rho0, kap0) = (d1, rho1, kap1);
+        }
+    } else {
+        fill_transmittance(grid.dl * tf.extinction(sf), &mut sc.t0);
+    }
+    // sc.t0 holds Tₙ.
+    out[..4].fill(0.0);
+    for k in 1..n_l {
+        let t_end = sc.t0[k];
+        let o = &mut out[k * 4..k * 4 + 4];
+        for ch in 0..3 {
+            o[ch] = (k_first[ch] as f32 - k_last[ch] as f32 * t_end + sc.acc[ch][k]).max(0.0);
+        }
+        o[3] = (1.0 - t_end).clamp(0.0, 1.0);
+    }
+}
+
+/// max over x ∈ [0, 1] of x·e^{−x·τ}: [`attenuation`] for an error that
+/// grows linearly with l.
+fn attenuation_linear(tau: f64) -> f64 {
+    if tau <= 1.0 {
+        (-tau).exp()
+    } else {
+        (-1.0f64).exp() / tau
+    }
+}
+
+/// max over x ∈ [0, 1] of x²·e^{−x·τ}: how much of its l_max value an
+/// interval's bend remainder (∝ β² ∝ x², weighted by the transmittance
+/// ≤ e^{−x·τ} in front of it) can reach at any slice.
+fn attenuation(tau: f64) -> f64 {
+    if tau <= 2.0 {
+        (-tau).exp()
+    } else {
+        4.0 * (-2.0f64).exp() / (tau * tau)
+    }
+}
+
+/// acc[ch][k] += Δκ[ch]·q(k) over slices k ≥ 1 for one interval: T at its
+/// start `t0` and end `t1`, optical depth per slice index `c` (λ = k·c),
+/// bend per slice index `e` (β = k·e).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn interval_sums(
+    t0: &[f32],
+    t1: &[f32],
+    c: f32,
+    e: f32,
+    dkap: [f32; 3],
+    kf: &[f32],
+    inv_k: &[f32],
+    acc: &mut [Vec<f32>; 3],
+) {
+    let n = t0.len();
+    // First slice index whose λ reaches `cut` (n when none does).
+    let first = |cut: f32| -> usize {
+        if c <= 0.0 {
+            n
+        } else {
+            ((cut / c).ceil() as usize).clamp(1, n)
+        }
+    };
+    let (k_q, k_2) = (first(LAM_SMALL), first(LAM_SMALL_2));
+    let inv_c = if c > 0.0 { 1.0 / c } else { 0.0 };
+    let [acc_r, acc_g, acc_b] = acc;
+    // φ₂·T by its series: ∫₀¹ x(1−x)e^{−λx} dx = Σ (−λ)ⁿ/(n!·(n+2)(n+3)).
+    let phi2_ser = |lam: f32| {
+        1.0 / 6.0
+            - lam
+                * (1.0 / 12.0
+                    - lam
+                        * (1.0 / 40.0
+                            - lam
+                                * (1.0 / 180.0 - lam * (1.0 / 1008.0 - lam * (1.0 / 6720.0 - lam * (1.0 / 51840.0))))))
+    };
+    let mut add = |k: usize, w: f32| {
+        acc_r[k] += dkap[0] * w;
+        acc_g[k] += dkap[1] * w;
+        acc_b[k] += dkap[2] * w;
+    };
+    for k in 1..k_q {
+        let lam = kf[k] * c;
+        let q = t0[k] * (1.0 - lam * (0.5 - lam * (1.0 / 6.0 - lam * (1.0 / 24.0))));
+        add(k, q + kf[k] * e * t0[k] * phi2_ser(lam));
+    }
+    for k in k_q.max(1)..k_2 {
+        let lam = kf[k] * c;
+        let q = (t0[k] - t1[k]) * (inv_c * inv_k[k]);
+        add(k, q + kf[k] * e * t0[k] * phi2_ser(lam));
+    }
+    for k in k_2.max(1)..n {
+        let inv_lam = inv_c * inv_k[k];
+        let q = (t0[k] - t1[k]) * inv_lam;
+        let m1 = (q - t1[k]) * inv_lam;
+        let m2 = (2.0 * m1 - t1[k]) * inv_lam;
+        add(k, q + kf[k] * e * (m1 - m2));
     }
 }
 
@@ -1266,61 +1910,46 @@ fn slice_sums_independent(
     acc.map(|a| a.iter().sum())
 }
 
-fn build_blend(tf: &TransferFunction, grid: &Grid, band: &Band, steps: usize, acc: Accumulation) -> Vec<f32> {
-    let n_l = grid.n_l;
-    let mut values = vec![0.0f32; band.pairs * n_l * 4];
+/// One pair of the `Blend` build (all slices).
+#[allow(clippy::too_many_arguments)]
+fn blend_pair(
+    tf: &TransferFunction,
+    grid: &Grid,
+    a: usize,
+    b: usize,
+    steps: usize,
+    acc: Accumulation,
+    rho: &mut Vec<f64>,
+    kap: &mut Vec<[f64; 3]>,
+    out: &mut [f32],
+) {
     let independent = tf.emission() == Emission::Independent;
-    rows_mut(&mut values, band, n_l).into_par_iter().for_each_init(
-        || (Vec::new(), Vec::new()),
-        |(rho, kap): &mut (Vec<f64>, Vec<[f64; 3]>), (a, row)| {
-            for (j, b) in band.row(a).enumerate() {
-                let (sf, sb) = (grid.s(a), grid.s(b));
-                rho.clear();
-                kap.clear();
-                for i in 0..steps {
-                    let s = sf + (sb - sf) * ((i as f64 + 0.5) / steps as f64);
-                    rho.push(tf.extinction(s));
-                    kap.push(tf.color(s));
-                }
-                let out = &mut row[j * n_l * 4..(j + 1) * n_l * 4];
-                for k in 1..n_l {
-                    let step_len = k as f64 * grid.dl / steps as f64;
-                    let mut col = [0.0f32; 3];
-                    let mut trans = 1.0f32;
-                    // Back to front, as the frame buffer is blended.
-                    for i in (0..steps).rev() {
-                        let alpha_step = acc.quantize((-(-rho[i] * step_len).exp_m1()) as f32);
-                        for ch in 0..3 {
-                            let e = if independent { kap[i][ch] * step_len } else { kap[i][ch] * alpha_step as f64 };
-                            let e = acc.quantize(e as f32);
-                            col[ch] = acc.quantize(e + (1.0 - alpha_step) * col[ch]);
-                        }
-                        trans = acc.quantize(trans * (1.0 - alpha_step));
-                    }
-                    out[k * 4..k * 4 + 3].copy_from_slice(&col);
-                    out[k * 4 + 3] = 1.0 - trans;
-                }
+    let (sf, sb) = (grid.s(a), grid.s(b));
+    rho.clear();
+    kap.clear();
+    for i in 0..steps {
+        let s = sf + (sb - sf) * ((i as f64 + 0.5) / steps as f64);
+        rho.push(tf.extinction(s));
+        kap.push(tf.color(s));
+    }
+    out[..4].fill(0.0);
+    for k in 1..grid.n_l {
+        let step_len = k as f64 * grid.dl / steps as f64;
+        let mut col = [0.0f32; 3];
+        let mut trans = 1.0f32;
+        // Back to front, as the frame buffer is blended.
+        for i in (0..steps).rev() {
+            let alpha_step = acc.quantize((-(-rho[i] * step_len).exp_m1()) as f32);
+            for ch in 0..3 {
+                let e = if independent { kap[i][ch] * step_len } else { kap[i][ch] * alpha_step as f64 };
+                let e = acc.quantize(e as f32);
+                col[ch] = acc.quantize(e + (1.0 - alpha_step) * col[ch]);
             }
-        },
-    );
-    values
-}
-
-fn build_exact(tf: &TransferFunction, grid: &Grid, band: &Band) -> Vec<f32> {
-    let n_l = grid.n_l;
-    let mut values = vec![0.0f32; band.pairs * n_l * 4];
-    rows_mut(&mut values, band, n_l).into_par_iter().for_each_init(Vec::new, |scratch, (a, row)| {
-        for (j, b) in band.row(a).enumerate() {
-            for k in 1..n_l {
-                let px = integrate_segment_with(tf, grid.s(a), grid.s(b), k as f64 * grid.dl, scratch);
-                let o = &mut row[(j * n_l + k) * 4..(j * n_l + k) * 4 + 4];
-                for (oc, v) in o.iter_mut().zip(px.to_array()) {
-                    *oc = v as f32;
-                }
-            }
+            trans = acc.quantize(trans * (1.0 - alpha_step));
         }
-    });
-    values
+        out[k * 4..k * 4 + 3].copy_from_slice(&col);
+        out[k * 4 + 3] = 1.0 - trans;
+    }
 }
 
 fn build_incremental(tf: &TransferFunction, grid: &Grid, band: &Band, axis: &Axis, domain: &TableDomain) -> Vec<f32> {
@@ -1508,8 +2137,9 @@ mod tests {
         let ind = f.clone().with_emission(Emission::Independent);
         let t = Table3d::build(&ind, &d, &p).unwrap();
         let e = node_error(&t, &ind);
-        // Full-grid max here is 1.15e-3 (independent emission weights T directly).
-        assert!(e < 2e-3, "independent max node error {e}");
+        // Measured 9.0e-5 on these nodes; before the SPLIT_ERROR rule the
+        // full grid's max was 1.15e-3 (independent emission weights T directly).
+        assert!(e < 1e-3, "independent max node error {e}");
     }
 
     #[test]

@@ -4,18 +4,22 @@
 //!
 //! * CPU: tet_render's staged [`Renderer`] — a new view re-sorts only; a
 //!   new TF revision, method or table resolution re-bakes the shader and
-//!   re-culls.
+//!   re-culls. table3d keeps its table and the TF it was baked from, so a
+//!   TF edit re-bakes only the pairs it reaches ([`Table3d::rebake`]).
 //! * GPU (tet_gpu, methods `pt-linear` and `table3d`, when an adapter
 //!   exists): the GPU radix sort of centroid depths, recomputed only when
 //!   the camera moves (tet_gpu caches it), filtered by the CPU cull mask of
-//!   the current TF; shader (and table3d) rebuilt on a TF change.
+//!   the current TF; shader rebuilt on a TF change (table3d re-baked as on
+//!   the CPU, then uploaded).
 
 use crate::ViewerError;
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_gpu::{GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
-use tet_preint::{BakeOptions, Method, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_preint::{
+    BakeOptions, Method, PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction,
+};
 use tet_render::cull::{cull, CullMask};
 use tet_render::{Camera, Display, Image, Renderer, Scene, TfCuller, ViewSpec};
 
@@ -100,6 +104,13 @@ struct Gpu {
     order: Option<(ViewSpec, Vec<u32>)>,
 }
 
+/// The table3d of the last frames and the TF (data units) it was baked
+/// from: the next TF edit re-bakes it in place.
+struct HeldTable {
+    tf: TransferFunction,
+    table: Arc<Table3d>,
+}
+
 /// The staged renderer behind the window.
 pub struct Engine {
     cpu: Renderer,
@@ -111,6 +122,7 @@ pub struct Engine {
     /// CPU cull mask of a TF revision (the GPU path's filter).
     mask: Option<(u64, CullMask)>,
     last_bake_seconds: f64,
+    table: Option<HeldTable>,
 }
 
 impl Engine {
@@ -139,6 +151,7 @@ impl Engine {
             cpu_key: None,
             mask: None,
             last_bake_seconds: 0.0,
+            table: None,
         })
     }
 
@@ -183,6 +196,27 @@ impl Engine {
         o
     }
 
+    /// The table3d for `tf` at `n_s`: the held table re-baked for the TF
+    /// edit since it was baked (only the pairs the edit reaches, the same
+    /// bits as a fresh bake), or a fresh bake.
+    fn table3d(&mut self, tf: &TransferFunction, n_s: usize) -> Result<Arc<Table3d>, ViewerError> {
+        let err = |e: tet_preint::TableError| ViewerError::Method(format!("table3d: {e}"));
+        let tf = tet_preint::tf_for_domain(tf, &self.domain).map_err(err)?;
+        let params = Self::bake_options(n_s).table3d;
+        if let Some(mut held) = self.table.take().filter(|h| *h.table.params() == params) {
+            // In place when nothing else holds the table (the CPU path drops
+            // the renderer's reference first), else on a copy.
+            Arc::make_mut(&mut held.table).rebake(&held.tf, &tf).map_err(err)?;
+            held.tf = tf;
+            let table = held.table.clone();
+            self.table = Some(held);
+            return Ok(table);
+        }
+        let table = Arc::new(Table3d::build(&tf, &self.domain, &params).map_err(err)?);
+        self.table = Some(HeldTable { tf, table: table.clone() });
+        Ok(table)
+    }
+
     fn render_cpu(&mut self, req: &FrameRequest, backend: String) -> Result<Frame, ViewerError> {
         let start = Instant::now();
         let key = (req.tf_revision, req.method, req.table_n_s);
@@ -195,15 +229,25 @@ impl Engine {
         }
         let rebaked = self.cpu_key != Some(key);
         if rebaked {
+            let prev_key = self.cpu_key;
             let t = Instant::now();
-            let shader: Box<dyn SegmentShader> =
+            let shader: Arc<dyn SegmentShader> = if req.method == Method::Table3d && req.tf.widgets().is_empty() {
+                // Let go of the renderer's reference, so the held table can
+                // be re-baked in place (a placeholder costs nothing to make;
+                // a failed bake forgets the key, so it is never drawn).
+                self.cpu.set_shader(Arc::new(PtLinearShader::new((*req.tf).clone())));
+                self.cpu_key = None;
+                self.table3d(&req.tf, req.table_n_s)?
+            } else {
                 tet_preint::make_shader(req.method, &req.tf, &self.domain, &Self::bake_options(req.table_n_s))
-                    .map_err(|e| ViewerError::Method(format!("{}: {e}", req.method)))?;
+                    .map_err(|e| ViewerError::Method(format!("{}: {e}", req.method)))?
+                    .into()
+            };
             bake_seconds = t.elapsed().as_secs_f64();
             self.last_bake_seconds = bake_seconds;
-            self.cpu.set_shader(shader.into());
+            self.cpu.set_shader(shader);
             // A new TF re-culls; a new method or resolution alone does not.
-            if self.cpu_key.map(|k| k.0) != Some(req.tf_revision) {
+            if prev_key.map(|k| k.0) != Some(req.tf_revision) {
                 self.cpu.set_culler(Some(Arc::new(TfCuller::new(&req.tf))));
             }
             self.cpu_key = Some(key);
@@ -230,33 +274,32 @@ impl Engine {
 
     fn render_gpu(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
         let start = Instant::now();
-        let scene = self.cpu.scene();
         let recomputed_cull = self.mask.as_ref().map(|m| m.0) != Some(req.tf_revision);
         if recomputed_cull {
-            self.mask = Some((req.tf_revision, cull(scene, &TfCuller::new(&req.tf))));
+            self.mask = Some((req.tf_revision, cull(self.cpu.scene(), &TfCuller::new(&req.tf))));
         }
-        let mask = &self.mask.as_ref().expect("set above").1;
-        let gpu = self.gpu.as_mut().expect("checked by render");
         let key = (req.tf_revision, req.method, req.table_n_s);
         let mut bake_seconds = 0.0;
-        let rebaked = gpu.shader.as_ref().map(|s| s.0) != Some(key);
+        let rebaked = self.gpu.as_ref().expect("checked by render").shader.as_ref().map(|s| s.0) != Some(key);
         if rebaked {
             let t = Instant::now();
             let tf =
                 tet_preint::tf_for_domain(&req.tf, &self.domain).map_err(|e| ViewerError::Method(e.to_string()))?;
             let shader = match req.method {
                 Method::Table3d => {
-                    let params = Self::bake_options(req.table_n_s).table3d;
-                    let table = Table3d::build(&tf, &self.domain, &params)
-                        .map_err(|e| ViewerError::Method(format!("table3d: {e}")))?;
-                    GpuShader::table3d(&gpu.ctx, &table)?
+                    // Re-baked in place like the CPU path's, then uploaded.
+                    let table = self.table3d(&req.tf, req.table_n_s)?;
+                    GpuShader::table3d(&self.gpu.as_ref().expect("checked by render").ctx, &table)?
                 }
-                _ => GpuShader::pt_linear(&gpu.ctx, &tf)?,
+                _ => GpuShader::pt_linear(&self.gpu.as_ref().expect("checked by render").ctx, &tf)?,
             };
             bake_seconds = t.elapsed().as_secs_f64();
             self.last_bake_seconds = bake_seconds;
-            gpu.shader = Some((key, shader));
+            self.gpu.as_mut().expect("checked by render").shader = Some((key, shader));
         }
+        let scene = self.cpu.scene();
+        let mask = &self.mask.as_ref().expect("set above").1;
+        let gpu = self.gpu.as_mut().expect("checked by render");
         let camera = Camera::new(&req.view)?;
         let t = Instant::now();
         let resorted = gpu.order.as_ref().is_none_or(|o| o.0 != req.view);
@@ -356,6 +399,31 @@ mod tests {
         let f = engine.render(&req).unwrap();
         assert!(f.stats.rebaked && !f.stats.recomputed_cull && !f.stats.resorted);
         assert!(f.stats.backend.starts_with("CPU"));
+    }
+
+    /// A TF edit re-bakes the held table3d in place: the frame is the one a
+    /// fresh engine renders for the edited TF, bit for bit; a value edit
+    /// and a moved node alike.
+    #[test]
+    fn table3d_tf_edits_rebake_to_a_fresh_bake() {
+        let bundle = sample_bundle();
+        let mut engine = Engine::new(&bundle, false).unwrap();
+        let s = engine.scene().scalar_range();
+        let mut model = TfModel::ramp(s, 0.5);
+        let mid = 0.5 * (s[0] + s[1]);
+        model.add_opacity(mid, 1.0).unwrap();
+        let req = request(&engine, &model, Method::Table3d, false);
+        engine.render(&req).unwrap();
+        let i = model.opacity_nodes().iter().position(|o| o.x == mid).unwrap();
+        for (x, a) in [(mid, 2.0), (mid + 0.1 * (s[1] - s[0]), 2.0)] {
+            model.move_opacity(i, x, a);
+            let req = request(&engine, &model, Method::Table3d, false);
+            let f = engine.render(&req).unwrap();
+            assert!(f.stats.rebaked);
+            let mut fresh = Engine::new(&bundle, false).unwrap();
+            let g = fresh.render(&req).unwrap();
+            assert_eq!(f.image.pixels(), g.image.pixels(), "edit to ({x}, {a})");
+        }
     }
 
     /// The same staging on the GPU path, and methods it lacks fall back to

@@ -234,17 +234,21 @@ pub struct TableArgs {
     /// biv-approx: sub-segments per segment (default 4).
     #[arg(long, value_name = "K")]
     pub k: Option<usize>,
-    /// table3d/atlas2d build: slice[:OVERSAMPLING] (default slice:2),
-    /// incremental, exact (f64 per entry) or blend:STEPS:BITS (seed 000).
+    /// table3d/atlas2d build: adaptive[:TOLERANCE] (default adaptive:1e-5),
+    /// slice[:OVERSAMPLING] (slice: oversampling 2), incremental, exact
+    /// (f64 per entry) or blend:STEPS:BITS (seed 000).
     #[arg(long, value_name = "BUILD")]
     pub build: Option<String>,
 }
 
 /// Parses `--build`.
 pub fn parse_build(s: &str) -> Result<Build3d> {
-    let bad = || usage(format!("--build {s:?}: expected slice[:O], incremental, exact or blend:STEPS:BITS"));
+    let bad =
+        || usage(format!("--build {s:?}: expected adaptive[:TOL], slice[:O], incremental, exact or blend:STEPS:BITS"));
     let parts: Vec<&str> = s.split(':').collect();
     Ok(match parts[..] {
+        ["adaptive"] => Build3d::Adaptive { tolerance: tet_preint::table3d::ADAPTIVE_TOLERANCE },
+        ["adaptive", t] => Build3d::Adaptive { tolerance: t.parse().map_err(|_| bad())? },
         ["slice"] => Build3d::default(),
         ["slice", o] => Build3d::SliceRecurrence { oversampling: o.parse().map_err(|_| bad())? },
         ["incremental"] => Build3d::Incremental,

@@ -17,7 +17,7 @@ use tet_gpu::{
     FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader,
     GpuTable3d, RasterPath, GPU_METHODS,
 };
-use tet_preint::{BakeOptions, Baked, LutFile, Method, TableDomain, TransferFunction};
+use tet_preint::{BakeOptions, Baked, Build3d, LutFile, Method, Table3dParams, TableDomain, TransferFunction};
 use tet_render::project::ViewGeometry;
 use tet_render::{visibility_order, Camera, Display, Scene, ViewSpec};
 
@@ -104,7 +104,10 @@ pub fn render(
         Method::Table3d if args.gpu_bake => {
             let domain = TableDomain::from_bundle(bundle)?;
             crate::render::count_table_bake();
-            let table = GpuTable3d::bake(&ctx, tf, &domain, &BakeOptions::default().table3d, GpuAccumulation::F32)?;
+            // The GPU bakes the slice recurrence (the CPU default is the
+            // adaptive build): same axis and resolution, entries within ~1e-5.
+            let params = Table3dParams { build: Build3d::default(), ..BakeOptions::default().table3d };
+            let table = GpuTable3d::bake(&ctx, tf, &domain, &params, GpuAccumulation::F32)?;
             bake_seconds = table.stats().bake_seconds;
             bake_setup_seconds = table.stats().setup_seconds;
             GpuShader::table3d_baked(&ctx, &table)?

@@ -643,6 +643,10 @@ pub(crate) struct Band {
     pub row_lo: Vec<usize>,
     pub row_start: Vec<usize>,
     pub pairs: usize,
+    /// Per row a, `row_start[a] − row_lo[a]` (wrapping): pair (a, b) is
+    /// entry block `pair_off[a] + b` (the lookup's one load instead of two;
+    /// part of the band so that it changes with it).
+    pub pair_off: Vec<usize>,
 }
 
 impl Band {
@@ -669,7 +673,12 @@ impl Band {
             w = w.max(a - lo).max(hi - a);
         }
         row_start.push(pairs);
-        Band { n_s, w, reach: (n_s - 1) as f32, row_lo, row_start, pairs }
+        Band::with_offsets(n_s, w, (n_s - 1) as f32, row_lo, row_start, pairs)
+    }
+
+    fn with_offsets(n_s: usize, w: usize, reach: f32, row_lo: Vec<usize>, row_start: Vec<usize>, pairs: usize) -> Band {
+        let pair_off = (0..n_s).map(|a| row_start[a].wrapping_sub(row_lo[a])).collect();
+        Band { n_s, w, reach, row_lo, row_start, pairs, pair_off }
     }
 
     pub fn new(n_s: usize, domain: &TableDomain) -> Band {
@@ -688,7 +697,7 @@ impl Band {
             pairs += hi - lo + 1;
         }
         row_start.push(pairs);
-        Band { n_s, w, reach: reach_steps as f32, row_lo, row_start, pairs }
+        Band::with_offsets(n_s, w, reach_steps as f32, row_lo, row_start, pairs)
     }
 
     #[inline]
@@ -714,9 +723,6 @@ pub struct Table3d {
     /// 1 / grid step along s (uniform axis) and along l.
     inv_ds: f32,
     inv_dl: f32,
-    /// Per row a, `band.row_start[a] − band.row_lo[a]` (wrapping): pair
-    /// (a, b) is entry block `pair_off[a] + b`, one load instead of two.
-    pair_off: Box<[usize]>,
 }
 
 /// Smallest λ for which ∫T = (Tᵢ − Tᵢ₊₁)/λ is used (below, the series).
@@ -842,8 +848,7 @@ impl Table3d {
         }
         let inv_ds = ((params.n_s - 1) as f64 / domain.scalar_span()) as f32;
         let inv_dl = ((params.n_l - 1) as f64 / domain.len_max_world) as f32;
-        let pair_off = (0..params.n_s).map(|a| band.row_start[a].wrapping_sub(band.row_lo[a])).collect();
-        Some(Table3d { domain, params, band, axis: Box::new(axis), data, inv_ds, inv_dl, pair_off })
+        Some(Table3d { domain, params, band, axis: Box::new(axis), data, inv_ds, inv_dl })
     }
 
     pub fn domain(&self) -> &TableDomain {
@@ -982,8 +987,8 @@ impl Table3d {
     #[inline(always)]
     fn cell_bases(&self, c: &Cell) -> (usize, usize) {
         let nl = self.params.n_l;
-        let base0 = (self.pair_off[c.a0].wrapping_add(c.b0) * nl + c.k0) * 4;
-        let base1 = (self.pair_off[c.a0 + 1].wrapping_add(c.b0) * nl + c.k0) * 4;
+        let base0 = (self.band.pair_off[c.a0].wrapping_add(c.b0) * nl + c.k0) * 4;
+        let base1 = (self.band.pair_off[c.a0 + 1].wrapping_add(c.b0) * nl + c.k0) * 4;
         (base0, base1)
     }
 

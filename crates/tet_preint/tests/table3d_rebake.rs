@@ -55,6 +55,26 @@ fn rebake_matches(old: &TransferFunction, new: &TransferFunction, p: &Table3dPar
     assert_eq!(got.len(), want.len());
     let differ = got.iter().zip(want).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "{p:?}: {differ} values differ from a full bake ({stats:?})");
+    // Lookups too. Regression: the lookup's per-row pair offsets were not
+    // renewed when an edit changed the axis (and with it the band), so the
+    // re-baked table read the old layout (tet_viewer's fresh-engine test).
+    let mut b = SegmentBatch::default();
+    for i in 0..BATCH {
+        let u = i as f32 / BATCH as f32;
+        b.push(Segment {
+            s_front: u,
+            s_back: (u * 7.3).fract(),
+            len_world: 2.0 * (u * 3.1).fract(),
+            ..Default::default()
+        });
+    }
+    let (mut got, mut want) = ([[0.0f32; 4]; BATCH], [[0.0f32; 4]; BATCH]);
+    t.shade_batch(&b, &mut got);
+    full.shade_batch(&b, &mut want);
+    assert_eq!(got, want, "{p:?}: batch lookups differ after the re-bake");
+    for i in 0..BATCH {
+        assert_eq!(t.shade(&b.get(i)), full.shade(&b.get(i)), "{p:?}: lookup {i} differs after the re-bake");
+    }
     stats
 }
 

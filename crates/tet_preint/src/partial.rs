@@ -32,17 +32,34 @@ pub fn psi(a: f64, c: f64) -> (f64, f64) {
     if b.abs() <= B_SERIES {
         return psi_series(a, b);
     }
-    let zeta = (-(0.5 * (a + c))).exp();
-    let k = 1.0 / (2.0 * b.abs()).sqrt();
-    let (f, e) = (a * k, c * k);
-    let p0 = if b > 0.0 {
-        std::f64::consts::PI.sqrt() * k * (erfcx(f) - zeta * erfcx(e))
-    } else {
-        2.0 * k * (dawson_fast(f) - zeta * dawson_fast(e))
-    };
+    let p0 = psi_closed(a, c);
     // a Ψ + b Ψ₁ = 1 − ζ.
     let alpha = -(-(0.5 * (a + c))).exp_m1();
     (p0, (alpha - a * p0) / b)
+}
+
+/// Ψ alone (the table without Ψ₁ needs no more): [`psi`]'s first value.
+#[inline]
+fn psi0(a: f64, c: f64) -> f64 {
+    let b = c - a;
+    if b.abs() <= B_SERIES {
+        return psi_series(a, b).0;
+    }
+    psi_closed(a, c)
+}
+
+/// Ψ in closed form, |c − a| > [`B_SERIES`].
+#[inline]
+fn psi_closed(a: f64, c: f64) -> f64 {
+    let b = c - a;
+    let zeta = (-(0.5 * (a + c))).exp();
+    let k = 1.0 / (2.0 * b.abs()).sqrt();
+    let (f, e) = (a * k, c * k);
+    if b > 0.0 {
+        std::f64::consts::PI.sqrt() * k * (erfcx(f) - zeta * erfcx(e))
+    } else {
+        2.0 * k * (dawson_fast(f) - zeta * dawson_fast(e))
+    }
 }
 
 /// Above this rate independent emission evaluates Ψ, Ψ₁ in closed form:
@@ -88,15 +105,23 @@ impl PsiTable {
         let (res, ch) = (params.res, if params.first_moment { 2 } else { 1 });
         let top = (res - 1) as f64;
         let mut values = vec![0.0f32; res * res * ch];
+        // The rate of every sample γ (the same for both axes); γ = 1 is an
+        // infinite rate, where Ψ = Ψ₁ = 0.
+        let rate: Vec<Option<f64>> = (0..res)
+            .map(|i| {
+                let g = i as f64 / top;
+                (g < 1.0).then(|| g / (1.0 - g))
+            })
+            .collect();
         values.par_chunks_mut(res * ch).enumerate().for_each(|(j, row)| {
-            let gb = j as f64 / top;
-            for i in 0..res {
-                let gf = i as f64 / top;
-                // γ = 1 is an infinite rate: Ψ = Ψ₁ = 0 there.
-                let (p0, p1) = if gf >= 1.0 || gb >= 1.0 { (0.0, 0.0) } else { psi(gf / (1.0 - gf), gb / (1.0 - gb)) };
-                row[i * ch] = p0 as f32;
+            let Some(c) = rate[j] else { return };
+            for (i, a) in rate.iter().enumerate() {
+                let Some(a) = *a else { continue };
                 if ch == 2 {
-                    row[i * ch + 1] = p1 as f32;
+                    let (p0, p1) = psi(a, c);
+                    (row[i * 2], row[i * 2 + 1]) = (p0 as f32, p1 as f32);
+                } else {
+                    row[i] = psi0(a, c) as f32;
                 }
             }
         });

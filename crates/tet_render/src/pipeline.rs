@@ -4,15 +4,16 @@
 //! | change | invalidates |
 //! |---|---|
 //! | [`Renderer::set_view`] | view geometry (vertex transform, face sides), the order and the per-tet setup |
-//! | [`Renderer::set_culler`] (a new TF) | the cull mask; the order (and setup) only for the radix sort, which sorts visible tets only |
+//! | [`Renderer::set_culler`] (a new TF) | the cull mask; the per-tet setup when the mask differs; the order only for the radix sort, which sorts visible tets only |
 //! | [`Renderer::set_shader`] | nothing cached (shading happens per fragment) |
 //! | [`Renderer::set_sort`] | the order and the per-tet setup |
 //! | [`Renderer::set_raster_options`] | the per-tet setup |
 //!
 //! The per-tet setup (the rasterizer's fast path: each tet's planes, fields
 //! and covered pixels for this view, [`crate::raster::PreparedFrame`]) is
-//! kept within [`RasterOptions::setup_cache_bytes`], so a frame after a
-//! new transfer function or shader only shades and composites.
+//! kept within [`RasterOptions::setup_cache_bytes`], so a frame after a new
+//! shader, method or transfer function that culls the same cells only
+//! shades and composites.
 //!
 //! [`Renderer::render`] recomputes what is stale and reports what it redid
 //! in [`RenderStats`].
@@ -83,8 +84,10 @@ pub struct Renderer {
     sort: SortMethod,
     order: Option<VisibilityOrder>,
     raster: RasterOptions,
-    /// The fast path's per-tet setup of the current view and order.
+    /// The fast path's per-tet setup of the current view, order and mask.
     prepared: Option<PreparedFrame>,
+    /// The cull mask `prepared` was made for.
+    last_visible: Option<Vec<bool>>,
 }
 
 impl Renderer {
@@ -100,6 +103,7 @@ impl Renderer {
             order: None,
             raster: RasterOptions::default(),
             prepared: None,
+            last_visible: None,
         }
     }
 
@@ -182,10 +186,16 @@ impl Renderer {
         }
         if self.cull.is_none() {
             let t = Instant::now();
-            self.cull = Some(match &self.culler {
+            let mask = match &self.culler {
                 Some(c) => cull(&self.scene, c.as_ref()),
                 None => CullMask::all(self.scene.num_tets()),
-            });
+            };
+            // The kept setup covers the previous mask's visible tets.
+            if self.last_visible.as_deref() != Some(mask.visible.as_slice()) {
+                self.prepared = None;
+                self.last_visible = Some(mask.visible.clone());
+            }
+            self.cull = Some(mask);
             stats.cull_seconds = t.elapsed().as_secs_f64();
             stats.recomputed_cull = true;
         }

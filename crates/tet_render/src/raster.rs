@@ -195,25 +195,16 @@ const CHUNK: usize = 16 * 1024;
 // tile it touches); boxing the large variant would add an allocation per tet.
 #[allow(clippy::large_enum_variant)]
 enum Rec {
-    /// Tet `tet`'s planes and fields, and the covered pixels.
-    Span { span: SpanEval, bbox: [i32; 4], cover: Cover, tet: u32 },
+    /// Planes and fields, and the covered pixels.
+    Span { span: SpanEval, bbox: [i32; 4], cover: Cover },
     /// Crosses the near plane: set up per tile by [`TetSetup::build`].
     Clipped(u32),
 }
 
-impl Rec {
-    fn tet(&self) -> u32 {
-        match *self {
-            Rec::Span { tet, .. } | Rec::Clipped(tet) => tet,
-        }
-    }
-}
-
-/// The fast path's per-tet setup of one view and one order, kept by
-/// [`crate::Renderer`] across frames while neither changes: a new transfer
-/// function (re-bake, re-cull), shader or method re-renders from it without
-/// setting a tet up again. Culled tets stay in it (they are skipped when
-/// drawn), so a new cull mask keeps it valid.
+/// The fast path's per-tet setup of the visible tets of one view, order and
+/// cull mask, kept by [`crate::Renderer`] across frames while none of them
+/// changes: a new transfer function that culls the same cells, a new
+/// shader or method re-renders from it without setting a tet up again.
 pub struct PreparedFrame {
     /// Per chunk of the order, its parts.
     chunks: Vec<Vec<Part>>,
@@ -265,7 +256,7 @@ impl Part {
             }
             let (rec, bbox) = match prepare_span(inputs, t as usize, &mut span, &mut self.rows) {
                 Prepared::Nothing => continue,
-                Prepared::Span { bbox, cover } => (Rec::Span { span, bbox, cover, tet: t }, Some(bbox)),
+                Prepared::Span { bbox, cover } => (Rec::Span { span, bbox, cover }, Some(bbox)),
                 Prepared::Clipped => (Rec::Clipped(t), tet_bbox(inputs.view, &inputs.scene.tets()[t as usize])),
             };
             let Some([x0, y0, x1, y1]) = bbox else { continue };
@@ -276,6 +267,15 @@ impl Part {
                     self.bins[j as usize * tx + i as usize].push(r);
                 }
             }
+        }
+    }
+
+    /// Gives back the spare capacity of a part that is kept.
+    fn shrink_to_fit(&mut self) {
+        self.recs.shrink_to_fit();
+        self.rows.shrink_to_fit();
+        for b in &mut self.bins {
+            b.shrink_to_fit();
         }
     }
 
@@ -292,13 +292,13 @@ pub fn fast_path_applies(view: &ViewGeometry, shader: &dyn SegmentShader, opts: 
     opts.fast_path && !opts.shading.is_active() && shader.method() != Method::PtLinear && view.frame.width <= 1 << 15
 }
 
-/// [`rasterize`] with a per-view cache of the fast path's setup: `order`
-/// is the whole visibility order and `visible` the cull mask (culled tets
-/// are skipped). When `cache` holds the setup of this view and order (the
-/// caller clears it when either changes) nothing is set up again; when it
-/// is empty and the setup fits in [`RasterOptions::setup_cache_bytes`], it
-/// is filled. Where the fast path does not apply, this is [`rasterize`] of
-/// the visible tets.
+/// [`rasterize`] with a cache of the fast path's setup: `order` is the
+/// whole visibility order and `visible` the cull mask (culled tets are
+/// neither set up nor drawn). When `cache` holds the setup of this view,
+/// order and mask (the caller clears it when one changes) nothing is set up
+/// again; when it is empty and the setup fits in
+/// [`RasterOptions::setup_cache_bytes`], it is filled. Where the fast path
+/// does not apply, this is [`rasterize`] of the visible tets.
 #[allow(clippy::too_many_arguments)]
 pub fn rasterize_cached(
     scene: &Scene,
@@ -377,15 +377,18 @@ fn rasterize_chunked(
     if let Some(slot) = cache.as_deref_mut() {
         if !reuse {
             *slot = None;
-            // Records are for every tet, culled or not, so a new cull mask
-            // keeps them valid; kept only within the memory budget.
-            if order.len().saturating_mul(std::mem::size_of::<Rec>() + 16) <= opts.setup_cache_bytes {
+            // Kept only within the memory budget (records of visible tets).
+            let drawn = visible.map_or(order.len(), |v| order.iter().filter(|&&t| v[t as usize]).count());
+            if drawn.saturating_mul(std::mem::size_of::<Rec>() + 16) <= opts.setup_cache_bytes {
                 let t0 = std::time::Instant::now();
                 let chunks: Vec<Vec<Part>> = order
                     .chunks(CHUNK)
                     .map(|chunk| {
                         let mut parts = Vec::new();
-                        prepare_chunk(chunk, &mut parts, None);
+                        prepare_chunk(chunk, &mut parts, visible);
+                        for p in &mut parts {
+                            p.shrink_to_fit();
+                        }
                         parts
                     })
                     .collect();
@@ -397,8 +400,6 @@ fn rasterize_chunked(
         }
     }
     let kept = cache.as_deref().and_then(Option::as_ref);
-    // Kept records include culled tets: skip them when drawing.
-    let skip = |r: &Rec| kept.is_some() && visible.is_some_and(|v| !v[r.tet() as usize]);
     let mut scratch: Vec<Part> = Vec::new();
     for (c, chunk) in order.chunks(CHUNK).enumerate() {
         let t0 = std::time::Instant::now();
@@ -424,12 +425,8 @@ fn rasterize_chunked(
                         ctx.done = true;
                         return;
                     }
-                    let rec = &part.recs[r as usize];
-                    if skip(rec) {
-                        continue;
-                    }
-                    match rec {
-                        Rec::Span { span, bbox, cover, .. } => {
+                    match &part.recs[r as usize] {
+                        Rec::Span { span, bbox, cover } => {
                             draw_span(ctx, span, *bbox, *cover, &part.rows, shader, opts.opaque_alpha)
                         }
                         Rec::Clipped(t) => {

@@ -26,6 +26,10 @@ struct Frame {
     table_n_l: u32,
     groups_x: u32,
     table_axis_segs: u32,
+    table_optical_depth: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct TetGeom {

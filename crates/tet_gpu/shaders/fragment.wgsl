@@ -56,7 +56,12 @@ fn table_lookup(fr: Frame, sf: f32, sb: f32, len: f32) -> vec4<f32> {
     let fa = xa - f32(a0);
     let fb = xb - f32(b0);
     let fk = xk - f32(k0);
-    var out = vec4<f32>(0.0);
+    // Table3d's reconstruction (tet_preint `Reconstruction`): trilinear
+    // RGBA, or the optical depth −ln(1 − α) trilinear and the colour
+    // trilinear scaled by α over the trilinear α.
+    var lin = vec4<f32>(0.0);
+    var ln_t = 0.0;
+    let depth = fr.table_optical_depth != 0u;
     for (var da = 0u; da < 2u; da++) {
         let wa = select(1.0 - fa, fa, da == 1u);
         for (var db = 0u; db < 2u; db++) {
@@ -67,11 +72,25 @@ fn table_lookup(fr: Frame, sf: f32, sb: f32, len: f32) -> vec4<f32> {
             }
             let e0 = textureLoad(table, vec3<i32>(i32(k0), i32(b0 + db), i32(a0 + da)), 0);
             let e1 = textureLoad(table, vec3<i32>(i32(k0 + 1u), i32(b0 + db), i32(a0 + da)), 0);
-            out += w * (e0 + fk * (e1 - e0));
+            lin += w * (e0 + fk * (e1 - e0));
+            if !depth {
+                continue;
+            }
+            let t0 = log(max(1.0 - e0.w, TABLE_MIN_TRANSMITTANCE));
+            let t1 = log(max(1.0 - e1.w, TABLE_MIN_TRANSMITTANCE));
+            ln_t += w * ((1.0 - fk) * t0 + fk * t1);
         }
     }
-    return out;
+    if !depth {
+        return lin;
+    }
+    let a = 1.0 - exp(min(ln_t, 0.0));
+    let scale = select(0.0, a / lin.w, lin.w > 0.0);
+    return vec4<f32>(lin.xyz * scale, a);
 }
+
+// tet_preint's MIN_TRANSMITTANCE: α = 1 entries count as optical depth 69.
+const TABLE_MIN_TRANSMITTANCE: f32 = 1e-30;
 
 // ---- The 2D-table methods (poly1/2/4, partial, atlas2d) -------------------
 

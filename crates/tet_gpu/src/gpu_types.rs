@@ -52,6 +52,12 @@ pub struct FrameUniforms {
     /// TF nodes in the `tf_nodes` buffer as (s0, s1, x0, 1/step); 0 for a
     /// uniform axis (one scale, `table_s_lo` and `table_inv_ds`).
     pub table_axis_segs: u32,
+    /// 1 where the table3d lookup interpolates optical depth
+    /// (`tet_preint::Reconstruction::OpticalDepth`), 0 for trilinear RGBA.
+    pub table_optical_depth: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Per draw slot, written by the classify pass and read by the vertex
@@ -318,7 +324,7 @@ mod tests {
     /// checked against naga's layout of the WGSL structs in tests/shaders.rs.
     #[test]
     fn sizes_are_multiples_of_16() {
-        assert_eq!(size_of::<FrameUniforms>(), 144);
+        assert_eq!(size_of::<FrameUniforms>(), 160);
         assert_eq!(size_of::<TetGeom>(), 64);
         assert_eq!(size_of::<TetShade>(), 112);
         assert_eq!(size_of::<ToneParams>(), 48);

@@ -341,6 +341,7 @@ impl GpuShader {
             table_n_s: self.table_dims[0],
             table_n_l: self.table_dims[1],
             table_axis_segs: self.axis_segs,
+            table_optical_depth: self.optical_depth as u32,
             ..bytemuck::Zeroable::zeroed()
         };
         let input: Vec<[f32; 4]> = segs

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::Mutex;
 use std::time::Instant;
-use tet_preint::{Method, Table3d, TableDomain, TransferFunction};
+use tet_preint::{Method, Reconstruction, Table3d, TableDomain, TransferFunction};
 use tet_render::ViewSpec;
 use tet_render::{Camera, Image};
 use wgpu::util::DeviceExt;
@@ -252,6 +252,9 @@ pub struct GpuShader {
     /// Knot intervals of a non-uniform scalar axis (after the TF nodes in
     /// `tf_nodes`); 0 for a uniform axis.
     pub(crate) axis_segs: u32,
+    /// Table3d's lookup interpolates optical depth
+    /// (`Reconstruction::OpticalDepth`) rather than RGBA.
+    pub(crate) optical_depth: bool,
     /// The 2D-table methods' tables (1×1 placeholders for the others):
     /// an Rgba32Float 2D array texture and poly's 16-bit α table.
     pub(crate) table2d: wgpu::Texture,
@@ -331,7 +334,9 @@ impl GpuShader {
         });
         let tex = table_texture(ctx, [n_l as u32, n_s as u32, n_s as u32], &texels)?;
         let grid = TableGrid::new(table.domain(), n_s, n_l, &table.s_knots(), table.is_uniform_axis());
-        GpuShader::with_table(ctx, METHOD_TABLE3D, None, tex, grid)
+        let mut shader = GpuShader::with_table(ctx, METHOD_TABLE3D, None, tex, grid)?;
+        shader.optical_depth = table.reconstruction() == Reconstruction::OpticalDepth;
+        Ok(shader)
     }
 
     pub(crate) fn with_table(
@@ -402,6 +407,7 @@ impl GpuShader {
             table_params: grid.params,
             table_dims: grid.dims,
             axis_segs: grid.axis.len() as u32,
+            optical_depth: false,
             table2d: tables.table2d,
             alpha: tables.alpha,
             shade_buf,
@@ -1633,5 +1639,9 @@ fn frame_uniforms(camera: &Camera, centre: DVec3, n_slots: u32, shader: &GpuShad
         table_n_l: shader.table_dims[1],
         groups_x,
         table_axis_segs: shader.axis_segs,
+        table_optical_depth: shader.optical_depth as u32,
+        _pad0: 0,
+        _pad1: 0,
+        _pad2: 0,
     }
 }

@@ -11,7 +11,8 @@ mod common;
 use common::{gpu, grid, Mesh};
 use tet_gpu::{GpuAccumulation, GpuRenderer, GpuScene, GpuShader, GpuTable3d};
 use tet_preint::{
-    integrate_segment, uniform_triples, Emission, ScalarAxis, Table3d, Table3dParams, TableDomain, TransferFunction,
+    integrate_segment, uniform_triples, Emission, Reconstruction, ScalarAxis, Table3d, Table3dParams, TableDomain,
+    TransferFunction,
 };
 use tet_render::{diff, Camera, ViewSpec};
 
@@ -33,11 +34,22 @@ fn max_abs(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
     a.iter().zip(b).flat_map(|(x, y)| (0..4).map(move |c| (x[c] - y[c]).abs())).fold(0.0, f32::max)
 }
 
+/// `tf()` with its opacity scaled down 100×: α changes little per grid
+/// step, so the table keeps the trilinear reconstruction.
+fn thin_tf() -> TransferFunction {
+    TransferFunction::from_json(
+        r#"{"color": [[0, 0.1, 0.2, 1], [0.37, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
+            "opacity": [[0, 0.005], [0.41, 0.04], [0.53, 0.003], [0.77, 0.06], [1, 0.08]], "unit_distance": 1}"#,
+    )
+    .unwrap()
+}
+
 /// The GPU lookup (the function every fragment calls) equals
-/// `Table3d::lookup` to f32 rounding on both axes, including inputs outside
-/// the domain and |Sf − Sb| beyond max_ds. A GPU lookup that mapped scalars
-/// with the wrong axis would be off by the table's change over a fraction
-/// of a grid step, which the second check shows is far above the tolerance.
+/// `Table3d::lookup` to f32 rounding on both axes and with both
+/// reconstructions, including inputs outside the domain and |Sf − Sb|
+/// beyond max_ds. A GPU lookup that mapped scalars with the wrong axis
+/// would be off by the table's change over a fraction of a grid step, which
+/// the second check shows is far above the tolerance.
 #[test]
 fn gpu_lookup_matches_the_cpu_lookup_on_both_axes() {
     let Some(ctx) = gpu() else { return };
@@ -49,16 +61,24 @@ fn gpu_lookup_matches_the_cpu_lookup_on_both_axes() {
         [r(-0.3, 1.3), r(-0.3, 1.3), r(-0.2, 2.0)]
     }));
     let mut cpu_by_axis = Vec::new();
-    for s_axis in [ScalarAxis::Uniform, ScalarAxis::TfNodes] {
-        let table = Table3d::build(&tf(), &domain, &params(40, 24, s_axis)).unwrap();
+    for (s_axis, thin) in [(ScalarAxis::Uniform, false), (ScalarAxis::TfNodes, false), (ScalarAxis::TfNodes, true)] {
+        let f = if thin { thin_tf() } else { tf() };
+        let table = Table3d::build(&f, &domain, &params(40, 24, s_axis)).unwrap();
         assert_eq!(table.is_uniform_axis(), s_axis == ScalarAxis::Uniform);
+        let want = if thin { Reconstruction::Trilinear } else { Reconstruction::OpticalDepth };
+        assert_eq!(table.reconstruction(), want, "gap {}", table.reconstruction_gap());
         let shader = GpuShader::table3d(&ctx, &table).unwrap();
         let gpu = shader.probe_table3d(&ctx, &triples).unwrap();
         let cpu: Vec<[f32; 4]> = triples.iter().map(|t| table.lookup(t[0], t[1], t[2])).collect();
         let d = max_abs(&gpu, &cpu);
-        eprintln!("{s_axis:?} axis: GPU lookup vs Table3d::lookup over {} triples: max |Δ| {d:.3e}", triples.len());
+        eprintln!(
+            "{s_axis:?} axis, {want:?}: GPU lookup vs Table3d::lookup over {} triples: max |Δ| {d:.3e}",
+            triples.len()
+        );
         assert!(d <= 2e-6, "{s_axis:?}: max |Δ| {d}");
-        cpu_by_axis.push(cpu);
+        if !thin {
+            cpu_by_axis.push(cpu);
+        }
     }
     let apart = max_abs(&cpu_by_axis[0], &cpu_by_axis[1]);
     eprintln!("uniform vs tf-nodes tables at the same triples: max |Δ| {apart:.3e}");

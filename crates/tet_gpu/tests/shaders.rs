@@ -98,7 +98,11 @@ fn pod_layouts_match_the_wgsl_structs() {
                 table_n_s,
                 table_n_l,
                 groups_x,
-                table_axis_segs
+                table_axis_segs,
+                table_optical_depth,
+                _pad0,
+                _pad1,
+                _pad2
             ]
         ),
         layout!(TetGeom, "TetGeom", [hull, thick, n_hull, mode]),

@@ -93,7 +93,10 @@ pub use method::{
 pub use partial::{PartialShader, PsiParams, PsiTable};
 pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};
 pub use precision::{Accumulation, Precision, Storage};
-pub use table3d::{Build3d, ExtinctionPrefix, FullRebake, RebakeStats, ScalarAxis, Table3d, Table3dParams};
+pub use table3d::{
+    Build3d, ExtinctionPrefix, FullRebake, RebakeStats, Reconstruction, ScalarAxis, Table3d, Table3dParams,
+    RECONSTRUCTION_GAP,
+};
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
 pub use widget::{Shape, Widget};
 

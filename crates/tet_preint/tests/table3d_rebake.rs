@@ -55,6 +55,9 @@ fn rebake_matches(old: &TransferFunction, new: &TransferFunction, p: &Table3dPar
     assert_eq!(got.len(), want.len());
     let differ = got.iter().zip(want).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
     assert_eq!(differ, 0, "{p:?}: {differ} values differ from a full bake ({stats:?})");
+    assert_eq!(t.reconstruction(), full.reconstruction(), "{p:?}");
+    assert_eq!(t.reconstruction_gap().to_bits(), full.reconstruction_gap().to_bits(), "{p:?}");
+    assert_eq!(t.memory_bytes(), full.memory_bytes(), "{p:?}");
     // Lookups too. Regression: the lookup's per-row pair offsets were not
     // renewed when an edit changed the axis (and with it the band), so the
     // re-baked table read the old layout (tet_viewer's fresh-engine test).
@@ -200,5 +203,25 @@ proptest! {
         let p = params(BUILDS[build], AXES[axis]);
         let st = rebake_matches(&old, &new, &p);
         prop_assert_eq!(st.full, None);
+    }
+}
+
+/// An edit that moves the table across [`RECONSTRUCTION_GAP`] (a thin TF
+/// made dense at one node, and back) switches the reconstruction: the
+/// re-baked table chooses as a full bake does and looks up the same, though
+/// only part of it was re-baked (the optical depths of the pairs it did not
+/// touch are computed then, or dropped).
+#[test]
+fn an_edit_across_the_gap_switches_the_reconstruction() {
+    let col = [(0.0, [0.1, 0.2, 0.9]), (0.35, [0.9, 0.8, 0.2]), (1.0, [1.0, 0.1, 0.0])];
+    let thin = tf(&col, &[(0.0, 0.001), (0.5, 0.004), (0.8, 0.002), (1.0, 0.001)], Emission::Density);
+    let dense = tf(&col, &[(0.0, 0.001), (0.5, 0.004), (0.8, 6.0), (1.0, 0.001)], Emission::Density);
+    let p = params(Build3d::Adaptive { tolerance: 1e-5 }, ScalarAxis::Uniform);
+    let d = domain();
+    assert_eq!(Table3d::build(&thin, &d, &p).unwrap().reconstruction(), Reconstruction::Trilinear);
+    assert_eq!(Table3d::build(&dense, &d, &p).unwrap().reconstruction(), Reconstruction::OpticalDepth);
+    for (old, new) in [(&thin, &dense), (&dense, &thin)] {
+        let stats = rebake_matches(old, new, &p);
+        assert!(stats.full.is_none() && stats.pairs_rebaked < stats.pairs, "{stats:?}");
     }
 }

@@ -19,7 +19,8 @@ use serde_json::json;
 use tet_plot::{Canvas, Point, ScatterPlot, Series};
 use tet_preint::bivariate::{reference_segment, Seg2};
 use tet_preint::{
-    integrate_segment_with, uniform_triples, BakeOptions, Baked, Method, Segment, TableDomain, TransferFunction,
+    integrate_segment_with, uniform_triples, BakeOptions, Baked, Method, Reconstruction, Segment, TableDomain,
+    TransferFunction, RECONSTRUCTION_GAP,
 };
 
 use crate::common::{describe_res, human_bytes, input, read_bundle, read_tf, usage, CodeExt, BAKE, OUTPUT};
@@ -333,9 +334,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     (s.name, rms, max)
                 })
                 .collect();
+            // Which lookup the table chose (formats/lut.md, "Lookup").
+            let res = match &baked {
+                Baked::Table3d(t) if t.reconstruction() == Reconstruction::OpticalDepth => {
+                    format!("{} (τ)", describe_res(m, &opts))
+                }
+                _ => describe_res(m, &opts),
+            };
             rows.push(Row {
                 method: m,
-                res: describe_res(m, &opts),
+                res,
                 res_short: short,
                 bake_s: best,
                 memory: baked.memory_bytes(),
@@ -366,6 +374,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     for n in &notes {
         println!("note: {n}");
+    }
+    if rows.iter().any(|r| r.res.ends_with("(τ)")) {
+        println!("note: (τ): the table3d looks up in optical depth (its reconstruction gap > {RECONSTRUCTION_GAP:e}; formats/lut.md), the others trilinearly");
     }
     println!();
     println!(

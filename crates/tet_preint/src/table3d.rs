@@ -927,7 +927,7 @@ impl Table3d {
         let alpha_of = |p: usize, out: &mut Vec<f32>| {
             out.clear();
             match data.as_f32() {
-                Some(d) => out.extend(d[p * n_l * 4..(p + 1) * n_l * 4].iter().skip(3).step_by(4)),
+                Some(d) => out.extend(d[p * n_l * 4..(p + 1) * n_l * 4].chunks_exact(4).map(|e| e[3])),
                 None => out.extend((0..n_l).map(|k| data.get4((p * n_l + k) * 4)[3])),
             }
         };
@@ -935,19 +935,27 @@ impl Table3d {
         // 1 − (T₀ + T₁)/2 and the optical-depth α is 1 − √(T₀T₁), a gap of
         // (√T₀ − √T₁)²/2 (no logarithm needed).
         let root_t_of = |p: usize, scratch: &mut Vec<f32>, out: &mut Vec<f32>| {
-            alpha_of(p, scratch);
             out.clear();
-            out.extend(scratch.iter().map(|&a| (1.0 - a).max(0.0).sqrt()));
-        };
-        let max_gap = |x: &[f32], y: &[f32]| {
-            x.iter().zip(y).fold(0.0f32, |m, (&r0, &r1)| {
-                let g = 0.5 * (r0 - r1) * (r0 - r1);
-                if g > m {
-                    g
-                } else {
-                    m
+            match data.as_f32() {
+                Some(d) => {
+                    out.extend(d[p * n_l * 4..(p + 1) * n_l * 4].chunks_exact(4).map(|e| (1.0 - e[3]).max(0.0).sqrt()))
                 }
-            })
+                None => {
+                    alpha_of(p, scratch);
+                    out.extend(scratch.iter().map(|&a| (1.0 - a).max(0.0).sqrt()));
+                }
+            }
+        };
+        // Lane-wise maxima (no NaN: √ of a clamped value), reduced at the end.
+        let max_gap = |x: &[f32], y: &[f32]| {
+            let mut m = [0.0f32; W];
+            for (xc, yc) in x.chunks(W).zip(y.chunks(W)) {
+                for i in 0..xc.len() {
+                    let g = 0.5 * (xc[i] - yc[i]) * (xc[i] - yc[i]);
+                    m[i] = if g > m[i] { g } else { m[i] };
+                }
+            }
+            m.into_iter().fold(0.0f32, f32::max)
         };
         rows_mut(&mut self.pair_gap, band, 1).into_par_iter().for_each(|(a, gaps)| {
             let row = band.row(a);
@@ -2403,6 +2411,41 @@ mod tests {
         assert!(t.memory_bytes() < t.full_memory_bytes() / 2, "{} vs {}", t.memory_bytes(), t.full_memory_bytes());
         assert_eq!(t.band_half_width(), 8);
         assert!(t.entry(0, 20, 1).is_none());
+    }
+
+    /// A thin TF keeps the trilinear lookup: half way between grid nodes
+    /// along every axis it is the mean of the 8 entries; a dense one takes
+    /// the optical depth, whose gap the table reports.
+    #[test]
+    fn reconstruction_follows_the_gap() {
+        let thin = tf(
+            r#"{"color": [[0, 0.2, 0.5, 1], [1, 1, 0.4, 0]], "opacity": [[0, 0.001], [1, 0.01]], "unit_distance": 1}"#,
+        );
+        let d = TableDomain::full(0.0, 1.0, 1.0).unwrap();
+        let p = Table3dParams { n_s: 16, n_l: 16, ..Default::default() };
+        let t = Table3d::build(&thin, &d, &p).unwrap();
+        assert_eq!(t.reconstruction(), Reconstruction::Trilinear);
+        assert!(t.reconstruction_gap() <= RECONSTRUCTION_GAP && t.memory_bytes() == t.storage().memory_bytes());
+        let (a, b, k) = (5, 7, 3);
+        let mid = |x0: f64, x1: f64| (0.5 * (x0 + x1)) as f32;
+        let got = t.lookup(
+            mid(t.scalar_at(a), t.scalar_at(a + 1)),
+            mid(t.scalar_at(b), t.scalar_at(b + 1)),
+            mid(t.len_at(k), t.len_at(k + 1)),
+        );
+        let mut want = [0.0f64; 4];
+        for (da, db, dk) in (0..8).map(|i| (i & 1, (i >> 1) & 1, i >> 2)) {
+            let e = t.entry(a + da, b + db, k + dk).unwrap();
+            (0..4).for_each(|c| want[c] += e[c] as f64 / 8.0);
+        }
+        for c in 0..4 {
+            assert!((got[c] as f64 - want[c]).abs() < 1e-6, "{got:?} vs {want:?}");
+        }
+        let dense =
+            tf(r#"{"color": [[0, 0.2, 0.5, 1], [1, 1, 0.4, 0]], "opacity": [[0, 0.5], [1, 40]], "unit_distance": 1}"#);
+        let t = Table3d::build(&dense, &d, &p).unwrap();
+        assert_eq!(t.reconstruction(), Reconstruction::OpticalDepth);
+        assert!(t.reconstruction_gap() > RECONSTRUCTION_GAP && t.memory_bytes() > t.storage().memory_bytes());
     }
 
     #[test]

@@ -6,11 +6,13 @@
 //!   new TF revision, method or table resolution re-bakes the shader and
 //!   re-culls. table3d keeps its table and the TF it was baked from, so a
 //!   TF edit re-bakes only the pairs it reaches ([`Table3d::rebake`]).
-//! * GPU (tet_gpu, methods `pt-linear` and `table3d`, when an adapter
-//!   exists): the GPU radix sort of centroid depths, recomputed only when
-//!   the camera moves (tet_gpu caches it), filtered by the CPU cull mask of
-//!   the current TF; shader rebuilt on a TF change (table3d re-baked as on
-//!   the CPU, then uploaded).
+//! * GPU (tet_gpu, every method of [`tet_gpu::GPU_METHODS`] — all but
+//!   `exact` and `biv-exact` — when an adapter exists): the GPU radix sort
+//!   of centroid depths, recomputed only when the camera moves (tet_gpu
+//!   caches it), filtered by the CPU cull mask of the current TF; shader
+//!   rebuilt on a TF change (baked on the CPU with the CPU path's options,
+//!   table3d re-baked in place as there, then uploaded); the bivariate
+//!   method's per-vertex |∇s| uploaded once, when it is first chosen.
 
 use crate::ViewerError;
 use std::sync::Arc;
@@ -18,7 +20,7 @@ use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_gpu::{GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{
-    BakeOptions, Method, PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction,
+    BakeOptions, Baked, Method, PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction,
 };
 use tet_render::cull::{cull, CullMask};
 use tet_render::{Camera, Display, Image, Renderer, Scene, TfCuller, ViewSpec};
@@ -89,14 +91,16 @@ pub struct Frame {
     pub stats: FrameStats,
 }
 
-/// The methods the GPU path renders.
+/// The methods the GPU path renders (tet_gpu's [`tet_gpu::GPU_METHODS`]).
 pub fn gpu_supports(method: Method) -> bool {
-    matches!(method, Method::PtLinear | Method::Table3d)
+    tet_gpu::GPU_METHODS.contains(&method)
 }
 
 struct Gpu {
     ctx: GpuContext,
     scene: GpuScene,
+    /// Whether `scene` carries the per-vertex |∇s| (bivariate methods).
+    gradients: bool,
     renderer: GpuRenderer,
     /// The shader of (tf revision, method, table n_s).
     shader: Option<((u64, Method, usize), GpuShader)>,
@@ -274,6 +278,19 @@ impl Engine {
 
     fn render_gpu(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
         let start = Instant::now();
+        if req.method.is_bivariate() && !self.gpu.as_ref().expect("checked by render").gradients {
+            // |∇s| per vertex, computed on the CPU scene once (as the CPU
+            // path does) and uploaded.
+            if self.cpu.scene().gradients().is_none() {
+                let scene = self.cpu.scene().clone().ensure_gradients()?;
+                self.cpu = Renderer::new(scene);
+                self.cpu_key = None;
+            }
+            let g = self.cpu.scene().gradient_magnitudes().expect("gradients ensured above").to_vec();
+            let Gpu { ctx, scene, renderer, shader, order, .. } = self.gpu.take().expect("checked by render");
+            let scene = scene.with_gradient_magnitudes(&ctx, &g)?;
+            self.gpu = Some(Gpu { ctx, scene, gradients: true, renderer, shader, order });
+        }
         let recomputed_cull = self.mask.as_ref().map(|m| m.0) != Some(req.tf_revision);
         if recomputed_cull {
             self.mask = Some((req.tf_revision, cull(self.cpu.scene(), &TfCuller::new(&req.tf))));
@@ -286,12 +303,18 @@ impl Engine {
             let tf =
                 tet_preint::tf_for_domain(&req.tf, &self.domain).map_err(|e| ViewerError::Method(e.to_string()))?;
             let shader = match req.method {
-                Method::Table3d => {
+                Method::Table3d if req.tf.widgets().is_empty() => {
                     // Re-baked in place like the CPU path's, then uploaded.
                     let table = self.table3d(&req.tf, req.table_n_s)?;
                     GpuShader::table3d(&self.gpu.as_ref().expect("checked by render").ctx, &table)?
                 }
-                _ => GpuShader::pt_linear(&self.gpu.as_ref().expect("checked by render").ctx, &tf)?,
+                Method::PtLinear => GpuShader::pt_linear(&self.gpu.as_ref().expect("checked by render").ctx, &tf)?,
+                // The CPU path's bake (same options), uploaded.
+                m => {
+                    let baked = Baked::build(m, &req.tf, &self.domain, &Self::bake_options(req.table_n_s))
+                        .map_err(|e| ViewerError::Method(format!("{m}: {e}")))?;
+                    GpuShader::from_baked(&self.gpu.as_ref().expect("checked by render").ctx, &baked)?
+                }
             };
             bake_seconds = t.elapsed().as_secs_f64();
             self.last_bake_seconds = bake_seconds;
@@ -347,7 +370,7 @@ fn open_gpu(bundle: &Bundle) -> Result<Gpu, tet_gpu::GpuError> {
     let m = &bundle.mesh;
     let scene = GpuScene::new(&ctx, &m.points, &m.tets, &m.scalar)?;
     let renderer = GpuRenderer::new(&ctx)?;
-    Ok(Gpu { ctx, scene, renderer, shader: None, order: None })
+    Ok(Gpu { ctx, scene, gradients: false, renderer, shader: None, order: None })
 }
 
 #[cfg(test)]
@@ -458,7 +481,7 @@ mod tests {
         let f = engine.render(&req).unwrap();
         assert!(f.stats.rebaked && f.stats.recomputed_cull && !f.stats.resorted);
 
-        req.method = Method::Poly2;
+        req.method = Method::Exact;
         let f = engine.render(&req).unwrap();
         assert!(f.stats.backend.contains("not on the GPU"), "{}", f.stats.backend);
 
@@ -468,5 +491,38 @@ mod tests {
         let cpu_image = cpu.render(&request(&cpu, &model0, Method::Table3d, false)).unwrap().image;
         let d = tet_render::diff(&gpu_image, &cpu_image).unwrap();
         assert!(d.max_abs < 2.0 / 255.0 && d.mean_abs < 0.5 / 255.0, "{d:?}");
+    }
+
+    /// Every method tet_gpu renders takes the GPU path in the window and
+    /// agrees with the CPU engine's frame (same TF, view and bake options);
+    /// biv-approx with a box widget (its |∇s| uploaded on first use).
+    #[test]
+    fn every_gpu_method_matches_the_cpu_engine() {
+        let bundle = sample_bundle();
+        let mut gpu = Engine::new(&bundle, true).unwrap();
+        if !gpu.has_gpu() {
+            if std::env::var_os("TETKIT_REQUIRE_GPU").is_some() {
+                panic!("TETKIT_REQUIRE_GPU is set but {}", gpu.gpu_note());
+            }
+            println!("skipped: {}", gpu.gpu_note());
+            return;
+        }
+        let mut cpu = Engine::new(&bundle, false).unwrap();
+        let s = gpu.scene().scalar_range();
+        let mut model = TfModel::ramp(s, 0.5);
+        let mut methods: Vec<Method> = tet_gpu::GPU_METHODS.into_iter().filter(|m| !m.is_bivariate()).collect();
+        methods.extend(tet_gpu::GPU_METHODS.into_iter().filter(|m| m.is_bivariate()));
+        for m in methods {
+            if m.is_bivariate() && model.widgets().is_empty() {
+                let mid = 0.5 * (s[0] + s[1]);
+                model.add_box_widget([mid, 0.0], [0.5 * (s[1] - s[0]), 1e6], [0.9, 0.5, 0.1], 0.8).unwrap();
+            }
+            let f = gpu.render(&request(&gpu, &model, m, true)).unwrap();
+            assert!(f.stats.backend.starts_with("GPU"), "{m}: {}", f.stats.backend);
+            assert!(f.rgba8.chunks(4).any(|p| p[..3] != [0, 0, 0]), "{m}: something visible");
+            let c = cpu.render(&request(&cpu, &model, m, false)).unwrap();
+            let d = tet_render::diff(&f.image, &c.image).unwrap();
+            assert!(d.max_abs < 2.0 / 255.0 && d.mean_abs < 0.5 / 255.0, "{m}: {d:?}");
+        }
     }
 }

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use serde_json::json;
-use tet_preint::{Baked, Method};
+use tet_preint::{Baked, Method, Reconstruction, RECONSTRUCTION_GAP};
 
 use crate::common::{describe_res, human_bytes, parse_method, read_tf, CodeExt, DomainArgs, TableArgs, BAKE, OUTPUT};
 
@@ -55,6 +55,17 @@ pub fn run(args: &BakeArgs) -> Result<()> {
     let file_bytes = std::fs::metadata(&args.output).map(|m| m.len()).unwrap_or(0);
     let (mem, full) = (baked.memory_bytes(), baked.full_memory_bytes());
     let saved = if full > 0 { 1.0 - mem as f64 / full as f64 } else { 0.0 };
+    // table3d's lookup (formats/lut.md, "Lookup"): chosen from the entries.
+    let lookup = match &baked {
+        Baked::Table3d(t) => Some((
+            match t.reconstruction() {
+                Reconstruction::Trilinear => "trilinear",
+                Reconstruction::OpticalDepth => "optical-depth",
+            },
+            t.reconstruction_gap(),
+        )),
+        _ => None,
+    };
     if args.json {
         let v = json!({
             "output": args.output.display().to_string(),
@@ -67,6 +78,8 @@ pub fn run(args: &BakeArgs) -> Result<()> {
             "full_domain_memory_bytes": full,
             "memory_saved_fraction": saved,
             "file_bytes": file_bytes,
+            "lookup": lookup.map(|(l, _)| l),
+            "reconstruction_gap": lookup.map(|(_, g)| g),
         });
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
@@ -77,6 +90,9 @@ pub fn run(args: &BakeArgs) -> Result<()> {
             domain.s_lo, domain.s_hi, domain.max_ds, domain.len_max_world
         );
         println!("bake time   {:.1} ms", bake_s * 1e3);
+        if let Some((l, gap)) = lookup {
+            println!("lookup      {l} (reconstruction gap {gap:.2e}; optical depth above {RECONSTRUCTION_GAP:e})");
+        }
         if tabulated {
             println!(
                 "memory      {} (full domain: {}; saved {:.1}%)",

@@ -165,6 +165,11 @@ fn bake_reports_the_band_saving_and_handles_untabulated_methods() {
     // Text output names the saving too.
     let text = ok(&tetlut(&[&base[..], &["--max-ds", "0.1", "-o", &o]].concat(), ""));
     assert!(text.contains("saved") && text.contains("bake time"), "{text}");
+    // And which lookup the table chose (formats/lut.md, "Lookup").
+    assert!(text.contains("lookup      trilinear") || text.contains("lookup      optical-depth"), "{text}");
+    let gap = banded["reconstruction_gap"].as_f64().unwrap();
+    let want = if gap > 1e-4 { "optical-depth" } else { "trilinear" };
+    assert_eq!(banded["lookup"].as_str(), Some(want), "{banded}");
     // biv-exact stores the TF only; show refuses it clearly.
     let wtf = widget_tf(dir.path());
     let be = dir.path().join("be.tetl");

@@ -60,7 +60,7 @@ fn table_lookup(fr: Frame, sf: f32, sb: f32, len: f32) -> vec4<f32> {
     // RGBA, or the optical depth −ln(1 − α) trilinear and the colour
     // trilinear scaled by α over the trilinear α.
     var lin = vec4<f32>(0.0);
-    var ln_t = 0.0;
+    var tau_sum = 0.0;
     let depth = fr.table_optical_depth != 0u;
     for (var da = 0u; da < 2u; da++) {
         let wa = select(1.0 - fa, fa, da == 1u);
@@ -76,21 +76,33 @@ fn table_lookup(fr: Frame, sf: f32, sb: f32, len: f32) -> vec4<f32> {
             if !depth {
                 continue;
             }
-            let t0 = log(max(1.0 - e0.w, TABLE_MIN_TRANSMITTANCE));
-            let t1 = log(max(1.0 - e1.w, TABLE_MIN_TRANSMITTANCE));
-            ln_t += w * ((1.0 - fk) * t0 + fk * t1);
+            tau_sum += w * ((1.0 - fk) * table_depth(e0.w) + fk * table_depth(e1.w));
         }
     }
     if !depth {
         return lin;
     }
-    let a = 1.0 - exp(min(ln_t, 0.0));
-    let scale = select(0.0, a / lin.w, lin.w > 0.0);
+    let tau = max(tau_sum, 0.0);
+    var a = 1.0 - exp(-tau);
+    if tau < TABLE_SERIES_BELOW {
+        a = tau * (1.0 - tau * (0.5 - tau * (1.0 / 6.0 - tau * (1.0 / 24.0))));
+    }
+    let scale = select(1.0, a / lin.w, lin.w > 0.0);
     return vec4<f32>(lin.xyz * scale, a);
 }
 
 // tet_preint's MIN_TRANSMITTANCE: α = 1 entries count as optical depth 69.
 const TABLE_MIN_TRANSMITTANCE: f32 = 1e-30;
+// tet_preint's SERIES_BELOW: faint entries' depths and α by their series.
+const TABLE_SERIES_BELOW: f32 = 0.015625;
+
+// An entry's optical depth −ln(max(1 − α, MIN)) (tet_preint `optical_depths`).
+fn table_depth(alpha: f32) -> f32 {
+    if alpha < TABLE_SERIES_BELOW {
+        return alpha * (1.0 + alpha * (0.5 + alpha * (1.0 / 3.0 + alpha * 0.25)));
+    }
+    return -log(max(1.0 - alpha, TABLE_MIN_TRANSMITTANCE));
+}
 
 // ---- The 2D-table methods (poly1/2/4, partial, atlas2d) -------------------
 

@@ -61,11 +61,23 @@ fn gpu_lookup_matches_the_cpu_lookup_on_both_axes() {
         [r(-0.3, 1.3), r(-0.3, 1.3), r(-0.2, 2.0)]
     }));
     let mut cpu_by_axis = Vec::new();
-    for (s_axis, thin) in [(ScalarAxis::Uniform, false), (ScalarAxis::TfNodes, false), (ScalarAxis::TfNodes, true)] {
-        let f = if thin { thin_tf() } else { tf() };
+    // The last: faint, glowing entries next to dense ones (independent
+    // emission), whose depths and α the lookup takes by their series.
+    let faint = TransferFunction::from_json(
+        r#"{"color": [[0, 1, 0.5, 0.25], [1, 0.2, 0.4, 1]],
+            "opacity": [[0, 0], [0.3, 1e-4], [0.6, 1e-3], [0.8, 30], [1, 30]],
+            "unit_distance": 1, "emission": "independent"}"#,
+    )
+    .unwrap();
+    let cases = [
+        (ScalarAxis::Uniform, tf(), Reconstruction::OpticalDepth),
+        (ScalarAxis::TfNodes, tf(), Reconstruction::OpticalDepth),
+        (ScalarAxis::TfNodes, thin_tf(), Reconstruction::Trilinear),
+        (ScalarAxis::Uniform, faint, Reconstruction::OpticalDepth),
+    ];
+    for (i, (s_axis, f, want)) in cases.into_iter().enumerate() {
         let table = Table3d::build(&f, &domain, &params(40, 24, s_axis)).unwrap();
         assert_eq!(table.is_uniform_axis(), s_axis == ScalarAxis::Uniform);
-        let want = if thin { Reconstruction::Trilinear } else { Reconstruction::OpticalDepth };
         assert_eq!(table.reconstruction(), want, "gap {}", table.reconstruction_gap());
         let shader = GpuShader::table3d(&ctx, &table).unwrap();
         let gpu = shader.probe_table3d(&ctx, &triples).unwrap();
@@ -75,8 +87,17 @@ fn gpu_lookup_matches_the_cpu_lookup_on_both_axes() {
             "{s_axis:?} axis, {want:?}: GPU lookup vs Table3d::lookup over {} triples: max |Δ| {d:.3e}",
             triples.len()
         );
-        assert!(d <= 2e-6, "{s_axis:?}: max |Δ| {d}");
-        if !thin {
+        // Vulkan's log is accurate to 2⁻²¹ absolute on [0.5, 2] only: an
+        // entry's depth just above the series range (α ≥ 1/64) is then good
+        // to ~3e-5 relative, which independent emission's colour (C ≫ α,
+        // scaled by α) carries; density emission's colour is bounded by α.
+        let tol = if f.emission() == Emission::Independent {
+            5e-5 * cpu.iter().flatten().fold(1.0f32, |m, &v| m.max(v.abs()))
+        } else {
+            2e-6
+        };
+        assert!(d <= tol, "{s_axis:?} {want:?}: max |Δ| {d} > {tol}");
+        if i < 2 {
             cpu_by_axis.push(cpu);
         }
     }

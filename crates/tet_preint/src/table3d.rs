@@ -60,7 +60,7 @@ use crate::tf::{Emission, TransferFunction};
 use glam::Vec4;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use wide::{f32x8, CmpGt};
+use wide::{f32x8, CmpGt, CmpLt};
 
 /// How the table is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -1227,11 +1227,31 @@ pub const RECONSTRUCTION_GAP: f32 = 1e-4;
 /// slices; neither choice moves the four bundles' errors.)
 const MIN_TRANSMITTANCE: f32 = 1e-30;
 
+/// Below this α (and optical depth) the reconstruction uses series: 1 − α
+/// in f32 drops α's low bits (all of them below 6e-8), which would zero a
+/// faint entry's depth and, through the colour scale, its colour.
+const SERIES_BELOW: f32 = 1.0 / 64.0;
+
 /// −ln(max(1 − α, [`MIN_TRANSMITTANCE`])) lane by lane: the optical depth
-/// of an entry, as the lookup interpolates it.
+/// of an entry, as the lookup interpolates it; α + α²/2 + α³/3 + α⁴/4
+/// below [`SERIES_BELOW`] (relative error < 2e-9).
 #[inline(always)]
 fn optical_depths(alpha: f32x8) -> f32x8 {
-    -vmax(f32x8::ONE - alpha, f32x8::splat(MIN_TRANSMITTANCE)).ln()
+    let log = -vmax(f32x8::ONE - alpha, f32x8::splat(MIN_TRANSMITTANCE)).ln();
+    let (half, third, quarter) = (f32x8::splat(0.5), f32x8::splat(1.0 / 3.0), f32x8::splat(0.25));
+    let series = alpha * (f32x8::ONE + alpha * (half + alpha * (third + alpha * quarter)));
+    alpha.cmp_lt(f32x8::splat(SERIES_BELOW)).blend(series, log)
+}
+
+/// 1 − e^{−τ} for τ ≥ 0, by its series below [`SERIES_BELOW`] (relative
+/// error < 2e-9), so a faint lookup keeps its α to f32 precision.
+#[inline(always)]
+fn alpha_of_depth(tau: f32) -> f32 {
+    if tau < SERIES_BELOW {
+        tau * (1.0 - tau * (0.5 - tau * (1.0 / 6.0 - tau * (1.0 / 24.0))))
+    } else {
+        1.0 - (-tau).exp()
+    }
 }
 
 /// A lookup from the 8 entries around it: `e[c]` holds corner c's entries
@@ -1261,9 +1281,10 @@ fn reconstruct(e: &[[f32; 8]; 4], depth: &[[f32; 2]; 4], fa: f32, fb: f32, fk: f
     let lin = lerp_l(&e[0]) * w[0] + lerp_l(&e[1]) * w[1] + lerp_l(&e[2]) * w[2] + lerp_l(&e[3]) * w[3];
     let lerp_d = |d: &[f32; 2]| d[0] + (d[1] - d[0]) * fk;
     let tau = lerp_d(&depth[0]) * w[0] + lerp_d(&depth[1]) * w[1] + lerp_d(&depth[2]) * w[2] + lerp_d(&depth[3]) * w[3];
-    let a = 1.0 - (-tau.max(0.0)).exp();
-    // lin.w = 0 only where every weighted α is 0, and then a = 0 too.
-    let scale = if lin.w > 0.0 { a / lin.w } else { 0.0 };
+    let a = alpha_of_depth(tau.max(0.0));
+    // lin.w = 0 only where every weighted α is 0, and then a = 0 too: the
+    // colour stays (independent emission glows without absorbing).
+    let scale = if lin.w > 0.0 { a / lin.w } else { 1.0 };
     [lin.x * scale, lin.y * scale, lin.z * scale, a]
 }
 
@@ -2446,6 +2467,30 @@ mod tests {
         let t = Table3d::build(&dense, &d, &p).unwrap();
         assert_eq!(t.reconstruction(), Reconstruction::OpticalDepth);
         assert!(t.reconstruction_gap() > RECONSTRUCTION_GAP && t.memory_bytes() > t.storage().memory_bytes());
+    }
+
+    /// Regression: an optical-depth table zeroed the colour of faint
+    /// lookups (1 − α rounded α away, and α = 0 scaled the colour by 0),
+    /// which independent emission's glowing, barely absorbing entries
+    /// show. The faint end of this TF must match `exact` as the dense end
+    /// makes the table take the optical depth.
+    #[test]
+    fn faint_lookups_keep_their_colour_in_optical_depth() {
+        let f = tf(r#"{"color": [[0, 1, 0.5, 0.25], [1, 0.2, 0.4, 1]],
+                       "opacity": [[0, 0], [0.3, 1e-6], [0.6, 1e-6], [0.8, 50], [1, 50]],
+                       "unit_distance": 1, "emission": "independent"}"#);
+        let d = TableDomain::full(0.0, 1.0, 1.0).unwrap();
+        let t = Table3d::build(&f, &d, &Table3dParams { n_s: 32, n_l: 32, ..Default::default() }).unwrap();
+        assert_eq!(t.reconstruction(), Reconstruction::OpticalDepth);
+        for (sf, sb, l) in [(0.1, 0.1, 0.5), (0.05, 0.2, 0.7), (0.35, 0.5, 0.3), (0.0, 0.0, 0.99)] {
+            let got = t.lookup(sf as f32, sb as f32, l as f32);
+            let want = integrate_segment(&f, sf, sb, l);
+            for c in 0..3 {
+                assert!((got[c] as f64 - want.color[c]).abs() <= 1e-3 * want.color[c].max(1e-3), "{got:?} vs {want:?}");
+            }
+            // α to the bake's own resolution (α = 1 − T in f32: steps of 6e-8).
+            assert!((got[3] as f64 - want.alpha).abs() <= 1e-6, "{got:?} vs {want:?}");
+        }
     }
 
     #[test]

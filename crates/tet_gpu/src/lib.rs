@@ -20,7 +20,9 @@
 //!     bake or [`bake_poly`]);
 //!   - `partial`: the TF-independent Ψ table as a 2D texture, each segment
 //!     split at the TF's control points per fragment, as `PartialShader`
-//!     (density emission; independent emission is [`GpuError::Unsupported`]);
+//!     (both emission models; under independent emission Ψ and Ψ₁ above
+//!     rate 8 by Gauss–Legendre quadrature, where the CPU takes the f64
+//!     closed form);
 //!   - `biv-approx`: 2D widgets over (s, |∇s|) and seed 004's F/B table,
 //!     k sub-segments per fragment, as `BivApprox`, with per-vertex gradient
 //!     magnitudes on the scene ([`GpuScene::with_gradient_magnitudes`]).

@@ -197,17 +197,12 @@ impl GpuShader {
     /// control points (κ, ρ at each); per fragment the segment is split at
     /// the control points between Sf and Sb and each piece composited from
     /// one bilinear Ψ lookup, as `PartialShader::integrate` (in f32 where the
-    /// CPU accumulates in f64). Density emission only: independent emission
-    /// evaluates Ψ in closed form above rate 8 on the CPU (an input error here).
+    /// CPU accumulates in f64). Independent emission reads Ψ₁ from the
+    /// table's second channel and, above rate 8 (where the CPU takes the f64
+    /// closed form), integrates Ψ and Ψ₁ by Gauss–Legendre quadrature over
+    /// the part of the piece in front of optical depth 40.
     pub fn partial(ctx: &GpuContext, shader: &PartialShader) -> Result<GpuShader, GpuError> {
         let tf = shader.transfer_function();
-        if tf.emission() == Emission::Independent {
-            return Err(GpuError::Unsupported(
-                "partial with independent emission (its Ψ above rate 8 is a closed form in f64 on the CPU); \
-                 density emission is on the GPU"
-                    .into(),
-            ));
-        }
         let psi = shader.psi();
         let res = psi.params().res;
         let ch = psi.storage().channels();
@@ -217,7 +212,12 @@ impl GpuShader {
             .collect();
         let table2d = texture_2d_array(ctx, [res as u32, res as u32, 1], &texels)?;
         let knots = merged_knots(tf);
-        let params = ShadeParams { res: res as u32, n_knots: (knots.len() / 2) as u32, ..bytemuck::Zeroable::zeroed() };
+        let params = ShadeParams {
+            res: res as u32,
+            n_knots: (knots.len() / 2) as u32,
+            independent: (tf.emission() == Emission::Independent) as u32,
+            ..bytemuck::Zeroable::zeroed()
+        };
         let tables = Tables2d { table2d, alpha: alpha_texture(ctx, &[0])?, params, extra_rows: knots };
         GpuShader::assemble(ctx, METHOD_PARTIAL, Method::Partial, None, placeholder_3d(ctx)?, no_grid(), tables)
     }

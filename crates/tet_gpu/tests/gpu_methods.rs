@@ -9,7 +9,7 @@ mod common;
 
 use common::{gpu, grid, Mesh};
 use std::sync::Arc;
-use tet_gpu::{FrameOptions, GpuCull, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
+use tet_gpu::{FrameOptions, GpuCull, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{
     BakeOptions, Baked, Emission, Method, PsiParams, ScalarAxis, Segment, SegmentShader, Table3dParams, TableDomain,
     TransferFunction,
@@ -70,14 +70,23 @@ fn bake(method: Method, tf: &TransferFunction, mesh: &Mesh) -> Baked {
     Baked::build(method, tf, &domain(mesh), &opts()).unwrap()
 }
 
-/// (name, baked) for every 2D-table method, with poly2 also under
-/// independent emission and as a full square (no band).
+/// (name, baked) for every 2D-table method, with poly2 and partial also
+/// under independent emission and poly2 as a full square (no band).
 fn methods(mesh: &Mesh) -> Vec<(String, Baked)> {
     let mut out: Vec<(String, Baked)> = [Method::Poly1, Method::Poly2, Method::Poly4, Method::Partial, Method::Atlas2d]
         .into_iter()
         .map(|m| (m.id().to_string(), bake(m, &tf(), mesh)))
         .collect();
     out.push(("poly2 independent".into(), bake(Method::Poly2, &tf().with_emission(Emission::Independent), mesh)));
+    out.push(("partial independent".into(), bake(Method::Partial, &tf().with_emission(Emission::Independent), mesh)));
+    // Rates far above 8: the GPU's quadrature against the CPU's closed form.
+    let dense = TransferFunction::from_json(
+        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
+            "opacity": [[0, 0.5], [0.4, 400], [0.5, 3], [0.6, 2000], [1, 30]], "unit_distance": 1,
+            "emission": "independent"}"#,
+    )
+    .unwrap();
+    out.push(("partial independent dense".into(), bake(Method::Partial, &dense, mesh)));
     let full =
         Baked::build(Method::Poly2, &tf(), &TableDomain::full(0.0, 1.0, domain(mesh).len_max_world).unwrap(), &opts())
             .unwrap();
@@ -132,7 +141,8 @@ fn probe_matches_the_cpu_shaders() {
             let want = cpu.shade(&Segment { s_front: t[0], s_back: t[1], len_world: t[2], ..Default::default() });
             for c in 0..4 {
                 assert!(g[c].is_finite(), "{name} {t:?}: {g:?}");
-                let d = (g[c] - want[c]).abs();
+                // Independent emission's C grows like l·κ: relative to max(1, |C|).
+                let d = (g[c] - want[c]).abs() / want[c].abs().max(1.0);
                 if d > worst.0 {
                     worst = (d, *t);
                 }
@@ -146,7 +156,7 @@ fn probe_matches_the_cpu_shaders() {
         );
         // f32 on both sides for poly and atlas2d (same operations; atlas2d
         // normalises in f64 on the CPU); partial accumulates in f64 on the CPU.
-        let tol = if name == "partial" { 2e-5 } else { 5e-6 };
+        let tol = if name.starts_with("partial") { 2e-5 } else { 5e-6 };
         assert!(worst.0 <= tol, "{name}: {worst:?}");
     }
 }
@@ -472,10 +482,7 @@ fn unsupported_inputs_are_errors() {
     let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
     let other = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
     let renderer = GpuRenderer::new(&ctx).unwrap();
-    // Partial with independent emission, exact and the bivariate methods.
-    let independent = bake(Method::Partial, &tf().with_emission(Emission::Independent), &mesh);
-    let err = GpuShader::from_baked(&ctx, &independent).err().unwrap();
-    assert!(matches!(err, GpuError::Unsupported(_)), "{err}");
+    // Exact and biv-exact are not on the GPU.
     let err = GpuShader::from_baked(&ctx, &bake(Method::Exact, &tf(), &mesh)).err().unwrap();
     assert!(err.to_string().contains("exact"), "{err}");
     // A GpuCull of another scene.

@@ -279,3 +279,44 @@ fn pinned_steep_colour_ramp_and_long_independent_segments() {
         assert!(e < 2e-4, "{name}: max node error {e:e}");
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, rng_seed: proptest::test_runner::RngSeed::Fixed(2025), ..ProptestConfig::default() })]
+
+    /// table3d lookups of either reconstruction ([`Reconstruction`]): α in
+    /// [0, 1] and nondecreasing in l, α symmetric in Sf ↔ Sb, colour ≥ 0
+    /// and (density emission) ≤ α·max κ; and the optical-depth lookup is
+    /// no further from `exact` than the trilinear one would be allowed.
+    /// Long cells (len_max up to 40) make most of these tables take the
+    /// optical depth.
+    #[test]
+    fn table3d_lookups_keep_the_optical_invariants(
+        tf in arb_tf(),
+        len_max in 0.5f64..40.0,
+        probes in prop::collection::vec((0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0), 64),
+    ) {
+        let d = TableDomain::full(0.0, 1.0, len_max).unwrap();
+        let p = Table3dParams { n_s: 24, n_l: 24, ..Default::default() };
+        let t = Table3d::build(&tf, &d, &p).unwrap();
+        let max_kappa = tf.color_nodes().iter().flat_map(|c| c.rgb).fold(0.0f64, f64::max) as f32;
+        for (sf, sb, u) in probes {
+            let l = u * len_max as f32;
+            let px = t.lookup(sf, sb, l);
+            prop_assert!((0.0..=1.0).contains(&px[3]), "{:?} α {px:?}", t.reconstruction());
+            prop_assert!(px.iter().all(|v| v.is_finite() && *v >= 0.0), "{px:?}");
+            if tf.emission() == Emission::Density {
+                for c in 0..3 {
+                    prop_assert!(px[c] <= px[3] * max_kappa * (1.0 + 1e-5) + 1e-6, "{:?} {px:?}", t.reconstruction());
+                }
+            }
+            // α along l: nondecreasing (the depths of a pair increase with k).
+            let longer = t.lookup(sf, sb, (l * 1.25).min(len_max as f32));
+            prop_assert!(longer[3] >= px[3] - 1e-6, "{:?}: α {} at l {l}, {} further", t.reconstruction(), px[3], longer[3]);
+            // α is symmetric in Sf ↔ Sb (grid and band are).
+            let swapped = t.lookup(sb, sf, l);
+            prop_assert!((swapped[3] - px[3]).abs() <= 1e-5, "{:?}: {px:?} vs swapped {swapped:?}", t.reconstruction());
+            let x = integrate_segment(&tf, sf as f64, sb as f64, l as f64);
+            prop_assert!((px[3] as f64 - x.alpha).abs() <= 0.05, "{:?}: α {} vs exact {}", t.reconstruction(), px[3], x.alpha);
+        }
+    }
+}

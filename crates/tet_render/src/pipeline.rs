@@ -22,7 +22,7 @@ use crate::camera::{Camera, ViewSpec};
 use crate::cull::{cull, CellCuller, CullMask};
 use crate::image::Image;
 use crate::project::ViewGeometry;
-use crate::raster::{rasterize, rasterize_cached, PreparedFrame, RasterOptions, RasterStats};
+use crate::raster::{rasterize_cached, PreparedFrame, RasterOptions, RasterStats};
 use crate::scene::Scene;
 use crate::sort::{visibility_order, SortMethod, VisibilityOrder};
 use crate::RenderError;
@@ -50,7 +50,8 @@ pub struct RenderStats {
     pub cycles_broken: usize,
     pub sort_method: String,
     pub fragments: u64,
-    /// Per-tile tet setups (a tet spanning k tiles is set up k times).
+    /// Tet setups: once per tet on the fast path (0 from a kept setup), once
+    /// per tile a tet spans on the per-tile path and for clipped tets.
     pub setups: u64,
     pub tiles_terminated: usize,
     /// Which stages this call recomputed.
@@ -86,8 +87,9 @@ pub struct Renderer {
     raster: RasterOptions,
     /// The fast path's per-tet setup of the current view, order and mask.
     prepared: Option<PreparedFrame>,
-    /// The cull mask `prepared` was made for.
-    last_visible: Option<Vec<bool>>,
+    /// The cull mask a new culler replaced (what `prepared` was made for),
+    /// compared with the new one when it is computed.
+    replaced_cull: Option<CullMask>,
 }
 
 impl Renderer {
@@ -103,7 +105,7 @@ impl Renderer {
             order: None,
             raster: RasterOptions::default(),
             prepared: None,
-            last_visible: None,
+            replaced_cull: None,
         }
     }
 
@@ -132,7 +134,9 @@ impl Renderer {
     /// tet); the cull mask becomes stale, and so does a radix order.
     pub fn set_culler(&mut self, culler: Option<Arc<dyn CellCuller>>) {
         self.culler = culler;
-        self.cull = None;
+        if let Some(mask) = self.cull.take() {
+            self.replaced_cull = Some(mask);
+        }
         if self.order.as_ref().is_some_and(|o| o.method == SortMethod::Radix) {
             self.order = None;
         }
@@ -190,10 +194,9 @@ impl Renderer {
                 Some(c) => cull(&self.scene, c.as_ref()),
                 None => CullMask::all(self.scene.num_tets()),
             };
-            // The kept setup covers the previous mask's visible tets.
-            if self.last_visible.as_deref() != Some(mask.visible.as_slice()) {
+            // The kept setup covers the replaced mask's visible tets.
+            if self.replaced_cull.take().is_none_or(|old| old.visible != mask.visible) {
                 self.prepared = None;
-                self.last_visible = Some(mask.visible.clone());
             }
             self.cull = Some(mask);
             stats.cull_seconds = t.elapsed().as_secs_f64();
@@ -213,28 +216,25 @@ impl Renderer {
             stats.recomputed_order = true;
         }
         let order = self.order.as_ref().expect("computed above");
-        // Drawn: the order's visible tets (a radix order holds only those).
-        let drawn = if order.method == SortMethod::Radix {
-            order.tets.len()
-        } else {
-            order.tets.iter().filter(|&&t| mask.visible[t as usize]).count()
-        };
-        let (image, rs): (Image, RasterStats) = if self.raster.setup_cache_bytes > 0 {
-            let prepared = &mut self.prepared;
-            rasterize_cached(
-                &self.scene,
-                view,
-                &order.tets,
-                &mask.visible,
-                shader.as_ref(),
-                &self.raster,
-                prepared,
-                progress,
-            )
-        } else {
-            let filtered: Vec<u32> = order.tets.iter().copied().filter(|&t| mask.visible[t as usize]).collect();
-            rasterize(&self.scene, view, &filtered, shader.as_ref(), &self.raster, progress)
-        };
+        // Every order holds each tet once, a radix order only the visible
+        // ones: the mask filters the graph orders of a culling TF.
+        let drawn = mask.visible.len() - mask.culled;
+        let visible = (mask.culled > 0 && order.method != SortMethod::Radix).then_some(mask.visible.as_slice());
+        debug_assert_eq!(
+            drawn,
+            visible.map_or(order.tets.len(), |v| order.tets.iter().filter(|&&t| v[t as usize]).count())
+        );
+        // A zero budget keeps nothing: `rasterize_cached` fills only what fits.
+        let (image, rs): (Image, RasterStats) = rasterize_cached(
+            &self.scene,
+            view,
+            &order.tets,
+            visible,
+            shader.as_ref(),
+            &self.raster,
+            &mut self.prepared,
+            progress,
+        );
         stats.reused_setup = rs.reused_setup;
         stats.tets_culled = mask.culled;
         stats.fraction_culled = mask.fraction_culled();

@@ -67,7 +67,8 @@ impl Default for RasterOptions {
 pub struct RasterStats {
     /// Fragments shaded and composited.
     pub fragments: u64,
-    /// Per-tile tet setups (a tet spanning k tiles is set up k times).
+    /// Tet setups: once per tet on the fast path (0 from a kept setup), once
+    /// per tile a tet spans on the per-tile path and for clipped tets.
     pub setups: u64,
     /// Tiles left early because every pixel was opaque.
     pub tiles_terminated: usize,
@@ -293,8 +294,8 @@ pub fn fast_path_applies(view: &ViewGeometry, shader: &dyn SegmentShader, opts: 
 }
 
 /// [`rasterize`] with a cache of the fast path's setup: `order` is the
-/// whole visibility order and `visible` the cull mask (culled tets are
-/// neither set up nor drawn). When `cache` holds the setup of this view,
+/// visibility order and `visible` the cull mask, if the order holds culled
+/// tets (they are neither set up nor drawn). When `cache` holds the setup of this view,
 /// order and mask (the caller clears it when one changes) nothing is set up
 /// again; when it is empty and the setup fits in
 /// [`RasterOptions::setup_cache_bytes`], it is filled. Where the fast path
@@ -304,17 +305,22 @@ pub fn rasterize_cached(
     scene: &Scene,
     view: &ViewGeometry,
     order: &[u32],
-    visible: &[bool],
+    visible: Option<&[bool]>,
     shader: &dyn SegmentShader,
     opts: &RasterOptions,
     cache: &mut Option<PreparedFrame>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Image, RasterStats) {
     if !fast_path_applies(view, shader, opts) {
-        let filtered: Vec<u32> = order.iter().copied().filter(|&t| visible[t as usize]).collect();
-        return rasterize(scene, view, &filtered, shader, opts, progress);
+        return match visible {
+            Some(v) => {
+                let filtered: Vec<u32> = order.iter().copied().filter(|&t| v[t as usize]).collect();
+                rasterize(scene, view, &filtered, shader, opts, progress)
+            }
+            None => rasterize(scene, view, order, shader, opts, progress),
+        };
     }
-    rasterize_chunked(scene, view, order, Some(visible), shader, opts, Some(cache), progress)
+    rasterize_chunked(scene, view, order, visible, shader, opts, Some(cache), progress)
 }
 
 /// [`rasterize`]'s fast path: the order in chunks; each chunk's tets set up
@@ -322,9 +328,6 @@ pub fn rasterize_cached(
 /// composited in parallel into accumulators that persist across chunks.
 /// Same fragments, values and per-pixel order as the per-tile path. With a
 /// `cache`, the setup of the whole order is kept in (or taken from) it.
-/// once ([`prepare_span`]) and binned by parallel parts, then its tiles
-/// composited in parallel into accumulators that persist across chunks.
-/// Same fragments, values and per-pixel order as the per-tile path.
 #[allow(clippy::too_many_arguments)]
 fn rasterize_chunked(
     scene: &Scene,
@@ -374,31 +377,18 @@ fn rasterize_chunked(
         .as_deref()
         .and_then(Option::as_ref)
         .is_some_and(|pf| pf.tile == tile && pf.want_grad_mag == want_grad_mag && pf.order_len == order.len());
-    if let Some(slot) = cache.as_deref_mut() {
-        if !reuse {
+    // Without a kept setup for this frame, fill the cache as the chunks are
+    // drawn (each chunk's setup still feeds its raster while in cache), if
+    // it fits in the memory budget (records of visible tets).
+    let fill = match cache.as_deref_mut() {
+        Some(slot) if !reuse => {
             *slot = None;
-            // Kept only within the memory budget (records of visible tets).
             let drawn = visible.map_or(order.len(), |v| order.iter().filter(|&&t| v[t as usize]).count());
-            if drawn.saturating_mul(std::mem::size_of::<Rec>() + 16) <= opts.setup_cache_bytes {
-                let t0 = std::time::Instant::now();
-                let chunks: Vec<Vec<Part>> = order
-                    .chunks(CHUNK)
-                    .map(|chunk| {
-                        let mut parts = Vec::new();
-                        prepare_chunk(chunk, &mut parts, visible);
-                        for p in &mut parts {
-                            p.shrink_to_fit();
-                        }
-                        parts
-                    })
-                    .collect();
-                prepared = chunks.iter().flatten().map(|p| p.recs.len() as u64).sum();
-                let bytes = chunks.iter().flatten().map(Part::memory_bytes).sum();
-                *slot = Some(PreparedFrame { chunks, tile, want_grad_mag, order_len: order.len(), bytes });
-                bin_seconds += t0.elapsed().as_secs_f64();
-            }
+            drawn.saturating_mul(std::mem::size_of::<Rec>() + 16) <= opts.setup_cache_bytes
         }
-    }
+        _ => false,
+    };
+    let mut filled: Vec<Vec<Part>> = Vec::new();
     let kept = cache.as_deref().and_then(Option::as_ref);
     let mut scratch: Vec<Part> = Vec::new();
     for (c, chunk) in order.chunks(CHUNK).enumerate() {
@@ -441,7 +431,16 @@ fn rasterize_chunked(
             }
         });
         raster_seconds += t1.elapsed().as_secs_f64();
+        if fill {
+            let mut parts = std::mem::take(&mut scratch);
+            parts.iter_mut().for_each(Part::shrink_to_fit);
+            filled.push(parts);
+        }
         progress(c + 1, n_chunks);
+    }
+    if let Some(slot) = cache.filter(|_| fill) {
+        let bytes = filled.iter().flatten().map(Part::memory_bytes).sum();
+        *slot = Some(PreparedFrame { chunks: filled, tile, want_grad_mag, order_len: order.len(), bytes });
     }
 
     tiles.par_iter_mut().for_each(|ctx| ctx.flush_frags(shader, opts.opaque_alpha));

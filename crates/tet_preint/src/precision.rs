@@ -144,16 +144,8 @@ impl Storage {
         self.len() * self.precision.bytes()
     }
 
-    /// The values, mutable, when stored as f32 (in-place updates such as
-    /// `Table3d::rebake`).
-    pub fn as_f32_mut(&mut self) -> Option<&mut [f32]> {
-        match &mut self.data {
-            Data::F32(v) => Some(v),
-            _ => None,
-        }
-    }
-
-    /// The f32 values as a vector (resizable: a re-bake on a new band).
+    /// The f32 values as a vector, mutable (in-place updates such as
+    /// `Table3d::rebake`; resizable: a re-bake on a new band).
     pub(crate) fn f32_vec_mut(&mut self) -> Option<&mut Vec<f32>> {
         match &mut self.data {
             Data::F32(v) => Some(v),

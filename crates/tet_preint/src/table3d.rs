@@ -914,14 +914,11 @@ impl Table3d {
     /// Recomputes the gaps of the pairs whose entries `which` selects (and
     /// of their row predecessors, whose Sb-neighbour they are), chooses the
     /// reconstruction, and brings the optical depths up to date. Rows in
-    /// parallel.
+    /// parallel. After the band changed, `which` must select every pair.
     fn update_reconstruction(&mut self, which: impl Fn(usize, usize) -> bool + Sync) {
         let n_l = self.params.n_l;
         let pairs = self.band.pairs;
-        let full = self.pair_gap.len() != pairs;
-        if full {
-            self.pair_gap = vec![0.0; pairs];
-        }
+        self.pair_gap.resize(pairs, 0.0);
         let (band, data) = (&self.band, &self.data);
         // α of pair p's entries.
         let alpha_of = |p: usize, out: &mut Vec<f32>| {
@@ -935,16 +932,9 @@ impl Table3d {
         // 1 − (T₀ + T₁)/2 and the optical-depth α is 1 − √(T₀T₁), a gap of
         // (√T₀ − √T₁)²/2 (no logarithm needed).
         let root_t_of = |p: usize, scratch: &mut Vec<f32>, out: &mut Vec<f32>| {
+            alpha_of(p, scratch);
             out.clear();
-            match data.as_f32() {
-                Some(d) => {
-                    out.extend(d[p * n_l * 4..(p + 1) * n_l * 4].chunks_exact(4).map(|e| (1.0 - e[3]).max(0.0).sqrt()))
-                }
-                None => {
-                    alpha_of(p, scratch);
-                    out.extend(scratch.iter().map(|&a| (1.0 - a).max(0.0).sqrt()));
-                }
-            }
+            out.extend(scratch.iter().map(|&a| (1.0 - a).max(0.0).sqrt()));
         };
         // Lane-wise maxima (no NaN: √ of a clamped value), reduced at the end.
         let max_gap = |x: &[f32], y: &[f32]| {
@@ -964,7 +954,7 @@ impl Table3d {
             for b in row.clone().rev() {
                 let p = band.pair(a, b);
                 let has_next = b + 1 < row.end;
-                if !(full || which(a, b) || (has_next && which(a, b + 1))) {
+                if !(which(a, b) || (has_next && which(a, b + 1))) {
                     have_next = false;
                     continue;
                 }
@@ -1075,20 +1065,21 @@ impl Table3d {
         out
     }
 
-    /// Trilinear lookup; inputs outside the domain (and NaN) are clamped.
+    /// The lookup ([`Reconstruction`]); inputs outside the domain (and NaN)
+    /// are clamped.
     #[inline]
     pub fn lookup(&self, sf: f32, sb: f32, len_world: f32) -> Rgba32 {
+        let c = self.cell_of(sf, sb, len_world);
         match self.data.as_f32() {
-            Some(d) => self.gather_f32(d, &self.cell_of(sf, sb, len_world)),
-            None => self.lookup_with(|i| self.data.get4(i), sf, sb, len_world),
+            Some(d) => self.gather_f32(d, &c),
+            None => self.gather(
+                |b| {
+                    let (e0, e1) = (self.data.get4(b), self.data.get4(b + 4));
+                    [e0[0], e0[1], e0[2], e0[3], e1[0], e1[1], e1[2], e1[3]]
+                },
+                &c,
+            ),
         }
-    }
-
-    /// [`Table3d::lookup`] reading entries through `get4` (the decoding
-    /// storage accessor, or a direct f32 slice in [`SegmentShader::shade_span`]).
-    #[inline(always)]
-    fn lookup_with(&self, get4: impl Fn(usize) -> [f32; 4], sf: f32, sb: f32, len_world: f32) -> Rgba32 {
-        self.gather(get4, &self.cell_of(sf, sb, len_world))
     }
 
     /// The lower corner and fractions of a lookup's cell (no table access).
@@ -1109,34 +1100,10 @@ impl Table3d {
     }
 
     /// [`Table3d::gather`] on f32 storage: the 4 (Sf, Sb) corners' two
-    /// l-neighbours are 8 contiguous floats each; the same reconstruction
-    /// of the same entries, so bit-identical to it.
+    /// l-neighbours are 8 contiguous floats each.
     #[inline(always)]
     fn gather_f32(&self, d: &[f32], c: &Cell) -> Rgba32 {
-        let nl = self.params.n_l;
-        let (base0, base1) = self.cell_bases(c);
-        if self.recon == Reconstruction::Trilinear {
-            let Cell { fa, fb, fk, .. } = *c;
-            // Per corner: entries k0 and k0 + 1, interpolated in l (e0 + fk·(e1 − e0)).
-            let lerp = |base: usize| -> Vec4 {
-                let (e0, e1) = (Vec4::from_slice(&d[base..base + 4]), Vec4::from_slice(&d[base + 4..base + 8]));
-                e0 + (e1 - e0) * fk
-            };
-            let (wa0, wa1, wb0, wb1) = (1.0 - fa, fa, 1.0 - fb, fb);
-            let out = lerp(base0) * (wa0 * wb0)
-                + lerp(base0 + nl * 4) * (wa0 * wb1)
-                + lerp(base1) * (wa1 * wb0)
-                + lerp(base1 + nl * 4) * (wa1 * wb1);
-            return out.to_array();
-        }
-        let bases = [base0, base0 + nl * 4, base1, base1 + nl * 4];
-        let mut e = [[0.0f32; 8]; 4];
-        let mut depth = [[0.0f32; 2]; 4];
-        for i in 0..4 {
-            e[i].copy_from_slice(&d[bases[i]..bases[i] + 8]);
-            depth[i].copy_from_slice(&self.depth[bases[i] / 4..bases[i] / 4 + 2]);
-        }
-        reconstruct(&e, &depth, c.fa, c.fb, c.fk)
+        self.gather(|b| d[b..b + 8].try_into().expect("8 floats"), c)
     }
 
     /// Float offsets of entries (a0, b0, k0) and (a0 + 1, b0, k0); pair
@@ -1150,44 +1117,41 @@ impl Table3d {
         (base0, base1)
     }
 
-    /// The lookup at `c` from the 8 entries around it ([`reconstruct`]).
+    /// The lookup at `c` from the 8 entries around it, `load8(b)` giving
+    /// the entries at float offsets b and b + 4 (k0 and k0 + 1 of a corner).
+    /// Every storage and lookup path reconstructs here, so they agree bit
+    /// for bit; a corner of weight 0 may lie outside the band (its offset
+    /// wraps within the data, as `pair_off` is built) and adds 0.
     #[inline(always)]
-    fn gather(&self, get4: impl Fn(usize) -> [f32; 4], c: &Cell) -> Rgba32 {
-        let Cell { a0, b0, k0, fa, fb, fk } = *c;
+    fn gather(&self, load8: impl Fn(usize) -> [f32; 8], c: &Cell) -> Rgba32 {
+        let Cell { fa, fb, fk, .. } = *c;
         let nl = self.params.n_l;
+        let (base0, base1) = self.cell_bases(c);
+        let bases = [base0, base0 + nl * 4, base1, base1 + nl * 4];
+        // (Explicit, not `array::map`: that was not inlined on this hot path.)
+        let e = [load8(bases[0]), load8(bases[1]), load8(bases[2]), load8(bases[3])];
         if self.recon == Reconstruction::Trilinear {
-            let mut out = [0.0f32; 4];
-            for (da, wa) in [(0, 1.0 - fa), (1, fa)] {
-                for (db, wb) in [(0, 1.0 - fb), (1, fb)] {
-                    let w = wa * wb;
-                    if w == 0.0 {
-                        continue;
-                    }
-                    let base = (self.band.pair(a0 + da, b0 + db) * nl + k0) * 4;
-                    let (e0, e1) = (get4(base), get4(base + 4));
-                    for c in 0..4 {
-                        out[c] += w * (e0[c] + fk * (e1[c] - e0[c]));
-                    }
-                }
-            }
-            return out;
+            // Per corner: entries k0 and k0 + 1, interpolated in l (e0 + fk·(e1 − e0)).
+            let lerp = |c: &[f32; 8]| {
+                let (e0, e1) = (Vec4::new(c[0], c[1], c[2], c[3]), Vec4::new(c[4], c[5], c[6], c[7]));
+                e0 + (e1 - e0) * fk
+            };
+            let (wa0, wa1, wb0, wb1) = (1.0 - fa, fa, 1.0 - fb, fb);
+            let out = lerp(&e[0]) * (wa0 * wb0)
+                + lerp(&e[1]) * (wa0 * wb1)
+                + lerp(&e[2]) * (wa1 * wb0)
+                + lerp(&e[3]) * (wa1 * wb1);
+            return out.to_array();
         }
-        let mut e = [[0.0f32; 8]; 4];
-        for (i, (da, db)) in [(0, 0), (0, 1), (1, 0), (1, 1)].into_iter().enumerate() {
-            // A corner of weight 0 may lie outside the band: it stays zero
-            // (and adds 0, as its entries would).
-            let wa = if da == 0 { 1.0 - fa } else { fa };
-            let wb = if db == 0 { 1.0 - fb } else { fb };
-            if wa * wb == 0.0 {
-                continue;
-            }
-            let base = (self.band.pair(a0 + da, b0 + db) * nl + k0) * 4;
-            e[i][..4].copy_from_slice(&get4(base));
-            e[i][4..].copy_from_slice(&get4(base + 4));
-        }
-        let alpha = f32x8::from([e[0][3], e[0][7], e[1][3], e[1][7], e[2][3], e[2][7], e[3][3], e[3][7]]);
-        let t = optical_depths(alpha).to_array();
-        let depth = [[t[0], t[1]], [t[2], t[3]], [t[4], t[5]], [t[6], t[7]]];
+        let depth = if self.depth.is_empty() {
+            // Non-f32 storage: the depths of the decoded entries.
+            let alpha = f32x8::from([e[0][3], e[0][7], e[1][3], e[1][7], e[2][3], e[2][7], e[3][3], e[3][7]]);
+            let t = optical_depths(alpha).to_array();
+            [[t[0], t[1]], [t[2], t[3]], [t[4], t[5]], [t[6], t[7]]]
+        } else {
+            let d = |b: usize| [self.depth[b / 4], self.depth[b / 4 + 1]];
+            [d(bases[0]), d(bases[1]), d(bases[2]), d(bases[3])]
+        };
         reconstruct(&e, &depth, fa, fb, fk)
     }
 }
@@ -1212,6 +1176,16 @@ pub enum Reconstruction {
     /// Optical depth −ln(1 − α) trilinear, colour trilinear scaled by α
     /// over the trilinear α ([`reconstruct`]).
     OpticalDepth,
+}
+
+impl Reconstruction {
+    /// The name `tetlut` prints (`trilinear`, `optical-depth`).
+    pub fn id(self) -> &'static str {
+        match self {
+            Reconstruction::Trilinear => "trilinear",
+            Reconstruction::OpticalDepth => "optical-depth",
+        }
+    }
 }
 
 /// Largest half-way gap between the reconstructions for which a table
@@ -1411,7 +1385,6 @@ impl Table3d {
                 bake_pairs(new_tf, &grid, &band, self.params.build, values, &|_, _| true);
                 let pairs = band.pairs;
                 (self.axis, self.band) = (Box::new(axis), band);
-                self.pair_gap.clear();
                 self.update_reconstruction(|_, _| true);
                 return Ok(RebakeStats { pairs, pairs_rebaked: pairs, full: Some(why) });
             }
@@ -1423,7 +1396,7 @@ impl Table3d {
         };
         let pairs_rebaked: usize =
             (0..self.params.n_s).map(|a| self.band.row(a).filter(|&b| dirty(a, b)).count()).sum();
-        let values = self.data.as_f32_mut().expect("f32 storage checked above");
+        let values = self.data.f32_vec_mut().expect("f32 storage checked above");
         bake_pairs(new_tf, &grid, &self.band, self.params.build, values, &dirty);
         self.update_reconstruction(dirty);
         Ok(RebakeStats { pairs: self.band.pairs, pairs_rebaked, full: None })
@@ -1501,8 +1474,6 @@ impl SegmentShader for Table3d {
     fn shade(&self, seg: &Segment) -> Rgba32 {
         self.lookup(seg.s_front, seg.s_back, seg.len_world)
     }
-    /// Same values as `shade`; f32 storage is indexed directly (one storage
-    /// dispatch per call instead of eight per segment).
     /// Eight segments at a time: the cells are located with the same values
     /// as [`Table3d::cell_of`] by lane-wise arithmetic that vectorizes (only
     /// the non-uniform axis's bucket reads and the entries are per lane).

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use serde_json::json;
-use tet_preint::{Baked, Method, Reconstruction, RECONSTRUCTION_GAP};
+use tet_preint::{Baked, Method, RECONSTRUCTION_GAP};
 
 use crate::common::{describe_res, human_bytes, parse_method, read_tf, CodeExt, DomainArgs, TableArgs, BAKE, OUTPUT};
 
@@ -57,13 +57,7 @@ pub fn run(args: &BakeArgs) -> Result<()> {
     let saved = if full > 0 { 1.0 - mem as f64 / full as f64 } else { 0.0 };
     // table3d's lookup (formats/lut.md, "Lookup"): chosen from the entries.
     let lookup = match &baked {
-        Baked::Table3d(t) => Some((
-            match t.reconstruction() {
-                Reconstruction::Trilinear => "trilinear",
-                Reconstruction::OpticalDepth => "optical-depth",
-            },
-            t.reconstruction_gap(),
-        )),
+        Baked::Table3d(t) => Some((t.reconstruction().id(), t.reconstruction_gap())),
         _ => None,
     };
     if args.json {

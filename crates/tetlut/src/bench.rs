@@ -148,6 +148,8 @@ struct Row {
     method: Method,
     res: String,
     res_short: String,
+    /// A table3d that looks up in optical depth (marked "(τ)" in `res`).
+    optical_depth: bool,
     bake_s: f64,
     memory: usize,
     full_memory: usize,
@@ -335,15 +337,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 })
                 .collect();
             // Which lookup the table chose (formats/lut.md, "Lookup").
-            let res = match &baked {
-                Baked::Table3d(t) if t.reconstruction() == Reconstruction::OpticalDepth => {
-                    format!("{} (τ)", describe_res(m, &opts))
-                }
-                _ => describe_res(m, &opts),
-            };
+            let optical_depth =
+                matches!(&baked, Baked::Table3d(t) if t.reconstruction() == Reconstruction::OpticalDepth);
+            let res = describe_res(m, &opts);
             rows.push(Row {
                 method: m,
-                res,
+                res: if optical_depth { format!("{res} (τ)") } else { res },
+                optical_depth,
                 res_short: short,
                 bake_s: best,
                 memory: baked.memory_bytes(),
@@ -375,7 +375,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     for n in &notes {
         println!("note: {n}");
     }
-    if rows.iter().any(|r| r.res.ends_with("(τ)")) {
+    if rows.iter().any(|r| r.optical_depth) {
         println!("note: (τ): the table3d looks up in optical depth (its reconstruction gap > {RECONSTRUCTION_GAP:e}; formats/lut.md), the others trilinearly");
     }
     println!();

@@ -331,12 +331,13 @@ impl GpuShader {
     /// sampled where it is (no CPU round trip).
     pub fn table3d_baked(ctx: &GpuContext, table: &GpuTable3d) -> Result<GpuShader, GpuError> {
         let p = &table.params;
-        let grid = TableGrid::new(&table.domain, p.n_s, p.n_l, &table.knots, table.uniform);
         // The baked entries stay on the GPU, so the CPU's choice of
         // reconstruction (from every entry) is not made: the optical depth,
         // never the less accurate of the two, is always taken.
-        let mut shader = GpuShader::with_table(ctx, METHOD_TABLE3D, None, table.texture.clone(), grid)?;
-        shader.optical_depth = true;
-        Ok(shader)
+        let grid = TableGrid {
+            optical_depth: true,
+            ..TableGrid::new(&table.domain, p.n_s, p.n_l, &table.knots, table.uniform)
+        };
+        GpuShader::with_table(ctx, METHOD_TABLE3D, None, table.texture.clone(), grid)
     }
 }

@@ -9,11 +9,11 @@
 //! agree to f32 rounding: no hardware filtering (8-bit weights).
 
 use crate::gpu_types::{
-    FrameUniforms, ShadeParams, METHOD_ATLAS2D, METHOD_BIV_APPROX, METHOD_PARTIAL, METHOD_POLY, METHOD_PT_LINEAR,
-    METHOD_TABLE3D, NO_BAND, PROBE_WG,
+    ShadeParams, METHOD_ATLAS2D, METHOD_BIV_APPROX, METHOD_PARTIAL, METHOD_POLY, METHOD_PT_LINEAR, METHOD_TABLE3D,
+    NO_BAND, PROBE_WG,
 };
 use crate::render::{
-    storage_entry, table_texture, texture_entry, uint_texture_entry, uniform_entry, GpuShader, TableGrid,
+    placeholder_3d, storage_entry, texture_entry, uint_texture_entry, uniform_entry, GpuShader, TableGrid,
 };
 use crate::{map_read, shader_source_fragment, GpuContext, GpuError, PROBE_WGSL};
 use tet_preint::{
@@ -132,15 +132,6 @@ fn alpha_texture(ctx: &GpuContext, data: &[u16]) -> Result<wgpu::Texture, GpuErr
     })
 }
 
-/// A grid that no 2D method reads (the table3d fields of the frame).
-fn no_grid() -> TableGrid {
-    TableGrid { params: [0.0, 1.0, 1.0, 0.0], dims: [2, 2], axis: vec![] }
-}
-
-fn placeholder_3d(ctx: &GpuContext) -> Result<wgpu::Texture, GpuError> {
-    table_texture(ctx, [1, 1, 1], &[[0.0; 4]])
-}
-
 impl GpuShader {
     /// `poly1`, `poly2`, `poly4` (seed 003): ρ̂ and the chromaticity
     /// polynomials' coefficients C̃ᵣ as an Rgba32Float 2D array texture in
@@ -189,7 +180,7 @@ impl GpuShader {
             _ => Method::Poly4,
         };
         let tables = Tables2d { table2d, alpha, params, extra_rows: Vec::new() };
-        GpuShader::assemble(ctx, METHOD_POLY, id, None, placeholder_3d(ctx)?, no_grid(), tables)
+        GpuShader::assemble(ctx, METHOD_POLY, id, None, placeholder_3d(ctx)?, TableGrid::none(), tables)
     }
 
     /// `partial` (Moreland & Angel 2004): the TF-independent Ψ table as an
@@ -219,7 +210,7 @@ impl GpuShader {
             ..bytemuck::Zeroable::zeroed()
         };
         let tables = Tables2d { table2d, alpha: alpha_texture(ctx, &[0])?, params, extra_rows: knots };
-        GpuShader::assemble(ctx, METHOD_PARTIAL, Method::Partial, None, placeholder_3d(ctx)?, no_grid(), tables)
+        GpuShader::assemble(ctx, METHOD_PARTIAL, Method::Partial, None, placeholder_3d(ctx)?, TableGrid::none(), tables)
     }
 
     /// `atlas2d` (seed 000): the tiled cylindrical atlas as one Rgba32Float
@@ -242,7 +233,7 @@ impl GpuShader {
             ..bytemuck::Zeroable::zeroed()
         };
         let tables = Tables2d { table2d, alpha: alpha_texture(ctx, &[0])?, params, extra_rows: Vec::new() };
-        GpuShader::assemble(ctx, METHOD_ATLAS2D, Method::Atlas2d, None, placeholder_3d(ctx)?, no_grid(), tables)
+        GpuShader::assemble(ctx, METHOD_ATLAS2D, Method::Atlas2d, None, placeholder_3d(ctx)?, TableGrid::none(), tables)
     }
 
     /// `biv-approx` (seed 004 §5): the F/B table as an Rgba32Float 2D
@@ -274,7 +265,15 @@ impl GpuShader {
             ..bytemuck::Zeroable::zeroed()
         };
         let tables = Tables2d { table2d, alpha: alpha_texture(ctx, &[0])?, params, extra_rows: rows };
-        GpuShader::assemble(ctx, METHOD_BIV_APPROX, Method::BivApprox, None, placeholder_3d(ctx)?, no_grid(), tables)
+        GpuShader::assemble(
+            ctx,
+            METHOD_BIV_APPROX,
+            Method::BivApprox,
+            None,
+            placeholder_3d(ctx)?,
+            TableGrid::none(),
+            tables,
+        )
     }
 
     /// The GPU form of a baked method ([`GPU_METHODS`]); the others
@@ -330,20 +329,7 @@ impl GpuShader {
         if segs.is_empty() {
             return Ok(Vec::new());
         }
-        let fr = FrameUniforms {
-            method: self.method(),
-            n_color_nodes: self.n_color,
-            n_opacity_nodes: self.n_opacity,
-            table_s_lo: self.table_params[0],
-            table_inv_ds: self.table_params[1],
-            table_inv_dl: self.table_params[2],
-            table_reach: self.table_params[3],
-            table_n_s: self.table_dims[0],
-            table_n_l: self.table_dims[1],
-            table_axis_segs: self.axis_segs,
-            table_optical_depth: self.optical_depth as u32,
-            ..bytemuck::Zeroable::zeroed()
-        };
+        let fr = self.frame_fields();
         let input: Vec<[f32; 4]> = segs
             .iter()
             .flat_map(|s| [[s.s_front, s.s_back, s.len_world, 0.0], [s.grad_front, s.grad_back, 0.0, 0.0]])

@@ -269,9 +269,16 @@ pub(crate) struct TableGrid {
     pub params: [f32; 4],
     pub dims: [u32; 2],
     pub axis: Vec<[f32; 4]>,
+    /// The lookup interpolates optical depth (`Reconstruction::OpticalDepth`).
+    pub optical_depth: bool,
 }
 
 impl TableGrid {
+    /// The grid of a shader without a table3d (fields no lookup reads).
+    pub fn none() -> TableGrid {
+        TableGrid { params: [0.0, 1.0, 1.0, 0.0], dims: [2, 2], axis: vec![], optical_depth: false }
+    }
+
     /// The same f64 → f32 steps as `Table3d::from_parts`, `Band::new` and
     /// the axis's knot intervals, so the grid coordinates agree with the
     /// CPU lookup (bit for bit on a uniform axis; on a non-uniform one up to
@@ -288,6 +295,7 @@ impl TableGrid {
                 params: [d.s_lo as f32, inv_ds, inv_dl, reach],
                 dims: [n_s as u32, n_l as u32],
                 axis: vec![],
+                optical_depth: false,
             };
         }
         let axis = knots
@@ -297,7 +305,12 @@ impl TableGrid {
                 [s0 as f32, s1 as f32, i0 as f32, ((i1 - i0) as f64 / (s1 - s0)) as f32]
             })
             .collect();
-        TableGrid { params: [d.s_lo as f32, inv_ds, inv_dl, d.max_ds as f32], dims: [n_s as u32, n_l as u32], axis }
+        TableGrid {
+            params: [d.s_lo as f32, inv_ds, inv_dl, d.max_ds as f32],
+            dims: [n_s as u32, n_l as u32],
+            axis,
+            optical_depth: false,
+        }
     }
 }
 
@@ -306,9 +319,7 @@ impl GpuShader {
     /// transfer function (κ mean, α = 1 − e^{−l·ρ̄}), interpolated towards
     /// the silhouette. Clipped tets are shaded per fragment.
     pub fn pt_linear(ctx: &GpuContext, tf: &TransferFunction) -> Result<GpuShader, GpuError> {
-        let dummy = table_texture(ctx, [1, 1, 1], &[[0.0; 4]])?;
-        let grid = TableGrid { params: [0.0, 1.0, 1.0, 0.0], dims: [2, 2], axis: vec![] };
-        GpuShader::with_table(ctx, METHOD_PT_LINEAR, Some(tf), dummy, grid)
+        GpuShader::with_table(ctx, METHOD_PT_LINEAR, Some(tf), placeholder_3d(ctx)?, TableGrid::none())
     }
 
     /// `table3d`: the band of the table expanded into a full
@@ -333,10 +344,9 @@ impl GpuShader {
             }
         });
         let tex = table_texture(ctx, [n_l as u32, n_s as u32, n_s as u32], &texels)?;
-        let grid = TableGrid::new(table.domain(), n_s, n_l, &table.s_knots(), table.is_uniform_axis());
-        let mut shader = GpuShader::with_table(ctx, METHOD_TABLE3D, None, tex, grid)?;
-        shader.optical_depth = table.reconstruction() == Reconstruction::OpticalDepth;
-        Ok(shader)
+        let mut grid = TableGrid::new(table.domain(), n_s, n_l, &table.s_knots(), table.is_uniform_axis());
+        grid.optical_depth = table.reconstruction() == Reconstruction::OpticalDepth;
+        GpuShader::with_table(ctx, METHOD_TABLE3D, None, tex, grid)
     }
 
     pub(crate) fn with_table(
@@ -407,7 +417,7 @@ impl GpuShader {
             table_params: grid.params,
             table_dims: grid.dims,
             axis_segs: grid.axis.len() as u32,
-            optical_depth: false,
+            optical_depth: grid.optical_depth,
             table2d: tables.table2d,
             alpha: tables.alpha,
             shade_buf,
@@ -426,6 +436,25 @@ impl GpuShader {
 
     pub(crate) fn method(&self) -> u32 {
         self.method
+    }
+
+    /// The frame uniforms this shader sets (method, TF rows, table3d grid
+    /// and lookup); the camera's fields are zero.
+    pub(crate) fn frame_fields(&self) -> FrameUniforms {
+        FrameUniforms {
+            method: self.method,
+            n_color_nodes: self.n_color,
+            n_opacity_nodes: self.n_opacity,
+            table_s_lo: self.table_params[0],
+            table_inv_ds: self.table_params[1],
+            table_inv_dl: self.table_params[2],
+            table_reach: self.table_params[3],
+            table_n_s: self.table_dims[0],
+            table_n_l: self.table_dims[1],
+            table_axis_segs: self.axis_segs,
+            table_optical_depth: self.optical_depth as u32,
+            ..bytemuck::Zeroable::zeroed()
+        }
     }
 }
 
@@ -451,6 +480,11 @@ pub(crate) fn check_table_dims(ctx: &GpuContext, n_s: usize, n_l: usize) -> Resu
         });
     }
     check_size("table3d as a full cube", (n_s * n_s * n_l * 16) as u64, 1 << 31)
+}
+
+/// A 1×1×1 table3d texture for shaders that read none.
+pub(crate) fn placeholder_3d(ctx: &GpuContext) -> Result<wgpu::Texture, GpuError> {
+    table_texture(ctx, [1, 1, 1], &[[0.0; 4]])
 }
 
 pub(crate) fn table_texture(ctx: &GpuContext, size: [u32; 3], texels: &[[f32; 4]]) -> Result<wgpu::Texture, GpuError> {
@@ -1251,13 +1285,7 @@ impl GpuRenderer {
             ctx.queue.submit([enc.finish()]);
         }
 
-        let order_buf = match compacted {
-            Some(b) => b,
-            None => match order {
-                GpuOrder::Given(_) => ws.order.get().clone(),
-                GpuOrder::GpuCentroid => ws.depth_vals[ws.sorted.as_ref().map(|s| s.2).unwrap_or(0)].get().clone(),
-            },
-        };
+        let order_buf = compacted.unwrap_or(source_order);
         let mut s0 = 0;
         while s0 < n {
             let m = chunk.min(n - s0);
@@ -1628,20 +1656,7 @@ fn frame_uniforms(camera: &Camera, centre: DVec3, n_slots: u32, shader: &GpuShad
         near_depth: if spec.parallel { 0.0 } else { camera.near_depth() as f32 },
         parallel: spec.parallel as u32,
         n_slots,
-        method: shader.method,
-        n_color_nodes: shader.n_color,
-        n_opacity_nodes: shader.n_opacity,
-        table_s_lo: shader.table_params[0],
-        table_inv_ds: shader.table_params[1],
-        table_inv_dl: shader.table_params[2],
-        table_reach: shader.table_params[3],
-        table_n_s: shader.table_dims[0],
-        table_n_l: shader.table_dims[1],
         groups_x,
-        table_axis_segs: shader.axis_segs,
-        table_optical_depth: shader.optical_depth as u32,
-        _pad0: 0,
-        _pad1: 0,
-        _pad2: 0,
+        ..shader.frame_fields()
     }
 }

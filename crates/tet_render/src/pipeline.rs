@@ -130,6 +130,12 @@ impl Renderer {
         self.shader = Some(shader);
     }
 
+    /// Drops the shader (and the renderer's reference to its tables, so
+    /// their owner can update them in place); rendering needs a new one.
+    pub fn clear_shader(&mut self) {
+        self.shader = None;
+    }
+
     /// Sets the culler of a new transfer function (`None`: draw every
     /// tet); the cull mask becomes stale, and so does a radix order.
     pub fn set_culler(&mut self, culler: Option<Arc<dyn CellCuller>>) {

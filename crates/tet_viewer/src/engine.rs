@@ -19,9 +19,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_gpu::{GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
-use tet_preint::{
-    BakeOptions, Baked, Method, PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction,
-};
+use tet_preint::{BakeOptions, Baked, Method, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
 use tet_render::cull::{cull, CullMask};
 use tet_render::{Camera, Display, Image, Renderer, Scene, TfCuller, ViewSpec};
 
@@ -221,15 +219,22 @@ impl Engine {
         Ok(table)
     }
 
+    /// The 2D methods need per-vertex gradients: computed once, on first use.
+    fn ensure_cpu_gradients(&mut self) -> Result<(), ViewerError> {
+        if self.cpu.scene().gradients().is_none() {
+            let scene = self.cpu.scene().clone().ensure_gradients()?;
+            self.cpu = Renderer::new(scene);
+            self.cpu_key = None;
+        }
+        Ok(())
+    }
+
     fn render_cpu(&mut self, req: &FrameRequest, backend: String) -> Result<Frame, ViewerError> {
         let start = Instant::now();
         let key = (req.tf_revision, req.method, req.table_n_s);
         let mut bake_seconds = 0.0;
-        if req.method.is_bivariate() && self.cpu.scene().gradients().is_none() {
-            // The 2D methods need per-vertex gradients: computed once, here.
-            let scene = self.cpu.scene().clone().ensure_gradients()?;
-            self.cpu = Renderer::new(scene);
-            self.cpu_key = None;
+        if req.method.is_bivariate() {
+            self.ensure_cpu_gradients()?;
         }
         let rebaked = self.cpu_key != Some(key);
         if rebaked {
@@ -237,9 +242,9 @@ impl Engine {
             let t = Instant::now();
             let shader: Arc<dyn SegmentShader> = if req.method == Method::Table3d && req.tf.widgets().is_empty() {
                 // Let go of the renderer's reference, so the held table can
-                // be re-baked in place (a placeholder costs nothing to make;
-                // a failed bake forgets the key, so it is never drawn).
-                self.cpu.set_shader(Arc::new(PtLinearShader::new((*req.tf).clone())));
+                // be re-baked in place (a failed bake forgets the key, so
+                // the renderer gets a shader before it draws again).
+                self.cpu.clear_shader();
                 self.cpu_key = None;
                 self.table3d(&req.tf, req.table_n_s)?
             } else {
@@ -281,11 +286,7 @@ impl Engine {
         if req.method.is_bivariate() && !self.gpu.as_ref().expect("checked by render").gradients {
             // |∇s| per vertex, computed on the CPU scene once (as the CPU
             // path does) and uploaded.
-            if self.cpu.scene().gradients().is_none() {
-                let scene = self.cpu.scene().clone().ensure_gradients()?;
-                self.cpu = Renderer::new(scene);
-                self.cpu_key = None;
-            }
+            self.ensure_cpu_gradients()?;
             let g = self.cpu.scene().gradient_magnitudes().expect("gradients ensured above").to_vec();
             let Gpu { ctx, scene, renderer, shader, order, .. } = self.gpu.take().expect("checked by render");
             let scene = scene.with_gradient_magnitudes(&ctx, &g)?;

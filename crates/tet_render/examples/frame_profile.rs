@@ -8,7 +8,10 @@
 //! The first frame is cold (view, cull, sort); the others reuse the order.
 //! `TET_TILE=16` sets the tile side; `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
 //! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
-//! frame (linear premultiplied RGBA) for `tetview diff`.
+//! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
+//! turns the camera D degrees of azimuth before every frame after the
+//! first (each frame a camera move: re-sorted and set up again);
+//! `TET_NO_KEEP=1` keeps no per-tet setup across frames.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -52,8 +55,18 @@ fn main() {
     r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     let fast_path = std::env::var("TET_GENERAL_PATH").is_err();
     let tile = std::env::var("TET_TILE").ok().and_then(|t| t.parse().ok()).unwrap_or(RasterOptions::default().tile);
-    r.set_raster_options(RasterOptions { fast_path, tile, ..Default::default() });
+    let keep = std::env::var("TET_NO_KEEP").is_err();
+    let orbit: f64 = std::env::var("TET_ORBIT").ok().and_then(|d| d.parse().ok()).unwrap_or(0.0);
+    let mut opts = RasterOptions { fast_path, tile, ..Default::default() };
+    if !keep {
+        opts.setup_cache_bytes = 0;
+    }
+    r.set_raster_options(opts);
     for f in 0..frames.max(1) {
+        if f > 0 && orbit != 0.0 {
+            let az_f = az + orbit * f as f64;
+            r.set_view(&ViewSpec::framing(lo, hi, size).orbit(az_f, el, 1.0)).expect("view");
+        }
         let c0 = process_cpu_seconds();
         let (img, st) = r.render(&|_, _| {}).expect("render");
         if f + 1 == frames.max(1) {

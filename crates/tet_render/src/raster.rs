@@ -91,7 +91,7 @@ pub fn rasterize(
 ) -> (Image, RasterStats) {
     let frame = &view.frame;
     if fast_path_applies(view, shader, opts) {
-        return rasterize_chunked(scene, view, order, None, shader, opts, None, progress);
+        return rasterize_chunked(scene, view, order, None, shader, opts, None, false, progress);
     }
     let (w, h) = (frame.width, frame.height);
     let tile = opts.tile.clamp(4, 1024);
@@ -297,7 +297,7 @@ pub fn fast_path_applies(view: &ViewGeometry, shader: &dyn SegmentShader, opts: 
 /// visibility order and `visible` the cull mask, if the order holds culled
 /// tets (they are neither set up nor drawn). When `cache` holds the setup of this view,
 /// order and mask (the caller clears it when one changes) nothing is set up
-/// again; when it is empty and the setup fits in
+/// again; when it is empty, `keep` is set and the setup fits in
 /// [`RasterOptions::setup_cache_bytes`], it is filled. Where the fast path
 /// does not apply, this is [`rasterize`] of the visible tets.
 #[allow(clippy::too_many_arguments)]
@@ -309,6 +309,7 @@ pub fn rasterize_cached(
     shader: &dyn SegmentShader,
     opts: &RasterOptions,
     cache: &mut Option<PreparedFrame>,
+    keep: bool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Image, RasterStats) {
     if !fast_path_applies(view, shader, opts) {
@@ -320,7 +321,7 @@ pub fn rasterize_cached(
             None => rasterize(scene, view, order, shader, opts, progress),
         };
     }
-    rasterize_chunked(scene, view, order, visible, shader, opts, Some(cache), progress)
+    rasterize_chunked(scene, view, order, visible, shader, opts, Some(cache), keep, progress)
 }
 
 /// [`rasterize`]'s fast path: the order in chunks; each chunk's tets set up
@@ -337,6 +338,7 @@ fn rasterize_chunked(
     shader: &dyn SegmentShader,
     opts: &RasterOptions,
     mut cache: Option<&mut Option<PreparedFrame>>,
+    keep: bool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Image, RasterStats) {
     let frame = &view.frame;
@@ -383,8 +385,10 @@ fn rasterize_chunked(
     let fill = match cache.as_deref_mut() {
         Some(slot) if !reuse => {
             *slot = None;
-            let drawn = visible.map_or(order.len(), |v| order.iter().filter(|&&t| v[t as usize]).count());
-            drawn.saturating_mul(std::mem::size_of::<Rec>() + 16) <= opts.setup_cache_bytes
+            keep && {
+                let drawn = visible.map_or(order.len(), |v| order.iter().filter(|&&t| v[t as usize]).count());
+                drawn.saturating_mul(std::mem::size_of::<Rec>() + 16) <= opts.setup_cache_bytes
+            }
         }
         _ => false,
     };

@@ -74,8 +74,14 @@ fn each_change_recomputes_only_what_it_invalidates() {
     assert!(st.recomputed_view && st.recomputed_cull && st.recomputed_order);
     assert_eq!(st.sort_method, "mpvo");
     assert!(!st.reused_setup && st.setups > 0);
-    // Same view again: nothing recomputed, not even the per-tet setup.
+    // A view's first frame keeps no per-tet setup (a moving camera would
+    // only pay for it); its second keeps it, the third reuses it.
+    assert_eq!(r.setup_bytes(), 0);
     r.set_view(&view()).unwrap();
+    let (_, st) = r.render(&|_, _| {}).unwrap();
+    assert!(!st.recomputed_view && !st.recomputed_cull && !st.recomputed_order);
+    assert!(!st.reused_setup && st.setups > 0 && r.setup_bytes() > 0);
+    // Same view again: nothing recomputed, not even the per-tet setup.
     let (_, st) = r.render(&|_, _| {}).unwrap();
     assert!(!st.recomputed_view && !st.recomputed_cull && !st.recomputed_order);
     assert!(st.reused_setup && st.setups == 0);
@@ -92,6 +98,7 @@ fn each_change_recomputes_only_what_it_invalidates() {
     r.set_view(&view().orbit(10.0, 0.0, 1.0)).unwrap();
     let (_, st) = r.render(&|_, _| {}).unwrap();
     assert!(st.recomputed_view && !st.recomputed_cull && st.recomputed_order && !st.reused_setup);
+    assert_eq!(r.setup_bytes(), 0, "a moved camera's first frame keeps nothing");
     // New raster options: the setup again.
     r.set_raster_options(RasterOptions { tile: 8, ..Default::default() });
     let (_, st) = r.render(&|_, _| {}).unwrap();

@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build test test-gpu gpu-driver viewer-deps demo golden bench fuzz fuzz-build fmt lint clean
+.PHONY: all build test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -75,6 +75,13 @@ bench:
 	$(CARGO) bench -p tetkit --bench convert
 	$(CARGO) bench -p tet_delaunay --bench delaunay
 	$(CARGO) bench -p tet_analysis --bench analysis
+
+## The GPU examples crates/tet_gpu/results/device.sh runs on a lent GPU machine (which has
+## no toolchain): release builds, stripped, in target/device (carry that folder).
+device-bin:
+	$(CARGO) build --release -p tet_gpu --example gpu_render --example gpu_bake
+	mkdir -p target/device
+	for e in gpu_render gpu_bake; do strip -o target/device/$$e target/release/examples/$$e; done
 
 ## Build the fuzz targets (plain, uninstrumented: checks they compile).
 fuzz-build:

@@ -37,6 +37,19 @@ impl Canvas {
         [self.px[i], self.px[i + 1], self.px[i + 2]]
     }
 
+    /// `self` above `below` on one white canvas as wide as the wider.
+    pub fn above(&self, below: &Canvas) -> Canvas {
+        let mut c = Canvas::new(self.w.max(below.w), self.h + below.h);
+        for (img, y0) in [(self, 0), (below, self.h)] {
+            for y in 0..img.h {
+                for x in 0..img.w {
+                    c.set(x, y0 + y, img.get(x, y));
+                }
+            }
+        }
+        c
+    }
+
     pub fn rect(&mut self, x0: usize, y0: usize, w: usize, h: usize, c: Rgb) {
         for y in y0..(y0 + h).min(self.h) {
             for x in x0..(x0 + w).min(self.w) {
@@ -136,5 +149,23 @@ impl Canvas {
     pub fn write_png(&self, path: &Path) -> Result<(), PlotError> {
         let bytes = self.to_png()?;
         std::fs::write(path, bytes).map_err(|source| PlotError::Io { source, path: path.to_path_buf() })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn above_stacks_and_pads_with_white() {
+        let mut a = Canvas::new(3, 2);
+        a.set(2, 1, BLACK);
+        let mut b = Canvas::new(5, 1);
+        b.set(4, 0, GREY);
+        let c = a.above(&b);
+        assert_eq!((c.w, c.h), (5, 3));
+        assert_eq!(c.get(2, 1), BLACK);
+        assert_eq!(c.get(4, 2), GREY);
+        assert_eq!(c.get(4, 0), WHITE, "right of the narrower canvas");
     }
 }

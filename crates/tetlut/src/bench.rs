@@ -16,7 +16,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use rayon::prelude::*;
 use serde_json::json;
-use tet_plot::{Canvas, Point, ScatterPlot, Series};
+use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::bivariate::{reference_segment, Seg2};
 use tet_preint::{
     integrate_segment_with, uniform_triples, BakeOptions, Baked, Method, Reconstruction, Segment, TableDomain,
@@ -462,21 +462,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             pareto: true,
         }
         .draw(1000, 520);
-        stack(&a, &b).write_png(path).map_err(anyhow::Error::new).code(OUTPUT)?;
+        a.above(&b).write_png(path).map_err(anyhow::Error::new).code(OUTPUT)?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
-}
-
-/// `a` above `b`.
-fn stack(a: &Canvas, b: &Canvas) -> Canvas {
-    let mut c = Canvas::new(a.w.max(b.w), a.h + b.h);
-    for (img, y0) in [(a, 0), (b, a.h)] {
-        for y in 0..img.h {
-            for x in 0..img.w {
-                c.set(x, y0 + y, img.get(x, y));
-            }
-        }
-    }
-    c
 }

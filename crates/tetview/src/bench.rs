@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
-use tet_plot::{Canvas, Point, ScatterPlot, Series};
+use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::{Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{
     diff, Camera, Image, ReferenceOptions, ReferenceRenderer, Renderer, Scene, SortMethod, TfCuller, ViewSpec,
@@ -409,23 +409,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         };
         let a = plot("image RMSE against frame time", "RMSE, linear RGBA", &|r| r.rmse());
         let b = plot("largest image error against frame time", "max abs error, linear RGBA", &|r| r.max_abs());
-        stack(&a, &b).write_png(path).with_context(|| format!("writing {}", path.display()))?;
+        a.above(&b).write_png(path).with_context(|| format!("writing {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
-}
-
-/// `a` above `b`.
-fn stack(a: &Canvas, b: &Canvas) -> Canvas {
-    let mut c = Canvas::new(a.w.max(b.w), a.h + b.h);
-    for (img, y0) in [(a, 0), (b, a.h)] {
-        for y in 0..img.h {
-            for x in 0..img.w {
-                c.set(x, y0 + y, img.get(x, y));
-            }
-        }
-    }
-    c
 }
 
 #[cfg(test)]

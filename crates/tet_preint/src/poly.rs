@@ -694,6 +694,15 @@ impl PolyTable {
         let j0 = (v as usize).min(self.res - 2);
         let (fu, fv) = (u - i0 as f32, v - j0 as f32);
         let w = [(1.0 - fu) * (1.0 - fv), fu * (1.0 - fv), (1.0 - fu) * fv, fu * fv];
+        self.shade_cell(l, i0, j0, w, (l * self.inv_l_max).min(1.0))
+    }
+
+    /// The lookup's body once the cell is located: entries (i0, j0) to
+    /// (i0 + 1, j0 + 1) with bilinear weights `w` (that order), length
+    /// `l` > 0 and t = min(l / l_max, 1). [`PolyTable::lookup`] and the
+    /// lane-wise `shade_batch` both end here, so they agree bit for bit.
+    #[inline(always)]
+    fn shade_cell(&self, l: f32, i0: usize, j0: usize, w: [f32; 4], t: f32) -> Rgba32 {
         let e = [self.entry(i0, j0), self.entry(i0 + 1, j0), self.entry(i0, j0 + 1), self.entry(i0 + 1, j0 + 1)];
         let mut rho_hat = 0.0;
         for k in 0..4 {
@@ -701,18 +710,17 @@ impl PolyTable {
         }
         let x = l * rho_hat;
         let alpha = self.alpha.alpha(x);
-        let t = (l * self.inv_l_max).min(1.0);
         let stride = 3 * (self.degree + 1);
-        let mut chat = [0.0f32; 3];
+        // Per channel Σ_r t^r Σ_k w_k·coef (Vec4 lanes are the channels).
+        let mut chat = Vec4::ZERO;
         let mut tp = 1.0f32;
         for r in 0..=self.degree {
-            for (c, ch) in chat.iter_mut().enumerate() {
-                let mut v = 0.0;
-                for k in 0..4 {
-                    v += w[k] * self.coef[e[k] * stride + r * 3 + c];
-                }
-                *ch += tp * v;
+            let mut v = Vec4::ZERO;
+            for k in 0..4 {
+                let c = &self.coef[e[k] * stride + r * 3..e[k] * stride + r * 3 + 3];
+                v += Vec4::new(c[0], c[1], c[2], 0.0) * w[k];
             }
+            chat += v * tp;
             tp *= t;
         }
         let (weight, bound) = match self.emission {
@@ -722,6 +730,7 @@ impl PolyTable {
                 (beta, l)
             }
         };
+        let chat = chat.to_array();
         let mut out = [0.0f32, 0.0, 0.0, alpha];
         for c in 0..3 {
             out[c] = (weight * chat[c]).max(0.0).min(bound * self.max_color[c]);
@@ -749,7 +758,6 @@ impl SegmentShader for PolyTable {
     fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; BATCH]) {
         const W: usize = 8;
         let n = segs.len.min(BATCH);
-        let stride = 3 * (self.degree + 1);
         let (top, top_i) = (f32x8::splat((self.res - 1) as f32), f32x8::splat((self.res - 2) as f32));
         let (lo, inv) = (f32x8::splat(self.s_lo), f32x8::splat(self.inv_ds));
         let (zero, one) = (f32x8::ZERO, f32x8::ONE);
@@ -775,39 +783,8 @@ impl SegmentShader for PolyTable {
                     *o = [0.0; 4];
                     continue;
                 }
-                let (i0, j0) = (i0[lane] as usize, j0[lane] as usize);
-                let e =
-                    [self.entry(i0, j0), self.entry(i0 + 1, j0), self.entry(i0, j0 + 1), self.entry(i0 + 1, j0 + 1)];
                 let wk = [w[0][lane], w[1][lane], w[2][lane], w[3][lane]];
-                let mut rho_hat = 0.0;
-                for k in 0..4 {
-                    rho_hat += wk[k] * self.rho[e[k]];
-                }
-                let x = l * rho_hat;
-                let alpha = self.alpha.alpha(x);
-                let mut chat = Vec4::ZERO;
-                let mut tp = 1.0f32;
-                for r in 0..=self.degree {
-                    let mut v = Vec4::ZERO;
-                    for k in 0..4 {
-                        let c = &self.coef[e[k] * stride + r * 3..e[k] * stride + r * 3 + 3];
-                        v += Vec4::new(c[0], c[1], c[2], 0.0) * wk[k];
-                    }
-                    chat += v * tp;
-                    tp *= t[lane];
-                }
-                let (weight, bound) = match self.emission {
-                    Emission::Density => (alpha, alpha),
-                    Emission::Independent => {
-                        let beta = if x > 1e-4 { -(-x).exp_m1() / rho_hat } else { l * (1.0 - 0.5 * x) };
-                        (beta, l)
-                    }
-                };
-                let chat = chat.to_array();
-                *o = [0.0, 0.0, 0.0, alpha];
-                for c in 0..3 {
-                    o[c] = (weight * chat[c]).max(0.0).min(bound * self.max_color[c]);
-                }
+                *o = self.shade_cell(l, i0[lane] as usize, j0[lane] as usize, wk, t[lane]);
             }
         }
     }

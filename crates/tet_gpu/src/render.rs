@@ -5,8 +5,8 @@
 use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
 use crate::cull::{CullBuffers, CullPipelines};
 use crate::gpu_types::{
-    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_APPROX, METHOD_PT_LINEAR,
-    METHOD_TABLE3D, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
+    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_PT_LINEAR, METHOD_TABLE3D, RADIX_BLOCK,
+    SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
 use crate::gpusort::SortPipelines;
 use crate::methods::Tables2d;
@@ -1104,7 +1104,7 @@ impl GpuRenderer {
                 return Err(GpuError::Input("the GpuCull was built for another scene".into()));
             }
         }
-        if shader.method() == METHOD_BIV_APPROX && scene.gmags.is_none() {
+        if shader.is_bivariate() && scene.gmags.is_none() {
             return Err(GpuError::Input(format!(
                 "{} needs per-vertex gradient magnitudes: GpuScene::with_gradient_magnitudes",
                 shader.method_id()
@@ -1240,7 +1240,7 @@ impl GpuRenderer {
         let chunk = cap.min(n.max(1));
         stats.buffers_grown += ws.geoms.ensure(ctx, chunk as u64 * 64, limit)? as usize;
         stats.buffers_grown += ws.shades.ensure(ctx, chunk as u64 * 112, limit)? as usize;
-        let bivariate = shader.method() == METHOD_BIV_APPROX;
+        let bivariate = shader.is_bivariate();
         stats.buffers_grown += ws.gshades.ensure(ctx, if bivariate { chunk as u64 * 32 } else { 16 }, limit)? as usize;
         let compute = stats.raster_path == RasterPath::Compute && n > 0;
         let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));

@@ -44,8 +44,8 @@
 //   rasterizer's own loop. On a GPU the budget only caps a pixel's cost.
 //   When the budget runs out, the piece at hand runs to x = 1 (depths stay
 //   exact for the widgets, the 1D part is taken as linear between its
-//   ends) and any colour not yet integrated is one panel with E and ρ frozen
-//   at its middle; later segments are one such piece each. A panel is
+//   ends) and any colour not yet integrated is one span with frozen
+//   coefficients (`biv_frozen`); later segments are one such piece each. A panel is
 //   halved at most BIV_MAX_HALVINGS times (then the same frozen panel:
 //   exact in the limit of an opaque start), and nothing is integrated past
 //   optical depth BIV_DEPTH_CUTOFF (T < 2e-9: α rounds to 1 in f32, and what
@@ -326,27 +326,6 @@ fn biv_depth(b: BivSeg, pc: BivPiece, xa: f32, xb: f32) -> f32 {
     return d;
 }
 
-// The emission term E(x) of dC = E·T dt inside the piece
-// (TransferFunction::emission2): κ₁D ρ₁D + Σ c_w ρ_w m_w (density) or
-// κ₁D + Σ c_w (independent), over the widgets whose support holds the piece.
-fn biv_emission(b: BivSeg, pc: BivPiece, x: f32) -> vec3<f32> {
-    let one = biv_one_d(pc, x);
-    let independent = shp.independent != 0u;
-    var em = select(one.xyz * one.w, one.xyz, independent);
-    for (var w = 0u; w < shp.n_widgets; w++) {
-        if !widget_contains(w, pc.sm, pc.gm) {
-            continue;
-        }
-        let c = widget_row(w, 1u);
-        if independent {
-            em += c.xyz;
-        } else if c.w > 0.0 {
-            em += c.xyz * (c.w * biv_shape_at(b, w, x));
-        }
-    }
-    return em;
-}
-
 // One quadrature node x of a panel starting at a: E(x) (xyz) and
 // ∫_a^x ρ dx per unit length (w), in one pass over the widgets.
 fn biv_node(b: BivSeg, pc: BivPiece, a: f32, x: f32) -> vec4<f32> {
@@ -378,19 +357,47 @@ fn biv_node_term(b: BivSeg, pc: BivPiece, a: f32, x: f32, weight: f32) -> vec3<f
     return (weight * exp(-b.len_world * n.w)) * n.xyz;
 }
 
-// ∫_{xa}^{xb} E·T l dx with E and ρ frozen at the middle (T from 1 at xa):
-// E·Δx·(1 − e^{−D})/r with r = ∫ρ dx and D = l·r. Used where a panel
-// cannot be resolved (the halving or panel budget is spent): exact in the
-// limit of an opaque start (C → κ for density emission, E/ρ independent).
+// ∫_{xa}^{xb} E·T l dx (T from 1 at xa) with the coefficients frozen,
+// used where a panel cannot be resolved (the halving or work budget is
+// spent), in one pass over the widgets. Density emission: C = κ̄·(1 − e^{−D})
+// with κ̄ the depth-weighted mean colour of the parts (exact when one part
+// carries the span or the colours agree; never above the largest colour).
+// Independent emission: E at the middle, ρ uniform: C = E·Δx·(1 − e^{−D})/r
+// with r = ∫ρ dx, D = l·r (exact for constant E and ρ; → E/ρ behind an
+// opaque start).
 fn biv_frozen(b: BivSeg, pc: BivPiece, xa: f32, xb: f32) -> vec3<f32> {
-    let r = biv_depth(b, pc, xa, xb);
-    let d = b.len_world * r;
-    let e = biv_emission(b, pc, 0.5 * (xa + xb));
     let dx = xb - xa;
-    if d > 1.0e-6 {
-        return e * (dx * one_minus_exp(d) / r);
+    if !(dx > 0.0) {
+        return vec3<f32>(0.0);
     }
-    return e * (dx * b.len_world * (1.0 - 0.5 * d));
+    let one = biv_one_d(pc, xa + 0.5 * dx);
+    let r_one = 0.5 * (biv_one_d(pc, xa).w + biv_one_d(pc, xb).w) * dx;
+    var r = r_one;
+    var weighted = one.xyz * r_one;
+    var em = one.xyz;
+    for (var w = 0u; w < shp.n_widgets; w++) {
+        if !widget_contains(w, pc.sm, pc.gm) {
+            continue;
+        }
+        let c = widget_row(w, 1u);
+        em += c.xyz;
+        if c.w > 0.0 {
+            let rw = c.w * biv_shape_integral(b, w, xa, xb);
+            r += rw;
+            weighted += c.xyz * rw;
+        }
+    }
+    let d = b.len_world * r;
+    if shp.independent == 0u {
+        if !(r > 0.0) {
+            return vec3<f32>(0.0);
+        }
+        return weighted * (one_minus_exp(d) / r);
+    }
+    if d > 1.0e-6 {
+        return em * (dx * one_minus_exp(d) / r);
+    }
+    return em * (dx * b.len_world * (1.0 - 0.5 * d));
 }
 
 // C = ∫ E·T l dx over the piece by 8-point Gauss–Legendre panels, T from
@@ -411,10 +418,10 @@ fn biv_quadrature(b: BivSeg, pc: BivPiece, h_max: f32, depth_left: f32) -> vec3<
             break;
         }
         // A panel costs at most its loop pass, the first depth, the halvings
-        // and the 8 nodes (or a frozen panel's 2 passes).
+        // and the 8 nodes (or a frozen panel's pass).
         if biv_work + (BIV_MAX_HALVINGS + 10u) * cost_w + 1u > BIV_MAX_WORK {
             out += exp(-before) * biv_frozen(b, pc, a, pc.x1);
-            biv_work += 2u * cost_w;
+            biv_work += cost_w;
             break;
         }
         biv_work += cost_w + 1u;
@@ -431,7 +438,7 @@ fn biv_quadrature(b: BivSeg, pc: BivPiece, h_max: f32, depth_left: f32) -> vec3<
         let t_before = exp(-before);
         if pd > BIV_PANEL_DEPTH {
             out += t_before * biv_frozen(b, pc, a, a + h);
-            biv_work += 2u * cost_w;
+            biv_work += cost_w;
         } else {
             let mid = a + 0.5 * h;
             let hh = 0.5 * h;
@@ -628,7 +635,7 @@ fn biv_exact(seg: Seg) -> vec4<f32> {
             pcol = widget_row(last, 1u).xyz * alpha;
         } else if (independent || one_d || n_opaque > 0u) && last_piece {
             pcol = biv_frozen(b, pc, x, x1);
-            biv_work += 2u * cost_w;
+            biv_work += cost_w;
         } else if independent || one_d || n_opaque > 0u {
             pcol = biv_quadrature(b, pc, h_max, BIV_DEPTH_CUTOFF - depth);
         }

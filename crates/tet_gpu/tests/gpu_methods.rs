@@ -667,6 +667,70 @@ fn biv_exact_matches_the_cpu() {
     assert!(err.to_string().contains("gradient magnitudes"), "{err}");
 }
 
+/// biv-exact's work budget (biv_exact.wgsl's BIV_MAX_WORK): segments with
+/// more pieces than the budget pays for — eight unclipped sine bands, each
+/// split at its ~60 half-period crossings — end in one piece with frozen
+/// coefficients: α stays exact (the bands' depths are closed forms over any
+/// interval), C is finite and within the emission's bound, and the probe
+/// returns (no fragment loops without bound).
+#[test]
+fn biv_exact_work_is_bounded() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(2);
+    let widgets: Vec<String> = (0..8)
+        .map(|i| {
+            format!(
+                r#"{{"type": "sine", "frequency": {}, "phase": {}, "color": [{}, 0.5, {}], "opacity": {}}}"#,
+                29.0 + 1.3 * i as f64,
+                0.1 * i as f64,
+                0.1 * i as f64,
+                1.0 - 0.1 * i as f64,
+                0.5 + 0.25 * i as f64
+            )
+        })
+        .collect();
+    let mut rng = tet_mesh::SplitMix64(0xb0d);
+    let segs: Vec<Segment> = (0..256)
+        .map(|_| Segment {
+            s_front: rng.next_f64() as f32 * 0.1,
+            s_back: 0.9 + rng.next_f64() as f32 * 0.1,
+            grad_front: rng.next_f64() as f32 * 4.0,
+            grad_back: rng.next_f64() as f32 * 4.0,
+            len_world: 0.05 + rng.next_f64() as f32,
+        })
+        .collect();
+    for emission in ["density", "independent"] {
+        let tf = TransferFunction::from_json(&format!(
+            r#"{{"color": [[0, 0.3, 0.6, 0.9]], "opacity": [[0, 0], [1, 0]], "unit_distance": 1,
+                "emission": "{emission}", "widgets": [{}]}}"#,
+            widgets.join(", ")
+        ))
+        .unwrap();
+        let baked = bake(Method::BivExact, &tf, &mesh);
+        let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
+        let start = std::time::Instant::now();
+        let got = shader.probe_segments(&ctx, &segs).unwrap();
+        let gpu_s = start.elapsed().as_secs_f64();
+        let cpu = baked.shader();
+        // Every colour channel of every part is ≤ 1: density emission's C ≤ α
+        // per channel of the largest sum, independent emission's C ≤ l·Σ.
+        let parts = 1.0 + tf.widgets().len() as f32;
+        let mut worst_alpha = 0.0f32;
+        for (seg, g) in segs.iter().zip(&got) {
+            let want = cpu.shade(seg);
+            assert!(g.iter().all(|v| v.is_finite() && *v >= 0.0), "{emission} {seg:?}: {g:?}");
+            let bound = if emission == "density" { g[3] } else { seg.len_world * parts };
+            assert!(g[..3].iter().all(|&c| c <= bound * 1.0001), "{emission} {seg:?}: {g:?} above {bound}");
+            worst_alpha = worst_alpha.max((g[3] - want[3]).abs());
+        }
+        eprintln!(
+            "biv-exact over budget ({emission}): α max |Δ| {worst_alpha:.3e} ({} segments, {gpu_s:.2} s)",
+            segs.len()
+        );
+        assert!(worst_alpha <= 1e-4, "{emission}: {worst_alpha}");
+    }
+}
+
 #[test]
 fn unsupported_inputs_are_errors() {
     let Some(ctx) = gpu() else { return };

@@ -41,7 +41,10 @@
 //   have run in all its loops together (gallivm's
 //   LP_MAX_TGSI_LOOP_ITERATIONS), and the 8 lanes of its SIMD vector share
 //   that count, so 8 × BIV_MAX_WORK must stay below it with room for the
-//   rasterizer's own loop. On a GPU the budget only caps a pixel's cost.
+//   rasterizer's own loop (a compute-raster tile's loop over its tets
+//   would not leave that room at scale: on llvmpipe the renderer sends
+//   biv-exact to the graphics rasterizer, GpuContext::limits_loop_iterations).
+//   On a GPU the budget only caps a pixel's cost.
 //   When the budget runs out, the piece at hand runs to x = 1 (depths stay
 //   exact for the widgets, the 1D part is taken as linear between its
 //   ends) and any colour not yet integrated is one span with frozen

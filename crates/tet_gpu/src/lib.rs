@@ -193,6 +193,17 @@ impl GpuContext {
         )
     }
 
+    /// Whether the adapter is llvmpipe (Mesa's lavapipe), whose compiled
+    /// shaders end every loop once 65 535 iterations have run in all the
+    /// loops of one invocation together (gallivm's
+    /// LP_MAX_TGSI_LOOP_ITERATIONS): the compute rasterizer's per-pixel loop
+    /// over a tile's tets would share that count with biv-exact's per-fragment
+    /// integration, so biv-exact takes the graphics rasterizer there.
+    pub(crate) fn limits_loop_iterations(&self) -> bool {
+        self.info.driver.to_ascii_lowercase().contains("llvmpipe")
+            || self.info.name.to_ascii_lowercase().contains("llvmpipe")
+    }
+
     pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
         &self.info
     }

@@ -5,8 +5,8 @@
 use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
 use crate::cull::{CullBuffers, CullPipelines};
 use crate::gpu_types::{
-    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_PT_LINEAR, METHOD_TABLE3D, RADIX_BLOCK,
-    SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
+    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_EXACT, METHOD_PT_LINEAR,
+    METHOD_TABLE3D, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
 use crate::gpusort::SortPipelines;
 use crate::methods::Tables2d;
@@ -522,7 +522,9 @@ pub enum RasterPath {
     /// in visibility order (prefix sums and a stable radix sort), one
     /// workgroup per tile compositing front to back per pixel with early
     /// termination. Needs the image (16 bytes a pixel) within one storage
-    /// binding; larger images fall back to [`RasterPath::Graphics`].
+    /// binding; larger images fall back to [`RasterPath::Graphics`], and so
+    /// does biv-exact on llvmpipe (its loop-iteration limit, see
+    /// `GpuContext::limits_loop_iterations`).
     #[default]
     Compute,
     /// The hardware rasterizer: a fan of 3 or 4 triangles per tet, "under"
@@ -1138,6 +1140,13 @@ impl GpuRenderer {
         let mut stats = GpuRenderStats { raster_path: raster, ..Default::default() };
         let pixels_bytes = w as u64 * h as u64 * 16;
         if raster == RasterPath::Compute && pixels_bytes > limit {
+            stats.raster_path = RasterPath::Graphics;
+        }
+        if raster == RasterPath::Compute && shader.method() == METHOD_BIV_EXACT && ctx.limits_loop_iterations() {
+            // A tile's composite loop and every fragment's integration would
+            // share llvmpipe's 65 535 loop iterations (see
+            // GpuContext::limits_loop_iterations): its pixels would come out
+            // wrong past ~10⁵ tets; each graphics fragment gets its own count.
             stats.raster_path = RasterPath::Graphics;
         }
         if ws.hdr.as_ref().is_none_or(|t| t.width() != w || t.height() != h) {

@@ -28,12 +28,14 @@
 //!     magnitudes on the scene ([`GpuScene::with_gradient_magnitudes`]);
 //!   - `biv-exact`: no table; the same TF rows as biv-approx, and per
 //!     fragment `BivExact`'s scheme in f32 (shaders/biv_exact.wgsl): the
-//!     segment cut at every breakpoint (found one at a time, at most 1024
-//!     pieces), each piece's optical depth in closed form (erfcx for
-//!     Gaussians), its colour c·α where one widget carries it under density
-//!     emission, else by 8-point Gauss–Legendre panels with the closed-form
-//!     transmittance (also for the pieces the CPU takes from seed 004's
-//!     emission-only tables); bounded work per fragment.
+//!     segment cut at every breakpoint (found one at a time), each piece's
+//!     optical depth in closed form (erfcx for Gaussians), its colour c·α
+//!     where one widget carries it under density emission, else by 8-point
+//!     Gauss–Legendre panels with the closed-form transmittance (also for
+//!     the pieces the CPU takes from seed 004's emission-only tables); a
+//!     budget of loop iterations per invocation bounds the work (past it:
+//!     exact α, approximate colour). On llvmpipe it always runs the graphics
+//!     rasterizer (that driver's shared loop-iteration limit).
 //!
 //!   Every lookup reads texels and interpolates with the CPU's weights and
 //!   clamps, so the GPU agrees with the CPU shader to f32 rounding (biv-exact,

@@ -609,7 +609,7 @@ fn biv_exact_matches_the_cpu() {
                     }
                 }
                 let finite = [seg.s_front, seg.s_back, seg.grad_front, seg.grad_back].iter().all(|v| v.is_finite());
-                if !finite || !(seg.len_world > 0.0) {
+                if !finite || seg.len_world.is_nan() || seg.len_world <= 0.0 {
                     assert_eq!(*g, [0.0; 4], "{name} {emission} {seg:?}");
                 }
             }

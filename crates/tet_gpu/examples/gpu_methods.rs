@@ -4,11 +4,13 @@
 //! `GpuCull` compaction on the GPU): for every method `GpuShader::from_baked`
 //! accepts, the CPU bake and upload times, GPU frame times by stage (mean
 //! of the frames after the first), one CPU frame, the culled fraction and
-//! the GPU-vs-CPU image difference. biv-approx runs twice: with the 1D TF
-//! and with two 2D widgets added (per-vertex |∇s| from tet_render).
+//! the GPU-vs-CPU image difference. biv-exact and biv-approx run twice: with
+//! the 1D TF and with two 2D widgets added (per-vertex |∇s| from tet_render).
 //!
-//! cargo run --release -p tet_gpu --example gpu_methods -- [CELLS] [SIZE] [FRAMES] [compute|graphics]
-//! (default 30 256 3 compute: 135 000 tets at 256², the compute rasterizer).
+//! cargo run --release -p tet_gpu --example gpu_methods -- [CELLS] [SIZE] [FRAMES] [compute|graphics] [ROWS]
+//! (default 30 256 3 compute: 135 000 tets at 256², the compute rasterizer;
+//! ROWS: comma-separated row names to run, e.g. `biv-exact,biv-exact+2 widgets`,
+//! default every row).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -78,6 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let size: u32 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(256);
     let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(3).max(2);
     let raster: RasterPath = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or_default();
+    let rows: Option<Vec<String>> = args.get(5).map(|s| s.split(',').map(str::to_string).collect());
 
     let ctx = GpuContext::new_headless()?;
     println!("adapter: {}", ctx.describe());
@@ -124,11 +127,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "method                bake_s  upload_s  gpu_frame_s  cull_s   classify_s  bin_s   raster_s  culled   cpu_frame_s  mean|Δ|/255  max|Δ|/255"
     );
-    let runs = GPU_METHODS.iter().map(|&m| (m, &tf, m.id().to_string())).chain([(
-        tet_preint::Method::BivApprox,
-        &widgets_tf,
-        "biv-approx+2 widgets".to_string(),
-    )]);
+    let runs = GPU_METHODS
+        .iter()
+        .map(|&m| (m, &tf, m.id().to_string()))
+        .chain([
+            (tet_preint::Method::BivExact, &widgets_tf, "biv-exact+2 widgets".to_string()),
+            (tet_preint::Method::BivApprox, &widgets_tf, "biv-approx+2 widgets".to_string()),
+        ])
+        .filter(|(_, _, name)| rows.as_ref().is_none_or(|r| r.contains(name)));
     for (method, tf, name) in runs {
         let gcull = GpuCull::new(&ctx, &scene, tf)?;
         cpu.set_culler(Some(Arc::new(TfCuller::new(tf))));

@@ -237,7 +237,7 @@ fn classify(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     sh.s_a.w = min(min(s[0], s[1]), min(s[2], s[3]));
     sh.s_b.w = max(max(s[0], s[1]), max(s[2], s[3]));
-    if fr.method == METHOD_BIV_APPROX {
+    if fr.method == METHOD_BIV_APPROX || fr.method == METHOD_BIV_EXACT {
         // The gradient magnitude as the same kind of linear field.
         var gv: array<f32, 4>;
         for (var k = 0u; k < 4u; k++) {

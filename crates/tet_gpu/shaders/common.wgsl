@@ -52,6 +52,7 @@ const METHOD_POLY: u32 = 2u;
 const METHOD_PARTIAL: u32 = 3u;
 const METHOD_ATLAS2D: u32 = 4u;
 const METHOD_BIV_APPROX: u32 = 5u;
+const METHOD_BIV_EXACT: u32 = 6u;
 const GEOM_NONE: u32 = 0u;
 const GEOM_THICK: u32 = 1u;
 const GEOM_CLIPPED: u32 = 2u;

@@ -467,7 +467,8 @@ override SHADE_METHOD: u32 = 1u;
 // ---- biv-approx (seed 004 §5): 2D widgets, the F/B table ------------------
 
 // Widget w's rows after the TF rows: (shape parameters), (colour, ρ_w =
-// opacity / unit distance), (support s0, s1, g0, g1), (kind, 0, 0, 0).
+// opacity / unit distance), (support s0, s1, g0, g1), (kind, bands: f_hi,
+// f_lo, φ mod 1 — read by biv_exact.wgsl's `biv_band_v0`).
 const WIDGET_BOX: u32 = 0u;
 const WIDGET_GAUSSIAN: u32 = 1u;
 const WIDGET_TRIANGLE: u32 = 2u;
@@ -612,6 +613,9 @@ fn shade_segment(fr: Frame, seg: Seg) -> vec4<f32> {
         case METHOD_BIV_APPROX: {
             return biv_approx(seg);
         }
+        case METHOD_BIV_EXACT: {
+            return biv_exact(seg);
+        }
         default: {
             return shade_pt_linear(fr, seg);
         }
@@ -647,7 +651,7 @@ fn fragment_color(fr: Frame, mode: u32, thick_rgba: vec4<f32>, tent: f32, slot: 
     if !seg.ok {
         return out;
     }
-    if SHADE_METHOD == METHOD_BIV_APPROX {
+    if SHADE_METHOD == METHOD_BIV_APPROX || SHADE_METHOD == METHOD_BIV_EXACT {
         // The gradient magnitude's field at the entry and exit depths,
         // clamped to the tet's vertex range (TetSetup::fragment).
         let ga = gshades[2u * slot];

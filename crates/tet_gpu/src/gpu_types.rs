@@ -310,6 +310,7 @@ pub const METHOD_POLY: u32 = 2;
 pub const METHOD_PARTIAL: u32 = 3;
 pub const METHOD_ATLAS2D: u32 = 4;
 pub const METHOD_BIV_APPROX: u32 = 5;
+pub const METHOD_BIV_EXACT: u32 = 6;
 
 pub const GEOM_NONE: u32 = 0;
 pub const GEOM_THICK: u32 = 1;

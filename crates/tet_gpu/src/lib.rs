@@ -25,12 +25,23 @@
 //!     closed form);
 //!   - `biv-approx`: 2D widgets over (s, |∇s|) and seed 004's F/B table,
 //!     k sub-segments per fragment, as `BivApprox`, with per-vertex gradient
-//!     magnitudes on the scene ([`GpuScene::with_gradient_magnitudes`]).
+//!     magnitudes on the scene ([`GpuScene::with_gradient_magnitudes`]);
+//!   - `biv-exact`: no table; the same TF rows as biv-approx, and per
+//!     fragment `BivExact`'s scheme in f32 (shaders/biv_exact.wgsl): the
+//!     segment cut at every breakpoint (found one at a time), each piece's
+//!     optical depth in closed form (erfcx for Gaussians), its colour c·α
+//!     where one widget carries it under density emission, else by 8-point
+//!     Gauss–Legendre panels with the closed-form transmittance (also for
+//!     the pieces the CPU takes from seed 004's emission-only tables); a
+//!     budget of loop iterations per invocation bounds the work (past it:
+//!     exact α, approximate colour). On llvmpipe it always runs the graphics
+//!     rasterizer (that driver's shared loop-iteration limit).
 //!
 //!   Every lookup reads texels and interpolates with the CPU's weights and
-//!   clamps, so the GPU agrees with the CPU shader to f32 rounding;
+//!   clamps, so the GPU agrees with the CPU shader to f32 rounding (biv-exact,
+//!   which integrates instead: to ~1e-5, tests/gpu_methods.rs);
 //!   [`GpuShader::probe`] evaluates the per-fragment function on given
-//!   (Sf, Sb, l). Not on the GPU: `exact`, `biv-exact`.
+//!   (Sf, Sb, l). Not on the GPU: `exact`.
 //! * [`GpuCull`]: per-cell culling with tet_render's `TfCuller` semantics,
 //!   computed on the GPU from the cells' scalar ranges and, with 2D widgets,
 //!   |∇s| ranges (compared as ranks of the scene's distinct f64 values, so
@@ -184,6 +195,17 @@ impl GpuContext {
         )
     }
 
+    /// Whether the adapter is llvmpipe (Mesa's lavapipe), whose compiled
+    /// shaders end every loop once 65 535 iterations have run in all the
+    /// loops of one invocation together (gallivm's
+    /// LP_MAX_TGSI_LOOP_ITERATIONS): the compute rasterizer's per-pixel loop
+    /// over a tile's tets would share that count with biv-exact's per-fragment
+    /// integration, so biv-exact takes the graphics rasterizer there.
+    pub(crate) fn limits_loop_iterations(&self) -> bool {
+        self.info.driver.to_ascii_lowercase().contains("llvmpipe")
+            || self.info.name.to_ascii_lowercase().contains("llvmpipe")
+    }
+
     pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
         &self.info
     }
@@ -228,6 +250,7 @@ pub fn shader_sources() -> Vec<(&'static str, String)> {
 
 const COMMON_WGSL: &str = include_str!("../shaders/common.wgsl");
 const FRAGMENT_WGSL: &str = include_str!("../shaders/fragment.wgsl");
+const BIV_EXACT_WGSL: &str = include_str!("../shaders/biv_exact.wgsl");
 const CLASSIFY_WGSL: &str = include_str!("../shaders/classify.wgsl");
 const RASTER_WGSL: &str = include_str!("../shaders/raster.wgsl");
 const BIN_WGSL: &str = include_str!("../shaders/bin.wgsl");
@@ -243,10 +266,11 @@ fn shader_source(body: &str) -> String {
     format!("{COMMON_WGSL}\n{body}")
 }
 
-/// common.wgsl + fragment.wgsl + `body`: the modules that shade fragments
-/// (graphics raster, compute raster), so both run the same maths.
+/// common.wgsl + fragment.wgsl + biv_exact.wgsl + `body`: the modules that
+/// shade fragments (graphics raster, compute raster, probe), so all run the
+/// same maths.
 fn shader_source_fragment(body: &str) -> String {
-    format!("{COMMON_WGSL}\n{FRAGMENT_WGSL}\n{body}")
+    format!("{COMMON_WGSL}\n{FRAGMENT_WGSL}\n{BIV_EXACT_WGSL}\n{body}")
 }
 
 /// A module on its own (sort, tonemap, bake).

@@ -1,28 +1,30 @@
 //! The 2D-table methods on the GPU — `poly1/2/4` (seed 003), `partial`
-//! (Moreland & Angel's Ψ) and `atlas2d` (seed 000's cylindrical atlas) — as
-//! [`GpuShader`]s built from tet_preint's baked tables, [`GpuShader::from_baked`]
-//! for any method the GPU renders, and [`GpuShader::probe`]: the per-fragment
+//! (Moreland & Angel's Ψ) and `atlas2d` (seed 000's cylindrical atlas) — and
+//! the bivariate `biv-approx` and `biv-exact` (seed 004) as [`GpuShader`]s
+//! built from tet_preint's baked methods, [`GpuShader::from_baked`] for any
+//! method the GPU renders, and [`GpuShader::probe`]: the per-fragment
 //! function at given (Sf, Sb, l) triples.
 //!
 //! Every lookup reads texels with `textureLoad` and interpolates in the
 //! shader with the CPU's weights and clamps (fragment.wgsl), so GPU and CPU
-//! agree to f32 rounding: no hardware filtering (8-bit weights).
+//! agree to f32 rounding: no hardware filtering (8-bit weights). biv-exact
+//! has no table: it integrates per fragment (biv_exact.wgsl).
 
 use crate::gpu_types::{
-    ShadeParams, METHOD_ATLAS2D, METHOD_BIV_APPROX, METHOD_PARTIAL, METHOD_POLY, METHOD_PT_LINEAR, METHOD_TABLE3D,
-    NO_BAND, PROBE_WG,
+    ShadeParams, METHOD_ATLAS2D, METHOD_BIV_APPROX, METHOD_BIV_EXACT, METHOD_PARTIAL, METHOD_POLY, METHOD_PT_LINEAR,
+    METHOD_TABLE3D, NO_BAND, PROBE_WG,
 };
 use crate::render::{
     placeholder_3d, storage_entry, texture_entry, uint_texture_entry, uniform_entry, GpuShader, TableGrid,
 };
 use crate::{map_read, shader_source_fragment, GpuContext, GpuError, PROBE_WGSL};
 use tet_preint::{
-    Atlas2d, Baked, BivApprox, Emission, Method, PartialShader, PolyTable, Segment, Shape, TransferFunction,
+    Atlas2d, Baked, BivApprox, BivExact, Emission, Method, PartialShader, PolyTable, Segment, Shape, TransferFunction,
 };
 use wgpu::util::DeviceExt;
 
 /// The methods [`GpuShader::from_baked`] accepts, in DESIGN.md's order.
-pub const GPU_METHODS: [Method; 8] = [
+pub const GPU_METHODS: [Method; 9] = [
     Method::PtLinear,
     Method::Table3d,
     Method::Atlas2d,
@@ -30,6 +32,7 @@ pub const GPU_METHODS: [Method; 8] = [
     Method::Poly2,
     Method::Poly4,
     Method::Partial,
+    Method::BivExact,
     Method::BivApprox,
 ];
 
@@ -276,8 +279,43 @@ impl GpuShader {
         )
     }
 
-    /// The GPU form of a baked method ([`GPU_METHODS`]); the others
-    /// (`exact`, `biv-exact`) are [`GpuError::Unsupported`].
+    /// `biv-exact` (seed 004, tet_preint's `BivExact`): no table; the 1D TF
+    /// as merged control points and the 2D widgets as rows (as
+    /// `biv_approx`), and per fragment the segment (s and |∇s| linear, the
+    /// latter from [`crate::GpuScene::with_gradient_magnitudes`]) cut at
+    /// every breakpoint, each piece's optical depth in closed form and its
+    /// colour in closed form or by Gauss–Legendre panels
+    /// (shaders/biv_exact.wgsl, which states its f32 limits and work caps).
+    /// Seed 004's emission-only tables are not used: those pieces go to the
+    /// quadrature too.
+    pub fn biv_exact(ctx: &GpuContext, shader: &BivExact) -> Result<GpuShader, GpuError> {
+        let tf = shader.transfer_function();
+        let mut rows = merged_knots(tf);
+        let n_knots = (rows.len() / 2) as u32;
+        // Relative to the first extra row here; `assemble` adds the offset.
+        let widgets = rows.len() as u32;
+        rows.extend(widget_rows(tf));
+        let params = ShadeParams {
+            independent: (tf.emission() == Emission::Independent) as u32,
+            n_knots,
+            widgets,
+            n_widgets: tf.widgets().len() as u32,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let tables = Tables2d { params, extra_rows: rows, ..Tables2d::placeholder(ctx)? };
+        GpuShader::assemble(
+            ctx,
+            METHOD_BIV_EXACT,
+            Method::BivExact,
+            None,
+            placeholder_3d(ctx)?,
+            TableGrid::none(),
+            tables,
+        )
+    }
+
+    /// The GPU form of a baked method ([`GPU_METHODS`]); the other
+    /// (`exact`) is [`GpuError::Unsupported`].
     pub fn from_baked(ctx: &GpuContext, baked: &Baked) -> Result<GpuShader, GpuError> {
         match baked {
             Baked::PtLinear(s) => GpuShader::pt_linear(ctx, s.transfer_function()),
@@ -286,6 +324,7 @@ impl GpuShader {
             Baked::Poly(t, _) => GpuShader::poly(ctx, t),
             Baked::Partial(s) => GpuShader::partial(ctx, s),
             Baked::BivApprox(s, _) => GpuShader::biv_approx(ctx, s),
+            Baked::BivExact(s) => GpuShader::biv_exact(ctx, s),
             other => Err(GpuError::Unsupported(format!(
                 "method {} (GPU methods: {})",
                 other.method(),
@@ -431,6 +470,12 @@ impl GpuShader {
     pub fn is_pt_linear(&self) -> bool {
         self.method() == METHOD_PT_LINEAR
     }
+
+    /// Whether the shader reads |∇s| (biv-approx, biv-exact): the scene
+    /// needs per-vertex gradient magnitudes and classify writes their field.
+    pub(crate) fn is_bivariate(&self) -> bool {
+        matches!(self.method(), METHOD_BIV_APPROX | METHOD_BIV_EXACT)
+    }
 }
 
 /// The TF's colour and opacity node positions merged (sorted, distinct),
@@ -450,7 +495,9 @@ fn merged_knots(tf: &TransferFunction) -> Vec<[f32; 4]> {
 
 /// The TF's 2D widgets as four rows each (fragment.wgsl's `widget_row`):
 /// shape parameters, (colour, opacity / unit distance), the support
-/// (±f32::MAX where unbounded) and the kind.
+/// (±f32::MAX where unbounded) and the kind — for bands also the frequency
+/// split as f_hi (12 significant bits) + f_lo and the phase mod 1, with
+/// which biv_exact.wgsl keeps f·s − φ exact to ~1e-7 at high f·|s|.
 fn widget_rows(tf: &TransferFunction) -> Vec<[f32; 4]> {
     let u = tf.unit_distance();
     let f = |x: f64| x.clamp(-f32::MAX as f64, f32::MAX as f64) as f32;
@@ -463,12 +510,19 @@ fn widget_rows(tf: &TransferFunction) -> Vec<[f32; 4]> {
                 Shape::Triangle { frequency, phase } => (2.0, [frequency, phase, 0.0, 0.0]),
                 Shape::Sine { frequency, phase } => (3.0, [frequency, phase, 0.0, 0.0]),
             };
+            let band = match w.shape {
+                Shape::Triangle { frequency, phase } | Shape::Sine { frequency, phase } => {
+                    let f_hi = f32::from_bits(f(frequency).to_bits() & 0xffff_f000);
+                    [f_hi, (frequency - f64::from(f_hi)) as f32, (phase - phase.floor()) as f32]
+                }
+                _ => [0.0; 3],
+            };
             let [[s0, s1], [g0, g1]] = w.support;
             [
                 p.map(f),
                 [f(w.color[0]), f(w.color[1]), f(w.color[2]), f(w.opacity / u)],
                 [f(s0), f(s1), f(g0), f(g1)],
-                [kind, 0.0, 0.0, 0.0],
+                [kind, band[0], band[1], band[2]],
             ]
         })
         .collect()

@@ -5,7 +5,7 @@
 use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
 use crate::cull::{CullBuffers, CullPipelines};
 use crate::gpu_types::{
-    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_APPROX, METHOD_PT_LINEAR,
+    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_EXACT, METHOD_PT_LINEAR,
     METHOD_TABLE3D, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
 use crate::gpusort::SortPipelines;
@@ -522,7 +522,9 @@ pub enum RasterPath {
     /// in visibility order (prefix sums and a stable radix sort), one
     /// workgroup per tile compositing front to back per pixel with early
     /// termination. Needs the image (16 bytes a pixel) within one storage
-    /// binding; larger images fall back to [`RasterPath::Graphics`].
+    /// binding; larger images fall back to [`RasterPath::Graphics`], and so
+    /// does biv-exact on llvmpipe (its loop-iteration limit, see
+    /// `GpuContext::limits_loop_iterations`).
     #[default]
     Compute,
     /// The hardware rasterizer: a fan of 3 or 4 triangles per tet, "under"
@@ -1104,7 +1106,7 @@ impl GpuRenderer {
                 return Err(GpuError::Input("the GpuCull was built for another scene".into()));
             }
         }
-        if shader.method() == METHOD_BIV_APPROX && scene.gmags.is_none() {
+        if shader.is_bivariate() && scene.gmags.is_none() {
             return Err(GpuError::Input(format!(
                 "{} needs per-vertex gradient magnitudes: GpuScene::with_gradient_magnitudes",
                 shader.method_id()
@@ -1138,6 +1140,13 @@ impl GpuRenderer {
         let mut stats = GpuRenderStats { raster_path: raster, ..Default::default() };
         let pixels_bytes = w as u64 * h as u64 * 16;
         if raster == RasterPath::Compute && pixels_bytes > limit {
+            stats.raster_path = RasterPath::Graphics;
+        }
+        if raster == RasterPath::Compute && shader.method() == METHOD_BIV_EXACT && ctx.limits_loop_iterations() {
+            // A tile's composite loop and every fragment's integration would
+            // share llvmpipe's 65 535 loop iterations (see
+            // GpuContext::limits_loop_iterations): its pixels would come out
+            // wrong past ~10⁵ tets; each graphics fragment gets its own count.
             stats.raster_path = RasterPath::Graphics;
         }
         if ws.hdr.as_ref().is_none_or(|t| t.width() != w || t.height() != h) {
@@ -1240,7 +1249,7 @@ impl GpuRenderer {
         let chunk = cap.min(n.max(1));
         stats.buffers_grown += ws.geoms.ensure(ctx, chunk as u64 * 64, limit)? as usize;
         stats.buffers_grown += ws.shades.ensure(ctx, chunk as u64 * 112, limit)? as usize;
-        let bivariate = shader.method() == METHOD_BIV_APPROX;
+        let bivariate = shader.is_bivariate();
         stats.buffers_grown += ws.gshades.ensure(ctx, if bivariate { chunk as u64 * 32 } else { 16 }, limit)? as usize;
         let compute = stats.raster_path == RasterPath::Compute && n > 0;
         let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));

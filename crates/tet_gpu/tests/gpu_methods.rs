@@ -1,5 +1,5 @@
-//! The 2D-table methods on the GPU (poly1/2/4, partial, atlas2d) against
-//! tet_preint's CPU shaders — per segment through `GpuShader::probe`, and
+//! The 2D-table methods on the GPU (poly1/2/4, partial, atlas2d) and the
+//! bivariate ones (biv-approx, biv-exact) against tet_preint's CPU shaders — per segment through `GpuShader::probe`, and
 //! per image against tet_render's CPU renderer with the same MPVO order —
 //! and culling with compaction on the GPU against tet_render's `TfCuller`.
 //! Skip with a printed reason where no adapter exists (fail instead with
@@ -475,6 +475,268 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
 }
 
+/// The 2D transfer functions biv-exact is checked with (s ∈ [0, 1], |∇s|
+/// about 0–4 on the grid): each widget shape alone over a thin 1D part, a
+/// transparent constant-colour 1D part (the CPU's single-widget closed form
+/// and, under independent emission, its seed-004 tables), all four shapes
+/// overlapping, the same dense (opacities up to 1000) and bands of very
+/// high frequency.
+fn biv_exact_tfs(emission: &str) -> Vec<(&'static str, TransferFunction)> {
+    let thin = r#""color": [[0, 0.1, 0.2, 1], [0.6, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]], "opacity": [[0, 0.2], [0.5, 1.5], [1, 0.4]]"#;
+    let clear = r#""color": [[0, 0.3, 0.6, 0.9]], "opacity": [[0, 0], [1, 0]]"#;
+    let gauss =
+        r#"{"type": "gaussian", "center": [0.5, 1.5], "width": [0.08, 0.6], "color": [1, 0.9, 0.2], "opacity": 8}"#;
+    let gauss_clip = r#"{"type": "gaussian", "center": [0.3, 2.5], "width": [0.2, 0.3], "color": [0.2, 0.9, 1], "opacity": 3,
+        "clip": [[0.1, 0.45], [2.0, 3.2]]}"#;
+    let bx = r#"{"type": "box", "center": [0.45, 1.8], "width": [0.3, 2.0], "color": [0.1, 1, 0.3], "opacity": 4}"#;
+    let tri = r#"{"type": "triangle", "frequency": 7.3, "phase": 0.2, "color": [0.8, 0.2, 1], "opacity": 3,
+        "clip": [[0.1, 0.9], [0.3, 3.5]]}"#;
+    let sine = r#"{"type": "sine", "frequency": 5.1, "phase": -0.3, "color": [1, 0.4, 0.1], "opacity": 2}"#;
+    let dense = r#""color": [[0, 0.1, 0.2, 1], [0.6, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]], "opacity": [[0, 0.5], [0.4, 200], [0.5, 3], [1, 40]]"#;
+    let dense_widgets = r#"{"type": "gaussian", "center": [0.5, 1.5], "width": [0.05, 0.4], "color": [1, 0.9, 0.2], "opacity": 1000},
+        {"type": "box", "center": [0.3, 2.2], "width": [0.13, 1.7], "color": [0.1, 1, 0.3], "opacity": 300},
+        {"type": "sine", "frequency": 3.0, "phase": 0.1, "color": [1, 0.4, 0.1], "opacity": 50, "clip": [[0.6, 1.0], [0.0, 2.5]]}"#;
+    let huge = r#"{"type": "sine", "frequency": 1000000, "phase": 0.1, "color": [1, 0.4, 0.1], "opacity": 3, "clip": [[0, 0.5], [0, 10]]},
+        {"type": "triangle", "frequency": 100000, "phase": 0.3, "color": [0.2, 0.4, 1], "opacity": 2, "clip": [[0.5, 1], [0, 10]]}"#;
+    let tf = |one: &str, widgets: &str| {
+        TransferFunction::from_json(&format!(
+            r#"{{{one}, "unit_distance": 1, "emission": "{emission}", "widgets": [{widgets}]}}"#
+        ))
+        .unwrap()
+    };
+    vec![
+        ("box", tf(thin, bx)),
+        ("gaussian", tf(thin, &format!("{gauss}, {gauss_clip}"))),
+        ("triangle", tf(thin, tri)),
+        ("sine", tf(thin, sine)),
+        ("box alone", tf(clear, bx)),
+        ("gaussian alone", tf(clear, gauss)),
+        ("triangle alone", tf(clear, tri)),
+        ("sine alone", tf(clear, sine)),
+        ("overlapping", tf(thin, &format!("{gauss}, {gauss_clip}, {bx}, {tri}, {sine}"))),
+        ("dense", tf(dense, dense_widgets)),
+        ("huge frequency", tf(clear, huge)),
+    ]
+}
+
+/// Random segments in and around the grid's (s, |∇s|, l) ranges — a third
+/// with sb = sf, a third with gb = gf, lengths from 0 to 1.3 l_max — and the
+/// degenerate ones: l = 0, 1e-7, 1e30, ∞, NaN; NaN and ∞ in s or g; sf = sb
+/// with gf = gb.
+fn biv_exact_segments(seed: u64, n: usize, len_max: f32) -> Vec<Segment> {
+    let mut rng = tet_mesh::SplitMix64(seed);
+    let mut segs: Vec<Segment> = (0..n)
+        .map(|i| {
+            let s_front = rng.next_f64() as f32 * 1.2 - 0.1;
+            let s_back = match i % 3 {
+                0 => s_front,
+                1 => s_front + (rng.next_f64() as f32 - 0.5) * 0.3,
+                _ => rng.next_f64() as f32,
+            };
+            let grad_front = rng.next_f64() as f32 * 4.0;
+            let grad_back = if i % 3 == 1 { grad_front } else { rng.next_f64() as f32 * 4.0 };
+            let len_world = rng.next_f64() as f32 * 1.3 * len_max;
+            Segment { s_front, s_back, grad_front, grad_back, len_world }
+        })
+        .collect();
+    let base = Segment { s_front: 0.45, s_back: 0.55, grad_front: 1.2, grad_back: 1.9, len_world: len_max };
+    for len_world in [0.0, -1.0, 1e-7, 1e30, f32::INFINITY, f32::NAN] {
+        segs.push(Segment { len_world, ..base });
+    }
+    for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        segs.push(Segment { s_front: v, ..base });
+        segs.push(Segment { s_back: v, ..base });
+        segs.push(Segment { grad_front: v, ..base });
+        segs.push(Segment { grad_back: v, ..base });
+    }
+    for s in [0.0f32, 0.3, 0.45, 0.5, 0.77, 1.0] {
+        for g in [0.0f32, 1.5, 2.4] {
+            segs.push(Segment { s_front: s, s_back: s, grad_front: g, grad_back: g, len_world: 0.7 * len_max });
+        }
+    }
+    segs
+}
+
+/// biv-exact: per segment (probe with gradient magnitudes) against
+/// tet_preint's f64 `BivExact` for every widget shape, both emission models,
+/// overlapping, thin and dense widgets and degenerate segments; per image
+/// against tet_render's CPU renderer with the scene's per-vertex |∇s|.
+#[test]
+fn biv_exact_matches_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(6);
+    let len_max = domain(&mesh).len_max_world as f32;
+    let segs = biv_exact_segments(0xb1e, 3000, len_max);
+    // Very high band frequencies (sine 1e6, triangle 1e5 per scalar unit):
+    // scalar steps ≤ 0.02, where the CPU still splits at every crossing (up
+    // to 65 536; beyond, its pieces span many periods and its band tables no
+    // longer apply), and every fourth ≤ 5e-5, where the GPU splits too (up
+    // to 256; beyond, it integrates the bands' depths over many periods in
+    // closed form and the colour by quadrature).
+    let huge_segs: Vec<Segment> = biv_exact_segments(0xb1f, 300, len_max)
+        .into_iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let reach = if i % 4 == 1 { 5e-5 } else { 0.02 };
+            Segment { s_back: s.s_front + (s.s_back - s.s_front).clamp(-reach, reach), ..s }
+        })
+        .collect();
+    let mut worst_all = 0.0f32;
+    for emission in ["density", "independent"] {
+        for (name, tf) in biv_exact_tfs(emission) {
+            let baked = bake(Method::BivExact, &tf, &mesh);
+            let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
+            assert_eq!(shader.method_id(), "biv-exact");
+            let segs = if name == "huge frequency" { &huge_segs } else { &segs };
+            let start = std::time::Instant::now();
+            let got = shader.probe_segments(&ctx, segs).unwrap();
+            let gpu_s = start.elapsed().as_secs_f64();
+            let cpu = baked.shader();
+            let mut worst = (0.0f32, 0);
+            for (i, (seg, g)) in segs.iter().zip(&got).enumerate() {
+                // The GPU clamps l to 1e30 as its other methods; the CPU to
+                // 1e300, where its quadrature's 200 halvings no longer reach
+                // a panel of depth ≤ 0.5 (C comes out ~0): compare l = ∞
+                // with the CPU at 1e30, which it resolves.
+                let at = if seg.len_world == f32::INFINITY { Segment { len_world: 1e30, ..*seg } } else { *seg };
+                let want = cpu.shade(&at);
+                for c in 0..4 {
+                    assert!(g[c].is_finite() && g[c] >= 0.0, "{name} {emission} {seg:?}: {g:?}");
+                    // Independent emission's C grows like l·κ: relative to max(1, |C|).
+                    let d = (g[c] - want[c]).abs() / want[c].abs().max(1.0);
+                    if d > worst.0 {
+                        worst = (d, i);
+                    }
+                }
+                let finite = [seg.s_front, seg.s_back, seg.grad_front, seg.grad_back].iter().all(|v| v.is_finite());
+                if !finite || seg.len_world.is_nan() || seg.len_world <= 0.0 {
+                    assert_eq!(*g, [0.0; 4], "{name} {emission} {seg:?}");
+                }
+            }
+            eprintln!(
+                "biv-exact {name} {emission}: GPU probe vs CPU max |Δ| {:.3e} at {:?} ({} segments, {gpu_s:.2} s)",
+                worst.0,
+                segs[worst.1],
+                segs.len()
+            );
+            worst_all = worst_all.max(worst.0);
+            assert!(worst.0 <= 1e-4, "{name} {emission}: {worst:?} {:?}", segs[worst.1]);
+        }
+    }
+    eprintln!("biv-exact: GPU probe vs CPU max |Δ| over every case {worst_all:.3e}");
+
+    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone())
+        .unwrap()
+        .ensure_gradients()
+        .unwrap();
+    let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
+    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
+        .unwrap()
+        .with_gradient_magnitudes(&ctx, &gm)
+        .unwrap();
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let mut cpu = tet_render::Renderer::new(cpu_scene);
+    let (lo, hi) = mesh.bounds();
+    for emission in ["density", "independent"] {
+        for (name, tf) in biv_exact_tfs(emission).into_iter().filter(|(n, _)| ["overlapping", "dense"].contains(n)) {
+            let baked = bake(Method::BivExact, &tf, &mesh);
+            let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
+            cpu.set_shader(Arc::from(baked.into_shader()));
+            for (view, spec) in [
+                ("az 30 el 20", ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0)),
+                ("az -120 el -35", ViewSpec::framing(lo, hi, [80, 72]).orbit(-120.0, -35.0, 1.3)),
+            ] {
+                let cam = Camera::new(&spec).unwrap();
+                cpu.set_view(&spec).unwrap();
+                let (want, _) = cpu.render(&|_, _| {}).unwrap();
+                let order = cpu.order().unwrap().tets.clone();
+                let start = std::time::Instant::now();
+                let frame = renderer.render(&ctx, &scene, &cam, &order, &shader).unwrap();
+                // llvmpipe's loop-iteration limit sends biv-exact to the
+                // graphics rasterizer there (GpuContext::limits_loop_iterations).
+                if ctx.describe().contains("llvmpipe") {
+                    assert_eq!(frame.stats.raster_path, RasterPath::Graphics);
+                }
+                let got = frame.image;
+                let what = format!("grid 6³×5 biv-exact {name} {emission} vs CPU PT, {view}");
+                eprintln!("{what}: GPU frame {:.2} s", start.elapsed().as_secs_f64());
+                let d = report(&what, &got, &want);
+                assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{name} {emission} {view}: {d:?}");
+            }
+        }
+    }
+    // Without gradient magnitudes on the scene: an input error, as biv-approx.
+    let bare = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let shader = GpuShader::from_baked(&ctx, &bake(Method::BivExact, &biv_exact_tfs("density")[0].1, &mesh)).unwrap();
+    let cam = Camera::new(&ViewSpec::framing(lo, hi, [16, 16])).unwrap();
+    let err = renderer.render(&ctx, &bare, &cam, &[0], &shader).err().unwrap();
+    assert!(err.to_string().contains("gradient magnitudes"), "{err}");
+}
+
+/// biv-exact's work budget (biv_exact.wgsl's BIV_MAX_WORK): segments with
+/// more pieces than the budget pays for — eight unclipped sine bands, each
+/// split at its ~60 half-period crossings — end in one piece with frozen
+/// coefficients: α stays exact (the bands' depths are closed forms over any
+/// interval), C is finite and within the emission's bound, and the probe
+/// returns (no fragment loops without bound).
+#[test]
+fn biv_exact_work_is_bounded() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = grid(2);
+    let widgets: Vec<String> = (0..8)
+        .map(|i| {
+            format!(
+                r#"{{"type": "sine", "frequency": {}, "phase": {}, "color": [{}, 0.5, {}], "opacity": {}}}"#,
+                29.0 + 1.3 * i as f64,
+                0.1 * i as f64,
+                0.1 * i as f64,
+                1.0 - 0.1 * i as f64,
+                0.5 + 0.25 * i as f64
+            )
+        })
+        .collect();
+    let mut rng = tet_mesh::SplitMix64(0xb0d);
+    let segs: Vec<Segment> = (0..256)
+        .map(|_| Segment {
+            s_front: rng.next_f64() as f32 * 0.1,
+            s_back: 0.9 + rng.next_f64() as f32 * 0.1,
+            grad_front: rng.next_f64() as f32 * 4.0,
+            grad_back: rng.next_f64() as f32 * 4.0,
+            len_world: 0.05 + rng.next_f64() as f32,
+        })
+        .collect();
+    for emission in ["density", "independent"] {
+        let tf = TransferFunction::from_json(&format!(
+            r#"{{"color": [[0, 0.3, 0.6, 0.9]], "opacity": [[0, 0], [1, 0]], "unit_distance": 1,
+                "emission": "{emission}", "widgets": [{}]}}"#,
+            widgets.join(", ")
+        ))
+        .unwrap();
+        let baked = bake(Method::BivExact, &tf, &mesh);
+        let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
+        let start = std::time::Instant::now();
+        let got = shader.probe_segments(&ctx, &segs).unwrap();
+        let gpu_s = start.elapsed().as_secs_f64();
+        let cpu = baked.shader();
+        // Every colour channel of every part is ≤ 1: density emission's C ≤ α
+        // per channel of the largest sum, independent emission's C ≤ l·Σ.
+        let parts = 1.0 + tf.widgets().len() as f32;
+        let mut worst_alpha = 0.0f32;
+        for (seg, g) in segs.iter().zip(&got) {
+            let want = cpu.shade(seg);
+            assert!(g.iter().all(|v| v.is_finite() && *v >= 0.0), "{emission} {seg:?}: {g:?}");
+            let bound = if emission == "density" { g[3] } else { seg.len_world * parts };
+            assert!(g[..3].iter().all(|&c| c <= bound * 1.0001), "{emission} {seg:?}: {g:?} above {bound}");
+            worst_alpha = worst_alpha.max((g[3] - want[3]).abs());
+        }
+        eprintln!(
+            "biv-exact over budget ({emission}): α max |Δ| {worst_alpha:.3e} ({} segments, {gpu_s:.2} s)",
+            segs.len()
+        );
+        assert!(worst_alpha <= 1e-4, "{emission}: {worst_alpha}");
+    }
+}
+
 #[test]
 fn unsupported_inputs_are_errors() {
     let Some(ctx) = gpu() else { return };
@@ -482,7 +744,7 @@ fn unsupported_inputs_are_errors() {
     let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
     let other = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
     let renderer = GpuRenderer::new(&ctx).unwrap();
-    // Exact and biv-exact are not on the GPU.
+    // Exact is not on the GPU.
     let err = GpuShader::from_baked(&ctx, &bake(Method::Exact, &tf(), &mesh)).err().unwrap();
     assert!(err.to_string().contains("exact"), "{err}");
     // A GpuCull of another scene.

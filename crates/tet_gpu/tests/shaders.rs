@@ -46,6 +46,7 @@ fn shader_files_on_disk_are_all_included() {
         [
             "bake.wgsl",
             "bin.wgsl",
+            "biv_exact.wgsl",
             "classify.wgsl",
             "common.wgsl",
             "cull.wgsl",

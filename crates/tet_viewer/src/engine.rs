@@ -7,12 +7,12 @@
 //!   re-culls. table3d keeps its table and the TF it was baked from, so a
 //!   TF edit re-bakes only the pairs it reaches ([`Table3d::rebake`]).
 //! * GPU (tet_gpu, every method of [`tet_gpu::GPU_METHODS`] — all but
-//!   `exact` and `biv-exact` — when an adapter exists): the GPU radix sort
+//!   `exact` — when an adapter exists): the GPU radix sort
 //!   of centroid depths, recomputed only when the camera moves (tet_gpu
 //!   caches it), filtered by the CPU cull mask of the current TF; shader
 //!   rebuilt on a TF change (baked on the CPU with the CPU path's options,
 //!   table3d re-baked in place as there, then uploaded); the bivariate
-//!   method's per-vertex |∇s| uploaded once, when it is first chosen.
+//!   methods' per-vertex |∇s| uploaded once, when one is first chosen.
 
 use crate::ViewerError;
 use std::sync::Arc;
@@ -496,7 +496,7 @@ mod tests {
 
     /// Every method tet_gpu renders takes the GPU path in the window and
     /// agrees with the CPU engine's frame (same TF, view and bake options);
-    /// biv-approx with a box widget (its |∇s| uploaded on first use).
+    /// the bivariate methods with a box widget (|∇s| uploaded on first use).
     #[test]
     fn every_gpu_method_matches_the_cpu_engine() {
         let bundle = sample_bundle();

@@ -89,7 +89,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub json: bool,
     /// Render on the GPU (tet_gpu; methods pt-linear, table3d, atlas2d,
-    /// poly1/2/4, partial with density emission and biv-approx; the same
+    /// poly1/2/4, partial, biv-exact and biv-approx; the same
     /// visibility order and tables as the CPU, culling on the GPU). Exit
     /// code 4 where no GPU adapter exists; without --gpu tetview renders on
     /// the CPU.

@@ -19,7 +19,7 @@ pub struct ViewArgs {
     #[arg(long)]
     pub tf: Option<PathBuf>,
     /// Method id (exact, pt-linear, table3d, atlas2d, poly1/2/4, partial,
-    /// biv-exact, biv-approx); all but exact and biv-exact run on the GPU.
+    /// biv-exact, biv-approx); all but exact run on the GPU.
     #[arg(long, default_value = "pt-linear")]
     pub method: String,
     /// View JSON (as `tetview render --view`); the reset view.

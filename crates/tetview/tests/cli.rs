@@ -265,7 +265,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
     let out = render(&["--gpu", "--method", "exact"], &dir.path().join("x.npy"));
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr)
-        .contains("GPU methods: pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial, biv-approx"));
+        .contains("GPU methods: pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial, biv-exact, biv-approx"));
 
     if let Err(e) = tet_gpu::GpuContext::new_headless() {
         if std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {

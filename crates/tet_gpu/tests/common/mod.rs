@@ -43,24 +43,30 @@ pub fn single_tet() -> Mesh {
 /// n³ cells over [0, 1]³, each split into 5 tets (tet_mesh's alternating
 /// pattern), with a smooth scalar in [0, 1].
 pub fn grid(n: usize) -> Mesh {
-    let m = n + 1;
-    let mut points = Vec::with_capacity(m * m * m);
-    let mut scalar = Vec::with_capacity(m * m * m);
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
-                let p = [i as f64 / n as f64, j as f64 / n as f64, k as f64 / n as f64];
+    grid_cells([n; 3])
+}
+
+/// As [`grid`] with `n[0] × n[1] × n[2]` cells over [0, 1]³.
+#[allow(dead_code)] // not every test binary uses it
+pub fn grid_cells(n: [usize; 3]) -> Mesh {
+    let m = n.map(|c| c + 1);
+    let mut points = Vec::with_capacity(m[0] * m[1] * m[2]);
+    let mut scalar = Vec::with_capacity(points.capacity());
+    for k in 0..m[2] {
+        for j in 0..m[1] {
+            for i in 0..m[0] {
+                let p = [i as f64 / n[0] as f64, j as f64 / n[1] as f64, k as f64 / n[2] as f64];
                 let r2 = (p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2);
                 scalar.push((0.5 + 0.45 * (6.0 * r2).cos() * (3.0 * p[0] + 1.0).sin()).clamp(0.0, 1.0));
                 points.push(p);
             }
         }
     }
-    let id = |i: usize, j: usize, k: usize| (i + m * (j + m * k)) as u32;
-    let mut tets = Vec::with_capacity(5 * n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
+    let id = |i: usize, j: usize, k: usize| (i + m[0] * (j + m[1] * k)) as u32;
+    let mut tets = Vec::with_capacity(5 * n[0] * n[1] * n[2]);
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
                 let h = [
                     id(i, j, k),
                     id(i + 1, j, k),

@@ -217,8 +217,7 @@ fn long_tile_lists_composite_every_tet() {
     let (want, _) = cpu.render(&|_, _| {}).unwrap();
     let order = cpu.order().unwrap().tets.clone();
     let shader = GpuShader::table3d(&ctx, &table).unwrap();
-    let comp =
-        renderer.render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, RasterPath::Compute).unwrap();
+    let comp = renderer.render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, RasterPath::Compute).unwrap();
     eprintln!("{:?}", comp.stats);
     assert_eq!(comp.stats.raster_path, RasterPath::Compute);
     assert!(comp.stats.pairs >= 40_000, "every tet in the one tile's list: {:?}", comp.stats);

@@ -94,6 +94,14 @@ fn methods(mesh: &Mesh) -> Vec<(String, Baked)> {
     out
 }
 
+/// The bivariate image tests' two views of a mesh with bounds (lo, hi).
+fn two_orbits(lo: [f64; 3], hi: [f64; 3]) -> [(&'static str, ViewSpec); 2] {
+    [
+        ("az 30 el 20", ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0)),
+        ("az -120 el -35", ViewSpec::framing(lo, hi, [80, 72]).orbit(-120.0, -35.0, 1.3)),
+    ]
+}
+
 fn report(what: &str, gpu: &Image, cpu: &Image) -> DiffStats {
     let d = diff(gpu, cpu).unwrap();
     let covered = cpu.pixels().iter().filter(|p| p[3] > 0.0).count();
@@ -386,10 +394,7 @@ fn biv_approx_matches_the_cpu() {
 
         let cpu_shader: Arc<dyn SegmentShader> = Arc::from(baked.into_shader());
         cpu.set_shader(cpu_shader);
-        for (view, spec) in [
-            ("az 30 el 20", ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0)),
-            ("az -120 el -35", ViewSpec::framing(lo, hi, [80, 72]).orbit(-120.0, -35.0, 1.3)),
-        ] {
+        for (view, spec) in two_orbits(lo, hi) {
             let cam = Camera::new(&spec).unwrap();
             cpu.set_view(&spec).unwrap();
             let (want, _) = cpu.render(&|_, _| {}).unwrap();
@@ -642,10 +647,7 @@ fn biv_exact_matches_the_cpu() {
             let baked = bake(Method::BivExact, &tf, &mesh);
             let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
             cpu.set_shader(Arc::from(baked.into_shader()));
-            for (view, spec) in [
-                ("az 30 el 20", ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0)),
-                ("az -120 el -35", ViewSpec::framing(lo, hi, [80, 72]).orbit(-120.0, -35.0, 1.3)),
-            ] {
+            for (view, spec) in two_orbits(lo, hi) {
                 let cam = Camera::new(&spec).unwrap();
                 cpu.set_view(&spec).unwrap();
                 let (want, _) = cpu.render(&|_, _| {}).unwrap();

@@ -4,6 +4,14 @@
 //! - [`mesh`] (`tet_mesh`): source meshes, splitting, validation, adjacency.
 //! - [`io`] (`tet_io`): readers for VTK, PLOT3D, Gmsh, TetGen, raw/NRRD; VTU export.
 //! - [`bundle`] (`tet_bundle`): the `.tetb` bundle file.
+//! - [`preint`] (`tet_preint`): transfer functions, method ids, the exact
+//!   integrator and the pre-integration tables (`make_shader`, `.tetl`).
+//! - [`render`] (`tet_render`): the CPU renderer (camera, `Renderer`, images,
+//!   the reference ray caster).
+//!
+//! `examples/render_image.rs` runs the whole path in one program: read a
+//! file, convert it to tets, bake a table for a transfer function, render
+//! and write a PNG.
 //!
 //! ```
 //! use tetkit::mesh::{tetrahedralize, ConvertOptions, SourceMesh, Block};
@@ -20,3 +28,5 @@
 pub use tet_bundle as bundle;
 pub use tet_io as io;
 pub use tet_mesh as mesh;
+pub use tet_preint as preint;
+pub use tet_render as render;

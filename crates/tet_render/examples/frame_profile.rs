@@ -11,7 +11,10 @@
 //! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
 //! turns the camera D degrees of azimuth before every frame after the
 //! first (each frame a camera move: re-sorted and set up again);
-//! `TET_NO_KEEP=1` keeps no per-tet setup across frames.
+//! `TET_NO_KEEP=1` keeps no per-tet setup across frames. `TET_VIEW=view.json`
+//! starts from that camera (VTK fields, e.g. the one `shared/peer/vtk_render.py`
+//! records) instead of the framing orbited by azimuth/elevation; `TET_ORBIT`
+//! then turns it.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -49,8 +52,12 @@ fn main() {
 
     let scene = Scene::from_bundle(&bundle).expect("scene");
     let (lo, hi) = scene.bounds();
+    let base = match std::env::var("TET_VIEW") {
+        Ok(p) => ViewSpec::from_json(&std::fs::read_to_string(&p).expect("view file reads")).expect("view JSON"),
+        Err(_) => ViewSpec::framing(lo, hi, size).orbit(az, el, 1.0),
+    };
     let mut r = Renderer::new(scene);
-    r.set_view(&ViewSpec::framing(lo, hi, size).orbit(az, el, 1.0)).expect("view");
+    r.set_view(&base).expect("view");
     r.set_shader(shader);
     r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     let fast_path = std::env::var("TET_GENERAL_PATH").is_err();
@@ -64,8 +71,7 @@ fn main() {
     r.set_raster_options(opts);
     for f in 0..frames.max(1) {
         if f > 0 && orbit != 0.0 {
-            let az_f = az + orbit * f as f64;
-            r.set_view(&ViewSpec::framing(lo, hi, size).orbit(az_f, el, 1.0)).expect("view");
+            r.set_view(&base.orbit(orbit * f as f64, 0.0, 1.0)).expect("view");
         }
         let c0 = process_cpu_seconds();
         let (img, st) = r.render(&|_, _| {}).expect("render");

@@ -2,7 +2,7 @@
 # tetkit against VTK 9.7.2's unstructured-grid volume mappers (the scripts in $PEER,
 # /work/shared/peer by default) on the issue-6 bundles: the same camera, TF and size.
 # A measuring tool, not part of `make test`. Run from the repository root after
-# `cargo build --release -p tetprep -p tetview -p tet_render --example frame_profile`
+# `cargo build --release -p tetprep -p tetlut -p tetview -p tet_render --example frame_profile`
 # and the bundles and tables of crates/tetview/results/bench.sh (B.tetb, and
 # `tetlut bake --bundle B.tetb --tf $T --method table3d -o B_128.tetl`) in $W.
 # VTK: python3 -m venv $VENV && $VENV/bin/pip install vtk numpy scipy
@@ -26,5 +26,9 @@ for d in bluntfin combustor stars ironprot; do
   # tetkit's frames on that camera: camera moving 2° a frame, and the same view.
   TET_VIEW=$O/${d}_view.json TET_ORBIT=2 target/release/examples/frame_profile $W/$d.tetb $W/${d}_128.tetl 4
   TET_VIEW=$O/${d}_view.json target/release/examples/frame_profile $W/$d.tetb $W/${d}_128.tetl 4
-  $VENV/bin/python $R/cmp.py $O/${d}_ref.npy $O/${d}_ours.npy $O/${d}_pt.npy $O/${d}_rc_linear.npy
+  # The same algorithm as VTK's PT: tetkit's pt-linear.
+  target/release/tetlut bake --bundle $W/$d.tetb --tf $T --method pt-linear -o $O/${d}_ptl.tetl
+  TET_VIEW=$O/${d}_view.json TET_ORBIT=2 target/release/examples/frame_profile $W/$d.tetb $O/${d}_ptl.tetl 4
+  target/release/tetview render $W/$d.tetb --lut $O/${d}_ptl.tetl --view $O/${d}_view.json -o $O/${d}_ptl.png --float $O/${d}_ptl.npy
+  $VENV/bin/python $R/cmp.py $O/${d}_ref.npy $O/${d}_ours.npy $O/${d}_ptl.npy $O/${d}_pt.npy $O/${d}_rc_linear.npy
 done

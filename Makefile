@@ -48,7 +48,8 @@ viewer-deps:
 
 ## The main job on a bundled real dataset: NASA Blunt Fin (PLOT3D) → bundle with gradients and
 ## histograms → summary, 2D histogram PNG and a VTU for ParaView → table3d tables baked by
-## tetlut → a 512² render by tetview (PNG + float .npy), all under $(OUT)/.
+## tetlut → a 512² render by tetview (PNG + float .npy) → the same view by the exact ray-cast
+## reference and the image error between them, all under $(OUT)/.
 TETPREP = $(CARGO) run -q --release -p tetprep --
 
 demo:
@@ -62,7 +63,11 @@ demo:
 		--tf formats/samples/tf_normalized.json --method table3d -o $(OUT)/bluntfin_table3d.tetl
 	$(CARGO) run -q --release -p tetview -- render $(OUT)/bluntfin.tetb --lut $(OUT)/bluntfin_table3d.tetl \
 		-o $(OUT)/bluntfin.png --float $(OUT)/bluntfin.npy --save-view $(OUT)/bluntfin_view.json
+	$(CARGO) run -q --release -p tetview -- reference $(OUT)/bluntfin.tetb --tf formats/samples/tf_normalized.json \
+		--view $(OUT)/bluntfin_view.json -o $(OUT)/bluntfin_reference.png --float $(OUT)/bluntfin_reference.npy
+	$(CARGO) run -q --release -p tetview -- diff $(OUT)/bluntfin.npy $(OUT)/bluntfin_reference.npy -o $(OUT)/bluntfin_diff.png
 	@echo "image: $(OUT)/bluntfin.png (8-bit, Reinhard); linear premultiplied RGBA: $(OUT)/bluntfin.npy; view: $(OUT)/bluntfin_view.json"
+	@echo "exact reference of the same view: $(OUT)/bluntfin_reference.png; their difference (above): $(OUT)/bluntfin_diff.png"
 
 ## Rewrite the golden images under tests/golden/ from the current renderer (only this
 ## target writes them; `cargo test -p tetview --test golden` compares against them).

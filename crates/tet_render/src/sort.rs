@@ -278,10 +278,13 @@ fn mpvonc(scene: &Scene, view: &ViewGeometry, visible: Option<&[bool]>) -> (Vec<
     let nbs = scene.neighbors();
     let counts: Vec<(u8, u8)> = nbs.par_iter().enumerate().map(|(t, nb)| in_front_count(view, nb, t)).collect();
     let indeg: Vec<AtomicU8> = counts.iter().map(|c| AtomicU8::new(c.0)).collect();
-    let near_key = |t: u32| {
-        let tet = &scene.tets()[t as usize];
-        f64_key(tet.iter().map(|&v| view.cam[v as usize][2]).fold(f64::INFINITY, f64::min))
-    };
+    // Every tet's key up front, in parallel: the loop below is sequential.
+    let near: Vec<u64> = scene
+        .tets()
+        .par_iter()
+        .map(|tet| f64_key(tet.iter().map(|&v| view.cam[v as usize][2]).fold(f64::INFINITY, f64::min)))
+        .collect();
+    let near_key = |t: u32| near[t as usize];
     let mut heap: BinaryHeap<Reverse<(u64, u32)>> = counts
         .iter()
         .enumerate()

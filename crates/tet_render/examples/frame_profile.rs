@@ -12,7 +12,7 @@
 //! turns the camera D degrees of azimuth before every frame after the
 //! first (each frame a camera move: re-sorted and set up again);
 //! `TET_NO_KEEP=1` keeps no per-tet setup across frames. `TET_VIEW=view.json`
-//! starts from that camera (VTK fields, e.g. the one `shared/peer/vtk_render.py`
+//! starts from that camera and its size (VTK fields, e.g. the one `shared/peer/vtk_render.py`
 //! records) instead of the framing orbited by azimuth/elevation; `TET_ORBIT`
 //! then turns it.
 

@@ -23,7 +23,11 @@ fuzz_target!(|data: &[u8]| {
     let opts = DelaunayOptions { max_circumradius: (mode & 2 != 0).then_some(1.5) };
     match tetrahedralize_points(&pts, &opts) {
         Ok(d) => check_delaunay(&pts, &d, true).expect("Delaunay invariants"),
-        Err(DelaunayError::Degenerate { .. } | DelaunayError::NonFinite { .. } | DelaunayError::CoordinateTooLarge { .. }) => {}
+        Err(
+            DelaunayError::Degenerate { .. }
+            | DelaunayError::NonFinite { .. }
+            | DelaunayError::CoordinateTooLarge { .. },
+        ) => {}
         Err(e) => panic!("unexpected error: {e}"),
     }
 });

@@ -10,11 +10,7 @@ fuzz_target!(|data: &[u8]| {
     let types = ["i8", "u8", "i16", "u16", "i32", "u32", "i64", "u64", "f32", "f64"];
     let Some(ty) = parse_scalar_type(types[usize::from(spec_bytes[3]) % types.len()]) else { return };
     let spec = RawSpec {
-        dims: [
-            usize::from(spec_bytes[0] & 31),
-            usize::from(spec_bytes[1] & 31),
-            usize::from(spec_bytes[2] & 31),
-        ],
+        dims: [usize::from(spec_bytes[0] & 31), usize::from(spec_bytes[1] & 31), usize::from(spec_bytes[2] & 31)],
         scalar_type: ty,
         endian: if spec_bytes[4] & 1 == 0 { Endian::Little } else { Endian::Big },
         spacing: [1.0, f64::from(spec_bytes[5]), 0.5],

@@ -113,6 +113,8 @@ pub enum TfError {
     NonFinite { list: &'static str, index: usize },
     #[error("{list}[{index}]: negative value")]
     Negative { list: &'static str, index: usize },
+    #[error("{list}[{index}]: {value:e} is above 3.4e38, the largest f32 (tables and images hold f32)")]
+    TooLarge { list: &'static str, index: usize, value: f64 },
     #[error("{list}[{index}]: x = {x} repeats the previous control point")]
     Duplicate { list: &'static str, index: usize, x: f64 },
     #[error("{list}[{index}]: x = {x} is below the previous control point's {prev} (points must increase)")]

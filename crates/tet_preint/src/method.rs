@@ -234,7 +234,19 @@ impl SegmentShader for ExactShader {
                 &mut scratch.borrow_mut(),
             )
         });
-        [px.color[0] as f32, px.color[1] as f32, px.color[2] as f32, px.alpha as f32]
+        [sat_f32(px.color[0]), sat_f32(px.color[1]), sat_f32(px.color[2]), px.alpha as f32]
+    }
+}
+
+/// `v` as f32, values above the largest f32 held at it: independent emission
+/// gives C up to κ·l, beyond f32 for huge colours or lengths. NaN stays NaN
+/// (it would be a bug, not something to hide).
+#[inline]
+pub(crate) fn sat_f32(v: f64) -> f32 {
+    if v > f32::MAX as f64 {
+        f32::MAX
+    } else {
+        v as f32
     }
 }
 
@@ -284,9 +296,9 @@ impl SegmentShader for PtLinearShader {
         let rho = 0.5 * (self.tf.extinction(sf) + self.tf.extinction(sb));
         let alpha = -(-(l * rho)).exp_m1();
         [
-            (0.5 * (cf[0] + cb[0]) * alpha) as f32,
-            (0.5 * (cf[1] + cb[1]) * alpha) as f32,
-            (0.5 * (cf[2] + cb[2]) * alpha) as f32,
+            sat_f32(0.5 * (cf[0] + cb[0]) * alpha),
+            sat_f32(0.5 * (cf[1] + cb[1]) * alpha),
+            sat_f32(0.5 * (cf[2] + cb[2]) * alpha),
             alpha as f32,
         ]
     }

@@ -141,6 +141,11 @@ impl TransferFunction {
             if c.rgb.iter().any(|&v| v < 0.0) {
                 return Err(TfError::Negative { list: "color", index });
             }
+            // A segment's colour is at most the largest κ (density emission),
+            // so bounded entries keep f32 results finite.
+            if let Some(&value) = c.rgb.iter().find(|&&v| v > f32::MAX as f64) {
+                return Err(TfError::TooLarge { list: "color", index, value });
+            }
         }
         for (index, o) in opacity.iter().enumerate() {
             if !o.a.is_finite() {
@@ -161,8 +166,8 @@ impl TransferFunction {
     pub fn with_widgets(mut self, widgets: Vec<Widget>) -> Result<Self, TfError> {
         for (index, w) in widgets.iter().enumerate() {
             let bad = |field: &'static str, reason: &str| TfError::Widget { index, field, reason: reason.into() };
-            if w.color.iter().any(|c| !c.is_finite() || *c < 0.0) {
-                return Err(bad("color", "must be finite and non-negative"));
+            if w.color.iter().any(|c| !c.is_finite() || *c < 0.0 || *c > f32::MAX as f64) {
+                return Err(bad("color", "must be finite, non-negative and at most 3.4e38 (the largest f32)"));
             }
             if !(w.opacity.is_finite() && w.opacity >= 0.0) {
                 return Err(bad("opacity", "must be finite and non-negative"));

@@ -249,3 +249,41 @@ proptest! {
         prop_assert!(max_diff(a, b) < 1e-6, "{:?} {:?}", a, b);
     }
 }
+
+/// Fuzz finding (fuzz/fuzz_targets/tf_json.rs): a colour of 7.8e73 was
+/// accepted and the exact shader returned an infinite red. Colours above the
+/// largest f32 are now refused by name.
+#[test]
+fn colours_beyond_f32_are_refused() {
+    let text = r#"{"normalized": false,
+ "color": [[-1.5, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 77777777777777777777777777777777777777777777777777777777777777777777777770.0], [1.0, 0.0, 0.0, 1.0]],
+ "opacity": [[-1.0, 5.0], [0.2, 40.0], [1.0, 0.5]],
+ "unit_distance": 5.1}"#;
+    let err = TransferFunction::from_json(text).unwrap_err();
+    assert!(matches!(err, tet_preint::TfError::TooLarge { list: "color", index: 1, .. }), "{err}");
+    assert!(err.to_string().starts_with("color[1]: 7.7"), "{err}");
+    // The largest f32 itself is a valid colour.
+    let edge = r#"{"color": [[0, 3.4e38, 0, 0]], "opacity": [[0, 1]], "unit_distance": 1}"#;
+    assert!(TransferFunction::from_json(edge).is_ok());
+}
+
+/// Independent emission gives C up to κ·l: at the largest colour and a long
+/// transparent segment that is beyond f32, and the shaders hold it at the
+/// largest f32 instead of returning infinity.
+#[test]
+fn huge_independent_emission_stays_finite() {
+    use tet_preint::{ExactShader, PtLinearShader, Segment, SegmentShader};
+    let t = tf(r#"{"color": [[0, 3.4e38, 1, 0]], "opacity": [[0, 0]], "unit_distance": 1, "emission": "independent"}"#);
+    let seg = Segment { s_front: 0.0, s_back: 0.0, grad_front: 0.0, grad_back: 0.0, len_world: 1e6 };
+    for shader in [Box::new(ExactShader::new(t.clone())) as Box<dyn SegmentShader>, Box::new(PtLinearShader::new(t))] {
+        let c = shader.shade(&seg);
+        assert!(c.iter().all(|v| v.is_finite()), "{:?}: {c:?}", shader.method());
+        assert_eq!(c[3], 0.0);
+    }
+    let c = ExactShader::new(tf(
+        r#"{"color": [[0, 3.4e38, 1, 0]], "opacity": [[0, 0]], "unit_distance": 1, "emission": "independent"}"#,
+    ))
+    .shade(&seg);
+    assert_eq!(c[0], f32::MAX);
+    assert_eq!(c[1], 1e6);
+}

@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert delaunay)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert delaunay lut tf_json view_json)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -36,6 +36,10 @@ seed vtk_xml "$data"/vtu/*.vt? "$data"/vtu/*.pvtu
 seed gmsh "$data"/gmsh/*.msh
 seed nrrd "$data"/volume/*.nrrd "$data"/volume/*.nhdr
 seed bundle ../formats/samples/*.tetb
+seed lut ../formats/samples/*.tetl
+seed tf_json ../formats/samples/tf_*.json ../crates/tetlut/tests/data/*.json ../crates/tet_preint/tests/data/vtk/tf_*.json
+mkdir -p corpus/view_json
+printf '{"position":[0,-5,1],"focal_point":[0,0,0],"view_up":[0,0,1],"view_angle":30,"parallel":false,"parallel_scale":1,"size":[64,48]}' > corpus/view_json/view
 mkdir -p corpus/plot3d corpus/raw corpus/tetgen corpus/ply corpus/las corpus/csv corpus/delaunay
 # Delaunay: mode byte 0 (grid coordinates), a 2×2×2 cube plus its centre.
 printf '\x00\x00\x00\x00\x02\x00\x00\x00\x02\x00\x02\x02\x00\x00\x00\x02\x02\x00\x02\x00\x02\x00\x02\x02\x02\x02\x02\x01\x01\x01' > corpus/delaunay/cube

@@ -32,7 +32,7 @@
 
 use crate::biv_tables::{BandKind, BandTable, GaussErfTable, DEFAULT_ERF_TABLE};
 use crate::exact::{integrate_segment_with, Rgba};
-use crate::method::{Method, Rgba32, Segment, SegmentShader};
+use crate::method::{sat_f32, Method, Rgba32, Segment, SegmentShader};
 use crate::poly::{integrate_entry, Knot};
 use crate::special::erfcx;
 use crate::tf::{Emission, TransferFunction};
@@ -502,7 +502,7 @@ impl SegmentShader for BivExact {
     }
     fn shade(&self, seg: &Segment) -> Rgba32 {
         let px = self.integrate(&Seg2::from(seg));
-        [px.color[0] as f32, px.color[1] as f32, px.color[2] as f32, px.alpha as f32]
+        [sat_f32(px.color[0]), sat_f32(px.color[1]), sat_f32(px.color[2]), px.alpha as f32]
     }
 }
 
@@ -783,6 +783,6 @@ impl SegmentShader for BivApprox {
     }
     fn shade(&self, seg: &Segment) -> Rgba32 {
         let px = self.integrate(&Seg2::from(seg));
-        [px.color[0] as f32, px.color[1] as f32, px.color[2] as f32, px.alpha as f32]
+        [sat_f32(px.color[0]), sat_f32(px.color[1]), sat_f32(px.color[2]), px.alpha as f32]
     }
 }

@@ -104,6 +104,28 @@ fn check_2d_precision(method: Method, p: Precision) -> Result<(), TableError> {
     Ok(())
 }
 
+/// Tables store f32. Under density emission a segment's colour is at most
+/// the largest colour, which the TF bounds by f32::MAX. Under independent
+/// emission it reaches colour × length. The integrating shaders (`exact`,
+/// `pt-linear`, `biv-exact`) hold that at f32::MAX; a table would store
+/// infinity, so the bake is refused, naming both factors.
+fn check_f32_colour(method: Method, tf: &TransferFunction, domain: &TableDomain) -> Result<(), TableError> {
+    if matches!(method, Method::Exact | Method::PtLinear | Method::BivExact) || tf.emission() != Emission::Independent {
+        return Ok(());
+    }
+    let widgets: f64 = tf.widgets().iter().map(|w| w.color.iter().fold(0.0f64, |m, &c| m.max(c))).sum();
+    let colour = tf.max_color().iter().fold(0.0f64, |m, &c| m.max(c)) + widgets;
+    let reach = colour * domain.len_max_world;
+    if reach > f32::MAX as f64 {
+        return Err(TableError::Invalid(format!(
+            "independent emission: colour up to {colour:e} over segments up to {:e} world units reaches {reach:e}, \
+             beyond the largest f32 (3.4e38) that {method} tables store",
+            domain.len_max_world
+        )));
+    }
+    Ok(())
+}
+
 /// Rounds f32 values through `precision` storage (what a file written in
 /// that precision will read back as).
 fn quantize(values: &[f32], channels: usize, precision: Precision) -> Vec<f32> {
@@ -123,6 +145,7 @@ impl Baked {
         opts: &BakeOptions,
     ) -> Result<Baked, TableError> {
         let tf = tf_for_domain(tf, domain)?;
+        check_f32_colour(method, &tf, domain)?;
         if !method.is_bivariate() && !tf.widgets().is_empty() {
             return Err(TableError::Invalid(format!(
                 "the transfer function has {} 2D widget(s), which method '{method}' cannot integrate (it reads \

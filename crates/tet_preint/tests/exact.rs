@@ -287,3 +287,28 @@ fn huge_independent_emission_stays_finite() {
     assert_eq!(c[0], f32::MAX);
     assert_eq!(c[1], 1e6);
 }
+
+/// Tables store f32: under independent emission a colour × longest segment
+/// beyond f32 is refused at bake time (naming both), rather than baked into
+/// infinite entries; the integrating shaders still render it.
+#[test]
+fn tables_refuse_independent_emission_beyond_f32() {
+    use tet_preint::{make_shader, BakeOptions, Method, TableDomain, TableError};
+    let t = tf(
+        r#"{"color": [[0, 1e36, 0, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5]], "unit_distance": 1, "emission": "independent"}"#,
+    );
+    let domain = TableDomain::new(0.0, 1.0, 1.0, 1e3).unwrap();
+    for m in [Method::Table3d, Method::Poly2, Method::Partial] {
+        let err = make_shader(m, &t, &domain, &BakeOptions::default()).err().expect("refused");
+        assert!(
+            matches!(&err, TableError::Invalid(s) if s.contains("independent emission") && s.contains("1e3")),
+            "{m}: {err}"
+        );
+    }
+    for m in [Method::Exact, Method::PtLinear] {
+        assert!(make_shader(m, &t, &domain, &BakeOptions::default()).is_ok(), "{m}");
+    }
+    // Within f32 the same TF bakes.
+    let short = TableDomain::new(0.0, 1.0, 1.0, 1e2).unwrap();
+    assert!(make_shader(Method::Poly2, &t, &short, &BakeOptions::default()).is_ok());
+}

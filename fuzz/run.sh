@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert delaunay lut tf_json view_json)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert delaunay lut tf_json view_json render)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -43,6 +43,9 @@ printf '{"position":[0,-5,1],"focal_point":[0,0,0],"view_up":[0,0,1],"view_angle
 mkdir -p corpus/plot3d corpus/raw corpus/tetgen corpus/ply corpus/las corpus/csv corpus/delaunay
 # Delaunay: mode byte 0 (grid coordinates), a 2×2×2 cube plus its centre.
 printf '\x00\x00\x00\x00\x02\x00\x00\x00\x02\x00\x02\x02\x00\x00\x00\x02\x02\x00\x02\x00\x02\x00\x02\x02\x02\x02\x02\x01\x01\x01' > corpus/delaunay/cube
+# Render: mode, azimuth, elevation, zoom, scalar seed, spare; then the same cube points.
+mkdir -p corpus/render
+printf '\x00\x20\xa0\x00\x03\x00\x00\x00\x00\x02\x00\x00\x00\x02\x00\x02\x02\x00\x00\x00\x02\x02\x00\x02\x00\x02\x00\x02\x02\x02\x02\x02\x01\x01\x01' > corpus/render/cube
 head -c 200000 "$data"/points/stars_lum_ci.ply > corpus/ply/stars_head
 head -c 100000 "$data"/points/autzen_trim.las > corpus/las/autzen_head
 printf 'x,y,z,value\n0,0,0,1\n1,0,0,2\n0,1,0,3\n0,0,1,4\n' > corpus/csv/small.csv

@@ -15,7 +15,7 @@ use tetkit::io::{read_file, ReadOptions};
 use tetkit::mesh::{build_adjacency, tetrahedralize, ConvertOptions};
 use tetkit::preint::{make_shader, BakeOptions, Method, TableDomain, TransferFunction};
 use tetkit::render::{
-    diff, image::diff_rgba8, render_reference, Camera, Display, ReferenceOptions, Renderer, TfCuller, ViewSpec,
+    diff, image::diff_rgba8, render_reference, Camera, Display, ReferenceOptions, Renderer, Scene, TfCuller, ViewSpec,
 };
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -54,7 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // Render: a view that frames the bounds, turned by the azimuth; cells
     // the TF makes fully transparent are culled.
-    let scene = tetkit::render::Scene::from_bundle(&bundle)?;
+    let scene = Scene::from_bundle(&bundle)?;
     let (lo, hi) = scene.bounds();
     let view = ViewSpec::framing(lo, hi, [512, 512]).orbit(azimuth, 20.0, 1.0);
     let mut renderer = Renderer::new(scene);

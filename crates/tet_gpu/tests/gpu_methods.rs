@@ -9,7 +9,7 @@ mod common;
 
 use common::{gpu, grid, Mesh};
 use std::sync::Arc;
-use tet_gpu::{FrameOptions, GpuCull, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
+use tet_gpu::{FrameOptions, GpuContext, GpuCull, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{
     BakeOptions, Baked, Emission, Method, PsiParams, ScalarAxis, Segment, SegmentShader, Table3dParams, TableDomain,
     TransferFunction,
@@ -338,6 +338,20 @@ fn gpu_culling_matches_the_cpu_culler() {
     assert_eq!((f.stats.tets_culled, f.stats.tets_drawn), (0, order.len()));
 }
 
+/// The CPU scene with per-vertex gradients, the GPU scene with the same
+/// gradient magnitudes, and those magnitudes: what the bivariate image
+/// tests compare.
+fn bivariate_scenes(ctx: &GpuContext, mesh: &Mesh) -> (tet_render::Scene, GpuScene, Vec<f64>) {
+    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone())
+        .unwrap()
+        .ensure_gradients()
+        .unwrap();
+    let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
+    let scene =
+        GpuScene::new(ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap().with_gradient_magnitudes(ctx, &gm).unwrap();
+    (cpu_scene, scene, gm)
+}
+
 /// biv-approx: per segment (probe with gradient magnitudes) and per image
 /// against tet_render's CPU renderer with the scene's per-vertex |∇s|,
 /// under both emission models.
@@ -345,17 +359,9 @@ fn gpu_culling_matches_the_cpu_culler() {
 fn biv_approx_matches_the_cpu() {
     let Some(ctx) = gpu() else { return };
     let mesh = grid(6);
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone())
-        .unwrap()
-        .ensure_gradients()
-        .unwrap();
-    let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
+    let (cpu_scene, scene, gm) = bivariate_scenes(&ctx, &mesh);
     let g_max = gm.iter().copied().fold(0.0f64, f64::max);
     eprintln!("|∇s| up to {g_max:.3}");
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
-        .unwrap()
-        .with_gradient_magnitudes(&ctx, &gm)
-        .unwrap();
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
     let len = domain(&mesh).len_max_world as f32;
@@ -630,15 +636,7 @@ fn biv_exact_matches_the_cpu() {
     }
     eprintln!("biv-exact: GPU probe vs CPU max |Δ| over every case {worst_all:.3e}");
 
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone())
-        .unwrap()
-        .ensure_gradients()
-        .unwrap();
-    let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
-        .unwrap()
-        .with_gradient_magnitudes(&ctx, &gm)
-        .unwrap();
+    let (cpu_scene, scene, _) = bivariate_scenes(&ctx, &mesh);
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
     let (lo, hi) = mesh.bounds();

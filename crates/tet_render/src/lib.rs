@@ -59,16 +59,18 @@ pub mod reference;
 pub mod scene;
 pub mod shading;
 pub mod sort;
+pub mod walk;
 
 pub use camera::{Camera, ViewSpec};
 pub use cull::{CellCuller, CullMask, TfCuller};
 pub use image::{diff, DiffStats, Display, Image, ToneMap};
-pub use pipeline::{RenderStats, Renderer};
+pub use pipeline::{CpuRenderer, RenderStats, Renderer};
 pub use raster::{RasterOptions, RasterStats};
 pub use reference::{render_reference, RayResult, RayScratch, ReferenceOptions, ReferenceRenderer, ReferenceStats};
 pub use scene::Scene;
 pub use shading::{Light, Shading};
 pub use sort::{visibility_order, SortMethod, VisibilityOrder};
+pub use walk::{walk_frame, WalkMesh, WalkStats, WalkView};
 
 use std::path::PathBuf;
 

@@ -19,6 +19,14 @@
 //!
 //! [`Renderer::render`] recomputes what is stale and reports what it redid
 //! in [`RenderStats`].
+//!
+//! Two CPU renderers share these stages ([`CpuRenderer`]): the ray walker
+//! ([`crate::walk`], the default) needs only the vertices projected once per
+//! view and the front boundary faces binned ([`WalkView`]), the cull mask and
+//! the shader — no order and no per-tet setup; projected tetrahedra
+//! (`Pt`) use every stage above. A view the walker cannot draw yet (the
+//! near plane cuts the mesh) is drawn by projected tetrahedra, and
+//! [`RenderStats::walk_fallback`] says why.
 
 use crate::camera::{Camera, ViewSpec};
 use crate::cull::{cull, CellCuller, CullMask};
@@ -27,10 +35,50 @@ use crate::project::ViewGeometry;
 use crate::raster::{rasterize_cached, PreparedFrame, RasterOptions, RasterStats};
 use crate::scene::Scene;
 use crate::sort::{visibility_order, SortMethod, VisibilityOrder};
+use crate::walk::{walk_frame, WalkMesh, WalkView};
 use crate::RenderError;
 use std::sync::Arc;
 use std::time::Instant;
 use tet_preint::SegmentShader;
+
+/// Which CPU algorithm draws a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum CpuRenderer {
+    /// Face-adjacency ray walking ([`crate::walk`]): cost follows pixels ×
+    /// tets along each ray.
+    #[default]
+    Walk,
+    /// Projected tetrahedra in a visibility order (Shirley–Tuchman; the
+    /// papers' algorithm and the GPU's).
+    Pt,
+}
+
+impl CpuRenderer {
+    /// The id used on command lines (`walk`, `pt`).
+    pub fn id(self) -> &'static str {
+        match self {
+            CpuRenderer::Walk => "walk",
+            CpuRenderer::Pt => "pt",
+        }
+    }
+}
+
+impl std::str::FromStr for CpuRenderer {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "walk" => Ok(CpuRenderer::Walk),
+            "pt" => Ok(CpuRenderer::Pt),
+            _ => Err(format!("unknown renderer {s:?} (walk, pt)")),
+        }
+    }
+}
+
+impl std::fmt::Display for CpuRenderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.id())
+    }
+}
 
 /// Timings (seconds) and counts of one [`Renderer::render`].
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
@@ -63,6 +111,20 @@ pub struct RenderStats {
     /// The fast path's per-tet setup came from the previous frame (same view
     /// and order): no tet was set up.
     pub reused_setup: bool,
+    /// The algorithm that drew the frame (`walk` or `pt`).
+    pub renderer: String,
+    /// Walker: why this view was drawn by projected tetrahedra instead.
+    pub walk_fallback: Option<String>,
+    /// Walker: tets crossed (culled included), runs walked, edge tests
+    /// decided exactly, runs ended at non-manifold links or the step bound.
+    pub crossings: u64,
+    pub walk_runs: u64,
+    pub walk_exact_tests: u64,
+    pub walk_non_manifold: u64,
+    pub walk_step_limit: u64,
+    /// Walker: front boundary faces of the view, and rays stopped at `opaque_alpha`.
+    pub walk_front_faces: usize,
+    pub walk_terminated: u64,
 }
 
 impl RenderStats {
@@ -94,6 +156,10 @@ pub struct Renderer {
     replaced_cull: Option<CullMask>,
     /// Frames rendered from the current view and order.
     frames_in_view: u32,
+    kind: CpuRenderer,
+    /// The walker's per-scene links and per-view projection.
+    walk_mesh: Option<WalkMesh>,
+    walk_view: Option<WalkView>,
 }
 
 impl Renderer {
@@ -111,7 +177,26 @@ impl Renderer {
             prepared: None,
             replaced_cull: None,
             frames_in_view: 0,
+            kind: CpuRenderer::default(),
+            walk_mesh: None,
+            walk_view: None,
         }
+    }
+
+    /// Chooses the CPU algorithm (the walker by default).
+    pub fn set_renderer(&mut self, kind: CpuRenderer) {
+        self.kind = kind;
+    }
+
+    pub fn renderer(&self) -> CpuRenderer {
+        self.kind
+    }
+
+    /// Bytes the walker holds beyond the scene (links, boundary, projected
+    /// vertices, binned faces); 0 before its first frame.
+    pub fn walk_bytes(&self) -> usize {
+        self.walk_mesh.as_ref().map_or(0, WalkMesh::memory_bytes)
+            + self.walk_view.as_ref().map_or(0, WalkView::memory_bytes)
     }
 
     pub fn scene(&self) -> &Scene {
@@ -127,6 +212,7 @@ impl Renderer {
         self.camera = Some(Camera::new(spec)?);
         self.view = None;
         self.order = None;
+        self.walk_view = None;
         Ok(())
     }
 
@@ -164,6 +250,9 @@ impl Renderer {
         if opts != self.raster {
             self.prepared = None;
         }
+        if opts.tile != self.raster.tile {
+            self.walk_view = None;
+        }
         self.raster = opts;
     }
 
@@ -180,6 +269,50 @@ impl Renderer {
         self.view.as_ref()
     }
 
+    /// The walker's frame: the cull mask if stale, then every ray.
+    fn render_walk(
+        &mut self,
+        shader: &dyn SegmentShader,
+        mut stats: RenderStats,
+        start: Instant,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<(Image, RenderStats), RenderError> {
+        if self.cull.is_none() {
+            let t = Instant::now();
+            let mask = match &self.culler {
+                Some(c) => cull(&self.scene, c.as_ref()),
+                None => CullMask::all(self.scene.num_tets()),
+            };
+            if self.replaced_cull.take().is_none_or(|old| old.visible != mask.visible) {
+                self.prepared = None;
+            }
+            self.cull = Some(mask);
+            stats.cull_seconds = t.elapsed().as_secs_f64();
+            stats.recomputed_cull = true;
+        }
+        let mask = self.cull.as_ref().expect("computed above");
+        let mesh = self.walk_mesh.as_ref().expect("built by render");
+        let wv = self.walk_view.as_ref().expect("built by render");
+        let visible = (mask.culled > 0).then_some(mask.visible.as_slice());
+        let (image, ws) = walk_frame(&self.scene, mesh, wv, visible, shader, &self.raster, progress);
+        stats.renderer = CpuRenderer::Walk.id().to_string();
+        stats.tets_culled = mask.culled;
+        stats.fraction_culled = mask.fraction_culled();
+        stats.tets_drawn = mask.visible.len() - mask.culled;
+        stats.fragments = ws.fragments;
+        stats.crossings = ws.crossings;
+        stats.walk_runs = ws.runs;
+        stats.walk_exact_tests = ws.exact_tests;
+        stats.walk_non_manifold = ws.non_manifold;
+        stats.walk_step_limit = ws.step_limit;
+        stats.walk_front_faces = ws.front_faces;
+        stats.walk_terminated = ws.terminated;
+        stats.sort_method = "none".to_string();
+        stats.raster_seconds = ws.walk_seconds;
+        stats.total_seconds = start.elapsed().as_secs_f64();
+        Ok((image, stats))
+    }
+
     /// Renders, recomputing stale stages first.
     pub fn render(&mut self, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<(Image, RenderStats), RenderError> {
         let start = Instant::now();
@@ -189,6 +322,24 @@ impl Renderer {
             return Err(RenderError::NotReady("lighting and silhouettes need per-vertex gradients"));
         }
         let mut stats = RenderStats { tets_total: self.scene.num_tets(), ..Default::default() };
+        if self.kind == CpuRenderer::Walk {
+            if self.walk_mesh.is_none() {
+                self.walk_mesh = Some(WalkMesh::new(&self.scene));
+            }
+            if self.walk_view.is_none() {
+                let t = Instant::now();
+                let mesh = self.walk_mesh.as_ref().expect("built above");
+                self.walk_view = Some(WalkView::new(&self.scene, mesh, camera, self.raster.tile));
+                stats.view_seconds = t.elapsed().as_secs_f64();
+                stats.recomputed_view = true;
+            }
+            let wv = self.walk_view.as_ref().expect("built above");
+            match wv.unsupported() {
+                Some(why) => stats.walk_fallback = Some(why.to_string()),
+                None => return self.render_walk(shader.as_ref(), stats, start, progress),
+            }
+        }
+        stats.renderer = CpuRenderer::Pt.id().to_string();
 
         if self.view.is_none() || self.order.is_none() {
             self.prepared = None;

@@ -63,7 +63,13 @@ pub struct RenderArgs {
     /// Exposure multiplier for Reinhard tone mapping.
     #[arg(long, default_value_t = 1.0)]
     pub exposure: f32,
-    /// Visibility order: mpvo (exact on convex meshes), mpvonc (non-convex),
+    /// CPU algorithm: walk (face-adjacency ray walking, the default; cost
+    /// follows the image) or pt (projected tetrahedra in a visibility
+    /// order, as on the GPU). A view whose near plane cuts the mesh is drawn
+    /// by pt either way (the JSON's walk_fallback says so).
+    #[arg(long, default_value = "walk")]
+    pub renderer: tet_render::CpuRenderer,
+    /// Visibility order (pt only): mpvo (exact on convex meshes), mpvonc (non-convex),
     /// radix (centroid depth, approximate), auto.
     #[arg(long, default_value = "auto")]
     pub sort: SortMethod,
@@ -240,6 +246,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     r.set_view(&view)?;
     r.set_shader(shader);
     r.set_sort(args.sort);
+    r.set_renderer(args.renderer);
     if !args.no_cull {
         r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     }
@@ -270,13 +277,24 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         v["shader_seconds"] = shader_seconds.into();
         v["tables_baked"] = tables_baked().into();
         v["tets_per_second"] = st.tets_per_second().into();
+        v["walk_bytes"] = r.walk_bytes().into();
         v["output"] = args.output.display().to_string().into();
         v["size"] = serde_json::json!(view.size);
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
+        if let Some(why) = &st.walk_fallback {
+            eprintln!("note: projected tetrahedra drew this view: {why}");
+        }
+        if st.walk_non_manifold + st.walk_step_limit > 0 {
+            eprintln!(
+                "warning: {} ray runs ended at non-manifold links, {} at the step bound (the rays went on from their next entry)",
+                st.walk_non_manifold, st.walk_step_limit
+            );
+        }
         eprintln!(
-            "{}: {} of {} tets drawn ({:.1}% culled, sort {}{}), {}x{} in {:.3} s (sort {:.3} s, raster {:.3} s) → {}",
+            "{} ({}): {} of {} tets drawn ({:.1}% culled, sort {}{}), {}x{} in {:.3} s (sort {:.3} s, raster {:.3} s) → {}",
             method,
+            st.renderer,
             st.tets_drawn,
             st.tets_total,
             100.0 * st.fraction_culled,

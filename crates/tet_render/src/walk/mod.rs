@@ -1,0 +1,792 @@
+//! The face-adjacency ray walker: the CPU renderer whose cost follows the
+//! image (pixels × tets along each ray), not the mesh.
+//!
+//! Per view, each vertex is projected once ([`WalkView`]: pixel position,
+//! 1/depth and the scalar in f32, the f64 position for exact decisions);
+//! there is no per-tet setup and no visibility sort. Front-facing boundary
+//! faces are binned into screen tiles. Each tile (one rayon task) rasterizes
+//! its faces into per-pixel entry lists ordered by depth, so a ray that
+//! leaves a non-convex mesh (a curvilinear grid, a scan with a peeled hull)
+//! re-enters it correctly, and walks every pixel's ray from tet to tet by
+//! face adjacency, front to back:
+//!
+//! * the ray entered tet t through face f; the exit is one of the three
+//!   faces around the opposite vertex v, found from the sides of the ray
+//!   against the three edges from v ([`edge::side`]: f32 with an exact
+//!   fallback, one canonical order per edge, so neighbours agree bit for
+//!   bit). The signed areas of a tet's four projected faces cancel at every
+//!   point, so with exact, consistently perturbed signs an entry face that
+//!   contains the centre always has an exit face that does too;
+//! * the exit point's perspective-correct barycentrics (edge-function
+//!   values times 1/depth) give the exit depth and scalar; the segment
+//!   (Sf, Sb, l) goes into a batch for the shader
+//!   ([`SegmentShader::shade_batch`]) unless the tet is culled;
+//! * batches are shaded, lit (lighting and silhouettes at the segment's
+//!   midpoint, the gradients interpolated like the scalar) and composited
+//!   front to back; the ray stops once α reaches
+//!   [`RasterOptions::opaque_alpha`], as projected tetrahedra do.
+//!
+//! A link whose neighbour does not point back (a non-manifold spot) ends
+//! that run and the ray continues from its next entry; a run longer than
+//! [`WalkView::max_steps`] is cut. Both are counted in [`WalkStats`], never
+//! a hang. Each pixel depends only on its own ray, so the image does not
+//! depend on the thread count.
+//!
+//! Not yet handled: a camera whose near plane cuts the mesh (the eye inside
+//! or beside it): [`WalkView::unsupported`] says why, and
+//! [`crate::Renderer`] then draws that view by projected tetrahedra, which
+//! clip at the near plane.
+
+pub mod edge;
+
+use crate::camera::Camera;
+use crate::image::Image;
+use crate::project::Frame;
+use crate::raster::RasterOptions;
+use crate::scene::Scene;
+use edge::{directed_value, side, EdgeCounters, WalkVertex};
+use glam::DVec3;
+use rayon::prelude::*;
+use robust::{orient2d, Coord};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use tet_mesh::{FACE_OUTWARD, NO_NEIGHBOR};
+use tet_preint::{Rgba32, SegmentBatch, SegmentShader, BATCH};
+
+/// Whether a face whose outward normal points at the eye passes the
+/// centres it covers on their left (counter-clockwise in pixel
+/// coordinates). Camera x is right and y up with the eye looking along
+/// +forward = −(right × up), so an outward normal towards the eye is
+/// counter-clockwise in (right, up); pixel rows run down, which mirrors it.
+pub const FRONT_IS_LEFT: bool = false;
+const BACK_IS_LEFT: bool = !FRONT_IS_LEFT;
+
+/// `back[t][f]` for a link whose neighbour does not list `t`.
+const BROKEN: u8 = 0xff;
+
+/// For entry face `f_in` and candidate exit face `f`: the two local vertices
+/// (x, y) other than `f_in` and `f` such that face `f` in outward order
+/// reads (…, v, x, y, …) cyclically with v = local vertex `f_in`.
+const EXIT_EDGES: [[[usize; 2]; 4]; 4] = exit_edges();
+
+const fn exit_edges() -> [[[usize; 2]; 4]; 4] {
+    let mut out = [[[0usize; 2]; 4]; 4];
+    let mut f_in = 0;
+    while f_in < 4 {
+        let mut f = 0;
+        while f < 4 {
+            if f != f_in {
+                let fv = FACE_OUTWARD[f];
+                let mut j = 0;
+                while fv[j] != f_in {
+                    j += 1;
+                }
+                out[f_in][f] = [fv[(j + 1) % 3], fv[(j + 2) % 3]];
+            }
+            f += 1;
+        }
+        f_in += 1;
+    }
+    out
+}
+
+/// What the walker keeps of a scene across views: for every link, which of
+/// the neighbour's faces points back; the boundary faces; f32 copies of the
+/// gradients when a scene has them (lighting, bivariate methods).
+#[derive(Debug, Clone)]
+pub struct WalkMesh {
+    back: Vec<[u8; 4]>,
+    boundary: Vec<u32>,
+    broken_links: usize,
+    grads: Option<Vec<[f32; 3]>>,
+    grad_mag: Option<Vec<f32>>,
+}
+
+impl WalkMesh {
+    pub fn new(scene: &Scene) -> WalkMesh {
+        let nbs = scene.neighbors();
+        let back: Vec<[u8; 4]> = nbs
+            .par_iter()
+            .enumerate()
+            .map(|(t, nb)| {
+                nb.map(|n| {
+                    if n == NO_NEIGHBOR {
+                        return BROKEN;
+                    }
+                    match nbs[n as usize].iter().position(|&m| m as usize == t) {
+                        Some(f) => f as u8,
+                        None => BROKEN,
+                    }
+                })
+            })
+            .collect();
+        let broken_links = nbs
+            .iter()
+            .zip(&back)
+            .map(|(nb, b)| nb.iter().zip(b).filter(|(&n, &b)| n != NO_NEIGHBOR && b == BROKEN).count())
+            .sum();
+        let boundary = nbs
+            .iter()
+            .enumerate()
+            .flat_map(|(t, nb)| (0..4).filter(move |&f| nb[f] == NO_NEIGHBOR).map(move |f| (t * 4 + f) as u32))
+            .collect();
+        WalkMesh {
+            back,
+            boundary,
+            broken_links,
+            grads: scene.gradients().map(|g| g.iter().map(|v| v.map(|c| c as f32)).collect()),
+            grad_mag: scene.gradient_magnitudes().map(|g| g.iter().map(|&v| v as f32).collect()),
+        }
+    }
+
+    /// Links whose neighbour does not point back (non-manifold spots).
+    pub fn broken_links(&self) -> usize {
+        self.broken_links
+    }
+
+    /// Boundary faces (`tet * 4 + face`).
+    pub fn boundary_faces(&self) -> &[u32] {
+        &self.boundary
+    }
+
+    /// Bytes held beyond the scene.
+    pub fn memory_bytes(&self) -> usize {
+        self.back.len() * 4
+            + self.boundary.len() * 4
+            + self.grads.as_ref().map_or(0, |g| g.len() * 12)
+            + self.grad_mag.as_ref().map_or(0, |g| g.len() * 4)
+    }
+}
+
+/// One view for the walker: every vertex projected once, and the
+/// front-facing boundary faces binned into tiles.
+#[derive(Debug, Clone)]
+pub struct WalkView {
+    frame: Frame,
+    verts: Vec<WalkVertex>,
+    pos_px: Vec<[f64; 2]>,
+    /// Bounds |x| and |y| of every pixel centre.
+    p_max: f32,
+    tile: u32,
+    tiles_x: usize,
+    tiles_y: usize,
+    /// Front boundary faces per tile (CSR: `bin_start[i]..bin_start[i + 1]`).
+    bin_start: Vec<u32>,
+    bin_faces: Vec<u32>,
+    front_faces: usize,
+    max_steps: u32,
+    unsupported: Option<String>,
+}
+
+impl WalkView {
+    /// Projects the scene's vertices for `camera` and bins its front
+    /// boundary faces into tiles of `tile` pixels.
+    pub fn new(scene: &Scene, mesh: &WalkMesh, camera: &Camera, tile: u32) -> WalkView {
+        let frame = Frame::new(camera, scene.centre_in_world());
+        let tile = tile.clamp(4, 1024);
+        let (w, h) = (frame.width, frame.height);
+        let (tiles_x, tiles_y) = (w.div_ceil(tile) as usize, h.div_ceil(tile) as usize);
+        let max_steps = (scene.num_tets() as u64 + 16).min(1 << 22) as u32;
+        let p_max = w.max(h) as f32 + 1.0;
+        let mut view = WalkView {
+            frame,
+            verts: Vec::new(),
+            pos_px: Vec::new(),
+            p_max,
+            tile,
+            tiles_x,
+            tiles_y,
+            bin_start: vec![0; tiles_x * tiles_y + 1],
+            bin_faces: Vec::new(),
+            front_faces: 0,
+            max_steps,
+            unsupported: None,
+        };
+        let cam: Vec<[f64; 3]> = scene.positions_rel().par_iter().map(|&p| frame.to_cam(p)).collect();
+        if !frame.parallel {
+            if let Some(i) = cam.iter().position(|c| !(c[2] >= frame.near_depth)) {
+                view.unsupported = Some(format!(
+                    "vertex {i} is nearer than the near plane (depth {:.6e} < {:.6e}): the camera is inside or beside the mesh",
+                    cam[i][2], frame.near_depth
+                ));
+                return view;
+            }
+        }
+        view.pos_px = cam.par_iter().map(|&c| frame.cam_to_px(c)).collect();
+        view.verts = cam
+            .par_iter()
+            .zip(view.pos_px.par_iter())
+            .zip(scene.scalar().par_iter())
+            .map(|((c, p), &s)| WalkVertex {
+                x_px: p[0] as f32,
+                y_px: p[1] as f32,
+                w: if frame.parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 },
+                scalar: s as f32,
+            })
+            .collect();
+        if let Some(i) = view.pos_px.iter().position(|p| !(p[0].abs() < 1e30 && p[1].abs() < 1e30)) {
+            view.unsupported = Some(format!("vertex {i} projects outside the representable range"));
+            return view;
+        }
+        view.bin_front_faces(scene, mesh);
+        view
+    }
+
+    /// Why the walker cannot render this view (then projected tetrahedra do).
+    pub fn unsupported(&self) -> Option<&str> {
+        self.unsupported.as_deref()
+    }
+
+    /// Tile side the faces were binned for.
+    pub fn tile(&self) -> u32 {
+        self.tile
+    }
+
+    /// Most tets one run may cross before it is cut (counted).
+    pub fn max_steps(&self) -> u32 {
+        self.max_steps
+    }
+
+    /// Boundary faces facing the eye.
+    pub fn front_faces(&self) -> usize {
+        self.front_faces
+    }
+
+    /// Bytes held by this view.
+    pub fn memory_bytes(&self) -> usize {
+        self.verts.len() * 16 + self.pos_px.len() * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
+    }
+
+    fn bin_front_faces(&mut self, scene: &Scene, mesh: &WalkMesh) {
+        let tets = scene.tets();
+        let (w, h) = (self.frame.width, self.frame.height);
+        let tile = self.tile;
+        let pos = &self.pos_px;
+        // Per front face, its tile rectangle; back faces and faces that
+        // cover no pixel centre get none. A face is an entry when its
+        // projection's exact orientation is the front one: the walk lives
+        // in the projected arrangement, so this is the test it agrees with
+        // (a face exactly edge-on covers no centre under the perturbation).
+        let rects: Vec<Option<[u32; 4]>> = mesh
+            .boundary
+            .par_iter()
+            .map(|&packed| {
+                let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
+                let fv = FACE_OUTWARD[f];
+                let p = [0, 1, 2].map(|k| pos[tets[t][fv[k]] as usize]);
+                let o = orient2d(
+                    Coord { x: p[0][0], y: p[0][1] },
+                    Coord { x: p[1][0], y: p[1][1] },
+                    Coord { x: p[2][0], y: p[2][1] },
+                );
+                if o == 0.0 || (o > 0.0) != FRONT_IS_LEFT {
+                    return None;
+                }
+                pixel_rect(&p, w, h).map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile])
+            })
+            .collect();
+        let mut count = vec![0u32; self.tiles_x * self.tiles_y];
+        for r in rects.iter().flatten() {
+            self.front_faces += 1;
+            for j in r[1]..=r[3] {
+                for i in r[0]..=r[2] {
+                    count[j as usize * self.tiles_x + i as usize] += 1;
+                }
+            }
+        }
+        let mut start = 0u32;
+        for (i, c) in count.iter().enumerate() {
+            self.bin_start[i] = start;
+            start += c;
+        }
+        self.bin_start[count.len()] = start;
+        let mut fill: Vec<u32> = self.bin_start[..count.len()].to_vec();
+        self.bin_faces = vec![0; start as usize];
+        for (r, &packed) in rects.iter().zip(&mesh.boundary) {
+            let Some(r) = r else { continue };
+            for j in r[1]..=r[3] {
+                for i in r[0]..=r[2] {
+                    let k = j as usize * self.tiles_x + i as usize;
+                    self.bin_faces[fill[k] as usize] = packed;
+                    fill[k] += 1;
+                }
+            }
+        }
+    }
+}
+
+/// Inclusive pixel rectangle of the centres a triangle's bounding box can
+/// hold, clipped to the image; `None` when empty.
+fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
+    let (x_lo, x_hi) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
+    let (y_lo, y_hi) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
+    // Centres at i + 0.5 inside [lo, hi].
+    let x0 = (x_lo - 0.5).ceil().max(0.0);
+    let y0 = (y_lo - 0.5).ceil().max(0.0);
+    let x1 = (x_hi - 0.5).floor().min(w as f64 - 1.0);
+    let y1 = (y_hi - 0.5).floor().min(h as f64 - 1.0);
+    (x0 <= x1 && y0 <= y1).then(|| [x0 as u32, y0 as u32, x1 as u32, y1 as u32])
+}
+
+/// Counters of one walked frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct WalkStats {
+    /// Boundary faces facing the eye (the entries' candidates).
+    pub front_faces: usize,
+    /// Pixels whose ray meets the mesh.
+    pub rays: u64,
+    /// Runs walked (a ray re-entering a non-convex mesh walks several).
+    pub runs: u64,
+    /// Tets crossed, culled ones included.
+    pub crossings: u64,
+    /// Segments shaded and composited (non-culled, of positive length,
+    /// before the pixel was opaque): what projected tetrahedra call fragments.
+    pub fragments: u64,
+    /// Edge tests the f32 value could not call (decided exactly).
+    pub exact_tests: u64,
+    /// Runs ended at a link whose neighbour does not point back.
+    pub non_manifold: u64,
+    /// Runs cut at [`WalkView::max_steps`].
+    pub step_limit: u64,
+    /// Rays stopped early at `opaque_alpha`.
+    pub terminated: u64,
+    pub walk_seconds: f64,
+}
+
+impl WalkStats {
+    fn add(&mut self, o: &WalkStats) {
+        self.rays += o.rays;
+        self.runs += o.runs;
+        self.crossings += o.crossings;
+        self.fragments += o.fragments;
+        self.exact_tests += o.exact_tests;
+        self.non_manifold += o.non_manifold;
+        self.step_limit += o.step_limit;
+        self.terminated += o.terminated;
+    }
+
+    /// Runs that ended abnormally (non-manifold links or the step bound).
+    pub fn failures(&self) -> u64 {
+        self.non_manifold + self.step_limit
+    }
+}
+
+/// Renders one view by walking every pixel's ray. `visible` (per tet, from
+/// a [`crate::CullMask`]) marks the tets worth a lookup; culled tets are
+/// crossed without one. `progress(done, total)` is called as tiles finish.
+pub fn walk_frame(
+    scene: &Scene,
+    mesh: &WalkMesh,
+    view: &WalkView,
+    visible: Option<&[bool]>,
+    shader: &dyn SegmentShader,
+    opts: &RasterOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> (Image, WalkStats) {
+    let start = std::time::Instant::now();
+    let (w, h) = (view.frame.width, view.frame.height);
+    let mut img = Image::new(w, h);
+    let mut stats = WalkStats { front_faces: view.front_faces, ..Default::default() };
+    if view.unsupported.is_some() {
+        return (img, stats);
+    }
+    let n_tiles = view.tiles_x * view.tiles_y;
+    let ctx = WalkCtx {
+        scene,
+        mesh,
+        view,
+        visible,
+        shader,
+        opts,
+        want_grad_mag: shader.method().is_bivariate() && mesh.grad_mag.is_some(),
+        lit: opts.shading.is_active() && mesh.grads.is_some(),
+    };
+    let done = AtomicUsize::new(0);
+    let tiles: Vec<(Vec<[f32; 4]>, WalkStats)> = (0..n_tiles)
+        .into_par_iter()
+        .map(|ti| {
+            let out = ctx.tile(ti);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, n_tiles);
+            out
+        })
+        .collect();
+    let px = img.pixels_mut();
+    let tile = view.tile;
+    for (ti, (acc, st)) in tiles.into_iter().enumerate() {
+        stats.add(&st);
+        let (i, j) = ((ti % view.tiles_x) as u32, (ti / view.tiles_x) as u32);
+        let (x0, y0) = (i * tile, j * tile);
+        let tw = ((i + 1) * tile).min(w) - x0;
+        for (r, row) in acc.chunks_exact(tw as usize).enumerate() {
+            let s = (y0 as usize + r) * w as usize + x0 as usize;
+            px[s..s + tw as usize].copy_from_slice(row);
+        }
+    }
+    stats.walk_seconds = start.elapsed().as_secs_f64();
+    (img, stats)
+}
+
+struct WalkCtx<'a> {
+    scene: &'a Scene,
+    mesh: &'a WalkMesh,
+    view: &'a WalkView,
+    visible: Option<&'a [bool]>,
+    shader: &'a dyn SegmentShader,
+    opts: &'a RasterOptions,
+    want_grad_mag: bool,
+    lit: bool,
+}
+
+/// A point on a face along one ray: depth, scalar and the barycentric
+/// weights of the face's three vertices (world space).
+#[derive(Clone, Copy)]
+struct FacePoint {
+    depth: f32,
+    scalar: f32,
+    ids: [u32; 3],
+    lam: [f32; 3],
+}
+
+/// Where the ray meets face `ids` given its three edge-function values
+/// `l[k]` (edge opposite vertex k) oriented so that inside is positive
+/// after multiplying by `orient`.
+#[inline(always)]
+fn face_point(verts: &[WalkVertex], ids: [u32; 3], l: [f32; 3], orient: f32, parallel: bool) -> FacePoint {
+    let q = ids.map(|i| verts[i as usize]);
+    // Rounding can make a value slightly negative next to an edge.
+    let l = l.map(|v| (v * orient).max(0.0));
+    let mut lam;
+    let depth;
+    if parallel {
+        let sum = l[0] + l[1] + l[2];
+        lam = if sum > 0.0 { l.map(|v| v / sum) } else { [1.0 / 3.0; 3] };
+        depth = lam[0] * q[0].w + lam[1] * q[1].w + lam[2] * q[2].w;
+    } else {
+        let lw = [l[0] * q[0].w, l[1] * q[1].w, l[2] * q[2].w];
+        let sum_w = lw[0] + lw[1] + lw[2];
+        if sum_w > 0.0 {
+            lam = lw.map(|v| v / sum_w);
+            depth = (l[0] + l[1] + l[2]) / sum_w;
+        } else {
+            lam = [1.0 / 3.0; 3];
+            depth = 3.0 / (q[0].w + q[1].w + q[2].w);
+        }
+    }
+    if !depth.is_finite() {
+        lam = [1.0 / 3.0; 3];
+    }
+    let scalar = lam[0] * q[0].scalar + lam[1] * q[1].scalar + lam[2] * q[2].scalar;
+    FacePoint { depth, scalar, ids, lam }
+}
+
+/// Segments of one ray waiting for the shader.
+struct RayBatch {
+    segs: SegmentBatch,
+    /// Gradient at each segment's midpoint (lighting only).
+    grad_mid: [[f32; 3]; BATCH],
+    rgba: [Rgba32; BATCH],
+}
+
+/// The first batch of a ray holds this many segments, each next one twice
+/// as many up to [`BATCH`]: most rays that turn opaque do so early, and a
+/// ray walks at most one batch past the point where it did.
+const FIRST_BATCH: usize = 16;
+
+impl WalkCtx<'_> {
+    fn tile(&self, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+        let view = self.view;
+        let (w, h) = (view.frame.width, view.frame.height);
+        let tile = view.tile;
+        let (i, j) = ((ti % view.tiles_x) as u32, (ti / view.tiles_x) as u32);
+        let rect = [i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1];
+        let stride = (rect[2] - rect[0] + 1) as usize;
+        let mut acc = vec![[0.0f32; 4]; stride * (rect[3] - rect[1] + 1) as usize];
+        let mut st = WalkStats::default();
+        let mut counters = EdgeCounters::default();
+        let entries = self.entries(ti, rect, stride, &mut counters);
+        let mut batch =
+            Box::new(RayBatch { segs: SegmentBatch::default(), grad_mid: [[0.0; 3]; BATCH], rgba: [[0.0; 4]; BATCH] });
+        let mut k = 0;
+        while k < entries.len() {
+            let pix = entries[k].0;
+            let mut end = k + 1;
+            while end < entries.len() && entries[end].0 == pix {
+                end += 1;
+            }
+            let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
+            acc[pix as usize] = self.ray(px, py, &entries[k..end], &mut batch, &mut st, &mut counters);
+            k = end;
+        }
+        st.exact_tests = counters.exact;
+        (acc, st)
+    }
+
+    /// The tile's entries: (pixel index in the tile, depth, tet·4 + face),
+    /// sorted by pixel, then depth.
+    fn entries(&self, ti: usize, rect: [u32; 4], stride: usize, counters: &mut EdgeCounters) -> Vec<(u32, f32, u32)> {
+        let view = self.view;
+        let tets = self.scene.tets();
+        let (verts, pos) = (&view.verts[..], &view.pos_px[..]);
+        let faces = &view.bin_faces[view.bin_start[ti] as usize..view.bin_start[ti + 1] as usize];
+        let orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
+        let mut out = Vec::new();
+        for &packed in faces {
+            let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
+            let fv = FACE_OUTWARD[f];
+            let ids = [tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]];
+            let Some(r) = pixel_rect(&ids.map(|i| pos[i as usize]), view.frame.width, view.frame.height) else {
+                continue;
+            };
+            let (x0, y0, x1, y1) = (r[0].max(rect[0]), r[1].max(rect[1]), r[2].min(rect[2]), r[3].min(rect[3]));
+            if x0 > x1 || y0 > y1 {
+                continue;
+            }
+            for py in y0..=y1 {
+                let fy = py as f32 + 0.5;
+                for px in x0..=x1 {
+                    let fx = px as f32 + 0.5;
+                    let e0 = side(verts, pos, ids[1], ids[2], fx, fy, view.p_max, counters);
+                    if e0.1 != FRONT_IS_LEFT {
+                        continue;
+                    }
+                    let e1 = side(verts, pos, ids[2], ids[0], fx, fy, view.p_max, counters);
+                    if e1.1 != FRONT_IS_LEFT {
+                        continue;
+                    }
+                    let e2 = side(verts, pos, ids[0], ids[1], fx, fy, view.p_max, counters);
+                    if e2.1 != FRONT_IS_LEFT {
+                        continue;
+                    }
+                    let fp = face_point(verts, ids, [e0.0, e1.0, e2.0], orient, view.frame.parallel);
+                    let pix = (py - rect[1]) as usize * stride + (px - rect[0]) as usize;
+                    out.push((pix as u32, fp.depth, packed));
+                }
+            }
+        }
+        out.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
+        out
+    }
+
+    /// Walks the ray through pixel (px, py) from each of its entries in
+    /// depth order; returns the composited premultiplied RGBA.
+    fn ray(
+        &self,
+        px: u32,
+        py: u32,
+        entries: &[(u32, f32, u32)],
+        batch: &mut RayBatch,
+        st: &mut WalkStats,
+        counters: &mut EdgeCounters,
+    ) -> [f32; 4] {
+        let view = self.view;
+        let frame = &view.frame;
+        let tets = self.scene.tets();
+        let nbs = self.scene.neighbors();
+        let back = &self.mesh.back[..];
+        let (verts, pos) = (&view.verts[..], &view.pos_px[..]);
+        let parallel = frame.parallel;
+        let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
+        let len_per_depth = frame.len_per_depth(fx as f64, fy as f64) as f32;
+        let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
+        let back_orient = -front_orient;
+        let mut acc = [0.0f32; 4];
+        let mut cap = FIRST_BATCH;
+        batch.segs.len = 0;
+        st.rays += 1;
+        'runs: for &(_, _, packed) in entries {
+            st.runs += 1;
+            let (mut t, mut f_in) = ((packed / 4) as usize, (packed % 4) as usize);
+            let mut p_in = {
+                let fv = FACE_OUTWARD[f_in];
+                let ids = [tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]];
+                let l = [
+                    directed_value(verts, ids[1], ids[2], fx, fy),
+                    directed_value(verts, ids[2], ids[0], fx, fy),
+                    directed_value(verts, ids[0], ids[1], fx, fy),
+                ];
+                face_point(verts, ids, l, front_orient, parallel)
+            };
+            let mut steps = 0u32;
+            loop {
+                steps += 1;
+                if steps > view.max_steps {
+                    st.step_limit += 1;
+                    break;
+                }
+                let tet = tets[t];
+                let v = tet[f_in];
+                let mut left = [false; 4];
+                let mut val = [0.0f32; 4];
+                for k in 0..4 {
+                    if k != f_in {
+                        (val[k], left[k]) = side(verts, pos, v, tet[k], fx, fy, view.p_max, counters);
+                    }
+                }
+                // The exit: a face around v whose two v-edges the centre
+                // passes on the back-face side.
+                let mut f_out = 4;
+                for f in 0..4 {
+                    if f == f_in {
+                        continue;
+                    }
+                    let [x, y] = EXIT_EDGES[f_in][f];
+                    if left[x] == BACK_IS_LEFT && left[y] != BACK_IS_LEFT {
+                        f_out = f;
+                        break;
+                    }
+                }
+                if f_out == 4 {
+                    // Cannot happen with exact signs (module docs); counted
+                    // with the step bound rather than trusted.
+                    st.step_limit += 1;
+                    break;
+                }
+                let [x, y] = EXIT_EDGES[f_in][f_out];
+                let fv = FACE_OUTWARD[f_out];
+                let j = fv.iter().position(|&k| k == f_in).expect("exit face holds v");
+                let mut l = [0.0f32; 3];
+                l[j] = directed_value(verts, tet[x], tet[y], fx, fy);
+                l[(j + 1) % 3] = -val[y];
+                l[(j + 2) % 3] = val[x];
+                let p_out = face_point(verts, [tet[fv[0]], tet[fv[1]], tet[fv[2]]], l, back_orient, parallel);
+                st.crossings += 1;
+                let len = (p_out.depth - p_in.depth) * len_per_depth;
+                if len > 0.0 && self.visible.is_none_or(|vis| vis[t]) {
+                    self.push(batch, &p_in, &p_out, len);
+                    if batch.segs.len >= cap {
+                        cap = (cap * 2).min(BATCH);
+                        if self.flush(batch, &mut acc, fx, fy, st) {
+                            st.terminated += 1;
+                            break 'runs;
+                        }
+                    }
+                }
+                let nb = nbs[t][f_out];
+                if nb == NO_NEIGHBOR {
+                    break;
+                }
+                let b = back[t][f_out];
+                if b == BROKEN {
+                    st.non_manifold += 1;
+                    break;
+                }
+                t = nb as usize;
+                f_in = b as usize;
+                p_in = p_out;
+            }
+        }
+        if batch.segs.len > 0 && self.flush(batch, &mut acc, fx, fy, st) {
+            st.terminated += 1;
+        }
+        acc
+    }
+
+    #[inline(always)]
+    fn push(&self, batch: &mut RayBatch, a: &FacePoint, b: &FacePoint, len: f32) {
+        let k = batch.segs.len;
+        batch.segs.s_front[k] = a.scalar;
+        batch.segs.s_back[k] = b.scalar;
+        batch.segs.len_world[k] = len;
+        if self.want_grad_mag {
+            let g = self.mesh.grad_mag.as_deref().expect("checked in want_grad_mag");
+            let at = |p: &FacePoint| {
+                p.lam[0] * g[p.ids[0] as usize] + p.lam[1] * g[p.ids[1] as usize] + p.lam[2] * g[p.ids[2] as usize]
+            };
+            batch.segs.grad_front[k] = at(a);
+            batch.segs.grad_back[k] = at(b);
+        } else {
+            batch.segs.grad_front[k] = 0.0;
+            batch.segs.grad_back[k] = 0.0;
+        }
+        if self.lit {
+            let g = self.mesh.grads.as_deref().expect("checked in lit");
+            let mut mid = [0.0f32; 3];
+            for p in [a, b] {
+                for (c, m) in mid.iter_mut().enumerate() {
+                    *m += 0.5
+                        * (p.lam[0] * g[p.ids[0] as usize][c]
+                            + p.lam[1] * g[p.ids[1] as usize][c]
+                            + p.lam[2] * g[p.ids[2] as usize][c]);
+                }
+            }
+            batch.grad_mid[k] = mid;
+        }
+        batch.segs.len = k + 1;
+    }
+
+    /// Shades the batch and composites it under `acc` in order; true once
+    /// the pixel is opaque (the rest of the batch is dropped).
+    fn flush(&self, batch: &mut RayBatch, acc: &mut [f32; 4], fx: f32, fy: f32, st: &mut WalkStats) -> bool {
+        let n = batch.segs.len;
+        if acc[3] >= self.opts.opaque_alpha {
+            batch.segs.len = 0;
+            return true;
+        }
+        self.shader.shade_batch(&batch.segs, &mut batch.rgba);
+        batch.segs.len = 0;
+        let view_dir = self.lit.then(|| self.view.frame.view_dir(fx as f64, fy as f64));
+        for k in 0..n {
+            let mut c = batch.rgba[k];
+            if let Some(vd) = view_dir {
+                let g = batch.grad_mid[k];
+                c = self.opts.shading.apply(c, DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64), vd);
+            }
+            let t = 1.0 - acc[3];
+            acc[0] += t * c[0];
+            acc[1] += t * c[1];
+            acc[2] += t * c[2];
+            acc[3] += t * c[3];
+            st.fragments += 1;
+            if acc[3] >= self.opts.opaque_alpha {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::project::ViewGeometry;
+    use crate::ViewSpec;
+
+    #[test]
+    fn exit_edge_table_reads_each_face_around_v() {
+        for f_in in 0..4 {
+            for f in 0..4 {
+                if f == f_in {
+                    continue;
+                }
+                let [x, y] = EXIT_EDGES[f_in][f];
+                let mut s = [f_in, x, y, f];
+                s.sort();
+                assert_eq!(s, [0, 1, 2, 3]);
+            }
+        }
+    }
+
+    /// The projected orientation of a face the eye sees from outside is
+    /// the one [`FRONT_IS_LEFT`] states, for perspective and parallel views.
+    #[test]
+    fn front_faces_have_the_stated_orientation() {
+        let pts = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let scene = Scene::new(&pts, vec![[0, 1, 2, 3]], vec![0.0; 4]).unwrap();
+        for parallel in [false, true] {
+            for az in [10.0, 100.0, 200.0, 300.0] {
+                let mut spec = ViewSpec::framing([0.0; 3], [1.0; 3], [64, 64]).orbit(az, 25.0, 1.0);
+                spec.parallel = parallel;
+                let camera = Camera::new(&spec).unwrap();
+                let vg = ViewGeometry::new(&scene, &camera);
+                for (f, fv) in FACE_OUTWARD.iter().enumerate() {
+                    let p = fv.map(|k| vg.px[k]);
+                    let o = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+                    if vg.face_mask[0] & (1 << f) != 0 {
+                        assert_eq!(o > 0.0, FRONT_IS_LEFT, "parallel {parallel} az {az} face {f}");
+                    } else if vg.face_mask[0] & (1 << (4 + f)) != 0 {
+                        assert_eq!(o > 0.0, BACK_IS_LEFT, "parallel {parallel} az {az} face {f}");
+                    }
+                }
+            }
+        }
+    }
+}

@@ -11,7 +11,8 @@
 //! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
 //! turns the camera D degrees of azimuth before every frame after the
 //! first (each frame a camera move: re-sorted and set up again);
-//! `TET_NO_KEEP=1` keeps no per-tet setup across frames. `TET_VIEW=view.json`
+//! `TET_NO_KEEP=1` keeps no per-tet setup across frames. `TET_RENDERER=pt`
+//! draws by projected tetrahedra instead of the ray walker (the default). `TET_VIEW=view.json`
 //! starts from that camera and its size (VTK fields, e.g. the one `shared/peer/vtk_render.py`
 //! records) instead of the framing orbited by azimuth/elevation; `TET_ORBIT`
 //! then turns it.
@@ -69,6 +70,9 @@ fn main() {
         opts.setup_cache_bytes = 0;
     }
     r.set_raster_options(opts);
+    let kind: tet_render::CpuRenderer =
+        std::env::var("TET_RENDERER").map_or(Ok(Default::default()), |k| k.parse()).expect("TET_RENDERER: walk or pt");
+    r.set_renderer(kind);
     for f in 0..frames.max(1) {
         if f > 0 && orbit != 0.0 {
             r.set_view(&base.orbit(orbit * f as f64, 0.0, 1.0)).expect("view");
@@ -82,7 +86,8 @@ fn main() {
         }
         let cpu = process_cpu_seconds() - c0;
         println!(
-            "frame {f}: {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} setups, {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} exact tests, {} setups, {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            st.renderer,
             st.total_seconds,
             st.view_seconds,
             st.cull_seconds,
@@ -92,13 +97,20 @@ fn main() {
             st.raster_seconds,
             st.tets_drawn,
             st.fragments,
+            st.crossings,
+            st.walk_exact_tests,
             st.setups,
             st.tets_per_second() / 1e6,
             cpu,
             cpu * 1e9 / st.fragments.max(1) as f64
         );
         if f == 0 {
-            println!("kept per-tet setup: {:.1} MiB", r.setup_bytes() as f64 / (1 << 20) as f64);
+            println!(
+                "kept per-tet setup: {:.1} MiB; walker: {:.1} MiB ({:.1} bytes a tet)",
+                r.setup_bytes() as f64 / (1 << 20) as f64,
+                r.walk_bytes() as f64 / (1 << 20) as f64,
+                r.walk_bytes() as f64 / st.tets_total.max(1) as f64
+            );
         }
     }
 }

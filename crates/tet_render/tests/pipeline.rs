@@ -6,7 +6,7 @@ mod common;
 use common::*;
 use std::sync::Arc;
 use tet_preint::{ExactShader, PtLinearShader};
-use tet_render::{RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ViewSpec};
+use tet_render::{CpuRenderer, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ViewSpec};
 
 const TF: &str = r#"{"color": [[0, 0.2, 0.4, 1], [0.5, 1, 1, 0.2], [1, 1, 0, 0]],
     "opacity": [[0, 0], [0.35, 0], [0.6, 4], [1, 1]], "unit_distance": 0.5}"#;
@@ -67,6 +67,7 @@ fn coordinates_offset_by_a_million_render_the_same() {
 fn each_change_recomputes_only_what_it_invalidates() {
     let (p, t, s) = grid_mesh(4, 0.2, [0.0; 3], 2, wave);
     let mut r = Renderer::new(Scene::new(&p, t, s).unwrap());
+    r.set_renderer(CpuRenderer::Pt);
     assert!(r.render(&|_, _| {}).is_err(), "no view yet");
     r.set_view(&view()).unwrap();
     r.set_shader(Arc::new(ExactShader::new(tf(TF))));
@@ -112,6 +113,37 @@ fn each_change_recomputes_only_what_it_invalidates() {
     assert!(st.recomputed_cull && st.recomputed_order && st.tets_culled == 0);
 }
 
+/// The walker's stages: a view projects the vertices and bins the front
+/// faces once; a new shader or TF re-shades without redoing the view; it
+/// never sorts or sets a tet up.
+#[test]
+fn walker_recomputes_only_what_it_invalidates() {
+    let (p, t, s) = grid_mesh(4, 0.2, [0.0; 3], 2, wave);
+    let mut r = Renderer::new(Scene::new(&p, t, s).unwrap());
+    assert_eq!(r.renderer(), CpuRenderer::Walk, "the walker is the default");
+    r.set_view(&view()).unwrap();
+    r.set_shader(Arc::new(ExactShader::new(tf(TF))));
+    let (first, st) = r.render(&|_, _| {}).unwrap();
+    assert_eq!(st.renderer, "walk");
+    assert!(st.recomputed_view && st.recomputed_cull && !st.recomputed_order);
+    assert_eq!((st.setups, st.sort_seconds), (0, 0.0));
+    assert!(st.crossings > 0 && r.walk_bytes() > 0);
+    let (again, st) = r.render(&|_, _| {}).unwrap();
+    assert!(!st.recomputed_view && !st.recomputed_cull);
+    assert!(first == again);
+    r.set_culler(Some(Arc::new(TfCuller::new(&tf(TF)))));
+    r.set_shader(Arc::new(ExactShader::new(tf(SPARSE))));
+    let (_, st) = r.render(&|_, _| {}).unwrap();
+    assert!(!st.recomputed_view && st.recomputed_cull);
+    r.set_view(&view().orbit(10.0, 0.0, 1.0)).unwrap();
+    let (_, st) = r.render(&|_, _| {}).unwrap();
+    assert!(st.recomputed_view && !st.recomputed_cull);
+    // A new tile size rebins the faces.
+    r.set_raster_options(RasterOptions { tile: 8, ..Default::default() });
+    let (_, st) = r.render(&|_, _| {}).unwrap();
+    assert!(st.recomputed_view);
+}
+
 #[test]
 fn culling_skips_invisible_tets_without_changing_the_image() {
     let (p, t, s) = grid_mesh(6, 0.3, [0.0; 3], 5, wave);
@@ -140,6 +172,7 @@ fn kept_setup_renders_what_a_fresh_renderer_renders() {
     let scene = Scene::new(&p, t, s).unwrap();
     let fresh = |tf_json: &str, cache: bool| {
         let mut r = Renderer::new(scene.clone());
+        r.set_renderer(CpuRenderer::Pt);
         r.set_view(&view()).unwrap();
         let opts = RasterOptions { setup_cache_bytes: if cache { 1 << 30 } else { 0 }, ..Default::default() };
         r.set_raster_options(opts);
@@ -148,6 +181,7 @@ fn kept_setup_renders_what_a_fresh_renderer_renders() {
         r.render(&|_, _| {}).unwrap().0
     };
     let mut r = Renderer::new(scene.clone());
+    r.set_renderer(CpuRenderer::Pt);
     r.set_view(&view()).unwrap();
     for tf_json in [TF, SPARSE, TF] {
         r.set_shader(Arc::new(ExactShader::new(tf(tf_json))));
@@ -233,6 +267,7 @@ fn fast_path_is_bit_identical_to_the_per_tile_path() {
                 let [fast, general] = [true, false].map(|fast_path| {
                     pool.install(|| {
                         let mut r = Renderer::new(scene.clone());
+                        r.set_renderer(CpuRenderer::Pt);
                         r.set_view(v).unwrap();
                         r.set_shader(shader.clone());
                         r.set_raster_options(RasterOptions { tile: 16, fast_path, ..Default::default() });

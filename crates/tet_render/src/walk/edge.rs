@@ -21,6 +21,7 @@
 //! walk through it always finds an exit (see the module above).
 
 use robust::{orient2d, Coord};
+use wide::{f32x4, CmpGt, CmpLt};
 
 /// A vertex of one view for the walker: pixel position and the two values
 /// interpolated across faces. Perspective: `w` is 1/depth (affine in screen
@@ -141,6 +142,70 @@ pub fn directed_value(verts: &[WalkVertex], iu: u32, iv: u32, px: f32, py: f32) 
     }
 }
 
+/// The sides of the ray against the four edges v → u_k, u_k = `tet[k]`, of
+/// one tet at once (lane `skip`, v itself, is meaningless): the f32 values
+/// of v → u_k and, as bits, whether the centre passes left of each. Each
+/// lane computes the same canonical-order operations as [`side`], so the
+/// values are the same numbers; `k_view` bounds |x| and |y| of every
+/// projected vertex and pixel centre of the view.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn sides_from(
+    verts: &[WalkVertex],
+    pos_f64: &[[f64; 2]],
+    tet: [u32; 4],
+    skip: usize,
+    px: f32,
+    py: f32,
+    k_view: f32,
+    counters: &mut EdgeCounters,
+) -> ([f32; 4], u32) {
+    let v = tet[skip];
+    let q = tet.map(|i| verts[i as usize]);
+    let vv = q[skip];
+    let ux = f32x4::from([q[0].x_px, q[1].x_px, q[2].x_px, q[3].x_px]);
+    let uy = f32x4::from([q[0].y_px, q[1].y_px, q[2].y_px, q[3].y_px]);
+    let (vx, vy) = (f32x4::splat(vv.x_px), f32x4::splat(vv.y_px));
+    // Lanes whose canonical edge is u → v (u has the smaller id).
+    let flip = tet.map(|u| u < v);
+    let m = |b: bool| if b { f32::from_bits(u32::MAX) } else { 0.0 };
+    let swap = f32x4::from(flip.map(m));
+    let (ax, ay) = (swap.blend(ux, vx), swap.blend(uy, vy));
+    let (bx, by) = (swap.blend(vx, ux), swap.blend(vy, uy));
+    let (pxv, pyv) = (f32x4::splat(px), f32x4::splat(py));
+    let f1 = bx - ax;
+    let g1 = pyv - ay;
+    let f2 = by - ay;
+    let g2 = pxv - ax;
+    let p1 = f1 * g1;
+    let p2 = f2 * g2;
+    let e = p1 - p2;
+    // The bound of `canonical` with the view's bound on every coordinate.
+    let two_u = f32x4::splat(2.0 * U32);
+    let k = f32x4::splat(k_view);
+    let bound = two_u
+        * (k * (f1.abs() + f2.abs() + f32x4::splat(2.0) * (g1.abs() + g2.abs()))
+            + f32x4::splat(4.0) * (p1.abs() + p2.abs()))
+        + f32x4::splat(16.0 * U32 * U32 * k_view * k_view);
+    let pos = e.cmp_gt(bound).move_mask() as u32;
+    let neg = e.cmp_lt(-bound).move_mask() as u32;
+    let mut left_canon = pos;
+    let mut unsure = !(pos | neg) & 0xf & !(1 << skip);
+    while unsure != 0 {
+        let l = unsure.trailing_zeros() as usize;
+        unsure &= unsure - 1;
+        counters.exact += 1;
+        let (ia, ib) = if flip[l] { (tet[l], v) } else { (v, tet[l]) };
+        if exact_left(pos_f64[ia as usize], pos_f64[ib as usize], px as f64, py as f64) {
+            left_canon |= 1 << l;
+        }
+    }
+    let flip_bits = (flip[0] as u32) | (flip[1] as u32) << 1 | (flip[2] as u32) << 2 | (flip[3] as u32) << 3;
+    let e = e.to_array();
+    let vals = [0, 1, 2, 3].map(|l| if flip[l] { -e[l] } else { e[l] });
+    (vals, (left_canon ^ flip_bits) & 0xf)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -176,6 +241,33 @@ mod tests {
             prop_assert_eq!(left, exact_left(a, b, px as f64, py as f64));
             let (_, right) = side(&verts, &pos, 1, 0, px, py, 512.0, &mut c);
             prop_assert_eq!(right, !left);
+        }
+    }
+
+    proptest! {
+        /// The four-lane form gives the scalar form's values and sides.
+        #[test]
+        fn sides_from_equals_side(
+            c in proptest::collection::vec((-600.0f64..600.0, -600.0f64..600.0), 4),
+            ids in proptest::sample::subsequence((0u32..8).collect::<Vec<_>>(), 4),
+            skip in 0usize..4, ix in 0u32..512, iy in 0u32..512, snap in any::<bool>(),
+        ) {
+            let mut pos = vec![[0.0f64; 2]; 8];
+            let (px, py) = (ix as f32 + 0.5, iy as f32 + 0.5);
+            for (k, &i) in ids.iter().enumerate() {
+                // Optionally put a vertex exactly on the pixel centre's row.
+                pos[i as usize] = [c[k].0, if snap && k == 1 { py as f64 } else { c[k].1 }];
+            }
+            let verts: Vec<WalkVertex> = pos.iter().map(|&p| vert(p)).collect();
+            let tet = [ids[0], ids[1], ids[2], ids[3]];
+            let mut cnt = EdgeCounters::default();
+            let (vals, bits) = sides_from(&verts, &pos, tet, skip, px, py, 601.0, &mut cnt);
+            for k in 0..4 {
+                if k == skip { continue; }
+                let (val, left) = side(&verts, &pos, tet[skip], tet[k], px, py, 512.0, &mut cnt);
+                prop_assert_eq!(vals[k].to_bits(), val.to_bits());
+                prop_assert_eq!(bits >> k & 1 == 1, left);
+            }
         }
     }
 

@@ -44,7 +44,7 @@ use crate::image::Image;
 use crate::project::Frame;
 use crate::raster::RasterOptions;
 use crate::scene::Scene;
-use edge::{directed_value, side, EdgeCounters, WalkVertex};
+use edge::{directed_value, side, sides_from, EdgeCounters, WalkVertex};
 use glam::DVec3;
 use rayon::prelude::*;
 use robust::{orient2d, Coord};
@@ -67,6 +67,54 @@ const BROKEN: u8 = 0xff;
 /// (x, y) other than `f_in` and `f` such that face `f` in outward order
 /// reads (…, v, x, y, …) cyclically with v = local vertex `f_in`.
 const EXIT_EDGES: [[[usize; 2]; 4]; 4] = exit_edges();
+
+/// `EXIT_FACE[f_in][bits]`: the exit face for entry face `f_in` given the
+/// sides (bit k: left of v → local vertex k) of the ray against the edges
+/// from v, or 4 when no face around v passes (impossible with exact signs).
+const EXIT_FACE: [[u8; 16]; 4] = exit_faces();
+
+const fn exit_faces() -> [[u8; 16]; 4] {
+    let mut out = [[4u8; 16]; 4];
+    let mut f_in = 0;
+    while f_in < 4 {
+        let mut bits = 0;
+        while bits < 16 {
+            let mut f = 0;
+            while f < 4 {
+                if f != f_in {
+                    let [x, y] = EXIT_EDGES[f_in][f];
+                    let (lx, ly) = ((bits >> x) & 1 == 1, (bits >> y) & 1 == 1);
+                    if lx == BACK_IS_LEFT && ly != BACK_IS_LEFT {
+                        out[f_in][bits] = f as u8;
+                        break;
+                    }
+                }
+                f += 1;
+            }
+            bits += 1;
+        }
+        f_in += 1;
+    }
+    out
+}
+
+/// `V_POS[f]`: the position of local vertex `f_in` in face `f`'s outward
+/// order, for every f_in ≠ f (`V_POS[f][f_in]`).
+const V_POS: [[usize; 4]; 4] = v_pos();
+
+const fn v_pos() -> [[usize; 4]; 4] {
+    let mut out = [[0usize; 4]; 4];
+    let mut f = 0;
+    while f < 4 {
+        let mut j = 0;
+        while j < 3 {
+            out[f][FACE_OUTWARD[f][j]] = j;
+            j += 1;
+        }
+        f += 1;
+    }
+    out
+}
 
 const fn exit_edges() -> [[[usize; 2]; 4]; 4] {
     let mut out = [[[0usize; 2]; 4]; 4];
@@ -166,6 +214,8 @@ pub struct WalkView {
     pos_px: Vec<[f64; 2]>,
     /// Bounds |x| and |y| of every pixel centre.
     p_max: f32,
+    /// Bounds |x| and |y| of every projected vertex and pixel centre.
+    k_view: f32,
     tile: u32,
     tiles_x: usize,
     tiles_y: usize,
@@ -192,6 +242,7 @@ impl WalkView {
             verts: Vec::new(),
             pos_px: Vec::new(),
             p_max,
+            k_view: p_max,
             tile,
             tiles_x,
             tiles_y,
@@ -227,6 +278,7 @@ impl WalkView {
             view.unsupported = Some(format!("vertex {i} projects outside the representable range"));
             return view;
         }
+        view.k_view = view.verts.iter().fold(p_max, |k, v| k.max(v.x_px.abs()).max(v.y_px.abs()));
         view.bin_front_faces(scene, mesh);
         view
     }
@@ -453,26 +505,37 @@ struct FacePoint {
 fn face_point(verts: &[WalkVertex], ids: [u32; 3], l: [f32; 3], orient: f32, parallel: bool) -> FacePoint {
     let q = ids.map(|i| verts[i as usize]);
     // Rounding can make a value slightly negative next to an edge.
-    let l = l.map(|v| (v * orient).max(0.0));
-    let mut lam;
-    let depth;
+    // (Comparisons rather than `max`, which also handles NaN at a cost.)
+    let l = l.map(|v| {
+        let v = v * orient;
+        if v > 0.0 {
+            v
+        } else {
+            0.0
+        }
+    });
+    let (lam, depth);
     if parallel {
         let sum = l[0] + l[1] + l[2];
-        lam = if sum > 0.0 { l.map(|v| v / sum) } else { [1.0 / 3.0; 3] };
+        if sum > 0.0 {
+            let inv = 1.0 / sum;
+            lam = l.map(|v| v * inv);
+        } else {
+            lam = [1.0 / 3.0; 3];
+        }
         depth = lam[0] * q[0].w + lam[1] * q[1].w + lam[2] * q[2].w;
     } else {
         let lw = [l[0] * q[0].w, l[1] * q[1].w, l[2] * q[2].w];
         let sum_w = lw[0] + lw[1] + lw[2];
         if sum_w > 0.0 {
-            lam = lw.map(|v| v / sum_w);
-            depth = (l[0] + l[1] + l[2]) / sum_w;
+            let inv = 1.0 / sum_w;
+            lam = lw.map(|v| v * inv);
+            depth = (l[0] + l[1] + l[2]) * inv;
         } else {
+            // The centre on a vertex: any point of the face is that vertex.
             lam = [1.0 / 3.0; 3];
             depth = 3.0 / (q[0].w + q[1].w + q[2].w);
         }
-    }
-    if !depth.is_finite() {
-        lam = [1.0 / 3.0; 3];
     }
     let scalar = lam[0] * q[0].scalar + lam[1] * q[1].scalar + lam[2] * q[2].scalar;
     FacePoint { depth, scalar, ids, lam }
@@ -613,27 +676,8 @@ impl WalkCtx<'_> {
                     break;
                 }
                 let tet = tets[t];
-                let v = tet[f_in];
-                let mut left = [false; 4];
-                let mut val = [0.0f32; 4];
-                for k in 0..4 {
-                    if k != f_in {
-                        (val[k], left[k]) = side(verts, pos, v, tet[k], fx, fy, view.p_max, counters);
-                    }
-                }
-                // The exit: a face around v whose two v-edges the centre
-                // passes on the back-face side.
-                let mut f_out = 4;
-                for f in 0..4 {
-                    if f == f_in {
-                        continue;
-                    }
-                    let [x, y] = EXIT_EDGES[f_in][f];
-                    if left[x] == BACK_IS_LEFT && left[y] != BACK_IS_LEFT {
-                        f_out = f;
-                        break;
-                    }
-                }
+                let (val, bits) = sides_from(verts, pos, tet, f_in, fx, fy, view.k_view, counters);
+                let f_out = EXIT_FACE[f_in][bits as usize] as usize;
                 if f_out == 4 {
                     // Cannot happen with exact signs (module docs); counted
                     // with the step bound rather than trusted.
@@ -642,7 +686,7 @@ impl WalkCtx<'_> {
                 }
                 let [x, y] = EXIT_EDGES[f_in][f_out];
                 let fv = FACE_OUTWARD[f_out];
-                let j = fv.iter().position(|&k| k == f_in).expect("exit face holds v");
+                let j = V_POS[f_out][f_in];
                 let mut l = [0.0f32; 3];
                 l[j] = directed_value(verts, tet[x], tet[y], fx, fy);
                 l[(j + 1) % 3] = -val[y];

@@ -1,0 +1,302 @@
+//! The ray walker against projected tetrahedra and the exact reference:
+//! the same segments (crossings = PT fragments), images as accurate as
+//! PT's, re-entry into non-convex meshes, parallel views, thread-count
+//! independence, culling, lighting, every method, and bad input.
+
+mod common;
+
+use common::{grid_mesh, tf};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use tet_bundle::{Bundle, BundleMeta};
+use tet_io::{read_file, ReadOptions};
+use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions, TetMesh};
+use tet_preint::{make_shader, BakeOptions, ExactShader, Method, SegmentShader, TableDomain, TransferFunction};
+use tet_render::{
+    diff, render_reference, Camera, CpuRenderer, Image, Light, RasterOptions, ReferenceOptions, RenderStats, Renderer,
+    Scene, Shading, TfCuller, ViewSpec,
+};
+
+fn data(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(p)
+}
+
+fn bluntfin_bundle() -> Bundle {
+    let opts = ReadOptions { q_path: Some(data("plot3d/bluntfinq.bin")), ..Default::default() };
+    let src = read_file(&data("plot3d/bluntfinxyz.bin"), &opts).unwrap();
+    let conv = ConvertOptions { scalar: Some("density".into()), ..Default::default() };
+    let (mesh, _) = tetrahedralize(&src, &conv, &mut |_| {}).unwrap();
+    let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    Bundle::new(mesh, adj, BundleMeta::default())
+}
+
+fn sample_tf(lo: f64, hi: f64) -> TransferFunction {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/tf_normalized.json"))
+            .unwrap();
+    TransferFunction::from_json(&text).unwrap().denormalize(lo, hi).unwrap()
+}
+
+fn render(
+    scene: &Scene,
+    kind: CpuRenderer,
+    view: &ViewSpec,
+    shader: Arc<dyn SegmentShader>,
+    opts: RasterOptions,
+) -> (Image, RenderStats) {
+    let mut r = Renderer::new(scene.clone());
+    r.set_renderer(kind);
+    r.set_view(view).unwrap();
+    r.set_shader(shader);
+    r.set_raster_options(opts);
+    r.render(&|_, _| {}).unwrap()
+}
+
+fn mesh_of(points: Vec<[f64; 3]>, tets: Vec<[u32; 4]>, scalar: Vec<f64>) -> (TetMesh, tet_mesh::Adjacency) {
+    let adj = build_adjacency(&points, &tets).unwrap();
+    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: Vec::new() };
+    (mesh, adj)
+}
+
+/// On NASA Blunt Fin (187k tets, a non-convex curvilinear grid) the walker
+/// crosses the tets PT rasterizes, gives PT's image and is as accurate
+/// against the exact reference.
+#[test]
+fn bluntfin_walk_matches_pt_segments_and_accuracy() {
+    let bundle = bluntfin_bundle();
+    let s = &bundle.meta.stats;
+    let tf = sample_tf(s.scalar_min, s.scalar_max);
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let shader: Arc<dyn SegmentShader> =
+        make_shader(Method::Table3d, &tf, &domain, &BakeOptions::default()).unwrap().into();
+    let scene = Scene::from_bundle(&bundle).unwrap();
+    let (lo, hi) = scene.bounds();
+    let view = ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0);
+    // No early termination: every covered (tet, pixel) pair is composited.
+    let all = RasterOptions { opaque_alpha: 2.0, ..Default::default() };
+    let (walk, ws) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), all);
+    let (pt, ps) = render(&scene, CpuRenderer::Pt, &view, shader.clone(), all);
+    assert_eq!(ws.renderer, "walk");
+    assert_eq!(ps.renderer, "pt");
+    assert_eq!(ws.walk_non_manifold + ws.walk_step_limit, 0, "{ws:?}");
+    assert!(ws.crossings >= ps.fragments, "walk crossings {} < PT fragments {}", ws.crossings, ps.fragments);
+    // Fragments of zero length (slivers) are dropped by each in its own f32.
+    let dfrag = ws.fragments.abs_diff(ps.fragments) as f64;
+    assert!(dfrag <= 2e-3 * ps.fragments as f64, "walk {} vs PT {} fragments", ws.fragments, ps.fragments);
+    let d = diff(&walk, &pt).unwrap();
+    assert!(d.rmse < 1e-6 && d.max_abs < 1e-4, "walk vs PT: {d:?}");
+
+    let cam = Camera::new(&view).unwrap();
+    let (reference, _) =
+        render_reference(&bundle.mesh, &bundle.adjacency, &cam, &tf, &ReferenceOptions::default(), &|_, _| {}).unwrap();
+    let (walk_t, _) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default());
+    let (pt_t, _) = render(&scene, CpuRenderer::Pt, &view, shader, RasterOptions::default());
+    let (ew, ep) = (diff(&walk_t, &reference).unwrap(), diff(&pt_t, &reference).unwrap());
+    assert!(ew.rmse <= ep.rmse * 1.05 + 1e-7, "walk {ew:?} vs PT {ep:?}");
+    assert!(ew.max_abs <= ep.max_abs * 1.2 + 1e-6, "walk {ew:?} vs PT {ep:?}");
+}
+
+/// A U-shaped block seen across its arms: every ray through both arms
+/// leaves the mesh and re-enters it; the walker's runs do that and the
+/// image matches the exact reference.
+#[test]
+fn rays_leave_and_reenter_a_non_convex_mesh() {
+    let (points, tets, scalar) = grid_mesh(6, 0.15, [0.0; 3], 7, |p| 0.3 + 0.5 * p[0] + 0.2 * p[2]);
+    // Remove the cells of the middle third in x above y = 0.3.
+    let keep: Vec<[u32; 4]> = tets
+        .into_iter()
+        .filter(|t| {
+            let c = t.iter().fold([0.0; 3], |a, &v| {
+                let p = points[v as usize];
+                [a[0] + p[0] / 4.0, a[1] + p[1] / 4.0, a[2] + p[2] / 4.0]
+            });
+            !(c[0] > 0.34 && c[0] < 0.66 && c[1] > 0.3)
+        })
+        .collect();
+    let (mesh, adj) = mesh_of(points, keep, scalar);
+    let scene = Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let tf =
+        tf(r#"{"color": [[0, 1, 0.5, 0.2], [1, 0.2, 0.6, 1]], "opacity": [[0, 1.5], [1, 3]], "unit_distance": 1}"#);
+    let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf.clone()));
+    // Looking along x, slightly from above: rays through the upper part cross both arms.
+    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [48, 48]).orbit(90.0, 8.0, 1.0);
+    for parallel in [false, true] {
+        let mut v = view.clone();
+        v.parallel = parallel;
+        let (walk, ws) = render(&scene, CpuRenderer::Walk, &v, shader.clone(), RasterOptions::default());
+        assert_eq!(ws.renderer, "walk");
+        assert!(
+            ws.walk_runs > ws.walk_front_faces as u64 / 1000 && ws.walk_runs as f64 > 1.2 * count_rays(&walk) as f64,
+            "no re-entries: {ws:?}"
+        );
+        assert_eq!(ws.walk_non_manifold + ws.walk_step_limit, 0);
+        let cam = Camera::new(&v).unwrap();
+        let (reference, _) =
+            render_reference(&mesh, &adj, &cam, &tf, &ReferenceOptions::default(), &|_, _| {}).unwrap();
+        let d = diff(&walk, &reference).unwrap();
+        assert!(d.max_abs < 2e-5, "parallel {parallel}: walk vs reference {d:?}");
+    }
+}
+
+fn count_rays(img: &Image) -> usize {
+    img.pixels().iter().filter(|p| p[3] > 0.0).count()
+}
+
+/// Pixels depend only on their own ray: one thread or two give the same bits.
+#[test]
+fn same_image_for_any_thread_count() {
+    let (points, tets, scalar) = grid_mesh(5, 0.2, [0.0; 3], 3, |p| (p[0] * 5.0).sin() + p[1]);
+    let scene = Scene::new(&points, tets, scalar).unwrap();
+    let tf =
+        tf(r#"{"color": [[-1, 1, 0, 0], [2, 0, 0, 1]], "opacity": [[-1, 0.5], [0.5, 4], [2, 1]], "unit_distance": 1}"#);
+    let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf));
+    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [40, 36]).orbit(20.0, 30.0, 1.2);
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let (a, _) = one.install(|| render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default()));
+    let (b, _) = two.install(|| render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default()));
+    assert_eq!(a.pixels(), b.pixels());
+}
+
+/// Every method id renders through the walker as through PT (per-fragment
+/// methods give PT's image; pt-linear is shaded per segment by the walker,
+/// so it is compared with the exact reference instead), culling changes
+/// nothing, and lighting matches PT's.
+#[test]
+fn every_method_culling_and_lighting() {
+    let (points, tets, scalar) = grid_mesh(6, 0.2, [0.0; 3], 11, |p| 0.2 + 0.6 * p[0] * p[1] + 0.2 * p[2]);
+    let (mesh, adj) = mesh_of(points, tets, scalar);
+    let bundle = Bundle::new(mesh.clone(), adj.clone(), BundleMeta::default());
+    let scene = Scene::from_bundle(&bundle).unwrap().ensure_gradients().unwrap();
+    // Opacity zero below 0.3: a culling TF; a 2D widget term for the bivariate methods.
+    let tf = tf(r#"{"color": [[0, 0.9, 0.3, 0.1], [0.5, 0.2, 0.9, 0.3], [1, 0.1, 0.2, 1]],
+        "opacity": [[0, 0], [0.3, 0], [0.45, 3], [0.7, 1], [1, 4]], "unit_distance": 1}"#);
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [40, 40]).orbit(35.0, 25.0, 1.1);
+    let cam = Camera::new(&view).unwrap();
+    let (reference, _) = render_reference(&mesh, &adj, &cam, &tf, &ReferenceOptions::default(), &|_, _| {}).unwrap();
+    for m in Method::ALL {
+        if m.is_bivariate() {
+            continue; // below, with a 2D-widget TF
+        }
+        let shader: Arc<dyn SegmentShader> = make_shader(m, &tf, &domain, &BakeOptions::default()).unwrap().into();
+        let (walk, ws) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default());
+        assert_eq!(ws.renderer, "walk");
+        assert!(walk.pixels().iter().all(|p| p.iter().all(|c| c.is_finite()) && (0.0..=1.0).contains(&p[3])));
+        if m == Method::PtLinear {
+            let d = diff(&walk, &reference).unwrap();
+            assert!(d.rmse < 2e-2, "{m}: {d:?}");
+            continue;
+        }
+        let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader.clone(), RasterOptions::default());
+        let d = diff(&walk, &pt).unwrap();
+        assert!(d.max_abs < 2e-4, "{m}: walk vs PT {d:?}");
+        // Culling skips lookups; it changes the image only by what the
+        // method gave the culled (zero-opacity) segments: nothing for the
+        // exact integrator, the table's own error for the approximations
+        // (atlas2d's is ~2e-5 there).
+        let mut r = Renderer::new(scene.clone());
+        r.set_view(&view).unwrap();
+        r.set_shader(shader.clone());
+        r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
+        let (culled, cs) = r.render(&|_, _| {}).unwrap();
+        assert!(cs.tets_culled > 0, "{m}: the TF culls nothing");
+        assert!(cs.fragments < ws.fragments);
+        let d = diff(&culled, &walk).unwrap();
+        let tol = if m == Method::Exact { 1e-7 } else { 5e-5 };
+        assert!(d.max_abs < tol, "{m}: culled vs not {d:?}");
+    }
+    let shader: Arc<dyn SegmentShader> =
+        make_shader(Method::Table3d, &tf, &domain, &BakeOptions::default()).unwrap().into();
+    for shading in
+        [Shading { light: Some(Light::default()), silhouette: None }, Shading { light: None, silhouette: Some(2.0) }]
+    {
+        let opts = RasterOptions { shading, ..Default::default() };
+        let (walk, _) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), opts);
+        let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader.clone(), opts);
+        let d = diff(&walk, &pt).unwrap();
+        assert!(d.max_abs < 1e-3 && d.rmse < 1e-4, "{shading:?}: walk vs PT {d:?}");
+    }
+}
+
+/// Bivariate methods (a 2D widget over scalar × |∇s|) through the walker
+/// give PT's image.
+#[test]
+fn bivariate_methods_match_pt() {
+    let (points, tets, scalar) = grid_mesh(5, 0.2, [0.0; 3], 5, |p| (3.0 * p[0]).sin() * p[1] + p[2]);
+    let (mesh, adj) = mesh_of(points, tets, scalar);
+    let bundle = Bundle::new(mesh, adj, BundleMeta::default());
+    let scene = Scene::from_bundle(&bundle).unwrap().ensure_gradients().unwrap();
+    let gmax = scene.gradient_magnitudes().unwrap().iter().cloned().fold(0.0, f64::max);
+    let (lo, hi) = (scene.scalar_range()[0], scene.scalar_range()[1]);
+    let tf = tf(&format!(
+        r#"{{"color": [[{lo}, 1, 0.5, 0], [{hi}, 0, 0.5, 1]], "opacity": [[{lo}, 0.5], [{hi}, 1.5]], "unit_distance": 1,
+        "widgets": [{{"type": "box", "center": [{c}, {g}], "width": [{ws}, {g}], "color": [0.2, 1, 0.2], "opacity": 3}}]}}"#,
+        c = lo + 0.5 * (hi - lo),
+        ws = 0.4 * (hi - lo),
+        g = 0.6 * gmax
+    ));
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [32, 32]).orbit(-30.0, 15.0, 1.1);
+    for m in [Method::BivExact, Method::BivApprox] {
+        let shader: Arc<dyn SegmentShader> = make_shader(m, &tf, &domain, &BakeOptions::default()).unwrap().into();
+        let (walk, _) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default());
+        let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader, RasterOptions::default());
+        let d = diff(&walk, &pt).unwrap();
+        assert!(d.max_abs < 2e-4, "{m}: walk vs PT {d:?}");
+        assert!(walk.pixels().iter().any(|p| p[1] > p[0] + 1e-3), "{m}: the widget's green shows nowhere");
+    }
+}
+
+/// A camera inside the mesh: the walker cannot start rays there yet, so
+/// projected tetrahedra (which clip at the near plane) draw the view and
+/// the stats say why.
+#[test]
+fn camera_inside_the_mesh_is_drawn_by_pt_and_reported() {
+    let (points, tets, scalar) = grid_mesh(4, 0.1, [0.0; 3], 9, |p| p[0]);
+    let scene = Scene::new(&points, tets, scalar).unwrap();
+    let shader: Arc<dyn SegmentShader> =
+        Arc::new(ExactShader::new(tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1], [1, 2]], "unit_distance": 1}"#)));
+    let mut view = ViewSpec::framing([0.0; 3], [1.0; 3], [24, 24]);
+    view.position = [0.5, 0.45, 0.4];
+    view.focal_point = [0.5, 0.5, 1.0];
+    let (img, st) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default());
+    assert_eq!(st.renderer, "pt");
+    assert!(st.walk_fallback.as_deref().is_some_and(|w| w.contains("near plane")), "{st:?}");
+    let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader, RasterOptions::default());
+    assert_eq!(img.pixels(), pt.pixels());
+    assert!(img.pixels().iter().all(|p| p[3] > 0.0), "holes with the eye inside");
+}
+
+/// A bundle whose adjacency lists a neighbour that does not point back (a
+/// corrupted or non-manifold link): the run ends there, is counted, and the
+/// image stays finite — no hang, no panic.
+#[test]
+fn broken_links_end_runs_and_are_counted() {
+    let (points, tets, scalar) = grid_mesh(4, 0.0, [0.0; 3], 1, |p| p[1]);
+    let (mesh, mut adj) = mesh_of(points, tets, scalar);
+    // Cut one direction of a quarter of the interior links.
+    let n = adj.neighbors.len();
+    let mut cut = 0;
+    for t in (0..n).step_by(4) {
+        for f in 0..4 {
+            let nb = adj.neighbors[t][f];
+            if nb != tet_mesh::NO_NEIGHBOR {
+                let back = adj.neighbors[nb as usize].iter().position(|&m| m as usize == t).unwrap();
+                adj.neighbors[nb as usize][back] = tet_mesh::NO_NEIGHBOR; // one-way link t → nb
+                cut += 1;
+                break;
+            }
+        }
+    }
+    assert!(cut > 0);
+    let bundle = Bundle::new(mesh, adj, BundleMeta::default());
+    let scene = Scene::from_bundle(&bundle).unwrap();
+    let shader: Arc<dyn SegmentShader> =
+        Arc::new(ExactShader::new(tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1], [1, 2]], "unit_distance": 1}"#)));
+    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [32, 32]).orbit(25.0, 35.0, 1.0);
+    let (img, st) = render(&scene, CpuRenderer::Walk, &view, shader, RasterOptions::default());
+    assert_eq!(st.renderer, "walk");
+    assert!(st.walk_non_manifold + st.walk_step_limit > 0, "{st:?}");
+    assert!(img.pixels().iter().all(|p| p.iter().all(|c| c.is_finite()) && (0.0..=1.0).contains(&p[3])));
+}

@@ -12,7 +12,9 @@
 //! turns the camera D degrees of azimuth before every frame after the
 //! first (each frame a camera move: re-sorted and set up again);
 //! `TET_NO_KEEP=1` keeps no per-tet setup across frames. `TET_RENDERER=pt`
-//! draws by projected tetrahedra instead of the ray walker (the default). `TET_VIEW=view.json`
+//! draws by projected tetrahedra instead of the ray walker (the default).
+//! `TET_FREE_SHADER=1` replaces the table with a shader that returns a
+//! constant colour: the renderer's own cost, without lookups. `TET_VIEW=view.json`
 //! starts from that camera and its size (VTK fields, e.g. the one `shared/peer/vtk_render.py`
 //! records) instead of the framing orbited by azimuth/elevation; `TET_ORBIT`
 //! then turns it.
@@ -32,6 +34,23 @@ fn process_cpu_seconds() -> f64 {
     (ticks(11) + ticks(12)) / 100.0
 }
 
+/// A shader whose every segment is the same faint grey: no lookup cost.
+struct FreeShader(tet_preint::Method);
+
+impl tet_preint::SegmentShader for FreeShader {
+    fn method(&self) -> tet_preint::Method {
+        self.0
+    }
+    fn shade(&self, _: &tet_preint::Segment) -> tet_preint::Rgba32 {
+        [0.01, 0.01, 0.01, 0.01]
+    }
+    fn shade_batch(&self, segs: &tet_preint::SegmentBatch, out: &mut [tet_preint::Rgba32; tet_preint::BATCH]) {
+        for o in out.iter_mut().take(segs.len) {
+            *o = [0.01, 0.01, 0.01, 0.01];
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 3 {
@@ -42,7 +61,10 @@ fn main() {
     let lut_path = Path::new(&args[2]);
     let lut = LutFile::read(lut_path).expect("lut reads");
     let tf = lut.transfer_function().expect("lut's transfer function");
-    let shader: Arc<dyn tet_preint::SegmentShader> = load_shader(&lut, lut_path).expect("shader").into();
+    let mut shader: Arc<dyn tet_preint::SegmentShader> = load_shader(&lut, lut_path).expect("shader").into();
+    if std::env::var("TET_FREE_SHADER").is_ok() {
+        shader = Arc::new(FreeShader(shader.method()));
+    }
     let frames: usize = args.get(3).map_or(3, |s| s.parse().expect("frames"));
     let size: [u32; 2] = args.get(4).map_or([512, 512], |s| {
         let (w, h) = s.split_once('x').expect("WxH");

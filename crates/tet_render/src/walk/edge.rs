@@ -142,6 +142,23 @@ pub fn directed_value(verts: &[WalkVertex], iu: u32, iv: u32, px: f32, py: f32) 
     }
 }
 
+/// `LANE_MASKS[bits]`: all-ones in the lanes whose bit is set.
+const LANE_MASKS: [[u32; 4]; 16] = {
+    let mut m = [[0u32; 4]; 16];
+    let mut b = 0;
+    while b < 16 {
+        let mut l = 0;
+        while l < 4 {
+            if b >> l & 1 == 1 {
+                m[b][l] = u32::MAX;
+            }
+            l += 1;
+        }
+        b += 1;
+    }
+    m
+};
+
 /// The sides of the ray against the four edges v → u_k, u_k = `tet[k]`, of
 /// one tet at once (lane `skip`, v itself, is meaningless): the f32 values
 /// of v → u_k and, as bits, whether the centre passes left of each. Each
@@ -161,15 +178,21 @@ pub fn sides_from(
     counters: &mut EdgeCounters,
 ) -> ([f32; 4], u32) {
     let v = tet[skip];
-    let q = tet.map(|i| verts[i as usize]);
-    let vv = q[skip];
-    let ux = f32x4::from([q[0].x_px, q[1].x_px, q[2].x_px, q[3].x_px]);
-    let uy = f32x4::from([q[0].y_px, q[1].y_px, q[2].y_px, q[3].y_px]);
+    // Four separate loads (an array indexed by `skip` would go through the
+    // stack and stall store forwarding).
+    let vv = verts[v as usize];
+    let (q0, q1, q2, q3) =
+        (verts[tet[0] as usize], verts[tet[1] as usize], verts[tet[2] as usize], verts[tet[3] as usize]);
+    let ux = f32x4::from([q0.x_px, q1.x_px, q2.x_px, q3.x_px]);
+    let uy = f32x4::from([q0.y_px, q1.y_px, q2.y_px, q3.y_px]);
     let (vx, vy) = (f32x4::splat(vv.x_px), f32x4::splat(vv.y_px));
-    // Lanes whose canonical edge is u → v (u has the smaller id).
-    let flip = tet.map(|u| u < v);
-    let m = |b: bool| if b { f32::from_bits(u32::MAX) } else { 0.0 };
-    let swap = f32x4::from(flip.map(m));
+    // Lanes whose canonical edge is u → v (u has the smaller id), as bits
+    // and as a lane mask.
+    let flip_bits = (tet[0] < v) as usize
+        | ((tet[1] < v) as usize) << 1
+        | ((tet[2] < v) as usize) << 2
+        | ((tet[3] < v) as usize) << 3;
+    let swap = f32x4::from(LANE_MASKS[flip_bits].map(f32::from_bits));
     let (ax, ay) = (swap.blend(ux, vx), swap.blend(uy, vy));
     let (bx, by) = (swap.blend(vx, ux), swap.blend(vy, uy));
     let (pxv, pyv) = (f32x4::splat(px), f32x4::splat(py));
@@ -195,15 +218,14 @@ pub fn sides_from(
         let l = unsure.trailing_zeros() as usize;
         unsure &= unsure - 1;
         counters.exact += 1;
-        let (ia, ib) = if flip[l] { (tet[l], v) } else { (v, tet[l]) };
+        let (ia, ib) = if flip_bits >> l & 1 == 1 { (tet[l], v) } else { (v, tet[l]) };
         if exact_left(pos_f64[ia as usize], pos_f64[ib as usize], px as f64, py as f64) {
             left_canon |= 1 << l;
         }
     }
-    let flip_bits = (flip[0] as u32) | (flip[1] as u32) << 1 | (flip[2] as u32) << 2 | (flip[3] as u32) << 3;
-    let e = e.to_array();
-    let vals = [0, 1, 2, 3].map(|l| if flip[l] { -e[l] } else { e[l] });
-    (vals, (left_canon ^ flip_bits) & 0xf)
+    // v → u is the canonical edge negated: flip the sign bit.
+    let vals = (e ^ (swap & f32x4::splat(-0.0))).to_array();
+    (vals, (left_canon ^ flip_bits as u32) & 0xf)
 }
 
 #[cfg(test)]

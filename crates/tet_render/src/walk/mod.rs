@@ -60,8 +60,13 @@ use tet_preint::{Rgba32, SegmentBatch, SegmentShader, BATCH};
 pub const FRONT_IS_LEFT: bool = false;
 const BACK_IS_LEFT: bool = !FRONT_IS_LEFT;
 
-/// `back[t][f]` for a link whose neighbour does not list `t`.
-const BROKEN: u8 = 0xff;
+/// `links[t][f]` across a boundary face.
+const LINK_BOUNDARY: u32 = u32::MAX;
+/// `links[t][f]` for a link whose neighbour does not list `t` (a
+/// non-manifold spot or a corrupted adjacency).
+const LINK_BROKEN: u32 = u32::MAX - 1;
+/// Most tets the packed links can address (2 bits hold the face).
+pub const MAX_WALK_TETS: usize = (u32::MAX / 4 - 1) as usize;
 
 /// For entry face `f_in` and candidate exit face `f`: the two local vertices
 /// (x, y) other than `f_in` and `f` such that face `f` in outward order
@@ -97,6 +102,34 @@ const fn exit_faces() -> [[u8; 16]; 4] {
     }
     out
 }
+
+/// What a step needs of its exit face `f_out` for entry face `f_in`
+/// (`EXIT_INFO[f_in][f_out]`): the local vertices x, y of [`EXIT_EDGES`],
+/// v's position j in the face's outward order, and that order.
+#[derive(Clone, Copy)]
+struct ExitInfo {
+    x: usize,
+    y: usize,
+    j: usize,
+    fv: [usize; 3],
+}
+
+const EXIT_INFO: [[ExitInfo; 4]; 4] = {
+    let mut out = [[ExitInfo { x: 0, y: 0, j: 0, fv: [0; 3] }; 4]; 4];
+    let mut f_in = 0;
+    while f_in < 4 {
+        let mut f = 0;
+        while f < 4 {
+            if f != f_in {
+                let [x, y] = EXIT_EDGES[f_in][f];
+                out[f_in][f] = ExitInfo { x, y, j: V_POS[f][f_in], fv: FACE_OUTWARD[f] };
+            }
+            f += 1;
+        }
+        f_in += 1;
+    }
+    out
+};
 
 /// `V_POS[f]`: the position of local vertex `f_in` in face `f`'s outward
 /// order, for every f_in ≠ f (`V_POS[f][f_in]`).
@@ -137,12 +170,14 @@ const fn exit_edges() -> [[[usize; 2]; 4]; 4] {
     out
 }
 
-/// What the walker keeps of a scene across views: for every link, which of
-/// the neighbour's faces points back; the boundary faces; f32 copies of the
-/// gradients when a scene has them (lighting, bivariate methods).
+/// What the walker keeps of a scene across views: every link packed as
+/// `neighbour · 4 + the neighbour's face that points back` (one 16-byte
+/// record a tet, read once per step: the step needs both); the boundary
+/// faces; f32 copies of the gradients when a scene has them (lighting,
+/// bivariate methods).
 #[derive(Debug, Clone)]
 pub struct WalkMesh {
-    back: Vec<[u8; 4]>,
+    links: Vec<[u32; 4]>,
     boundary: Vec<u32>,
     broken_links: usize,
     grads: Option<Vec<[f32; 3]>>,
@@ -152,33 +187,32 @@ pub struct WalkMesh {
 impl WalkMesh {
     pub fn new(scene: &Scene) -> WalkMesh {
         let nbs = scene.neighbors();
-        let back: Vec<[u8; 4]> = nbs
+        // Scenes larger than the packing can address are walked as if
+        // every face were a boundary: `Renderer` draws them by PT instead
+        // (`WalkView::unsupported`).
+        let links: Vec<[u32; 4]> = nbs
             .par_iter()
             .enumerate()
             .map(|(t, nb)| {
                 nb.map(|n| {
-                    if n == NO_NEIGHBOR {
-                        return BROKEN;
+                    if n == NO_NEIGHBOR || nbs.len() > MAX_WALK_TETS {
+                        return LINK_BOUNDARY;
                     }
                     match nbs[n as usize].iter().position(|&m| m as usize == t) {
-                        Some(f) => f as u8,
-                        None => BROKEN,
+                        Some(f) => n * 4 + f as u32,
+                        None => LINK_BROKEN,
                     }
                 })
             })
             .collect();
-        let broken_links = nbs
-            .iter()
-            .zip(&back)
-            .map(|(nb, b)| nb.iter().zip(b).filter(|(&n, &b)| n != NO_NEIGHBOR && b == BROKEN).count())
-            .sum();
+        let broken_links = links.iter().map(|l| l.iter().filter(|&&x| x == LINK_BROKEN).count()).sum();
         let boundary = nbs
             .iter()
             .enumerate()
             .flat_map(|(t, nb)| (0..4).filter(move |&f| nb[f] == NO_NEIGHBOR).map(move |f| (t * 4 + f) as u32))
             .collect();
         WalkMesh {
-            back,
+            links,
             boundary,
             broken_links,
             grads: scene.gradients().map(|g| g.iter().map(|v| v.map(|c| c as f32)).collect()),
@@ -198,7 +232,7 @@ impl WalkMesh {
 
     /// Bytes held beyond the scene.
     pub fn memory_bytes(&self) -> usize {
-        self.back.len() * 4
+        self.links.len() * 16
             + self.boundary.len() * 4
             + self.grads.as_ref().map_or(0, |g| g.len() * 12)
             + self.grad_mag.as_ref().map_or(0, |g| g.len() * 4)
@@ -252,6 +286,11 @@ impl WalkView {
             max_steps,
             unsupported: None,
         };
+        if scene.num_tets() > MAX_WALK_TETS {
+            view.unsupported =
+                Some(format!("{} tets: the walker's links address at most {MAX_WALK_TETS}", scene.num_tets()));
+            return view;
+        }
         let cam: Vec<[f64; 3]> = scene.positions_rel().par_iter().map(|&p| frame.to_cam(p)).collect();
         if !frame.parallel {
             if let Some(i) = cam.iter().position(|c| !(c[2] >= frame.near_depth)) {
@@ -643,8 +682,7 @@ impl WalkCtx<'_> {
         let view = self.view;
         let frame = &view.frame;
         let tets = self.scene.tets();
-        let nbs = self.scene.neighbors();
-        let back = &self.mesh.back[..];
+        let links = &self.mesh.links[..];
         let (verts, pos) = (&view.verts[..], &view.pos_px[..]);
         let parallel = frame.parallel;
         let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
@@ -677,21 +715,20 @@ impl WalkCtx<'_> {
                 }
                 let tet = tets[t];
                 let (val, bits) = sides_from(verts, pos, tet, f_in, fx, fy, view.k_view, counters);
-                let f_out = EXIT_FACE[f_in][bits as usize] as usize;
+                let f_out = EXIT_FACE[f_in & 3][bits as usize & 15] as usize;
                 if f_out == 4 {
                     // Cannot happen with exact signs (module docs); counted
                     // with the step bound rather than trusted.
                     st.step_limit += 1;
                     break;
                 }
-                let [x, y] = EXIT_EDGES[f_in][f_out];
-                let fv = FACE_OUTWARD[f_out];
-                let j = V_POS[f_out][f_in];
+                let ExitInfo { x, y, j, fv } = EXIT_INFO[f_in & 3][f_out & 3];
                 let mut l = [0.0f32; 3];
-                l[j] = directed_value(verts, tet[x], tet[y], fx, fy);
-                l[(j + 1) % 3] = -val[y];
-                l[(j + 2) % 3] = val[x];
-                let p_out = face_point(verts, [tet[fv[0]], tet[fv[1]], tet[fv[2]]], l, back_orient, parallel);
+                l[j % 3] = directed_value(verts, tet[x & 3], tet[y & 3], fx, fy);
+                l[(j + 1) % 3] = -val[y & 3];
+                l[(j + 2) % 3] = val[x & 3];
+                let p_out =
+                    face_point(verts, [tet[fv[0] & 3], tet[fv[1] & 3], tet[fv[2] & 3]], l, back_orient, parallel);
                 st.crossings += 1;
                 let len = (p_out.depth - p_in.depth) * len_per_depth;
                 if len > 0.0 && self.visible.is_none_or(|vis| vis[t]) {
@@ -704,17 +741,15 @@ impl WalkCtx<'_> {
                         }
                     }
                 }
-                let nb = nbs[t][f_out];
-                if nb == NO_NEIGHBOR {
+                let link = links[t][f_out & 3];
+                if link >= LINK_BROKEN {
+                    if link == LINK_BROKEN {
+                        st.non_manifold += 1;
+                    }
                     break;
                 }
-                let b = back[t][f_out];
-                if b == BROKEN {
-                    st.non_manifold += 1;
-                    break;
-                }
-                t = nb as usize;
-                f_in = b as usize;
+                t = (link / 4) as usize;
+                f_in = (link % 4) as usize;
                 p_in = p_out;
             }
         }

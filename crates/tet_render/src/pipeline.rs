@@ -160,6 +160,9 @@ pub struct Renderer {
     /// The walker's per-scene links and per-view projection.
     walk_mesh: Option<WalkMesh>,
     walk_view: Option<WalkView>,
+    /// The cull mask in the walker's tet order (None: nothing culled or
+    /// not yet made for the current mask).
+    walk_visible: Option<Vec<bool>>,
 }
 
 impl Renderer {
@@ -180,6 +183,7 @@ impl Renderer {
             kind: CpuRenderer::default(),
             walk_mesh: None,
             walk_view: None,
+            walk_visible: None,
         }
     }
 
@@ -231,6 +235,7 @@ impl Renderer {
     /// tet); the cull mask becomes stale, and so does a radix order.
     pub fn set_culler(&mut self, culler: Option<Arc<dyn CellCuller>>) {
         self.culler = culler;
+        self.walk_visible = None;
         if let Some(mask) = self.cull.take() {
             self.replaced_cull = Some(mask);
         }
@@ -286,15 +291,21 @@ impl Renderer {
             if self.replaced_cull.take().is_none_or(|old| old.visible != mask.visible) {
                 self.prepared = None;
             }
+            let mesh = self.walk_mesh.as_ref().expect("built by render");
+            self.walk_visible = (mask.culled > 0).then(|| mesh.to_walk_order(&mask.visible));
             self.cull = Some(mask);
             stats.cull_seconds = t.elapsed().as_secs_f64();
             stats.recomputed_cull = true;
+        } else if let (None, Some(mask)) = (&self.walk_visible, &self.cull) {
+            // The mask came from a PT frame.
+            let mesh = self.walk_mesh.as_ref().expect("built by render");
+            self.walk_visible = (mask.culled > 0).then(|| mesh.to_walk_order(&mask.visible));
         }
         let mask = self.cull.as_ref().expect("computed above");
         let mesh = self.walk_mesh.as_ref().expect("built by render");
         let wv = self.walk_view.as_ref().expect("built by render");
-        let visible = (mask.culled > 0).then_some(mask.visible.as_slice());
-        let (image, ws) = walk_frame(&self.scene, mesh, wv, visible, shader, &self.raster, progress);
+        let visible = self.walk_visible.as_deref();
+        let (image, ws) = walk_frame(mesh, wv, visible, shader, &self.raster, progress);
         stats.renderer = CpuRenderer::Walk.id().to_string();
         stats.tets_culled = mask.culled;
         stats.fraction_culled = mask.fraction_culled();

@@ -4,10 +4,13 @@
 //! For each bundle and view, the exact ray-cast reference is rendered once
 //! (and cached as `.npy` under `--cache`, keyed by a hash of the bundle's
 //! bytes, the view, the TF file and the size, so re-runs skip it). Every
-//! method is then baked (timed) and rendered by the projected-tetrahedra
-//! [`Renderer`] `--repeat` times from a fresh camera, so each frame redoes
-//! the view geometry, the visibility sort and the rasterization — what a
-//! camera move costs; the cull mask (a TF change) is kept. The best total
+//! method is then baked (timed) and rendered by each CPU renderer
+//! (`--renderers`: the ray walker and projected tetrahedra) `--repeat` times
+//! from a fresh camera, so each frame redoes the view (the walker's vertex
+//! projection and entry faces; PT's view geometry, visibility sort and
+//! per-tet setup) — what a camera move costs; the cull mask (a TF change) is
+//! kept. Each frame's process CPU time over its wall time is reported too
+//! (near the thread count when every core worked). The best total
 //! frame time is reported with its sort / raster split, and the best of as
 //! many frames of the unchanged view ("same view": what a new method or a
 //! TF edit that culls the same cells costs, from the kept per-tet setup). Errors are over
@@ -26,7 +29,8 @@ use tet_bundle::Bundle;
 use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::{Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{
-    diff, Camera, Image, ReferenceOptions, ReferenceRenderer, Renderer, Scene, SortMethod, TfCuller, ViewSpec,
+    diff, Camera, CpuRenderer, Image, ReferenceOptions, ReferenceRenderer, Renderer, Scene, SortMethod, TfCuller,
+    ViewSpec,
 };
 
 #[derive(Debug, clap::Args)]
@@ -51,7 +55,11 @@ pub struct BenchArgs {
     /// Renders per method and view; the best total frame time is reported.
     #[arg(long, default_value_t = 3)]
     pub repeat: u32,
-    /// Visibility order for every method (auto: MPVO on convex meshes, MPVONC otherwise).
+    /// CPU renderers to measure, comma-separated: walk (ray walker), pt
+    /// (projected tetrahedra).
+    #[arg(long, default_value = "walk,pt", value_delimiter = ',')]
+    pub renderers: Vec<CpuRenderer>,
+    /// Visibility order for PT (auto: MPVO on convex meshes, MPVONC otherwise).
     #[arg(long, default_value = "auto")]
     pub sort: SortMethod,
     /// Pareto plot PNG: image error against frame time, one series per method.
@@ -128,6 +136,8 @@ struct Sample {
     /// or a new method, costs: the kept per-tet setup, no sort).
     same_view_s: f64,
     tets_drawn: usize,
+    /// Process CPU seconds (all threads) over wall seconds of the best frame.
+    cpu_per_wall: f64,
     rmse: f64,
     max_abs: f64,
     max_8bit: u8,
@@ -137,6 +147,7 @@ struct Sample {
 struct Row {
     bundle: String,
     method: Method,
+    renderer: CpuRenderer,
     views: Vec<Sample>,
 }
 
@@ -163,6 +174,15 @@ impl Row {
     fn max_8bit(&self) -> u8 {
         self.views.iter().map(|s| s.max_8bit).max().unwrap_or(0)
     }
+}
+
+/// User + system CPU seconds of this process, all threads (Linux; 0 elsewhere).
+fn process_cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
 }
 
 fn cache_dir(args: &BenchArgs) -> PathBuf {
@@ -210,6 +230,9 @@ fn reference_image(
 pub fn run(args: &BenchArgs) -> Result<()> {
     if args.views == 0 || args.repeat == 0 {
         return Err(UsageError("--views and --repeat must be at least 1".into()).into());
+    }
+    if args.renderers.is_empty() {
+        return Err(UsageError("--renderers: name at least one of walk, pt".into()).into());
     }
     let tf_text = std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display()))?;
     let tf_file = TransferFunction::from_json(&tf_text).with_context(|| format!("in {}", args.tf.display()))?;
@@ -266,50 +289,61 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let shader: Arc<dyn SegmentShader> = crate::render::make_shader(m, &tf, &domain)?.into();
             let bake_s = t.elapsed().as_secs_f64();
             r.set_shader(shader);
-            let mut samples = vec![];
-            for (v, reference) in views.iter().zip(&references) {
-                // A different camera in between makes every frame redo the
-                // view geometry and the sort, as a camera move does.
-                let mut other = v.clone();
-                other.position[0] += 1.0;
-                let mut best: Option<(Image, tet_render::RenderStats)> = None;
-                for _ in 0..args.repeat {
-                    r.set_view(&other)?;
-                    r.set_view(v)?;
-                    let (img, st) = r.render(&|_, _| {})?;
-                    if best.as_ref().is_none_or(|b| st.total_seconds < b.1.total_seconds) {
-                        best = Some((img, st));
+            for &kind in &args.renderers {
+                r.set_renderer(kind);
+                let mut samples = vec![];
+                for (v, reference) in views.iter().zip(&references) {
+                    // A different camera in between makes every frame redo the
+                    // view, as a camera move does.
+                    let mut other = v.clone();
+                    other.position[0] += 1.0;
+                    let mut best: Option<(Image, tet_render::RenderStats, f64)> = None;
+                    for _ in 0..args.repeat {
+                        r.set_view(&other)?;
+                        r.set_view(v)?;
+                        let c0 = process_cpu_seconds();
+                        let (img, st) = r.render(&|_, _| {})?;
+                        let cpu = process_cpu_seconds() - c0;
+                        if best.as_ref().is_none_or(|b| st.total_seconds < b.1.total_seconds) {
+                            best = Some((img, st, cpu));
+                        }
                     }
+                    // Then unchanged: best of `repeat` frames from the kept state.
+                    let same_view_s = (0..args.repeat)
+                        .map(|_| r.render(&|_, _| {}).map(|(_, st)| st.total_seconds))
+                        .collect::<Result<Vec<_>, _>>()?
+                        .into_iter()
+                        .fold(f64::INFINITY, f64::min);
+                    let (img, st, cpu) = best.expect("repeat ≥ 1");
+                    if let Some(why) = &st.walk_fallback {
+                        eprintln!("note: {name} {m} walk: drawn by pt: {why}");
+                    }
+                    culled = st.fraction_culled;
+                    if kind == CpuRenderer::Pt {
+                        sort_used = st.sort_method.clone();
+                    }
+                    let d = diff(reference, &img)?;
+                    let (max_8bit, _) = crate::diff::max_8bit_reinhard(reference, &img, [0.0; 3])?;
+                    samples.push(Sample {
+                        bake_s,
+                        sort_s: st.sort_seconds,
+                        raster_s: st.project_seconds + st.raster_seconds,
+                        total_s: st.total_seconds,
+                        same_view_s,
+                        tets_drawn: st.tets_drawn,
+                        cpu_per_wall: cpu / st.total_seconds.max(1e-9),
+                        rmse: d.rmse,
+                        max_abs: d.max_abs,
+                        max_8bit,
+                    });
                 }
-                // Then unchanged: best of `repeat` frames from the kept state.
-                let same_view_s = (0..args.repeat)
-                    .map(|_| r.render(&|_, _| {}).map(|(_, st)| st.total_seconds))
-                    .collect::<Result<Vec<_>, _>>()?
-                    .into_iter()
-                    .fold(f64::INFINITY, f64::min);
-                let (img, st) = best.expect("repeat ≥ 1");
-                culled = st.fraction_culled;
-                sort_used = st.sort_method.clone();
-                let d = diff(reference, &img)?;
-                let (max_8bit, _) = crate::diff::max_8bit_reinhard(reference, &img, [0.0; 3])?;
-                samples.push(Sample {
-                    bake_s,
-                    sort_s: st.sort_seconds,
-                    raster_s: st.project_seconds + st.raster_seconds,
-                    total_s: st.total_seconds,
-                    same_view_s,
-                    tets_drawn: st.tets_drawn,
-                    rmse: d.rmse,
-                    max_abs: d.max_abs,
-                    max_8bit,
-                });
+                rows.push(Row { bundle: name.clone(), method: m, renderer: kind, views: samples });
             }
             eprintln!("{name} {m}: done");
-            rows.push(Row { bundle: name.clone(), method: m, views: samples });
         }
 
         out.push_str(&format!(
-            "\n### {} — {} tets, {}x{}, {} view(s), sort {}, {:.1}% culled, best of {} frames, {} threads\n\n",
+            "\n### {} — {} tets, {}x{}, {} view(s), PT sort {}, {:.1}% culled, best of {} frames, {} threads\n\n",
             bundle_path.display(),
             bundle.mesh.tets.len(),
             args.size[0],
@@ -321,18 +355,20 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             threads
         ));
         out.push_str(
-            "| method | bake ms | sort ms | raster ms | frame ms | M tets/s | same-view ms | M tets/s | RMSE (linear) | max abs (linear) | 8-bit max |\n",
+            "| method | renderer | bake ms | sort ms | raster ms | frame ms | M tets/s | CPU/wall | same-view ms | M tets/s | RMSE (linear) | max abs (linear) | 8-bit max |\n",
         );
-        out.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        out.push_str("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         for row in &rows[first..] {
             out.push_str(&format!(
-                "| {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {:.2} | {:.2e} | {:.2e} | {} |\n",
+                "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2} | {:.1} | {:.2} | {:.2e} | {:.2e} | {} |\n",
                 row.method,
+                row.renderer,
                 row.bake_s() * 1e3,
                 row.mean(|s| s.sort_s) * 1e3,
                 row.mean(|s| s.raster_s) * 1e3,
                 row.total_s() * 1e3,
                 row.tets_per_s() / 1e6,
+                row.mean(|s| s.cpu_per_wall),
                 row.mean(|s| s.same_view_s) * 1e3,
                 row.mean(|s| s.tets_drawn as f64 / s.same_view_s.max(1e-12)) / 1e6,
                 row.rmse(),
@@ -354,6 +390,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             "rows": rows.iter().map(|r| json!({
                 "bundle": r.bundle,
                 "method": r.method.id(),
+                "renderer": r.renderer.id(),
                 "bake_seconds": r.bake_s(),
                 "frame_seconds": r.total_s(),
                 "tets_per_second": r.tets_per_s(),
@@ -366,6 +403,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     "frame_seconds": s.total_s,
                     "same_view_frame_seconds": s.same_view_s,
                     "tets_drawn": s.tets_drawn,
+                    "cpu_per_wall": s.cpu_per_wall,
                     "rmse": s.rmse,
                     "max_abs": s.max_abs,
                     "max_8bit": s.max_8bit,
@@ -380,11 +418,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let series = |y: &dyn Fn(&Row) -> f64| -> Vec<Series> {
             methods
                 .iter()
-                .map(|m| Series {
-                    name: m.id().into(),
+                .flat_map(|m| args.renderers.iter().map(move |k| (*m, *k)))
+                .map(|(m, k)| Series {
+                    name: format!("{m} {k}"),
                     points: rows
                         .iter()
-                        .filter(|r| r.method == *m)
+                        .filter(|r| r.method == m && r.renderer == k)
                         .map(|r| Point {
                             x: r.total_s(),
                             y: y(r),

@@ -59,6 +59,7 @@ pub struct EdgeCounters {
 /// `pos_f64` holds the f64 pixel positions the f32 ones were rounded from;
 /// `p_max` bounds |px| and |py|.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn canonical(
     a: &WalkVertex,
     b: &WalkVertex,

@@ -73,36 +73,6 @@ pub const MAX_WALK_TETS: usize = (u32::MAX / 4 - 1) as usize;
 /// reads (…, v, x, y, …) cyclically with v = local vertex `f_in`.
 const EXIT_EDGES: [[[usize; 2]; 4]; 4] = exit_edges();
 
-/// `EXIT_FACE[f_in][bits]`: the exit face for entry face `f_in` given the
-/// sides (bit k: left of v → local vertex k) of the ray against the edges
-/// from v, or 4 when no face around v passes (impossible with exact signs).
-const EXIT_FACE: [[u8; 16]; 4] = exit_faces();
-
-const fn exit_faces() -> [[u8; 16]; 4] {
-    let mut out = [[4u8; 16]; 4];
-    let mut f_in = 0;
-    while f_in < 4 {
-        let mut bits = 0;
-        while bits < 16 {
-            let mut f = 0;
-            while f < 4 {
-                if f != f_in {
-                    let [x, y] = EXIT_EDGES[f_in][f];
-                    let (lx, ly) = ((bits >> x) & 1 == 1, (bits >> y) & 1 == 1);
-                    if lx == BACK_IS_LEFT && ly != BACK_IS_LEFT {
-                        out[f_in][bits] = f as u8;
-                        break;
-                    }
-                }
-                f += 1;
-            }
-            bits += 1;
-        }
-        f_in += 1;
-    }
-    out
-}
-
 /// What a step needs of its exit face `f_out` for entry face `f_in`
 /// (`EXIT_INFO[f_in][f_out]`): the local vertices x, y of [`EXIT_EDGES`],
 /// v's position j in the face's outward order, and that order.
@@ -170,54 +140,127 @@ const fn exit_edges() -> [[[usize; 2]; 4]; 4] {
     out
 }
 
-/// What the walker keeps of a scene across views: every link packed as
+/// What the walker keeps of a scene across views: the tets renumbered along
+/// a Morton curve of their centroids and the vertices in order of first use
+/// by them (a tile's rays then touch a few hundred pages, not one page a
+/// step, on meshes far larger than the caches); every link packed as
 /// `neighbour · 4 + the neighbour's face that points back` (one 16-byte
-/// record a tet, read once per step: the step needs both); the boundary
-/// faces; f32 copies of the gradients when a scene has them (lighting,
-/// bivariate methods).
+/// record a tet, read once per step); the boundary faces; the scalars and,
+/// when the scene has them, f32 gradients (lighting, bivariate methods) in
+/// the new vertex order.
 #[derive(Debug, Clone)]
 pub struct WalkMesh {
+    /// Tets in walk order, with walk vertex ids.
+    tets: Vec<[u32; 4]>,
     links: Vec<[u32; 4]>,
+    /// `scene_tet[t]`: the scene's id of walk tet t.
+    scene_tet: Vec<u32>,
+    /// `scene_vertex[v]`: the scene's id of walk vertex v.
+    scene_vertex: Vec<u32>,
     boundary: Vec<u32>,
     broken_links: usize,
     grads: Option<Vec<[f32; 3]>>,
     grad_mag: Option<Vec<f32>>,
 }
 
+/// Interleaves the low 21 bits of x, y, z (Morton order).
+fn morton3(x: u64, y: u64, z: u64) -> u64 {
+    fn split(mut v: u64) -> u64 {
+        v &= 0x1f_ffff;
+        v = (v | v << 32) & 0x1f00000000ffff;
+        v = (v | v << 16) & 0x1f0000ff0000ff;
+        v = (v | v << 8) & 0x100f00f00f00f00f;
+        v = (v | v << 4) & 0x10c30c30c30c30c3;
+        (v | v << 2) & 0x1249249249249249
+    }
+    split(x) | split(y) << 1 | split(z) << 2
+}
+
 impl WalkMesh {
     pub fn new(scene: &Scene) -> WalkMesh {
         let nbs = scene.neighbors();
+        let stets = scene.tets();
+        let pos = scene.positions_rel();
+        // Morton keys of the centroids over the bounding box (ties by id,
+        // so the order is deterministic).
+        let (lo, hi) = scene.bounds();
+        let c = scene.centre_in_world();
+        let lo_rel = [lo[0] - c.x, lo[1] - c.y, lo[2] - c.z];
+        let scale: [f64; 3] = std::array::from_fn(|a| {
+            let ext = hi[a] - lo[a];
+            if ext > 0.0 {
+                2_097_151.0 / ext
+            } else {
+                0.0
+            }
+        });
+        let mut keyed: Vec<(u64, u32)> = stets
+            .par_iter()
+            .enumerate()
+            .map(|(t, tet)| {
+                let q: [u64; 3] = std::array::from_fn(|a| {
+                    let m = tet.iter().map(|&v| pos[v as usize][a]).sum::<f64>() * 0.25;
+                    ((m - lo_rel[a]) * scale[a]).clamp(0.0, 2_097_151.0) as u64
+                });
+                (morton3(q[0], q[1], q[2]), t as u32)
+            })
+            .collect();
+        keyed.par_sort_unstable();
+        let scene_tet: Vec<u32> = keyed.into_iter().map(|(_, t)| t).collect();
+        let mut walk_of_tet = vec![0u32; stets.len()];
+        for (w, &t) in scene_tet.iter().enumerate() {
+            walk_of_tet[t as usize] = w as u32;
+        }
+        let mut walk_of_vertex = vec![u32::MAX; pos.len()];
+        let mut scene_vertex = Vec::with_capacity(pos.len());
+        for &t in &scene_tet {
+            for &v in &stets[t as usize] {
+                if walk_of_vertex[v as usize] == u32::MAX {
+                    walk_of_vertex[v as usize] = scene_vertex.len() as u32;
+                    scene_vertex.push(v);
+                }
+            }
+        }
+        let tets = scene_tet.par_iter().map(|&t| stets[t as usize].map(|v| walk_of_vertex[v as usize])).collect();
         // Scenes larger than the packing can address are walked as if
         // every face were a boundary: `Renderer` draws them by PT instead
         // (`WalkView::unsupported`).
-        let links: Vec<[u32; 4]> = nbs
+        let links: Vec<[u32; 4]> = scene_tet
             .par_iter()
-            .enumerate()
-            .map(|(t, nb)| {
-                nb.map(|n| {
+            .map(|&t| {
+                nbs[t as usize].map(|n| {
                     if n == NO_NEIGHBOR || nbs.len() > MAX_WALK_TETS {
                         return LINK_BOUNDARY;
                     }
-                    match nbs[n as usize].iter().position(|&m| m as usize == t) {
-                        Some(f) => n * 4 + f as u32,
+                    match nbs[n as usize].iter().position(|&m| m == t) {
+                        Some(f) => walk_of_tet[n as usize] * 4 + f as u32,
                         None => LINK_BROKEN,
                     }
                 })
             })
             .collect();
         let broken_links = links.iter().map(|l| l.iter().filter(|&&x| x == LINK_BROKEN).count()).sum();
-        let boundary = nbs
+        let boundary = links
             .iter()
             .enumerate()
-            .flat_map(|(t, nb)| (0..4).filter(move |&f| nb[f] == NO_NEIGHBOR).map(move |f| (t * 4 + f) as u32))
+            .flat_map(|(t, l)| (0..4).filter(move |&f| l[f] == LINK_BOUNDARY).map(move |f| (t * 4 + f) as u32))
             .collect();
+        let by_vertex = |v: &[f64]| -> Vec<f32> { scene_vertex.iter().map(|&i| v[i as usize] as f32).collect() };
         WalkMesh {
+            tets,
             links,
             boundary,
             broken_links,
-            grads: scene.gradients().map(|g| g.iter().map(|v| v.map(|c| c as f32)).collect()),
-            grad_mag: scene.gradient_magnitudes().map(|g| g.iter().map(|&v| v as f32).collect()),
+            grads: scene.gradients().map(|g| scene_vertex.iter().map(|&i| g[i as usize].map(|c| c as f32)).collect()),
+            grad_mag: scene.gradient_magnitudes().map(by_vertex),
+            scene_tet,
+            scene_vertex,
         }
+    }
+
+    /// A per-scene-tet mask (a [`crate::CullMask`]'s) in walk order.
+    pub fn to_walk_order(&self, per_scene_tet: &[bool]) -> Vec<bool> {
+        self.scene_tet.par_iter().map(|&t| per_scene_tet[t as usize]).collect()
     }
 
     /// Links whose neighbour does not point back (non-manifold spots).
@@ -232,7 +275,10 @@ impl WalkMesh {
 
     /// Bytes held beyond the scene.
     pub fn memory_bytes(&self) -> usize {
-        self.links.len() * 16
+        self.tets.len() * 16
+            + self.links.len() * 16
+            + self.scene_tet.len() * 4
+            + self.scene_vertex.len() * 4
             + self.boundary.len() * 4
             + self.grads.as_ref().map_or(0, |g| g.len() * 12)
             + self.grad_mag.as_ref().map_or(0, |g| g.len() * 4)
@@ -291,34 +337,37 @@ impl WalkView {
                 Some(format!("{} tets: the walker's links address at most {MAX_WALK_TETS}", scene.num_tets()));
             return view;
         }
-        let cam: Vec<[f64; 3]> = scene.positions_rel().par_iter().map(|&p| frame.to_cam(p)).collect();
+        let spos = scene.positions_rel();
+        let cam: Vec<[f64; 3]> = mesh.scene_vertex.par_iter().map(|&v| frame.to_cam(spos[v as usize])).collect();
         if !frame.parallel {
-            if let Some(i) = cam.iter().position(|c| !(c[2] >= frame.near_depth)) {
+            if let Some(i) = cam.iter().position(|c| c[2].partial_cmp(&frame.near_depth).is_none_or(|o| o.is_lt())) {
                 view.unsupported = Some(format!(
-                    "vertex {i} is nearer than the near plane (depth {:.6e} < {:.6e}): the camera is inside or beside the mesh",
-                    cam[i][2], frame.near_depth
+                    "vertex {} is nearer than the near plane (depth {:.6e} < {:.6e}): the camera is inside or beside the mesh",
+                    mesh.scene_vertex[i], cam[i][2], frame.near_depth
                 ));
                 return view;
             }
         }
         view.pos_px = cam.par_iter().map(|&c| frame.cam_to_px(c)).collect();
+        let scalar = scene.scalar();
         view.verts = cam
             .par_iter()
             .zip(view.pos_px.par_iter())
-            .zip(scene.scalar().par_iter())
-            .map(|((c, p), &s)| WalkVertex {
+            .zip(mesh.scene_vertex.par_iter())
+            .map(|((c, p), &v)| WalkVertex {
                 x_px: p[0] as f32,
                 y_px: p[1] as f32,
                 w: if frame.parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 },
-                scalar: s as f32,
+                scalar: scalar[v as usize] as f32,
             })
             .collect();
         if let Some(i) = view.pos_px.iter().position(|p| !(p[0].abs() < 1e30 && p[1].abs() < 1e30)) {
-            view.unsupported = Some(format!("vertex {i} projects outside the representable range"));
+            view.unsupported =
+                Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));
             return view;
         }
         view.k_view = view.verts.iter().fold(p_max, |k, v| k.max(v.x_px.abs()).max(v.y_px.abs()));
-        view.bin_front_faces(scene, mesh);
+        view.bin_front_faces(mesh);
         view
     }
 
@@ -347,8 +396,8 @@ impl WalkView {
         self.verts.len() * 16 + self.pos_px.len() * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
     }
 
-    fn bin_front_faces(&mut self, scene: &Scene, mesh: &WalkMesh) {
-        let tets = scene.tets();
+    fn bin_front_faces(&mut self, mesh: &WalkMesh) {
+        let tets = &mesh.tets;
         let (w, h) = (self.frame.width, self.frame.height);
         let tile = self.tile;
         let pos = &self.pos_px;
@@ -415,7 +464,7 @@ fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
     let y0 = (y_lo - 0.5).ceil().max(0.0);
     let x1 = (x_hi - 0.5).floor().min(w as f64 - 1.0);
     let y1 = (y_hi - 0.5).floor().min(h as f64 - 1.0);
-    (x0 <= x1 && y0 <= y1).then(|| [x0 as u32, y0 as u32, x1 as u32, y1 as u32])
+    (x0 <= x1 && y0 <= y1).then_some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
 }
 
 /// Counters of one walked frame.
@@ -461,11 +510,10 @@ impl WalkStats {
     }
 }
 
-/// Renders one view by walking every pixel's ray. `visible` (per tet, from
-/// a [`crate::CullMask`]) marks the tets worth a lookup; culled tets are
-/// crossed without one. `progress(done, total)` is called as tiles finish.
+/// Renders one view by walking every pixel's ray. `visible` (per tet in
+/// walk order, [`WalkMesh::to_walk_order`] of a [`crate::CullMask`]) marks
+/// the tets worth a lookup; culled tets are crossed without one. `progress(done, total)` is called as tiles finish.
 pub fn walk_frame(
-    scene: &Scene,
     mesh: &WalkMesh,
     view: &WalkView,
     visible: Option<&[bool]>,
@@ -482,7 +530,6 @@ pub fn walk_frame(
     }
     let n_tiles = view.tiles_x * view.tiles_y;
     let ctx = WalkCtx {
-        scene,
         mesh,
         view,
         visible,
@@ -517,7 +564,6 @@ pub fn walk_frame(
 }
 
 struct WalkCtx<'a> {
-    scene: &'a Scene,
     mesh: &'a WalkMesh,
     view: &'a WalkView,
     visible: Option<&'a [bool]>,
@@ -626,7 +672,7 @@ impl WalkCtx<'_> {
     /// sorted by pixel, then depth.
     fn entries(&self, ti: usize, rect: [u32; 4], stride: usize, counters: &mut EdgeCounters) -> Vec<(u32, f32, u32)> {
         let view = self.view;
-        let tets = self.scene.tets();
+        let tets = &self.mesh.tets;
         let (verts, pos) = (&view.verts[..], &view.pos_px[..]);
         let faces = &view.bin_faces[view.bin_start[ti] as usize..view.bin_start[ti + 1] as usize];
         let orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
@@ -681,7 +727,7 @@ impl WalkCtx<'_> {
     ) -> [f32; 4] {
         let view = self.view;
         let frame = &view.frame;
-        let tets = self.scene.tets();
+        let tets = &self.mesh.tets[..];
         let links = &self.mesh.links[..];
         let (verts, pos) = (&view.verts[..], &view.pos_px[..]);
         let parallel = frame.parallel;
@@ -715,7 +761,16 @@ impl WalkCtx<'_> {
                 }
                 let tet = tets[t];
                 let (val, bits) = sides_from(verts, pos, tet, f_in, fx, fy, view.k_view, counters);
-                let f_out = EXIT_FACE[f_in & 3][bits as usize & 15] as usize;
+                // Branches, not a table lookup: a predicted exit lets the
+                // next tet's loads start before the edge tests finish (the
+                // walk is a chain of dependent loads).
+                let mut f_out = 4;
+                for (f, &[x, y]) in EXIT_EDGES[f_in & 3].iter().enumerate() {
+                    if f != f_in && (bits >> x & 1 == 1) == BACK_IS_LEFT && (bits >> y & 1 == 1) != BACK_IS_LEFT {
+                        f_out = f;
+                        break;
+                    }
+                }
                 if f_out == 4 {
                     // Cannot happen with exact signs (module docs); counted
                     // with the step bound rather than trusted.
@@ -831,12 +886,11 @@ mod tests {
 
     #[test]
     fn exit_edge_table_reads_each_face_around_v() {
-        for f_in in 0..4 {
-            for f in 0..4 {
+        for (f_in, row) in EXIT_EDGES.iter().enumerate() {
+            for (f, &[x, y]) in row.iter().enumerate() {
                 if f == f_in {
                     continue;
                 }
-                let [x, y] = EXIT_EDGES[f_in][f];
                 let mut s = [f_in, x, y, f];
                 s.sort();
                 assert_eq!(s, [0, 1, 2, 3]);

@@ -73,26 +73,19 @@ pub const MAX_WALK_TETS: usize = (u32::MAX / 4 - 1) as usize;
 /// reads (…, v, x, y, …) cyclically with v = local vertex `f_in`.
 const EXIT_EDGES: [[[usize; 2]; 4]; 4] = exit_edges();
 
-/// What a step needs of its exit face `f_out` for entry face `f_in`
-/// (`EXIT_INFO[f_in][f_out]`): the local vertices x, y of [`EXIT_EDGES`],
-/// v's position j in the face's outward order, and that order.
-#[derive(Clone, Copy)]
-struct ExitInfo {
-    x: usize,
-    y: usize,
-    j: usize,
-    fv: [usize; 3],
-}
-
-const EXIT_INFO: [[ExitInfo; 4]; 4] = {
-    let mut out = [[ExitInfo { x: 0, y: 0, j: 0, fv: [0; 3] }; 4]; 4];
+/// `EXIT_CANDIDATES[f_in]`: the three faces around v (local vertex f_in)
+/// that the ray can leave by, each with its [`EXIT_EDGES`] pair (x, y):
+/// the face reads (v, x, y) in outward order, up to rotation.
+const EXIT_CANDIDATES: [[(usize, usize, usize); 3]; 4] = {
+    let mut out = [[(0usize, 0usize, 0usize); 3]; 4];
     let mut f_in = 0;
     while f_in < 4 {
-        let mut f = 0;
+        let (mut f, mut k) = (0, 0);
         while f < 4 {
             if f != f_in {
                 let [x, y] = EXIT_EDGES[f_in][f];
-                out[f_in][f] = ExitInfo { x, y, j: V_POS[f][f_in], fv: FACE_OUTWARD[f] };
+                out[f_in][k] = (f, x, y);
+                k += 1;
             }
             f += 1;
         }
@@ -100,24 +93,6 @@ const EXIT_INFO: [[ExitInfo; 4]; 4] = {
     }
     out
 };
-
-/// `V_POS[f]`: the position of local vertex `f_in` in face `f`'s outward
-/// order, for every f_in ≠ f (`V_POS[f][f_in]`).
-const V_POS: [[usize; 4]; 4] = v_pos();
-
-const fn v_pos() -> [[usize; 4]; 4] {
-    let mut out = [[0usize; 4]; 4];
-    let mut f = 0;
-    while f < 4 {
-        let mut j = 0;
-        while j < 3 {
-            out[f][FACE_OUTWARD[f][j]] = j;
-            j += 1;
-        }
-        f += 1;
-    }
-    out
-}
 
 const fn exit_edges() -> [[[usize; 2]; 4]; 4] {
     let mut out = [[[0usize; 2]; 4]; 4];
@@ -764,26 +739,24 @@ impl WalkCtx<'_> {
                 // Branches, not a table lookup: a predicted exit lets the
                 // next tet's loads start before the edge tests finish (the
                 // walk is a chain of dependent loads).
-                let mut f_out = 4;
-                for (f, &[x, y]) in EXIT_EDGES[f_in & 3].iter().enumerate() {
-                    if f != f_in && (bits >> x & 1 == 1) == BACK_IS_LEFT && (bits >> y & 1 == 1) != BACK_IS_LEFT {
-                        f_out = f;
+                let mut exit = None;
+                for &(f, x, y) in &EXIT_CANDIDATES[f_in & 3] {
+                    if (bits >> x & 1 == 1) == BACK_IS_LEFT && (bits >> y & 1 == 1) != BACK_IS_LEFT {
+                        exit = Some((f, x & 3, y & 3));
                         break;
                     }
                 }
-                if f_out == 4 {
+                let Some((f_out, x, y)) = exit else {
                     // Cannot happen with exact signs (module docs); counted
                     // with the step bound rather than trusted.
                     st.step_limit += 1;
                     break;
-                }
-                let ExitInfo { x, y, j, fv } = EXIT_INFO[f_in & 3][f_out & 3];
-                let mut l = [0.0f32; 3];
-                l[j % 3] = directed_value(verts, tet[x & 3], tet[y & 3], fx, fy);
-                l[(j + 1) % 3] = -val[y & 3];
-                l[(j + 2) % 3] = val[x & 3];
-                let p_out =
-                    face_point(verts, [tet[fv[0] & 3], tet[fv[1] & 3], tet[fv[2] & 3]], l, back_orient, parallel);
+                };
+                // The exit face as (v, x, y), a rotation of its outward order:
+                // the edge values opposite v, x and y.
+                let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
+                let l = [directed_value(verts, tx, ty, fx, fy), -val[y], val[x]];
+                let p_out = face_point(verts, [v, tx, ty], l, back_orient, parallel);
                 st.crossings += 1;
                 let len = (p_out.depth - p_in.depth) * len_per_depth;
                 if len > 0.0 && self.visible.is_none_or(|vis| vis[t]) {

@@ -1,0 +1,75 @@
+//! The ray walker on meshes built from the input bytes: Delaunay tets of
+//! points on a coarse lattice (degenerate grids: shared planes, slivers,
+//! cospherical points, faces edge-on to axis-aligned cameras) or of
+//! arbitrary f64 points, with cameras orbiting, edge-on (multiples of 90°),
+//! zoomed until the eye is inside the mesh, perspective or parallel. On a
+//! valid mesh no run may fail (every exit found, no step bound hit), every
+//! pixel is finite with α in [0, 1], and the walker composites what
+//! projected tetrahedra composite (the same image within f32 rounding).
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use std::sync::Arc;
+use tet_delaunay::{tetrahedralize_points, DelaunayOptions};
+use tet_preint::{ExactShader, SegmentShader, TransferFunction};
+use tet_render::{CpuRenderer, RasterOptions, Renderer, Scene, ViewSpec};
+
+fuzz_target!(|data: &[u8]| {
+    let Some((head, rest)) = data.split_first_chunk::<6>() else { return };
+    let [mode, az, el, zoom, sbyte, size] = *head;
+    let pts: Vec<[f64; 3]> = if mode & 1 == 0 {
+        rest.chunks_exact(3).take(64).map(|c| [c[0], c[1], c[2]].map(|b| (b % 5) as f64)).collect()
+    } else {
+        rest.chunks_exact(24)
+            .take(24)
+            .map(|c| {
+                let f = |k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().unwrap());
+                [f(0), f(1), f(2)]
+            })
+            .collect()
+    };
+    let Ok(d) = tetrahedralize_points(&pts, &DelaunayOptions::default()) else { return };
+    if d.tets.is_empty() {
+        return;
+    }
+    let scalar: Vec<f64> = (0..pts.len()).map(|i| ((i as u32 * 7 + sbyte as u32) % 11) as f64 / 10.0).collect();
+    let Ok(scene) = Scene::new(&pts, d.tets.clone(), scalar) else { return };
+    let (lo, hi) = scene.bounds();
+    let side = 8 + (size % 24) as u32;
+    let mut view = ViewSpec::framing(lo, hi, [side, side + 3]);
+    view.parallel = mode & 2 != 0;
+    // Edge-on views of the lattice's planes, or any angle.
+    let (az, el) = if mode & 4 != 0 {
+        ((az % 4) as f64 * 90.0, ((el % 3) as f64 - 1.0) * 45.0)
+    } else {
+        (az as f64 * 360.0 / 256.0, el as f64 * 178.0 / 256.0 - 89.0)
+    };
+    let view = view.orbit(az, el, 1.0 + zoom as f64 / 4.0);
+    let tf = TransferFunction::from_json(
+        r#"{"color": [[0, 1, 0, 0], [0.5, 0, 1, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5], [0.6, 4], [1, 1]], "unit_distance": 1}"#,
+    )
+    .unwrap();
+    let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf));
+    let mut images = vec![];
+    for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
+        let mut r = Renderer::new(scene.clone());
+        r.set_renderer(kind);
+        if r.set_view(&view).is_err() {
+            return;
+        }
+        r.set_shader(shader.clone());
+        // No early termination: both composite every segment.
+        r.set_raster_options(RasterOptions { opaque_alpha: 2.0, ..Default::default() });
+        let Ok((img, st)) = r.render(&|_, _| {}) else { return };
+        assert_eq!(st.walk_non_manifold + st.walk_step_limit, 0, "walk failures on a valid mesh: {st:?}");
+        for p in img.pixels() {
+            assert!(p.iter().all(|v| v.is_finite()), "{kind}: {p:?}");
+            assert!(p[3] >= 0.0 && p[3] <= 1.0 + 1e-5, "{kind}: {p:?}");
+        }
+        images.push((img, st));
+    }
+    let (walk, pt) = (&images[0], &images[1]);
+    if walk.1.renderer == "walk" {
+        let d = tet_render::diff(&walk.0, &pt.0).unwrap();
+        assert!(d.max_abs < 1e-3, "walker and PT differ: {d:?}; walk {:?}, pt {:?}", walk.1, pt.1);
+    }
+});

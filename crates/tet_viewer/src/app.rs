@@ -685,7 +685,7 @@ impl ViewerApp {
     fn status_line(&self, ui: &mut egui::Ui) {
         let text = match &self.latest {
             Some((_, s)) => format!(
-                "{} | {}x{} | frame {:.1} ms | {} tets/s | drawn {} of {} ({:.1}% culled) | bake {:.1} ms | sort {:.1} ms{} | UI {:.0} ms",
+                "{} | {}x{} | frame {:.1} ms | {} tets/s | drawn {} of {} ({:.1}% culled) | bake {:.1} ms | view {:.1} ms{} | UI {:.0} ms",
                 s.backend,
                 s.size[0],
                 s.size[1],
@@ -796,7 +796,7 @@ fn redone(s: &FrameStats) -> String {
         v.push("culled");
     }
     if s.resorted {
-        v.push("sorted");
+        v.push("view");
     }
     if v.is_empty() {
         String::new()

@@ -60,12 +60,15 @@ pub struct FrameStats {
     pub bake_seconds: f64,
     /// The last bake, whenever it happened.
     pub last_bake_seconds: f64,
+    /// View work: PT's view geometry and visibility sort, the walker's
+    /// vertex projection and face binning.
     pub sort_seconds: f64,
     pub tets_total: usize,
     pub tets_culled: usize,
     pub tets_drawn: usize,
     pub rebaked: bool,
     pub recomputed_cull: bool,
+    /// The view's work was redone (a camera move; PT's radix order after a TF edit).
     pub resorted: bool,
     pub size: [u32; 2],
 }
@@ -265,7 +268,9 @@ impl Engine {
         let (image, st) = self.cpu.render(&|_, _| {})?;
         let rgba8 = image.to_rgba8(&req.display);
         let stats = FrameStats {
-            backend,
+            // Which CPU algorithm drew it: the walker, or PT (also when the
+            // walker handed the view over: the eye inside the mesh).
+            backend: format!("{backend} {}", st.renderer),
             frame_seconds: start.elapsed().as_secs_f64(),
             bake_seconds,
             last_bake_seconds: self.last_bake_seconds,
@@ -275,7 +280,8 @@ impl Engine {
             tets_drawn: st.tets_drawn,
             rebaked,
             recomputed_cull: st.recomputed_cull,
-            resorted: st.recomputed_order,
+            // View work redone: the walker's projection, PT's view and order.
+            resorted: st.recomputed_view || st.recomputed_order,
             size: req.view.size,
         };
         Ok(Frame { rgba8, image, view: req.view.clone(), stats })

@@ -31,6 +31,7 @@ use std::sync::Arc;
 
 use crate::atlas2d::{Atlas2d, Atlas2dParams};
 use crate::bivariate::{BivApprox, BivExact, FbTable};
+use crate::certify::CertifiedTable3d;
 use crate::domain::{check_res, TableDomain, TableError};
 use crate::lut_file::BakeOptions;
 use crate::method::{ExactShader, Method, PtLinearShader, SegmentShader};
@@ -50,7 +51,9 @@ pub const MAX_SUBSEGMENTS: usize = 1024;
 pub enum Baked {
     Exact(ExactShader),
     PtLinear(PtLinearShader),
-    Table3d(Table3d),
+    /// The table, its lookup (plain or split at TF nodes) and what the bake
+    /// measured of it ([`crate::certify`]); dereferences to the [`Table3d`].
+    Table3d(CertifiedTable3d),
     Atlas2d(Atlas2d),
     Partial(PartialShader),
     /// The table and the precision it was rounded to (and is stored in).
@@ -144,6 +147,19 @@ impl Baked {
         domain: &TableDomain,
         opts: &BakeOptions,
     ) -> Result<Baked, TableError> {
+        Baked::build_with_cells(method, tf, domain, opts, &[])
+    }
+
+    /// [`Baked::build`], with segments through the bundle's cells
+    /// (`[Sf, Sb, l]`, [`crate::certify::cell_triples`]) that `table3d`'s
+    /// certification measures besides its own sets (ignored by the others).
+    pub fn build_with_cells(
+        method: Method,
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        opts: &BakeOptions,
+        cells: &[[f32; 3]],
+    ) -> Result<Baked, TableError> {
         let tf = tf_for_domain(tf, domain)?;
         check_f32_colour(method, &tf, domain)?;
         if !method.is_bivariate() && !tf.widgets().is_empty() {
@@ -156,7 +172,9 @@ impl Baked {
         Ok(match method {
             Method::Exact => Baked::Exact(ExactShader::new(tf)),
             Method::PtLinear => Baked::PtLinear(PtLinearShader::new(tf)),
-            Method::Table3d => Baked::Table3d(Table3d::build(&tf, domain, &opts.table3d)?),
+            Method::Table3d => {
+                Baked::Table3d(crate::certify::bake(&tf, domain, &opts.table3d, &opts.certify, cells)?)
+            }
             Method::Atlas2d => {
                 let t = Table3d::build(&tf, domain, &opts.table3d)?;
                 let params = Atlas2dParams::for_table(&t, opts.atlas_planes_quarters, opts.table3d.precision);

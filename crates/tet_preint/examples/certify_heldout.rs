@@ -66,13 +66,23 @@ fn main() {
             let c = after.certificate().unwrap();
             let fmt = |v: &[certify::SetError]| v.iter().map(|e| format!("{:.2e}", e.max)).collect::<Vec<_>>().join(" / ");
             println!(
-                "| {name} | {dname} | {} | {}x{}x{} | {}{} | {ms:.0} | {:.1} MiB | {} {:.2e} | {} |",
+                "| {name} | {dname} | {} | {}x{}x{} | {}{}{} | {ms:.0} | {:.1} MiB | {} {:.2e} | {} |",
                 fmt(&b),
                 after.params().n_s,
                 after.params().n_s,
                 after.params().n_l,
                 after.reconstruction().id(),
                 if after.splits_at_tf_nodes() { ", split at TF nodes" } else { "" },
+                if c.exact_intervals.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        ", exact on {}/{} intervals ({:.0}% of segments)",
+                        c.exact_intervals.len(),
+                        c.intervals,
+                        100.0 * c.exact_share
+                    )
+                },
                 after.memory_bytes() as f64 / (1 << 20) as f64,
                 if c.certified { "certified" } else { "NOT certified" },
                 c.max_error,

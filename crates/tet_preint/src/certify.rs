@@ -640,8 +640,10 @@ fn failing(shader: &dyn SegmentShader, tf: &TransferFunction, sets: &[Set], goal
 }
 
 /// Marks for exact integration the intervals the `failing` segments need:
-/// every interval of a segment that meets at most two, else the steepest
-/// it meets. Returns how many intervals were newly marked.
+/// per segment the steepest interval it meets (the next round re-measures
+/// and marks more if needed, so a few steep intervals do not drag their
+/// gentle neighbours onto the slow path). Returns how many intervals
+/// were newly marked.
 fn mark_exact(t: &mut CertifiedTable3d, steep: &[f64], failing: &[[f32; 3]]) -> usize {
     if t.exact_in.is_empty() {
         t.exact_in = vec![false; t.nodes.len() + 1];
@@ -649,18 +651,12 @@ fn mark_exact(t: &mut CertifiedTable3d, steep: &[f64], failing: &[[f32; 3]]) -> 
     let mut marked = 0;
     for f in failing {
         let r = t.crossed(f[0], f[1]);
-        let (i, j) = (r.start, r.end);
-        let pick: Vec<usize> = if j - i < 2 {
-            (i..=j).collect()
-        } else {
-            vec![(i..=j).max_by(|&a, &b| steep[a].total_cmp(&steep[b])).expect("non-empty")]
-        };
-        for k in pick {
-            if !t.exact_in[k] {
-                t.exact_in[k] = true;
-                marked += 1;
-            }
+        if t.needs_exact(&r) {
+            continue;
         }
+        let k = (r.start..=r.end).max_by(|&a, &b| steep[a].total_cmp(&steep[b])).expect("non-empty");
+        t.exact_in[k] = true;
+        marked += 1;
     }
     marked
 }
@@ -717,10 +713,11 @@ pub fn bake(
     };
     let (mut errors, mut worst) = measure_sets(&table, tf, &sets);
     record(&table, &errors, &mut attempts);
-    let mut grown = 0;
+    let (mut grown, mut tried_split) = (0, false);
     while max_of(&errors) > goal && !over_budget {
         // 1. The same entries, looked up piece by piece between the TF's nodes.
-        if !table.split && !nodes.is_empty() {
+        if !tried_split && !nodes.is_empty() {
+            tried_split = true;
             let cut = CertifiedTable3d { split: true, ..table.clone() };
             let (e2, w2) = measure_sets(&cut, tf, &sets);
             record(&cut, &e2, &mut attempts);

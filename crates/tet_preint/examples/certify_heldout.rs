@@ -40,8 +40,10 @@ fn main() {
     let check_cells = cells(100_000, 0x7e71);
     let near = TableDomain::new(100.0, 100.01, 0.01, bf.len_max_world).unwrap();
     let names: Vec<String> = std::env::args().skip(1).collect();
-    let mut tfs: Vec<(String, String)> =
-        vec![("tf_normalized (sample)".into(), root.join("../../formats/samples/tf_normalized.json").display().to_string())];
+    let mut tfs: Vec<(String, String)> = vec![(
+        "tf_normalized (sample)".into(),
+        root.join("../../formats/samples/tf_normalized.json").display().to_string(),
+    )];
     for n in ["tf_peaks12", "tf_sharp8", "tf_steps", "tf_plateaus"] {
         tfs.push((n.into(), root.join(format!("tests/data/heldout/{n}.json")).display().to_string()));
     }
@@ -64,7 +66,8 @@ fn main() {
             let ms = t0.elapsed().as_secs_f64() * 1e3;
             let a = certify::remeasure(&after, &tf, domain, 100_000, 0xbeef, cc);
             let c = after.certificate().unwrap();
-            let fmt = |v: &[certify::SetError]| v.iter().map(|e| format!("{:.2e}", e.max)).collect::<Vec<_>>().join(" / ");
+            let fmt =
+                |v: &[certify::SetError]| v.iter().map(|e| format!("{:.2e}", e.max)).collect::<Vec<_>>().join(" / ");
             println!(
                 "| {name} | {dname} | {} | {}x{}x{} | {}{}{} | {ms:.0} | {:.1} MiB | {} {:.2e} | {} |",
                 fmt(&b),
@@ -95,7 +98,10 @@ fn main() {
                 all.extend_from_slice(cc);
                 for (t, e) in certify::worst_segments(&after, &tf, &all, 8) {
                     let ex = tet_preint::integrate_segment(&tf, t[0] as f64, t[1] as f64, t[2] as f64);
-                    let got = tet_preint::SegmentShader::shade(&after, &tet_preint::Segment { s_front: t[0], s_back: t[1], len_world: t[2], ..Default::default() });
+                    let got = tet_preint::SegmentShader::shade(
+                        &after,
+                        &tet_preint::Segment { s_front: t[0], s_back: t[1], len_world: t[2], ..Default::default() },
+                    );
                     eprintln!("  worst {t:?} err {e:.3e} exact {:?} got {got:?}", ex.to_array());
                 }
             }

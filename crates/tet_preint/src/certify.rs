@@ -211,7 +211,8 @@ impl Certificate {
 /// exactly the segments that need it.
 #[derive(Debug, Clone)]
 pub struct CertifiedTable3d {
-    table: Table3d,
+    /// Boxed: a table's domain holds its quantiles (keeps `Baked` small).
+    table: Box<Table3d>,
     /// The TF's control points inside the domain (f32, ascending).
     nodes: Vec<f32>,
     /// Whether lookups cut segments at `nodes`.
@@ -220,8 +221,9 @@ pub struct CertifiedTable3d {
     /// segments touching it exactly.
     exact_in: Vec<bool>,
     /// The TF in data units, when some interval is exact.
-    exact: Option<crate::method::ExactShader>,
-    certificate: Option<Certificate>,
+    /// (Boxed, as `certificate`: keeps `Baked` small.)
+    exact: Option<Box<crate::method::ExactShader>>,
+    certificate: Option<Box<Certificate>>,
 }
 
 impl std::ops::Deref for CertifiedTable3d {
@@ -234,7 +236,14 @@ impl std::ops::Deref for CertifiedTable3d {
 impl CertifiedTable3d {
     /// A table with plain lookups and no certificate.
     pub fn plain(table: Table3d) -> Self {
-        CertifiedTable3d { table, nodes: Vec::new(), split: false, exact_in: Vec::new(), exact: None, certificate: None }
+        CertifiedTable3d {
+            table: Box::new(table),
+            nodes: Vec::new(),
+            split: false,
+            exact_in: Vec::new(),
+            exact: None,
+            certificate: None,
+        }
     }
 
     /// Reassembles a stored table. With a `tf` (data units), the
@@ -252,10 +261,10 @@ impl CertifiedTable3d {
                 for &i in &c.exact_intervals {
                     *t.exact_in.get_mut(i)? = true;
                 }
-                t.exact = Some(crate::method::ExactShader::new(tf.clone()));
+                t.exact = Some(Box::new(crate::method::ExactShader::new(tf.clone())));
             }
         }
-        t.certificate = certificate;
+        t.certificate = certificate.map(Box::new);
         Some(t)
     }
 
@@ -263,10 +272,10 @@ impl CertifiedTable3d {
         &self.table
     }
     pub fn into_table(self) -> Table3d {
-        self.table
+        *self.table
     }
     pub fn certificate(&self) -> Option<&Certificate> {
-        self.certificate.as_ref()
+        self.certificate.as_deref()
     }
     /// Whether the lookup cuts segments at TF control points.
     pub fn splits_at_tf_nodes(&self) -> bool {
@@ -481,7 +490,11 @@ fn segment_error(shader: &dyn SegmentShader, tf: &TransferFunction, t: &[f32; 3]
 }
 
 /// (max, RMS over the per-segment errors, the [`WORST`] worst) of `shader` on `triples`.
-fn measure(shader: &dyn SegmentShader, tf: &TransferFunction, triples: &[[f32; 3]]) -> (f64, f64, Vec<([f32; 3], f64)>) {
+fn measure(
+    shader: &dyn SegmentShader,
+    tf: &TransferFunction,
+    triples: &[[f32; 3]],
+) -> (f64, f64, Vec<([f32; 3], f64)>) {
     if triples.is_empty() {
         return (0.0, 0.0, Vec::new());
     }
@@ -629,7 +642,14 @@ fn failing(shader: &dyn SegmentShader, tf: &TransferFunction, sets: &[Set], goal
     for s in sets {
         out.par_extend(s.triples.par_chunks(1024).flat_map_iter(|chunk| {
             let mut scratch = Vec::new();
-            chunk.iter().filter(|t| !(segment_error(shader, tf, t, &mut scratch) <= goal)).copied().collect::<Vec<_>>()
+            chunk
+                .iter()
+                .filter(|t| {
+                    let e = segment_error(shader, tf, t, &mut scratch);
+                    e.is_nan() || e > goal
+                })
+                .copied()
+                .collect::<Vec<_>>()
         }));
         if out.len() >= 1 << 16 {
             out.truncate(1 << 16);
@@ -699,7 +719,8 @@ pub fn bake(
     let goal = target * CERTIFY_MARGIN;
     let mut params = *params;
     let mut attempts: Vec<Attempt> = Vec::new();
-    let mut table = CertifiedTable3d { nodes: nodes.clone(), ..CertifiedTable3d::plain(Table3d::build(tf, domain, &params)?) };
+    let mut table =
+        CertifiedTable3d { nodes: nodes.clone(), ..CertifiedTable3d::plain(Table3d::build(tf, domain, &params)?) };
     let over_budget = table.memory_bytes() > opts.memory_budget;
     let record = |t: &CertifiedTable3d, errors: &[SetError], attempts: &mut Vec<Attempt>| {
         attempts.push(Attempt {
@@ -740,7 +761,7 @@ pub fn bake(
                 t.exact_in.clear();
             }
             if !t.exact_in.is_empty() {
-                t.exact = Some(crate::method::ExactShader::new(tf.clone()));
+                t.exact = Some(Box::new(crate::method::ExactShader::new(tf.clone())));
                 let (e2, w2) = measure_sets(&t, tf, &sets);
                 record(&t, &e2, &mut attempts);
                 (table, errors, worst) = (t, e2, w2);
@@ -779,7 +800,7 @@ pub fn bake(
         };
         (params.n_s, params.n_l) = next;
         grown += 1;
-        let t = CertifiedTable3d { table: Table3d::build(tf, domain, &params)?, ..table.clone() };
+        let t = CertifiedTable3d { table: Box::new(Table3d::build(tf, domain, &params)?), ..table.clone() };
         let (e2, w2) = measure_sets(&t, tf, &sets);
         record(&t, &e2, &mut attempts);
         (table, errors, worst) = (t, e2, w2);
@@ -797,7 +818,7 @@ pub fn bake(
     } else {
         None
     };
-    table.certificate = Some(Certificate {
+    table.certificate = Some(Box::new(Certificate {
         target,
         certified,
         max_error: max,
@@ -811,7 +832,7 @@ pub fn bake(
         sets: errors,
         attempts,
         limit,
-    });
+    }));
     Ok(table)
 }
 

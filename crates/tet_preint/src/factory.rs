@@ -48,6 +48,9 @@ pub const MAX_SUBSEGMENTS: usize = 1024;
 
 /// A baked method, typed.
 #[derive(Debug, Clone)]
+// One `Baked` is built per bake and then held (never moved in a hot loop):
+// the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 pub enum Baked {
     Exact(ExactShader),
     PtLinear(PtLinearShader),
@@ -172,9 +175,7 @@ impl Baked {
         Ok(match method {
             Method::Exact => Baked::Exact(ExactShader::new(tf)),
             Method::PtLinear => Baked::PtLinear(PtLinearShader::new(tf)),
-            Method::Table3d => {
-                Baked::Table3d(crate::certify::bake(&tf, domain, &opts.table3d, &opts.certify, cells)?)
-            }
+            Method::Table3d => Baked::Table3d(crate::certify::bake(&tf, domain, &opts.table3d, &opts.certify, cells)?),
             Method::Atlas2d => {
                 let t = Table3d::build(&tf, domain, &opts.table3d)?;
                 let params = Atlas2dParams::for_table(&t, opts.atlas_planes_quarters, opts.table3d.precision);

@@ -100,7 +100,7 @@ fn bad_targets_are_errors() {
     let tf = tf_for_domain(&heldout("tf_sharp8"), &d).unwrap();
     for e in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         let opts = CertifyOptions { max_error: Some(e), ..Default::default() };
-        let err = certify::bake(&tf, &d, &start(), &opts, &[]).err().expect("refused").to_string();
+        let err = certify::bake(&tf, &d, &start(), &opts, &[]).expect_err("refused").to_string();
         assert!(err.contains("max error"), "{err}");
     }
 }
@@ -111,8 +111,7 @@ fn bad_targets_are_errors() {
 fn tetl_round_trips_the_certificate_and_the_lookup() {
     let d = bluntfin();
     let tfn = heldout("tf_peaks12");
-    let mut opts = BakeOptions::default();
-    opts.table3d = start();
+    let mut opts = BakeOptions { table3d: start(), ..Default::default() };
     opts.certify.samples = 4096;
     let tf = tf_for_domain(&tfn, &d).unwrap();
     let lut = tet_preint::bake(Method::Table3d, &tfn, &d, &opts).unwrap();
@@ -123,7 +122,10 @@ fn tetl_round_trips_the_certificate_and_the_lookup() {
     // JSON keeps every field; floats to within their last digit.
     let same = |a: &tet_preint::Certificate, b: &tet_preint::Certificate| {
         assert_eq!((a.target, a.certified, a.split_at_tf_nodes), (b.target, b.certified, b.split_at_tf_nodes));
-        assert_eq!((&a.exact_intervals, a.intervals, a.attempts.len()), (&b.exact_intervals, b.intervals, b.attempts.len()));
+        assert_eq!(
+            (&a.exact_intervals, a.intervals, a.attempts.len()),
+            (&b.exact_intervals, b.intervals, b.attempts.len())
+        );
         assert!((a.max_error - b.max_error).abs() <= 1e-15 * a.max_error.abs(), "{} {}", a.max_error, b.max_error);
         assert_eq!(a.sets.len(), b.sets.len());
     };
@@ -145,7 +147,7 @@ fn tetl_round_trips_the_certificate_and_the_lookup() {
     // An exact interval the TF does not have is an error naming the field.
     let mut bad = back;
     bad.header.certificate.as_mut().unwrap().exact_intervals = vec![10_000];
-    let e = Baked::from_lut(&bad, path).err().expect("refused").to_string();
+    let e = Baked::from_lut(&bad, path).expect_err("refused").to_string();
     assert!(e.contains("exact_intervals"), "{e}");
 }
 

@@ -55,9 +55,10 @@ fn default_table3d_meets_one_255th_on_blunt_fin_with_heldout_tfs() {
     let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
     let mut domain = TableDomain::new(stats.scalar_min, stats.scalar_max, max_ds, stats.max_cell_diameter).unwrap();
     domain.s_quantiles = ScalarQuantiles::of(&mesh.scalar);
-    let (lo, hi) = mesh.points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| {
-        (a.min(DVec3::from(*p)), b.max(DVec3::from(*p)))
-    });
+    let (lo, hi) =
+        mesh.points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| {
+            (a.min(DVec3::from(*p)), b.max(DVec3::from(*p)))
+        });
     let view = ViewSpec::framing(lo.into(), hi.into(), [96, 96]).orbit(40.0, 25.0, 1.2);
     let cam = Camera::new(&view).unwrap();
     let reference = ReferenceRenderer::new(&mesh, &adj).unwrap();

@@ -72,7 +72,9 @@ pub fn run(args: &BakeArgs) -> Result<()> {
         _ => None,
     };
     let final_res = match &baked {
-        Baked::Table3d(t) => format!("{}x{}x{} {}", t.params().n_s, t.params().n_s, t.params().n_l, t.params().precision),
+        Baked::Table3d(t) => {
+            format!("{}x{}x{} {}", t.params().n_s, t.params().n_s, t.params().n_l, t.params().precision)
+        }
         _ => describe_res(args.method, &opts),
     };
     if args.json {

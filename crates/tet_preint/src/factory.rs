@@ -26,6 +26,13 @@
 //! ~60 ms, max 4.7e-5 / 4.7e-4; Ψ 1024² ~90 ms (TF-independent: a TF edit
 //! rebakes nothing), max < 1e-6. biv-approx's error is set by k, not by
 //! the table side (k = 4: max 1.3e-2 on cells).
+//!
+//! table3d's resolution is the *starting* point: the default bake measures
+//! its own max per-segment error and refines (split lookups at TF nodes,
+//! exact integration on the TF intervals the table cannot follow, a finer
+//! table within 256 MiB) until max ≤ 1e-3 holds, and records what it
+//! measured ([`crate::certify`], `BakeOptions::certify`; off with
+//! `CertifyOptions::off()`). Held-out TFs: crates/tetlut/results/certified.md.
 
 use std::sync::Arc;
 

@@ -184,11 +184,11 @@ impl Certificate {
             format!("certified: max {:.2e} <= {:e} over {}{split}", self.max_error, self.target, sets.join(", "))
         } else {
             format!(
-                "NOT certified: max {:.2e} > {:e} x {} within the {} MiB budget ({}), over {}{split}",
+                "NOT certified: max {:.2e} > {:e} x {} within the {:.1} MiB budget ({}), over {}{split}",
                 self.max_error,
                 self.target,
                 self.margin,
-                self.memory_budget >> 20,
+                self.memory_budget as f64 / (1u64 << 20) as f64,
                 self.limit.as_deref().unwrap_or("target not met"),
                 sets.join(", ")
             )

@@ -26,11 +26,19 @@
 //! ~60 ms, max 4.7e-5 / 4.7e-4; Ψ 1024² ~90 ms (TF-independent: a TF edit
 //! rebakes nothing), max < 1e-6. biv-approx's error is set by k, not by
 //! the table side (k = 4: max 1.3e-2 on cells).
+//!
+//! table3d's resolution is the *starting* point: the default bake measures
+//! its own max per-segment error and refines (split lookups at TF nodes,
+//! exact integration on the TF intervals the table cannot follow, a finer
+//! table within 256 MiB) until max ≤ 1e-3 holds, and records what it
+//! measured ([`crate::certify`], `BakeOptions::certify`; off with
+//! `CertifyOptions::off()`). Held-out TFs: crates/tetlut/results/certified.md.
 
 use std::sync::Arc;
 
 use crate::atlas2d::{Atlas2d, Atlas2dParams};
 use crate::bivariate::{BivApprox, BivExact, FbTable};
+use crate::certify::CertifiedTable3d;
 use crate::domain::{check_res, TableDomain, TableError};
 use crate::lut_file::BakeOptions;
 use crate::method::{ExactShader, Method, PtLinearShader, SegmentShader};
@@ -47,10 +55,15 @@ pub const MAX_SUBSEGMENTS: usize = 1024;
 
 /// A baked method, typed.
 #[derive(Debug, Clone)]
+// One `Baked` is built per bake and then held (never moved in a hot loop):
+// the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 pub enum Baked {
     Exact(ExactShader),
     PtLinear(PtLinearShader),
-    Table3d(Table3d),
+    /// The table, its lookup (plain or split at TF nodes) and what the bake
+    /// measured of it ([`crate::certify`]); dereferences to the [`Table3d`].
+    Table3d(CertifiedTable3d),
     Atlas2d(Atlas2d),
     Partial(PartialShader),
     /// The table and the precision it was rounded to (and is stored in).
@@ -144,6 +157,19 @@ impl Baked {
         domain: &TableDomain,
         opts: &BakeOptions,
     ) -> Result<Baked, TableError> {
+        Baked::build_with_cells(method, tf, domain, opts, &[])
+    }
+
+    /// [`Baked::build`], with segments through the bundle's cells
+    /// (`[Sf, Sb, l]`, [`crate::certify::cell_triples`]) that `table3d`'s
+    /// certification measures besides its own sets (ignored by the others).
+    pub fn build_with_cells(
+        method: Method,
+        tf: &TransferFunction,
+        domain: &TableDomain,
+        opts: &BakeOptions,
+        cells: &[[f32; 3]],
+    ) -> Result<Baked, TableError> {
         let tf = tf_for_domain(tf, domain)?;
         check_f32_colour(method, &tf, domain)?;
         if !method.is_bivariate() && !tf.widgets().is_empty() {
@@ -156,7 +182,7 @@ impl Baked {
         Ok(match method {
             Method::Exact => Baked::Exact(ExactShader::new(tf)),
             Method::PtLinear => Baked::PtLinear(PtLinearShader::new(tf)),
-            Method::Table3d => Baked::Table3d(Table3d::build(&tf, domain, &opts.table3d)?),
+            Method::Table3d => Baked::Table3d(crate::certify::bake(&tf, domain, &opts.table3d, &opts.certify, cells)?),
             Method::Atlas2d => {
                 let t = Table3d::build(&tf, domain, &opts.table3d)?;
                 let params = Atlas2dParams::for_table(&t, opts.atlas_planes_quarters, opts.table3d.precision);

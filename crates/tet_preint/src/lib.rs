@@ -62,6 +62,7 @@
 pub mod atlas2d;
 pub mod biv_tables;
 pub mod bivariate;
+pub mod certify;
 pub mod domain;
 pub mod error;
 pub mod exact;
@@ -80,6 +81,7 @@ pub mod widget;
 pub use atlas2d::{Atlas2d, Atlas2dParams};
 pub use biv_tables::{BandKind, BandTable, GaussErfTable};
 pub use bivariate::{BivApprox, BivExact, BivTables, FbTable};
+pub use certify::{Certificate, CertifiedTable3d, CertifyOptions};
 pub use domain::{ScalarQuantiles, TableDomain, TableError, QUANTILES};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};

@@ -10,6 +10,7 @@
 
 use crate::atlas2d::{Atlas2d, Atlas2dParams};
 use crate::bivariate::{BivApprox, BivExact, FbTable};
+use crate::certify::{Certificate, CertifiedTable3d, CertifyOptions};
 use crate::domain::{TableDomain, TableError};
 use crate::factory::{tf_for_domain, Baked, MAX_SUBSEGMENTS};
 use crate::method::{ExactShader, Method, PtLinearShader, SegmentShader};
@@ -32,8 +33,11 @@ pub const LUT_MAGIC: [u8; 8] = *b"\x89TETL\r\n\x1a";
 /// Version 3 added the `"data"` scalar axis (knots in `SAXIS` as for
 /// `"tf-nodes"`); versions 1 and 2 read as before. Version 4 added the
 /// `"adaptive"` table3d build kind (`params.build`; the sections mean the
-/// same); versions 1–3 read as before.
-pub const LUT_FORMAT_VERSION: u32 = 4;
+/// same); versions 1–3 read as before. Version 5 added the header's
+/// `certificate` (what a `table3d` bake measured of itself, and whether its
+/// lookup splits segments at TF nodes); versions 1–4 read as before
+/// (no certificate, plain lookups).
+pub const LUT_FORMAT_VERSION: u32 = 5;
 /// The container format of `.tetl` files (see `tet_container`).
 const FORMAT: ContainerFormat =
     ContainerFormat { magic: LUT_MAGIC, version: LUT_FORMAT_VERSION, max_sections: 1 << 12 };
@@ -148,6 +152,11 @@ pub struct LutHeader {
     /// Method parameters (resolution, build, precision, …).
     pub params: serde_json::Value,
     pub sections: Vec<SectionInfo>,
+    /// `table3d` (version 5): the bake's measured error against `exact`
+    /// ([`Certificate`]); absent when the bake measured nothing and in
+    /// files before version 5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub certificate: Option<Certificate>,
 }
 
 /// A whole `.tetl` file in memory: header plus raw little-endian payloads
@@ -170,7 +179,15 @@ impl LutFile {
         // not written (the axis knots they shaped are).
         let domain = domain.map(|d| TableDomain { s_quantiles: None, ..d });
         LutFile {
-            header: LutHeader { writer: writer(), method: method.id().into(), tf, domain, params, sections: vec![] },
+            header: LutHeader {
+                writer: writer(),
+                method: method.id().into(),
+                tf,
+                domain,
+                params,
+                sections: vec![],
+                certificate: None,
+            },
             payloads: vec![],
         }
     }
@@ -324,13 +341,19 @@ pub struct BakeOptions {
     /// Storage of the poly tables (f32 or f16: their coefficients are
     /// signed) and of the F/B table (any precision).
     pub precision_2d: Precision,
+    /// `table3d`: the error target the bake measures itself against and
+    /// refines `table3d` (as the starting resolution) to meet, within a
+    /// memory budget ([`crate::certify`]); `CertifyOptions::off()` bakes
+    /// `table3d` as given.
+    pub certify: CertifyOptions,
 }
 
 impl Default for BakeOptions {
     /// table3d 128 × 128 × 256 f32 (adaptive build, samples following the
     /// data's scalars, refined at and placed on every TF control point:
     /// [`Table3dParams::data`]); atlas2d N
-    /// planes; Ψ 1024² f32; poly 512² f32; F/B 128² f32 with 4 sub-segments.
+    /// planes; Ψ 1024² f32; poly 512² f32; F/B 128² f32 with 4 sub-segments;
+    /// table3d certified to max error 1e-3 within 256 MiB.
     fn default() -> Self {
         BakeOptions {
             table3d: Table3dParams::data(),
@@ -340,6 +363,7 @@ impl Default for BakeOptions {
             fb_res: 128,
             biv_subsegments: 4,
             precision_2d: Precision::F32,
+            certify: CertifyOptions::default(),
         }
     }
 }
@@ -444,7 +468,7 @@ impl Baked {
             }
         };
         Ok(match method {
-            Method::Table3d => Baked::Table3d(Table3d::from_lut(lut, path)?),
+            Method::Table3d => Baked::Table3d(CertifiedTable3d::from_lut(lut, path)?),
             Method::Atlas2d => Baked::Atlas2d(Atlas2d::from_lut(lut, path)?),
             Method::Partial => {
                 let tf = no_widgets(tf()?)?;
@@ -715,6 +739,32 @@ impl Table3d {
                 what: format!("{what} do not match the header's params"),
                 path: path.into(),
             }
+        })
+    }
+}
+
+impl CertifiedTable3d {
+    /// The table as a `.tetl` ([`Table3d::to_lut`]) with its certificate.
+    pub fn to_lut(&self, tf: &TransferFunction) -> LutFile {
+        let mut f = self.table().to_lut(tf);
+        f.header.certificate = self.certificate().cloned();
+        f
+    }
+
+    /// A stored table and its certificate; a certificate that says the
+    /// lookup splits at TF nodes splits at the header's TF's.
+    pub fn from_lut(lut: &LutFile, path: &Path) -> Result<CertifiedTable3d, LutError> {
+        let table = Table3d::from_lut(lut, path)?;
+        let cert = lut.header.certificate.clone();
+        // Only a splitting lookup needs the TF (its control points).
+        let tf = match &cert {
+            Some(c) if c.split_at_tf_nodes => {
+                Some(lut.transfer_function().map_err(|e| header_error(format!("tf: {e}"), path))?)
+            }
+            _ => None,
+        };
+        CertifiedTable3d::from_parts(table, tf.as_ref(), cert).ok_or_else(|| {
+            header_error("certificate.exact_intervals names an interval the TF does not have".into(), path)
         })
     }
 }

@@ -140,9 +140,9 @@ fn rejects_wrong_magic_newer_version_and_bad_checksums() {
     b[1] = b'X';
     assert!(matches!(LutFile::from_bytes(&b, &path), Err(LutError::BadMagic { .. })));
     let mut b = bytes.clone();
-    b[8..12].copy_from_slice(&5u32.to_le_bytes());
+    b[8..12].copy_from_slice(&6u32.to_le_bytes());
     let e = LutFile::from_bytes(&b, &path).unwrap_err();
-    assert!(matches!(e, LutError::NewerVersion { found: 5, supported: 4, .. }), "{e}");
+    assert!(matches!(e, LutError::NewerVersion { found: 6, supported: 5, .. }), "{e}");
     assert!(e.to_string().ends_with("x.tetl"));
     // Flip a byte in the table, the header JSON and the data payload.
     let last = bytes.len() - 3;

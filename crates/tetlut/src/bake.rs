@@ -43,7 +43,14 @@ pub fn run(args: &BakeArgs) -> Result<()> {
         s
     });
     let t0 = Instant::now();
-    let baked = Baked::build(args.method, &tf, &domain, &opts)
+    // table3d certifies against the bundle's own segments too, when it has one.
+    let cells = match (&bundle, args.method, opts.certify.max_error) {
+        (Some(b), Method::Table3d, Some(_)) => {
+            tet_preint::certify::cell_triples(b, &domain, opts.certify.samples, opts.certify.seed ^ 0xce11)
+        }
+        _ => Vec::new(),
+    };
+    let baked = Baked::build_with_cells(args.method, &tf, &domain, &opts, &cells)
         .with_context(|| format!("cannot bake {}", args.method))
         .code(BAKE)?;
     let bake_s = t0.elapsed().as_secs_f64();
@@ -60,11 +67,21 @@ pub fn run(args: &BakeArgs) -> Result<()> {
         Baked::Table3d(t) => Some((t.reconstruction().id(), t.reconstruction_gap())),
         _ => None,
     };
+    let certificate = match &baked {
+        Baked::Table3d(t) => t.certificate().cloned(),
+        _ => None,
+    };
+    let final_res = match &baked {
+        Baked::Table3d(t) => {
+            format!("{}x{}x{} {}", t.params().n_s, t.params().n_s, t.params().n_l, t.params().precision)
+        }
+        _ => describe_res(args.method, &opts),
+    };
     if args.json {
         let v = json!({
             "output": args.output.display().to_string(),
             "method": args.method.id(),
-            "resolution": describe_res(args.method, &opts),
+            "resolution": final_res,
             "bundle": bundle.as_ref().and(args.domain.bundle.as_ref()).map(|p| p.display().to_string()),
             "domain": domain,
             "bake_seconds": bake_s,
@@ -74,11 +91,12 @@ pub fn run(args: &BakeArgs) -> Result<()> {
             "file_bytes": file_bytes,
             "lookup": lookup.map(|(l, _)| l),
             "reconstruction_gap": lookup.map(|(_, g)| g),
+            "certificate": certificate,
         });
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!("wrote {} ({})", args.output.display(), human_bytes(file_bytes as usize));
-        println!("method      {} {}", args.method, describe_res(args.method, &opts));
+        println!("method      {} {}", args.method, final_res);
         println!(
             "domain      s in [{}, {}], |Sf - Sb| <= {}, l <= {}",
             domain.s_lo, domain.s_hi, domain.max_ds, domain.len_max_world
@@ -86,6 +104,9 @@ pub fn run(args: &BakeArgs) -> Result<()> {
         println!("bake time   {:.1} ms", bake_s * 1e3);
         if let Some((l, gap)) = lookup {
             println!("lookup      {l} (reconstruction gap {gap:.2e}; optical depth above {RECONSTRUCTION_GAP:e})");
+        }
+        if let Some(c) = &certificate {
+            println!("error       {}", c.summary());
         }
         if tabulated {
             println!(

@@ -166,16 +166,25 @@ fn sweep(method: Method, quick: bool) -> Vec<(BakeOptions, String)> {
     match method {
         Method::Exact => vec![],
         Method::PtLinear | Method::BivExact => vec![(base, "-".into())],
-        Method::Table3d | Method::Atlas2d => pick(&[32, 64, 128, 256], &[16, 32])
-            .into_iter()
-            .filter(|&n| method == Method::Table3d || n <= 128)
-            .map(|n| {
-                let mut o = base;
-                o.table3d.n_s = n;
-                o.table3d.n_l = 2 * n;
-                (o, n.to_string())
-            })
-            .collect(),
+        Method::Table3d | Method::Atlas2d => {
+            // The sweep: each resolution as it is (certification off); then
+            // table3d's default, certify-and-refine bake (label "cert").
+            let mut v: Vec<(BakeOptions, String)> = pick(&[32, 64, 128, 256], &[16, 32])
+                .into_iter()
+                .filter(|&n| method == Method::Table3d || n <= 128)
+                .map(|n| {
+                    let mut o = base;
+                    o.table3d.n_s = n;
+                    o.table3d.n_l = 2 * n;
+                    o.certify = tet_preint::CertifyOptions::off();
+                    (o, n.to_string())
+                })
+                .collect();
+            if method == Method::Table3d && !quick {
+                v.push((base, "cert".into()));
+            }
+            v
+        }
         Method::Partial => pick(&[128, 256, 512, 1024], &[64, 256])
             .into_iter()
             .map(|n| {
@@ -339,7 +348,27 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             // Which lookup the table chose (formats/lut.md, "Lookup").
             let optical_depth =
                 matches!(&baked, Baked::Table3d(t) if t.reconstruction() == Reconstruction::OpticalDepth);
-            let res = describe_res(m, &opts);
+            let res = match &baked {
+                // The certified bake's own resolution and lookup.
+                Baked::Table3d(t) if t.certificate().is_some() => {
+                    let c = t.certificate().expect("checked");
+                    format!(
+                        "{}x{}x{} {} {}{}{}",
+                        t.params().n_s,
+                        t.params().n_s,
+                        t.params().n_l,
+                        t.params().precision,
+                        if c.certified { "certified" } else { "NOT certified" },
+                        if c.split_at_tf_nodes { ", split" } else { "" },
+                        if c.exact_intervals.is_empty() {
+                            String::new()
+                        } else {
+                            format!(", {} exact intervals", c.exact_intervals.len())
+                        }
+                    )
+                }
+                _ => describe_res(m, &opts),
+            };
             rows.push(Row {
                 method: m,
                 res: if optical_depth { format!("{res} (τ)") } else { res },

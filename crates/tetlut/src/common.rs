@@ -239,6 +239,19 @@ pub struct TableArgs {
     /// (f64 per entry) or blend:STEPS:BITS (seed 000).
     #[arg(long, value_name = "BUILD")]
     pub build: Option<String>,
+    /// table3d: the largest per-segment error (any channel, against exact)
+    /// the bake certifies; it measures itself and refines (lookup split at
+    /// TF nodes, exact integration where the table cannot follow the TF,
+    /// resolution) until the target holds or the memory budget is spent,
+    /// and says which. Default 1e-3; --res is then the starting resolution.
+    #[arg(long, value_name = "E")]
+    pub max_error: Option<f64>,
+    /// table3d: memory (MiB) the refinement may give the table (default 256).
+    #[arg(long, value_name = "MIB")]
+    pub memory_budget: Option<f64>,
+    /// table3d: bake --res as given and measure nothing (no certificate).
+    #[arg(long, conflicts_with_all = ["max_error", "memory_budget"])]
+    pub no_certify: bool,
 }
 
 /// Parses `--build`.
@@ -317,6 +330,24 @@ impl TableArgs {
                 return Err(usage("--build is for table3d and atlas2d only"));
             }
             o.table3d.build = parse_build(b)?;
+        }
+        if (self.max_error.is_some() || self.memory_budget.is_some() || self.no_certify) && method != Method::Table3d {
+            return Err(usage("--max-error, --memory-budget and --no-certify are for table3d only"));
+        }
+        if let Some(e) = self.max_error {
+            if !(e.is_finite() && e > 0.0) {
+                return Err(usage(format!("--max-error {e}: must be a positive number")));
+            }
+            o.certify.max_error = Some(e);
+        }
+        if let Some(m) = self.memory_budget {
+            if !(m.is_finite() && m > 0.0) {
+                return Err(usage(format!("--memory-budget {m}: must be a positive number of MiB")));
+            }
+            o.certify.memory_budget = (m * (1u64 << 20) as f64) as usize;
+        }
+        if self.no_certify {
+            o.certify = tet_preint::CertifyOptions::off();
         }
         Ok(o)
     }

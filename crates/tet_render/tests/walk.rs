@@ -300,3 +300,64 @@ fn broken_links_end_runs_and_are_counted() {
     assert!(st.walk_non_manifold + st.walk_step_limit > 0, "{st:?}");
     assert!(img.pixels().iter().all(|p| p.iter().all(|c| c.is_finite()) && (0.0..=1.0).contains(&p[3])));
 }
+
+/// Fuzz finding (fuzz/fuzz_targets/walk.rs): Delaunay tets of a 2-lattice
+/// seen exactly edge-on (azimuth 90°, elevation 0°) put pixel centres on
+/// projected silhouette edges. The walker decides those by exact
+/// predicates with symbolic perturbation, PT by its f64 edge values, so the
+/// two may differ there by a whole ray — and only there: every pixel where
+/// they differ has its centre within rounding of a projected edge.
+#[test]
+fn edge_on_lattice_differs_from_pt_only_on_exact_ties() {
+    let pts: Vec<[f64; 3]> = vec![
+        [0.0, 0.0, 0.0],
+        [2.0, 4.0, 0.0],
+        [0.0, 2.0, 0.0],
+        [2.0, 2.0, 0.0],
+        [0.0, 0.0, 2.0],
+        [2.0, 0.0, 2.0],
+        [0.0, 2.0, 0.0],
+        [2.0, 2.0, 2.0],
+        [2.0, 2.0, 1.0],
+    ];
+    let d = tet_delaunay::tetrahedralize_points(&pts, &tet_delaunay::DelaunayOptions::default()).unwrap();
+    let scalar: Vec<f64> = (0..pts.len()).map(|i| ((i as u32 * 7 + 3) % 11) as f64 / 10.0).collect();
+    let scene = Scene::new(&pts, d.tets.clone(), scalar).unwrap();
+    let (lo, hi) = scene.bounds();
+    let view = ViewSpec::framing(lo, hi, [16, 19]).orbit(90.0, 0.0, 1.0);
+    let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf(
+        r#"{"color": [[0, 1, 0, 0], [0.5, 0, 1, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5], [0.6, 4], [1, 1]], "unit_distance": 1}"#,
+    )));
+    let all = RasterOptions { opaque_alpha: 2.0, ..Default::default() };
+    let (walk, ws) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), all);
+    let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader, all);
+    assert_eq!(ws.renderer, "walk");
+    assert_eq!(ws.walk_non_manifold + ws.walk_step_limit, 0);
+    let cam = Camera::new(&view).unwrap();
+    let px: Vec<glam::DVec3> = pts.iter().map(|&p| cam.project(glam::DVec3::from(p))).collect();
+    let near_an_edge = |x: f64, y: f64| {
+        d.tets.iter().any(|t| {
+            (0..4).any(|i| {
+                (i + 1..4).any(|j| {
+                    let (a, b) = (px[t[i] as usize], px[t[j] as usize]);
+                    let e = (b.x - a.x) * (y - a.y) - (b.y - a.y) * (x - a.x);
+                    e.abs() <= 1e-9 * (1.0 + (b.x - a.x).abs() + (b.y - a.y).abs()) * (1.0 + x.abs() + y.abs())
+                })
+            })
+        })
+    };
+    let mut differing = 0;
+    for j in 0..view.size[1] {
+        for i in 0..view.size[0] {
+            let (a, b) = (walk.pixel(i, j), pt.pixel(i, j));
+            if (0..4).any(|c| (a[c] - b[c]).abs() > 1e-4) {
+                differing += 1;
+                assert!(
+                    near_an_edge(i as f64 + 0.5, j as f64 + 0.5),
+                    "pixel ({i}, {j}) differs off any edge: {a:?} vs {b:?}"
+                );
+            }
+        }
+    }
+    assert!(differing > 0, "the finding no longer reproduces: make the fuzz target compare with PT again");
+}

@@ -648,6 +648,10 @@ pub(crate) struct Band {
     /// entry block `pair_off[a] + b` (the lookup's one load instead of two;
     /// part of the band so that it changes with it).
     pub pair_off: Vec<usize>,
+    /// `pair_off` truncated to i32 (wrapping values stay wrapped mod 2³²):
+    /// the AVX2 lookup's lanes. Its offsets are bounded by the data's
+    /// length, which fits in i32 (at most 2³⁰ values).
+    pub pair_off32: Vec<i32>,
 }
 
 impl Band {
@@ -678,8 +682,9 @@ impl Band {
     }
 
     fn with_offsets(n_s: usize, w: usize, reach: f32, row_lo: Vec<usize>, row_start: Vec<usize>, pairs: usize) -> Band {
-        let pair_off = (0..n_s).map(|a| row_start[a].wrapping_sub(row_lo[a])).collect();
-        Band { n_s, w, reach, row_lo, row_start, pairs, pair_off }
+        let pair_off: Vec<usize> = (0..n_s).map(|a| row_start[a].wrapping_sub(row_lo[a])).collect();
+        let pair_off32 = pair_off.iter().map(|&p| p as i32).collect();
+        Band { n_s, w, reach, row_lo, row_start, pairs, pair_off, pair_off32 }
     }
 
     pub fn new(n_s: usize, domain: &TableDomain) -> Band {
@@ -734,6 +739,23 @@ pub struct Table3d {
     /// 1 / grid step along s (uniform axis) and along l.
     inv_ds: f32,
     inv_dl: f32,
+    /// Which code runs the batched lookups ([`LookupKernel`]).
+    kernel: LookupKernel,
+}
+
+/// Which code runs a [`Table3d`]'s batched lookups
+/// ([`SegmentShader::shade_batch`] and [`SegmentShader::shade_span`]; the
+/// single lookup [`Table3d::lookup`] is always portable). Both give the same
+/// values bit for bit (module `simd_x86`), so the choice is speed only.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum LookupKernel {
+    /// The AVX2 kernel where the CPU has AVX2 and F16C (checked once per
+    /// process) and the environment variable `TET_PREINT_LOOKUP` is not
+    /// `portable`; the portable code otherwise (and on other architectures).
+    #[default]
+    Auto,
+    /// Always the portable code (tests compare the two paths with it).
+    Portable,
 }
 
 /// Smallest λ for which ∫T = (Tᵢ − Tᵢ₊₁)/λ is used (below, the series).
@@ -870,6 +892,7 @@ impl Table3d {
             depth: Vec::new(),
             inv_ds,
             inv_dl,
+            kernel: LookupKernel::Auto,
         };
         t.update_reconstruction(|_, _| true);
         Some(t)
@@ -1143,6 +1166,14 @@ impl Table3d {
                 + lerp(&e[3]) * (wa1 * wb1);
             return out.to_array();
         }
+        self.finish_optical_depth(&e, &bases, fa, fb, fk)
+    }
+
+    /// The optical-depth lookup from its corner rows `e` at float offsets
+    /// `bases` (what [`Table3d::gather`] loads): the portable tail of every
+    /// path, the AVX2 kernel's included, so they agree bit for bit.
+    #[inline(always)]
+    fn finish_optical_depth(&self, e: &[[f32; 8]; 4], bases: &[usize; 4], fa: f32, fb: f32, fk: f32) -> Rgba32 {
         let depth = if self.depth.is_empty() {
             // Non-f32 storage: the depths of the decoded entries.
             let alpha = f32x8::from([e[0][3], e[0][7], e[1][3], e[1][7], e[2][3], e[2][7], e[3][3], e[3][7]]);
@@ -1152,7 +1183,61 @@ impl Table3d {
             let d = |b: usize| [self.depth[b / 4], self.depth[b / 4 + 1]];
             [d(bases[0]), d(bases[1]), d(bases[2]), d(bases[3])]
         };
-        reconstruct(&e, &depth, fa, fb, fk)
+        reconstruct(e, &depth, fa, fb, fk)
+    }
+
+    /// Forces the portable lookup, or lets the AVX2 kernel run where it can
+    /// ([`LookupKernel`]); kept across [`Table3d::rebake`].
+    pub fn set_lookup_kernel(&mut self, kernel: LookupKernel) {
+        self.kernel = kernel;
+    }
+
+    /// [`Table3d::set_lookup_kernel`] by value.
+    pub fn with_lookup_kernel(mut self, kernel: LookupKernel) -> Self {
+        self.kernel = kernel;
+        self
+    }
+
+    /// The kernel batched lookups run on now: `"avx2"` or `"portable"`.
+    pub fn lookup_kernel_in_use(&self) -> &'static str {
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == LookupKernel::Auto && crate::simd_x86::available() {
+            return "avx2";
+        }
+        "portable"
+    }
+
+    /// The AVX2 kernel's batched lookup into `out`; `false` (nothing
+    /// written) where it does not run.
+    #[inline]
+    pub(crate) fn shade_batch_lean(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH]) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == LookupKernel::Auto {
+            let axis = &*self.axis;
+            let lean = crate::simd_x86::Lean {
+                uniform: axis.uniform,
+                lo: if axis.uniform { self.domain.s_lo as f32 } else { axis.lo },
+                hi: axis.hi,
+                inv_ds: self.inv_ds,
+                reach: self.band.reach,
+                max_ds: self.domain.max_ds as f32,
+                bucket: &axis.bucket,
+                bucket_inv: axis.bucket_inv,
+                n_s: self.params.n_s,
+                n_l: self.params.n_l,
+                inv_dl: self.inv_dl,
+                pair_off: &self.band.pair_off32,
+                data: self.data.raw(),
+            };
+            let finish = |c: &crate::simd_x86::Corners| {
+                let (e, bases, [fa, fb, fk]) = c;
+                self.finish_optical_depth(e, bases, *fa, *fb, *fk)
+            };
+            let od = (self.recon == Reconstruction::OpticalDepth).then_some(finish);
+            return crate::simd_x86::shade_batch(&lean, |s| axis.x_of(s), od, segs, out);
+        }
+        let _ = (segs, out);
+        false
     }
 }
 
@@ -1353,7 +1438,9 @@ impl Table3d {
     /// unchanged pairs keep the old TF's values.
     pub fn rebake(&mut self, old_tf: &TransferFunction, new_tf: &TransferFunction) -> Result<RebakeStats, TableError> {
         let full = |t: &mut Table3d, why: FullRebake| -> Result<RebakeStats, TableError> {
+            let kernel = t.kernel;
             *t = Table3d::build(new_tf, &t.domain, &t.params)?;
+            t.kernel = kernel;
             Ok(RebakeStats { pairs: t.band.pairs, pairs_rebaked: t.band.pairs, full: Some(why) })
         };
         if self.params.build == Build3d::Incremental {
@@ -1478,6 +1565,9 @@ impl SegmentShader for Table3d {
     /// as [`Table3d::cell_of`] by lane-wise arithmetic that vectorizes (only
     /// the non-uniform axis's bucket reads and the entries are per lane).
     fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH]) {
+        if self.shade_batch_lean(segs, out) {
+            return;
+        }
         let n = segs.len.min(method::BATCH);
         let Some(d) = self.data.as_f32() else {
             for (i, o) in out.iter_mut().enumerate().take(n) {
@@ -1523,6 +1613,26 @@ impl SegmentShader for Table3d {
     }
 
     fn shade_span(&self, segs: &[Segment], out: &mut [Rgba32]) {
+        let mut done = 0;
+        if self.lookup_kernel_in_use() == "avx2" {
+            // Through the batched kernel, BATCH segments at a time (the same
+            // values: every path is bit-identical to `lookup`).
+            let mut batch = SegmentBatch::default();
+            let mut rgba = [[0.0f32; 4]; method::BATCH];
+            for (sb, ob) in segs.chunks(method::BATCH).zip(out.chunks_mut(method::BATCH)) {
+                for (i, seg) in sb.iter().enumerate() {
+                    (batch.s_front[i], batch.s_back[i], batch.len_world[i]) = (seg.s_front, seg.s_back, seg.len_world);
+                }
+                batch.len = sb.len();
+                if !self.shade_batch_lean(&batch, &mut rgba) {
+                    break;
+                }
+                let k = ob.len().min(sb.len());
+                ob[..k].copy_from_slice(&rgba[..k]);
+                done += k;
+            }
+        }
+        let (segs, out) = (&segs[done.min(segs.len())..], &mut out[done..]);
         match self.data.as_f32() {
             Some(d) => {
                 // Two passes per block: locating a cell is arithmetic (and,

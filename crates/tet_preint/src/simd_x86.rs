@@ -12,19 +12,19 @@
 //! multiply-adds would round differently (by ~1e-7) and break the contract
 //! that every lookup path of a table — `shade`, `shade_span`, `shade_batch`,
 //! the rasterizer's fast and per-tile paths — gives the same image bit for
-//! bit; measured, the unfused kernel is within noise of the fused one
-//! (crates/tet_preint/results/lookup.md), because a segment's cost is its
-//! four cache-missing row loads and the index arithmetic, not the dozen
-//! multiply-adds.
+//! bit (crates/tet_preint/results/lookup.md has what FMA would save).
 //!
 //! Per block of eight segments: the cells are located in 8 lanes (AVX2
-//! gathers for the non-uniform axis's buckets and the band's row offsets),
-//! then each segment loads its 4 (Sf, Sb) corners' two l-neighbours (one
-//! 32-byte row each: 8 f32, or 8 f16 / unorm16 / unorm8 values decoded by
-//! F16C or integer widening and the storage's factors) and interpolates.
-//! Optical-depth tables ([`Reconstruction::OpticalDepth`]) get the same
-//! cells and rows; the depths, `exp` and the colour scale then run in the
-//! portable code ([`Table3d`]'s finisher), so they too agree bit for bit.
+//! gathers for the non-uniform axis's buckets, a second bucket step for
+//! buckets that hold several knots, and the band's row offsets), then each
+//! segment loads its 4 (Sf, Sb) corners' two l-neighbours (one 32-byte row
+//! each: 8 f32, or 8 f16 / unorm16 / unorm8 values decoded by F16C or
+//! integer widening and the storage's factors) and interpolates.
+//! Optical-depth tables ([`Reconstruction::OpticalDepth`]) take only the
+//! cells from here ([`cells`]); their entries, depths, `exp` and colour
+//! scale are the portable code's (`Table3d::gather`), so they too agree bit
+//! for bit. (Finishing them per segment after this kernel's loads, through
+//! a callback, measured slower than the portable path.)
 //!
 //! Selection: [`available`] checks the CPU once (`is_x86_feature_detected!`
 //! for AVX2 and F16C, cached in a `OnceLock`) and honours the environment
@@ -68,9 +68,18 @@ pub(crate) struct Lean<'a> {
     pub inv_ds: f32,
     pub reach: f32,
     pub max_ds: f32,
-    /// Per bucket (s0, x0, 1/step, next knot), and buckets per scalar unit.
+    /// Per bucket (s0, x0, 1/step, next knot) and its knot interval's
+    /// index; buckets per scalar unit.
     pub bucket: &'a [[f32; 4]],
+    pub bucket_j: &'a [i32],
+    /// Per bucket, the next interval's (s0, x0, 1/step, last scalar).
+    pub bucket2: &'a [[f32; 4]],
     pub bucket_inv: f32,
+    /// Per knot interval: first and last scalar, first index, 1/step.
+    pub seg_s0: &'a [f32],
+    pub seg_s1: &'a [f32],
+    pub seg_x0: &'a [f32],
+    pub seg_inv: &'a [f32],
     pub n_s: usize,
     pub n_l: usize,
     pub inv_dl: f32,
@@ -79,10 +88,22 @@ pub(crate) struct Lean<'a> {
     pub data: RawData<'a>,
 }
 
-/// A lookup's corner rows (entries k0 and k0 + 1 of corners (a0, b0),
-/// (a0, b0 + 1), (a0 + 1, b0), (a0 + 1, b0 + 1)), their float offsets, and
-/// the cell fractions (fa, fb, fk): what an optical-depth finisher needs.
-pub(crate) type Corners = ([[f32; 8]; 4], [usize; 4], [f32; 3]);
+/// Cells of a batch (`Table3d::cell_of`'s values, lane by lane): lower
+/// corner (a0, b0, k0), each in [0, n − 2], and fractions.
+pub(crate) struct Cells {
+    pub a0: [i32; BATCH],
+    pub b0: [i32; BATCH],
+    pub k0: [i32; BATCH],
+    pub fa: [f32; BATCH],
+    pub fb: [f32; BATCH],
+    pub fk: [f32; BATCH],
+}
+
+impl Default for Cells {
+    fn default() -> Self {
+        Cells { a0: [0; BATCH], b0: [0; BATCH], k0: [0; BATCH], fa: [0.0; BATCH], fb: [0.0; BATCH], fk: [0.0; BATCH] }
+    }
+}
 
 /// Storage kinds (the kernel's const parameter).
 const F32: u8 = 0;
@@ -90,23 +111,27 @@ const F16: u8 = 1;
 const U16: u8 = 2;
 const U8: u8 = 3;
 
-/// Shades `segs` into `out` as `Table3d::shade_batch` does (trilinear, or
-/// with `finish` computing each optical-depth lookup from its corners) and
-/// returns `true`; returns `false` without writing when the kernel cannot
-/// run (no AVX2/F16C, or a table whose offsets do not fit in i32 lanes).
-/// `slow_x` is `Axis::x_of`, for the rare lanes whose scalar lies past the
-/// next knot inside its bucket.
-pub(crate) fn shade_batch<S, F>(
-    t: &Lean<'_>,
-    slow_x: S,
-    finish: Option<F>,
-    segs: &SegmentBatch,
-    out: &mut [Rgba32; BATCH],
-) -> bool
-where
-    S: Fn(f32) -> f32,
-    F: Fn(&Corners) -> Rgba32,
-{
+/// Shades `segs` into `out` as `Table3d::shade_batch` does with the
+/// trilinear reconstruction and returns `true`; returns `false` without
+/// writing when the kernel cannot run (no AVX2/F16C, or a table whose
+/// offsets do not fit in i32 lanes).
+pub(crate) fn shade_batch(t: &Lean<'_>, segs: &SegmentBatch, out: &mut [Rgba32; BATCH]) -> bool {
+    run(t, segs, Out::Rgba(out))
+}
+
+/// Locates the cells of `segs` into `cells` (lanes below `segs.len`) as
+/// `Table3d::cell_of` does; `false` (nothing written) as [`shade_batch`].
+pub(crate) fn cells(t: &Lean<'_>, segs: &SegmentBatch, cells: &mut Cells) -> bool {
+    run(t, segs, Out::Cells(cells))
+}
+
+/// What the kernel writes.
+enum Out<'a> {
+    Rgba(&'a mut [Rgba32; BATCH]),
+    Cells(&'a mut Cells),
+}
+
+fn run(t: &Lean<'_>, segs: &SegmentBatch, out: Out<'_>) -> bool {
     if !available() {
         return false;
     }
@@ -132,7 +157,15 @@ where
         && t.n_l <= 1 << 20
         && len >= nl4 + 8
         && t.pair_off.len() >= t.n_s
-        && (t.uniform || (!t.bucket.is_empty() && t.bucket.len() <= 1 << 24));
+        && (t.uniform || {
+            let nseg = t.seg_s0.len();
+            !t.bucket.is_empty()
+                && t.bucket.len() <= 1 << 24
+                && t.bucket_j.len() == t.bucket.len()
+                && t.bucket2.len() == t.bucket.len()
+                && (1..=1 << 24).contains(&nseg)
+                && [t.seg_s1.len(), t.seg_x0.len(), t.seg_inv.len()] == [nseg; 3]
+        });
     if !fits {
         return false;
     }
@@ -147,11 +180,12 @@ where
     // kernel's target features; `g` describes `t.data` (pointer, length
     // bound `max_base` checked just above), which outlives the call.
     unsafe {
-        match kind {
-            F32 => kernel::<F32, S, F>(t, &g, &slow_x, finish.as_ref(), segs, out),
-            F16 => kernel::<F16, S, F>(t, &g, &slow_x, finish.as_ref(), segs, out),
-            U16 => kernel::<U16, S, F>(t, &g, &slow_x, finish.as_ref(), segs, out),
-            _ => kernel::<U8, S, F>(t, &g, &slow_x, finish.as_ref(), segs, out),
+        match (kind, out) {
+            (_, Out::Cells(c)) => kernel::<F32, true>(t, &g, segs, None, Some(c)),
+            (F32, Out::Rgba(o)) => kernel::<F32, false>(t, &g, segs, Some(o), None),
+            (F16, Out::Rgba(o)) => kernel::<F16, false>(t, &g, segs, Some(o), None),
+            (U16, Out::Rgba(o)) => kernel::<U16, false>(t, &g, segs, Some(o), None),
+            (_, Out::Rgba(o)) => kernel::<U8, false>(t, &g, segs, Some(o), None),
         }
     }
     true
@@ -226,76 +260,108 @@ fn clamp_i(v: __m256i, lo: i32, hi: i32) -> __m256i {
     _mm256_min_epi32(_mm256_max_epi32(v, _mm256_set1_epi32(lo)), _mm256_set1_epi32(hi))
 }
 
-/// `Axis::x_of_lanes`: fractional grid indices of eight scalars already
-/// clamped to [lo, hi]; lanes of `valid` past the next knot of their
-/// bucket take `slow_x`.
-///
-/// # Safety
-/// AVX2 must be available and `t.bucket` non-empty.
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn x_of_lanes(t: &Lean<'_>, s: __m256, valid: i32, slow_x: &impl Fn(f32) -> f32) -> __m256 {
-    let nb = (t.bucket.len() - 1) as i32;
-    let lo = _mm256_set1_ps(t.lo);
-    let scaled =
-        _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(s, lo), _mm256_set1_ps(t.bucket_inv)), _mm256_set1_ps(nb as f32));
-    // The portable path truncates the same clamped value; the integer
-    // clamp only matters for values it would index out of range with
-    // (a NaN or −∞ product truncates to i32::MIN), never trusted here.
-    let b = clamp_i(_mm256_cvttps_epi32(scaled), 0, nb);
-    let b4 = _mm256_slli_epi32::<2>(b);
-    let base = t.bucket.as_ptr().cast::<f32>();
-    // SAFETY: every lane of b is in [0, nb] (clamped just above), so
-    // b·4 + c for c < 4 indexes a float of `t.bucket` ([f32; 4] × (nb + 1)).
-    let (s0, x0, inv, next) = unsafe {
-        (
-            _mm256_i32gather_ps::<4>(base, b4),
-            _mm256_i32gather_ps::<4>(base.add(1), b4),
-            _mm256_i32gather_ps::<4>(base.add(2), b4),
-            _mm256_i32gather_ps::<4>(base.add(3), b4),
-        )
-    };
-    let x = _mm256_add_ps(x0, _mm256_mul_ps(_mm256_sub_ps(s, s0), inv));
-    let mut slow = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(s, next)) & valid;
-    let x = if slow == 0 {
-        x
-    } else {
-        let (mut xs, mut ss) = ([0.0f32; 8], [0.0f32; 8]);
-        // SAFETY: 8-float stores into local arrays of 8 floats.
-        unsafe {
-            _mm256_storeu_ps(xs.as_mut_ptr(), x);
-            _mm256_storeu_ps(ss.as_mut_ptr(), s);
-        }
-        while slow != 0 {
-            let l = slow.trailing_zeros() as usize;
-            slow &= slow - 1;
-            xs[l] = slow_x(ss[l]);
-        }
-        // SAFETY: 8-float load from a local array of 8 floats.
-        unsafe { _mm256_loadu_ps(xs.as_ptr()) }
-    };
-    clamp(x, _mm256_setzero_ps(), _mm256_set1_ps((t.n_s - 1) as f32))
-}
-
-/// The batched lookup (see [`shade_batch`]).
+/// The batched lookup (see [`shade_batch`]): with `CELLS`, the cells into
+/// `cells` only; otherwise the trilinear lookups into `out`.
 ///
 /// # Safety
 /// AVX2 and F16C must be available; `g` must describe `t.data` (pointer
 /// and `max_base = len − n_l·4 − 8 ≥ 0`), `t.pair_off` must hold at least
-/// `t.n_s ≥ 2` values, and a non-uniform axis at least one bucket.
+/// `t.n_s ≥ 2` values, and a non-uniform axis at least one bucket, a
+/// `bucket_j` per bucket and nseg ≥ 1 values in each `seg_*` array.
 #[target_feature(enable = "avx2,f16c")]
-unsafe fn kernel<const S: u8, SX, F>(
+unsafe fn kernel<const S: u8, const CELLS: bool>(
     t: &Lean<'_>,
     g: &Geometry,
-    slow_x: &SX,
-    finish: Option<&F>,
     segs: &SegmentBatch,
-    out: &mut [Rgba32; BATCH],
-) where
-    SX: Fn(f32) -> f32,
-    F: Fn(&Corners) -> Rgba32,
-{
+    mut out: Option<&mut [Rgba32; BATCH]>,
+    mut cells: Option<&mut Cells>,
+) {
     let n = segs.len.min(BATCH);
+    // `Axis::x_of_lanes` (and `Axis::x_of` for every lane): fractional grid
+    // indices of eight scalars already clamped to [lo, hi]. (A closure, so
+    // that it inlines here.)
+    let x_of_lanes = |s: __m256, valid: i32| -> __m256 {
+        let nb = t.bucket.len() as i32 - 1;
+        let last = t.seg_s0.len() as i32 - 1;
+        let lo = _mm256_set1_ps(t.lo);
+        let scaled =
+            _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(s, lo), _mm256_set1_ps(t.bucket_inv)), _mm256_set1_ps(nb as f32));
+        // The portable path truncates the same clamped value; the integer
+        // clamp only matters for values it would index out of range with
+        // (a NaN or −∞ product truncates to i32::MIN), never trusted here.
+        let b = clamp_i(_mm256_cvttps_epi32(scaled), 0, nb);
+        let b4 = _mm256_slli_epi32::<2>(b);
+        let base = t.bucket.as_ptr().cast::<f32>();
+        // SAFETY: a non-uniform axis has nb + 1 ≥ 1 buckets (caller's
+        // contract) and every lane of b is in [0, nb] (clamped just above),
+        // so b·4 + c for c < 4 indexes a float of `t.bucket`.
+        let (s0, x0, inv, next) = unsafe {
+            (
+                _mm256_i32gather_ps::<4>(base, b4),
+                _mm256_i32gather_ps::<4>(base.add(1), b4),
+                _mm256_i32gather_ps::<4>(base.add(2), b4),
+                _mm256_i32gather_ps::<4>(base.add(3), b4),
+            )
+        };
+        let x = _mm256_add_ps(x0, _mm256_mul_ps(_mm256_sub_ps(s, s0), inv));
+        let slow = _mm256_cmp_ps::<_CMP_GT_OQ>(s, next);
+        if _mm256_movemask_ps(slow) & valid == 0 {
+            return clamp(x, _mm256_setzero_ps(), _mm256_set1_ps((t.n_s - 1) as f32));
+        }
+        // Past the bucket's next knot (a bucket holding several knots: a
+        // fifth of the lookups on Blunt Fin's data axis), `Axis::x_of` takes
+        // the first interval j < nseg − 1 with s ≤ seg_s1[j], or the last
+        // (`partition_point`). Every interval up to the bucket's ends below
+        // s, so that is the bucket's next interval where s ≤ its last
+        // scalar (`bucket2`), and otherwise the first found by stepping on
+        // from there while s > seg_s1[j]; the line of interval j is then
+        // the same arithmetic.
+        let base2 = t.bucket2.as_ptr().cast::<f32>();
+        // SAFETY: `t.bucket2` has a [f32; 4] per bucket (checked by `run`)
+        // and b ∈ [0, nb] as above.
+        let (s0, x0, inv, end) = unsafe {
+            (
+                _mm256_i32gather_ps::<4>(base2, b4),
+                _mm256_i32gather_ps::<4>(base2.add(1), b4),
+                _mm256_i32gather_ps::<4>(base2.add(2), b4),
+                _mm256_i32gather_ps::<4>(base2.add(3), b4),
+            )
+        };
+        let x2 = _mm256_add_ps(x0, _mm256_mul_ps(_mm256_sub_ps(s, s0), inv));
+        let x = _mm256_blendv_ps(x, x2, slow);
+        let slow2 = _mm256_and_ps(slow, _mm256_cmp_ps::<_CMP_GT_OQ>(s, end));
+        let x = if _mm256_movemask_ps(slow2) & valid == 0 {
+            x
+        } else {
+            // SAFETY: b is in [0, nb] as above, an index of `t.bucket_j`.
+            let jb = unsafe { _mm256_i32gather_epi32::<4>(t.bucket_j.as_ptr(), b) };
+            let mut j = clamp_i(_mm256_add_epi32(jb, _mm256_set1_epi32(2)), 0, last);
+            let limit = _mm256_set1_epi32(last);
+            loop {
+                // SAFETY: every lane of j is in [0, last], an index of the
+                // seg arrays (nseg = last + 1 values each, checked by `run`).
+                let s1 = unsafe { _mm256_i32gather_ps::<4>(t.seg_s1.as_ptr(), j) };
+                let below_last = _mm256_cmpgt_epi32(limit, j);
+                let step = _mm256_and_si256(_mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(s, s1)), below_last);
+                if _mm256_movemask_ps(_mm256_castsi256_ps(step)) == 0 {
+                    break;
+                }
+                // step lanes are all ones (−1): j − (−1) = j + 1 ≤ last.
+                j = _mm256_sub_epi32(j, step);
+            }
+            // SAFETY: j in [0, last] as in the loop.
+            let (s0j, x0j, invj) = unsafe {
+                (
+                    _mm256_i32gather_ps::<4>(t.seg_s0.as_ptr(), j),
+                    _mm256_i32gather_ps::<4>(t.seg_x0.as_ptr(), j),
+                    _mm256_i32gather_ps::<4>(t.seg_inv.as_ptr(), j),
+                )
+            };
+            let xj = _mm256_add_ps(x0j, _mm256_mul_ps(_mm256_sub_ps(s, s0j), invj));
+            _mm256_blendv_ps(x, xj, slow2)
+        };
+        clamp(x, _mm256_setzero_ps(), _mm256_set1_ps((t.n_s - 1) as f32))
+    };
     let zero = _mm256_setzero_ps();
     let top = _mm256_set1_ps((t.n_s - 1) as f32);
     let (top_s, top_l) = (_mm256_set1_ps((t.n_s - 2) as f32), _mm256_set1_ps((t.n_l - 2) as f32));
@@ -332,9 +398,7 @@ unsafe fn kernel<const S: u8, SX, F>(
             let sf = clamp(no_nan(sf, lo), lo, hi);
             let b = clamp(no_nan(sb, lo), lo, hi);
             let sb = clamp(b, _mm256_sub_ps(sf, ds), _mm256_add_ps(sf, ds));
-            // SAFETY: AVX2 (this function's features); a non-uniform axis
-            // has buckets (caller's contract).
-            unsafe { (x_of_lanes(t, sf, valid, slow_x), x_of_lanes(t, sb, valid, slow_x)) }
+            (x_of_lanes(sf, valid), x_of_lanes(sb, valid))
         };
         let xk = clamp(_mm256_mul_ps(no_nan(len, zero), inv_dl), zero, xk_max);
         // Cell corner min(⌊x⌋, n − 2) and fraction, as `Table3d::cell_of`;
@@ -345,6 +409,21 @@ unsafe fn kernel<const S: u8, SX, F>(
         let fa = _mm256_sub_ps(xa, _mm256_cvtepi32_ps(a0));
         let fb = _mm256_sub_ps(xb, _mm256_cvtepi32_ps(b0));
         let fk = _mm256_sub_ps(xk, _mm256_cvtepi32_ps(k0));
+        if CELLS {
+            if let Some(c) = cells.as_deref_mut() {
+                // SAFETY: blk + 8 ≤ BATCH: 8-lane stores inside each [_; BATCH] array.
+                unsafe {
+                    _mm256_storeu_si256(c.a0.as_mut_ptr().add(blk).cast(), a0);
+                    _mm256_storeu_si256(c.b0.as_mut_ptr().add(blk).cast(), b0);
+                    _mm256_storeu_si256(c.k0.as_mut_ptr().add(blk).cast(), k0);
+                    _mm256_storeu_ps(c.fa.as_mut_ptr().add(blk), fa);
+                    _mm256_storeu_ps(c.fb.as_mut_ptr().add(blk), fb);
+                    _mm256_storeu_ps(c.fk.as_mut_ptr().add(blk), fk);
+                }
+            }
+            continue;
+        }
+        let Some(out) = out.as_deref_mut() else { return };
         // SAFETY: a0 ∈ [0, n_s − 2], so a0 and a0 + 1 index `t.pair_off`
         // (at least n_s values).
         let (p0, p1) = unsafe { (_mm256_i32gather_epi32::<4>(po, a0), _mm256_i32gather_epi32::<4>(po.add(1), a0)) };
@@ -378,15 +457,6 @@ unsafe fn kernel<const S: u8, SX, F>(
             let v =
                 unsafe { [row::<S>(g, bases[0]), row::<S>(g, bases[1]), row::<S>(g, bases[2]), row::<S>(g, bases[3])] };
             let i = blk + l;
-            if let Some(finish) = finish {
-                let mut e = [[0.0f32; 8]; 4];
-                for (ec, vc) in e.iter_mut().zip(v) {
-                    // SAFETY: 8-float store into a local [f32; 8].
-                    unsafe { _mm256_storeu_ps(ec.as_mut_ptr(), vc) };
-                }
-                out[i] = finish(&(e, bases, [frac[0][l], frac[1][l], frac[2][l]]));
-                continue;
-            }
             // Corners 0 and 1 side by side, then 2 and 3: [k0 | k0] and
             // [k0+1 | k0+1], interpolated in l (e0 + (e1 − e0)·fk), weighted,
             // and summed in the portable order ((p0 + p1) + p2) + p3.
@@ -442,6 +512,11 @@ mod tests {
                     v.push(t);
                 }
             }
+            // Knots crowded into the first bucket (4 of them in 1/160 of the
+            // range): lookups step past the bucket's next two intervals.
+            let knots = [(0.0, 0), (0.001, 1), (0.002, 2), (0.003, 3), (0.0045, 5), (0.2, 9), (1.0, 39)];
+            let p = Table3dParams { n_s: 40, n_l: 12, s_axis: ScalarAxis::TfNodes, ..Default::default() };
+            v.push(Table3d::build_with_knots(&tf, &d, &p, &knots).unwrap());
         }
         v
     }
@@ -530,6 +605,28 @@ mod tests {
 
     thread_local! {
         static TABLES: Vec<Table3d> = tables();
+    }
+
+    /// Scalars in every interval of the axis and on every grid scalar (the
+    /// data axis's buckets that hold several knots step past the first).
+    #[test]
+    fn every_axis_interval() {
+        for t in tables() {
+            let n_s = t.params().n_s;
+            let mut segs = Vec::new();
+            for a in 0..n_s - 1 {
+                let (x0, x1) = (t.scalar_at(a), t.scalar_at(a + 1));
+                for f in [0.0, 1e-7, 0.1, 0.25, 0.5, 0.75, 0.9, 0.999_999, 1.0] {
+                    let s = (x0 + f * (x1 - x0)) as f32;
+                    let near = t.scalar_at((a + 2).min(n_s - 1)) as f32;
+                    segs.push(Segment { s_front: s, s_back: near, len_world: 0.7, ..Default::default() });
+                    segs.push(Segment { s_front: near, s_back: s, len_world: 1.3, ..Default::default() });
+                }
+            }
+            for c in segs.chunks(BATCH) {
+                check(&t, &SegmentBatch::from_segments(c)).unwrap();
+            }
+        }
     }
 
     #[test]

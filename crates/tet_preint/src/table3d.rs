@@ -208,6 +208,13 @@ pub(crate) struct Axis {
     /// falls inside the bucket (+∞ otherwise; past it, the slow path).
     bucket: Vec<[f32; 4]>,
     bucket_inv: f32,
+    /// Per bucket, the index j of its knot interval (the one `bucket`
+    /// holds), and interval j + 1's (s0, x0, 1/step, last scalar) (+∞ for the
+    /// last interval; interval j's again where there is none): the AVX2
+    /// lookup's second step for scalars past `next`, and where it steps on
+    /// from past that.
+    bucket_j: Vec<i32>,
+    bucket2: Vec<[f32; 4]>,
 }
 
 /// Share of a [`ScalarAxis::Data`] axis's steps spread evenly over the range.
@@ -455,13 +462,21 @@ impl Axis {
             (0..nseg).map(|j| ((knot_i[j + 1] - knot_i[j]) as f64 / (knot_s[j + 1] - knot_s[j])) as f32).collect();
         let nb = 4 * n_s;
         let bucket_inv = (nb as f64 / domain.scalar_span()) as f32;
-        let bucket = (0..nb)
+        let (bucket, bucket_j): (Vec<[f32; 4]>, Vec<i32>) = (0..nb)
             .map(|b| {
                 let start = domain.s_lo + b as f64 * domain.scalar_span() / nb as f64;
                 let end = domain.s_lo + (b + 1) as f64 * domain.scalar_span() / nb as f64;
                 let j = knot_s[1..nseg].partition_point(|&s| s <= start);
                 let next = if j + 1 < nseg && knot_s[j + 1] < end { knot_s[j + 1] as f32 } else { f32::INFINITY };
-                [seg_s0[j], seg_x0[j], seg_inv[j], next]
+                ([seg_s0[j], seg_x0[j], seg_inv[j], next], j as i32)
+            })
+            .unzip();
+        let bucket2 = bucket_j
+            .iter()
+            .map(|&j| {
+                let k = (j as usize + 1).min(nseg - 1);
+                let end = if k + 1 < nseg { seg_s1[k] } else { f32::INFINITY };
+                [seg_s0[k], seg_x0[k], seg_inv[k], end]
             })
             .collect();
         Axis {
@@ -477,6 +492,8 @@ impl Axis {
             seg_inv,
             bucket,
             bucket_inv,
+            bucket_j,
+            bucket2,
         }
     }
 
@@ -1092,15 +1109,20 @@ impl Table3d {
     /// are clamped.
     #[inline]
     pub fn lookup(&self, sf: f32, sb: f32, len_world: f32) -> Rgba32 {
-        let c = self.cell_of(sf, sb, len_world);
+        self.gather_cell(&self.cell_of(sf, sb, len_world))
+    }
+
+    /// The lookup in cell `c`, any storage.
+    #[inline(always)]
+    fn gather_cell(&self, c: &Cell) -> Rgba32 {
         match self.data.as_f32() {
-            Some(d) => self.gather_f32(d, &c),
+            Some(d) => self.gather_f32(d, c),
             None => self.gather(
                 |b| {
                     let (e0, e1) = (self.data.get4(b), self.data.get4(b + 4));
                     [e0[0], e0[1], e0[2], e0[3], e1[0], e1[1], e1[2], e1[3]]
                 },
-                &c,
+                c,
             ),
         }
     }
@@ -1166,14 +1188,6 @@ impl Table3d {
                 + lerp(&e[3]) * (wa1 * wb1);
             return out.to_array();
         }
-        self.finish_optical_depth(&e, &bases, fa, fb, fk)
-    }
-
-    /// The optical-depth lookup from its corner rows `e` at float offsets
-    /// `bases` (what [`Table3d::gather`] loads): the portable tail of every
-    /// path, the AVX2 kernel's included, so they agree bit for bit.
-    #[inline(always)]
-    fn finish_optical_depth(&self, e: &[[f32; 8]; 4], bases: &[usize; 4], fa: f32, fb: f32, fk: f32) -> Rgba32 {
         let depth = if self.depth.is_empty() {
             // Non-f32 storage: the depths of the decoded entries.
             let alpha = f32x8::from([e[0][3], e[0][7], e[1][3], e[1][7], e[2][3], e[2][7], e[3][3], e[3][7]]);
@@ -1183,7 +1197,7 @@ impl Table3d {
             let d = |b: usize| [self.depth[b / 4], self.depth[b / 4 + 1]];
             [d(bases[0]), d(bases[1]), d(bases[2]), d(bases[3])]
         };
-        reconstruct(e, &depth, fa, fb, fk)
+        reconstruct(&e, &depth, fa, fb, fk)
     }
 
     /// Forces the portable lookup, or lets the AVX2 kernel run where it can
@@ -1223,18 +1237,39 @@ impl Table3d {
                 max_ds: self.domain.max_ds as f32,
                 bucket: &axis.bucket,
                 bucket_inv: axis.bucket_inv,
+                bucket_j: &axis.bucket_j,
+                bucket2: &axis.bucket2,
+                seg_s0: &axis.seg_s0,
+                seg_s1: &axis.seg_s1,
+                seg_x0: &axis.seg_x0,
+                seg_inv: &axis.seg_inv,
                 n_s: self.params.n_s,
                 n_l: self.params.n_l,
                 inv_dl: self.inv_dl,
                 pair_off: &self.band.pair_off32,
                 data: self.data.raw(),
             };
-            let finish = |c: &crate::simd_x86::Corners| {
-                let (e, bases, [fa, fb, fk]) = c;
-                self.finish_optical_depth(e, bases, *fa, *fb, *fk)
-            };
-            let od = (self.recon == Reconstruction::OpticalDepth).then_some(finish);
-            return crate::simd_x86::shade_batch(&lean, |s| axis.x_of(s), od, segs, out);
+            if self.recon == Reconstruction::Trilinear {
+                return crate::simd_x86::shade_batch(&lean, segs, out);
+            }
+            // Optical depth: the kernel's cells, the portable gather.
+            let mut c = crate::simd_x86::Cells::default();
+            if !crate::simd_x86::cells(&lean, segs, &mut c) {
+                return false;
+            }
+            for (i, o) in out.iter_mut().enumerate().take(segs.len.min(method::BATCH)) {
+                // The kernel's corners are in [0, n − 2] (never negative).
+                let cell = Cell {
+                    a0: c.a0[i] as usize,
+                    b0: c.b0[i] as usize,
+                    k0: c.k0[i] as usize,
+                    fa: c.fa[i],
+                    fb: c.fb[i],
+                    fk: c.fk[i],
+                };
+                *o = self.gather_cell(&cell);
+            }
+            return true;
         }
         let _ = (segs, out);
         false
@@ -2450,6 +2485,36 @@ mod tests {
                 assert_eq!(*o, t.shade(s));
             }
         }
+    }
+
+    /// The portable lookup can be forced per table (so machines with AVX2
+    /// test it too; `TET_PREINT_LOOKUP=portable` forces it per process),
+    /// survives a full re-bake, and gives `shade`'s values.
+    #[test]
+    fn forcing_the_portable_kernel() {
+        let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
+        let p = Table3dParams { n_s: 16, n_l: 8, precision: Precision::F16, ..Default::default() };
+        let mut t = Table3d::build(&ramp(), &d, &p).unwrap();
+        t.set_lookup_kernel(LookupKernel::Portable);
+        assert_eq!(t.lookup_kernel_in_use(), "portable");
+        let stats = t.rebake(&ramp(), &ramp().with_emission(Emission::Independent)).unwrap();
+        assert_eq!(stats.full, Some(FullRebake::Precision));
+        assert_eq!(t.lookup_kernel_in_use(), "portable");
+        let segs: Vec<Segment> = (0..40)
+            .map(|i| Segment {
+                s_front: i as f32 / 30.0,
+                s_back: 0.5,
+                len_world: i as f32 / 17.0,
+                ..Default::default()
+            })
+            .collect();
+        let mut out = [[0.0f32; 4]; method::BATCH];
+        t.shade_batch(&SegmentBatch::from_segments(&segs), &mut out);
+        for (s, o) in segs.iter().zip(&out) {
+            assert_eq!(*o, t.shade(s));
+        }
+        let auto = t.with_lookup_kernel(LookupKernel::Auto).lookup_kernel_in_use();
+        assert!(auto == "avx2" || auto == "portable");
     }
 
     fn node_error(t: &Table3d, tf: &TransferFunction) -> f64 {

@@ -83,6 +83,7 @@ pub struct Storage {
 /// as `v as f32 * factor[c]`, c the value's index modulo the channel count
 /// (`factor[c] = scale[c] / (2^b − 1)`, the f32 [`Storage::get`] multiplies by).
 #[derive(Debug, Clone, Copy)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(crate) enum RawData<'a> {
     F32(&'a [f32]),
     /// IEEE binary16 bits.
@@ -177,6 +178,7 @@ impl Storage {
     /// The stored values with what decoding them needs, for kernels that
     /// decode many at once (table3d's AVX2 lookup): the same decoding as
     /// [`Storage::get`], factor by factor.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn raw(&self) -> RawData<'_> {
         let factors = |max: f32| std::array::from_fn(|c| self.scale[c % self.channels] / max);
         match (&self.data, self.precision) {

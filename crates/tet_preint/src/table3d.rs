@@ -213,7 +213,9 @@ pub(crate) struct Axis {
     /// last interval; interval j's again where there is none): the AVX2
     /// lookup's second step for scalars past `next`, and where it steps on
     /// from past that.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     bucket_j: Vec<i32>,
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     bucket2: Vec<[f32; 4]>,
 }
 
@@ -668,6 +670,7 @@ pub(crate) struct Band {
     /// `pair_off` truncated to i32 (wrapping values stay wrapped mod 2³²):
     /// the AVX2 lookup's lanes. Its offsets are bounded by the data's
     /// length, which fits in i32 (at most 2³⁰ values).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub pair_off32: Vec<i32>,
 }
 

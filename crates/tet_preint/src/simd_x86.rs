@@ -290,19 +290,28 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
         // clamp only matters for values it would index out of range with
         // (a NaN or −∞ product truncates to i32::MIN), never trusted here.
         let b = clamp_i(_mm256_cvttps_epi32(scaled), 0, nb);
-        let b4 = _mm256_slli_epi32::<2>(b);
-        let base = t.bucket.as_ptr().cast::<f32>();
-        // SAFETY: a non-uniform axis has nb + 1 ≥ 1 buckets (caller's
-        // contract) and every lane of b is in [0, nb] (clamped just above),
-        // so b·4 + c for c < 4 indexes a float of `t.bucket`.
-        let (s0, x0, inv, next) = unsafe {
+        let mut bi = [0i32; 8];
+        // SAFETY: 8-lane store into a local [i32; 8].
+        unsafe { _mm256_storeu_si256(bi.as_mut_ptr().cast(), b) };
+        // Each lane's 16-byte bucket row, transposed into four 8-lane
+        // vectors (cheaper than four 8-lane gathers of one field each).
+        let rows = |rows: &[[f32; 4]]| {
+            // SAFETY: every bi[l] is in [0, nb] (clamped above) and `rows`
+            // has nb + 1 rows (`t.bucket`, or `t.bucket2` of the same
+            // length, checked by `run`): 4-float loads inside row bi[l].
+            let r = |l: usize| unsafe { _mm_loadu_ps(rows.as_ptr().add(bi[l] as usize).cast()) };
+            let (t0, t1) = (_mm256_set_m128(r(4), r(0)), _mm256_set_m128(r(5), r(1)));
+            let (t2, t3) = (_mm256_set_m128(r(6), r(2)), _mm256_set_m128(r(7), r(3)));
+            let (u0, u1) = (_mm256_castps_pd(_mm256_unpacklo_ps(t0, t1)), _mm256_castps_pd(_mm256_unpackhi_ps(t0, t1)));
+            let (u2, u3) = (_mm256_castps_pd(_mm256_unpacklo_ps(t2, t3)), _mm256_castps_pd(_mm256_unpackhi_ps(t2, t3)));
             (
-                _mm256_i32gather_ps::<4>(base, b4),
-                _mm256_i32gather_ps::<4>(base.add(1), b4),
-                _mm256_i32gather_ps::<4>(base.add(2), b4),
-                _mm256_i32gather_ps::<4>(base.add(3), b4),
+                _mm256_castpd_ps(_mm256_unpacklo_pd(u0, u2)),
+                _mm256_castpd_ps(_mm256_unpackhi_pd(u0, u2)),
+                _mm256_castpd_ps(_mm256_unpacklo_pd(u1, u3)),
+                _mm256_castpd_ps(_mm256_unpackhi_pd(u1, u3)),
             )
         };
+        let (s0, x0, inv, next) = rows(t.bucket);
         let x = _mm256_add_ps(x0, _mm256_mul_ps(_mm256_sub_ps(s, s0), inv));
         let slow = _mm256_cmp_ps::<_CMP_GT_OQ>(s, next);
         if _mm256_movemask_ps(slow) & valid == 0 {
@@ -316,17 +325,7 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
         // scalar (`bucket2`), and otherwise the first found by stepping on
         // from there while s > seg_s1[j]; the line of interval j is then
         // the same arithmetic.
-        let base2 = t.bucket2.as_ptr().cast::<f32>();
-        // SAFETY: `t.bucket2` has a [f32; 4] per bucket (checked by `run`)
-        // and b ∈ [0, nb] as above.
-        let (s0, x0, inv, end) = unsafe {
-            (
-                _mm256_i32gather_ps::<4>(base2, b4),
-                _mm256_i32gather_ps::<4>(base2.add(1), b4),
-                _mm256_i32gather_ps::<4>(base2.add(2), b4),
-                _mm256_i32gather_ps::<4>(base2.add(3), b4),
-            )
-        };
+        let (s0, x0, inv, end) = rows(t.bucket2);
         let x2 = _mm256_add_ps(x0, _mm256_mul_ps(_mm256_sub_ps(s, s0), inv));
         let x = _mm256_blendv_ps(x, x2, slow);
         let slow2 = _mm256_and_ps(slow, _mm256_cmp_ps::<_CMP_GT_OQ>(s, end));

@@ -1602,6 +1602,10 @@ impl SegmentShader for Table3d {
     /// Eight segments at a time: the cells are located with the same values
     /// as [`Table3d::cell_of`] by lane-wise arithmetic that vectorizes (only
     /// the non-uniform axis's bucket reads and the entries are per lane).
+    /// Where the CPU has AVX2 and F16C ([`LookupKernel::Auto`]), the
+    /// `simd_x86` kernel does it instead, on every storage, with the same
+    /// values bit for bit (for optical-depth tables it locates the cells
+    /// and the gather below finishes).
     fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH]) {
         if self.shade_batch_lean(segs, out) {
             return;

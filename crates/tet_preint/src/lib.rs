@@ -44,6 +44,14 @@
 //! * [`make_shader`] and [`Baked`] (module [`factory`]): any method id to a
 //!   ready shader, baking on the fly with [`BakeOptions`]' resolutions.
 //!
+//! Unsafe code: the crate denies it (`#![deny(unsafe_code)]`) except in one
+//! private module, `simd_x86` (x86-64 only), the AVX2 + F16C kernel of
+//! [`Table3d`]'s batched lookup, chosen at run time when the CPU has those
+//! features; every `unsafe` block there states why its reads are in bounds.
+//! It returns the portable lookup's values bit for bit; [`LookupKernel`]
+//! (per table) or `TET_PREINT_LOOKUP=portable` (per process) force the
+//! portable path.
+//!
 //! ```
 //! use tet_preint::{table_error, uniform_triples, Table3d, Table3dParams, TableDomain, TransferFunction};
 //! let tf = TransferFunction::from_json(
@@ -57,7 +65,7 @@
 //! assert!(rms <= max && max < 0.02);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 pub mod atlas2d;
 pub mod biv_tables;
@@ -73,6 +81,11 @@ pub mod partial;
 pub mod poly;
 pub mod precision;
 mod simd;
+// The crate's only unsafe code (the AVX2 table3d lookup); `deny`, not
+// `forbid`, at the root so that this one module may allow it.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod simd_x86;
 pub mod special;
 pub mod table3d;
 pub mod tf;
@@ -96,8 +109,8 @@ pub use partial::{PartialShader, PsiParams, PsiTable};
 pub use poly::{AlphaTable, PolyError, PolyParams, PolyTable};
 pub use precision::{Accumulation, Precision, Storage};
 pub use table3d::{
-    Build3d, ExtinctionPrefix, FullRebake, RebakeStats, Reconstruction, ScalarAxis, Table3d, Table3dParams,
-    RECONSTRUCTION_GAP,
+    Build3d, ExtinctionPrefix, FullRebake, LookupKernel, RebakeStats, Reconstruction, ScalarAxis, Table3d,
+    Table3dParams, RECONSTRUCTION_GAP,
 };
 pub use tf::{ColorNode, Emission, OpacityNode, TransferFunction};
 pub use widget::{Shape, Widget};

@@ -79,6 +79,19 @@ pub struct Storage {
     data: Data,
 }
 
+/// A [`Storage`]'s values as stored ([`Storage::raw`]). Unorm values decode
+/// as `v as f32 * factor[c]`, c the value's index modulo the channel count
+/// (`factor[c] = scale[c] / (2^b − 1)`, the f32 [`Storage::get`] multiplies by).
+#[derive(Debug, Clone, Copy)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) enum RawData<'a> {
+    F32(&'a [f32]),
+    /// IEEE binary16 bits.
+    F16(&'a [u16]),
+    Unorm16(&'a [u16], [f32; 4]),
+    Unorm8(&'a [u8], [f32; 4]),
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Data {
     F32(Vec<f32>),
@@ -159,6 +172,20 @@ impl Storage {
         match &self.data {
             Data::F32(v) => Some(v),
             _ => None,
+        }
+    }
+
+    /// The stored values with what decoding them needs, for kernels that
+    /// decode many at once (table3d's AVX2 lookup): the same decoding as
+    /// [`Storage::get`], factor by factor.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub(crate) fn raw(&self) -> RawData<'_> {
+        let factors = |max: f32| std::array::from_fn(|c| self.scale[c % self.channels] / max);
+        match (&self.data, self.precision) {
+            (Data::F32(v), _) => RawData::F32(v),
+            (Data::U16(v), Precision::F16) => RawData::F16(v),
+            (Data::U16(v), _) => RawData::Unorm16(v, factors(65535.0)),
+            (Data::U8(v), _) => RawData::Unorm8(v, factors(255.0)),
         }
     }
 

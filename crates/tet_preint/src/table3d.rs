@@ -208,6 +208,15 @@ pub(crate) struct Axis {
     /// falls inside the bucket (+∞ otherwise; past it, the slow path).
     bucket: Vec<[f32; 4]>,
     bucket_inv: f32,
+    /// Per bucket, the index j of its knot interval (the one `bucket`
+    /// holds), and interval j + 1's (s0, x0, 1/step, last scalar) (+∞ for the
+    /// last interval; interval j's again where there is none): the AVX2
+    /// lookup's second step for scalars past `next`, and where it steps on
+    /// from past that.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    bucket_j: Vec<i32>,
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    bucket2: Vec<[f32; 4]>,
 }
 
 /// Share of a [`ScalarAxis::Data`] axis's steps spread evenly over the range.
@@ -455,13 +464,21 @@ impl Axis {
             (0..nseg).map(|j| ((knot_i[j + 1] - knot_i[j]) as f64 / (knot_s[j + 1] - knot_s[j])) as f32).collect();
         let nb = 4 * n_s;
         let bucket_inv = (nb as f64 / domain.scalar_span()) as f32;
-        let bucket = (0..nb)
+        let (bucket, bucket_j): (Vec<[f32; 4]>, Vec<i32>) = (0..nb)
             .map(|b| {
                 let start = domain.s_lo + b as f64 * domain.scalar_span() / nb as f64;
                 let end = domain.s_lo + (b + 1) as f64 * domain.scalar_span() / nb as f64;
                 let j = knot_s[1..nseg].partition_point(|&s| s <= start);
                 let next = if j + 1 < nseg && knot_s[j + 1] < end { knot_s[j + 1] as f32 } else { f32::INFINITY };
-                [seg_s0[j], seg_x0[j], seg_inv[j], next]
+                ([seg_s0[j], seg_x0[j], seg_inv[j], next], j as i32)
+            })
+            .unzip();
+        let bucket2 = bucket_j
+            .iter()
+            .map(|&j| {
+                let k = (j as usize + 1).min(nseg - 1);
+                let end = if k + 1 < nseg { seg_s1[k] } else { f32::INFINITY };
+                [seg_s0[k], seg_x0[k], seg_inv[k], end]
             })
             .collect();
         Axis {
@@ -477,6 +494,8 @@ impl Axis {
             seg_inv,
             bucket,
             bucket_inv,
+            bucket_j,
+            bucket2,
         }
     }
 
@@ -648,6 +667,11 @@ pub(crate) struct Band {
     /// entry block `pair_off[a] + b` (the lookup's one load instead of two;
     /// part of the band so that it changes with it).
     pub pair_off: Vec<usize>,
+    /// `pair_off` truncated to i32 (wrapping values stay wrapped mod 2³²):
+    /// the AVX2 lookup's lanes. Its offsets are bounded by the data's
+    /// length, which fits in i32 (at most 2³⁰ values).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub pair_off32: Vec<i32>,
 }
 
 impl Band {
@@ -678,8 +702,9 @@ impl Band {
     }
 
     fn with_offsets(n_s: usize, w: usize, reach: f32, row_lo: Vec<usize>, row_start: Vec<usize>, pairs: usize) -> Band {
-        let pair_off = (0..n_s).map(|a| row_start[a].wrapping_sub(row_lo[a])).collect();
-        Band { n_s, w, reach, row_lo, row_start, pairs, pair_off }
+        let pair_off: Vec<usize> = (0..n_s).map(|a| row_start[a].wrapping_sub(row_lo[a])).collect();
+        let pair_off32 = pair_off.iter().map(|&p| p as i32).collect();
+        Band { n_s, w, reach, row_lo, row_start, pairs, pair_off, pair_off32 }
     }
 
     pub fn new(n_s: usize, domain: &TableDomain) -> Band {
@@ -734,6 +759,23 @@ pub struct Table3d {
     /// 1 / grid step along s (uniform axis) and along l.
     inv_ds: f32,
     inv_dl: f32,
+    /// Which code runs the batched lookups ([`LookupKernel`]).
+    kernel: LookupKernel,
+}
+
+/// Which code runs a [`Table3d`]'s batched lookups
+/// ([`SegmentShader::shade_batch`] and [`SegmentShader::shade_span`]; the
+/// single lookup [`Table3d::lookup`] is always portable). Both give the same
+/// values bit for bit (module `simd_x86`), so the choice is speed only.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum LookupKernel {
+    /// The AVX2 kernel where the CPU has AVX2 and F16C (checked once per
+    /// process) and the environment variable `TET_PREINT_LOOKUP` is not
+    /// `portable`; the portable code otherwise (and on other architectures).
+    #[default]
+    Auto,
+    /// Always the portable code (tests compare the two paths with it).
+    Portable,
 }
 
 /// Smallest λ for which ∫T = (Tᵢ − Tᵢ₊₁)/λ is used (below, the series).
@@ -870,6 +912,7 @@ impl Table3d {
             depth: Vec::new(),
             inv_ds,
             inv_dl,
+            kernel: LookupKernel::Auto,
         };
         t.update_reconstruction(|_, _| true);
         Some(t)
@@ -1069,15 +1112,20 @@ impl Table3d {
     /// are clamped.
     #[inline]
     pub fn lookup(&self, sf: f32, sb: f32, len_world: f32) -> Rgba32 {
-        let c = self.cell_of(sf, sb, len_world);
+        self.gather_cell(&self.cell_of(sf, sb, len_world))
+    }
+
+    /// The lookup in cell `c`, any storage.
+    #[inline(always)]
+    fn gather_cell(&self, c: &Cell) -> Rgba32 {
         match self.data.as_f32() {
-            Some(d) => self.gather_f32(d, &c),
+            Some(d) => self.gather_f32(d, c),
             None => self.gather(
                 |b| {
                     let (e0, e1) = (self.data.get4(b), self.data.get4(b + 4));
                     [e0[0], e0[1], e0[2], e0[3], e1[0], e1[1], e1[2], e1[3]]
                 },
-                &c,
+                c,
             ),
         }
     }
@@ -1153,6 +1201,81 @@ impl Table3d {
             [d(bases[0]), d(bases[1]), d(bases[2]), d(bases[3])]
         };
         reconstruct(&e, &depth, fa, fb, fk)
+    }
+
+    /// Forces the portable lookup, or lets the AVX2 kernel run where it can
+    /// ([`LookupKernel`]); kept across [`Table3d::rebake`].
+    pub fn set_lookup_kernel(&mut self, kernel: LookupKernel) {
+        self.kernel = kernel;
+    }
+
+    /// [`Table3d::set_lookup_kernel`] by value.
+    pub fn with_lookup_kernel(mut self, kernel: LookupKernel) -> Self {
+        self.kernel = kernel;
+        self
+    }
+
+    /// The kernel batched lookups run on now: `"avx2"` or `"portable"`.
+    pub fn lookup_kernel_in_use(&self) -> &'static str {
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == LookupKernel::Auto && crate::simd_x86::available() {
+            return "avx2";
+        }
+        "portable"
+    }
+
+    /// The AVX2 kernel's batched lookup into `out`; `false` (nothing
+    /// written) where it does not run.
+    #[inline]
+    pub(crate) fn shade_batch_lean(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH]) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == LookupKernel::Auto {
+            let axis = &*self.axis;
+            let lean = crate::simd_x86::Lean {
+                uniform: axis.uniform,
+                lo: if axis.uniform { self.domain.s_lo as f32 } else { axis.lo },
+                hi: axis.hi,
+                inv_ds: self.inv_ds,
+                reach: self.band.reach,
+                max_ds: self.domain.max_ds as f32,
+                bucket: &axis.bucket,
+                bucket_inv: axis.bucket_inv,
+                bucket_j: &axis.bucket_j,
+                bucket2: &axis.bucket2,
+                seg_s0: &axis.seg_s0,
+                seg_s1: &axis.seg_s1,
+                seg_x0: &axis.seg_x0,
+                seg_inv: &axis.seg_inv,
+                n_s: self.params.n_s,
+                n_l: self.params.n_l,
+                inv_dl: self.inv_dl,
+                pair_off: &self.band.pair_off32,
+                data: self.data.raw(),
+            };
+            if self.recon == Reconstruction::Trilinear {
+                return crate::simd_x86::shade_batch(&lean, segs, out);
+            }
+            // Optical depth: the kernel's cells, the portable gather.
+            let mut c = crate::simd_x86::Cells::default();
+            if !crate::simd_x86::cells(&lean, segs, &mut c) {
+                return false;
+            }
+            for (i, o) in out.iter_mut().enumerate().take(segs.len.min(method::BATCH)) {
+                // The kernel's corners are in [0, n − 2] (never negative).
+                let cell = Cell {
+                    a0: c.a0[i] as usize,
+                    b0: c.b0[i] as usize,
+                    k0: c.k0[i] as usize,
+                    fa: c.fa[i],
+                    fb: c.fb[i],
+                    fk: c.fk[i],
+                };
+                *o = self.gather_cell(&cell);
+            }
+            return true;
+        }
+        let _ = (segs, out);
+        false
     }
 }
 
@@ -1353,7 +1476,9 @@ impl Table3d {
     /// unchanged pairs keep the old TF's values.
     pub fn rebake(&mut self, old_tf: &TransferFunction, new_tf: &TransferFunction) -> Result<RebakeStats, TableError> {
         let full = |t: &mut Table3d, why: FullRebake| -> Result<RebakeStats, TableError> {
+            let kernel = t.kernel;
             *t = Table3d::build(new_tf, &t.domain, &t.params)?;
+            t.kernel = kernel;
             Ok(RebakeStats { pairs: t.band.pairs, pairs_rebaked: t.band.pairs, full: Some(why) })
         };
         if self.params.build == Build3d::Incremental {
@@ -1477,7 +1602,14 @@ impl SegmentShader for Table3d {
     /// Eight segments at a time: the cells are located with the same values
     /// as [`Table3d::cell_of`] by lane-wise arithmetic that vectorizes (only
     /// the non-uniform axis's bucket reads and the entries are per lane).
+    /// Where the CPU has AVX2 and F16C ([`LookupKernel::Auto`]), the
+    /// `simd_x86` kernel does it instead, on every storage, with the same
+    /// values bit for bit (for optical-depth tables it locates the cells
+    /// and the gather below finishes).
     fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH]) {
+        if self.shade_batch_lean(segs, out) {
+            return;
+        }
         let n = segs.len.min(method::BATCH);
         let Some(d) = self.data.as_f32() else {
             for (i, o) in out.iter_mut().enumerate().take(n) {
@@ -1523,6 +1655,26 @@ impl SegmentShader for Table3d {
     }
 
     fn shade_span(&self, segs: &[Segment], out: &mut [Rgba32]) {
+        let mut done = 0;
+        if self.lookup_kernel_in_use() == "avx2" {
+            // Through the batched kernel, BATCH segments at a time (the same
+            // values: every path is bit-identical to `lookup`).
+            let mut batch = SegmentBatch::default();
+            let mut rgba = [[0.0f32; 4]; method::BATCH];
+            for (sb, ob) in segs.chunks(method::BATCH).zip(out.chunks_mut(method::BATCH)) {
+                for (i, seg) in sb.iter().enumerate() {
+                    (batch.s_front[i], batch.s_back[i], batch.len_world[i]) = (seg.s_front, seg.s_back, seg.len_world);
+                }
+                batch.len = sb.len();
+                if !self.shade_batch_lean(&batch, &mut rgba) {
+                    break;
+                }
+                let k = ob.len().min(sb.len());
+                ob[..k].copy_from_slice(&rgba[..k]);
+                done += k;
+            }
+        }
+        let (segs, out) = (&segs[done.min(segs.len())..], &mut out[done..]);
         match self.data.as_f32() {
             Some(d) => {
                 // Two passes per block: locating a cell is arithmetic (and,
@@ -2340,6 +2492,36 @@ mod tests {
                 assert_eq!(*o, t.shade(s));
             }
         }
+    }
+
+    /// The portable lookup can be forced per table (so machines with AVX2
+    /// test it too; `TET_PREINT_LOOKUP=portable` forces it per process),
+    /// survives a full re-bake, and gives `shade`'s values.
+    #[test]
+    fn forcing_the_portable_kernel() {
+        let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
+        let p = Table3dParams { n_s: 16, n_l: 8, precision: Precision::F16, ..Default::default() };
+        let mut t = Table3d::build(&ramp(), &d, &p).unwrap();
+        t.set_lookup_kernel(LookupKernel::Portable);
+        assert_eq!(t.lookup_kernel_in_use(), "portable");
+        let stats = t.rebake(&ramp(), &ramp().with_emission(Emission::Independent)).unwrap();
+        assert_eq!(stats.full, Some(FullRebake::Precision));
+        assert_eq!(t.lookup_kernel_in_use(), "portable");
+        let segs: Vec<Segment> = (0..40)
+            .map(|i| Segment {
+                s_front: i as f32 / 30.0,
+                s_back: 0.5,
+                len_world: i as f32 / 17.0,
+                ..Default::default()
+            })
+            .collect();
+        let mut out = [[0.0f32; 4]; method::BATCH];
+        t.shade_batch(&SegmentBatch::from_segments(&segs), &mut out);
+        for (s, o) in segs.iter().zip(&out) {
+            assert_eq!(*o, t.shade(s));
+        }
+        let auto = t.with_lookup_kernel(LookupKernel::Auto).lookup_kernel_in_use();
+        assert!(auto == "avx2" || auto == "portable");
     }
 
     fn node_error(t: &Table3d, tf: &TransferFunction) -> f64 {

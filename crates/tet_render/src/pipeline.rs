@@ -160,6 +160,8 @@ pub struct Renderer {
     /// The walker's per-scene links and per-view projection.
     walk_mesh: Option<WalkMesh>,
     walk_view: Option<WalkView>,
+    /// `walk_view` is of an earlier view (its buffers are reused).
+    walk_view_stale: bool,
     /// The cull mask in the walker's tet order (None: nothing culled or
     /// not yet made for the current mask).
     walk_visible: Option<Vec<bool>>,
@@ -183,6 +185,7 @@ impl Renderer {
             kind: CpuRenderer::default(),
             walk_mesh: None,
             walk_view: None,
+            walk_view_stale: true,
             walk_visible: None,
         }
     }
@@ -216,7 +219,7 @@ impl Renderer {
         self.camera = Some(Camera::new(spec)?);
         self.view = None;
         self.order = None;
-        self.walk_view = None;
+        self.walk_view_stale = true;
         Ok(())
     }
 
@@ -256,7 +259,7 @@ impl Renderer {
             self.prepared = None;
         }
         if opts.tile != self.raster.tile {
-            self.walk_view = None;
+            self.walk_view_stale = true;
         }
         self.raster = opts;
     }
@@ -337,10 +340,12 @@ impl Renderer {
             if self.walk_mesh.is_none() {
                 self.walk_mesh = Some(WalkMesh::new(&self.scene));
             }
-            if self.walk_view.is_none() {
+            if self.walk_view_stale {
                 let t = Instant::now();
                 let mesh = self.walk_mesh.as_ref().expect("built above");
-                self.walk_view = Some(WalkView::new(&self.scene, mesh, camera, self.raster.tile));
+                let old = self.walk_view.take();
+                self.walk_view = Some(WalkView::recycle(old, &self.scene, mesh, camera, self.raster.tile));
+                self.walk_view_stale = false;
                 stats.view_seconds = t.elapsed().as_secs_f64();
                 stats.recomputed_view = true;
             }

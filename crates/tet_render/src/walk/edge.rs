@@ -47,6 +47,19 @@ pub fn value(a: &WalkVertex, b: &WalkVertex, px: f32, py: f32) -> f32 {
     (b.x_px - a.x_px) * (py - a.y_px) - (b.y_px - a.y_px) * (px - a.x_px)
 }
 
+/// Where the exact predicate finds a vertex's f64 pixel position (the one
+/// its f32 position was rounded from).
+pub trait PixelPositions {
+    fn px(&self, vertex: u32) -> [f64; 2];
+}
+
+impl PixelPositions for [[f64; 2]] {
+    #[inline]
+    fn px(&self, vertex: u32) -> [f64; 2] {
+        self[vertex as usize]
+    }
+}
+
 /// Counters of how often the exact predicate decided.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct EdgeCounters {
@@ -60,12 +73,12 @@ pub struct EdgeCounters {
 /// `p_max` bounds |px| and |py|.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn canonical(
+fn canonical<P: PixelPositions + ?Sized>(
     a: &WalkVertex,
     b: &WalkVertex,
     ia: u32,
     ib: u32,
-    pos_f64: &[[f64; 2]],
+    pos_f64: &P,
     px: f32,
     py: f32,
     p_max: f32,
@@ -92,7 +105,7 @@ fn canonical(
         return (e, false);
     }
     counters.exact += 1;
-    (e, exact_left(pos_f64[ia as usize], pos_f64[ib as usize], px as f64, py as f64))
+    (e, exact_left(pos_f64.px(ia), pos_f64.px(ib), px as f64, py as f64))
 }
 
 /// Whether pixel centre (px, py) is left of a → b in exact arithmetic on
@@ -114,9 +127,9 @@ pub fn exact_left(a: [f64; 2], b: [f64; 2], px: f64, py: f64) -> bool {
 /// the canonical edge so both directions and every tet agree.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub fn side(
+pub fn side<P: PixelPositions + ?Sized>(
     verts: &[WalkVertex],
-    pos_f64: &[[f64; 2]],
+    pos_f64: &P,
     iu: u32,
     iv: u32,
     px: f32,
@@ -168,9 +181,9 @@ const LANE_MASKS: [[u32; 4]; 16] = {
 /// projected vertex and pixel centre of the view.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub fn sides_from(
+pub fn sides_from<P: PixelPositions + ?Sized>(
     verts: &[WalkVertex],
-    pos_f64: &[[f64; 2]],
+    pos_f64: &P,
     tet: [u32; 4],
     skip: usize,
     px: f32,
@@ -220,7 +233,7 @@ pub fn sides_from(
         unsure &= unsure - 1;
         counters.exact += 1;
         let (ia, ib) = if flip_bits >> l & 1 == 1 { (tet[l], v) } else { (v, tet[l]) };
-        if exact_left(pos_f64[ia as usize], pos_f64[ib as usize], px as f64, py as f64) {
+        if exact_left(pos_f64.px(ia), pos_f64.px(ib), px as f64, py as f64) {
             left_canon |= 1 << l;
         }
     }
@@ -260,9 +273,9 @@ mod tests {
             let pos = [a, b];
             let verts = [vert(a), vert(b)];
             let mut c = EdgeCounters::default();
-            let (_, left) = side(&verts, &pos, 0, 1, px, py, 512.0, &mut c);
+            let (_, left) = side(&verts, &pos[..], 0, 1, px, py, 512.0, &mut c);
             prop_assert_eq!(left, exact_left(a, b, px as f64, py as f64));
-            let (_, right) = side(&verts, &pos, 1, 0, px, py, 512.0, &mut c);
+            let (_, right) = side(&verts, &pos[..], 1, 0, px, py, 512.0, &mut c);
             prop_assert_eq!(right, !left);
         }
     }
@@ -275,7 +288,7 @@ mod tests {
             ids in proptest::sample::subsequence((0u32..8).collect::<Vec<_>>(), 4),
             skip in 0usize..4, ix in 0u32..512, iy in 0u32..512, snap in any::<bool>(),
         ) {
-            let mut pos = vec![[0.0f64; 2]; 8];
+            let mut pos = [[0.0f64; 2]; 8];
             let (px, py) = (ix as f32 + 0.5, iy as f32 + 0.5);
             for (k, &i) in ids.iter().enumerate() {
                 // Optionally put a vertex exactly on the pixel centre's row.
@@ -284,10 +297,10 @@ mod tests {
             let verts: Vec<WalkVertex> = pos.iter().map(|&p| vert(p)).collect();
             let tet = [ids[0], ids[1], ids[2], ids[3]];
             let mut cnt = EdgeCounters::default();
-            let (vals, bits) = sides_from(&verts, &pos, tet, skip, px, py, 601.0, &mut cnt);
+            let (vals, bits) = sides_from(&verts, &pos[..], tet, skip, px, py, 601.0, &mut cnt);
             for k in 0..4 {
                 if k == skip { continue; }
-                let (val, left) = side(&verts, &pos, tet[skip], tet[k], px, py, 512.0, &mut cnt);
+                let (val, left) = side(&verts, &pos[..], tet[skip], tet[k], px, py, 512.0, &mut cnt);
                 prop_assert_eq!(vals[k].to_bits(), val.to_bits());
                 prop_assert_eq!(bits >> k & 1 == 1, left);
             }
@@ -309,6 +322,9 @@ mod tests {
         let v = [vert([1.0, 1.0]), vert([1.0, 1.0])];
         let pos = [[1.0, 1.0], [1.0, 1.0]];
         let mut c = EdgeCounters::default();
-        assert_ne!(side(&v, &pos, 0, 1, 1.5, 1.5, 8.0, &mut c).1, side(&v, &pos, 1, 0, 1.5, 1.5, 8.0, &mut c).1);
+        assert_ne!(
+            side(&v, &pos[..], 0, 1, 1.5, 1.5, 8.0, &mut c).1,
+            side(&v, &pos[..], 1, 0, 1.5, 1.5, 8.0, &mut c).1
+        );
     }
 }

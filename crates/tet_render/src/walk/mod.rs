@@ -44,7 +44,7 @@ use crate::image::Image;
 use crate::project::Frame;
 use crate::raster::RasterOptions;
 use crate::scene::Scene;
-use edge::{directed_value, side, sides_from, EdgeCounters, WalkVertex};
+use edge::{directed_value, side, sides_from, EdgeCounters, PixelPositions, WalkVertex};
 use glam::DVec3;
 use rayon::prelude::*;
 use robust::{orient2d, Coord};
@@ -132,6 +132,10 @@ pub struct WalkMesh {
     scene_tet: Vec<u32>,
     /// `scene_vertex[v]`: the scene's id of walk vertex v.
     scene_vertex: Vec<u32>,
+    /// Positions (relative to the scene's centre) and scalars in walk
+    /// order: a view reads them front to back.
+    pos_rel: Vec<[f64; 3]>,
+    scalar: Vec<f32>,
     boundary: Vec<u32>,
     broken_links: usize,
     grads: Option<Vec<[f32; 3]>>,
@@ -228,6 +232,8 @@ impl WalkMesh {
             broken_links,
             grads: scene.gradients().map(|g| scene_vertex.iter().map(|&i| g[i as usize].map(|c| c as f32)).collect()),
             grad_mag: scene.gradient_magnitudes().map(by_vertex),
+            pos_rel: scene_vertex.iter().map(|&v| pos[v as usize]).collect(),
+            scalar: by_vertex(scene.scalar()),
             scene_tet,
             scene_vertex,
         }
@@ -254,6 +260,8 @@ impl WalkMesh {
             + self.links.len() * 16
             + self.scene_tet.len() * 4
             + self.scene_vertex.len() * 4
+            + self.pos_rel.len() * 24
+            + self.scalar.len() * 4
             + self.boundary.len() * 4
             + self.grads.as_ref().map_or(0, |g| g.len() * 12)
             + self.grad_mag.as_ref().map_or(0, |g| g.len() * 4)
@@ -266,7 +274,6 @@ impl WalkMesh {
 pub struct WalkView {
     frame: Frame,
     verts: Vec<WalkVertex>,
-    pos_px: Vec<[f64; 2]>,
     /// Bounds |x| and |y| of every pixel centre.
     p_max: f32,
     /// Bounds |x| and |y| of every projected vertex and pixel centre.
@@ -286,6 +293,14 @@ impl WalkView {
     /// Projects the scene's vertices for `camera` and bins its front
     /// boundary faces into tiles of `tile` pixels.
     pub fn new(scene: &Scene, mesh: &WalkMesh, camera: &Camera, tile: u32) -> WalkView {
+        Self::recycle(None, scene, mesh, camera, tile)
+    }
+
+    /// [`WalkView::new`] reusing the buffers of an earlier view (a camera
+    /// moving every frame would otherwise fault in fresh pages for every
+    /// vertex array each frame).
+    pub fn recycle(old: Option<WalkView>, scene: &Scene, mesh: &WalkMesh, camera: &Camera, tile: u32) -> WalkView {
+        let mut old_verts = old.map_or(Vec::new(), |v| v.verts);
         let frame = Frame::new(camera, scene.centre_in_world());
         let tile = tile.clamp(4, 1024);
         let (w, h) = (frame.width, frame.height);
@@ -295,7 +310,6 @@ impl WalkView {
         let mut view = WalkView {
             frame,
             verts: Vec::new(),
-            pos_px: Vec::new(),
             p_max,
             k_view: p_max,
             tile,
@@ -312,36 +326,42 @@ impl WalkView {
                 Some(format!("{} tets: the walker's links address at most {MAX_WALK_TETS}", scene.num_tets()));
             return view;
         }
-        let spos = scene.positions_rel();
-        let cam: Vec<[f64; 3]> = mesh.scene_vertex.par_iter().map(|&v| frame.to_cam(spos[v as usize])).collect();
-        if !frame.parallel {
-            if let Some(i) = cam.iter().position(|c| c[2].partial_cmp(&frame.near_depth).is_none_or(|o| o.is_lt())) {
+        // One pass over the vertices in walk order: pixel position, w and
+        // the scalar. A vertex nearer than the near plane (perspective) or
+        // projecting to no finite pixel marks the view.
+        let parallel = frame.parallel;
+        let near = frame.near_depth;
+        if !parallel {
+            let behind = mesh
+                .pos_rel
+                .par_iter()
+                .position_first(|&p| frame.to_cam(p)[2].partial_cmp(&near).is_none_or(|o| o.is_lt()));
+            if let Some(i) = behind {
+                let z = frame.to_cam(mesh.pos_rel[i])[2];
                 view.unsupported = Some(format!(
-                    "vertex {} is nearer than the near plane (depth {:.6e} < {:.6e}): the camera is inside or beside the mesh",
-                    mesh.scene_vertex[i], cam[i][2], frame.near_depth
+                    "vertex {} is nearer than the near plane (depth {z:.6e} < {near:.6e}): the camera is inside or beside the mesh",
+                    mesh.scene_vertex[i]
                 ));
                 return view;
             }
         }
-        view.pos_px = cam.par_iter().map(|&c| frame.cam_to_px(c)).collect();
-        let scalar = scene.scalar();
-        view.verts = cam
-            .par_iter()
-            .zip(view.pos_px.par_iter())
-            .zip(mesh.scene_vertex.par_iter())
-            .map(|((c, p), &v)| WalkVertex {
-                x_px: p[0] as f32,
-                y_px: p[1] as f32,
-                w: if frame.parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 },
-                scalar: scalar[v as usize] as f32,
-            })
-            .collect();
-        if let Some(i) = view.pos_px.iter().position(|p| !(p[0].abs() < 1e30 && p[1].abs() < 1e30)) {
+        old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
+        old_verts.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
+            |((out, &p), &scalar)| {
+                let c = frame.to_cam(p);
+                let q = frame.cam_to_px(c);
+                let w = if parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 };
+                *out = WalkVertex { x_px: q[0] as f32, y_px: q[1] as f32, w, scalar };
+            },
+        );
+        view.verts = old_verts;
+        let unrepresentable = |v: &WalkVertex| !(v.x_px.abs() < 1e30 && v.y_px.abs() < 1e30);
+        if let Some(i) = view.verts.par_iter().position_first(unrepresentable) {
             view.unsupported =
                 Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));
             return view;
         }
-        view.k_view = view.verts.iter().fold(p_max, |k, v| k.max(v.x_px.abs()).max(v.y_px.abs()));
+        view.k_view = view.verts.par_iter().map(|v| v.x_px.abs().max(v.y_px.abs())).reduce(|| p_max, f32::max);
         view.bin_front_faces(mesh);
         view
     }
@@ -368,14 +388,14 @@ impl WalkView {
 
     /// Bytes held by this view.
     pub fn memory_bytes(&self) -> usize {
-        self.verts.len() * 16 + self.pos_px.len() * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
+        self.verts.len() * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
     }
 
     fn bin_front_faces(&mut self, mesh: &WalkMesh) {
         let tets = &mesh.tets;
         let (w, h) = (self.frame.width, self.frame.height);
         let tile = self.tile;
-        let pos = &self.pos_px;
+        let pos = Projector { frame: &self.frame, pos_rel: &mesh.pos_rel };
         // Per front face, its tile rectangle; back faces and faces that
         // cover no pixel centre get none. A face is an entry when its
         // projection's exact orientation is the front one: the walk lives
@@ -387,7 +407,7 @@ impl WalkView {
             .map(|&packed| {
                 let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
                 let fv = FACE_OUTWARD[f];
-                let p = [0, 1, 2].map(|k| pos[tets[t][fv[k]] as usize]);
+                let p = [0, 1, 2].map(|k| pos.px(tets[t][fv[k]]));
                 let o = orient2d(
                     Coord { x: p[0][0], y: p[0][1] },
                     Coord { x: p[1][0], y: p[1][1] },
@@ -426,6 +446,20 @@ impl WalkView {
                 }
             }
         }
+    }
+}
+
+/// The f64 pixel positions the view's f32 ones were rounded from,
+/// recomputed on demand (the exact predicate needs them rarely).
+struct Projector<'a> {
+    frame: &'a Frame,
+    pos_rel: &'a [[f64; 3]],
+}
+
+impl PixelPositions for Projector<'_> {
+    #[inline]
+    fn px(&self, vertex: u32) -> [f64; 2] {
+        self.frame.cam_to_px(self.frame.to_cam(self.pos_rel[vertex as usize]))
     }
 }
 
@@ -648,7 +682,7 @@ impl WalkCtx<'_> {
     fn entries(&self, ti: usize, rect: [u32; 4], stride: usize, counters: &mut EdgeCounters) -> Vec<(u32, f32, u32)> {
         let view = self.view;
         let tets = &self.mesh.tets;
-        let (verts, pos) = (&view.verts[..], &view.pos_px[..]);
+        let (verts, pos) = (&view.verts[..], &Projector { frame: &view.frame, pos_rel: &self.mesh.pos_rel });
         let faces = &view.bin_faces[view.bin_start[ti] as usize..view.bin_start[ti + 1] as usize];
         let orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
         let mut out = Vec::new();
@@ -656,7 +690,7 @@ impl WalkCtx<'_> {
             let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
             let fv = FACE_OUTWARD[f];
             let ids = [tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]];
-            let Some(r) = pixel_rect(&ids.map(|i| pos[i as usize]), view.frame.width, view.frame.height) else {
+            let Some(r) = pixel_rect(&ids.map(|i| pos.px(i)), view.frame.width, view.frame.height) else {
                 continue;
             };
             let (x0, y0, x1, y1) = (r[0].max(rect[0]), r[1].max(rect[1]), r[2].min(rect[2]), r[3].min(rect[3]));
@@ -704,7 +738,7 @@ impl WalkCtx<'_> {
         let frame = &view.frame;
         let tets = &self.mesh.tets[..];
         let links = &self.mesh.links[..];
-        let (verts, pos) = (&view.verts[..], &view.pos_px[..]);
+        let (verts, pos) = (&view.verts[..], &Projector { frame: &view.frame, pos_rel: &self.mesh.pos_rel });
         let parallel = frame.parallel;
         let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
         let len_per_depth = frame.len_per_depth(fx as f64, fy as f64) as f32;
@@ -752,25 +786,32 @@ impl WalkCtx<'_> {
                     st.step_limit += 1;
                     break;
                 };
-                // The exit face as (v, x, y), a rotation of its outward order:
-                // the edge values opposite v, x and y.
-                let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
-                let l = [directed_value(verts, tx, ty, fx, fy), -val[y], val[x]];
-                let p_out = face_point(verts, [v, tx, ty], l, back_orient, parallel);
                 st.crossings += 1;
-                let len = (p_out.depth - p_in.depth) * len_per_depth;
-                if len > 0.0 && self.visible.is_none_or(|vis| vis[t]) {
-                    self.push(batch, &p_in, &p_out, len);
-                    if batch.segs.len >= cap {
-                        cap = (cap * 2).min(BATCH);
-                        if self.flush(batch, &mut acc, fx, fy, st) {
-                            st.terminated += 1;
-                            break 'runs;
+                let link = links[t][f_out & 3];
+                let next_ok = link < LINK_BROKEN;
+                // A culled tet needs no segment: its exit point is computed
+                // only when a visible tet follows (as that tet's entry).
+                let culled = self.visible.is_some_and(|vis| !vis[t]);
+                if !culled || (next_ok && self.visible.is_some_and(|vis| vis[(link / 4) as usize])) {
+                    // The exit face as (v, x, y), a rotation of its outward
+                    // order: the edge values opposite v, x and y.
+                    let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
+                    let l = [directed_value(verts, tx, ty, fx, fy), -val[y], val[x]];
+                    let p_out = face_point(verts, [v, tx, ty], l, back_orient, parallel);
+                    let len = (p_out.depth - p_in.depth) * len_per_depth;
+                    if !culled && len > 0.0 {
+                        self.push(batch, &p_in, &p_out, len);
+                        if batch.segs.len >= cap {
+                            cap = (cap * 2).min(BATCH);
+                            if self.flush(batch, &mut acc, fx, fy, st) {
+                                st.terminated += 1;
+                                break 'runs;
+                            }
                         }
                     }
+                    p_in = p_out;
                 }
-                let link = links[t][f_out & 3];
-                if link >= LINK_BROKEN {
+                if !next_ok {
                     if link == LINK_BROKEN {
                         st.non_manifold += 1;
                     }
@@ -778,7 +819,6 @@ impl WalkCtx<'_> {
                 }
                 t = (link / 4) as usize;
                 f_in = (link % 4) as usize;
-                p_in = p_out;
             }
         }
         if batch.segs.len > 0 && self.flush(batch, &mut acc, fx, fy, st) {

@@ -748,6 +748,8 @@ impl WalkCtx<'_> {
         let mut cap = FIRST_BATCH;
         batch.segs.len = 0;
         st.rays += 1;
+        // Counted locally: a store per step into `st` would sit on the path.
+        let mut crossings = 0u64;
         'runs: for &(_, _, packed) in entries {
             st.runs += 1;
             let (mut t, mut f_in) = ((packed / 4) as usize, (packed % 4) as usize);
@@ -786,7 +788,7 @@ impl WalkCtx<'_> {
                     st.step_limit += 1;
                     break;
                 };
-                st.crossings += 1;
+                crossings += 1;
                 let link = links[t][f_out & 3];
                 let next_ok = link < LINK_BROKEN;
                 // A culled tet needs no segment: its exit point is computed
@@ -821,6 +823,7 @@ impl WalkCtx<'_> {
                 f_in = (link % 4) as usize;
             }
         }
+        st.crossings += crossings;
         if batch.segs.len > 0 && self.flush(batch, &mut acc, fx, fy, st) {
             st.terminated += 1;
         }

@@ -121,6 +121,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let order = visibility_order(&cpu_scene, &ViewGeometry::new(&cpu_scene, &camera), SortMethod::Mpvo, None).tets;
     println!("CPU MPVO order of every tet: {:.3} s (shared by both renderers)", t.elapsed().as_secs_f64());
     let mut cpu = Renderer::new(cpu_scene);
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     cpu.set_view(&spec)?;
     cpu.set_sort(SortMethod::Mpvo);
 

@@ -73,6 +73,8 @@ fn compute_raster_matches_graphics_and_the_cpu() {
     let table = Arc::new(table_for(&mesh));
     let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     let shaders: [(GpuShader, Arc<dyn SegmentShader>); 2] = [
         (GpuShader::table3d(&ctx, &table).unwrap(), table.clone()),
         (GpuShader::pt_linear(&ctx, &tf()).unwrap(), Arc::new(PtLinearShader::new(tf()))),
@@ -212,6 +214,8 @@ fn long_tile_lists_composite_every_tet() {
     let cam = Camera::new(&spec).unwrap();
     let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     cpu.set_view(&spec).unwrap();
     cpu.set_shader(table.clone());
     let (want, _) = cpu.render(&|_, _| {}).unwrap();

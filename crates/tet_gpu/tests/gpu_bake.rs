@@ -196,6 +196,8 @@ fn gpu_baked_table_renders_as_the_cpu_table() {
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     cpu.set_shader(cpu_table);
     for (az, el) in [(30.0, 20.0), (-130.0, -40.0)] {
         let (lo, hi) = mesh.bounds();

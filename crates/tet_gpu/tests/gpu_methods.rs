@@ -179,6 +179,8 @@ fn methods_match_the_cpu_pt_renderer() {
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     let shaders: Vec<(String, GpuShader, Arc<dyn SegmentShader>)> = methods(&mesh)
         .into_iter()
         .map(|(name, baked)| {
@@ -266,6 +268,8 @@ fn gpu_culling_matches_the_cpu_culler() {
     let order = mesh.mpvo_order(&cam);
     let culled_order: Vec<u32> = order.iter().copied().filter(|&t| mask.visible[t as usize]).collect();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     cpu.set_view(&spec).unwrap();
     cpu.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     for method in [Method::Partial, Method::Table3d] {
@@ -364,6 +368,8 @@ fn biv_approx_matches_the_cpu() {
     eprintln!("|∇s| up to {g_max:.3}");
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     let len = domain(&mesh).len_max_world as f32;
     let mut rng = tet_mesh::SplitMix64(0xb1f);
     let segs: Vec<Segment> = (0..20_000)
@@ -474,6 +480,8 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
         assert_eq!(diff(&frame.image, &want).unwrap().max_abs, 0.0, "{what}");
     }
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     cpu.set_view(&spec).unwrap();
     cpu.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     cpu.set_shader(Arc::from(baked.into_shader()));
@@ -639,6 +647,8 @@ fn biv_exact_matches_the_cpu() {
     let (cpu_scene, scene, _) = bivariate_scenes(&ctx, &mesh);
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     let (lo, hi) = mesh.bounds();
     for emission in ["density", "independent"] {
         for (name, tf) in biv_exact_tfs(emission).into_iter().filter(|(n, _)| ["overlapping", "dense"].contains(n)) {

@@ -238,6 +238,8 @@ fn grid_matches_the_cpu_pt_renderer() {
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
     let mut cpu = tet_render::Renderer::new(cpu_scene);
+    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
     let mut shaders: Vec<(String, GpuShader, std::sync::Arc<dyn tet_preint::SegmentShader>)> = Vec::new();
     for axis in [ScalarAxis::TfNodes, ScalarAxis::Uniform] {
         let table = std::sync::Arc::new(table_on_axis(&mesh, axis));

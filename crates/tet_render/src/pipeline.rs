@@ -165,6 +165,8 @@ pub struct Renderer {
     /// The cull mask in the walker's tet order (None: nothing culled or
     /// not yet made for the current mask).
     walk_visible: Option<Vec<bool>>,
+    /// The faces rays enter the visible tets by, for the current mask.
+    walk_entries: Option<Vec<u32>>,
 }
 
 impl Renderer {
@@ -187,6 +189,7 @@ impl Renderer {
             walk_view: None,
             walk_view_stale: true,
             walk_visible: None,
+            walk_entries: None,
         }
     }
 
@@ -238,7 +241,6 @@ impl Renderer {
     /// tet); the cull mask becomes stale, and so does a radix order.
     pub fn set_culler(&mut self, culler: Option<Arc<dyn CellCuller>>) {
         self.culler = culler;
-        self.walk_visible = None;
         if let Some(mask) = self.cull.take() {
             self.replaced_cull = Some(mask);
         }
@@ -277,36 +279,71 @@ impl Renderer {
         self.view.as_ref()
     }
 
-    /// The walker's frame: the cull mask if stale, then every ray.
+    /// Computes the cull mask when stale (a new culler), and drops the kept
+    /// per-tet setup when the mask differs from the one it was made for.
+    fn ensure_cull(&mut self, stats: &mut RenderStats) {
+        if self.cull.is_some() {
+            return;
+        }
+        let t = Instant::now();
+        let mask = match &self.culler {
+            Some(c) => cull(&self.scene, c.as_ref()),
+            None => CullMask::all(self.scene.num_tets()),
+        };
+        // The kept setup covers the replaced mask's visible tets.
+        if self.replaced_cull.take().is_none_or(|old| old.visible != mask.visible) {
+            self.prepared = None;
+        }
+        self.cull = Some(mask);
+        self.walk_visible = None;
+        self.walk_entries = None;
+        stats.cull_seconds = t.elapsed().as_secs_f64();
+        stats.recomputed_cull = true;
+    }
+
+    /// The walker's stages — the scene's links once, the cull mask in walk
+    /// order and the faces rays enter the visible tets by (once per mask),
+    /// the view's projection (once per view) and face bins (per view and
+    /// mask) — then every ray, or `None` when the view is one the walker
+    /// cannot draw (the reason in `stats`).
     fn render_walk(
         &mut self,
+        camera: &Camera,
         shader: &dyn SegmentShader,
-        mut stats: RenderStats,
+        stats: &mut RenderStats,
         start: Instant,
         progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> Result<(Image, RenderStats), RenderError> {
-        if self.cull.is_none() {
-            let t = Instant::now();
-            let mask = match &self.culler {
-                Some(c) => cull(&self.scene, c.as_ref()),
-                None => CullMask::all(self.scene.num_tets()),
-            };
-            if self.replaced_cull.take().is_none_or(|old| old.visible != mask.visible) {
-                self.prepared = None;
-            }
-            let mesh = self.walk_mesh.as_ref().expect("built by render");
-            self.walk_visible = (mask.culled > 0).then(|| mesh.to_walk_order(&mask.visible));
-            self.cull = Some(mask);
-            stats.cull_seconds = t.elapsed().as_secs_f64();
-            stats.recomputed_cull = true;
-        } else if let (None, Some(mask)) = (&self.walk_visible, &self.cull) {
-            // The mask came from a PT frame.
-            let mesh = self.walk_mesh.as_ref().expect("built by render");
-            self.walk_visible = (mask.culled > 0).then(|| mesh.to_walk_order(&mask.visible));
+    ) -> Option<Image> {
+        if self.walk_mesh.is_none() {
+            self.walk_mesh = Some(WalkMesh::new(&self.scene));
         }
+        self.ensure_cull(stats);
+        let mesh = self.walk_mesh.as_ref().expect("built above");
         let mask = self.cull.as_ref().expect("computed above");
-        let mesh = self.walk_mesh.as_ref().expect("built by render");
-        let wv = self.walk_view.as_ref().expect("built by render");
+        let mut rebin = false;
+        if self.walk_entries.is_none() {
+            self.walk_visible = (mask.culled > 0).then(|| mesh.to_walk_order(&mask.visible));
+            self.walk_entries = Some(mesh.entry_faces(self.walk_visible.as_deref()));
+            rebin = true;
+        }
+        let entries = self.walk_entries.as_deref().expect("computed above");
+        if self.walk_view_stale {
+            let t = Instant::now();
+            let old = self.walk_view.take();
+            self.walk_view = Some(WalkView::recycle(old, &self.scene, mesh, camera, self.raster.tile, entries));
+            self.walk_view_stale = false;
+            stats.view_seconds = t.elapsed().as_secs_f64();
+            stats.recomputed_view = true;
+        } else if rebin {
+            let t = Instant::now();
+            self.walk_view.as_mut().expect("not stale").rebin(mesh, entries);
+            stats.view_seconds = t.elapsed().as_secs_f64();
+        }
+        let wv = self.walk_view.as_ref().expect("built above");
+        if let Some(why) = wv.unsupported() {
+            stats.walk_fallback = Some(why.to_string());
+            return None;
+        }
         let visible = self.walk_visible.as_deref();
         let (image, ws) = walk_frame(mesh, wv, visible, shader, &self.raster, progress);
         stats.renderer = CpuRenderer::Walk.id().to_string();
@@ -324,7 +361,7 @@ impl Renderer {
         stats.sort_method = "none".to_string();
         stats.raster_seconds = ws.walk_seconds;
         stats.total_seconds = start.elapsed().as_secs_f64();
-        Ok((image, stats))
+        Some(image)
     }
 
     /// Renders, recomputing stale stages first.
@@ -337,24 +374,12 @@ impl Renderer {
         }
         let mut stats = RenderStats { tets_total: self.scene.num_tets(), ..Default::default() };
         if self.kind == CpuRenderer::Walk {
-            if self.walk_mesh.is_none() {
-                self.walk_mesh = Some(WalkMesh::new(&self.scene));
-            }
-            if self.walk_view_stale {
-                let t = Instant::now();
-                let mesh = self.walk_mesh.as_ref().expect("built above");
-                let old = self.walk_view.take();
-                self.walk_view = Some(WalkView::recycle(old, &self.scene, mesh, camera, self.raster.tile));
-                self.walk_view_stale = false;
-                stats.view_seconds = t.elapsed().as_secs_f64();
-                stats.recomputed_view = true;
-            }
-            let wv = self.walk_view.as_ref().expect("built above");
-            match wv.unsupported() {
-                Some(why) => stats.walk_fallback = Some(why.to_string()),
-                None => return self.render_walk(shader.as_ref(), stats, start, progress),
+            let camera = camera.clone();
+            if let Some(image) = self.render_walk(&camera, shader.as_ref(), &mut stats, start, progress) {
+                return Ok((image, stats));
             }
         }
+        let camera = self.camera.as_ref().expect("checked above");
         stats.renderer = CpuRenderer::Pt.id().to_string();
 
         if self.view.is_none() || self.order.is_none() {
@@ -367,20 +392,7 @@ impl Renderer {
             stats.view_seconds = t.elapsed().as_secs_f64();
             stats.recomputed_view = true;
         }
-        if self.cull.is_none() {
-            let t = Instant::now();
-            let mask = match &self.culler {
-                Some(c) => cull(&self.scene, c.as_ref()),
-                None => CullMask::all(self.scene.num_tets()),
-            };
-            // The kept setup covers the replaced mask's visible tets.
-            if self.replaced_cull.take().is_none_or(|old| old.visible != mask.visible) {
-                self.prepared = None;
-            }
-            self.cull = Some(mask);
-            stats.cull_seconds = t.elapsed().as_secs_f64();
-            stats.recomputed_cull = true;
-        }
+        self.ensure_cull(&mut stats);
         let view = self.view.as_ref().expect("computed above");
         let mask = self.cull.as_ref().expect("computed above");
         if self.order.is_none() {

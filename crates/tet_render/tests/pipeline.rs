@@ -149,7 +149,11 @@ fn culling_skips_invisible_tets_without_changing_the_image() {
     let (p, t, s) = grid_mesh(6, 0.3, [0.0; 3], 5, wave);
     let scene = Scene::new(&p, t, s).unwrap();
     let n = scene.num_tets();
+    // Projected tetrahedra (the walker's culling: tests/walk.rs). This
+    // mesh folds (jitter 0.3): PT composites overlapping tets, the walker
+    // counts missing exits.
     let mut r = Renderer::new(scene);
+    r.set_renderer(CpuRenderer::Pt);
     r.set_view(&view()).unwrap();
     r.set_shader(Arc::new(ExactShader::new(tf(SPARSE))));
     let (full, st0) = r.render(&|_, _| {}).unwrap();

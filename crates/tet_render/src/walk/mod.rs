@@ -2,13 +2,16 @@
 //! image (pixels × tets along each ray), not the mesh.
 //!
 //! Per view, each vertex is projected once ([`WalkView`]: pixel position,
-//! 1/depth and the scalar in f32, the f64 position for exact decisions);
-//! there is no per-tet setup and no visibility sort. Front-facing boundary
-//! faces are binned into screen tiles. Each tile (one rayon task) rasterizes
-//! its faces into per-pixel entry lists ordered by depth, so a ray that
-//! leaves a non-convex mesh (a curvilinear grid, a scan with a peeled hull)
-//! re-enters it correctly, and walks every pixel's ray from tet to tet by
-//! face adjacency, front to back:
+//! 1/depth and the scalar in f32; the f64 position is recomputed for exact
+//! decisions); there is no per-tet setup and no visibility sort. The entry
+//! faces — the boundary of the tets the transfer function does not cull
+//! ([`WalkMesh::entry_faces`]: the mesh boundary, and faces shared with a
+//! culled tet) — that face the eye are binned into screen tiles. Each tile
+//! (one rayon task) rasterizes its faces into per-pixel entry lists ordered
+//! by depth, so a ray that leaves a non-convex mesh (a curvilinear grid, a
+//! scan with a peeled hull) or the visible part of a culled one re-enters
+//! it correctly, empty space costing no steps, and walks every pixel's ray
+//! from tet to tet by face adjacency, front to back:
 //!
 //! * the ray entered tet t through face f; the exit is one of the three
 //!   faces around the opposite vertex v, found from the sides of the ray
@@ -20,7 +23,7 @@
 //! * the exit point's perspective-correct barycentrics (edge-function
 //!   values times 1/depth) give the exit depth and scalar; the segment
 //!   (Sf, Sb, l) goes into a batch for the shader
-//!   ([`SegmentShader::shade_batch`]) unless the tet is culled;
+//!   ([`SegmentShader::shade_batch`]);
 //! * batches are shaded, lit (lighting and silhouettes at the segment's
 //!   midpoint, the gradients interpolated like the scalar) and composited
 //!   front to back; the ray stops once α reaches
@@ -239,6 +242,26 @@ impl WalkMesh {
         }
     }
 
+    /// The faces through which rays enter the tets marked `visible` (walk
+    /// order; `None`: all): faces of visible tets on the mesh boundary or
+    /// shared with a culled tet. Rays then walk visible tets only: a run
+    /// ends where it leaves them, and the next entry in depth order picks
+    /// the ray up where it meets them again, so empty (culled) space costs
+    /// no steps at all.
+    pub fn entry_faces(&self, visible: Option<&[bool]>) -> Vec<u32> {
+        let Some(vis) = visible else { return self.boundary.clone() };
+        self.links
+            .par_iter()
+            .enumerate()
+            .filter(|(t, _)| vis[*t])
+            .flat_map_iter(|(t, l)| {
+                (0..4)
+                    .filter(move |&f| l[f] == LINK_BOUNDARY || (l[f] < LINK_BROKEN && !vis[(l[f] / 4) as usize]))
+                    .map(move |f| (t * 4 + f) as u32)
+            })
+            .collect()
+    }
+
     /// A per-scene-tet mask (a [`crate::CullMask`]'s) in walk order.
     pub fn to_walk_order(&self, per_scene_tet: &[bool]) -> Vec<bool> {
         self.scene_tet.par_iter().map(|&t| per_scene_tet[t as usize]).collect()
@@ -281,7 +304,7 @@ pub struct WalkView {
     tile: u32,
     tiles_x: usize,
     tiles_y: usize,
-    /// Front boundary faces per tile (CSR: `bin_start[i]..bin_start[i + 1]`).
+    /// Entry faces facing the eye, per tile (CSR: `bin_start[i]..bin_start[i + 1]`).
     bin_start: Vec<u32>,
     bin_faces: Vec<u32>,
     front_faces: usize,
@@ -293,13 +316,22 @@ impl WalkView {
     /// Projects the scene's vertices for `camera` and bins its front
     /// boundary faces into tiles of `tile` pixels.
     pub fn new(scene: &Scene, mesh: &WalkMesh, camera: &Camera, tile: u32) -> WalkView {
-        Self::recycle(None, scene, mesh, camera, tile)
+        Self::recycle(None, scene, mesh, camera, tile, &mesh.boundary)
     }
 
     /// [`WalkView::new`] reusing the buffers of an earlier view (a camera
     /// moving every frame would otherwise fault in fresh pages for every
     /// vertex array each frame).
-    pub fn recycle(old: Option<WalkView>, scene: &Scene, mesh: &WalkMesh, camera: &Camera, tile: u32) -> WalkView {
+    /// `entry_faces` are the faces rays may enter by
+    /// ([`WalkMesh::entry_faces`]).
+    pub fn recycle(
+        old: Option<WalkView>,
+        scene: &Scene,
+        mesh: &WalkMesh,
+        camera: &Camera,
+        tile: u32,
+        entry_faces: &[u32],
+    ) -> WalkView {
         let mut old_verts = old.map_or(Vec::new(), |v| v.verts);
         let frame = Frame::new(camera, scene.centre_in_world());
         let tile = tile.clamp(4, 1024);
@@ -362,8 +394,17 @@ impl WalkView {
             return view;
         }
         view.k_view = view.verts.par_iter().map(|v| v.x_px.abs().max(v.y_px.abs())).reduce(|| p_max, f32::max);
-        view.bin_front_faces(mesh);
+        view.bin_front_faces(mesh, entry_faces);
         view
+    }
+
+    /// Bins a new set of entry faces (a new cull mask), keeping the projection.
+    pub fn rebin(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
+        if self.unsupported.is_none() {
+            self.front_faces = 0;
+            self.bin_start.iter_mut().for_each(|s| *s = 0);
+            self.bin_front_faces(mesh, entry_faces);
+        }
     }
 
     /// Why the walker cannot render this view (then projected tetrahedra do).
@@ -381,7 +422,7 @@ impl WalkView {
         self.max_steps
     }
 
-    /// Boundary faces facing the eye.
+    /// Entry faces facing the eye.
     pub fn front_faces(&self) -> usize {
         self.front_faces
     }
@@ -391,7 +432,7 @@ impl WalkView {
         self.verts.len() * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
     }
 
-    fn bin_front_faces(&mut self, mesh: &WalkMesh) {
+    fn bin_front_faces(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
         let tets = &mesh.tets;
         let (w, h) = (self.frame.width, self.frame.height);
         let tile = self.tile;
@@ -401,8 +442,7 @@ impl WalkView {
         // projection's exact orientation is the front one: the walk lives
         // in the projected arrangement, so this is the test it agrees with
         // (a face exactly edge-on covers no centre under the perturbation).
-        let rects: Vec<Option<[u32; 4]>> = mesh
-            .boundary
+        let rects: Vec<Option<[u32; 4]>> = entry_faces
             .par_iter()
             .map(|&packed| {
                 let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
@@ -436,7 +476,7 @@ impl WalkView {
         self.bin_start[count.len()] = start;
         let mut fill: Vec<u32> = self.bin_start[..count.len()].to_vec();
         self.bin_faces = vec![0; start as usize];
-        for (r, &packed) in rects.iter().zip(&mesh.boundary) {
+        for (r, &packed) in rects.iter().zip(entry_faces) {
             let Some(r) = r else { continue };
             for j in r[1]..=r[3] {
                 for i in r[0]..=r[2] {
@@ -479,13 +519,13 @@ fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
 /// Counters of one walked frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct WalkStats {
-    /// Boundary faces facing the eye (the entries' candidates).
+    /// Entry faces facing the eye (the entries' candidates).
     pub front_faces: usize,
     /// Pixels whose ray meets the mesh.
     pub rays: u64,
     /// Runs walked (a ray re-entering a non-convex mesh walks several).
     pub runs: u64,
-    /// Tets crossed, culled ones included.
+    /// Tets crossed (visible ones only: culled tets are never entered).
     pub crossings: u64,
     /// Segments shaded and composited (non-culled, of positive length,
     /// before the pixel was opaque): what projected tetrahedra call fragments.
@@ -521,7 +561,9 @@ impl WalkStats {
 
 /// Renders one view by walking every pixel's ray. `visible` (per tet in
 /// walk order, [`WalkMesh::to_walk_order`] of a [`crate::CullMask`]) marks
-/// the tets worth a lookup; culled tets are crossed without one. `progress(done, total)` is called as tiles finish.
+/// the tets rays may cross; `view` must have been binned with the matching
+/// [`WalkMesh::entry_faces`], through which rays enter the visible tets.
+/// `progress(done, total)` is called as tiles finish.
 pub fn walk_frame(
     mesh: &WalkMesh,
     view: &WalkView,
@@ -790,35 +832,32 @@ impl WalkCtx<'_> {
                 };
                 crossings += 1;
                 let link = links[t][f_out & 3];
-                let next_ok = link < LINK_BROKEN;
-                // A culled tet needs no segment: its exit point is computed
-                // only when a visible tet follows (as that tet's entry).
-                let culled = self.visible.is_some_and(|vis| !vis[t]);
-                if !culled || (next_ok && self.visible.is_some_and(|vis| vis[(link / 4) as usize])) {
-                    // The exit face as (v, x, y), a rotation of its outward
-                    // order: the edge values opposite v, x and y.
-                    let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
-                    let l = [directed_value(verts, tx, ty, fx, fy), -val[y], val[x]];
-                    let p_out = face_point(verts, [v, tx, ty], l, back_orient, parallel);
-                    let len = (p_out.depth - p_in.depth) * len_per_depth;
-                    if !culled && len > 0.0 {
-                        self.push(batch, &p_in, &p_out, len);
-                        if batch.segs.len >= cap {
-                            cap = (cap * 2).min(BATCH);
-                            if self.flush(batch, &mut acc, fx, fy, st) {
-                                st.terminated += 1;
-                                break 'runs;
-                            }
+                // The exit face as (v, x, y), a rotation of its outward
+                // order: the edge values opposite v, x and y.
+                let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
+                let l = [directed_value(verts, tx, ty, fx, fy), -val[y], val[x]];
+                let p_out = face_point(verts, [v, tx, ty], l, back_orient, parallel);
+                let len = (p_out.depth - p_in.depth) * len_per_depth;
+                if len > 0.0 {
+                    self.push(batch, &p_in, &p_out, len);
+                    if batch.segs.len >= cap {
+                        cap = (cap * 2).min(BATCH);
+                        if self.flush(batch, &mut acc, fx, fy, st) {
+                            st.terminated += 1;
+                            break 'runs;
                         }
                     }
-                    p_in = p_out;
                 }
-                if !next_ok {
+                // Out of the mesh, or into a culled tet: the run ends (the
+                // ray's next entry, if any, is where it meets visible tets
+                // again).
+                if link >= LINK_BROKEN || self.visible.is_some_and(|vis| !vis[(link / 4) as usize]) {
                     if link == LINK_BROKEN {
                         st.non_manifold += 1;
                     }
                     break;
                 }
+                p_in = p_out;
                 t = (link / 4) as usize;
                 f_in = (link % 4) as usize;
             }

@@ -48,6 +48,8 @@ fuzz_target!(|data: &[u8]| {
         }
     };
     let mut r = Renderer::new(scene);
+    // This target is projected tetrahedra's (the walker has its own, walk.rs).
+    r.set_renderer(tet_render::CpuRenderer::Pt);
     if r.set_view(&view).is_err() {
         return;
     }

@@ -167,6 +167,12 @@ impl Engine {
     pub fn has_gpu(&self) -> bool {
         self.gpu.is_some()
     }
+
+    /// The CPU algorithm (the ray walker by default; projected tetrahedra
+    /// draw as the GPU does).
+    pub fn set_cpu_renderer(&mut self, kind: tet_render::CpuRenderer) {
+        self.cpu.set_renderer(kind);
+    }
     /// Whether the GPU is a software adapter (lavapipe): on such a machine
     /// tet_render's CPU renderer is much faster, so the window starts on it.
     pub fn gpu_is_software(&self) -> bool {
@@ -226,7 +232,9 @@ impl Engine {
     fn ensure_cpu_gradients(&mut self) -> Result<(), ViewerError> {
         if self.cpu.scene().gradients().is_none() {
             let scene = self.cpu.scene().clone().ensure_gradients()?;
+            let kind = self.cpu.renderer();
             self.cpu = Renderer::new(scene);
+            self.cpu.set_renderer(kind);
             self.cpu_key = None;
         }
         Ok(())
@@ -515,6 +523,8 @@ mod tests {
             return;
         }
         let mut cpu = Engine::new(&bundle, false).unwrap();
+        // The GPU draws projected tetrahedra; so does its reference.
+        cpu.set_cpu_renderer(tet_render::CpuRenderer::Pt);
         let s = gpu.scene().scalar_range();
         let mut model = TfModel::ramp(s, 0.5);
         let mut methods: Vec<Method> = tet_gpu::GPU_METHODS.into_iter().filter(|m| !m.is_bivariate()).collect();

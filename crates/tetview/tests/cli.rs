@@ -80,7 +80,10 @@ fn renders_png_npy_and_view_with_json_stats() {
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert_eq!(stats["tets_drawn"], 5);
-        assert_eq!(stats["sort_method"], "mpvo");
+        // The ray walker by default: no visibility sort.
+        assert_eq!(stats["renderer"], "walk");
+        assert_eq!(stats["sort_method"], "none");
+        assert_eq!(stats["walk_step_limit"], 0);
         assert_eq!(stats["method"], method);
         let img = tet_render::Image::read_npy(&npy).unwrap();
         assert_eq!((img.width(), img.height()), (40, 30));
@@ -302,7 +305,9 @@ fn gpu_render_matches_the_cpu_or_skips() {
         assert!(stats[k].as_f64().is_some_and(|s| s >= 0.0), "{k}: {stats}");
     }
     assert!(std::fs::metadata(&png).unwrap().len() > 100);
-    let out = render(&["--method", "pt-linear"], &cpu);
+    // The GPU draws projected tetrahedra: the CPU PT path is its reference
+    // (the walker shades pt-linear per segment, a different image).
+    let out = render(&["--method", "pt-linear", "--renderer", "pt"], &cpu);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d = diff(&gpu, &cpu);
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
@@ -320,7 +325,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(stats["tables_baked"], 1, "{stats}");
-    let out = render(&["--method", "exact"], &cpu);
+    let out = render(&["--method", "exact", "--renderer", "pt"], &cpu);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d = diff(&gpu, &cpu);
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
@@ -329,7 +334,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
     // The same table as the CPU renderer's (tf-nodes axis): the golden-scene
     // tolerance against CPU table3d, baked on the CPU or (--gpu-bake) on the GPU.
     let cpu_t3 = dir.path().join("cpu_t3.npy");
-    let out = render(&["--method", "table3d"], &cpu_t3);
+    let out = render(&["--method", "table3d", "--renderer", "pt"], &cpu_t3);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d = diff(&gpu, &cpu_t3);
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
@@ -402,16 +407,21 @@ fn bench_prints_a_table_writes_plot_and_json_and_caches_the_reference() {
     let out = tetview(&args);
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "{stderr}");
-    assert!(stdout.contains("| method | bake ms |") && stdout.contains("| table3d |"), "{stdout}");
+    assert!(stdout.contains("| method | renderer | bake ms |"), "{stdout}");
+    assert!(stdout.contains("| table3d | walk |") && stdout.contains("| table3d | pt |"), "{stdout}");
     assert_eq!(stderr.matches("reference cube view").count(), 2, "{stderr}");
     assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let rows = v["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), 3);
-    // The exact method matches the exact reference to f32 rounding.
-    assert_eq!(rows[0]["method"], "exact");
-    assert!(rows[0]["max_abs"].as_f64().unwrap() < 1e-4, "{}", rows[0]);
-    assert_eq!(rows[0]["views"].as_array().unwrap().len(), 2);
+    // Three methods, each by both renderers.
+    assert_eq!(rows.len(), 6);
+    // The exact method matches the exact reference to f32 rounding, by either renderer.
+    for row in &rows[..2] {
+        assert_eq!(row["method"], "exact");
+        assert!(row["max_abs"].as_f64().unwrap() < 1e-4, "{row}");
+        assert_eq!(row["views"].as_array().unwrap().len(), 2);
+    }
+    assert_eq!((rows[0]["renderer"].as_str(), rows[1]["renderer"].as_str()), (Some("walk"), Some("pt")));
     // A second run reads both references from the cache next to -o.
     let out = tetview(&args);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -419,4 +429,53 @@ fn bench_prints_a_table_writes_plot_and_json_and_caches_the_reference() {
     // Bad arguments are usage errors.
     let out = tetview(&["bench", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--methods", "nope"]);
     assert_eq!(out.status.code(), Some(2));
+}
+
+/// `--renderer pt` draws by projected tetrahedra (a visibility order), the
+/// walker (default) gives the same image for a per-fragment method, and an
+/// unknown renderer is a usage error.
+#[test]
+fn renderer_flag_chooses_walk_or_pt() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let run = |extra: &[&str], npy: &Path| {
+        let mut a = vec![
+            "render",
+            b.to_str().unwrap(),
+            "--tf",
+            t.to_str().unwrap(),
+            "--method",
+            "exact",
+            "--size",
+            "32x24",
+            "--azimuth",
+            "20",
+            "--elevation",
+            "15",
+            "-o",
+            "/dev/null",
+            "--float",
+            npy.to_str().unwrap(),
+            "--json",
+        ];
+        a.extend_from_slice(extra);
+        tetview(&a)
+    };
+    let (walk, pt) = (dir.path().join("walk.npy"), dir.path().join("pt.npy"));
+    let out = run(&[], &walk);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["renderer"], "walk");
+    assert!(stats["crossings"].as_u64().is_some_and(|c| c > 0), "{stats}");
+    let out = run(&["--renderer", "pt"], &pt);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(stats["renderer"], "pt");
+    assert_eq!(stats["sort_method"], "mpvo");
+    let d = tet_render::diff(&tet_render::Image::read_npy(&walk).unwrap(), &tet_render::Image::read_npy(&pt).unwrap())
+        .unwrap();
+    assert!(d.max_abs < 1e-5, "{d:?}");
+    let out = run(&["--renderer", "zsweep"], &pt);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("walk, pt"));
 }

@@ -14,9 +14,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tet_io::{read_file, ReadOptions};
 use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions};
-use tet_preint::{
-    make_shader, tf_for_domain, BakeOptions, Method, ScalarQuantiles, SegmentShader, TableDomain, TransferFunction,
-};
+use tet_preint::{make_shader, tf_for_domain, BakeOptions, Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{Camera, ReferenceOptions, ReferenceRenderer, Renderer, Scene, ViewSpec};
 
 fn root() -> PathBuf {
@@ -48,17 +46,10 @@ fn main() {
     let conv = ConvertOptions { scalar: Some("density".into()), ..Default::default() };
     let (mesh, _) = tetrahedralize(&src, &conv, &mut |_| {}).unwrap();
     let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
-    let max_ds = mesh
-        .tets
-        .iter()
-        .map(|t| {
-            let v = t.map(|i| mesh.scalar[i as usize]);
-            v.iter().copied().fold(f64::NEG_INFINITY, f64::max) - v.iter().copied().fold(f64::INFINITY, f64::min)
-        })
-        .fold(0.0, f64::max);
+    // The bundle's domain, as tetview render computes it.
     let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
-    let mut domain = TableDomain::new(stats.scalar_min, stats.scalar_max, max_ds, stats.max_cell_diameter).unwrap();
-    domain.s_quantiles = ScalarQuantiles::of(&mesh.scalar);
+    let bundle = tet_bundle::Bundle::with_stats(mesh.clone(), adj.clone(), Default::default(), stats);
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
     let (lo, hi) =
         mesh.points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| {
             (a.min(DVec3::from(*p)), b.max(DVec3::from(*p)))

@@ -362,6 +362,20 @@ fn edge_on_lattice_differs_from_pt_only_on_exact_ties() {
     assert!(differing > 0, "the finding no longer reproduces: make the fuzz target compare with PT again");
 }
 
+/// A walker on a jittered 6³ wave grid with the exact shader of a TF that
+/// is invisible below 0.55 (returned, for its culler).
+fn wave_renderer(jitter: f64) -> (Renderer, TransferFunction) {
+    let wave = |p: [f64; 3]| 0.5 + 0.5 * ((6.0 * p[0]).sin() * (5.0 * p[1]).cos() * (4.0 * p[2] + 1.0).sin());
+    let (p, t, s) = grid_mesh(6, jitter, [0.0; 3], 5, wave);
+    let sparse = tf(
+        r#"{"color": [[0, 0.2, 0.4, 1], [1, 1, 0, 0]], "opacity": [[0, 0], [0.55, 0], [0.8, 4], [1, 1]], "unit_distance": 0.5}"#,
+    );
+    let mut r = Renderer::new(Scene::new(&p, t, s).unwrap());
+    r.set_view(&ViewSpec::framing([0.0; 3], [1.0; 3], [96, 80]).orbit(25.0, 30.0, 1.3)).unwrap();
+    r.set_shader(Arc::new(ExactShader::new(sparse.clone())));
+    (r, sparse)
+}
+
 /// A grid whose points are jittered by up to 0.3 cells folds: some
 /// adjacent tets overlap (both positive, on the same side of their shared
 /// face). A ray through a fold finds no exit (the signs are consistent,
@@ -370,18 +384,11 @@ fn edge_on_lattice_differs_from_pt_only_on_exact_ties() {
 /// away the walker never meets it (culled tets are never entered).
 #[test]
 fn folded_mesh_missing_exits_are_counted_not_hung() {
-    let wave = |p: [f64; 3]| 0.5 + 0.5 * ((6.0 * p[0]).sin() * (5.0 * p[1]).cos() * (4.0 * p[2] + 1.0).sin());
-    let (p, t, s) = grid_mesh(6, 0.3, [0.0; 3], 5, wave);
-    let scene = Scene::new(&p, t, s).unwrap();
-    let sparse = r#"{"color": [[0, 0.2, 0.4, 1], [1, 1, 0, 0]], "opacity": [[0, 0], [0.55, 0], [0.8, 4], [1, 1]], "unit_distance": 0.5}"#;
-    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [96, 80]).orbit(25.0, 30.0, 1.3);
-    let mut r = Renderer::new(scene);
-    r.set_view(&view).unwrap();
-    r.set_shader(Arc::new(ExactShader::new(tf(sparse))));
+    let (mut r, sparse) = wave_renderer(0.3);
     let (full, a) = r.render(&|_, _| {}).unwrap();
     assert!(a.walk_step_limit > 0, "the fold is no longer met: {a:?}");
     assert!(full.pixels().iter().all(|p| p.iter().all(|c| c.is_finite()) && (0.0..=1.0).contains(&p[3])));
-    r.set_culler(Some(Arc::new(TfCuller::new(&tf(sparse)))));
+    r.set_culler(Some(Arc::new(TfCuller::new(&sparse))));
     let (_, b) = r.render(&|_, _| {}).unwrap();
     assert_eq!(b.walk_step_limit + b.walk_non_manifold, 0, "{b:?}");
     assert!(b.crossings < a.crossings && b.walk_runs > a.walk_runs, "culled tets entered: {a:?} {b:?}");
@@ -393,16 +400,9 @@ fn folded_mesh_missing_exits_are_counted_not_hung() {
 /// culled tet), and culled tets are zero-opacity.
 #[test]
 fn culling_changes_the_walkers_image_only_by_rounding() {
-    let wave = |p: [f64; 3]| 0.5 + 0.5 * ((6.0 * p[0]).sin() * (5.0 * p[1]).cos() * (4.0 * p[2] + 1.0).sin());
-    let (p, t, s) = grid_mesh(6, 0.15, [0.0; 3], 5, wave);
-    let scene = Scene::new(&p, t, s).unwrap();
-    let sparse = r#"{"color": [[0, 0.2, 0.4, 1], [1, 1, 0, 0]], "opacity": [[0, 0], [0.55, 0], [0.8, 4], [1, 1]], "unit_distance": 0.5}"#;
-    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [96, 80]).orbit(25.0, 30.0, 1.3);
-    let mut r = Renderer::new(scene);
-    r.set_view(&view).unwrap();
-    r.set_shader(Arc::new(ExactShader::new(tf(sparse))));
+    let (mut r, sparse) = wave_renderer(0.15);
     let (full, a) = r.render(&|_, _| {}).unwrap();
-    r.set_culler(Some(Arc::new(TfCuller::new(&tf(sparse)))));
+    r.set_culler(Some(Arc::new(TfCuller::new(&sparse))));
     let (culled, b) = r.render(&|_, _| {}).unwrap();
     assert_eq!(a.walk_step_limit + a.walk_non_manifold + b.walk_step_limit + b.walk_non_manifold, 0);
     assert!(b.tets_culled > 0 && b.crossings < a.crossings && b.walk_runs > a.walk_runs, "{a:?} {b:?}");

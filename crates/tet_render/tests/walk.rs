@@ -248,24 +248,91 @@ fn bivariate_methods_match_pt() {
     }
 }
 
-/// A camera inside the mesh: the walker cannot start rays there yet, so
-/// projected tetrahedra (which clip at the near plane) draw the view and
-/// the stats say why.
+fn inside_view(eye: [f64; 3], look_at: [f64; 3], size: [u32; 2]) -> ViewSpec {
+    let mut view = ViewSpec::framing([0.0; 3], [1.0; 3], size);
+    view.position = eye;
+    view.focal_point = look_at;
+    view
+}
+
+/// A camera inside the mesh: rays start in the eye's tet (homogeneous
+/// walk, segments clipped at the near plane as PT and the reference clip
+/// them) — the walker draws it, without holes, as accurately as PT, and
+/// the image does not depend on the thread count.
 #[test]
-fn camera_inside_the_mesh_is_drawn_by_pt_and_reported() {
-    let (points, tets, scalar) = grid_mesh(4, 0.1, [0.0; 3], 9, |p| p[0]);
+fn camera_inside_the_mesh_is_walked_from_the_eyes_tet() {
+    let (points, tets, scalar) = grid_mesh(4, 0.1, [0.0; 3], 9, |p| p[0] + 0.5 * p[1] * p[2]);
+    let scene = Scene::new(&points, tets.clone(), scalar.clone()).unwrap();
+    let tf = tf(r#"{"color": [[0, 1, 1, 1], [1, 1, 0.2, 0]], "opacity": [[0, 1], [1.5, 2]], "unit_distance": 1}"#);
+    let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf.clone()));
+    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: Vec::new() };
+    let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let all = RasterOptions { opaque_alpha: 2.0, ..Default::default() };
+    // Looking along an axis, obliquely, and back across the whole block.
+    for (eye, at) in [
+        ([0.5, 0.45, 0.4], [0.5, 0.5, 1.0]),
+        ([0.31, 0.62, 0.53], [1.0, 0.1, 0.9]),
+        ([0.9, 0.85, 0.2], [-1.0, -1.0, 1.0]),
+    ] {
+        let view = inside_view(eye, at, [28, 24]);
+        let (walk, st) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), all);
+        assert_eq!(st.renderer, "walk", "{st:?}");
+        assert!(st.walk_fallback.is_none() && st.walk_near_clipped && st.walk_eye_inside, "{st:?}");
+        assert_eq!(st.walk_non_manifold + st.walk_step_limit, 0, "{st:?}");
+        assert!(walk.pixels().iter().all(|p| p[3] > 0.0), "holes with the eye inside");
+        let (pt, ps) = render(&scene, CpuRenderer::Pt, &view, shader.clone(), all);
+        assert_eq!(ps.renderer, "pt");
+        let d = diff(&walk, &pt).unwrap();
+        assert!(d.rmse < 1e-5 && d.max_abs < 1e-3, "eye {eye:?}: walk vs PT {d:?}");
+        let cam = Camera::new(&view).unwrap();
+        let opts = ReferenceOptions::default();
+        let (reference, _) = render_reference(&mesh, &adj, &cam, &tf, &opts, &|_, _| {}).unwrap();
+        let (ew, ep) = (diff(&walk, &reference).unwrap(), diff(&pt, &reference).unwrap());
+        assert!(ew.rmse <= ep.rmse * 1.05 + 1e-6, "eye {eye:?}: walk {ew:?} vs PT {ep:?}");
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let (walk1, _) = one.install(|| render(&scene, CpuRenderer::Walk, &view, shader.clone(), all));
+        assert_eq!(walk1.pixels(), walk.pixels());
+    }
+}
+
+/// The near plane cuts the mesh with the eye outside it (beside a face, the
+/// mesh reaching behind the camera), or the eye inside a tet the transfer
+/// function culls: entries are the faces met in front of the eye only.
+#[test]
+fn near_plane_cutting_the_mesh_with_the_eye_outside_or_culled() {
+    let (points, tets, scalar) = grid_mesh(4, 0.1, [0.0; 3], 5, |p| p[2]);
     let scene = Scene::new(&points, tets, scalar).unwrap();
-    let shader: Arc<dyn SegmentShader> =
-        Arc::new(ExactShader::new(tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1], [1, 2]], "unit_distance": 1}"#)));
-    let mut view = ViewSpec::framing([0.0; 3], [1.0; 3], [24, 24]);
-    view.position = [0.5, 0.45, 0.4];
-    view.focal_point = [0.5, 0.5, 1.0];
-    let (img, st) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default());
-    assert_eq!(st.renderer, "pt");
-    assert!(st.walk_fallback.as_deref().is_some_and(|w| w.contains("near plane")), "{st:?}");
-    let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader, RasterOptions::default());
-    assert_eq!(img.pixels(), pt.pixels());
-    assert!(img.pixels().iter().all(|p| p[3] > 0.0), "holes with the eye inside");
+    let all = RasterOptions { opaque_alpha: 2.0, ..Default::default() };
+    // Beside the block, looking along its face: half the image sees it.
+    let beside = inside_view([1.02, 0.5, 0.5], [1.02, 0.5, 2.0], [24, 20]);
+    // Looking out of a block from inside its empty (culled) top layer.
+    let culled_eye = inside_view([0.5, 0.5, 0.95], [0.5, 0.5, 0.0], [24, 20]);
+    // Transparent above z = 0.7: the top layer of cells (z ≥ 0.725 with
+    // the jitter) is culled when culling is on.
+    let ramp = tf(
+        r#"{"color": [[0, 0, 1, 0], [1, 1, 0, 1]], "opacity": [[0, 2], [0.7, 1], [0.7001, 0], [1, 0]], "unit_distance": 1}"#,
+    );
+    let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(ramp.clone()));
+    for (name, view) in [("beside", beside), ("culled eye", culled_eye)] {
+        for cull in [false, true] {
+            let mut r = Renderer::new(scene.clone());
+            r.set_view(&view).unwrap();
+            r.set_shader(shader.clone());
+            r.set_raster_options(all);
+            if cull {
+                r.set_culler(Some(Arc::new(TfCuller::new(&ramp))));
+            }
+            let (walk, st) = r.render(&|_, _| {}).unwrap();
+            assert_eq!(st.renderer, "walk", "{name}: {st:?}");
+            assert!(st.walk_near_clipped && st.walk_fallback.is_none(), "{name}: {st:?}");
+            assert_eq!(st.walk_eye_inside, name == "culled eye" && !cull, "{name} (cull {cull}): {st:?}");
+            assert_eq!(st.walk_non_manifold + st.walk_step_limit, 0, "{name}: {st:?}");
+            let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader.clone(), all);
+            let d = diff(&walk, &pt).unwrap();
+            assert!(d.rmse < 1e-5 && d.max_abs < 1e-3, "{name} (cull {cull}): walk vs PT {d:?}");
+            assert!(count_rays(&walk) > 0, "{name}: nothing drawn");
+        }
+    }
 }
 
 /// A bundle whose adjacency lists a neighbour that does not point back (a

@@ -35,20 +35,24 @@
 //! a hang. Each pixel depends only on its own ray, so the image does not
 //! depend on the thread count.
 //!
-//! Not yet handled: a camera whose near plane cuts the mesh (the eye inside
-//! or beside it): [`WalkView::unsupported`] says why, and
-//! [`crate::Renderer`] then draws that view by projected tetrahedra, which
-//! clip at the near plane.
+//! A perspective view whose near plane cuts the mesh (the eye inside it or
+//! beside it) is walked in homogeneous pixel coordinates ([`hom`]): the same
+//! walk, entries met in front of the eye only, rays starting in the eye's
+//! own tet, segments clipped at the near depth. What the walker cannot draw
+//! ([`WalkView::unsupported`]: more tets than its links address, the eye on
+//! a face's plane) [`crate::Renderer`] draws by projected tetrahedra.
 
 pub mod edge;
+pub mod hom;
 
 use crate::camera::Camera;
 use crate::image::Image;
 use crate::project::Frame;
 use crate::raster::RasterOptions;
 use crate::scene::Scene;
-use edge::{directed_value, side, sides_from, EdgeCounters, PixelPositions, WalkVertex};
+use edge::{EdgeCounters, PixelPositions, WalkVertex};
 use glam::DVec3;
+use hom::HomVertex;
 use rayon::prelude::*;
 use robust::{orient2d, Coord};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -297,6 +301,12 @@ impl WalkMesh {
 pub struct WalkView {
     frame: Frame,
     verts: Vec<WalkVertex>,
+    /// The near plane cuts the mesh: the view is walked in homogeneous
+    /// coordinates (`hom`; `verts` is empty).
+    near_clipped: bool,
+    hom: Vec<HomVertex>,
+    /// Near-clipped views: the tet holding the eye (walk order).
+    eye_tet: Option<u32>,
     /// Bounds |x| and |y| of every pixel centre.
     p_max: f32,
     /// Bounds |x| and |y| of every projected vertex and pixel centre.
@@ -332,7 +342,7 @@ impl WalkView {
         tile: u32,
         entry_faces: &[u32],
     ) -> WalkView {
-        let mut old_verts = old.map_or(Vec::new(), |v| v.verts);
+        let (mut old_verts, mut old_hom) = old.map_or((Vec::new(), Vec::new()), |v| (v.verts, v.hom));
         let frame = Frame::new(camera, scene.centre_in_world());
         let tile = tile.clamp(4, 1024);
         let (w, h) = (frame.width, frame.height);
@@ -342,6 +352,9 @@ impl WalkView {
         let mut view = WalkView {
             frame,
             verts: Vec::new(),
+            near_clipped: false,
+            hom: Vec::new(),
+            eye_tet: None,
             p_max,
             k_view: p_max,
             tile,
@@ -359,23 +372,53 @@ impl WalkView {
             return view;
         }
         // One pass over the vertices in walk order: pixel position, w and
-        // the scalar. A vertex nearer than the near plane (perspective) or
-        // projecting to no finite pixel marks the view.
+        // the scalar. A vertex nearer than the near plane (perspective)
+        // switches the view to homogeneous coordinates; one projecting to
+        // no finite pixel marks it.
         let parallel = frame.parallel;
         let near = frame.near_depth;
-        if !parallel {
-            let behind = mesh
-                .pos_rel
+        if !parallel
+            && mesh.pos_rel.par_iter().any(|&p| frame.to_cam(p)[2].partial_cmp(&near).is_none_or(|o| o.is_lt()))
+        {
+            old_hom.resize(mesh.pos_rel.len(), HomVertex::default());
+            old_hom.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
+                |((out, &p), &scalar)| {
+                    let c = frame.to_cam(p);
+                    // x_px = (x_cam / depth − bx) / ax, times the depth.
+                    *out = HomVertex {
+                        x_hom: ((c[0] - frame.bx * c[2]) / frame.ax) as f32,
+                        y_hom: ((c[1] - frame.by * c[2]) / frame.ay) as f32,
+                        w_depth: c[2] as f32,
+                        scalar,
+                    };
+                },
+            );
+            view.hom = old_hom;
+            view.near_clipped = true;
+            if let Some(i) = view.hom.par_iter().position_first(|v| !(v.x_hom.abs() < 1e30 && v.y_hom.abs() < 1e30)) {
+                view.unsupported =
+                    Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));
+                return view;
+            }
+            // The eye's tet: the first (walk order) whose four faces all
+            // face away from it, decided on the walk's own coordinates.
+            let located: Vec<(usize, Option<bool>)> = mesh
+                .tets
                 .par_iter()
-                .position_first(|&p| frame.to_cam(p)[2].partial_cmp(&near).is_none_or(|o| o.is_lt()));
-            if let Some(i) = behind {
-                let z = frame.to_cam(mesh.pos_rel[i])[2];
+                .enumerate()
+                .map(|(t, &tet)| (t, hom::holds_eye(&view.hom, tet)))
+                .filter(|(_, h)| *h != Some(false))
+                .collect();
+            if let Some((t, _)) = located.iter().find(|(_, h)| h.is_none()) {
                 view.unsupported = Some(format!(
-                    "vertex {} is nearer than the near plane (depth {z:.6e} < {near:.6e}): the camera is inside or beside the mesh",
-                    mesh.scene_vertex[i]
+                    "the eye lies on the plane of a face of tet {} (no tet holds it strictly)",
+                    mesh.scene_tet[*t]
                 ));
                 return view;
             }
+            view.eye_tet = located.first().map(|&(t, _)| t as u32);
+            view.bin_front_faces(mesh, entry_faces);
+            return view;
         }
         old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
         old_verts.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
@@ -400,6 +443,7 @@ impl WalkView {
 
     /// Bins a new set of entry faces (a new cull mask), keeping the projection.
     pub fn rebin(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
+        // (`unsupported` views have no binning to redo.)
         if self.unsupported.is_none() {
             self.front_faces = 0;
             self.bin_start.iter_mut().for_each(|s| *s = 0);
@@ -427,9 +471,20 @@ impl WalkView {
         self.front_faces
     }
 
+    /// Whether the near plane cuts the mesh (walked in homogeneous
+    /// coordinates, segments clipped at the near depth).
+    pub fn near_clipped(&self) -> bool {
+        self.near_clipped
+    }
+
+    /// Near-clipped views: the tet holding the eye, as the scene numbers it.
+    pub fn eye_tet(&self, mesh: &WalkMesh) -> Option<u32> {
+        self.eye_tet.map(|t| mesh.scene_tet[t as usize])
+    }
+
     /// Bytes held by this view.
     pub fn memory_bytes(&self) -> usize {
-        self.verts.len() * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
+        (self.verts.len() + self.hom.len()) * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
     }
 
     fn bin_front_faces(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
@@ -447,6 +502,14 @@ impl WalkView {
             .map(|&packed| {
                 let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
                 let fv = FACE_OUTWARD[f];
+                if self.near_clipped {
+                    let q = [0, 1, 2].map(|k| self.hom[tets[t][fv[k]] as usize]);
+                    if hom::face_orientation(&q[0], &q[1], &q[2]) != Some(true) {
+                        return None;
+                    }
+                    return hom::face_rect(q, w, h)
+                        .map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile]);
+                }
                 let p = [0, 1, 2].map(|k| pos.px(tets[t][fv[k]]));
                 let o = orient2d(
                     Coord { x: p[0][0], y: p[0][1] },
@@ -508,6 +571,12 @@ impl PixelPositions for Projector<'_> {
 fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
     let (x_lo, x_hi) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
     let (y_lo, y_hi) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
+    centre_rect(x_lo, x_hi, y_lo, y_hi, w, h)
+}
+
+/// Inclusive pixel rectangle of the centres in [x_lo, x_hi] × [y_lo, y_hi],
+/// clipped to the image; `None` when empty.
+fn centre_rect(x_lo: f64, x_hi: f64, y_lo: f64, y_hi: f64, w: u32, h: u32) -> Option<[u32; 4]> {
     // Centres at i + 0.5 inside [lo, hi].
     let x0 = (x_lo - 0.5).ceil().max(0.0);
     let y0 = (y_lo - 0.5).ceil().max(0.0);
@@ -538,6 +607,11 @@ pub struct WalkStats {
     pub step_limit: u64,
     /// Rays stopped early at `opaque_alpha`.
     pub terminated: u64,
+    /// The near plane cut the mesh: walked in homogeneous coordinates,
+    /// segments clipped at the near depth.
+    pub near_clipped: bool,
+    /// Near-clipped views: rays started in the (visible) tet holding the eye.
+    pub eye_inside: bool,
     pub walk_seconds: f64,
 }
 
@@ -575,7 +649,12 @@ pub fn walk_frame(
     let start = std::time::Instant::now();
     let (w, h) = (view.frame.width, view.frame.height);
     let mut img = Image::new(w, h);
-    let mut stats = WalkStats { front_faces: view.front_faces, ..Default::default() };
+    let mut stats = WalkStats {
+        front_faces: view.front_faces,
+        near_clipped: view.near_clipped,
+        eye_inside: view.eye_tet.is_some_and(|t| visible.is_none_or(|vis| vis[t as usize])),
+        ..Default::default()
+    };
     if view.unsupported.is_some() {
         return (img, stats);
     }
@@ -690,8 +769,143 @@ struct RayBatch {
 /// ray walks at most one batch past the point where it did.
 const FIRST_BATCH: usize = 16;
 
+/// What a view's walk asks of its geometry: the projected form (f32 pixel
+/// positions, [`edge`]) or, where the near plane cuts the mesh, the
+/// homogeneous one ([`hom`]). Both give the signs and values of the same
+/// edge functions, so one walk serves both.
+trait RayGeometry: Sync {
+    /// Segments are clipped at [`RayGeometry::near_depth`] and rays may
+    /// start in the eye's tet.
+    const NEAR_CLIP: bool;
+    fn side(&self, iu: u32, iv: u32, fx: f32, fy: f32, c: &mut EdgeCounters) -> (f32, bool);
+    fn value(&self, iu: u32, iv: u32, fx: f32, fy: f32) -> f32;
+    fn sides_from(&self, tet: [u32; 4], skip: usize, fx: f32, fy: f32, c: &mut EdgeCounters) -> ([f32; 4], u32);
+    fn face_point(&self, ids: [u32; 3], l: [f32; 3], orient: f32) -> FacePoint;
+    /// The centres a front face may cover.
+    fn face_rect(&self, ids: [u32; 3]) -> Option<[u32; 4]>;
+    fn near_depth(&self) -> f32;
+    /// The eye's tet (walk order) and its vertices, when rays start there.
+    fn eye_tet(&self) -> Option<(u32, [u32; 4])>;
+    fn hom_vertices(&self) -> &[HomVertex];
+}
+
+struct Projected<'a> {
+    verts: &'a [WalkVertex],
+    pos: Projector<'a>,
+    p_max: f32,
+    k_view: f32,
+    parallel: bool,
+    size: [u32; 2],
+}
+
+impl RayGeometry for Projected<'_> {
+    const NEAR_CLIP: bool = false;
+    #[inline(always)]
+    fn side(&self, iu: u32, iv: u32, fx: f32, fy: f32, c: &mut EdgeCounters) -> (f32, bool) {
+        edge::side(self.verts, &self.pos, iu, iv, fx, fy, self.p_max, c)
+    }
+    #[inline(always)]
+    fn value(&self, iu: u32, iv: u32, fx: f32, fy: f32) -> f32 {
+        edge::directed_value(self.verts, iu, iv, fx, fy)
+    }
+    #[inline(always)]
+    fn sides_from(&self, tet: [u32; 4], skip: usize, fx: f32, fy: f32, c: &mut EdgeCounters) -> ([f32; 4], u32) {
+        edge::sides_from(self.verts, &self.pos, tet, skip, fx, fy, self.k_view, c)
+    }
+    #[inline(always)]
+    fn face_point(&self, ids: [u32; 3], l: [f32; 3], orient: f32) -> FacePoint {
+        face_point(self.verts, ids, l, orient, self.parallel)
+    }
+    fn face_rect(&self, ids: [u32; 3]) -> Option<[u32; 4]> {
+        pixel_rect(&ids.map(|i| self.pos.px(i)), self.size[0], self.size[1])
+    }
+    fn near_depth(&self) -> f32 {
+        f32::NEG_INFINITY
+    }
+    fn eye_tet(&self) -> Option<(u32, [u32; 4])> {
+        None
+    }
+    fn hom_vertices(&self) -> &[HomVertex] {
+        &[]
+    }
+}
+
+struct Homogeneous<'a> {
+    verts: &'a [HomVertex],
+    near_depth: f32,
+    /// The eye's tet when it is visible.
+    eye: Option<(u32, [u32; 4])>,
+    size: [u32; 2],
+}
+
+impl RayGeometry for Homogeneous<'_> {
+    const NEAR_CLIP: bool = true;
+    #[inline(always)]
+    fn side(&self, iu: u32, iv: u32, fx: f32, fy: f32, c: &mut EdgeCounters) -> (f32, bool) {
+        hom::side(self.verts, iu, iv, fx, fy, c)
+    }
+    #[inline(always)]
+    fn value(&self, iu: u32, iv: u32, fx: f32, fy: f32) -> f32 {
+        hom::directed_value(self.verts, iu, iv, fx, fy)
+    }
+    #[inline(always)]
+    fn sides_from(&self, tet: [u32; 4], skip: usize, fx: f32, fy: f32, c: &mut EdgeCounters) -> ([f32; 4], u32) {
+        hom::sides_from(self.verts, tet, skip, fx, fy, c)
+    }
+    #[inline(always)]
+    fn face_point(&self, ids: [u32; 3], l: [f32; 3], orient: f32) -> FacePoint {
+        // The edge values are the barycentric weights up to one factor
+        // (`hom` module docs); depth and scalar are affine in them.
+        let q = ids.map(|i| self.verts[i as usize]);
+        let l = l.map(|v| if v * orient > 0.0 { v * orient } else { 0.0 });
+        let sum = l[0] + l[1] + l[2];
+        let lam = if sum > 0.0 { l.map(|v| v / sum) } else { [1.0 / 3.0; 3] };
+        FacePoint {
+            depth: lam[0] * q[0].w_depth + lam[1] * q[1].w_depth + lam[2] * q[2].w_depth,
+            scalar: lam[0] * q[0].scalar + lam[1] * q[1].scalar + lam[2] * q[2].scalar,
+            ids,
+            lam,
+        }
+    }
+    fn face_rect(&self, ids: [u32; 3]) -> Option<[u32; 4]> {
+        hom::face_rect(ids.map(|i| self.verts[i as usize]), self.size[0], self.size[1])
+    }
+    fn near_depth(&self) -> f32 {
+        self.near_depth
+    }
+    fn eye_tet(&self) -> Option<(u32, [u32; 4])> {
+        self.eye
+    }
+    fn hom_vertices(&self) -> &[HomVertex] {
+        self.verts
+    }
+}
+
 impl WalkCtx<'_> {
     fn tile(&self, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+        let view = self.view;
+        let size = [view.frame.width, view.frame.height];
+        if view.near_clipped {
+            let eye = view
+                .eye_tet
+                .filter(|&t| self.visible.is_none_or(|vis| vis[t as usize]))
+                .map(|t| (t, self.mesh.tets[t as usize]));
+            let g = Homogeneous { verts: &view.hom, near_depth: view.frame.near_depth as f32, eye, size };
+            self.tile_with(&g, ti)
+        } else {
+            let g = Projected {
+                verts: &view.verts,
+                pos: Projector { frame: &view.frame, pos_rel: &self.mesh.pos_rel },
+                p_max: view.p_max,
+                k_view: view.k_view,
+                parallel: view.frame.parallel,
+                size,
+            };
+            self.tile_with(&g, ti)
+        }
+    }
+
+    fn tile_with<G: RayGeometry>(&self, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
         let view = self.view;
         let (w, h) = (view.frame.width, view.frame.height);
         let tile = view.tile;
@@ -701,7 +915,7 @@ impl WalkCtx<'_> {
         let mut acc = vec![[0.0f32; 4]; stride * (rect[3] - rect[1] + 1) as usize];
         let mut st = WalkStats::default();
         let mut counters = EdgeCounters::default();
-        let entries = self.entries(ti, rect, stride, &mut counters);
+        let entries = self.entries(g, ti, rect, stride, &mut counters, &mut st);
         let mut batch =
             Box::new(RayBatch { segs: SegmentBatch::default(), grad_mid: [[0.0; 3]; BATCH], rgba: [[0.0; 4]; BATCH] });
         let mut k = 0;
@@ -712,7 +926,7 @@ impl WalkCtx<'_> {
                 end += 1;
             }
             let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
-            acc[pix as usize] = self.ray(px, py, &entries[k..end], &mut batch, &mut st, &mut counters);
+            acc[pix as usize] = self.ray(g, px, py, &entries[k..end], &mut batch, &mut st, &mut counters);
             k = end;
         }
         st.exact_tests = counters.exact;
@@ -720,11 +934,21 @@ impl WalkCtx<'_> {
     }
 
     /// The tile's entries: (pixel index in the tile, depth, tet·4 + face),
-    /// sorted by pixel, then depth.
-    fn entries(&self, ti: usize, rect: [u32; 4], stride: usize, counters: &mut EdgeCounters) -> Vec<(u32, f32, u32)> {
+    /// sorted by pixel, then depth. Near-clipped views with the eye in a
+    /// visible tet add, for every pixel, the face of that tet its ray meets
+    /// behind the eye (a missing one, impossible with exact signs, is
+    /// counted with the step bound).
+    fn entries<G: RayGeometry>(
+        &self,
+        g: &G,
+        ti: usize,
+        rect: [u32; 4],
+        stride: usize,
+        counters: &mut EdgeCounters,
+        st: &mut WalkStats,
+    ) -> Vec<(u32, f32, u32)> {
         let view = self.view;
         let tets = &self.mesh.tets;
-        let (verts, pos) = (&view.verts[..], &Projector { frame: &view.frame, pos_rel: &self.mesh.pos_rel });
         let faces = &view.bin_faces[view.bin_start[ti] as usize..view.bin_start[ti + 1] as usize];
         let orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
         let mut out = Vec::new();
@@ -732,7 +956,7 @@ impl WalkCtx<'_> {
             let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
             let fv = FACE_OUTWARD[f];
             let ids = [tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]];
-            let Some(r) = pixel_rect(&ids.map(|i| pos.px(i)), view.frame.width, view.frame.height) else {
+            let Some(r) = g.face_rect(ids) else {
                 continue;
             };
             let (x0, y0, x1, y1) = (r[0].max(rect[0]), r[1].max(rect[1]), r[2].min(rect[2]), r[3].min(rect[3]));
@@ -743,21 +967,37 @@ impl WalkCtx<'_> {
                 let fy = py as f32 + 0.5;
                 for px in x0..=x1 {
                     let fx = px as f32 + 0.5;
-                    let e0 = side(verts, pos, ids[1], ids[2], fx, fy, view.p_max, counters);
+                    let e0 = g.side(ids[1], ids[2], fx, fy, counters);
                     if e0.1 != FRONT_IS_LEFT {
                         continue;
                     }
-                    let e1 = side(verts, pos, ids[2], ids[0], fx, fy, view.p_max, counters);
+                    let e1 = g.side(ids[2], ids[0], fx, fy, counters);
                     if e1.1 != FRONT_IS_LEFT {
                         continue;
                     }
-                    let e2 = side(verts, pos, ids[0], ids[1], fx, fy, view.p_max, counters);
+                    let e2 = g.side(ids[0], ids[1], fx, fy, counters);
                     if e2.1 != FRONT_IS_LEFT {
                         continue;
                     }
-                    let fp = face_point(verts, ids, [e0.0, e1.0, e2.0], orient, view.frame.parallel);
+                    let fp = g.face_point(ids, [e0.0, e1.0, e2.0], orient);
                     let pix = (py - rect[1]) as usize * stride + (px - rect[0]) as usize;
                     out.push((pix as u32, fp.depth, packed));
+                }
+            }
+        }
+        if let Some((t0, tet)) = g.eye_tet() {
+            for py in rect[1]..=rect[3] {
+                for px in rect[0]..=rect[2] {
+                    let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
+                    let pix = (py - rect[1]) as usize * stride + (px - rect[0]) as usize;
+                    match hom::face_behind_eye(g.hom_vertices(), tet, fx, fy, counters) {
+                        Some((f, l)) => {
+                            let fv = FACE_OUTWARD[f];
+                            let fp = g.face_point([tet[fv[0]], tet[fv[1]], tet[fv[2]]], l, orient);
+                            out.push((pix as u32, fp.depth, t0 * 4 + f as u32));
+                        }
+                        None => st.step_limit += 1,
+                    }
                 }
             }
         }
@@ -767,8 +1007,10 @@ impl WalkCtx<'_> {
 
     /// Walks the ray through pixel (px, py) from each of its entries in
     /// depth order; returns the composited premultiplied RGBA.
-    fn ray(
+    #[allow(clippy::too_many_arguments)]
+    fn ray<G: RayGeometry>(
         &self,
+        g: &G,
         px: u32,
         py: u32,
         entries: &[(u32, f32, u32)],
@@ -780,10 +1022,9 @@ impl WalkCtx<'_> {
         let frame = &view.frame;
         let tets = &self.mesh.tets[..];
         let links = &self.mesh.links[..];
-        let (verts, pos) = (&view.verts[..], &Projector { frame: &view.frame, pos_rel: &self.mesh.pos_rel });
-        let parallel = frame.parallel;
         let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
         let len_per_depth = frame.len_per_depth(fx as f64, fy as f64) as f32;
+        let near = g.near_depth();
         let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
         let back_orient = -front_orient;
         let mut acc = [0.0f32; 4];
@@ -798,12 +1039,9 @@ impl WalkCtx<'_> {
             let mut p_in = {
                 let fv = FACE_OUTWARD[f_in];
                 let ids = [tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]];
-                let l = [
-                    directed_value(verts, ids[1], ids[2], fx, fy),
-                    directed_value(verts, ids[2], ids[0], fx, fy),
-                    directed_value(verts, ids[0], ids[1], fx, fy),
-                ];
-                face_point(verts, ids, l, front_orient, parallel)
+                let l =
+                    [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
+                g.face_point(ids, l, front_orient)
             };
             let mut steps = 0u32;
             loop {
@@ -813,7 +1051,7 @@ impl WalkCtx<'_> {
                     break;
                 }
                 let tet = tets[t];
-                let (val, bits) = sides_from(verts, pos, tet, f_in, fx, fy, view.k_view, counters);
+                let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
                 // Branches, not a table lookup: a predicted exit lets the
                 // next tet's loads start before the edge tests finish (the
                 // walk is a chain of dependent loads).
@@ -835,17 +1073,28 @@ impl WalkCtx<'_> {
                 // The exit face as (v, x, y), a rotation of its outward
                 // order: the edge values opposite v, x and y.
                 let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
-                let l = [directed_value(verts, tx, ty, fx, fy), -val[y], val[x]];
-                let p_out = face_point(verts, [v, tx, ty], l, back_orient, parallel);
+                let l = [g.value(tx, ty, fx, fy), -val[y], val[x]];
+                let p_out = g.face_point([v, tx, ty], l, back_orient);
                 let len = (p_out.depth - p_in.depth) * len_per_depth;
-                if len > 0.0 {
+                let pushed = if G::NEAR_CLIP && p_in.depth < near {
+                    // Before the near plane: dropped, or cut there.
+                    let keep = p_out.depth > near;
+                    if keep {
+                        let t_front = (near - p_in.depth) / (p_out.depth - p_in.depth);
+                        self.push_clipped(batch, &p_in, &p_out, (p_out.depth - near) * len_per_depth, t_front);
+                    }
+                    keep
+                } else if len > 0.0 {
                     self.push(batch, &p_in, &p_out, len);
-                    if batch.segs.len >= cap {
-                        cap = (cap * 2).min(BATCH);
-                        if self.flush(batch, &mut acc, fx, fy, st) {
-                            st.terminated += 1;
-                            break 'runs;
-                        }
+                    true
+                } else {
+                    false
+                };
+                if pushed && batch.segs.len >= cap {
+                    cap = (cap * 2).min(BATCH);
+                    if self.flush(batch, &mut acc, fx, fy, st) {
+                        st.terminated += 1;
+                        break 'runs;
                     }
                 }
                 // Out of the mesh, or into a culled tet: the run ends (the
@@ -867,6 +1116,33 @@ impl WalkCtx<'_> {
             st.terminated += 1;
         }
         acc
+    }
+
+    /// [`Self::push`] for a segment cut by the near plane: its front values
+    /// are those at `t_front` of the way from `a` to `b` (every field is
+    /// linear along the ray inside the tet).
+    fn push_clipped(&self, batch: &mut RayBatch, a: &FacePoint, b: &FacePoint, len: f32, t_front: f32) {
+        let k = batch.segs.len;
+        self.push(batch, a, b, len);
+        let mix = |fa: f32, fb: f32| fa + t_front * (fb - fa);
+        batch.segs.s_front[k] = mix(a.scalar, b.scalar);
+        if self.want_grad_mag {
+            batch.segs.grad_front[k] = mix(batch.segs.grad_front[k], batch.segs.grad_back[k]);
+        }
+        if self.lit {
+            // push() left the mean of the two ends; the cut segment's
+            // midpoint is t_front/2 further towards b.
+            let g = self.mesh.grads.as_deref().expect("checked in lit");
+            let at = |p: &FacePoint, c: usize| {
+                p.lam[0] * g[p.ids[0] as usize][c]
+                    + p.lam[1] * g[p.ids[1] as usize][c]
+                    + p.lam[2] * g[p.ids[2] as usize][c]
+            };
+            batch.grad_mid[k] = std::array::from_fn(|c| {
+                let (ga, gb) = (at(a, c), at(b, c));
+                0.5 * (mix(ga, gb) + gb)
+            });
+        }
     }
 
     #[inline(always)]

@@ -6,7 +6,8 @@
 //! `cargo run --release -p tet_render --example frame_profile -- B.tetb L.tetl [frames] [WxH] [azimuth] [elevation]`
 //!
 //! The first frame is cold (view, cull, sort); the others reuse the order.
-//! `TET_TILE=16` sets the tile side; `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
+//! `TET_TILE=16` sets the tile side; `TET_WALK_INTERLEAVE=K` walks K rays at
+//! once (`RasterOptions::walk_interleave`; default by mesh size); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
 //! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
 //! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
 //! turns the camera D degrees of azimuth before every frame after the
@@ -87,7 +88,9 @@ fn main() {
     let tile = std::env::var("TET_TILE").ok().and_then(|t| t.parse().ok()).unwrap_or(RasterOptions::default().tile);
     let keep = std::env::var("TET_NO_KEEP").is_err();
     let orbit: f64 = std::env::var("TET_ORBIT").ok().and_then(|d| d.parse().ok()).unwrap_or(0.0);
-    let mut opts = RasterOptions { fast_path, tile, ..Default::default() };
+    let walk_interleave =
+        std::env::var("TET_WALK_INTERLEAVE").ok().map(|k| k.parse().expect("TET_WALK_INTERLEAVE: rays"));
+    let mut opts = RasterOptions { fast_path, tile, walk_interleave, ..Default::default() };
     if !keep {
         opts.setup_cache_bytes = 0;
     }

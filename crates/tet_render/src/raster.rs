@@ -48,6 +48,11 @@ pub struct RasterOptions {
     /// 512 MiB covers ~1.8M tets; larger meshes set up every frame. 0 keeps
     /// nothing.
     pub setup_cache_bytes: usize,
+    /// The walker: rays a tile walks at once, one step each in turn (each
+    /// walk is a chain of dependent loads; independent chains overlap
+    /// their cache misses). `None` picks by mesh size
+    /// ([`crate::walk`]); the image is the same either way.
+    pub walk_interleave: Option<usize>,
 }
 
 impl Default for RasterOptions {
@@ -58,6 +63,7 @@ impl Default for RasterOptions {
             shading: Shading::default(),
             fast_path: true,
             setup_cache_bytes: 512 << 20,
+            walk_interleave: None,
         }
     }
 }

@@ -667,6 +667,10 @@ pub fn walk_frame(
         opts,
         want_grad_mag: shader.method().is_bivariate() && mesh.grad_mag.is_some(),
         lit: opts.shading.is_active() && mesh.grads.is_some(),
+        lanes: opts
+            .walk_interleave
+            .unwrap_or(if mesh.memory_bytes() > INTERLEAVE_ABOVE_BYTES { INTERLEAVE } else { 1 })
+            .clamp(1, 64),
     };
     let done = AtomicUsize::new(0);
     let tiles: Vec<(Vec<[f32; 4]>, WalkStats)> = (0..n_tiles)
@@ -701,6 +705,8 @@ struct WalkCtx<'a> {
     opts: &'a RasterOptions,
     want_grad_mag: bool,
     lit: bool,
+    /// Rays walked at once ([`RasterOptions::walk_interleave`]).
+    lanes: usize,
 }
 
 /// A point on a face along one ray: depth, scalar and the barycentric
@@ -754,6 +760,35 @@ fn face_point(verts: &[WalkVertex], ids: [u32; 3], l: [f32; 3], orient: f32, par
     }
     let scalar = lam[0] * q[0].scalar + lam[1] * q[1].scalar + lam[2] * q[2].scalar;
     FacePoint { depth, scalar, ids, lam }
+}
+
+/// Rays a tile walks at once on meshes larger than the caches, unless
+/// [`RasterOptions::walk_interleave`] says otherwise.
+const INTERLEAVE: usize = 4;
+
+/// Walk structures above this size interleave rays (below it they sit in
+/// the caches and one ray at a time is cheaper).
+const INTERLEAVE_ABOVE_BYTES: usize = 64 << 20;
+
+/// Where one ray's walk stands between steps.
+#[derive(Clone, Copy)]
+struct RayState {
+    fx: f32,
+    fy: f32,
+    len_per_depth: f32,
+    /// Its entries left: `entries[next_entry..end]`.
+    next_entry: usize,
+    end: usize,
+    /// The run in progress: tet, entry face, entry point, steps so far.
+    t: usize,
+    f_in: usize,
+    p_in: FacePoint,
+    steps: u32,
+    in_run: bool,
+    acc: [f32; 4],
+    /// Segments to gather before the next shading.
+    cap: usize,
+    crossings: u64,
 }
 
 /// Segments of one ray waiting for the shader.
@@ -916,8 +951,8 @@ impl WalkCtx<'_> {
         let mut st = WalkStats::default();
         let mut counters = EdgeCounters::default();
         let entries = self.entries(g, ti, rect, stride, &mut counters, &mut st);
-        let mut batch =
-            Box::new(RayBatch { segs: SegmentBatch::default(), grad_mid: [[0.0; 3]; BATCH], rgba: [[0.0; 4]; BATCH] });
+        // The rays of the tile: (pixel, first entry, end).
+        let mut rays: Vec<(u32, usize, usize)> = Vec::new();
         let mut k = 0;
         while k < entries.len() {
             let pix = entries[k].0;
@@ -925,9 +960,42 @@ impl WalkCtx<'_> {
             while end < entries.len() && entries[end].0 == pix {
                 end += 1;
             }
-            let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
-            acc[pix as usize] = self.ray(g, px, py, &entries[k..end], &mut batch, &mut st, &mut counters);
+            rays.push((pix, k, end));
             k = end;
+        }
+        // Several rays in flight, one step each in turn: each walk is a
+        // chain of dependent loads, and independent chains let the core
+        // overlap their cache misses (meshes far larger than the caches).
+        let lanes = self.lanes;
+        let new_batch = || {
+            Box::new(RayBatch { segs: SegmentBatch::default(), grad_mid: [[0.0; 3]; BATCH], rgba: [[0.0; 4]; BATCH] })
+        };
+        let mut batches: Vec<Box<RayBatch>> = (0..lanes).map(|_| new_batch()).collect();
+        let mut flight: Vec<Option<(u32, RayState)>> = vec![None; lanes];
+        let mut next = 0;
+        let mut active = 0;
+        loop {
+            for (lane, slot) in flight.iter_mut().enumerate() {
+                if slot.is_none() && next < rays.len() {
+                    let (pix, first, end) = rays[next];
+                    next += 1;
+                    let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
+                    batches[lane].segs.len = 0;
+                    st.rays += 1;
+                    *slot = Some((pix, self.start_ray(g, px, py, first, end)));
+                    active += 1;
+                }
+                if let Some((pix, ray)) = slot {
+                    if self.step(g, ray, &entries, &mut batches[lane], &mut st, &mut counters) {
+                        acc[*pix as usize] = ray.acc;
+                        *slot = None;
+                        active -= 1;
+                    }
+                }
+            }
+            if active == 0 && next == rays.len() {
+                break;
+            }
         }
         st.exact_tests = counters.exact;
         (acc, st)
@@ -1005,117 +1073,144 @@ impl WalkCtx<'_> {
         out
     }
 
-    /// Walks the ray through pixel (px, py) from each of its entries in
-    /// depth order; returns the composited premultiplied RGBA.
+    /// Starts the ray through pixel (px, py), whose entries are
+    /// `entries[first..end]`.
+    fn start_ray<G: RayGeometry>(&self, g: &G, px: u32, py: u32, first: usize, end: usize) -> RayState {
+        let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
+        let _ = g;
+        RayState {
+            fx,
+            fy,
+            len_per_depth: self.view.frame.len_per_depth(fx as f64, fy as f64) as f32,
+            next_entry: first,
+            end,
+            t: 0,
+            f_in: 0,
+            p_in: FacePoint { depth: 0.0, scalar: 0.0, ids: [0; 3], lam: [0.0; 3] },
+            steps: 0,
+            in_run: false,
+            acc: [0.0; 4],
+            cap: FIRST_BATCH,
+            crossings: 0,
+        }
+    }
+
+    /// Advances one ray by one tet (or by starting its next run); true when
+    /// the ray is done (its entries walked, or opaque), its colour in
+    /// `ray.acc`. The steps of one ray are the same operations in the same
+    /// order however rays are interleaved, so the image does not depend on
+    /// the interleaving.
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn ray<G: RayGeometry>(
+    fn step<G: RayGeometry>(
         &self,
         g: &G,
-        px: u32,
-        py: u32,
+        ray: &mut RayState,
         entries: &[(u32, f32, u32)],
         batch: &mut RayBatch,
         st: &mut WalkStats,
         counters: &mut EdgeCounters,
-    ) -> [f32; 4] {
-        let view = self.view;
-        let frame = &view.frame;
+    ) -> bool {
         let tets = &self.mesh.tets[..];
         let links = &self.mesh.links[..];
-        let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
-        let len_per_depth = frame.len_per_depth(fx as f64, fy as f64) as f32;
-        let near = g.near_depth();
+        let (fx, fy) = (ray.fx, ray.fy);
         let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
         let back_orient = -front_orient;
-        let mut acc = [0.0f32; 4];
-        let mut cap = FIRST_BATCH;
-        batch.segs.len = 0;
-        st.rays += 1;
-        // Counted locally: a store per step into `st` would sit on the path.
-        let mut crossings = 0u64;
-        'runs: for &(_, _, packed) in entries {
+        if !ray.in_run {
+            if ray.next_entry == ray.end {
+                return self.finish(ray, batch, st);
+            }
+            let packed = entries[ray.next_entry].2;
+            ray.next_entry += 1;
             st.runs += 1;
-            let (mut t, mut f_in) = ((packed / 4) as usize, (packed % 4) as usize);
-            let mut p_in = {
-                let fv = FACE_OUTWARD[f_in];
-                let ids = [tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]];
-                let l =
-                    [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
-                g.face_point(ids, l, front_orient)
-            };
-            let mut steps = 0u32;
-            loop {
-                steps += 1;
-                if steps > view.max_steps {
-                    st.step_limit += 1;
-                    break;
-                }
-                let tet = tets[t];
-                let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
-                // Branches, not a table lookup: a predicted exit lets the
-                // next tet's loads start before the edge tests finish (the
-                // walk is a chain of dependent loads).
-                let mut exit = None;
-                for &(f, x, y) in &EXIT_CANDIDATES[f_in & 3] {
-                    if (bits >> x & 1 == 1) == BACK_IS_LEFT && (bits >> y & 1 == 1) != BACK_IS_LEFT {
-                        exit = Some((f, x & 3, y & 3));
-                        break;
-                    }
-                }
-                let Some((f_out, x, y)) = exit else {
-                    // Cannot happen with exact signs (module docs); counted
-                    // with the step bound rather than trusted.
-                    st.step_limit += 1;
-                    break;
-                };
-                crossings += 1;
-                let link = links[t][f_out & 3];
-                // The exit face as (v, x, y), a rotation of its outward
-                // order: the edge values opposite v, x and y.
-                let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
-                let l = [g.value(tx, ty, fx, fy), -val[y], val[x]];
-                let p_out = g.face_point([v, tx, ty], l, back_orient);
-                let len = (p_out.depth - p_in.depth) * len_per_depth;
-                let pushed = if G::NEAR_CLIP && p_in.depth < near {
-                    // Before the near plane: dropped, or cut there.
-                    let keep = p_out.depth > near;
-                    if keep {
-                        let t_front = (near - p_in.depth) / (p_out.depth - p_in.depth);
-                        self.push_clipped(batch, &p_in, &p_out, (p_out.depth - near) * len_per_depth, t_front);
-                    }
-                    keep
-                } else if len > 0.0 {
-                    self.push(batch, &p_in, &p_out, len);
-                    true
-                } else {
-                    false
-                };
-                if pushed && batch.segs.len >= cap {
-                    cap = (cap * 2).min(BATCH);
-                    if self.flush(batch, &mut acc, fx, fy, st) {
-                        st.terminated += 1;
-                        break 'runs;
-                    }
-                }
-                // Out of the mesh, or into a culled tet: the run ends (the
-                // ray's next entry, if any, is where it meets visible tets
-                // again).
-                if link >= LINK_BROKEN || self.visible.is_some_and(|vis| !vis[(link / 4) as usize]) {
-                    if link == LINK_BROKEN {
-                        st.non_manifold += 1;
-                    }
-                    break;
-                }
-                p_in = p_out;
-                t = (link / 4) as usize;
-                f_in = (link % 4) as usize;
+            (ray.t, ray.f_in) = ((packed / 4) as usize, (packed % 4) as usize);
+            let fv = FACE_OUTWARD[ray.f_in];
+            let ids = [tets[ray.t][fv[0]], tets[ray.t][fv[1]], tets[ray.t][fv[2]]];
+            let l = [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
+            ray.p_in = g.face_point(ids, l, front_orient);
+            ray.steps = 0;
+            ray.in_run = true;
+        }
+        let (t, f_in) = (ray.t, ray.f_in);
+        ray.steps += 1;
+        if ray.steps > self.view.max_steps {
+            st.step_limit += 1;
+            ray.in_run = false;
+            return false;
+        }
+        let tet = tets[t];
+        let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
+        // Branches, not a table lookup: a predicted exit lets the next
+        // tet's loads start before the edge tests finish (the walk is a
+        // chain of dependent loads).
+        let mut exit = None;
+        for &(f, x, y) in &EXIT_CANDIDATES[f_in & 3] {
+            if (bits >> x & 1 == 1) == BACK_IS_LEFT && (bits >> y & 1 == 1) != BACK_IS_LEFT {
+                exit = Some((f, x & 3, y & 3));
+                break;
             }
         }
-        st.crossings += crossings;
-        if batch.segs.len > 0 && self.flush(batch, &mut acc, fx, fy, st) {
+        let Some((f_out, x, y)) = exit else {
+            // Cannot happen with exact signs (module docs); counted with the
+            // step bound rather than trusted.
+            st.step_limit += 1;
+            ray.in_run = false;
+            return false;
+        };
+        ray.crossings += 1;
+        let link = links[t][f_out & 3];
+        // The exit face as (v, x, y), a rotation of its outward order: the
+        // edge values opposite v, x and y.
+        let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
+        let l = [g.value(tx, ty, fx, fy), -val[y], val[x]];
+        let p_out = g.face_point([v, tx, ty], l, back_orient);
+        let p_in = ray.p_in;
+        let len = (p_out.depth - p_in.depth) * ray.len_per_depth;
+        let near = g.near_depth();
+        let pushed = if G::NEAR_CLIP && p_in.depth < near {
+            // Before the near plane: dropped, or cut there.
+            let keep = p_out.depth > near;
+            if keep {
+                let t_front = (near - p_in.depth) / (p_out.depth - p_in.depth);
+                self.push_clipped(batch, &p_in, &p_out, (p_out.depth - near) * ray.len_per_depth, t_front);
+            }
+            keep
+        } else if len > 0.0 {
+            self.push(batch, &p_in, &p_out, len);
+            true
+        } else {
+            false
+        };
+        if pushed && batch.segs.len >= ray.cap {
+            ray.cap = (ray.cap * 2).min(BATCH);
+            if self.flush(batch, &mut ray.acc, fx, fy, st) {
+                st.terminated += 1;
+                st.crossings += ray.crossings;
+                return true;
+            }
+        }
+        // Out of the mesh, or into a culled tet: the run ends (the ray's
+        // next entry, if any, is where it meets visible tets again).
+        if link >= LINK_BROKEN || self.visible.is_some_and(|vis| !vis[(link / 4) as usize]) {
+            if link == LINK_BROKEN {
+                st.non_manifold += 1;
+            }
+            ray.in_run = false;
+            return false;
+        }
+        ray.p_in = p_out;
+        ray.t = (link / 4) as usize;
+        ray.f_in = (link % 4) as usize;
+        false
+    }
+
+    /// Shades what is left of the ray's batch; always true (done).
+    fn finish(&self, ray: &mut RayState, batch: &mut RayBatch, st: &mut WalkStats) -> bool {
+        st.crossings += ray.crossings;
+        if batch.segs.len > 0 && self.flush(batch, &mut ray.acc, ray.fx, ray.fy, st) {
             st.terminated += 1;
         }
-        acc
+        true
     }
 
     /// [`Self::push`] for a segment cut by the near plane: its front values

@@ -204,9 +204,8 @@ pub fn face_rect(p: [HomVertex; 3], w: u32, h: u32) -> Option<[u32; 4]> {
     let mut poly: Vec<[f64; 3]> = p.iter().map(HomVertex::xyw).collect();
     if !poly.iter().all(|q| q[2] > 0.0) {
         let (wf, hf) = (w as f64, h as f64);
-        let planes: [&dyn Fn(&[f64; 3]) -> f64; 4] =
-            [&|q| q[0], &|q| wf * q[2] - q[0], &|q| q[1], &|q| hf * q[2] - q[1]];
-        for plane in planes {
+        // Half-spaces c · (X, Y, W) ≥ 0.
+        for plane in [[1.0, 0.0, 0.0], [-1.0, 0.0, wf], [0.0, 1.0, 0.0], [0.0, -1.0, hf]] {
             poly = clip(&poly, plane);
             if poly.is_empty() {
                 return None;
@@ -232,12 +231,13 @@ pub fn face_rect(p: [HomVertex; 3], w: u32, h: u32) -> Option<[u32; 4]> {
     super::centre_rect(x_lo - m, x_hi + m, y_lo - m, y_hi + m, w, h)
 }
 
-/// One Sutherland–Hodgman step: the part of `poly` where `plane` ≥ 0.
-fn clip(poly: &[[f64; 3]], plane: &dyn Fn(&[f64; 3]) -> f64) -> Vec<[f64; 3]> {
+/// One Sutherland–Hodgman step: the part of `poly` where `plane · q` ≥ 0.
+fn clip(poly: &[[f64; 3]], plane: [f64; 3]) -> Vec<[f64; 3]> {
+    let dot = |q: &[f64; 3]| plane[0] * q[0] + plane[1] * q[1] + plane[2] * q[2];
     let mut out = Vec::with_capacity(poly.len() + 1);
     for (i, a) in poly.iter().enumerate() {
         let b = &poly[(i + 1) % poly.len()];
-        let (da, db) = (plane(a), plane(b));
+        let (da, db) = (dot(a), dot(b));
         if da >= 0.0 {
             out.push(*a);
         }

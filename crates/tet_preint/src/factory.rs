@@ -13,7 +13,7 @@
 //! * The 1D methods (`exact`, `pt-linear`, `table3d`, `atlas2d`, `partial`,
 //!   `poly*`) refuse a TF with 2D widgets instead of silently dropping them:
 //!   the error names `biv-exact` / `biv-approx`.
-//! * `biv-exact` tabulates nothing (seed 004's closed forms are evaluated per
+//! * `biv-exact` tabulates nothing (Song et al.'s (2009) closed forms are evaluated per
 //!   segment); `biv-approx` bakes the F/B table.
 //!
 //! Default resolutions ([`BakeOptions::default`]): table3d 128 × 128 × 256
@@ -328,7 +328,7 @@ mod tests {
         TransferFunction::from_json(json).unwrap()
     }
 
-    /// biv-exact's memory counts seed 004's erf table (one Gaussian widget,
+    /// biv-exact's memory counts Song et al.'s (2009) erf table (one Gaussian widget,
     /// independent emission).
     #[test]
     fn biv_exact_memory_counts_its_tables() {

@@ -1020,7 +1020,7 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
 }
 
 /// Frequency, phase and clip of banded widget `i`. Bands run along s only
-/// (seed 004's triangle and sine widgets have no orientation); the clip
+/// (Song et al.'s (2009) triangle and sine widgets have no orientation); the clip
 /// rectangle limits them in s and |∇s|.
 fn band_controls(
     ui: &mut egui::Ui,

@@ -3,12 +3,18 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
+.PHONY: all build install test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
 
 all: build
 
 build:
 	$(CARGO) build --release --workspace
+
+## The three programs into cargo's bin directory (~/.cargo/bin, or $CARGO_HOME/bin).
+install:
+	$(CARGO) install --locked --path crates/tetprep
+	$(CARGO) install --locked --path crates/tetlut
+	$(CARGO) install --locked --path crates/tetview
 
 ## The whole test suite (unit, integration, doc tests) on the bundled data. GPU tests run
 ## on whatever Vulkan adapter exists (Mesa's software lavapipe is installed if missing) and

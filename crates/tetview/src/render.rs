@@ -28,7 +28,7 @@ pub struct RenderArgs {
     /// Method id: exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4,
     /// partial, biv-exact, biv-approx (tables are baked now over the
     /// bundle's domain at tetlut's default resolutions). The default,
-    /// table3d (128×128×256 f32, baked in ~0.3 s), meets the accuracy
+    /// table3d (128×128×256 f32, baked on the fly), meets the accuracy
     /// target against the reference; pt-linear is faster but misses it.
     #[arg(long, default_value = "table3d")]
     pub method: String,

@@ -870,7 +870,9 @@ impl eframe::App for ViewerApp {
         }
 
         egui::Panel::left("controls").resizable(true).default_size(300.0).show(ui, |ui| {
-            // Always-visible bar: the controls are taller than a default window.
+            // A solid, always-visible bar: the controls are taller than a
+            // default window, and egui's default floating bar only shows on hover.
+            ui.style_mut().spacing.scroll = egui::style::ScrollStyle::solid();
             egui::ScrollArea::vertical()
                 .auto_shrink([false, false])
                 .scroll_bar_visibility(egui::containers::scroll_area::ScrollBarVisibility::AlwaysVisible)

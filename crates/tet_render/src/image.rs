@@ -280,7 +280,7 @@ pub fn write_png_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Res
 /// tet_container's writer, shared by every output of every program, gives
 /// the file the mode `File::create` would.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
-    tet_container::write_atomic(path, ".tetimg-", |w| w.write_all(bytes))
+    tet_container::write_atomic(path, ".tetimg-", |w: &mut dyn Write| w.write_all(bytes))
         .map_err(|e| RenderError::Io { source: std::io::Error::other(e), path: path.to_path_buf() })
 }
 

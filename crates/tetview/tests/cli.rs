@@ -515,12 +515,27 @@ fn view_up_flag_default_z_up_and_saved_views_round_trip() {
     assert!(v.view_up[2] > 0.999, "{:?}", v.view_up);
     let out = render(&["--view", &view, "-o", &png, "--float", &npy2]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert_eq!(tet_render::Image::read_npy(Path::new(&npy)).unwrap(), tet_render::Image::read_npy(Path::new(&npy2)).unwrap());
+    assert_eq!(
+        tet_render::Image::read_npy(Path::new(&npy)).unwrap(),
+        tet_render::Image::read_npy(Path::new(&npy2)).unwrap()
+    );
     // reference takes the flag too and frames the same view.
     let rv = f("rv.json");
     let out = tetview(&[
-        "reference", &b, "--tf", &t, "--size", "32x24", "--view-up", "0,0,1", "--azimuth", "20", "--float", &npy2,
-        "--save-view", &rv,
+        "reference",
+        &b,
+        "--tf",
+        &t,
+        "--size",
+        "32x24",
+        "--view-up",
+        "0,0,1",
+        "--azimuth",
+        "20",
+        "--float",
+        &npy2,
+        "--save-view",
+        &rv,
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert_eq!(saved_view(Path::new(&rv)), v);
@@ -531,7 +546,8 @@ fn view_up_flag_default_z_up_and_saved_views_round_trip() {
     }
     // A point cloud's default view is z-up, from −y and above.
     let cloud = bundle_with(dir.path(), "cloud.tetb", |p| p[0], "delaunay");
-    let out = tetview(&["render", cloud.to_str().unwrap(), "--tf", &t, "--size", "16x16", "-o", &png, "--save-view", &view]);
+    let out =
+        tetview(&["render", cloud.to_str().unwrap(), "--tf", &t, "--size", "16x16", "-o", &png, "--save-view", &view]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v = saved_view(Path::new(&view));
     assert!(v.view_up[2] > 0.8 && v.position[1] < v.focal_point[1] && v.position[2] > v.focal_point[2], "{v:?}");
@@ -547,7 +563,16 @@ fn constant_scalar_warns_with_its_value() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (bundle_with(dir.path(), "flat.tetb", |_| 0.75, ""), tf(dir.path()));
     let png = dir.path().join("a.png");
-    let out = tetview(&["render", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--size", "16x16", "-o", png.to_str().unwrap()]);
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("warning: the scalar 's' is constant (0.75)"), "{e}");
@@ -569,8 +594,32 @@ fn every_output_gets_the_mode_file_create_gives() {
     let (png, npy, view, rpng, rnpy, dpng) = (f("a.png"), f("a.npy"), f("v.json"), f("r.png"), f("r.npy"), f("d.png"));
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let runs: Vec<Vec<String>> = vec![
-        vec!["render".into(), s(&b), "--tf".into(), s(&t), "--size".into(), "16x16".into(), "-o".into(), s(&png), "--float".into(), s(&npy), "--save-view".into(), s(&view)],
-        vec!["reference".into(), s(&b), "--tf".into(), s(&t), "--size".into(), "16x16".into(), "-o".into(), s(&rpng), "--float".into(), s(&rnpy)],
+        vec![
+            "render".into(),
+            s(&b),
+            "--tf".into(),
+            s(&t),
+            "--size".into(),
+            "16x16".into(),
+            "-o".into(),
+            s(&png),
+            "--float".into(),
+            s(&npy),
+            "--save-view".into(),
+            s(&view),
+        ],
+        vec![
+            "reference".into(),
+            s(&b),
+            "--tf".into(),
+            s(&t),
+            "--size".into(),
+            "16x16".into(),
+            "-o".into(),
+            s(&rpng),
+            "--float".into(),
+            s(&rnpy),
+        ],
         vec!["diff".into(), s(&npy), s(&rnpy), "-o".into(), s(&dpng)],
     ];
     for args in runs {

@@ -117,8 +117,15 @@ fn every_scripted_run_exits() {
     let Some(x) = xvfb_or_skip() else { return };
     let dir = tempfile::tempdir().unwrap();
     let bundle = samples().join("cube5.tetb");
-    let variants: Vec<(usize, Option<&str>, bool)> =
-        vec![(2, None, false), (5, None, false), (10, None, false), (5, Some("25"), false), (10, Some("10"), false), (5, None, true), (5, Some("25"), true)];
+    let variants: Vec<(usize, Option<&str>, bool)> = vec![
+        (2, None, false),
+        (5, None, false),
+        (10, None, false),
+        (5, Some("25"), false),
+        (10, Some("10"), false),
+        (5, None, true),
+        (5, Some("25"), true),
+    ];
     let mut runs = Vec::new();
     for (i, (frames, spin, cpu)) in variants.iter().enumerate() {
         let shot = dir.path().join(format!("shot{i}.png"));

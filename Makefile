@@ -3,24 +3,39 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
+.PHONY: all build install test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
 
 all: build
 
 build:
 	$(CARGO) build --release --workspace
 
+## The three programs into cargo's bin directory (~/.cargo/bin, or $CARGO_HOME/bin).
+install:
+	$(CARGO) install --locked --path crates/tetprep
+	$(CARGO) install --locked --path crates/tetlut
+	$(CARGO) install --locked --path crates/tetview
+
 ## The whole test suite (unit, integration, doc tests) on the bundled data. GPU tests run
 ## on whatever Vulkan adapter exists (Mesa's software lavapipe is installed if missing) and
 ## skip with a printed reason where none does. The viewer's window test runs under Xvfb
 ## (installed if missing) and skips with a printed reason where it is absent.
+##
+## Without a session's XDG_RUNTIME_DIR, libwayland (probed by the Vulkan and
+## OpenGL stacks the GPU and window tests load) prints "XDG_RUNTIME_DIR is
+## invalid or not set" on every start: the tests then get a private empty one.
 test: gpu-driver viewer-deps
-	$(CARGO) test --workspace --all-targets
-	$(CARGO) test --workspace --doc
+	@d=; if [ ! -d "$$XDG_RUNTIME_DIR" ]; then d=$$(mktemp -d); export XDG_RUNTIME_DIR=$$d; fi; \
+	trap '[ -z "$$d" ] || rm -rf "$$d"' EXIT; \
+	echo "$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc"; \
+	$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc
 
 ## The GPU renderer's tests, where a skip (no adapter) is a failure.
 test-gpu: gpu-driver
-	TETKIT_REQUIRE_GPU=1 $(CARGO) test -p tet_gpu --all-targets -- --nocapture
+	@d=; if [ ! -d "$$XDG_RUNTIME_DIR" ]; then d=$$(mktemp -d); export XDG_RUNTIME_DIR=$$d; fi; \
+	trap '[ -z "$$d" ] || rm -rf "$$d"' EXIT; \
+	echo "TETKIT_REQUIRE_GPU=1 $(CARGO) test -p tet_gpu --all-targets -- --nocapture && … --doc"; \
+	TETKIT_REQUIRE_GPU=1 $(CARGO) test -p tet_gpu --all-targets -- --nocapture && \
 	TETKIT_REQUIRE_GPU=1 $(CARGO) test -p tet_gpu --doc
 
 ## Mesa's Vulkan drivers (lavapipe, a software adapter) when no Vulkan driver is installed;

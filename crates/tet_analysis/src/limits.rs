@@ -1,5 +1,5 @@
 //! Per-cell value ranges, the segment domain they imply, and the frequency
-//! limits of banded transfer functions (seed 004, §6.3).
+//! limits of banded transfer functions (Song et al. 2009, §6.3).
 //!
 //! # Segment domain
 //!

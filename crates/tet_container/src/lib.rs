@@ -215,9 +215,11 @@ pub struct AtomicWriteError {
 }
 
 /// Writes `path` atomically: `write` fills a temporary file (named
-/// `{tmp_prefix}XXXX.tmp`, permissions 0644 on Unix like any output) in the
-/// same directory through a 1 MiB buffer, which is synced and renamed over
-/// `path`. On error the temporary file is removed and `path` is untouched.
+/// `{tmp_prefix}XXXX.tmp`) in the same directory through a 1 MiB buffer,
+/// which is synced and renamed over `path`. On error the temporary file is
+/// removed and `path` is untouched. Every tetkit program writes its outputs
+/// through here, so they all get one mode: `File::create`'s (0666 less the
+/// umask on Unix, 0644 under the usual umask 022).
 pub fn write_atomic(
     path: &Path,
     tmp_prefix: &str,
@@ -231,11 +233,12 @@ pub fn write_atomic(
     let mut builder = tempfile::Builder::new();
     builder.prefix(tmp_prefix).suffix(".tmp");
     // Temporary files are private (0600); the result is an ordinary output
-    // file, readable like any other the user creates.
+    // file, readable like any other the user creates: open(2) with 0666
+    // applies the umask, as File::create does.
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
     let mut tmp = builder.tempfile_in(dir).map_err(step("create a temporary file beside"))?;
     {
@@ -306,6 +309,19 @@ mod tests {
         let mut out = Vec::new();
         assert!(write_sections(&mut out, &FMT, &[("SEVENTEEN_CHARS__", &[])]).is_err());
         assert!(write_sections(&mut out, &FMT, &[("", &[])]).is_err());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn atomic_writes_get_the_mode_file_create_gives() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let plain = dir.path().join("plain");
+        std::fs::File::create(&plain).unwrap();
+        let out = dir.path().join("out");
+        write_atomic(&out, ".t-", |w| w.write_all(b"x")).unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&out), mode(&plain));
     }
 
     #[test]

@@ -12,7 +12,7 @@
 //!   - `pt-linear`: transfer function nodes, the thick point shaded once;
 //!   - `table3d`: the table as a 3D texture, trilinear lookup with
 //!     `Table3d::lookup`'s normalisation;
-//!   - `atlas2d`: seed 000's tiled cylindrical atlas as one 2D texture,
+//!   - `atlas2d`: Röttger & Ertl's (2002) tiled cylindrical atlas as one 2D texture,
 //!     pseudo-angle and L∞ radius per fragment as `Atlas2d::lookup`;
 //!   - `poly1/2/4`: ρ̂ and the colour polynomials' coefficients as a 2D
 //!     array texture (full square or diagonal bands), the 16-bit α table as
@@ -23,7 +23,7 @@
 //!     (both emission models; under independent emission Ψ and Ψ₁ above
 //!     rate 8 by Gauss–Legendre quadrature, where the CPU takes the f64
 //!     closed form);
-//!   - `biv-approx`: 2D widgets over (s, |∇s|) and seed 004's F/B table,
+//!   - `biv-approx`: 2D widgets over (s, |∇s|) and Song et al.'s (2009) F/B table,
 //!     k sub-segments per fragment, as `BivApprox`, with per-vertex gradient
 //!     magnitudes on the scene ([`GpuScene::with_gradient_magnitudes`]);
 //!   - `biv-exact`: no table; the same TF rows as biv-approx, and per
@@ -32,7 +32,7 @@
 //!     optical depth in closed form (erfcx for Gaussians), its colour c·α
 //!     where one widget carries it under density emission, else by 8-point
 //!     Gauss–Legendre panels with the closed-form transmittance (also for
-//!     the pieces the CPU takes from seed 004's emission-only tables); a
+//!     the pieces the CPU takes from Song et al.'s (2009) emission-only tables); a
 //!     budget of loop iterations per invocation bounds the work (past it:
 //!     exact α, approximate colour). On llvmpipe it always runs the graphics
 //!     rasterizer (that driver's shared loop-iteration limit).

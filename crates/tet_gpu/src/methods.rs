@@ -1,6 +1,6 @@
-//! The 2D-table methods on the GPU — `poly1/2/4` (seed 003), `partial`
-//! (Moreland & Angel's Ψ) and `atlas2d` (seed 000's cylindrical atlas) — and
-//! the bivariate `biv-approx` and `biv-exact` (seed 004) as [`GpuShader`]s
+//! The 2D-table methods on the GPU — `poly1/2/4` (Guthe et al. 2002), `partial`
+//! (Moreland & Angel's Ψ) and `atlas2d` (Röttger & Ertl's (2002) cylindrical atlas) — and
+//! the bivariate `biv-approx` and `biv-exact` (Song et al. 2009) as [`GpuShader`]s
 //! built from tet_preint's baked methods, [`GpuShader::from_baked`] for any
 //! method the GPU renders, and [`GpuShader::probe`]: the per-fragment
 //! function at given (Sf, Sb, l) triples.
@@ -23,7 +23,7 @@ use tet_preint::{
 };
 use wgpu::util::DeviceExt;
 
-/// The methods [`GpuShader::from_baked`] accepts, in DESIGN.md's order.
+/// The methods [`GpuShader::from_baked`] accepts, in `Method::ALL`'s order.
 pub const GPU_METHODS: [Method; 9] = [
     Method::PtLinear,
     Method::Table3d,
@@ -136,7 +136,7 @@ fn alpha_texture(ctx: &GpuContext, data: &[u16]) -> Result<wgpu::Texture, GpuErr
 }
 
 impl GpuShader {
-    /// `poly1`, `poly2`, `poly4` (seed 003): ρ̂ and the chromaticity
+    /// `poly1`, `poly2`, `poly4` (Guthe et al. 2002): ρ̂ and the chromaticity
     /// polynomials' coefficients C̃ᵣ as an Rgba32Float 2D array texture in
     /// the table's own storage (a full square or diagonal bands; layer r
     /// holds C̃ᵣ, layer 0 also ρ̂), the 16-bit α table as an R16Uint 1D
@@ -216,10 +216,10 @@ impl GpuShader {
         GpuShader::assemble(ctx, METHOD_PARTIAL, Method::Partial, None, placeholder_3d(ctx)?, TableGrid::none(), tables)
     }
 
-    /// `atlas2d` (seed 000): the tiled cylindrical atlas as one Rgba32Float
+    /// `atlas2d` (Röttger & Ertl 2002): the tiled cylindrical atlas as one Rgba32Float
     /// 2D texture (plane p at tile (p mod cols, p div cols), as
     /// `Atlas2d::image`), looked up per fragment as `Atlas2d::lookup`:
-    /// (Sf, Sb, l) normalised by the domain, seed 000's pseudo-angle α and
+    /// (Sf, Sb, l) normalised by the domain, Röttger & Ertl's (2002) pseudo-angle α and
     /// L∞ radius s, the two nearest planes blended, bilinear in (s, Sb).
     pub fn atlas2d(ctx: &GpuContext, atlas: &Atlas2d) -> Result<GpuShader, GpuError> {
         let (w, h) = atlas.image_size();
@@ -239,7 +239,7 @@ impl GpuShader {
         GpuShader::assemble(ctx, METHOD_ATLAS2D, Method::Atlas2d, None, placeholder_3d(ctx)?, TableGrid::none(), tables)
     }
 
-    /// `biv-approx` (seed 004 §5): the F/B table as an Rgba32Float 2D
+    /// `biv-approx` (Song et al. 2009 §5): the F/B table as an Rgba32Float 2D
     /// texture over (α_f, α_b), the 1D TF as merged control points and the
     /// 2D widgets (box, Gaussian, triangle and sine bands with their
     /// supports) as rows; per fragment the segment's scalar and gradient
@@ -279,7 +279,7 @@ impl GpuShader {
         )
     }
 
-    /// `biv-exact` (seed 004, tet_preint's `BivExact`): no table; the 1D TF
+    /// `biv-exact` (Song et al. 2009, tet_preint's `BivExact`): no table; the 1D TF
     /// as merged control points and the 2D widgets as rows (as
     /// `biv_approx`), and per fragment the segment (s and |∇s| linear, the
     /// latter from [`crate::GpuScene::with_gradient_magnitudes`]) cut at

@@ -1,4 +1,4 @@
-//! The poly1/2/4 tables (tet_preint's `PolyTable`, seed 003) baked by a
+//! The poly1/2/4 tables (tet_preint's `PolyTable`, Guthe et al. 2002) baked by a
 //! compute shader (shaders/poly_bake.wgsl) in f32 and read back into a
 //! `PolyTable`, which the CPU shades with and `GpuShader::poly` uploads
 //! for the GPU renderer.

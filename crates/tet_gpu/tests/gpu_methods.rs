@@ -500,7 +500,7 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
 /// The 2D transfer functions biv-exact is checked with (s ∈ [0, 1], |∇s|
 /// about 0–4 on the grid): each widget shape alone over a thin 1D part, a
 /// transparent constant-colour 1D part (the CPU's single-widget closed form
-/// and, under independent emission, its seed-004 tables), all four shapes
+/// and, under independent emission, its Song et al. 2009 tables), all four shapes
 /// overlapping, the same dense (opacities up to 1000) and bands of very
 /// high frequency.
 fn biv_exact_tfs(emission: &str) -> Vec<(&'static str, TransferFunction)> {

@@ -105,6 +105,88 @@ pub enum ReadError {
     UnknownFormat { hint: String, path: PathBuf },
     #[error("{format} input needs {what} ({})", path.display())]
     MissingOption { format: Format, what: String, path: PathBuf },
+    /// A format recognised (by extension or magic bytes) that no `--format`
+    /// reads yet.
+    #[error("this is {kind}, which tetkit does not read yet (no --format value reads it); \
+             convert it to VTK XML (.vtu) first, e.g. with ParaView (File > Save Data) or meshio: {}", path.display())]
+    Unsupported { kind: Unsupported, path: PathBuf },
+}
+
+/// Formats `tetprep` recognises but cannot read yet, so it can say what a
+/// file is instead of asking for a `--format` that does not exist.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unsupported {
+    /// SU2 native mesh (`.su2`, `NDIME=`).
+    Su2,
+    /// Exodus II (`.exo`, `.ex2`, `.e`, `.g` holding NetCDF or HDF5).
+    Exodus,
+    /// CGNS (`.cgns`, HDF5 or ADF).
+    Cgns,
+    /// A NetCDF file of no known mesh convention.
+    NetCdf,
+    /// An HDF5 file of no known mesh convention.
+    Hdf5,
+    /// An OpenFOAM case (a directory with `constant/polyMesh` or
+    /// `system/controlDict`, a `.foam` file, or a `FoamFile` dictionary).
+    OpenFoam,
+}
+
+impl fmt::Display for Unsupported {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Unsupported::Su2 => "an SU2 mesh",
+            Unsupported::Exodus => "an Exodus II mesh (NetCDF/HDF5)",
+            Unsupported::Cgns => "a CGNS file",
+            Unsupported::NetCdf => "a NetCDF file",
+            Unsupported::Hdf5 => "an HDF5 file",
+            Unsupported::OpenFoam => "an OpenFOAM case",
+        })
+    }
+}
+
+/// NetCDF classic / 64-bit offset / 64-bit data magic.
+fn is_netcdf(head: &[u8]) -> bool {
+    head.len() >= 4 && head.starts_with(b"CDF") && matches!(head[3], 1 | 2 | 5)
+}
+
+const HDF5_MAGIC: &[u8] = b"\x89HDF\r\n\x1a\n";
+
+/// What an input is when it is a format no reader handles: by the magic
+/// bytes first (so a NetCDF `.g` is not taken for a PLOT3D grid), then the
+/// extension; `head` is the file's first bytes (empty for a directory).
+pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
+    if path.is_dir() {
+        let foam = ["constant/polyMesh", "system/controlDict"].iter().any(|p| path.join(p).exists());
+        return foam.then_some(Unsupported::OpenFoam);
+    }
+    let ext = lower_ext(path);
+    let exodus_ext = matches!(ext.as_str(), "exo" | "ex2" | "exii" | "e" | "g" | "gen");
+    let hdf5 = head.starts_with(HDF5_MAGIC);
+    if is_netcdf(head) || hdf5 {
+        return Some(match ext.as_str() {
+            "cgns" => Unsupported::Cgns,
+            _ if exodus_ext => Unsupported::Exodus,
+            _ if hdf5 => Unsupported::Hdf5,
+            _ => Unsupported::NetCdf,
+        });
+    }
+    let text = String::from_utf8_lossy(&head[..head.len().min(4096)]);
+    match ext.as_str() {
+        "su2" => return Some(Unsupported::Su2),
+        "exo" | "ex2" | "exii" => return Some(Unsupported::Exodus),
+        "cgns" | "adf" => return Some(Unsupported::Cgns),
+        "foam" => return Some(Unsupported::OpenFoam),
+        "nc" | "cdf" => return Some(Unsupported::NetCdf),
+        "h5" | "hdf5" | "hdf" => return Some(Unsupported::Hdf5),
+        _ => {}
+    }
+    if text.trim_start().starts_with("NDIME=") || text.lines().any(|l| l.trim_start().starts_with("NDIME=")) {
+        return Some(Unsupported::Su2);
+    }
+    if text.contains("FoamFile") {
+        return Some(Unsupported::OpenFoam);
+    }
+    head.starts_with(b"ADF Database Version").then_some(Unsupported::Cgns)
 }
 
 /// "at byte 12 of x.vtk", "at line 3 of x.msh", or "in x.bin" for whole-file problems.
@@ -332,8 +414,15 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadErro
             if lower_ext(path) == "ele" {
                 Format::TetGen
             } else {
+                let unsupported = |kind| ReadError::Unsupported { kind, path: path.to_path_buf() };
+                if let Some(kind) = path.is_dir().then(|| detect_unsupported(path, &[])).flatten() {
+                    return Err(unsupported(kind));
+                }
                 let bytes = read_all(path)?;
                 let head = &bytes[..bytes.len().min(4096)];
+                if let Some(kind) = detect_unsupported(path, head) {
+                    return Err(unsupported(kind));
+                }
                 detect_format(path, head, opts).ok_or_else(|| ReadError::UnknownFormat {
                     hint: "the content matches no known header and the extension is not recognised".into(),
                     path: path.to_path_buf(),

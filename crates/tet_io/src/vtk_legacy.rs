@@ -171,6 +171,9 @@ struct Parser<'a> {
     blanking: Option<Vec<bool>>,
     point_fields: Vec<Field>,
     cell_fields: Vec<Field>,
+    /// The first SCALARS of POINT_DATA / CELL_DATA: VTK's active scalars.
+    active_point_scalar: Option<String>,
+    active_cell_scalar: Option<String>,
     /// Declared POINT_DATA / CELL_DATA counts, checked once geometry is known.
     point_data_count: Option<usize>,
     cell_data_count: Option<usize>,
@@ -283,6 +286,8 @@ impl<'a> Parser<'a> {
             blanking: None,
             point_fields: Vec::new(),
             cell_fields: Vec::new(),
+            active_point_scalar: None,
+            active_cell_scalar: None,
             point_data_count: None,
             cell_data_count: None,
             notes,
@@ -889,6 +894,10 @@ impl<'a> Parser<'a> {
                 *v = (255.0 * *v + 0.5).clamp(0.0, 255.0).trunc();
             }
         }
+        if kw == "SCALARS" {
+            let active = if is_point { &mut self.active_point_scalar } else { &mut self.active_cell_scalar };
+            active.get_or_insert_with(|| name.clone());
+        }
         self.push_field(Field::new(name, comps, values), is_point);
         Ok(())
     }
@@ -939,6 +948,8 @@ impl<'a> Parser<'a> {
     fn finish(mut self) -> Result<SourceMesh, FormatError> {
         let mut mesh = SourceMesh {
             format: if self.binary { "legacy VTK (BINARY)" } else { "legacy VTK (ASCII)" }.to_string(),
+            active_point_scalar: self.active_point_scalar.take(),
+            active_cell_scalar: self.active_cell_scalar.take(),
             ..Default::default()
         };
         let whole = |m: String| FormatError::new(Location::Whole, m);

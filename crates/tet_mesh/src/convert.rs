@@ -95,6 +95,12 @@ pub enum Finding {
         name: String,
     },
     NoScalarField,
+    /// The chosen field has one value at every point: any TF shows the
+    /// mesh as one colour.
+    ConstantScalar {
+        name: String,
+        value: f64,
+    },
     ReaderNote(String),
 }
 
@@ -128,6 +134,10 @@ impl fmt::Display for Finding {
                 write!(f, "cell scalar '{name}' became point data by volume-weighted averaging")
             }
             Finding::NoScalarField => write!(f, "warning: the input has no field; the scalar is a constant 0 (use --scalar x|y|z for a coordinate)"),
+            Finding::ConstantScalar { name, value } => write!(
+                f,
+                "warning: the scalar '{name}' is constant ({value}) over the mesh, so any transfer function draws it in one colour; choose another field with --scalar"
+            ),
             Finding::ReaderNote(s) => f.write_str(s),
         }
     }
@@ -382,6 +392,11 @@ pub fn tetrahedralize(
     } else {
         Vec::new()
     };
+    if scalar.location != ScalarLocation::Constant {
+        if let Some(&value) = scalar_values.first().filter(|v| scalar_values.iter().all(|w| w == *v)) {
+            report.findings.push(Finding::ConstantScalar { name: scalar.name.clone(), value });
+        }
+    }
     report.tet_source_cell = tet_cell;
     Ok((TetMesh { points, tets, scalar_name: scalar.name, scalar: scalar_values, point_fields }, report))
 }

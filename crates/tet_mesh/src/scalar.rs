@@ -79,14 +79,18 @@ fn find<'a>(fields: &'a [Field], name: &str) -> Option<&'a Field> {
     })
 }
 
-/// Picks the scalar: by `selector` if given, else the first point field,
+/// Picks the scalar: by `selector` if given, else the file's declared active
+/// point scalar, else its active cell scalar, else the first point field,
 /// else the first cell field, else a constant zero.
 pub fn select_scalar(mesh: &SourceMesh, selector: Option<&str>) -> Result<SelectedScalar, MeshError> {
     let Some(sel) = selector else {
-        let pick = mesh
-            .point_fields
-            .first()
+        fn active<'a>(fields: &'a [Field], name: &Option<String>) -> Option<&'a Field> {
+            name.as_deref().and_then(|n| fields.iter().find(|f| f.name == n))
+        }
+        let pick = active(&mesh.point_fields, &mesh.active_point_scalar)
             .map(|f| (f, ScalarLocation::Point))
+            .or_else(|| active(&mesh.cell_fields, &mesh.active_cell_scalar).map(|f| (f, ScalarLocation::Cell)))
+            .or_else(|| mesh.point_fields.first().map(|f| (f, ScalarLocation::Point)))
             .or_else(|| mesh.cell_fields.first().map(|f| (f, ScalarLocation::Cell)));
         return Ok(match pick {
             Some((f, location)) => SelectedScalar {
@@ -156,6 +160,22 @@ mod tests {
         let s = select_scalar(&mesh(), None).unwrap();
         assert_eq!(s.name, "Momentum:mag");
         assert_eq!(s.values, vec![5.0, 1.0]);
+    }
+
+    #[test]
+    fn default_is_the_declared_active_scalar() {
+        let mut m = mesh();
+        m.cell_fields = vec![Field::new("Id", 1, vec![])];
+        m.active_point_scalar = Some("Density".into());
+        m.active_cell_scalar = Some("Id".into());
+        let s = select_scalar(&m, None).unwrap();
+        assert_eq!((s.name.as_str(), s.location), ("Density", ScalarLocation::Point));
+        // Only cell data declares one: it beats the first point field.
+        m.active_point_scalar = None;
+        assert_eq!(select_scalar(&m, None).unwrap().location, ScalarLocation::Cell);
+        // A declared name that is not there (a string array, say) falls back.
+        m.active_cell_scalar = Some("Label".into());
+        assert_eq!(select_scalar(&m, None).unwrap().name, "Momentum:mag");
     }
 
     #[test]

@@ -180,6 +180,12 @@ pub struct SourceMesh {
     pub notes: Vec<String>,
     /// Short name of the format read, e.g. "legacy VTK (binary)".
     pub format: String,
+    /// The field the file declares as its active scalar, where it declares
+    /// one (VTK XML's `Scalars="NAME"` on `<PointData>`/`<CellData>`, legacy
+    /// VTK's first `SCALARS` of `POINT_DATA`/`CELL_DATA`): the default
+    /// scalar, point data's before cell data's.
+    pub active_point_scalar: Option<String>,
+    pub active_cell_scalar: Option<String>,
 }
 
 impl SourceMesh {

@@ -278,6 +278,23 @@ fn no_field_gives_a_constant_zero_and_coordinates_are_selectable() {
 }
 
 #[test]
+fn a_constant_field_is_warned_about_with_its_value() {
+    let points: Vec<[f64; 3]> = (0..8).map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64]).collect();
+    let mut src = SourceMesh {
+        points,
+        blocks: vec![Block::Structured { dims: [2, 2, 2], first_point: 0 }],
+        point_fields: vec![tet_mesh::Field::new("Density", 1, vec![1.25; 8])],
+        ..Default::default()
+    };
+    let (_, report) = tetrahedralize(&src, &ConvertOptions::default(), &mut |_| {}).unwrap();
+    let warning = report.findings.iter().map(|f| f.to_string()).find(|f| f.contains("constant (1.25)"));
+    assert!(warning.is_some_and(|w| w.starts_with("warning:") && w.contains("'Density'")), "{:?}", report.findings);
+    src.point_fields[0].values[3] = 2.0;
+    let (_, report) = tetrahedralize(&src, &ConvertOptions::default(), &mut |_| {}).unwrap();
+    assert!(!report.findings.iter().any(|f| matches!(f, tet_mesh::Finding::ConstantScalar { .. })));
+}
+
+#[test]
 fn non_finite_values_matter_only_where_a_tet_uses_them() {
     let mut points = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [f64::NAN, 0., 0.]];
     let mut cells = Cells::new();

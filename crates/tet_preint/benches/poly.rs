@@ -1,4 +1,4 @@
-//! Bake times: poly1/poly2/poly4 at 512² (seed 003's Table 4 setting) on the
+//! Bake times: poly1/poly2/poly4 at 512² (Guthe et al.'s (2002) Table 4 setting) on the
 //! ramp TF, a banded poly2, and the biv-approx F/B tables.
 use criterion::{criterion_group, criterion_main, Criterion};
 use tet_preint::{Emission, FbTable, PolyParams, PolyTable, TransferFunction};

@@ -1,4 +1,4 @@
-//! Table builds at the sizes of issue 5's targets: table3d 128×128×256
+//! Table builds at the sizes of the accuracy targets: table3d 128×128×256
 //! (slice recurrence vs incremental vs per-entry exact), atlas2d from that
 //! table (N and 4N planes), partial Ψ at 1024². TF: tests/data/vtk/tf_ramp.json
 //! over its node range, full square, l_max = 2.
@@ -21,10 +21,10 @@
 //! Group `biv_gauss_independent`: `biv-exact` under the emission-only model
 //! on crates/tetlut/results/tf_gauss_independent.json (one Gaussian widget),
 //! 20 000 segments with s uniform over [0.19, 2], |∇s| over [0, 1.5], l up to
-//! 3.65: seed 004's Gaussian table against the quadrature path, and the
+//! 3.65: Song et al.'s (2009) Gaussian table against the quadrature path, and the
 //! table's build.
 //!
-//! Group `biv_band_independent`: the same for seed 004's triangle- and
+//! Group `biv_band_independent`: the same for Song et al.'s (2009) triangle- and
 //! sine-wave tables, one band widget alone (frequency 5 / 3 bands per unit,
 //! the test TF's), emission-only, 20 000 segments with s over [−0.1, 1.1],
 //! |∇s| over [0, 2.5], l up to 2; and the tables' builds.

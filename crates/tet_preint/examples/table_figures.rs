@@ -24,7 +24,7 @@ fn main() {
     let n_s: usize = args.first().map(|a| a.parse().unwrap()).unwrap_or(128);
     let n_l: usize = args.get(1).map(|a| a.parse().unwrap()).unwrap_or(256);
     // Builds: a number is the recurrence's oversampling; `incremental`,
-    // `exact`, or `blend:STEPS:BITS` (seed 000's emulation).
+    // `exact`, or `blend:STEPS:BITS` (Röttger & Ertl's (2002) emulation).
     let builds: Vec<Build3d> = if args.len() > 2 {
         args[2..]
             .iter()

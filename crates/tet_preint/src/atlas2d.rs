@@ -1,5 +1,5 @@
-//! `atlas2d`: seed 000's cylindrical mapping of the 3D table onto planes
-//! through the front diagonal, tiled into one 2D image (DESIGN.md appendix,
+//! `atlas2d`: Röttger & Ertl's (2002) cylindrical mapping of the 3D table onto planes
+//! through the front diagonal, tiled into one 2D image (Röttger & Ertl 2002,
 //! eqs. 9–10).
 //!
 //! With Sf, Sb, l normalized to [0, 1] (by the domain's scalar range and
@@ -59,7 +59,7 @@ pub fn table_to_plane(sf: f64, sb: f64, l: f64) -> [f64; 3] {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Atlas2dParams {
     /// Number of planes P (≥ 2): 4N reconstructs an N³ table, N and N/2 are
-    /// seed 000's cheaper variants.
+    /// Röttger & Ertl's (2002) cheaper variants.
     pub planes: usize,
     /// Texels per plane side over (s, t).
     pub res: usize,

@@ -1,4 +1,4 @@
-//! Bivariate (scalar × gradient magnitude) pre-integration, seed 004:
+//! Bivariate (scalar × gradient magnitude) pre-integration, Song et al. 2009:
 //! `biv-exact` ([`BivExact`]), `biv-approx` ([`BivApprox`] with the F/B
 //! tables of [`FbTable`]) and the adaptive-quadrature reference
 //! ([`reference_segment`]).
@@ -7,7 +7,7 @@
 //! is split at every x where the integrand has a kink or a jump: the 1D
 //! transfer function's nodes, each widget's support edges (in s and in g),
 //! and each band's half-period crossings (so every band piece is monotone —
-//! seed 004's "at most one peak" holds per piece whatever the frequency).
+//! Song et al.'s (2009) "at most one peak" holds per piece whatever the frequency).
 //!
 //! `biv-exact`, per piece: every part's optical depth in closed form (1D
 //! linear: trapezoid; box: ρ·d; triangle: linear; sine: sinc form; Gaussian:
@@ -22,7 +22,7 @@
 //!
 //! Emission-only model (`"emission": "independent"`), a piece carried by one
 //! Gaussian widget with the 1D part transparent and its colour constant on
-//! the piece: C = (κ₁D + c)·l/k·W(P, u₀, u₁) from seed 004's Gaussian table
+//! the piece: C = (κ₁D + c)·l/k·W(P, u₀, u₁) from Song et al.'s (2009) Gaussian table
 //! ([`GaussErfTable`], built once per `BivExact` when the TF has such a
 //! widget) instead of the quadrature; P beyond the table falls back to it.
 //! Likewise a piece carried by one triangle- or sine-wave widget uses seed
@@ -148,7 +148,7 @@ fn gaussian_peak(w: &Widget, seg: &Seg2) -> Option<f64> {
 const SQRT_PI_2: f64 = 0.886_226_925_452_758; // √π / 2
 
 /// ∫_{x0}^{x1} m(x) dx of a Gaussian widget's shape along the segment
-/// (support ignored), x0 ≤ x1, by the erfcx form of seed 004 §4.2 written
+/// (support ignored), x0 ≤ x1, by the erfcx form of Song et al. 2009 §4.2 written
 /// without cancellation: with u = k(x + B/A), k = √(A/2),
 /// ∫ e^{−q} = (√π/2)/k·[erfcx(u₀)e^{−q(x₀)} − erfcx(u₁)e^{−q(x₁)}] for u₀ ≥ 0
 /// (mirrored for u₁ ≤ 0, and 2e^{−q_min} minus both tails when the peak is
@@ -706,7 +706,7 @@ impl FbTable {
 }
 
 /// The `biv-approx` method: the segment cut into `k` equal sub-segments
-/// (seed 004 §5, ray segment subdivision); at each end (s, g) gives κ and ρ
+/// (Song et al. 2009 §5, ray segment subdivision); at each end (s, g) gives κ and ρ
 /// (pre-classification), each sub-segment is looked up in the [`FbTable`],
 /// and the sub-segments are composited front to back.
 #[derive(Debug, Clone)]

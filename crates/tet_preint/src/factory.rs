@@ -13,19 +13,16 @@
 //! * The 1D methods (`exact`, `pt-linear`, `table3d`, `atlas2d`, `partial`,
 //!   `poly*`) refuse a TF with 2D widgets instead of silently dropping them:
 //!   the error names `biv-exact` / `biv-approx`.
-//! * `biv-exact` tabulates nothing (seed 004's closed forms are evaluated per
+//! * `biv-exact` tabulates nothing (Song et al.'s (2009) closed forms are evaluated per
 //!   segment); `biv-approx` bakes the F/B table.
 //!
 //! Default resolutions ([`BakeOptions::default`]): table3d 128 × 128 × 256
 //! f32 (slice recurrence, o = 2); atlas2d from that table with N planes;
 //! partial Ψ 1024² f32; poly1/2/4 at 512² f32; biv-approx F/B at 128² f32
-//! with 4 sub-segments. Measured on Blunt Fin with `tetlut bench` (2 shared
-//! cores, `crates/tetlut/results/bluntfin.md`): table3d bakes in ~0.3–0.4 s
-//! with max error 2.1e-4 over segments through the mesh's cells but 2.4e-3
-//! over uniform (Sf, Sb, l) (trilinear interpolation at long l); poly2 512²
-//! ~60 ms, max 4.7e-5 / 4.7e-4; Ψ 1024² ~90 ms (TF-independent: a TF edit
-//! rebakes nothing), max < 1e-6. biv-approx's error is set by k, not by
-//! the table side (k = 4: max 1.3e-2 on cells).
+//! with 4 sub-segments. Their bake times and errors on Blunt Fin, measured
+//! by `tetlut bench`, are in `crates/tetlut/results/bluntfin.md`; partial's
+//! Ψ is TF-independent (a TF edit rebakes nothing), and biv-approx's error
+//! is set by k, not by the table side.
 //!
 //! table3d's resolution is the *starting* point: the default bake measures
 //! its own max per-segment error and refines (split lookups at TF nodes,
@@ -328,7 +325,7 @@ mod tests {
         TransferFunction::from_json(json).unwrap()
     }
 
-    /// biv-exact's memory counts seed 004's erf table (one Gaussian widget,
+    /// biv-exact's memory counts Song et al.'s (2009) erf table (one Gaussian widget,
     /// independent emission).
     #[test]
     fn biv_exact_memory_counts_its_tables() {

@@ -8,11 +8,11 @@
 //!   segment (Sf, Sb, l), returning premultiplied [`Rgba`].
 //! * [`special`]: `erfcx` and `dawson` in f64.
 //! * [`Method`], [`Segment`] and [`SegmentShader`] (module [`method`]): the
-//!   method ids of DESIGN.md and the per-segment contract every method
+//!   method ids (`tet_preint::Method`) and the per-segment contract every method
 //!   implements for the renderers ([`ExactShader`], [`PtLinearShader`], tables).
-//! * [`PolyTable`] (module [`poly`]): `poly1`/`poly2`/`poly4`, seed 003's
+//! * [`PolyTable`] (module [`poly`]): `poly1`/`poly2`/`poly4`, Guthe et al.'s (2002)
 //!   mean-extinction table, 16-bit α table and chromaticity polynomial in l.
-//! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of seed 004;
+//! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of Song et al. 2009;
 //!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]);
 //!   [`GaussErfTable`] and [`BandTable`] (module [`biv_tables`]), seed
 //!   004's Gaussian, triangle- and sine-wave tables for the emission-only
@@ -36,8 +36,8 @@
 //! what `tetlut` calls):
 //!
 //! * [`Table3d`] (module [`table3d`]): T(Sf, Sb, l), slice-recurrence,
-//!   seed-000 blend, incremental or exact build; banded storage.
-//! * [`Atlas2d`] (module [`atlas2d`]): seed 000's cylindrical planes, tiled.
+//!   Röttger & Ertl 2002 blend, incremental or exact build; banded storage.
+//! * [`Atlas2d`] (module [`atlas2d`]): Röttger & Ertl's (2002) cylindrical planes, tiled.
 //! * [`PsiTable`] + [`PartialShader`] (module [`partial`]): partial
 //!   pre-integration.
 //! * [`table_error`] (module [`error`]): RMS and max error against `exact`.

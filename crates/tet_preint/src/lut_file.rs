@@ -143,7 +143,7 @@ impl SectionInfo {
 pub struct LutHeader {
     /// tetkit version that wrote the file.
     pub writer: String,
-    /// Method id of DESIGN.md (`table3d`, `atlas2d`, `partial`, …).
+    /// Method id (`table3d`, `atlas2d`, `partial`, …; `tet_preint::Method`).
     pub method: String,
     /// The transfer function baked, as `formats/tf.md` JSON.
     pub tf: serde_json::Value,
@@ -336,7 +336,7 @@ pub struct BakeOptions {
     pub poly_res: usize,
     /// `biv-approx`: F/B table side.
     pub fb_res: usize,
-    /// `biv-approx`: equal sub-segments per segment (seed 004's k).
+    /// `biv-approx`: equal sub-segments per segment (Song et al.'s (2009) k).
     pub biv_subsegments: usize,
     /// Storage of the poly tables (f32 or f16: their coefficients are
     /// signed) and of the F/B table (any precision).

@@ -1,4 +1,4 @@
-//! Method ids shared by tetlut, tetview and every benchmark (DESIGN.md
+//! Method ids shared by tetlut, tetview and every benchmark (README
 //! "Methods"), and the [`SegmentShader`] contract every method implements.
 //!
 //! A shader turns one ray segment through a linear tet into premultiplied
@@ -12,7 +12,7 @@ use crate::tf::TransferFunction;
 use std::fmt;
 use std::str::FromStr;
 
-/// One method id of DESIGN.md's table.
+/// One method id.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Method {
     Exact,
@@ -28,7 +28,7 @@ pub enum Method {
 }
 
 impl Method {
-    /// Every method, in DESIGN.md's order.
+    /// Every method, in `Method::ALL`'s order.
     pub const ALL: [Method; 10] = [
         Method::Exact,
         Method::PtLinear,
@@ -70,7 +70,7 @@ impl fmt::Display for Method {
     }
 }
 
-/// A method id that is not in DESIGN.md's table.
+/// A method id that is not one of [`Method::ALL`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("unknown method '{given}'; known: exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial, biv-exact, biv-approx")]
 pub struct UnknownMethod {

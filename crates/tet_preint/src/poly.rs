@@ -1,4 +1,4 @@
-//! `poly1`, `poly2`, `poly4`: seed 003's 2D tables (Guthe et al. 2002, §3).
+//! `poly1`, `poly2`, `poly4`: Guthe et al.'s 2D tables (2002, §3).
 //!
 //! The 3D table T(Sf, Sb, l) is replaced by
 //!

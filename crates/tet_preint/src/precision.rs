@@ -1,5 +1,5 @@
 //! Storage precision of table entries (f32, f16, unorm16, unorm8) and the
-//! emulated accumulation precision of seed 000's frame-buffer integration.
+//! emulated accumulation precision of Röttger & Ertl's (2002) frame-buffer integration.
 //!
 //! Unorm storage needs a range: each channel c is stored as
 //! round(x / scale[c] · (2^b − 1)) with `scale[c]` the channel's largest
@@ -262,7 +262,7 @@ impl Storage {
     }
 }
 
-/// Precision of the running sums in seed 000's slice-parallel integration
+/// Precision of the running sums in Röttger & Ertl's (2002) slice-parallel integration
 /// (its frame buffer): after every blending step the accumulated colour and
 /// transparency are rounded to `bits`-bit unorm; 32 means plain f32.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

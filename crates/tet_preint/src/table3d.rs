@@ -1,5 +1,5 @@
 //! `table3d`: the 3D pre-integration table T(Sf, Sb, l) of premultiplied RGBA
-//! with trilinear lookup (Roettger 2000, seed 000), or, where α bends within
+//! with trilinear lookup (Röttger, Kraus & Ertl 2000; Röttger & Ertl 2002), or, where α bends within
 //! a grid step, trilinear in optical depth ([`Reconstruction`]).
 //!
 //! Axes: Sf and Sb take `n_s` values over the domain's scalar range, equally
@@ -36,7 +36,7 @@
 //!   λ = 0.05). Independent emission: C = l·Σᵢ κ̄ᵢ·∫ᵢT. α = 1 − Tₙ. The inner
 //!   loop runs over plain f32 arrays in 8 lanes without branches; pairs are
 //!   distributed over threads with rayon.
-//! * `Blend`: seed 000's hardware pre-integration emulated: per slice, n
+//! * `Blend`: Röttger & Ertl's (2002) hardware pre-integration emulated: per slice, n
 //!   steps blended back to front with each step's (colour, 1 − e^{−ρl/n})
 //!   at the sample midpoint (Stein's constant-chromaticity step), the running
 //!   sums rounded to the accumulation precision after every step (Table 1).
@@ -1281,7 +1281,7 @@ impl Table3d {
 
 /// How [`Table3d`] interpolates between its entries.
 ///
-/// Trilinear interpolation of premultiplied RGBA is what seed 000 does and
+/// Trilinear interpolation of premultiplied RGBA is what Röttger & Ertl 2002 does and
 /// is exact enough while α changes little from entry to entry. Where a
 /// grid step holds much optical depth (long cells through dense regions:
 /// the stars' Delaunay mesh has l up to 562 world units, Δl = 2.2), α bends
@@ -1312,7 +1312,7 @@ impl Reconstruction {
 }
 
 /// Largest half-way gap between the reconstructions for which a table
-/// stays [`Reconstruction::Trilinear`]: a tenth of issue 5's 1e-3 target.
+/// stays [`Reconstruction::Trilinear`]: a tenth of the 1e-3 accuracy target.
 pub const RECONSTRUCTION_GAP: f32 = 1e-4;
 
 /// Transmittance floor of the reconstruction (optical depth 69). An f32 α

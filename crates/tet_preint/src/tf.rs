@@ -10,10 +10,10 @@ use crate::TfError;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Emission {
-    /// C = ∫ κ ρ T dt (VTK, seed 003; the default): a constant colour gives C = κ·α.
+    /// C = ∫ κ ρ T dt (VTK, Guthe et al. 2002; the default): a constant colour gives C = κ·α.
     #[default]
     Density,
-    /// C = ∫ κ T dt (seeds 000 and 004, eq. 1–2): emission independent of extinction.
+    /// C = ∫ κ T dt (Röttger & Ertl 2002 and Song et al. 2009, eq. 1–2): emission independent of extinction.
     Independent,
 }
 
@@ -161,7 +161,7 @@ impl TransferFunction {
         Ok(TransferFunction { normalized, color, opacity, unit_distance, emission, widgets: Vec::new() })
     }
 
-    /// Returns a copy with these 2D widgets (seed 004; see [`crate::widget`]),
+    /// Returns a copy with these 2D widgets (Song et al. 2009; see [`crate::widget`]),
     /// checked as the JSON is: errors name `widgets[i].field`.
     pub fn with_widgets(mut self, widgets: Vec<Widget>) -> Result<Self, TfError> {
         for (index, w) in widgets.iter().enumerate() {
@@ -383,7 +383,7 @@ impl TransferFunction {
     }
 
     /// Extinction ρ(s, g) per unit world length: the 1D part plus every
-    /// widget (seed 004 sums extinctions).
+    /// widget (Song et al. 2009 sums extinctions).
     pub fn extinction2(&self, s: f64, g: f64) -> f64 {
         let mut rho = self.extinction(s);
         for w in &self.widgets {
@@ -437,7 +437,7 @@ impl TransferFunction {
         }
     }
 
-    /// Conservative per-cell culling (seed 004 §3.1): true only when every
+    /// Conservative per-cell culling (Song et al. 2009 §3.1): true only when every
     /// (s, g) in the closed box [s_range] × [g_range] contributes nothing —
     /// zero extinction (density emission), or zero extinction and zero
     /// emission (independent). A true answer is a proof; false may be

@@ -1,4 +1,4 @@
-//! 2D transfer-function widgets over (scalar s, gradient magnitude g), seed 004:
+//! 2D transfer-function widgets over (scalar s, gradient magnitude g), Song et al. 2009:
 //! uniform box, Gaussian, triangle-wave bands and sine-wave bands
 //! (JSON: `formats/tf.md`, "widgets").
 //!
@@ -12,11 +12,11 @@
 //!   integer, zeros at half-integers), optional `clip`;
 //! * sine bands: m = (1 + cos 2πx)/2, same x, optional `clip`.
 //!
-//! Combination with the 1D part (seed 004 sums extinctions): ρ(s, g) =
+//! Combination with the 1D part (Song et al. 2009 sums extinctions): ρ(s, g) =
 //! ρ₁D(s) + Σ a_w m_w/u. Density emission: κρ = κ₁D ρ₁D + Σ c_w a_w m_w/u, i.e.
 //! the colour is the extinction-weighted mean of the parts. Independent
 //! emission: κ = κ₁D(s) + Σ c_w·[(s, g) in support_w] (each widget emits its
-//! colour over its support, as seed 004's uniform and Gaussian integrals assume).
+//! colour over its support, as Song et al.'s (2009) uniform and Gaussian integrals assume).
 
 use serde::{Deserialize, Serialize};
 

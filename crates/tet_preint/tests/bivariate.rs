@@ -135,7 +135,7 @@ fn biv_exact_matches_reference_per_widget_and_combined() {
     for (name, tf) in tfs {
         for emission in [Emission::Density, Emission::Independent] {
             let tf = tf.clone().with_emission(emission);
-            // Closed forms and quadrature only: seed 004's Gaussian table
+            // Closed forms and quadrature only: Song et al.'s (2009) Gaussian table
             // (emission-only) has its own bound in gauss_erf_table_….
             let biv = BivExact::with_gauss_table(tf.clone(), None);
             let mut worst = 0.0f64;

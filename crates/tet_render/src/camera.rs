@@ -23,6 +23,33 @@ fn default_parallel_scale() -> f64 {
     1.0
 }
 
+/// VTK's default view-up.
+pub const Y_UP: [f64; 3] = [0.0, 1.0, 0.0];
+/// The view-up of point clouds and terrain (see [`z_up_data`]).
+pub const Z_UP: [f64; 3] = [0.0, 0.0, 1.0];
+/// How far above the horizon the default view of z-up data looks from, in
+/// degrees: a side view of flat terrain would show only its edge.
+pub const Z_UP_ELEVATION_DEG: f64 = 30.0;
+
+/// Whether data is z-up by the documented rule: it came from a point cloud
+/// (a bundle whose tets are a Delaunay or layered tetrahedralization of
+/// points: LAS/LAZ, PLY, CSV/XYZ, OBJ, glTF), or its bounds are flat in z
+/// (the z extent is under a fifth of the smaller of the x and y extents:
+/// terrain, seabeds, strata). Everything else keeps VTK's +y up.
+pub fn z_up_data(from_point_cloud: bool, bounds_min: [f64; 3], bounds_max: [f64; 3]) -> bool {
+    let extent = |k: usize| bounds_max[k] - bounds_min[k];
+    let (dx, dy, dz) = (extent(0), extent(1), extent(2));
+    let flat = dx.is_finite() && dy.is_finite() && dz >= 0.0 && dz < 0.2 * dx.min(dy);
+    from_point_cloud || flat
+}
+
+/// [`z_up_data`] for a bundle: its `split` records a point-cloud source
+/// (`delaunay` or `layered`), its statistics the bounds.
+pub fn bundle_is_z_up(meta: &tet_bundle::BundleMeta) -> bool {
+    let from_point_cloud = matches!(meta.split.as_str(), "delaunay" | "layered");
+    z_up_data(from_point_cloud, meta.stats.bounds_min, meta.stats.bounds_max)
+}
+
 /// The view file (`--view view.json`), field names as in VTK's vtkCamera.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -55,6 +82,31 @@ impl ViewSpec {
     /// centre from a distance where the bounding sphere fits the vertical
     /// view angle; `view_up` = +y; parallel scale = the sphere's radius.
     pub fn framing(bounds_min: [f64; 3], bounds_max: [f64; 3], size: [u32; 2]) -> ViewSpec {
+        ViewSpec::framing_up(bounds_min, bounds_max, size, Y_UP).expect("+y is a valid view-up")
+    }
+
+    /// [`ViewSpec::framing`] with a given view-up: the eye sits on the side
+    /// of the centre that +z points to, with +z's component along the up
+    /// removed (so +y up looks down −z exactly as `framing`); where the up is
+    /// along z, on the −y side (z up: looking along +y, x to the right).
+    /// Errors when the up is zero or not finite.
+    pub fn framing_up(
+        bounds_min: [f64; 3],
+        bounds_max: [f64; 3],
+        size: [u32; 2],
+        view_up_in_world: [f64; 3],
+    ) -> Result<ViewSpec, RenderError> {
+        let up = DVec3::from(view_up_in_world);
+        if !up.is_finite() || up.length() == 0.0 {
+            return Err(RenderError::View(format!("view-up {view_up_in_world:?} must be finite and non-zero")));
+        }
+        let up = up.normalize();
+        let away_from = |axis: DVec3| axis - up * up.dot(axis);
+        let mut back = away_from(DVec3::Z);
+        if back.length() < 1e-6 {
+            back = away_from(DVec3::NEG_Y);
+        }
+        let back = back.normalize();
         let lo = DVec3::from(bounds_min);
         let hi = DVec3::from(bounds_max);
         let (centre, mut radius) = if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
@@ -67,14 +119,35 @@ impl ViewSpec {
         }
         let angle = default_view_angle();
         let distance = radius / (0.5 * angle.to_radians()).sin();
-        ViewSpec {
-            position: (centre + DVec3::Z * distance).into(),
+        Ok(ViewSpec {
+            position: (centre + back * distance).into(),
             focal_point: centre.into(),
-            view_up: [0.0, 1.0, 0.0],
+            view_up: up.into(),
             view_angle: angle,
             parallel: false,
             parallel_scale: radius,
             size,
+        })
+    }
+
+    /// The view every program starts from when no view file is given: the
+    /// bounds framed with `view_up_in_world` when one is given (`--view-up`),
+    /// otherwise with the data's own up — +z, seen from −y and
+    /// [`Z_UP_ELEVATION_DEG`] above the horizon, for [`z_up_data`], else +y
+    /// (VTK's `ResetCamera`).
+    pub fn default_for(
+        bounds_min: [f64; 3],
+        bounds_max: [f64; 3],
+        size: [u32; 2],
+        z_up: bool,
+        view_up_in_world: Option<[f64; 3]>,
+    ) -> Result<ViewSpec, RenderError> {
+        match view_up_in_world {
+            Some(up) => ViewSpec::framing_up(bounds_min, bounds_max, size, up),
+            None if z_up => {
+                Ok(ViewSpec::framing_up(bounds_min, bounds_max, size, Z_UP)?.orbit(0.0, Z_UP_ELEVATION_DEG, 1.0))
+            }
+            None => Ok(ViewSpec::framing(bounds_min, bounds_max, size)),
         }
     }
 
@@ -316,6 +389,59 @@ mod tests {
         let e = spec.orbit(0.0, 90.0, 1.0);
         assert!((e.position[1] - d0).abs() < 1e-9, "{:?}", e.position);
         assert!(Camera::new(&e).is_ok());
+    }
+
+    #[test]
+    fn framing_up_puts_the_up_on_screen_and_y_up_is_framing() {
+        let (lo, hi) = ([-1.0, -2.0, -0.5], [3.0, 2.0, 0.5]);
+        assert_eq!(ViewSpec::framing_up(lo, hi, [64, 48], Y_UP).unwrap(), ViewSpec::framing(lo, hi, [64, 48]));
+        for up in [Z_UP, [1.0, 0.0, 0.0], [0.0, 0.0, -2.0], [1.0, 1.0, 1.0]] {
+            let v = ViewSpec::framing_up(lo, hi, [64, 48], up).unwrap();
+            let c = Camera::new(&v).unwrap();
+            let focal = DVec3::from(v.focal_point);
+            let u = DVec3::from(up).normalize();
+            // World up is screen up, and the distance is framing's.
+            assert!(c.project(focal + u).y < c.project(focal).y - 1.0, "{up:?}");
+            let d = (DVec3::from(v.position) - focal).length();
+            let d0 = (DVec3::from(ViewSpec::framing(lo, hi, [64, 48]).position) - focal).length();
+            assert!((d - d0).abs() < 1e-9 * d0);
+            assert!((DVec3::from(v.view_up) - u).length() < 1e-12);
+        }
+        // z up: seen from −y, x to the right.
+        let v = ViewSpec::framing_up(lo, hi, [64, 48], Z_UP).unwrap();
+        assert!(v.position[1] < v.focal_point[1]);
+        let c = Camera::new(&v).unwrap();
+        assert!(c.project(DVec3::from(v.focal_point) + DVec3::X).x > 32.0);
+        for bad in [[0.0; 3], [f64::NAN, 1.0, 0.0]] {
+            assert!(ViewSpec::framing_up(lo, hi, [8, 8], bad).unwrap_err().to_string().contains("view-up"));
+        }
+    }
+
+    #[test]
+    fn z_up_rule_and_default_view() {
+        // Point clouds and bounds flat in z are z-up; a cube or a tall box is not.
+        assert!(z_up_data(true, [0.0; 3], [1.0; 3]));
+        assert!(z_up_data(false, [0.0; 3], [10.0, 8.0, 1.5]));
+        assert!(!z_up_data(false, [0.0; 3], [1.0; 3]));
+        assert!(!z_up_data(false, [0.0; 3], [10.0, 1.0, 1.5]));
+        assert!(!z_up_data(false, [f64::INFINITY; 3], [f64::NEG_INFINITY; 3]));
+        let (lo, hi) = ([0.0; 3], [10.0, 8.0, 1.0]);
+        assert_eq!(ViewSpec::default_for(lo, hi, [32, 32], false, None).unwrap(), ViewSpec::framing(lo, hi, [32, 32]));
+        let z = ViewSpec::default_for(lo, hi, [32, 32], true, None).unwrap();
+        // From −y and above the horizon, with z up on screen.
+        assert!(z.position[1] < z.focal_point[1] && z.position[2] > z.focal_point[2]);
+        assert!(z.view_up[2] > 0.8);
+        // An explicit up wins over the rule.
+        let y = ViewSpec::default_for(lo, hi, [32, 32], true, Some(Y_UP)).unwrap();
+        assert_eq!(y, ViewSpec::framing(lo, hi, [32, 32]));
+    }
+
+    #[test]
+    fn a_saved_view_keeps_its_up() {
+        let v = ViewSpec::default_for([0.0; 3], [4.0, 4.0, 0.5], [40, 30], true, None).unwrap();
+        let back = ViewSpec::from_json(&v.to_json()).unwrap();
+        assert_eq!(back.view_up, v.view_up);
+        assert_eq!(back, v);
     }
 
     #[test]

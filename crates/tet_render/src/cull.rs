@@ -1,4 +1,4 @@
-//! Conservative per-cell culling (seed 004 §3.1): a cell whose value range
+//! Conservative per-cell culling (Song et al. 2009 §3.1): a cell whose value range
 //! maps to nothing visible over the whole range is neither drawn nor (with
 //! the radix sort) sorted.
 //!

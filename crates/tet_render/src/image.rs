@@ -277,17 +277,11 @@ pub fn write_png_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Res
 
 /// Writes through a temporary file in the same directory and renames, so a
 /// failed write never leaves a half-written image under the final name.
+/// tet_container's writer, shared by every output of every program, gives
+/// the file the mode `File::create` would.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
-    let io = |e: std::io::Error| RenderError::Io { source: e, path: path.to_path_buf() };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
-    tmp.write_all(bytes).map_err(io)?;
-    tmp.as_file().sync_all().map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+    tet_container::write_atomic(path, ".tetimg-", |w: &mut dyn Write| w.write_all(bytes))
+        .map_err(|e| RenderError::Io { source: std::io::Error::other(e), path: path.to_path_buf() })
 }
 
 /// Differences between two images of the same size, over all four channels

@@ -1,6 +1,6 @@
 //! Optional per-fragment shading (off by default): Blinn–Phong lighting with
 //! the interpolated per-vertex gradient as the normal, modulating emission,
-//! and silhouette enhancement α·(1 − |ĝ·v|)^p (seed 004 §6). The light is a
+//! and silhouette enhancement α·(1 − |ĝ·v|)^p (Song et al. 2009 §6). The light is a
 //! headlight (at the eye), so the half vector is the view vector and the
 //! lighting is two-sided: a gradient's sign does not say which side is out.
 

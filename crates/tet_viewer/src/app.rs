@@ -44,7 +44,10 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
             let text = std::fs::read_to_string(p).map_err(|e| ViewerError::Io { source: e, path: p.clone() })?;
             ViewSpec::from_json(&text)?
         }
-        None => ViewSpec::framing(lo, hi, [512, 512]),
+        None => {
+            let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
+            ViewSpec::default_for(lo, hi, [512, 512], z_up, opts.view_up)?
+        }
     };
     if opts.frames.is_some() != opts.screenshot.is_some() {
         return Err(ViewerError::Input("--frames and --screenshot go together".into()));
@@ -152,6 +155,9 @@ fn worker(
         ctx.request_repaint();
     }
 }
+
+/// How often a scripted run looks at its progress.
+const SCRIPT_POLL: Duration = Duration::from_millis(20);
 
 /// Render scale choices (fraction of the window's pixels along each axis).
 const SCALES: [(f32, &str); 4] = [(1.0, "100%"), (0.75, "75%"), (0.5, "50%"), (0.25, "25%")];
@@ -709,13 +715,15 @@ impl ViewerApp {
 
     /// The image with mouse navigation; returns whether the user is interacting.
     fn viewport(&mut self, ui: &mut egui::Ui) -> (bool, [u32; 2]) {
-        let rect = ui.available_rect_before_wrap();
-        let resp = ui.allocate_rect(rect, Sense::click_and_drag());
+        let panel = ui.available_rect_before_wrap();
+        let resp = ui.allocate_rect(panel, Sense::click_and_drag());
+        let [w, h] = self.home.size;
+        let rect = fit_aspect(panel, w as f32 / h.max(1) as f32);
         let ppp = ui.ctx().pixels_per_point();
         let full = [(rect.width() * ppp).round().max(16.0) as u32, (rect.height() * ppp).round().max(16.0) as u32];
+        ui.painter().rect_filled(panel, 0.0, Color32::BLACK);
         if let Some(tex) = &self.texture {
             let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
-            ui.painter().rect_filled(rect, 0.0, Color32::BLACK);
             ui.painter().image(tex.id(), rect, uv, Color32::WHITE);
         }
         let delta = resp.drag_delta();
@@ -751,6 +759,11 @@ impl ViewerApp {
     fn run_script(&mut self, ctx: &egui::Context) {
         let idle = self.idle();
         let Some(s) = &mut self.script else { return };
+        // A scripted run takes no input, and a static image asks for no
+        // redraw: without this wake-up the event loop would sleep for good
+        // once the view stops changing (`--frames 5` without `--spin`), and
+        // the timeout below would never be checked.
+        ctx.request_repaint_after(SCRIPT_POLL);
         if s.started.elapsed() > Duration::from_secs(300) {
             *s.result.lock().unwrap_or_else(|e| e.into_inner()) = Some(Err("timed out after 300 s".into()));
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
@@ -772,6 +785,21 @@ impl ViewerApp {
             request_screenshot(ctx, s.path.clone(), self.shot_slot.clone());
         }
     }
+}
+
+/// The largest rectangle of aspect `w_over_h` inside `panel`, centred. The
+/// image takes the home view's aspect, so it shows what `tetview render`
+/// draws for that view: the default framing fits the data's bounding sphere
+/// into the view's height and, the view being square, its width; a render
+/// size taken from a portrait panel would cut it at the sides.
+fn fit_aspect(panel: Rect, w_over_h: f32) -> Rect {
+    let a = if w_over_h.is_finite() && w_over_h > 0.0 { w_over_h } else { 1.0 };
+    let size = if panel.width() > a * panel.height() {
+        Vec2::new(a * panel.height(), panel.height())
+    } else {
+        Vec2::new(panel.width(), panel.width() / a)
+    };
+    Rect::from_center_size(panel.center(), size)
 }
 
 /// 1234567 → "1.23 M".
@@ -842,7 +870,13 @@ impl eframe::App for ViewerApp {
         }
 
         egui::Panel::left("controls").resizable(true).default_size(300.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui));
+            // A solid, always-visible bar: the controls are taller than a
+            // default window, and egui's default floating bar only shows on hover.
+            ui.style_mut().spacing.scroll = egui::style::ScrollStyle::solid();
+            egui::ScrollArea::vertical()
+                .auto_shrink([false, false])
+                .scroll_bar_visibility(egui::containers::scroll_area::ScrollBarVisibility::AlwaysVisible)
+                .show(ui, |ui| self.controls(ui));
         });
         egui::Panel::bottom("status").show(ui, |ui| self.status_line(ui));
         let (interacting, full) = egui::CentralPanel::default().show(ui, |ui| self.viewport(ui)).inner;
@@ -988,7 +1022,7 @@ fn tf_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut EditorState) {
 }
 
 /// Frequency, phase and clip of banded widget `i`. Bands run along s only
-/// (seed 004's triangle and sine widgets have no orientation); the clip
+/// (Song et al.'s (2009) triangle and sine widgets have no orientation); the clip
 /// rectangle limits them in s and |∇s|.
 fn band_controls(
     ui: &mut egui::Ui,
@@ -1077,20 +1111,39 @@ fn bounded_mid([lo, hi]: [f64; 2]) -> Option<f64> {
     (lo.abs() < f64::MAX && hi.abs() < f64::MAX).then_some(0.5 * (lo + hi))
 }
 
-/// The joint (scalar, |∇s|) histogram as an image, log-scaled grey, |∇s| up.
+/// The joint (scalar, |∇s|) histogram as an image, |∇s| up: empty bins
+/// black, the others grey on a log scale from the smallest non-zero bin
+/// (dark grey) to the largest (white). Volume-weighted bins span many
+/// decades, so a scale anchored at the maximum alone left all but the
+/// peak nearly black.
 fn histogram_image(h: &Histograms) -> egui::ColorImage {
     let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
-    let max = h.joint.iter().copied().fold(0.0, f64::max);
+    let px = log_grey(&h.joint, ns, ng);
+    egui::ColorImage { size: [ns, ng], source_size: Vec2::new(ns as f32, ng as f32), pixels: px }
+}
+
+/// Grey levels of a row-major `ns × ng` count grid (row 0 = the last `g`
+/// row, so larger values of the second axis are up): 0 for an empty bin,
+/// 60 to 255 along `ln(v / min) / ln(max / min)` over the non-zero bins.
+fn log_grey(counts: &[f64], ns: usize, ng: usize) -> Vec<Color32> {
+    let positive = counts.iter().copied().filter(|v| *v > 0.0 && v.is_finite());
+    let (min, max) = positive.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    let span = (max / min).ln();
     let mut px = Vec::with_capacity(ns * ng);
     for row in 0..ng {
         let g = ng - 1 - row;
         for s in 0..ns {
-            let v = h.joint.get(g * ns + s).copied().unwrap_or(0.0);
-            let t = if max > 0.0 && v > 0.0 { (1.0 + 1e4 * v / max).ln() / (1.0 + 1e4f64).ln() } else { 0.0 };
-            px.push(Color32::from_gray((40.0 + 215.0 * t) as u8));
+            let v = counts.get(g * ns + s).copied().unwrap_or(0.0);
+            let grey = if v > 0.0 && v.is_finite() {
+                let t = if span > 0.0 { (v / min).ln() / span } else { 1.0 };
+                60.0 + 195.0 * t.clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            px.push(Color32::from_gray(grey.round() as u8));
         }
     }
-    egui::ColorImage { size: [ns, ng], source_size: Vec2::new(ns as f32, ng as f32), pixels: px }
+    px
 }
 
 /// Widgets drawn over the 2D histogram (band widgets as their clip
@@ -1235,5 +1288,49 @@ fn widget_editor(ui: &mut egui::Ui, model: &mut TfModel, st: &mut WidgetState, h
             model.remove_widget(i);
             st.selected = None;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_rect_keeps_the_view_aspect_inside_the_panel() {
+        // The default window's portrait image panel (570×654) and a wide one.
+        for panel in [
+            Rect::from_min_size(Pos2::new(310.0, 0.0), Vec2::new(570.0, 654.0)),
+            Rect::from_min_size(Pos2::ZERO, Vec2::new(900.0, 300.0)),
+        ] {
+            for aspect in [1.0f32, 4.0 / 3.0, 0.5] {
+                let r = fit_aspect(panel, aspect);
+                assert!(panel.expand(1e-3).contains_rect(r), "{panel:?} {r:?}");
+                assert!((r.width() / r.height() - aspect).abs() < 1e-4);
+                // As large as fits: it touches two opposite sides.
+                assert!((r.width() - panel.width()).abs() < 1e-3 || (r.height() - panel.height()).abs() < 1e-3);
+                assert!((r.center() - panel.center()).length() < 1e-3);
+            }
+        }
+        assert_eq!(fit_aspect(Rect::from_min_size(Pos2::ZERO, Vec2::splat(10.0)), f32::NAN).size(), Vec2::splat(10.0));
+    }
+
+    #[test]
+    fn histogram_thumbnail_shows_small_bins() {
+        // One huge bin and many bins 1e-8 of it: on the old scale anchored at
+        // the maximum they were nearly black; now every non-empty bin is at
+        // least dark grey and order is kept.
+        let (ns, ng) = (4, 3);
+        let mut counts = vec![1e-8; ns * ng];
+        counts[0] = 1.0;
+        counts[5] = 1e-4;
+        counts[7] = 0.0;
+        let px = log_grey(&counts, ns, ng);
+        let grey = |s: usize, g: usize| px[(ng - 1 - g) * ns + s].r();
+        assert_eq!(grey(0, 0), 255);
+        assert_eq!(grey(3, 1), 0, "empty bin");
+        assert!(grey(1, 0) >= 60);
+        assert!(grey(1, 1) > grey(1, 0) + 60, "1e-4 sits mid-scale");
+        assert!(log_grey(&[2.0; 4], 2, 2).iter().all(|c| c.r() == 255));
+        assert!(log_grey(&[0.0; 4], 2, 2).iter().all(|c| c.r() == 0));
     }
 }

@@ -79,6 +79,9 @@ pub struct ViewerOptions {
     pub method: Method,
     /// View JSON (as `tetview render --view`); framing the bounds when `None`.
     pub view: Option<PathBuf>,
+    /// View-up of the framing when there is no view file; `None`: the
+    /// data's own (`tet_render::ViewSpec::default_for`).
+    pub view_up: Option<[f64; 3]>,
     /// Never open a GPU context (render on the CPU).
     pub cpu_only: bool,
     /// Start on the GPU even when its adapter is a software one (by
@@ -87,8 +90,9 @@ pub struct ViewerOptions {
     pub prefer_gpu: bool,
     /// Window size in points.
     pub window_size: [f32; 2],
-    /// Scripted run: render this many full-resolution frames, then save a
-    /// screenshot of the window to `screenshot` and exit.
+    /// Scripted run: render this many full-resolution frames (a view that
+    /// does not change is not drawn again), then save a screenshot of the
+    /// window to `screenshot` and exit; it always ends, within 300 s.
     pub frames: Option<usize>,
     pub screenshot: Option<PathBuf>,
     /// Scripted run: degrees of azimuth between frames (exercises re-sorting).
@@ -102,6 +106,7 @@ impl ViewerOptions {
             tf: None,
             method: Method::PtLinear,
             view: None,
+            view_up: None,
             cpu_only: false,
             prefer_gpu: false,
             window_size: [1100.0, 720.0],

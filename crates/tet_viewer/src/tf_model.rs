@@ -13,7 +13,7 @@ use tet_analysis::Histograms;
 use tet_preint::widget::{box_support, MAX_FREQUENCY, UNBOUNDED};
 use tet_preint::{ColorNode, Emission, OpacityNode, Shape, TfError, TransferFunction, Widget};
 
-/// The four widget kinds of seed 004, for creating one with defaults
+/// The four widget kinds of Song et al. 2009, for creating one with defaults
 /// ([`TfModel::add_widget_in`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum WidgetKind {

@@ -3,7 +3,7 @@
 //!
 //! Errors are absolute, over the four channels of premultiplied (C, α),
 //! against f64 references computed once (in parallel) per segment set and
-//! reused for every method: `exact` for the 1D methods, seed 004's adaptive
+//! reused for every method: `exact` for the 1D methods, Song et al.'s (2009) adaptive
 //! [`reference_segment`] for `biv-*`. Two segment sets: random rays through
 //! random cells of the bundle (`sample_cell_segments`) and triples uniform
 //! over the baked domain (`uniform_triples`; |∇s| uniform over [0, max]).
@@ -56,7 +56,7 @@ pub struct BenchArgs {
     /// Also write every row as JSON.
     #[arg(long, value_name = "out.json")]
     pub json: Option<PathBuf>,
-    /// Print seed 000's Tables 1–2 and seed 003's Table 4, reproduced on
+    /// Print the tables of Röttger & Ertl 2002 (Tables 1–2) and Guthe et al. 2002 (Table 4), reproduced on
     /// this machine for this TF and bundle, as markdown (instead of the sweep).
     #[arg(long)]
     pub paper: bool,

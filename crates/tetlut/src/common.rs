@@ -13,7 +13,7 @@ use tet_preint::{BakeOptions, Build3d, Method, Precision, TableDomain, TransferF
 /// them to .tetl files, draw them, probe them, and measure bake time,
 /// memory and error of every method against the exact integral.
 ///
-/// Methods (DESIGN.md): exact, pt-linear, table3d, atlas2d, poly1, poly2,
+/// Methods (`tet_preint::Method`): exact, pt-linear, table3d, atlas2d, poly1, poly2,
 /// poly4, partial, biv-exact, biv-approx.
 ///
 /// Exit codes: 0 success, 1 unexpected failure, 2 bad command line,
@@ -236,7 +236,7 @@ pub struct TableArgs {
     pub k: Option<usize>,
     /// table3d/atlas2d build: adaptive[:TOLERANCE] (default adaptive:1e-5),
     /// slice[:OVERSAMPLING] (slice: oversampling 2), incremental, exact
-    /// (f64 per entry) or blend:STEPS:BITS (seed 000).
+    /// (f64 per entry) or blend:STEPS:BITS (Röttger & Ertl 2002).
     #[arg(long, value_name = "BUILD")]
     pub build: Option<String>,
     /// table3d: the largest per-segment error (any channel, against exact)

@@ -3,7 +3,7 @@
 //! Subcommands: `bake` (a method's tables to `.tetl`), `show` (a `.tetl` as
 //! labelled images), `probe` (segments in, premultiplied RGBA out) and
 //! `bench` (bake time, memory and error of every method; `--paper`
-//! reproduces seed 000's Tables 1–2 and seed 003's Table 4).
+//! reproduces the tables of Röttger & Ertl 2002 (Tables 1–2) and Guthe et al. 2002 (Table 4)).
 mod bake;
 mod bench;
 mod common;

@@ -398,3 +398,74 @@ fn layered_csv_points_become_prisms() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("point clouds"), "{}", stderr(&o));
 }
+
+/// Regression: SU2, Exodus, HDF5 and OpenFOAM inputs were told to "pass
+/// --format" though no --format reads them; now the error says what the file
+/// is (exit 3, an input problem, as for any unreadable input).
+#[test]
+fn unsupported_formats_say_what_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.tetb");
+    let case = dir.path().join("cavity");
+    std::fs::create_dir_all(case.join("system")).unwrap();
+    std::fs::write(case.join("system/controlDict"), b"FoamFile {}").unwrap();
+    for (name, bytes, what) in [
+        ("wing.su2", &b"NDIME= 3\n"[..], "SU2"),
+        ("blade.exo", b"CDF\x01\0\0\0\0", "Exodus II"),
+        ("data.h5", b"\x89HDF\r\n\x1a\n", "HDF5"),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let o = tetprep(&["convert", p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(3), "{name}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains(what) && e.contains("does not read yet") && !e.contains("pass --format"), "{e}");
+        assert!(e.contains(name), "{e}");
+    }
+    let o = tetprep(&["convert", case.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3));
+    assert!(stderr(&o).contains("OpenFOAM"), "{}", stderr(&o));
+}
+
+/// A scalar with one value everywhere is reported with that value.
+#[test]
+fn constant_scalar_is_a_warning_with_its_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let vtk = dir.path().join("flat.vtk");
+    std::fs::write(
+        &vtk,
+        b"# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\n\
+CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nPOINT_DATA 4\nSCALARS p float 1\nLOOKUP_TABLE default\n2.5 2.5 2.5 2.5\n",
+    )
+    .unwrap();
+    let out = dir.path().join("flat.tetb");
+    let o = tetprep(&["convert", vtk.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("warning: the scalar 'p' is constant (2.5)"), "{text}");
+}
+
+/// Every tetprep output (bundle, VTU, histogram PNG) gets the mode
+/// File::create gives, like tetview's and tetlut's.
+#[cfg(unix)]
+#[test]
+fn outputs_get_the_mode_file_create_gives() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain");
+    std::fs::File::create(&plain).unwrap();
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let b = dir.path().join("s.tetb");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/cube5.tetb");
+    std::fs::copy(&sample, &b).unwrap();
+    std::fs::set_permissions(&b, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let o = tetprep(&["analyze", b.to_str().unwrap(), "--gradients", "--histogram"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let vtu = dir.path().join("s.vtu");
+    let png = dir.path().join("h.png");
+    assert!(tetprep(&["export", b.to_str().unwrap(), "-o", vtu.to_str().unwrap()]).status.success());
+    assert!(tetprep(&["hist", b.to_str().unwrap(), "-o", png.to_str().unwrap()]).status.success());
+    for p in [&b, &vtu, &png] {
+        assert_eq!(mode(p), mode(&plain), "{}", p.display());
+    }
+}

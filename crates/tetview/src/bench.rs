@@ -260,7 +260,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let domain = TableDomain::from_bundle(&bundle).map_err(|e| InputError(e.to_string()))?;
         let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", bundle_path.display()))?;
         let (lo, hi) = scene.bounds();
-        let base = ViewSpec::framing(lo, hi, args.size);
+        let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
+        let base = ViewSpec::default_for(lo, hi, args.size, z_up, None)?;
         let views: Vec<ViewSpec> =
             (0..args.views).map(|i| base.orbit(360.0 * f64::from(i) / f64::from(args.views), 0.0, 1.0)).collect();
         let key = fnv1a(tf_text.as_bytes(), fnv1a(&bundle_bytes, FNV_OFFSET));

@@ -35,6 +35,9 @@ pub struct ReferenceArgs {
     pub elevation: f64,
     #[arg(long, default_value_t = 1.0)]
     pub zoom: f64,
+    #[arg(long, value_parser = crate::cli::parse_view_up, allow_hyphen_values = true,
+          conflicts_with = "view", help = crate::cli::VIEW_UP_HELP)]
+    pub view_up: Option<[f64; 3]>,
     /// Parallel projection (with the framing's parallel scale unless --view sets one).
     #[arg(long)]
     pub parallel: bool,
@@ -92,6 +95,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     }
     let bundle = Bundle::read(&args.bundle)?;
     let mesh = &bundle.mesh;
+    crate::cli::warn_if_constant_scalar(&bundle);
     let text = std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display()))?;
     let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", args.tf.display()))?;
     let (smin, smax) = mesh.scalar.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &s| (a.min(s), b.max(s)));
@@ -113,7 +117,8 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
         }
         None => {
             let (lo, hi) = bounds(&mesh.points);
-            ViewSpec::framing(lo, hi, [512, 512])
+            let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
+            ViewSpec::default_for(lo, hi, [512, 512], z_up, args.view_up)?
         }
     };
     if let Some(size) = args.size {

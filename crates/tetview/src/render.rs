@@ -28,7 +28,7 @@ pub struct RenderArgs {
     /// Method id: exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4,
     /// partial, biv-exact, biv-approx (tables are baked now over the
     /// bundle's domain at tetlut's default resolutions). The default,
-    /// table3d (128×128×256 f32, baked in ~0.3 s), meets the accuracy
+    /// table3d (128×128×256 f32, baked on the fly), meets the accuracy
     /// target against the reference; pt-linear is faster but misses it.
     #[arg(long, default_value = "table3d")]
     pub method: String,
@@ -40,7 +40,7 @@ pub struct RenderArgs {
     #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
     /// View JSON (VTK camera fields; see `--save-view`).
-    #[arg(long, conflicts_with_all = ["azimuth", "elevation", "zoom"])]
+    #[arg(long, conflicts_with_all = ["azimuth", "elevation", "zoom", "view_up"])]
     pub view: Option<PathBuf>,
     /// Degrees about the view-up, from the default view that frames the bounds.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
@@ -49,6 +49,8 @@ pub struct RenderArgs {
     pub elevation: f64,
     #[arg(long, default_value_t = 1.0)]
     pub zoom: f64,
+    #[arg(long, value_parser = crate::cli::parse_view_up, allow_hyphen_values = true, help = crate::cli::VIEW_UP_HELP)]
+    pub view_up: Option<[f64; 3]>,
     /// Parallel projection for the default view.
     #[arg(long)]
     pub parallel: bool,
@@ -163,6 +165,7 @@ pub fn make_shader(method: Method, tf: &TransferFunction, domain: &TableDomain) 
 pub fn run(args: &RenderArgs) -> Result<()> {
     let bundle = Bundle::read(&args.bundle)?;
     let stats = &bundle.meta.stats;
+    crate::cli::warn_if_constant_scalar(&bundle);
     // Either a baked .tetl (its TF travels in the file) or a TF and a method.
     let (method, tf, lut) = match &args.lut {
         Some(path) => {
@@ -214,7 +217,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
         None => {
             let (lo, hi) = scene.bounds();
-            let mut v = ViewSpec::framing(lo, hi, args.size.unwrap_or([512, 512]));
+            let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
+            let mut v = ViewSpec::default_for(lo, hi, args.size.unwrap_or([512, 512]), z_up, args.view_up)?;
             v.parallel = args.parallel;
             v.orbit(args.azimuth, args.elevation, args.zoom)
         }

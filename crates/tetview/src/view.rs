@@ -25,6 +25,9 @@ pub struct ViewArgs {
     /// View JSON (as `tetview render --view`); the reset view.
     #[arg(long)]
     pub view: Option<PathBuf>,
+    #[arg(long, value_parser = crate::cli::parse_view_up, allow_hyphen_values = true,
+          conflicts_with = "view", help = crate::cli::VIEW_UP_HELP)]
+    pub view_up: Option<[f64; 3]>,
     /// Render on the CPU even where a GPU adapter exists.
     #[arg(long, conflicts_with = "gpu")]
     pub cpu: bool,
@@ -37,7 +40,8 @@ pub struct ViewArgs {
     #[arg(long, default_value = "1100x720", value_parser = parse_size)]
     pub window: [f32; 2],
     /// Scripted run: render N full-resolution frames, save a screenshot of
-    /// the window to --screenshot, and exit (for tests and CI).
+    /// the window to --screenshot, and exit (for tests and CI); frames of an
+    /// unchanged view (no --spin) are not drawn again.
     #[arg(long, requires = "screenshot")]
     pub frames: Option<usize>,
     /// PNG of the window's contents, written after --frames.
@@ -64,6 +68,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     opts.tf = args.tf.clone();
     opts.method = method;
     opts.view = args.view.clone();
+    opts.view_up = args.view_up;
     opts.cpu_only = args.cpu;
     opts.prefer_gpu = args.gpu;
     opts.window_size = args.window;

@@ -5,6 +5,12 @@ use tet_bundle::{Bundle, BundleMeta};
 use tet_mesh::{build_adjacency, TetMesh};
 
 fn bundle(dir: &Path) -> std::path::PathBuf {
+    bundle_with(dir, "cube.tetb", |p| p[0] + 0.5 * p[1], "")
+}
+
+/// The cube of [`bundle`] with another scalar and `meta.split` (the source
+/// kind: `delaunay` marks a point cloud).
+fn bundle_with(dir: &Path, name: &str, scalar: fn([f64; 3]) -> f64, split: &str) -> std::path::PathBuf {
     // A cube of 5 tets with a linear scalar.
     let points = vec![
         [0., 0., 0.],
@@ -31,11 +37,15 @@ fn bundle(dir: &Path) -> std::path::PathBuf {
             t
         })
         .collect();
-    let scalar = points.iter().map(|p| p[0] + 0.5 * p[1]).collect();
+    let scalar = points.iter().map(|p| scalar(*p)).collect();
     let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
     let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
-    let meta = BundleMeta { stats: tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar), ..Default::default() };
-    let path = dir.join("cube.tetb");
+    let meta = BundleMeta {
+        stats: tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar),
+        split: split.into(),
+        ..Default::default()
+    };
+    let path = dir.join(name);
     Bundle::new(mesh, adjacency, meta).write(&path).unwrap();
     path
 }
@@ -478,4 +488,145 @@ fn renderer_flag_chooses_walk_or_pt() {
     let out = run(&["--renderer", "zsweep"], &pt);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("walk, pt"));
+}
+
+fn saved_view(path: &Path) -> tet_render::ViewSpec {
+    tet_render::ViewSpec::from_json(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// `--view-up` sets the up of the default view in render and reference; the
+/// saved view keeps it and reproduces the image; point clouds are z-up by
+/// default (seen from −y, above the horizon).
+#[test]
+fn view_up_flag_default_z_up_and_saved_views_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let f = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (png, npy, npy2, view) = (f("a.png"), f("a.npy"), f("b.npy"), f("v.json"));
+    let (b, t) = (b.to_str().unwrap().to_string(), t.to_str().unwrap().to_string());
+    let render = |extra: &[&str]| {
+        let mut a = vec!["render", &b, "--tf", &t, "--method", "exact", "--size", "32x24", "--tonemap", "none"];
+        a.extend_from_slice(extra);
+        tetview(&a)
+    };
+    let out = render(&["--view-up", "0,0,1", "--azimuth", "20", "-o", &png, "--float", &npy, "--save-view", &view]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v = saved_view(Path::new(&view));
+    assert!(v.view_up[2] > 0.999, "{:?}", v.view_up);
+    let out = render(&["--view", &view, "-o", &png, "--float", &npy2]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        tet_render::Image::read_npy(Path::new(&npy)).unwrap(),
+        tet_render::Image::read_npy(Path::new(&npy2)).unwrap()
+    );
+    // reference takes the flag too and frames the same view.
+    let rv = f("rv.json");
+    let out = tetview(&[
+        "reference",
+        &b,
+        "--tf",
+        &t,
+        "--size",
+        "32x24",
+        "--view-up",
+        "0,0,1",
+        "--azimuth",
+        "20",
+        "--float",
+        &npy2,
+        "--save-view",
+        &rv,
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(saved_view(Path::new(&rv)), v);
+    // Bad values and --view together with --view-up are command-line errors.
+    for bad in [&["--view-up", "0,0,0"][..], &["--view-up", "1,2"], &["--view", &view, "--view-up", "0,1,0"]] {
+        let out = tetview(&[&["render", &b, "--tf", &t, "-o", &png][..], bad].concat());
+        assert_eq!(out.status.code(), Some(2), "{bad:?}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    // A point cloud's default view is z-up, from −y and above.
+    let cloud = bundle_with(dir.path(), "cloud.tetb", |p| p[0], "delaunay");
+    let out =
+        tetview(&["render", cloud.to_str().unwrap(), "--tf", &t, "--size", "16x16", "-o", &png, "--save-view", &view]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v = saved_view(Path::new(&view));
+    assert!(v.view_up[2] > 0.8 && v.position[1] < v.focal_point[1] && v.position[2] > v.focal_point[2], "{v:?}");
+    // Everything else keeps VTK's +y up, looking down −z.
+    let out = tetview(&["render", &b, "--tf", &t, "--size", "16x16", "-o", &png, "--save-view", &view]);
+    assert!(out.status.success());
+    assert_eq!(saved_view(Path::new(&view)).view_up, [0.0, 1.0, 0.0]);
+}
+
+/// A bundle whose scalar is constant renders, with a warning naming the value.
+#[test]
+fn constant_scalar_warns_with_its_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle_with(dir.path(), "flat.tetb", |_| 0.75, ""), tf(dir.path()));
+    let png = dir.path().join("a.png");
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("warning: the scalar 's' is constant (0.75)"), "{e}");
+}
+
+/// Regression: tetview wrote its images with mode 0600 (a private temporary
+/// file renamed into place) where tetprep's bundles got 0644. Every output
+/// now gets the mode File::create gives.
+#[cfg(unix)]
+#[test]
+fn every_output_gets_the_mode_file_create_gives() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let plain = dir.path().join("plain");
+    std::fs::File::create(&plain).unwrap();
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let f = |name: &str| dir.path().join(name);
+    let (png, npy, view, rpng, rnpy, dpng) = (f("a.png"), f("a.npy"), f("v.json"), f("r.png"), f("r.npy"), f("d.png"));
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let runs: Vec<Vec<String>> = vec![
+        vec![
+            "render".into(),
+            s(&b),
+            "--tf".into(),
+            s(&t),
+            "--size".into(),
+            "16x16".into(),
+            "-o".into(),
+            s(&png),
+            "--float".into(),
+            s(&npy),
+            "--save-view".into(),
+            s(&view),
+        ],
+        vec![
+            "reference".into(),
+            s(&b),
+            "--tf".into(),
+            s(&t),
+            "--size".into(),
+            "16x16".into(),
+            "-o".into(),
+            s(&rpng),
+            "--float".into(),
+            s(&rnpy),
+        ],
+        vec!["diff".into(), s(&npy), s(&rnpy), "-o".into(), s(&dpng)],
+    ];
+    for args in runs {
+        let out = Command::new(env!("CARGO_BIN_EXE_tetview")).args(&args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    for p in [&png, &npy, &view, &rpng, &rnpy, &dpng] {
+        assert_eq!(mode(p), mode(&plain), "{}", p.display());
+    }
 }

@@ -38,20 +38,29 @@ fn samples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples")
 }
 
+/// `tetview view …` on the Xvfb display, with a private XDG_RUNTIME_DIR:
+/// without one, libraries probing for Wayland print "XDG_RUNTIME_DIR is
+/// invalid or not set" on every start.
+fn tetview_on(x: &Xvfb, runtime_dir: &Path) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tetview"));
+    c.arg("view").env("DISPLAY", &x.display).env_remove("WAYLAND_DISPLAY").env("XDG_RUNTIME_DIR", runtime_dir);
+    c
+}
+
 /// Runs a scripted view and checks its screenshot; `extra` adds flags.
 fn scripted_view(x: &Xvfb, method: &str, extra: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot.png");
     let bundle = samples().join("cube5.tetb");
     let tf = samples().join("tf_normalized.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
-        .args(["view", bundle.to_str().unwrap(), "--tf", tf.to_str().unwrap(), "--method", method])
+    let out = tetview_on(x, dir.path())
+        .args([bundle.to_str().unwrap(), "--tf", tf.to_str().unwrap(), "--method", method])
         .args(["--window", "760x480", "--frames", "3", "--spin", "25", "--screenshot", shot.to_str().unwrap()])
         .args(extra)
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
         .output()
         .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
     assert!(
         out.status.success(),
         "tetview view {method} {extra:?}: {:?}\nstderr: {}",
@@ -85,16 +94,80 @@ fn scripted_view(x: &Xvfb, method: &str, extra: &[&str]) {
     assert!(bright > area / 10, "the image area is (nearly) empty: {bright} of {area} pixels bright");
 }
 
-#[test]
-fn view_renders_frames_and_saves_a_window_screenshot() {
+/// The Xvfb server, or `None` after printing why the test skips.
+fn xvfb_or_skip() -> Option<Xvfb> {
     if Command::new("Xvfb").arg("-help").stderr(Stdio::null()).stdout(Stdio::null()).status().is_err() {
         println!("skipped: Xvfb is not installed (make test installs it: apt-get install xvfb)");
-        return;
+        return None;
     }
-    let Some(x) = Xvfb::start() else {
+    let x = Xvfb::start();
+    if x.is_none() {
         println!("skipped: Xvfb did not start");
-        return;
-    };
+    }
+    x
+}
+
+/// Regression: `--frames N --screenshot` without `--spin` never exited (the
+/// event loop slept once the image stopped changing; `--frames 2` happened
+/// to get by on egui's own extra repaints). Every variant must exit with its
+/// screenshot within a minute; they run side by side, and a run past the
+/// minute is killed and fails the test.
+#[test]
+fn every_scripted_run_exits() {
+    let Some(x) = xvfb_or_skip() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = samples().join("cube5.tetb");
+    let variants: Vec<(usize, Option<&str>, bool)> = vec![
+        (2, None, false),
+        (5, None, false),
+        (10, None, false),
+        (5, Some("25"), false),
+        (10, Some("10"), false),
+        (5, None, true),
+        (5, Some("25"), true),
+    ];
+    let mut runs = Vec::new();
+    for (i, (frames, spin, cpu)) in variants.iter().enumerate() {
+        let shot = dir.path().join(format!("shot{i}.png"));
+        let mut c = tetview_on(&x, dir.path());
+        c.args([bundle.to_str().unwrap(), "--window", "320x240", "--frames", &frames.to_string()])
+            .args(["--screenshot", shot.to_str().unwrap()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null());
+        if let Some(deg) = spin {
+            c.args(["--spin", deg]);
+        }
+        if *cpu {
+            c.arg("--cpu");
+        }
+        runs.push((format!("--frames {frames} spin {spin:?} cpu {cpu}"), c.spawn().unwrap(), shot));
+    }
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let mut failures = Vec::new();
+    for (what, mut child, shot) in runs {
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break Some(status);
+            }
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        };
+        match status {
+            Some(s) if s.success() && shot.exists() => {}
+            Some(s) => failures.push(format!("{what}: {s}, screenshot written: {}", shot.exists())),
+            None => failures.push(format!("{what}: still running after 60 s (killed)")),
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+#[test]
+fn view_renders_frames_and_saves_a_window_screenshot() {
+    let Some(x) = xvfb_or_skip() else { return };
     // CPU renderer with a baked table; tet_gpu where an adapter exists (the
     // engine falls back to the CPU otherwise); the default choice.
     scripted_view(&x, "table3d", &["--cpu"]);

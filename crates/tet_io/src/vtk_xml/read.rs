@@ -195,6 +195,8 @@ fn append_piece(mesh: &mut SourceMesh, piece: SourceMesh, first: bool, label: &s
     if first {
         mesh.point_fields = piece.point_fields;
         mesh.cell_fields = piece.cell_fields;
+        mesh.active_point_scalar = piece.active_point_scalar;
+        mesh.active_cell_scalar = piece.active_cell_scalar;
     } else {
         merge_fields(&mut mesh.point_fields, piece.point_fields, "point", label, &mut mesh.notes);
         merge_fields(&mut mesh.cell_fields, piece.cell_fields, "cell", label, &mut mesh.notes);
@@ -919,6 +921,13 @@ impl<'a> Ctx<'a> {
         Ok(flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
     }
 
+    /// The active scalar a piece's `<PointData>`/`<CellData>` declares
+    /// (`Scalars="NAME"`), if any.
+    fn active_scalar(&self, piece: usize, data: &str) -> Option<String> {
+        let el = self.child(piece, data)?;
+        self.attr(el, "Scalars").filter(|n| !n.is_empty()).map(str::to_string)
+    }
+
     /// Numeric arrays of a `<PointData>`/`<CellData>` element as fields of
     /// `num_tuples` tuples; with `kept`, only the tuples of kept cells.
     fn fields(
@@ -1006,6 +1015,8 @@ impl<'a> Ctx<'a> {
             blocks: vec![Block::Unstructured(cells)],
             point_fields,
             cell_fields,
+            active_point_scalar: self.active_scalar(piece, "PointData"),
+            active_cell_scalar: self.active_scalar(piece, "CellData"),
             ..Default::default()
         })
     }
@@ -1145,6 +1156,8 @@ impl<'a> Ctx<'a> {
             blocks: vec![Block::Structured { dims, first_point: 0 }],
             point_fields,
             cell_fields,
+            active_point_scalar: self.active_scalar(piece, "PointData"),
+            active_cell_scalar: self.active_scalar(piece, "CellData"),
             ..Default::default()
         })
     }

@@ -1,0 +1,81 @@
+//! Formats tetkit recognises but does not read yet: one error variant that
+//! says what the file is, never "pass --format" (no --format reads them).
+use std::path::Path;
+use tet_io::{read_file, ReadError, ReadOptions, Unsupported};
+
+fn kind_of(path: &Path) -> Unsupported {
+    match read_file(path, &ReadOptions::default()) {
+        Err(e @ ReadError::Unsupported { .. }) => {
+            let msg = e.to_string();
+            assert!(!msg.contains("pass --format"), "{msg}");
+            assert!(msg.contains("does not read yet") && msg.ends_with(&path.display().to_string()), "{msg}");
+            let ReadError::Unsupported { kind, .. } = e else { unreachable!() };
+            kind
+        }
+        other => panic!("{}: expected Unsupported, got {other:?}", path.display()),
+    }
+}
+
+fn file(dir: &Path, name: &str, bytes: &[u8]) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+#[test]
+fn su2_by_extension_and_by_content() {
+    let d = tempfile::tempdir().unwrap();
+    assert_eq!(kind_of(&file(d.path(), "wing.su2", b"NDIME= 3\nNELEM= 0\n")), Unsupported::Su2);
+    assert_eq!(kind_of(&file(d.path(), "wing.mesh", b"% SU2 mesh\nNDIME= 3\n")), Unsupported::Su2);
+}
+
+#[test]
+fn exodus_netcdf_and_hdf5_flavours() {
+    let d = tempfile::tempdir().unwrap();
+    for (name, magic) in [
+        ("a.exo", &b"CDF\x01\0\0\0\0"[..]),
+        ("b.ex2", b"CDF\x02\0\0\0\0"),
+        ("c.e", b"CDF\x01\0\0\0\0"),
+        ("d.exo", b"\x89HDF\r\n\x1a\n\0\0"),
+        // `.g` is also PLOT3D's grid extension: the magic decides.
+        ("e.g", b"CDF\x02\0\0\0\0"),
+    ] {
+        assert_eq!(kind_of(&file(d.path(), name, magic)), Unsupported::Exodus, "{name}");
+    }
+}
+
+#[test]
+fn bare_netcdf_and_hdf5() {
+    let d = tempfile::tempdir().unwrap();
+    assert_eq!(kind_of(&file(d.path(), "data.bin", b"CDF\x01\0\0\0\0")), Unsupported::NetCdf);
+    assert_eq!(kind_of(&file(d.path(), "data.xyz", b"\x89HDF\r\n\x1a\n\0")), Unsupported::Hdf5);
+    assert_eq!(kind_of(&file(d.path(), "data.h5", b"anything")), Unsupported::Hdf5);
+}
+
+#[test]
+fn cgns_hdf5_and_adf() {
+    let d = tempfile::tempdir().unwrap();
+    assert_eq!(kind_of(&file(d.path(), "m.cgns", b"\x89HDF\r\n\x1a\n\0")), Unsupported::Cgns);
+    assert_eq!(kind_of(&file(d.path(), "m.cgns", b"ADF Database Version A02011>")), Unsupported::Cgns);
+}
+
+#[test]
+fn openfoam_case_directory_foam_file_and_dictionary() {
+    let d = tempfile::tempdir().unwrap();
+    let case = d.path().join("cavity");
+    std::fs::create_dir_all(case.join("constant/polyMesh")).unwrap();
+    assert_eq!(kind_of(&case), Unsupported::OpenFoam);
+    assert_eq!(kind_of(&file(d.path(), "cavity.foam", b"")), Unsupported::OpenFoam);
+    let dict = b"FoamFile\n{\n    version 2.0;\n    class vectorField;\n}\n";
+    assert_eq!(kind_of(&file(d.path(), "points", dict)), Unsupported::OpenFoam);
+}
+
+#[test]
+fn other_unknown_files_still_ask_for_a_format() {
+    let d = tempfile::tempdir().unwrap();
+    let e = read_file(&file(d.path(), "mystery.dat", b"\x01\x02\x03"), &ReadOptions::default()).unwrap_err();
+    assert!(matches!(e, ReadError::UnknownFormat { .. }), "{e:?}");
+    // A PLOT3D `.g` grid is still a PLOT3D grid (it fails as one here).
+    let e = read_file(&file(d.path(), "grid.g", b"\x01\x00\x00\x00"), &ReadOptions::default()).unwrap_err();
+    assert!(matches!(e, ReadError::Malformed { format: tet_io::Format::Plot3d, .. }), "{e:?}");
+}

@@ -39,8 +39,9 @@ const WG: u32 = 256u;
 const PER_THREAD: u32 = 4u;
 // Reinhard et al. 2002's δ, as tet_render's Reinhard::fit.
 const DELTA: f32 = 1.0e-4;
-// tet_render::image::COVERED_ALPHA.
+// tet_render::image::COVERED_ALPHA and DESATURATION.
 const COVERED_ALPHA: f32 = 0.02;
+const DESATURATION: f32 = 0.25;
 
 var<workgroup> w_sum: array<f32, 256>;
 var<workgroup> w_max: array<f32, 256>;
@@ -186,12 +187,15 @@ fn map(@builtin(global_invocation_id) gid: vec3<u32>) {
             let ld = min(lm * (1.0 + lm / f.white_sq) / (1.0 + lm), 1.0);
             let k = ld / l;
             var m = max(c, vec3<f32>(0.0)) * k;
-            // Out of gamut: towards the grey of the same luminance (hue
-            // kept), as Reinhard::apply's fit_gamut.
+            // Out of gamut, hue kept: tet_render::image::fit_gamut (a mix
+            // of desaturation towards the grey of the same luminance and
+            // darkening at full saturation).
             let top = max(m.r, max(m.g, m.b));
             if top > 1.0 {
                 let t = clamp((1.0 - ld) / (top - ld), 0.0, 1.0);
-                m = clamp(vec3<f32>(ld) + t * (m - vec3<f32>(ld)), vec3<f32>(0.0), vec3<f32>(1.0));
+                let desaturated = vec3<f32>(ld) + t * (m - vec3<f32>(ld));
+                let darkened = m / top;
+                m = clamp(darkened + DESATURATION * (desaturated - darkened), vec3<f32>(0.0), vec3<f32>(1.0));
             }
             rgb = vec3<f32>(linear_to_srgb(m.r), linear_to_srgb(m.g), linear_to_srgb(m.b));
         }

@@ -280,10 +280,9 @@ impl Reinhard {
     }
 
     /// Tone-mapped linear RGB in [0, 1]: RGB scaled by L_d / L (hue and
-    /// saturation kept); a colour whose largest channel would pass 1 is
-    /// desaturated towards its luminance — same luminance, same hue — until
-    /// it fits, instead of clipping each channel (which turns a bright red
-    /// into pink and then white).
+    /// saturation kept). A colour whose largest channel would pass 1 is
+    /// brought into gamut keeping its hue, never by clipping each channel
+    /// (which turns a bright red into pink and then white): see [`fit_gamut`].
     pub fn apply(&self, c: [f32; 3]) -> [f32; 3] {
         let l = luminance(c).max(0.0);
         if !(l > 0.0 && l.is_finite()) {
@@ -296,15 +295,27 @@ impl Reinhard {
     }
 }
 
-/// Brings `rgb` (luminance `l` ≤ 1) into [0, 1]³ by moving it towards the
-/// grey of the same luminance, the least that fits; hue is kept.
-fn fit_gamut(rgb: [f32; 3], l: f32) -> [f32; 3] {
+/// Share of an out-of-gamut colour's correction done by desaturation; the
+/// rest darkens it at full saturation. Both keep the hue (they move along
+/// the same line through grey), so any mix does: pure desaturation would
+/// reach white for every L_d near 1 whatever the colour (a saturated red
+/// cannot be bright), pure darkening would lose the brightness order.
+pub const DESATURATION: f32 = 0.25;
+
+/// Brings `rgb` (luminance `l` ≤ 1) into [0, 1]³ with its hue kept: the mix
+/// (by [`DESATURATION`]) of the least desaturation towards the grey of
+/// luminance `l` that fits and the colour scaled by 1/max channel.
+pub fn fit_gamut(rgb: [f32; 3], l: f32) -> [f32; 3] {
     let max = rgb[0].max(rgb[1]).max(rgb[2]);
     if max <= 1.0 {
         return rgb;
     }
     let t = ((1.0 - l) / (max - l)).clamp(0.0, 1.0);
-    rgb.map(|v| (l + t * (v - l)).clamp(0.0, 1.0))
+    rgb.map(|v| {
+        let desaturated = l + t * (v - l);
+        let darkened = v / max;
+        (darkened + DESATURATION * (desaturated - darkened)).clamp(0.0, 1.0)
+    })
 }
 
 pub fn linear_to_srgb(v: f32) -> f32 {

@@ -135,19 +135,17 @@ pub fn auto_tf(bundle: &Bundle, opts: &AutoTfOptions) -> Result<AutoTf, TfError>
         }
     };
     let centres = bin_centres(&hist);
-    let (opacity, boundary) = boundary_opacity(&hist);
-    let opacity = match opacity {
+    let opacity = match boundary_opacity(&hist) {
         Some(o) => o,
         None => {
             source = BoundarySource::ScalarHistogramOnly;
             rarity_opacity(&hist.scalar)
         }
     };
-    let _ = boundary;
     let mean_chord = mean_chord(stats.bounds_min, stats.bounds_max, hist.total_volume.max(stats.total_volume));
     let volume: f64 = hist.scalar.iter().sum();
     let weighted: f64 = hist.scalar.iter().zip(&opacity).map(|(v, o)| v * o).sum();
-    if !(weighted > 0.0 && volume > 0.0) {
+    if weighted.is_nan() || weighted <= 0.0 || volume <= 0.0 {
         return Err(TfError::AutoTf("no scalar bin holds volume (degenerate mesh)".into()));
     }
     // κ = a / u with u = mean chord: τ ≈ chord · Σ v κ / V = Σ v a / V.
@@ -207,9 +205,9 @@ fn smooth(v: &[f64], w: &[f64], sigma: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Kindlmann–Durkin opacity per scalar bin in [0, 1], and the boundary
-/// function b(p(v)) alone; `None` when g(v) is flat (no boundary to find).
-fn boundary_opacity(h: &Histograms) -> (Option<Vec<f64>>, Vec<f64>) {
+/// Kindlmann–Durkin opacity per scalar bin in [0, 1]; `None` when g(v) is
+/// flat (no boundary to find).
+fn boundary_opacity(h: &Histograms) -> Option<Vec<f64>> {
     let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
     let ga = &h.gradient_axis;
     let gc: Vec<f64> = (0..ng).map(|k| 0.5 * (ga.edge(k) + ga.edge(k + 1))).collect();
@@ -228,8 +226,9 @@ fn boundary_opacity(h: &Histograms) -> (Option<Vec<f64>>, Vec<f64>) {
     let g = smooth(&mean, &present, 1.5);
     let g_max = g.iter().copied().fold(0.0, f64::max);
     let g_min = g.iter().zip(&present).filter(|(_, &p)| p > 0.0).map(|(&x, _)| x).fold(f64::INFINITY, f64::min);
-    if !(g_max > 0.0) || !(g_max > 1.05 * g_min) {
-        return (None, vec![0.0; ns]);
+    // NaN-safe: a flat or empty g fails the comparison.
+    if g_max.is_nan() || g_max <= 0.0 || g_max <= 1.05 * g_min {
+        return None;
     }
     // g′(v) by central differences in scalar units; h = g·g′.
     let c = bin_centres(h);
@@ -251,7 +250,7 @@ fn boundary_opacity(h: &Histograms) -> (Option<Vec<f64>>, Vec<f64>) {
         vec![1.0; ns]
     };
     let raw: Vec<f64> = (0..ns).map(|i| present[i] * g[i] / g_max * b[i]).collect();
-    (Some(cut(raw)), b)
+    Some(cut(raw))
 }
 
 /// Opacity where values are rare: 1 − v/v_max of the smoothed scalar
@@ -260,7 +259,7 @@ fn rarity_opacity(vol: &[f64]) -> Vec<f64> {
     let present: Vec<f64> = vol.iter().map(|&v| if v > 0.0 { 1.0 } else { 0.0 }).collect();
     let v = smooth(vol, &vec![1.0; vol.len()], 1.5);
     let v_max = v.iter().copied().fold(0.0, f64::max);
-    if !(v_max > 0.0) {
+    if v_max.is_nan() || v_max <= 0.0 {
         return vec![1.0; vol.len()];
     }
     let raw: Vec<f64> = v.iter().zip(&present).map(|(x, p)| p * (1.0 - x / v_max)).collect();
@@ -275,7 +274,7 @@ fn rarity_opacity(vol: &[f64]) -> Vec<f64> {
 /// Normalizes to a largest value of 1 and cuts the weakest [`CUT`].
 fn cut(raw: Vec<f64>) -> Vec<f64> {
     let m = raw.iter().copied().fold(0.0, f64::max);
-    if !(m > 0.0) {
+    if m.is_nan() || m <= 0.0 {
         return raw;
     }
     raw.into_iter().map(|o| ((o / m - CUT) / (1.0 - CUT)).max(0.0)).collect()
@@ -426,7 +425,7 @@ mod tests {
         eprintln!("extinction at 0.01 {lo:.3}, 0.5 {mid:.3}, 0.99 {hi:.3}; chord {}", a.mean_chord);
         assert!(mid > 0.0 && mid > 5.0 * lo && mid > 5.0 * hi, "{lo} {mid} {hi}");
         assert!(tf.opacity_nodes().len() <= 66);
-        // Mean optical depth over the volume: the target, to rounding.
+        // The unit cube's mean chord, 4V/S = 4/6.
         assert!((a.mean_chord - 4.0 / 6.0).abs() < 1e-9, "{}", a.mean_chord);
         assert!(tf.opacity_nodes().iter().all(|o| o.a.is_finite()));
     }

@@ -86,7 +86,7 @@ impl Colormap {
     /// (one node at lo when the span is empty).
     pub fn nodes(self, lo: f64, hi: f64) -> Vec<ColorNode> {
         let c = self.control_points();
-        if !(hi > lo) {
+        if hi.is_nan() || lo.is_nan() || hi <= lo {
             return vec![ColorNode { x: lo, rgb: self.sample(0.5) }];
         }
         let n = c.len() - 1;
@@ -133,7 +133,7 @@ impl TransferFunction {
     /// A copy with every extinction (1D opacity nodes and 2D widgets)
     /// multiplied by `factor` (finite, ≥ 0).
     pub fn with_opacity_scale(&self, factor: f64) -> Result<TransferFunction, TfError> {
-        if !(factor.is_finite() && factor >= 0.0) {
+        if !factor.is_finite() || factor < 0.0 {
             return Err(TfError::OpacityScale(factor));
         }
         let opacity = self.opacity_nodes().iter().map(|o| crate::tf::OpacityNode { x: o.x, a: o.a * factor }).collect();

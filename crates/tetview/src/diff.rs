@@ -319,7 +319,7 @@ pub fn run(args: &DiffArgs) -> Result<()> {
         if let Some(path) = &args.output {
             writeln!(
                 out,
-                "wrote {} (white = {:.3e})",
+                "wrote {} (viridis, colour bar 0 to {:.3e})",
                 path.display(),
                 args.scale.unwrap_or(s.max_abs as f32).max(0.0)
             )?;

@@ -212,11 +212,10 @@ fn boundary_opacity(h: &Histograms) -> Option<Vec<f64>> {
     let ga = &h.gradient_axis;
     let gc: Vec<f64> = (0..ng).map(|k| 0.5 * (ga.edge(k) + ga.edge(k + 1))).collect();
     let (mut vol, mut gsum) = (vec![0.0; ns], vec![0.0; ns]);
-    for g in 0..ng {
-        for s in 0..ns {
-            let m = h.joint[g * ns + s];
+    for (row, &g) in h.joint.chunks_exact(ns).zip(&gc) {
+        for (s, &m) in row.iter().enumerate() {
             vol[s] += m;
-            gsum[s] += m * gc[g];
+            gsum[s] += m * g;
         }
     }
     let total: f64 = vol.iter().sum();

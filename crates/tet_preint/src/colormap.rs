@@ -141,7 +141,7 @@ impl TransferFunction {
             .widgets()
             .iter()
             .map(|w| {
-                let mut w = w.clone();
+                let mut w = *w;
                 w.opacity *= factor;
                 w
             })

@@ -85,7 +85,9 @@ fn check(name: &str, m: &PictureMetrics) {
 #[test]
 fn default_render_shows_structure_and_colour_on_four_kinds_of_data() {
     let dir = tempfile::tempdir().unwrap();
-    let cases: [(&str, &str, Option<&str>, Option<&str>, bool); 4] = [
+    // (name, file, PLOT3D Q file, scalar, stored analysis)
+    type Case = (&'static str, &'static str, Option<&'static str>, Option<&'static str>, bool);
+    let cases: [Case; 4] = [
         (
             "bluntfin",
             "tests/data/plot3d/bluntfinxyz.bin",

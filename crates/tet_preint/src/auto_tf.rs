@@ -341,7 +341,7 @@ pub fn choose_tf(
 }
 
 /// The x span of a TF's colour and opacity nodes (a single point widened by 1).
-fn node_span(tf: &TransferFunction) -> (f64, f64) {
+pub fn node_span(tf: &TransferFunction) -> (f64, f64) {
     let xs = tf.color_nodes().iter().map(|c| c.x).chain(tf.opacity_nodes().iter().map(|o| o.x));
     let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
     if lo < hi {

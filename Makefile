@@ -62,27 +62,34 @@ viewer-deps:
 	fi
 
 ## The main job on a bundled real dataset: NASA Blunt Fin (PLOT3D) → bundle with gradients and
-## histograms → summary, 2D histogram PNG and a VTU for ParaView → table3d tables baked by
-## tetlut → a 512² render by tetview (PNG + float .npy) → the same view by the exact ray-cast
-## reference and the image error between them, all under $(OUT)/.
+## histograms → summary, 2D histogram PNG and a VTU for ParaView → the automatic transfer
+## function (opacity on the scalar × |∇s| boundaries — the shock and the boundary layer —
+## colours from viridis; saved as JSON to edit) → table3d tables baked by tetlut → a 512²
+## render by tetview (PNG + float .npy) → the same view by the exact ray-cast reference and
+## the image error between them (with a colour bar), all under $(OUT)/; the README's
+## pictures are copied to docs/img/.
 TETPREP = $(CARGO) run -q --release -p tetprep --
+DOCS_IMG ?= docs/img
 
 demo:
-	mkdir -p $(OUT)
+	mkdir -p $(OUT) $(DOCS_IMG)
 	$(TETPREP) convert tests/data/plot3d/bluntfinxyz.bin --q tests/data/plot3d/bluntfinq.bin \
 		--scalar density --gradients --histogram -o $(OUT)/bluntfin.tetb
 	$(TETPREP) info $(OUT)/bluntfin.tetb
 	$(TETPREP) hist $(OUT)/bluntfin.tetb -o $(OUT)/bluntfin_hist.png
 	$(TETPREP) export $(OUT)/bluntfin.tetb -o $(OUT)/bluntfin.vtu
 	$(CARGO) run -q --release -p tetlut -- bake --bundle $(OUT)/bluntfin.tetb \
-		--tf formats/samples/tf_normalized.json --method table3d -o $(OUT)/bluntfin_table3d.tetl
+		--method table3d --save-tf $(OUT)/bluntfin_tf.json -o $(OUT)/bluntfin_table3d.tetl
 	$(CARGO) run -q --release -p tetview -- render $(OUT)/bluntfin.tetb --lut $(OUT)/bluntfin_table3d.tetl \
-		-o $(OUT)/bluntfin.png --float $(OUT)/bluntfin.npy --save-view $(OUT)/bluntfin_view.json
-	$(CARGO) run -q --release -p tetview -- reference $(OUT)/bluntfin.tetb --tf formats/samples/tf_normalized.json \
+		--azimuth 35 --elevation 25 -o $(OUT)/bluntfin.png --float $(OUT)/bluntfin.npy --save-view $(OUT)/bluntfin_view.json
+	$(CARGO) run -q --release -p tetview -- reference $(OUT)/bluntfin.tetb --tf $(OUT)/bluntfin_tf.json \
 		--view $(OUT)/bluntfin_view.json -o $(OUT)/bluntfin_reference.png --float $(OUT)/bluntfin_reference.npy
-	$(CARGO) run -q --release -p tetview -- diff $(OUT)/bluntfin.npy $(OUT)/bluntfin_reference.npy -o $(OUT)/bluntfin_diff.png
-	@echo "image: $(OUT)/bluntfin.png (8-bit, Reinhard); linear premultiplied RGBA: $(OUT)/bluntfin.npy; view: $(OUT)/bluntfin_view.json"
-	@echo "exact reference of the same view: $(OUT)/bluntfin_reference.png; their difference (above): $(OUT)/bluntfin_diff.png"
+	$(CARGO) run -q --release -p tetview -- diff $(OUT)/bluntfin_reference.npy $(OUT)/bluntfin.npy -o $(OUT)/bluntfin_diff.png
+	cp $(OUT)/bluntfin.png $(OUT)/bluntfin_diff.png $(OUT)/bluntfin_hist.png $(DOCS_IMG)/
+	@echo "image: $(OUT)/bluntfin.png (8-bit, Reinhard over the covered pixels); linear premultiplied RGBA: $(OUT)/bluntfin.npy; view: $(OUT)/bluntfin_view.json"
+	@echo "transfer function used (edit and pass with --tf): $(OUT)/bluntfin_tf.json"
+	@echo "exact reference of the same view: $(OUT)/bluntfin_reference.png; their difference (above, colour bar in linear RGBA): $(OUT)/bluntfin_diff.png"
+	@echo "copied for the README: $(DOCS_IMG)/bluntfin.png, $(DOCS_IMG)/bluntfin_diff.png, $(DOCS_IMG)/bluntfin_hist.png"
 
 ## Rewrite the golden images under tests/golden/ from the current renderer (only this
 ## target writes them; `cargo test -p tetview --test golden` compares against them).

@@ -1,5 +1,6 @@
 //! Reinhard tone mapping on the GPU (tonemap.wgsl): composite over the
-//! background, log-average luminance by a two-level compute reduction, then
+//! background, log-average luminance of the covered pixels by a two-level
+//! compute reduction, then
 //! the per-pixel mapping to 8-bit sRGB — the same formula as tet_render's
 //! `Reinhard::fit` / `apply` and `Image::to_rgba8`.
 
@@ -140,7 +141,8 @@ impl GpuRenderer {
                     mapped_at_creation: false,
                 })
             };
-            let partials = storage("partials", n_partials as u64 * 8);
+            // Two vec4<f32> per reduce workgroup (covered pixels, all pixels).
+            let partials = storage("partials", n_partials as u64 * 32);
             let fit = storage("fit", std::mem::size_of::<ToneFit>() as u64);
             let out = storage("rgba8", n * 4);
             let read = |label, size| {

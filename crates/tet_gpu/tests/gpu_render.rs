@@ -200,7 +200,8 @@ fn gpu_reinhard_matches_cpu_display() {
                     [p[0] + t * bg[0], p[1] + t * bg[1], p[2] + t * bg[2]]
                 })
                 .collect();
-            let op = tet_render::image::Reinhard::fit(&rgb, key, exposure);
+            let alpha: Vec<f32> = img.pixels().iter().map(|p| p[3]).collect();
+            let op = tet_render::image::Reinhard::fit_covered(&rgb, &alpha, key, exposure);
             let [scale, white_sq, log_avg] = gpu.reinhard.unwrap();
             eprintln!("  fit GPU (scale {scale}, L_white² {white_sq}, L̄ {log_avg}) CPU {op:?}");
             assert!((log_avg / op.log_average - 1.0).abs() < 1e-4);

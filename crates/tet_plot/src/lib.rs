@@ -34,7 +34,7 @@ pub mod scale;
 pub mod scatter;
 
 pub use canvas::{Canvas, Rgb};
-pub use scale::{fmt_num, nice_ticks, viridis};
+pub use scale::{fmt_num, nice_ticks, viridis, with_colorbar};
 pub use scatter::{pareto_front, Point, ScatterPlot, Series};
 
 use std::path::PathBuf;

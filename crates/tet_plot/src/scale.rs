@@ -78,6 +78,43 @@ pub fn fmt_num(v: f64) -> String {
     }
 }
 
+/// `image` (RGB, `w × h`, row 0 at the top) with a vertical colour bar to
+/// its right: `map(t)` for t from 0 (bottom) to 1 (top), labelled with
+/// round-number ticks of [0, `full_scale`] and titled `title`. The bar
+/// says what the image's colours mean.
+pub fn with_colorbar(image: &crate::Canvas, full_scale: f64, title: &str, map: impl Fn(f64) -> Rgb) -> crate::Canvas {
+    use crate::canvas::BLACK;
+    let (bar_w, pad, text) = (14usize, 10usize, 1usize);
+    let ticks = nice_ticks(0.0, full_scale, 4);
+    let label_w = ticks.iter().map(|&t| crate::Canvas::text_width(&fmt_num(t), text)).max().unwrap_or(0);
+    let title_w = crate::Canvas::text_width(title, text);
+    let h = image.h.max(80);
+    let w = image.w + pad + bar_w + 4 + label_w.max(title_w.saturating_sub(bar_w + 4)) + pad;
+    let mut c = crate::Canvas::new(w, h);
+    for y in 0..image.h {
+        for x in 0..image.w {
+            c.set(x, y, image.get(x, y));
+        }
+    }
+    let (x0, top, bottom) = (image.w + pad, 14usize, h.saturating_sub(10));
+    let span = bottom.saturating_sub(top).max(1);
+    for y in top..bottom {
+        let t = (bottom - 1 - y) as f64 / (span - 1).max(1) as f64;
+        c.rect(x0, y, bar_w, 1, map(t));
+    }
+    c.frame(x0, top, bar_w, span, BLACK);
+    c.text(x0, 2, title, text, BLACK);
+    if full_scale > 0.0 && full_scale.is_finite() {
+        for t in ticks {
+            let y = bottom as f64 - 1.0 - (t / full_scale) * (span - 1) as f64;
+            let y = y.round().max(0.0) as usize;
+            c.rect(x0 + bar_w, y, 3, 1, BLACK);
+            c.text(x0 + bar_w + 4, y.saturating_sub(3), &fmt_num(t), text, BLACK);
+        }
+    }
+    c
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -92,5 +129,18 @@ mod tests {
         assert_eq!(viridis(0.0), [68, 1, 84]);
         assert_eq!(viridis(1.0), [253, 231, 37]);
         assert_eq!(viridis(f64::NAN), [68, 1, 84]);
+    }
+
+    #[test]
+    fn colorbar_extends_the_image_and_keeps_it() {
+        let mut img = crate::Canvas::new(30, 20);
+        img.rect(0, 0, 30, 20, [10, 20, 30]);
+        let c = with_colorbar(&img, 0.004, "|A-B|", viridis);
+        assert!(c.w > 30 + 14 && c.h >= 80);
+        assert_eq!(c.get(5, 5), [10, 20, 30]);
+        // The bar runs from map(0) at the bottom to map(1) at the top.
+        let x = 30 + 10 + 7;
+        let (top, bottom) = (c.get(x, 16), c.get(x, c.h - 12));
+        assert!(top[1] > bottom[1] + 150, "{top:?} {bottom:?}");
     }
 }

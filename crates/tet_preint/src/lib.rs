@@ -12,6 +12,10 @@
 //!   implements for the renderers ([`ExactShader`], [`PtLinearShader`], tables).
 //! * [`PolyTable`] (module [`poly`]): `poly1`/`poly2`/`poly4`, Guthe et al.'s (2002)
 //!   mean-extinction table, 16-bit α table and chromaticity polynomial in l.
+//! * [`auto_tf`] (module [`auto_tf`]): a TF built from a bundle's scalar ×
+//!   |∇s| histogram (Kindlmann and Durkin, 1998), coloured by a named
+//!   [`Colormap`] (module [`colormap`]: viridis, inferno, magma, plasma,
+//!   cool-to-warm, turbo, grayscale); [`choose_tf`] is what the CLIs call.
 //! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of Song et al. 2009;
 //!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]);
 //!   [`GaussErfTable`] and [`BandTable`] (module [`biv_tables`]), seed
@@ -68,9 +72,11 @@
 #![deny(unsafe_code)]
 
 pub mod atlas2d;
+pub mod auto_tf;
 pub mod biv_tables;
 pub mod bivariate;
 pub mod certify;
+pub mod colormap;
 pub mod domain;
 pub mod error;
 pub mod exact;
@@ -92,9 +98,11 @@ pub mod tf;
 pub mod widget;
 
 pub use atlas2d::{Atlas2d, Atlas2dParams};
+pub use auto_tf::{auto_tf, choose_tf, AutoTf, AutoTfOptions, BoundarySource};
 pub use biv_tables::{BandKind, BandTable, GaussErfTable};
 pub use bivariate::{BivApprox, BivExact, BivTables, FbTable};
 pub use certify::{Certificate, CertifiedTable3d, CertifyOptions};
+pub use colormap::Colormap;
 pub use domain::{ScalarQuantiles, TableDomain, TableError, QUANTILES};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
@@ -140,6 +148,12 @@ pub enum TfError {
     Range { lo: f64, hi: f64 },
     #[error("widgets[{index}].{field}: {reason}")]
     Widget { index: usize, field: &'static str, reason: String },
+    #[error("unknown colour map {name:?}; known: {known}")]
+    UnknownColormap { name: String, known: String },
+    #[error("opacity scale {0}: must be finite and ≥ 0")]
+    OpacityScale(f64),
+    #[error("automatic transfer function: {0}")]
+    AutoTf(String),
     #[error("ParaView preset: {0}")]
     Preset(String),
 }

@@ -7,7 +7,8 @@
 //! without a transfer curve, which is what VTK's framebuffer holds and so
 //! what comparisons with other renderers need — or `ToneMap::Reinhard`,
 //! Reinhard's global operator on luminance with the log-average luminance
-//! (seed 001), followed by the sRGB curve.
+//! of the covered pixels (seed 001), colour kept, followed by the sRGB curve.
+//! [`PictureMetrics`] measures what a viewer sees in the 8-bit result.
 
 use crate::RenderError;
 use std::io::Write;
@@ -140,17 +141,12 @@ impl Image {
         Image::from_npy_bytes(&bytes, path)
     }
 
-    /// 8-bit RGBA (opaque) for display: over `display.background`, then tone mapped.
+    /// 8-bit RGBA (opaque) for display: over `display.background`, then tone
+    /// mapped. Reinhard's operator is fitted to the covered pixels only
+    /// ([`Reinhard::fit_covered`]: α above [`COVERED_ALPHA`]), so the
+    /// background never sets the exposure.
     pub fn to_rgba8(&self, display: &Display) -> Vec<u8> {
-        let bg = display.background;
-        let rgb: Vec<[f32; 3]> = self
-            .pixels
-            .iter()
-            .map(|p| {
-                let t = 1.0 - p[3].clamp(0.0, 1.0);
-                [p[0] + t * bg[0], p[1] + t * bg[1], p[2] + t * bg[2]]
-            })
-            .collect();
+        let rgb = composite_over(self, display.background);
         let mut out = Vec::with_capacity(rgb.len() * 4);
         match display.tonemap {
             ToneMap::None => {
@@ -160,7 +156,8 @@ impl Image {
                 }
             }
             ToneMap::Reinhard { key, exposure } => {
-                let op = Reinhard::fit(&rgb, key, exposure);
+                let alpha: Vec<f32> = self.pixels.iter().map(|p| p[3]).collect();
+                let op = Reinhard::fit_covered(&rgb, &alpha, key, exposure);
                 for c in &rgb {
                     let m = op.apply(*c);
                     out.extend(m.iter().map(|&v| unit_to_u8(linear_to_srgb(v))));
@@ -193,11 +190,16 @@ impl Default for Display {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ToneMap {
-    /// Linear colour clamped to [0, 1], no transfer curve.
+    /// Linear colour clamped to [0, 1], no transfer curve: an opaque region
+    /// shows its TF colour as is (what VTK and ParaView write), a
+    /// translucent one that colour composited over the background.
     None,
-    /// Reinhard's global operator: L_m = key·exposure·L / L̄ (L̄ the
-    /// log-average luminance), L_d = L_m(1 + L_m/L_white²)/(1 + L_m) with
-    /// L_white the largest L_m, so the brightest pixel maps to 1.
+    /// Reinhard's global operator on luminance (Reinhard, Stark, Shirley and
+    /// Ferwerda, "Photographic tone reproduction for digital images", 2002):
+    /// L_m = key·exposure·L / L̄ with L̄ the log-average luminance of the
+    /// covered pixels, L_d = L_m(1 + L_m/L_white²)/(1 + L_m) with L_white the
+    /// largest covered L_m at exposure 1 (so exposure moves every pixel,
+    /// the brightest included), colour kept (see [`Reinhard::apply`]).
     Reinhard { key: f32, exposure: f32 },
 }
 
@@ -208,8 +210,26 @@ impl ToneMap {
     }
 }
 
-fn luminance(c: [f32; 3]) -> f32 {
+/// Pixels with α above this are the volume ("covered"); the others are
+/// background and take no part in the exposure. Low enough to keep faint
+/// structure, high enough that the anti-aliased rim of near-empty rays
+/// does not drag the log-average towards black.
+pub const COVERED_ALPHA: f32 = 0.02;
+
+/// Rec. 709 luminance of linear RGB.
+pub fn luminance(c: [f32; 3]) -> f32 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// Linear premultiplied RGBA composited over `background`: C + (1 − α)·bg.
+pub fn composite_over(img: &Image, background: [f32; 3]) -> Vec<[f32; 3]> {
+    img.pixels
+        .iter()
+        .map(|p| {
+            let t = 1.0 - p[3].clamp(0.0, 1.0);
+            [p[0] + t * background[0], p[1] + t * background[1], p[2] + t * background[2]]
+        })
+        .collect()
 }
 
 /// Reinhard's operator fitted to one image.
@@ -219,33 +239,83 @@ pub struct Reinhard {
     pub scale: f32,
     /// L_white² in L_m units.
     pub white_sq: f32,
-    /// The log-average luminance L̄.
+    /// The log-average luminance L̄ (of the pixels fitted).
     pub log_average: f32,
 }
 
 impl Reinhard {
+    /// Fitted to every pixel of `rgb` (all count as covered); for a render
+    /// over a background use [`Reinhard::fit_covered`].
     pub fn fit(rgb: &[[f32; 3]], key: f32, exposure: f32) -> Reinhard {
+        Reinhard::fit_where(rgb.iter().copied(), key, exposure)
+    }
+
+    /// Fitted to the covered pixels (`alpha[i] >` [`COVERED_ALPHA`]) of
+    /// `rgb` (already composited): the background takes no part in L̄ or
+    /// L_white. With no covered pixel the fit is over all of them.
+    pub fn fit_covered(rgb: &[[f32; 3]], alpha: &[f32], key: f32, exposure: f32) -> Reinhard {
+        let covered = || rgb.iter().zip(alpha).filter(|(_, &a)| a > COVERED_ALPHA).map(|(c, _)| *c);
+        if covered().next().is_none() {
+            return Reinhard::fit(rgb, key, exposure);
+        }
+        Reinhard::fit_where(covered(), key, exposure)
+    }
+
+    fn fit_where(pixels: impl Iterator<Item = [f32; 3]> + Clone, key: f32, exposure: f32) -> Reinhard {
         // δ keeps log finite on black pixels (Reinhard et al. 2002).
         const DELTA: f64 = 1e-4;
-        let n = rgb.len().max(1) as f64;
-        let sum_log: f64 = rgb.iter().map(|&c| (DELTA + luminance(c).max(0.0) as f64).ln()).sum();
-        let log_average = (sum_log / n).exp() as f32;
+        let (mut n, mut sum_log, mut max_l) = (0usize, 0.0f64, 0.0f32);
+        for c in pixels {
+            let l = luminance(c).max(0.0);
+            n += 1;
+            sum_log += (DELTA + l as f64).ln();
+            max_l = max_l.max(l);
+        }
+        let log_average = (sum_log / n.max(1) as f64).exp() as f32;
         let scale = key * exposure / log_average;
-        let max_lm = rgb.iter().map(|&c| luminance(c).max(0.0) * scale).fold(0.0f32, f32::max);
+        // The white point is fixed at exposure 1, so a lower exposure darkens
+        // the brightest pixels too instead of re-stretching them to white.
+        let max_lm = max_l * key / log_average;
         Reinhard { scale, white_sq: (max_lm * max_lm).max(f32::MIN_POSITIVE), log_average }
     }
 
-    /// Tone-mapped linear RGB in [0, 1] (hue kept: RGB scaled by L_d / L).
+    /// Tone-mapped linear RGB in [0, 1]: RGB scaled by L_d / L (hue and
+    /// saturation kept). A colour whose largest channel would pass 1 is
+    /// brought into gamut keeping its hue, never by clipping each channel
+    /// (which turns a bright red into pink and then white): see [`fit_gamut`].
     pub fn apply(&self, c: [f32; 3]) -> [f32; 3] {
         let l = luminance(c).max(0.0);
-        if l <= 0.0 {
+        if !(l > 0.0 && l.is_finite()) {
             return [0.0; 3];
         }
         let lm = l * self.scale;
-        let ld = lm * (1.0 + lm / self.white_sq) / (1.0 + lm);
+        let ld = (lm * (1.0 + lm / self.white_sq) / (1.0 + lm)).min(1.0);
         let k = ld / l;
-        [(c[0] * k).clamp(0.0, 1.0), (c[1] * k).clamp(0.0, 1.0), (c[2] * k).clamp(0.0, 1.0)]
+        fit_gamut([c[0].max(0.0) * k, c[1].max(0.0) * k, c[2].max(0.0) * k], ld)
     }
+}
+
+/// Share of an out-of-gamut colour's correction done by desaturation; the
+/// rest darkens it at full saturation. Both keep the hue (they move along
+/// the same line through grey), so any mix does: pure desaturation would
+/// reach white for every L_d near 1 whatever the colour (a saturated red
+/// cannot be bright), pure darkening would lose the brightness order.
+pub const DESATURATION: f32 = 0.25;
+
+/// Brings `rgb` (luminance `l` ≤ 1) into [0, 1]³ with its hue kept: the mix
+/// (by [`DESATURATION`]) of the least desaturation towards the grey of
+/// luminance `l` that fits and the colour scaled by 1/max channel.
+pub fn fit_gamut(rgb: [f32; 3], l: f32) -> [f32; 3] {
+    let max = rgb[0].max(rgb[1]).max(rgb[2]);
+    if max <= 1.0 {
+        return rgb;
+    }
+    let t = ((1.0 - l) / (max - l)).clamp(0.0, 1.0);
+    rgb.map(|v| {
+        let desaturated = l + t * (v - l);
+        let darkened = v / max;
+        (darkened + DESATURATION * (desaturated - darkened)).clamp(0.0, 1.0)
+    })
 }
 
 pub fn linear_to_srgb(v: f32) -> f32 {
@@ -282,6 +352,68 @@ pub fn write_png_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Res
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
     tet_container::write_atomic(path, ".tetimg-", |w: &mut dyn Write| w.write_all(bytes))
         .map_err(|e| RenderError::Io { source: std::io::Error::other(e), path: path.to_path_buf() })
+}
+
+/// What a displayed picture shows over its covered pixels, on 8-bit sRGB
+/// values scaled to [0, 1]: luma Y = 0.2126 R + 0.7152 G + 0.0722 B and
+/// chroma max(R, G, B) − min(R, G, B). A flat silhouette has a small
+/// luminance spread, a saturated one many near-white pixels, a colourless
+/// one a small median chroma.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PictureMetrics {
+    pub covered_pixels: usize,
+    /// 95th minus 5th percentile of luma.
+    pub luminance_spread: f64,
+    /// Fraction of pixels with every channel ≥ 0.9.
+    pub near_white: f64,
+    pub median_chroma: f64,
+}
+
+impl PictureMetrics {
+    /// Measures 8-bit RGBA `rgba8` over the pixels where `covered` is true
+    /// (all zero when none is).
+    pub fn of_rgba8(rgba8: &[u8], covered: &[bool]) -> PictureMetrics {
+        let (mut lum, mut chroma, mut white) = (Vec::new(), Vec::new(), 0usize);
+        for (px, _) in rgba8.chunks_exact(4).zip(covered).filter(|(_, &c)| c) {
+            let [r, g, b] = [px[0], px[1], px[2]].map(|v| v as f64 / 255.0);
+            lum.push(0.2126 * r + 0.7152 * g + 0.0722 * b);
+            chroma.push(r.max(g).max(b) - r.min(g).min(b));
+            white += usize::from(r >= 0.9 && g >= 0.9 && b >= 0.9);
+        }
+        let n = lum.len();
+        if n == 0 {
+            return PictureMetrics { covered_pixels: 0, luminance_spread: 0.0, near_white: 0.0, median_chroma: 0.0 };
+        }
+        lum.sort_unstable_by(f64::total_cmp);
+        chroma.sort_unstable_by(f64::total_cmp);
+        let q = |v: &[f64], p: f64| v[((n - 1) as f64 * p).round() as usize];
+        PictureMetrics {
+            covered_pixels: n,
+            luminance_spread: q(&lum, 0.95) - q(&lum, 0.05),
+            near_white: white as f64 / n as f64,
+            median_chroma: q(&chroma, 0.5),
+        }
+    }
+
+    /// Measures how `img` displays under `display`, over its covered pixels
+    /// (α > [`COVERED_ALPHA`]).
+    pub fn of_image(img: &Image, display: &Display) -> PictureMetrics {
+        let covered: Vec<bool> = img.pixels.iter().map(|p| p[3] > COVERED_ALPHA).collect();
+        PictureMetrics::of_rgba8(&img.to_rgba8(display), &covered)
+    }
+}
+
+impl std::fmt::Display for PictureMetrics {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} covered pixels: luminance spread (p95 − p5) {:.3}, near-white {:.1}%, median chroma {:.3}",
+            self.covered_pixels,
+            self.luminance_spread,
+            100.0 * self.near_white,
+            self.median_chroma
+        )
+    }
 }
 
 /// Differences between two images of the same size, over all four channels
@@ -380,6 +512,116 @@ mod tests {
         let black = Reinhard::fit(&[[0.0; 3]; 4], 0.18, 1.0);
         assert_eq!(black.apply([0.0; 3]), [0.0; 3]);
         assert!(black.scale.is_finite());
+    }
+
+    /// A soft disc of TF colour `rgb` with opacity rising to `peak` towards
+    /// the centre, over black (premultiplied, density emission: C = rgb·α).
+    fn disc(rgb: [f32; 3], peak: f32, scale: f32) -> Image {
+        let n = 32u32;
+        let px = (0..n * n)
+            .map(|i| {
+                let (x, y) = ((i % n) as f32 - 15.5, (i / n) as f32 - 15.5);
+                let r = (x * x + y * y).sqrt() / 12.0;
+                let a = if r < 1.0 { peak * (1.0 - r * r) } else { 0.0 };
+                [rgb[0] * a * scale, rgb[1] * a * scale, rgb[2] * a * scale, a]
+            })
+            .collect();
+        Image::from_pixels(n, n, px).unwrap()
+    }
+
+    fn covered_mean_luminance(img: &Image, d: &Display) -> f64 {
+        let px = img.to_rgba8(d);
+        let (mut sum, mut n) = (0.0, 0);
+        for (p, q) in px.chunks_exact(4).zip(img.pixels()) {
+            if q[3] > COVERED_ALPHA {
+                sum += luminance([p[0] as f32, p[1] as f32, p[2] as f32]) as f64 / 255.0;
+                n += 1;
+            }
+        }
+        sum / n as f64
+    }
+
+    /// The bug of issue 17: the background's black pixels made L̄ tiny, so
+    /// every covered pixel mapped near white and exposure did nothing.
+    #[test]
+    fn background_does_not_set_exposure_and_exposure_works() {
+        let img = disc([0.9, 0.8, 0.7], 0.6, 1.0);
+        let at = |e: f32| {
+            covered_mean_luminance(
+                &img,
+                &Display { tonemap: ToneMap::Reinhard { key: 0.18, exposure: e }, ..Default::default() },
+            )
+        };
+        let (dim, normal) = (at(0.2), at(1.0));
+        eprintln!("mean covered luminance: exposure 0.2 → {dim:.3}, 1 → {normal:.3}");
+        assert!(normal < 0.8, "covered pixels saturate: {normal}");
+        assert!(normal - dim > 0.1, "exposure 0.2 vs 1: {dim} vs {normal}");
+        // The same disc on a 4× larger black canvas tone maps identically.
+        let big = Image::from_pixels(64, 64, {
+            let mut v = vec![[0.0; 4]; 64 * 64];
+            for y in 0..32 {
+                for x in 0..32 {
+                    v[y * 64 + x] = img.pixel(x as u32, y as u32);
+                }
+            }
+            v
+        })
+        .unwrap();
+        let a = img.to_rgba8(&Display::default());
+        let b = big.to_rgba8(&Display::default());
+        for y in 0..32 {
+            assert_eq!(&a[y * 128..y * 128 + 128], &b[y * 256..y * 256 + 128]);
+        }
+    }
+
+    /// A mid-opacity red region stays red (hue kept, no push to white) at
+    /// any exposure, and the brightest pixels of a saturated colour keep
+    /// their hue instead of clipping channel by channel.
+    #[test]
+    fn red_stays_red() {
+        let red = [0.71, 0.02, 0.15];
+        for exposure in [0.5, 1.0, 4.0, 50.0] {
+            let img = disc(red, 0.5, 3.0);
+            let d = Display { tonemap: ToneMap::Reinhard { key: 0.18, exposure }, ..Default::default() };
+            let px = img.to_rgba8(&d);
+            let m = PictureMetrics::of_image(&img, &d);
+            assert_eq!(m.near_white, 0.0, "exposure {exposure}: {m}");
+            for (p, q) in px.chunks_exact(4).zip(img.pixels()) {
+                if q[3] > 0.1 {
+                    let [r, g, b] = [p[0], p[1], p[2]].map(|v| v as i32);
+                    assert!(r > g + 20 && r > b + 10 && b >= g - 2, "exposure {exposure}: {p:?} is not red");
+                }
+            }
+        }
+        // Desaturation keeps luminance and ordering of channels.
+        let op = Reinhard { scale: 1.0, white_sq: 1.0, log_average: 1.0 };
+        let out = op.apply([10.0, 0.1, 0.2]);
+        assert!(out.iter().all(|v| (0.0..=1.0).contains(v)) && out[0] > out[2] && out[2] > out[1], "{out:?}");
+    }
+
+    /// Linear mode: an opaque region shows its TF colour exactly; a
+    /// translucent one the colour composited over the background.
+    #[test]
+    fn tonemap_none_shows_tf_colours_over_background() {
+        let tf = [0.71f32, 0.02, 0.15];
+        let bg = [0.1f32, 0.2, 0.3];
+        let px = vec![[tf[0], tf[1], tf[2], 1.0], [0.5 * tf[0], 0.5 * tf[1], 0.5 * tf[2], 0.5]];
+        let img = Image::from_pixels(2, 1, px).unwrap();
+        let out = img.to_rgba8(&Display { background: bg, tonemap: ToneMap::None });
+        let want = |c: f32| (c * 255.0 + 0.5) as u8;
+        assert_eq!(&out[..3], &tf.map(want));
+        assert_eq!(&out[4..7], &[0, 1, 2].map(|k| want(0.5 * tf[k] + 0.5 * bg[k])));
+    }
+
+    #[test]
+    fn picture_metrics_of_flat_and_coloured_pictures() {
+        let white = [255u8, 255, 255, 255].repeat(10);
+        let m = PictureMetrics::of_rgba8(&white, &[true; 10]);
+        assert_eq!((m.luminance_spread, m.near_white, m.median_chroma), (0.0, 1.0, 0.0));
+        let ramp: Vec<u8> = (0..10u8).flat_map(|i| [25 * i, 0, 0, 255]).collect();
+        let m = PictureMetrics::of_rgba8(&ramp, &[true; 10]);
+        assert!(m.luminance_spread > 0.15 && m.near_white == 0.0 && m.median_chroma > 0.4, "{m}");
+        assert_eq!(PictureMetrics::of_rgba8(&ramp, &[false; 10]).covered_pixels, 0);
     }
 
     #[test]

@@ -63,7 +63,7 @@ pub mod walk;
 
 pub use camera::{Camera, ViewSpec};
 pub use cull::{CellCuller, CullMask, TfCuller};
-pub use image::{diff, DiffStats, Display, Image, ToneMap};
+pub use image::{diff, DiffStats, Display, Image, PictureMetrics, ToneMap};
 pub use pipeline::{CpuRenderer, RenderStats, Renderer};
 pub use raster::{RasterOptions, RasterStats};
 pub use reference::{render_reference, RayResult, RayScratch, ReferenceOptions, ReferenceRenderer, ReferenceStats};

@@ -36,8 +36,13 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
             let text = std::fs::read_to_string(p).map_err(|e| ViewerError::Io { source: e, path: p.clone() })?;
             TfModel::new(&TransferFunction::from_json(&text)?, scalar_range)?
         }
-        // Opacity 1 everywhere: an optical depth of about 2 through the whole mesh.
-        None => TfModel::ramp(scalar_range, 0.5 * diagonal(lo, hi)),
+        // The automatic TF `tetview render` uses without --tf (tet_preint's
+        // auto_tf, one implementation for both); a constant scalar has none
+        // and opens on a ramp of opacity 1 (optical depth ~2 through the mesh).
+        None => match tet_preint::auto_tf(&bundle, &tet_preint::AutoTfOptions::default()) {
+            Ok(auto) => TfModel::new(&auto.tf, scalar_range)?,
+            Err(_) => TfModel::ramp(scalar_range, 0.5 * diagonal(lo, hi)),
+        },
     };
     let home = match &opts.view {
         Some(p) => {

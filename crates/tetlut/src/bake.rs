@@ -5,15 +5,33 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use serde_json::json;
-use tet_preint::{Baked, Method, RECONSTRUCTION_GAP};
+use tet_preint::{Baked, Colormap, Method, RECONSTRUCTION_GAP};
 
-use crate::common::{describe_res, human_bytes, parse_method, read_tf, CodeExt, DomainArgs, TableArgs, BAKE, OUTPUT};
+use crate::common::{
+    describe_res, human_bytes, parse_method, read_bundle, read_tf, usage, CodeExt, DomainArgs, TableArgs, BAKE, OUTPUT,
+};
+
+fn parse_colormap(s: &str) -> std::result::Result<Colormap, String> {
+    s.parse().map_err(|e: tet_preint::TfError| e.to_string())
+}
 
 #[derive(Debug, clap::Args)]
 pub struct BakeArgs {
-    /// Transfer function: formats/tf.md JSON or a ParaView preset.
+    /// Transfer function: formats/tf.md JSON or a ParaView preset. Without
+    /// it (and with --bundle): the bundle's automatic TF, as `tetview
+    /// render` builds it.
     #[arg(long, value_name = "tf.json")]
-    pub tf: PathBuf,
+    pub tf: Option<PathBuf>,
+    /// Colour map of the automatic TF, or replacing the colours of --tf:
+    /// viridis, inferno, magma, plasma, cool-to-warm, turbo, grayscale.
+    #[arg(long, value_parser = parse_colormap)]
+    pub colormap: Option<Colormap>,
+    /// Multiplies every extinction of the TF.
+    #[arg(long, default_value_t = 1.0)]
+    pub opacity_scale: f64,
+    /// Write the TF baked (formats/tf.md JSON) to edit it.
+    #[arg(long, value_name = "tf.json")]
+    pub save_tf: Option<PathBuf>,
     /// Method id (exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4,
     /// partial, biv-exact, biv-approx); untabulated methods store the TF only.
     #[arg(long, value_parser = parse_method)]
@@ -31,11 +49,24 @@ pub struct BakeArgs {
 }
 
 pub fn run(args: &BakeArgs) -> Result<()> {
-    let tf = read_tf(&args.tf)?;
+    let given = args.tf.as_deref().map(read_tf).transpose()?;
+    // The automatic TF needs the bundle (read again by the domain below).
+    let bundle = match (&given, &args.domain.bundle) {
+        (None, None) => return Err(usage("give --tf, or --bundle for its automatic transfer function")),
+        (None, Some(p)) => Some(read_bundle(p)?),
+        (Some(_), _) => None,
+    };
+    let (tf, auto) = tet_preint::choose_tf(given, bundle.as_ref(), args.colormap, args.opacity_scale).code(BAKE)?;
+    if let Some(note) = auto.as_ref().and_then(|a| a.source.note()) {
+        eprintln!("warning: {note}");
+    }
     let opts = args.table.options(args.method)?;
     let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
     let (domain, bundle) = args.domain.resolve(&tf, tabulated)?;
     let tf = tet_preint::tf_for_domain(&tf, &domain).code(BAKE)?;
+    if let Some(p) = &args.save_tf {
+        std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display())).code(OUTPUT)?;
+    }
     let spinner = (!args.json).then(|| {
         let s = indicatif::ProgressBar::new_spinner();
         s.set_message(format!("baking {} {}", args.method, describe_res(args.method, &opts)));

@@ -209,13 +209,7 @@ impl DomainArgs {
 
 /// The x span of a TF's nodes (a degenerate one widened).
 pub fn tf_span(tf: &TransferFunction) -> (f64, f64) {
-    let xs = tf.color_nodes().iter().map(|c| c.x).chain(tf.opacity_nodes().iter().map(|o| o.x));
-    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
-    if lo < hi {
-        (lo, hi)
-    } else {
-        (lo - 0.5, lo + 0.5)
-    }
+    tet_preint::auto_tf::node_span(tf)
 }
 
 /// Resolution and storage flags shared by `bake` and `probe`.

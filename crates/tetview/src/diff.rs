@@ -14,7 +14,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use tet_render::image::{diff_image_rgba8, linear_to_srgb, write_png_rgba8, Reinhard};
+use tet_render::image::{diff_image_rgba8, linear_to_srgb, Reinhard};
 use tet_render::{diff, DiffStats, Image};
 
 #[derive(Debug, Clone, Args)]
@@ -23,7 +23,8 @@ pub struct DiffArgs {
     pub a: PathBuf,
     /// Second image, compared with the first.
     pub b: PathBuf,
-    /// Write |A − B| as a grey PNG (the largest channel difference per pixel).
+    /// Write |A − B| as a PNG: the largest channel difference per pixel in
+    /// viridis, with a colour bar giving its scale.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Print a JSON object instead of text.
@@ -210,7 +211,11 @@ pub fn compare(args: &DiffArgs) -> Result<(DiffReport, Vec<u8>)> {
     }
     let [width, height] = a.size();
     let reinhard = args.tonemap == "reinhard";
-    let op_for = |img: &Image| reinhard.then(|| Reinhard::fit(&composited_rgb(img, args.background), 0.18, 1.0));
+    // Fitted to A's covered pixels, as `render` displays A.
+    let op_for = |img: &Image| {
+        let alpha: Vec<f32> = img.pixels().iter().map(|p| p[3]).collect();
+        reinhard.then(|| Reinhard::fit_covered(&composited_rgb(img, args.background), &alpha, 0.18, 1.0))
+    };
     let (kind, fa, fb, da, db) = match (&a, &b) {
         (Loaded::Float(x), Loaded::Float(y)) => {
             let op = op_for(x);
@@ -244,6 +249,16 @@ pub fn compare(args: &DiffArgs) -> Result<(DiffReport, Vec<u8>)> {
 
 const CHANNELS: [&str; 4] = ["R", "G", "B", "A"];
 
+/// The grey |A − B| picture of [`compare`] (white = `full_scale`) in
+/// viridis, with a colour bar labelled from 0 to `full_scale`.
+fn colour_diff_picture(grey: &[u8], width: u32, height: u32, full_scale: f64) -> tet_plot::Canvas {
+    let mut img = tet_plot::Canvas::new(width as usize, height as usize);
+    for (i, px) in grey.chunks_exact(4).enumerate() {
+        img.set(i % width as usize, i / width as usize, tet_plot::viridis(px[0] as f64 / 255.0));
+    }
+    tet_plot::with_colorbar(&img, full_scale, "|A-B|", tet_plot::viridis)
+}
+
 pub fn run(args: &DiffArgs) -> Result<()> {
     if let Some(s) = args.scale {
         if !(s > 0.0 && s.is_finite()) {
@@ -252,7 +267,11 @@ pub fn run(args: &DiffArgs) -> Result<()> {
     }
     let (r, picture) = compare(args)?;
     if let Some(out) = &args.output {
-        write_png_rgba8(out, r.width, r.height, &picture)?;
+        let full = args.scale.unwrap_or(r.stats.max_abs as f32);
+        let full = if full > 0.0 && full.is_finite() { full } else { 1.0 };
+        colour_diff_picture(&picture, r.width, r.height, full as f64)
+            .write_png(out)
+            .with_context(|| format!("writing {}", out.display()))?;
     }
     let s = &r.stats;
     // writeln! rather than println!: a closed pipe is an error, not a panic.
@@ -300,7 +319,7 @@ pub fn run(args: &DiffArgs) -> Result<()> {
         if let Some(path) = &args.output {
             writeln!(
                 out,
-                "wrote {} (white = {:.3e})",
+                "wrote {} (viridis, colour bar 0 to {:.3e})",
                 path.display(),
                 args.scale.unwrap_or(s.max_abs as f32).max(0.0)
             )?;

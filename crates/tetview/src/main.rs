@@ -8,6 +8,7 @@ mod diff;
 mod gpu;
 mod reference;
 mod render;
+mod tf_choice;
 mod view;
 
 fn main() -> std::process::ExitCode {

@@ -8,7 +8,6 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use tet_bundle::Bundle;
-use tet_preint::TransferFunction;
 use tet_render::{Camera, Display, ReferenceOptions, ReferenceRenderer, ToneMap, ViewSpec};
 
 #[derive(Debug, Clone, Args)]
@@ -16,9 +15,12 @@ pub struct ReferenceArgs {
     /// The bundle (.tetb) to render.
     pub bundle: PathBuf,
     /// Transfer function JSON (formats/tf.md); a normalized one is mapped
-    /// onto the bundle's scalar range (or --range).
+    /// onto the bundle's scalar range (or --range). Without it: the
+    /// automatic TF of the bundle, as `tetview render` builds it.
     #[arg(long)]
-    pub tf: PathBuf,
+    pub tf: Option<PathBuf>,
+    #[command(flatten)]
+    pub tf_choice: crate::tf_choice::TfChoiceArgs,
     /// Scalar range LO,HI for a normalized transfer function.
     #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
@@ -96,19 +98,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     let bundle = Bundle::read(&args.bundle)?;
     let mesh = &bundle.mesh;
     crate::cli::warn_if_constant_scalar(&bundle);
-    let text = std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display()))?;
-    let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", args.tf.display()))?;
-    let (smin, smax) = mesh.scalar.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &s| (a.min(s), b.max(s)));
-    match (tf.normalized(), args.range) {
-        (true, Some((lo, hi))) => tf = tf.denormalize(lo, hi)?,
-        (true, None) => {
-            tf = tf.denormalize(smin, smax).with_context(|| {
-                format!("{} is normalized but the scalar is constant ({smin}): give --range LO,HI", args.tf.display())
-            })?
-        }
-        (false, Some(_)) => bail!("--range is only for normalized transfer functions"),
-        (false, None) => {}
-    }
+    let tf = crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?;
 
     let mut spec = match &args.view {
         Some(p) => {

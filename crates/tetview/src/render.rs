@@ -22,9 +22,13 @@ pub struct RenderArgs {
     /// The bundle (.tetb) written by `tetprep convert`.
     pub bundle: PathBuf,
     /// Transfer function JSON (formats/tf.md); a normalized TF is mapped
-    /// onto --range, or the bundle's scalar range.
-    #[arg(long, required_unless_present = "lut")]
+    /// onto --range, or the bundle's scalar range. Without --tf and --lut:
+    /// an automatic TF built from the bundle (opacity where its scalar ×
+    /// |∇s| histogram shows boundaries, colours from --colormap).
+    #[arg(long)]
     pub tf: Option<PathBuf>,
+    #[command(flatten)]
+    pub tf_choice: crate::tf_choice::TfChoiceArgs,
     /// Method id: exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4,
     /// partial, biv-exact, biv-approx (tables are baked now over the
     /// bundle's domain at tetlut's default resolutions). The default,
@@ -34,7 +38,7 @@ pub struct RenderArgs {
     pub method: String,
     /// Pre-integration tables baked by `tetlut bake` (.tetl) instead of
     /// --tf/--method; the TF and method come from the file.
-    #[arg(long, conflicts_with = "tf")]
+    #[arg(long, conflicts_with_all = ["tf", "colormap", "opacity_scale", "save_tf"])]
     pub lut: Option<PathBuf>,
     /// Scalar range LO,HI for a normalized transfer function.
     #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
@@ -75,7 +79,8 @@ pub struct RenderArgs {
     /// radix (centroid depth, approximate), auto.
     #[arg(long, default_value = "auto")]
     pub sort: SortMethod,
-    /// Blinn–Phong headlight with per-vertex gradients as normals.
+    /// Blinn–Phong headlight with per-vertex gradients as normals (computed
+    /// now when the bundle has none).
     #[arg(long)]
     pub light: bool,
     /// Silhouette enhancement exponent p: α·(1 − |ĝ·v|)^p.
@@ -164,7 +169,6 @@ pub fn make_shader(method: Method, tf: &TransferFunction, domain: &TableDomain) 
 
 pub fn run(args: &RenderArgs) -> Result<()> {
     let bundle = Bundle::read(&args.bundle)?;
-    let stats = &bundle.meta.stats;
     crate::cli::warn_if_constant_scalar(&bundle);
     // Either a baked .tetl (its TF travels in the file) or a TF and a method.
     let (method, tf, lut) = match &args.lut {
@@ -178,16 +182,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         None => {
             let method: Method =
                 args.method.parse().map_err(|e: tet_preint::UnknownMethod| UsageError(e.to_string()))?;
-            let tf_path = args.tf.as_ref().ok_or_else(|| UsageError("--tf or --lut is required".into()))?;
-            let text = std::fs::read_to_string(tf_path).with_context(|| format!("reading {}", tf_path.display()))?;
-            let mut tf = TransferFunction::from_json(&text).with_context(|| format!("in {}", tf_path.display()))?;
-            if tf.normalized() {
-                let (lo, hi) = args.range.unwrap_or((stats.scalar_min, stats.scalar_max));
-                let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
-                tf = tf.denormalize(lo, hi)?;
-            } else if args.range.is_some() {
-                return Err(UsageError("--range is only for normalized transfer functions".into()).into());
-            }
+            let tf = crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?;
             (method, tf, None)
         }
     };
@@ -200,6 +195,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let mut scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
     if shading.is_active() || method.is_bivariate() {
+        if scene.gradients().is_none() && shading.is_active() {
+            eprintln!(
+                "note: the bundle has no gradients: per-vertex gradients (least squares) computed now for the shading normals (tetprep convert --gradients stores them)"
+            );
+        }
         scene = scene.ensure_gradients()?;
     }
     if args.gpu {

@@ -15,7 +15,8 @@ pub struct ViewArgs {
     /// The bundle (.tetb) written by `tetprep convert`.
     pub bundle: PathBuf,
     /// Transfer function JSON (formats/tf.md); a normalized TF is mapped onto
-    /// the bundle's scalar range. Default: a ramp.
+    /// the bundle's scalar range. Default: the bundle's automatic TF (the
+    /// one `tetview render` builds without --tf).
     #[arg(long)]
     pub tf: Option<PathBuf>,
     /// Method id (exact, pt-linear, table3d, atlas2d, poly1/2/4, partial,

@@ -1,0 +1,81 @@
+//! The transfer function `render` and `reference` use: `--tf`, or the
+//! automatic one of the bundle (tet_preint's `auto_tf`, the same the viewer
+//! opens on), with `--colormap`, `--opacity-scale` and `--save-tf`.
+
+use crate::cli::UsageError;
+use anyhow::{Context, Result};
+use std::path::{Path, PathBuf};
+use tet_bundle::Bundle;
+use tet_preint::{choose_tf, Colormap, TransferFunction};
+
+/// The TF options `render` and `reference` share.
+#[derive(Debug, Clone, clap::Args)]
+pub struct TfChoiceArgs {
+    /// Colour map of the automatic TF (without --tf), or the colours that
+    /// replace those of --tf over its nodes' span: viridis, inferno, magma,
+    /// plasma, cool-to-warm, turbo, grayscale.
+    #[arg(long, value_parser = parse_colormap)]
+    pub colormap: Option<Colormap>,
+    /// Multiplies every extinction of the TF (automatic or --tf): above 1
+    /// denser, below 1 clearer.
+    #[arg(long, default_value_t = 1.0, value_parser = parse_scale)]
+    pub opacity_scale: f64,
+    /// Write the TF used (formats/tf.md JSON, what --tf reads) to edit it.
+    #[arg(long)]
+    pub save_tf: Option<PathBuf>,
+}
+
+pub fn parse_colormap(s: &str) -> std::result::Result<Colormap, String> {
+    s.parse().map_err(|e: tet_preint::TfError| e.to_string())
+}
+
+fn parse_scale(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        Ok(v) => Err(format!("{v}: need a finite factor ≥ 0")),
+        Err(e) => Err(format!("{s:?}: {e}")),
+    }
+}
+
+/// Reads `tf_path` (or builds the automatic TF of `bundle`), applies the
+/// options, maps a normalized TF onto `range` (or the bundle's scalar
+/// range), writes `--save-tf`, and prints a note on stderr for an
+/// automatic TF (and a warning when its histogram had to be computed).
+pub fn resolve(
+    tf_path: Option<&Path>,
+    range: Option<(f64, f64)>,
+    bundle: &Bundle,
+    args: &TfChoiceArgs,
+) -> Result<TransferFunction> {
+    let given = match tf_path {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            Some(TransferFunction::from_json(&text).with_context(|| format!("in {}", p.display()))?)
+        }
+        None => None,
+    };
+    let (mut tf, auto) = choose_tf(given, Some(bundle), args.colormap, args.opacity_scale)?;
+    if let Some(a) = &auto {
+        if let Some(note) = a.source.note() {
+            eprintln!("warning: {note}");
+        }
+        eprintln!(
+            "note: no --tf: automatic transfer function (opacity on the scalar × |∇s| boundaries, {} over {:.4}..{:.4}); --save-tf writes it",
+            args.colormap.unwrap_or_default(),
+            a.color_range.0,
+            a.color_range.1
+        );
+    }
+    if tf.normalized() {
+        let stats = &bundle.meta.stats;
+        let (lo, hi) = range.unwrap_or((stats.scalar_min, stats.scalar_max));
+        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
+        tf = tf.denormalize(lo, hi)?;
+    } else if range.is_some() {
+        return Err(UsageError("--range is only for normalized transfer functions".into()).into());
+    }
+    if let Some(p) = &args.save_tf {
+        std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(tf)
+}

@@ -1,0 +1,174 @@
+//! Issue 17's "how we will know": `tetview render B -o x.png` with no TF,
+//! no tone-mapping or opacity flag, on Blunt Fin and on data kinds the
+//! defaults were not tuned on (curvilinear CFD, a CT-like volume, a point
+//! cloud), gives a picture with visible structure and colour. Over the
+//! covered pixels of the PNG (α > tet_render's COVERED_ALPHA in the float
+//! image written beside it): luminance spread (p95 − p5 of luma) ≥ 0.08, at
+//! most 40% near-white pixels, median chroma ≥ 0.15. Before issue 17 the
+//! demo's picture measured 0.02, 99% and 0.07.
+//!
+//! Images are 128² so the test stays fast; data provenance is in
+//! tests/data/*/LICENSE.md.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tet_analysis::{AnalysisOptions, Analyzer, GradientMethod, HistogramOptions};
+use tet_bundle::{Bundle, BundleMeta};
+use tet_render::{Image, PictureMetrics};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Converts `file` as `tetprep convert` does (point clouds by 3D
+/// Delaunay), with `--gradients --histogram` when `analysis`.
+fn bundle(file: &str, q: Option<&str>, scalar: Option<&str>, analysis: bool) -> Bundle {
+    let opts = tet_io::ReadOptions { q_path: q.map(|q| root().join(q)), ..Default::default() };
+    let mut source = tet_io::read_file(&root().join(file), &opts).unwrap();
+    if source.num_cells() == 0 {
+        tet_delaunay::triangulate_cloud(
+            &mut source,
+            tet_delaunay::CloudMode::Delaunay,
+            &tet_delaunay::DelaunayOptions::default(),
+            1e-10,
+            false,
+        )
+        .unwrap();
+    }
+    let copts = tet_mesh::ConvertOptions { scalar: scalar.map(String::from), ..Default::default() };
+    let (mesh, _) = tet_mesh::tetrahedralize(&source, &copts, &mut |_| {}).unwrap();
+    let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
+    let b = Bundle::with_stats(mesh, adjacency, BundleMeta::default(), stats);
+    if !analysis {
+        return b;
+    }
+    let opts = AnalysisOptions {
+        gradients: Some(GradientMethod::LeastSquares),
+        histogram: Some(HistogramOptions::default()),
+        ..Default::default()
+    };
+    let a = Analyzer::from_mesh(&b.mesh).unwrap().analyze(&opts).unwrap();
+    b.with_analysis(a)
+}
+
+fn tetview(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tetview")).args(args).output().unwrap()
+}
+
+/// Renders `b` with `extra` flags and measures the PNG.
+fn render_metrics(dir: &Path, name: &str, b: &Path, extra: &[&str]) -> (PictureMetrics, String) {
+    let (png, npy) = (dir.join(format!("{name}.png")), dir.join(format!("{name}.npy")));
+    let mut args = vec!["render", b.to_str().unwrap(), "--size", "128x128", "-o", png.to_str().unwrap()];
+    args.extend(["--float", npy.to_str().unwrap()]);
+    args.extend(extra);
+    let out = tetview(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{name}: {stderr}");
+    let img = Image::read_npy(&npy).unwrap();
+    let covered: Vec<bool> = img.pixels().iter().map(|p| p[3] > tet_render::image::COVERED_ALPHA).collect();
+    let file = std::fs::File::open(&png).unwrap();
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    reader.next_frame(&mut buf).unwrap();
+    (PictureMetrics::of_rgba8(&buf, &covered), stderr)
+}
+
+fn check(name: &str, m: &PictureMetrics) {
+    eprintln!("{name}: {m}");
+    assert!(m.covered_pixels > 128 * 128 / 20, "{name}: almost nothing drawn: {m}");
+    assert!(m.luminance_spread >= 0.08, "{name}: flat picture: {m}");
+    assert!(m.near_white <= 0.40, "{name}: saturated picture: {m}");
+    assert!(m.median_chroma >= 0.15, "{name}: colourless picture: {m}");
+}
+
+#[test]
+fn default_render_shows_structure_and_colour_on_four_kinds_of_data() {
+    let dir = tempfile::tempdir().unwrap();
+    // (name, file, PLOT3D Q file, scalar, stored analysis)
+    type Case = (&'static str, &'static str, Option<&'static str>, Option<&'static str>, bool);
+    let cases: [Case; 4] = [
+        (
+            "bluntfin",
+            "tests/data/plot3d/bluntfinxyz.bin",
+            Some("tests/data/plot3d/bluntfinq.bin"),
+            Some("density"),
+            true,
+        ),
+        ("combustor", "tests/data/plot3d/combxyz.bin", Some("tests/data/plot3d/combq.bin"), Some("density"), false),
+        ("iron16", "tests/data/volume/iron16_raw.nrrd", None, None, false),
+        ("stars", "tests/data/points/stars_lum_ci.ply", None, Some("lum"), false),
+    ];
+    for (name, file, q, scalar, analysis) in cases {
+        let b = bundle(file, q, scalar, analysis);
+        let path = dir.path().join(format!("{name}.tetb"));
+        b.write(&path).unwrap();
+        let (m, stderr) = render_metrics(dir.path(), name, &path, &[]);
+        assert!(stderr.contains("automatic transfer function"), "{name}: {stderr}");
+        // Without a stored histogram the CLI says it computed one.
+        assert_eq!(stderr.contains("no histogram section"), !analysis, "{name}: {stderr}");
+        check(name, &m);
+    }
+}
+
+/// Blunt Fin with the sample TF of the old demo: the tone mapping alone
+/// (exposure over the covered pixels, colour kept) no longer washes it out.
+#[test]
+fn sample_tf_on_bluntfin_is_not_a_white_silhouette() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = bundle("tests/data/plot3d/bluntfinxyz.bin", Some("tests/data/plot3d/bluntfinq.bin"), Some("density"), true);
+    let path = dir.path().join("b.tetb");
+    b.write(&path).unwrap();
+    let tf = root().join("formats/samples/tf_normalized.json");
+    let (m, _) = render_metrics(dir.path(), "sample", &path, &["--tf", tf.to_str().unwrap()]);
+    eprintln!("bluntfin, sample TF: {m}");
+    assert!(m.near_white <= 0.40 && m.luminance_spread >= 0.08, "{m}");
+}
+
+/// `--exposure` and `--light` change the picture visibly; `--save-tf`
+/// writes a TF that `--tf` reads back to the same image; `--colormap`
+/// and `--opacity-scale` apply.
+#[test]
+fn exposure_light_colormap_and_saved_tf() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = bundle("tests/data/plot3d/bluntfinxyz.bin", Some("tests/data/plot3d/bluntfinq.bin"), Some("density"), true);
+    let path = dir.path().join("b.tetb");
+    b.write(&path).unwrap();
+    let saved = dir.path().join("auto.json");
+    let mean_luma = |name: &str, extra: &[&str]| {
+        let (m, _) = render_metrics(dir.path(), name, &path, extra);
+        let img = Image::read_npy(&dir.path().join(format!("{name}.npy"))).unwrap();
+        let file = std::fs::File::open(dir.path().join(format!("{name}.png"))).unwrap();
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
+        let mut buf = vec![0u8; reader.output_buffer_size()];
+        reader.next_frame(&mut buf).unwrap();
+        let lum: Vec<f64> = buf
+            .chunks_exact(4)
+            .map(|p| (0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64) / 255.0)
+            .collect();
+        (m, img, lum)
+    };
+    let (_, img1, base) = mean_luma("e1", &["--save-tf", saved.to_str().unwrap()]);
+    let covered: Vec<usize> =
+        (0..base.len()).filter(|&i| img1.pixels()[i][3] > tet_render::image::COVERED_ALPHA).collect();
+    let mean = |l: &[f64]| covered.iter().map(|&i| l[i]).sum::<f64>() / covered.len() as f64;
+    let mean_abs_change =
+        |l: &[f64]| covered.iter().map(|&i| (l[i] - base[i]).abs()).sum::<f64>() / covered.len() as f64;
+    let (_, _, dim) = mean_luma("e02", &["--exposure", "0.2"]);
+    eprintln!("mean covered luma: exposure 1 {:.3}, exposure 0.2 {:.3}", mean(&base), mean(&dim));
+    assert!(mean(&base) - mean(&dim) > 0.08, "exposure 0.2 barely changes the picture");
+    let (_, _, lit) = mean_luma("lit", &["--light"]);
+    eprintln!("--light: mean |change| of covered luma {:.3}", mean_abs_change(&lit));
+    assert!(mean_abs_change(&lit) > 0.03, "--light barely changes the picture");
+    // The saved TF reproduces the automatic one's image.
+    let (_, img2, _) = mean_luma("saved", &["--tf", saved.to_str().unwrap()]);
+    assert_eq!(img1, img2);
+    let (m, _, _) = mean_luma("gray", &["--colormap", "grayscale"]);
+    assert!(m.median_chroma < 0.02, "grayscale: {m}");
+    let (_, img3, _) = mean_luma("dense", &["--opacity-scale", "3"]);
+    let alpha = |i: &Image| i.pixels().iter().map(|p| p[3] as f64).sum::<f64>();
+    assert!(alpha(&img3) > 1.2 * alpha(&img1));
+    let out = tetview(&["render", path.to_str().unwrap(), "--colormap", "jett", "-o", "x.png"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("viridis"));
+}

@@ -7,7 +7,7 @@
 //!
 //! The first frame is cold (view, cull, sort); the others reuse the order.
 //! `TET_TILE=16` sets the tile side; `TET_WALK_INTERLEAVE=K` walks K rays at
-//! once (`RasterOptions::walk_interleave`; default by mesh size); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
+//! once (`RasterOptions::walk_interleave`; default 1); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
 //! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
 //! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
 //! turns the camera D degrees of azimuth before every frame after the

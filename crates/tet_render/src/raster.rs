@@ -49,9 +49,10 @@ pub struct RasterOptions {
     /// nothing.
     pub setup_cache_bytes: usize,
     /// The walker: rays a tile walks at once, one step each in turn (each
-    /// walk is a chain of dependent loads; independent chains overlap
-    /// their cache misses). `None` picks by mesh size
-    /// ([`crate::walk`]); the image is the same either way.
+    /// walk is a chain of dependent loads, which independent chains could
+    /// overlap). `None`: one at a time — interleaving gained nothing
+    /// measurable even on the 20M-tet volume
+    /// (`crates/tetview/results/walker.md`). The image is the same either way.
     pub walk_interleave: Option<usize>,
 }
 

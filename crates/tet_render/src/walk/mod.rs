@@ -667,10 +667,7 @@ pub fn walk_frame(
         opts,
         want_grad_mag: shader.method().is_bivariate() && mesh.grad_mag.is_some(),
         lit: opts.shading.is_active() && mesh.grads.is_some(),
-        lanes: opts
-            .walk_interleave
-            .unwrap_or(if mesh.memory_bytes() > INTERLEAVE_ABOVE_BYTES { INTERLEAVE } else { 1 })
-            .clamp(1, 64),
+        lanes: opts.walk_interleave.unwrap_or(1).clamp(1, 64),
     };
     let done = AtomicUsize::new(0);
     let tiles: Vec<(Vec<[f32; 4]>, WalkStats)> = (0..n_tiles)
@@ -761,14 +758,6 @@ fn face_point(verts: &[WalkVertex], ids: [u32; 3], l: [f32; 3], orient: f32, par
     let scalar = lam[0] * q[0].scalar + lam[1] * q[1].scalar + lam[2] * q[2].scalar;
     FacePoint { depth, scalar, ids, lam }
 }
-
-/// Rays a tile walks at once on meshes larger than the caches, unless
-/// [`RasterOptions::walk_interleave`] says otherwise.
-const INTERLEAVE: usize = 4;
-
-/// Walk structures above this size interleave rays (below it they sit in
-/// the caches and one ray at a time is cheaper).
-const INTERLEAVE_ABOVE_BYTES: usize = 64 << 20;
 
 /// Where one ray's walk stands between steps.
 #[derive(Clone, Copy)]

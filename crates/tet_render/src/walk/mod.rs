@@ -971,7 +971,7 @@ impl WalkCtx<'_> {
                     let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
                     batches[lane].segs.len = 0;
                     st.rays += 1;
-                    *slot = Some((pix, self.start_ray(g, px, py, first, end)));
+                    *slot = Some((pix, self.start_ray(px, py, first, end)));
                     active += 1;
                 }
                 if let Some((pix, ray)) = slot {
@@ -1064,9 +1064,8 @@ impl WalkCtx<'_> {
 
     /// Starts the ray through pixel (px, py), whose entries are
     /// `entries[first..end]`.
-    fn start_ray<G: RayGeometry>(&self, g: &G, px: u32, py: u32, first: usize, end: usize) -> RayState {
+    fn start_ray(&self, px: u32, py: u32, first: usize, end: usize) -> RayState {
         let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
-        let _ = g;
         RayState {
             fx,
             fy,

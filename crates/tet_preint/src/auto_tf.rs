@@ -355,11 +355,10 @@ pub fn node_span(tf: &TransferFunction) -> (f64, f64) {
 mod tests {
     use super::*;
     use tet_bundle::BundleMeta;
-    use tet_mesh::{build_adjacency, mesh_stats, TetMesh};
+    use tet_mesh::{build_adjacency, mesh_stats, tetrahedralize, Block, ConvertOptions, Field, SourceMesh};
 
-    /// An n³ grid of the unit cube split into 6 tets a cell, scalar `f`.
+    /// An n³ grid of the unit cube, split into tets as tetprep splits it, scalar `f`.
     fn grid(n: usize, f: impl Fn([f64; 3]) -> f64) -> Bundle {
-        let id = |i: usize, j: usize, k: usize| ((k * (n + 1) + j) * (n + 1) + i) as u32;
         let mut points = Vec::new();
         for k in 0..=n {
             for j in 0..=n {
@@ -368,43 +367,16 @@ mod tests {
                 }
             }
         }
-        let mut tets = Vec::new();
-        for k in 0..n {
-            for j in 0..n {
-                for i in 0..n {
-                    let c = [
-                        id(i, j, k),
-                        id(i + 1, j, k),
-                        id(i + 1, j + 1, k),
-                        id(i, j + 1, k),
-                        id(i, j, k + 1),
-                        id(i + 1, j, k + 1),
-                        id(i + 1, j + 1, k + 1),
-                        id(i, j + 1, k + 1),
-                    ];
-                    for t in [[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]] {
-                        tets.push(t.map(|v| c[v]));
-                    }
-                }
-            }
-        }
-        let tets: Vec<[u32; 4]> = tets
-            .into_iter()
-            .map(|mut t| {
-                let p = |i: usize| points[t[i] as usize];
-                let d = |a: [f64; 3], b: [f64; 3]| [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-                let (a, b, c) = (d(p(0), p(1)), d(p(0), p(2)), d(p(0), p(3)));
-                let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                    + a[2] * (b[0] * c[1] - b[1] * c[0]);
-                if det < 0.0 {
-                    t.swap(2, 3);
-                }
-                t
-            })
-            .collect();
-        let scalar: Vec<f64> = points.iter().map(|&p| f(p)).collect();
-        let stats = mesh_stats(&points, &tets, &scalar);
-        let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
+        let values = points.iter().map(|&p| f(p)).collect();
+        let src = SourceMesh {
+            points,
+            blocks: vec![Block::Structured { dims: [n + 1; 3], first_point: 0 }],
+            point_fields: vec![Field::new("s", 1, values)],
+            ..Default::default()
+        };
+        let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
+        let (mesh, _) = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
+        let stats = mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
         let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
         Bundle::new(mesh, adjacency, BundleMeta { stats, ..Default::default() })
     }

@@ -249,31 +249,6 @@ fn clip(poly: &[[f64; 3]], plane: [f64; 3]) -> Vec<[f64; 3]> {
     out
 }
 
-/// The face the line through the eye and (px, py) meets behind the eye,
-/// for the tet holding the eye: the one whose three edges all say front
-/// (module docs). `None` cannot happen with exact signs; the caller counts it.
-pub fn face_behind_eye(
-    verts: &[HomVertex],
-    tet: [u32; 4],
-    px: f32,
-    py: f32,
-    counters: &mut EdgeCounters,
-) -> Option<(usize, [f32; 3])> {
-    'faces: for (f, fv) in FACE_OUTWARD.iter().enumerate() {
-        let ids = [tet[fv[0]], tet[fv[1]], tet[fv[2]]];
-        let mut l = [0.0f32; 3];
-        for k in 0..3 {
-            let (e, left) = side(verts, ids[(k + 1) % 3], ids[(k + 2) % 3], px, py, counters);
-            if left != FRONT_IS_LEFT {
-                continue 'faces;
-            }
-            l[k] = e;
-        }
-        return Some((f, l));
-    }
-    None
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -810,7 +810,6 @@ trait RayGeometry: Sync {
     fn near_depth(&self) -> f32;
     /// The eye's tet (walk order) and its vertices, when rays start there.
     fn eye_tet(&self) -> Option<(u32, [u32; 4])>;
-    fn hom_vertices(&self) -> &[HomVertex];
 }
 
 struct Projected<'a> {
@@ -848,9 +847,6 @@ impl RayGeometry for Projected<'_> {
     }
     fn eye_tet(&self) -> Option<(u32, [u32; 4])> {
         None
-    }
-    fn hom_vertices(&self) -> &[HomVertex] {
-        &[]
     }
 }
 
@@ -899,9 +895,6 @@ impl RayGeometry for Homogeneous<'_> {
     }
     fn eye_tet(&self) -> Option<(u32, [u32; 4])> {
         self.eye
-    }
-    fn hom_vertices(&self) -> &[HomVertex] {
-        self.verts
     }
 }
 
@@ -1047,10 +1040,23 @@ impl WalkCtx<'_> {
                 for px in rect[0]..=rect[2] {
                     let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
                     let pix = (py - rect[1]) as usize * stride + (px - rect[0]) as usize;
-                    match hom::face_behind_eye(g.hom_vertices(), tet, fx, fy, counters) {
-                        Some((f, l)) => {
-                            let fv = FACE_OUTWARD[f];
-                            let fp = g.face_point([tet[fv[0]], tet[fv[1]], tet[fv[2]]], l, orient);
+                    // The face the line meets behind the eye: the one whose
+                    // three edges all say front (`hom` module docs).
+                    let behind = FACE_OUTWARD.iter().enumerate().find_map(|(f, fv)| {
+                        let ids = [tet[fv[0]], tet[fv[1]], tet[fv[2]]];
+                        let mut l = [0.0f32; 3];
+                        for (k, lk) in l.iter_mut().enumerate() {
+                            let (e, left) = g.side(ids[(k + 1) % 3], ids[(k + 2) % 3], fx, fy, counters);
+                            if left != FRONT_IS_LEFT {
+                                return None;
+                            }
+                            *lk = e;
+                        }
+                        Some((f, ids, l))
+                    });
+                    match behind {
+                        Some((f, ids, l)) => {
+                            let fp = g.face_point(ids, l, orient);
                             out.push((pix as u32, fp.depth, t0 * 4 + f as u32));
                         }
                         None => st.step_limit += 1,

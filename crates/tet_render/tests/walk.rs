@@ -552,3 +552,21 @@ fn interleaved_rays_give_the_same_image() {
         }
     }
 }
+
+/// The eye exactly on a face's plane inside the mesh (a grid plane through
+/// it): no tet holds it strictly, so that view is drawn by PT and the stats
+/// say why; the image has no holes.
+#[test]
+fn eye_on_a_face_plane_is_drawn_by_pt_and_reported() {
+    let (points, tets, scalar) = grid_mesh(4, 0.0, [0.0; 3], 3, |p| p[0]);
+    let scene = Scene::new(&points, tets, scalar).unwrap();
+    let shader: Arc<dyn SegmentShader> =
+        Arc::new(ExactShader::new(tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1], [1, 2]], "unit_distance": 1}"#)));
+    let view = inside_view([0.5, 0.5, 0.5], [0.61, 0.37, 1.0], [20, 16]);
+    let (img, st) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default());
+    assert_eq!(st.renderer, "pt", "{st:?}");
+    assert!(st.walk_fallback.as_deref().is_some_and(|w| w.contains("plane of a face")), "{st:?}");
+    let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader, RasterOptions::default());
+    assert_eq!(img.pixels(), pt.pixels());
+    assert!(img.pixels().iter().all(|p| p[3] > 0.0), "holes with the eye inside");
+}

@@ -3,7 +3,7 @@
 //! request (stale ones are dropped), so dragging stays responsive even when
 //! a full-resolution CPU frame takes long.
 
-use crate::engine::{gpu_supports, Engine, Frame, FrameRequest, FrameStats};
+use crate::engine::{gpu_supports, Engine, Frame, FrameRequest, FrameStats, TableAccuracy};
 use crate::file_dialog::{self, FileDialog, Mode, Outcome};
 use crate::nav;
 use crate::tf_model::{populated_region, TfModel, WidgetKind};
@@ -141,19 +141,29 @@ fn worker(
     ctx: egui::Context,
     quit: Arc<AtomicBool>,
 ) {
+    let mut last: Option<(u64, FrameRequest)> = None;
     loop {
         if quit.load(Ordering::Relaxed) {
             return;
         }
         let mut msg = match rx.recv_timeout(Duration::from_millis(50)) {
             Ok(m) => m,
-            Err(RecvTimeoutError::Timeout) => continue,
+            // The certified table of the frame on screen is done: the same
+            // request again (same sequence number), now drawn with it.
+            Err(RecvTimeoutError::Timeout) => match last.take() {
+                Some(m) if engine.poll_certification() => m,
+                other => {
+                    last = other;
+                    continue;
+                }
+            },
             Err(RecvTimeoutError::Disconnected) => return,
         };
         while let Ok(newer) = rx.try_recv() {
             msg = newer;
         }
         let res = engine.render(&msg.1).map_err(|e| e.to_string());
+        last = Some(msg.clone());
         if tx.send((msg.0, res)).is_err() {
             return;
         }
@@ -696,7 +706,7 @@ impl ViewerApp {
     fn status_line(&self, ui: &mut egui::Ui) {
         let text = match &self.latest {
             Some((_, s)) => format!(
-                "{} | {}x{} | frame {:.1} ms | {} tets/s | drawn {} of {} ({:.1}% culled) | bake {:.1} ms | view {:.1} ms{} | UI {:.0} ms",
+                "{} | {}x{} | frame {:.1} ms | {} tets/s | drawn {} of {} ({:.1}% culled) | bake {:.1} ms | view {:.1} ms{} | UI {:.0} ms{}",
                 s.backend,
                 s.size[0],
                 s.size[1],
@@ -709,6 +719,10 @@ impl ViewerApp {
                 1e3 * s.sort_seconds,
                 redone(s),
                 self.ui_ms,
+                match &s.accuracy {
+                    TableAccuracy::NotApplicable => String::new(),
+                    a => format!(" | {a}"),
+                },
             ),
             None => format!("rendering… ({})", self.gpu_note),
         };
@@ -780,6 +794,11 @@ impl ViewerApp {
             return;
         }
         if !idle || s.requested {
+            return;
+        }
+        // The screenshot shows the certified table, not the plain one drawn
+        // while it was baked.
+        if s.done + 1 >= s.frames && self.latest.as_ref().is_some_and(|l| l.1.accuracy == TableAccuracy::Certifying) {
             return;
         }
         s.done += 1;

@@ -6,6 +6,12 @@
 //!   new TF revision, method or table resolution re-bakes the shader and
 //!   re-culls. table3d keeps its table and the TF it was baked from, so a
 //!   TF edit re-bakes only the pairs it reaches ([`Table3d::rebake`]).
+//!   That plain table is drawn at once; the certified bake of the same TF
+//!   ([`tet_preint::certify::bake`]: the bake measures its own error and
+//!   refines until it holds 1e-3, for any TF) runs on a thread beside the
+//!   frames and replaces it when done ([`Engine::poll_certification`]; the
+//!   frame's [`TableAccuracy`] says which one is on screen). One bake runs
+//!   at a time: while a TF is dragged, only the newest revision is queued.
 //! * GPU (tet_gpu, every method of [`tet_gpu::GPU_METHODS`] — all but
 //!   `exact` — when an adapter exists): the GPU radix sort
 //!   of centroid depths, recomputed only when the camera moves (tet_gpu
@@ -15,11 +21,15 @@
 //!   methods' per-vertex |∇s| uploaded once, when one is first chosen.
 
 use crate::ViewerError;
+use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_gpu::{GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
-use tet_preint::{BakeOptions, Baked, Method, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_preint::{
+    BakeOptions, Baked, CertifiedTable3d, CertifyOptions, Method, SegmentShader, Table3d, Table3dParams, TableDomain,
+    TableError, TransferFunction,
+};
 use tet_render::cull::{cull, CullMask};
 use tet_render::{Camera, Display, Image, Renderer, Scene, TfCuller, ViewSpec};
 
@@ -27,6 +37,7 @@ use tet_render::{Camera, Display, Image, Renderer, Scene, TfCuller, ViewSpec};
 #[derive(Clone)]
 pub struct FrameRequest {
     pub view: ViewSpec,
+    /// In data units (the TF model's; the cull reads it as it is).
     pub tf: Arc<TransferFunction>,
     /// Changes whenever `tf` does (the engine compares revisions, not TFs).
     pub tf_revision: u64,
@@ -71,6 +82,50 @@ pub struct FrameStats {
     /// The view's work was redone (a camera move; PT's radix order after a TF edit).
     pub resorted: bool,
     pub size: [u32; 2],
+    /// Which table3d drew the frame, measured how.
+    pub accuracy: TableAccuracy,
+}
+
+/// Where the frame's table stands against the certify target
+/// ([`tet_preint::certify`], 1e-3 per segment by default).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub enum TableAccuracy {
+    /// Not a CPU table3d frame (other methods carry their own error; the
+    /// GPU's lookup neither splits at TF nodes nor integrates exactly, so
+    /// its table3d is the plain one: [`TableAccuracy::GpuPlain`]).
+    #[default]
+    NotApplicable,
+    /// The plain table (re-baked for the last TF edit) is drawn; its
+    /// certified bake runs beside the frames.
+    Certifying,
+    /// The certified bake's table is drawn.
+    Measured {
+        certified: bool,
+        /// The largest per-segment error the bake measured.
+        max_error: f64,
+        target: f64,
+    },
+    /// The certified bake failed; the plain table stays, unmeasured.
+    Failed(String),
+    /// The GPU drew table3d with the plain table.
+    GpuPlain,
+}
+
+impl std::fmt::Display for TableAccuracy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TableAccuracy::NotApplicable => Ok(()),
+            TableAccuracy::Certifying => f.write_str("table: certifying…"),
+            TableAccuracy::Measured { certified: true, max_error, target } => {
+                write!(f, "table certified: max {max_error:.1e} <= {target:e}")
+            }
+            TableAccuracy::Measured { certified: false, max_error, target } => {
+                write!(f, "table NOT certified: max {max_error:.1e} > {target:e} within the memory budget")
+            }
+            TableAccuracy::Failed(e) => write!(f, "table not certified: {e}"),
+            TableAccuracy::GpuPlain => f.write_str("GPU table: plain, not certified"),
+        }
+    }
 }
 
 impl FrameStats {
@@ -116,6 +171,19 @@ struct HeldTable {
     table: Arc<Table3d>,
 }
 
+/// (TF revision, table n_s): what a certified bake is for.
+type CertKey = (u64, usize);
+
+/// The certified bakes: one on a thread at a time, the newest request
+/// queued behind it, the last result kept.
+#[derive(Default)]
+struct Certifier {
+    running: Option<(CertKey, Receiver<Result<CertifiedTable3d, TableError>>)>,
+    /// Wanted after the running one (the newest frame's).
+    queued: Option<(CertKey, TransferFunction, Table3dParams)>,
+    done: Option<(CertKey, Result<Arc<CertifiedTable3d>, String>)>,
+}
+
 /// The staged renderer behind the window.
 pub struct Engine {
     cpu: Renderer,
@@ -123,11 +191,18 @@ pub struct Engine {
     gpu: Option<Gpu>,
     /// Why there is no GPU path (shown in the status line).
     gpu_note: String,
-    cpu_key: Option<(u64, Method, usize)>,
+    /// (TF revision, method, table n_s, whether the certified table3d).
+    cpu_key: Option<(u64, Method, usize, bool)>,
     /// CPU cull mask of a TF revision (the GPU path's filter).
     mask: Option<(u64, CullMask)>,
     last_bake_seconds: f64,
     table: Option<HeldTable>,
+    certifier: Certifier,
+    /// The certified table's key of the last CPU table3d frame.
+    cert_wanted: Option<CertKey>,
+    /// Segments through the bundle's cells, measured by every certified
+    /// bake besides its own sets ([`tet_preint::certify::cell_triples`]).
+    cells: Arc<Vec<[f32; 3]>>,
 }
 
 impl Engine {
@@ -148,6 +223,8 @@ impl Engine {
         } else {
             (None, "GPU off (--cpu)".to_string())
         };
+        let opts = CertifyOptions::default();
+        let cells = Arc::new(tet_preint::certify::cell_triples(bundle, &domain, opts.samples, opts.seed));
         Ok(Engine {
             cpu: Renderer::new(scene),
             domain,
@@ -157,6 +234,9 @@ impl Engine {
             mask: None,
             last_bake_seconds: 0.0,
             table: None,
+            certifier: Certifier::default(),
+            cert_wanted: None,
+            cells,
         })
     }
 
@@ -240,9 +320,72 @@ impl Engine {
         Ok(())
     }
 
+    /// Takes a finished certified bake and starts the queued one; true
+    /// when the table for the last CPU table3d frame arrived, so that
+    /// re-rendering that frame's request shows it (the window's worker
+    /// calls this while it waits for requests).
+    pub fn poll_certification(&mut self) -> bool {
+        let c = &mut self.certifier;
+        let Some((key, rx)) = &c.running else { return false };
+        let res = match rx.try_recv() {
+            Ok(r) => r.map(Arc::new).map_err(|e| e.to_string()),
+            Err(TryRecvError::Empty) => return false,
+            Err(TryRecvError::Disconnected) => Err("the certified bake stopped".to_string()),
+        };
+        let key = *key;
+        c.running = None;
+        c.done = Some((key, res));
+        if let Some((k, tf, params)) = c.queued.take() {
+            if k != key {
+                self.start_certification(k, tf, params);
+            }
+        }
+        self.cert_wanted == Some(key)
+    }
+
+    /// Runs the certified bake of `tf` (data units) at `params` on a
+    /// thread, or queues it behind the one running.
+    fn start_certification(&mut self, key: CertKey, tf: TransferFunction, params: Table3dParams) {
+        let c = &mut self.certifier;
+        if c.running.as_ref().is_some_and(|r| r.0 == key) || c.done.as_ref().is_some_and(|d| d.0 == key) {
+            return;
+        }
+        if c.running.is_some() {
+            c.queued = Some((key, tf, params));
+            return;
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (domain, cells) = (self.domain, self.cells.clone());
+        std::thread::spawn(move || {
+            let res = tet_preint::certify::bake(&tf, &domain, &params, &CertifyOptions::default(), &cells);
+            // The engine may be gone (window closed): nothing to tell.
+            let _ = tx.send(res);
+        });
+        c.running = Some((key, rx));
+    }
+
+    /// Blocks until no certified bake runs or waits (tests; scripted runs
+    /// poll instead).
+    pub fn wait_for_certification(&mut self) {
+        while self.certifier.running.is_some() {
+            if !self.poll_certification() {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
+        }
+    }
+
     fn render_cpu(&mut self, req: &FrameRequest, backend: String) -> Result<Frame, ViewerError> {
         let start = Instant::now();
-        let key = (req.tf_revision, req.method, req.table_n_s);
+        self.poll_certification();
+        let table3d = req.method == Method::Table3d && req.tf.widgets().is_empty();
+        let cert_key = (req.tf_revision, req.table_n_s);
+        // The certified table of this TF and resolution, when it is done.
+        let certified = match &self.certifier.done {
+            Some((k, Ok(t))) if table3d && *k == cert_key => Some(t.clone()),
+            _ => None,
+        };
+        // The key says which table is drawn: plain (false) or certified.
+        let key = (req.tf_revision, req.method, req.table_n_s, certified.is_some());
         let mut bake_seconds = 0.0;
         if req.method.is_bivariate() {
             self.ensure_cpu_gradients()?;
@@ -251,13 +394,18 @@ impl Engine {
         if rebaked {
             let prev_key = self.cpu_key;
             let t = Instant::now();
-            let shader: Arc<dyn SegmentShader> = if req.method == Method::Table3d && req.tf.widgets().is_empty() {
+            let shader: Arc<dyn SegmentShader> = if let Some(c) = certified {
+                c
+            } else if table3d {
                 // Let go of the renderer's reference, so the held table can
                 // be re-baked in place (a failed bake forgets the key, so
                 // the renderer gets a shader before it draws again).
                 self.cpu.clear_shader();
                 self.cpu_key = None;
-                self.table3d(&req.tf, req.table_n_s)?
+                let table = self.table3d(&req.tf, req.table_n_s)?;
+                let held = self.table.as_ref().expect("set by table3d");
+                self.start_certification(cert_key, held.tf.clone(), *table.params());
+                table
             } else {
                 tet_preint::make_shader(req.method, &req.tf, &self.domain, &Self::bake_options(req.table_n_s))
                     .map_err(|e| ViewerError::Method(format!("{}: {e}", req.method)))?
@@ -266,12 +414,28 @@ impl Engine {
             bake_seconds = t.elapsed().as_secs_f64();
             self.last_bake_seconds = bake_seconds;
             self.cpu.set_shader(shader);
-            // A new TF re-culls; a new method or resolution alone does not.
+            // A new TF re-culls; a new method, resolution or the certified
+            // table alone does not.
             if prev_key.map(|k| k.0) != Some(req.tf_revision) {
                 self.cpu.set_culler(Some(Arc::new(TfCuller::new(&req.tf))));
             }
             self.cpu_key = Some(key);
         }
+        self.cert_wanted = table3d.then_some(cert_key);
+        let accuracy = if !table3d {
+            TableAccuracy::NotApplicable
+        } else {
+            match &self.certifier.done {
+                Some((k, Ok(t))) if *k == cert_key => match t.certificate() {
+                    Some(c) => {
+                        TableAccuracy::Measured { certified: c.certified, max_error: c.max_error, target: c.target }
+                    }
+                    None => TableAccuracy::Failed("the bake measured nothing".into()),
+                },
+                Some((k, Err(e))) if *k == cert_key => TableAccuracy::Failed(e.clone()),
+                _ => TableAccuracy::Certifying,
+            }
+        };
         self.cpu.set_view(&req.view)?;
         let (image, st) = self.cpu.render(&|_, _| {})?;
         let rgba8 = image.to_rgba8(&req.display);
@@ -291,6 +455,7 @@ impl Engine {
             // View work redone: the walker's projection, PT's view and order.
             resorted: st.recomputed_view || st.recomputed_order,
             size: req.view.size,
+            accuracy,
         };
         Ok(Frame { rgba8, image, view: req.view.clone(), stats })
     }
@@ -375,6 +540,11 @@ impl Engine {
             recomputed_cull,
             resorted,
             size: req.view.size,
+            accuracy: if req.method == Method::Table3d {
+                TableAccuracy::GpuPlain
+            } else {
+                TableAccuracy::NotApplicable
+            },
         };
         Ok(Frame { rgba8: tone.rgba8, image: frame.image, view: req.view.clone(), stats })
     }
@@ -462,6 +632,61 @@ mod tests {
             let g = fresh.render(&req).unwrap();
             assert_eq!(f.image.pixels(), g.image.pixels(), "edit to ({x}, {a})");
         }
+    }
+
+    /// A held-out TF (a dozen narrow opacity peaks): the first table3d frame
+    /// draws the plain table while its certified bake runs; once that is
+    /// done, the same request draws the certified table, which meets 1/255
+    /// of the f64 reference ray caster (linear, no tone mapping) where the
+    /// plain table does not; a TF edit goes back to the plain table.
+    #[test]
+    fn table3d_frames_switch_to_the_certified_table() {
+        let bundle = sample_bundle();
+        let mut engine = Engine::new(&bundle, false).unwrap();
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../tet_preint/tests/data/heldout/tf_peaks12.json");
+        let tf = TransferFunction::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
+        // In data units, as the window's TF model gives it.
+        let tf = tet_preint::tf_for_domain(&tf, engine.domain()).unwrap();
+        let (lo, hi) = engine.scene().bounds();
+        let mut req = FrameRequest {
+            view: ViewSpec::framing(lo, hi, [48, 48]).orbit(30.0, 20.0, 1.0),
+            tf: Arc::new(tf.clone()),
+            tf_revision: 7,
+            method: Method::Table3d,
+            table_n_s: 32,
+            prefer_gpu: false,
+            display: Display::default(),
+        };
+        let plain = engine.render(&req).unwrap();
+        assert_eq!(plain.stats.accuracy, TableAccuracy::Certifying);
+        engine.wait_for_certification();
+        let cert = engine.render(&req).unwrap();
+        assert!(cert.stats.rebaked && !cert.stats.resorted && !cert.stats.recomputed_cull, "{:?}", cert.stats);
+        let TableAccuracy::Measured { certified, max_error, target } = cert.stats.accuracy.clone() else {
+            panic!("{:?}", cert.stats.accuracy)
+        };
+        assert!(certified && max_error <= target, "{:?}", cert.stats.accuracy);
+
+        let reference = tet_render::ReferenceRenderer::new(&bundle.mesh, &bundle.adjacency).unwrap();
+        let cam = Camera::new(&req.view).unwrap();
+        let opts = tet_render::ReferenceOptions::default();
+        let (want, _) = reference.render(&cam, &tf, &opts, &|_, _| {}).unwrap();
+        assert!(want.pixels().iter().any(|p| p[3] > 0.05), "the view shows something");
+        let max = |img: &Image| {
+            img.pixels()
+                .iter()
+                .zip(want.pixels())
+                .flat_map(|(p, q)| (0..4).map(move |c| (p[c] - q[c]).abs()))
+                .fold(0.0f32, f32::max)
+        };
+        let (e_plain, e_cert) = (max(&plain.image), max(&cert.image));
+        assert!(e_cert <= 1.0 / 255.0, "certified table: linear max {e_cert:e}");
+        assert!(e_plain > e_cert, "plain {e_plain:e}, certified {e_cert:e}");
+
+        req.tf_revision = 8;
+        let edited = engine.render(&req).unwrap();
+        assert_eq!(edited.stats.accuracy, TableAccuracy::Certifying);
+        assert_eq!(edited.image.pixels(), plain.image.pixels(), "the plain table again");
     }
 
     /// The same staging on the GPU path, and methods it lacks fall back to

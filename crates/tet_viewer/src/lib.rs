@@ -36,7 +36,7 @@ pub mod file_dialog;
 pub mod nav;
 pub mod tf_model;
 
-pub use engine::{gpu_supports, Engine, Frame, FrameRequest, FrameStats};
+pub use engine::{gpu_supports, Engine, Frame, FrameRequest, FrameStats, TableAccuracy};
 pub use file_dialog::FileDialog;
 pub use tf_model::TfModel;
 

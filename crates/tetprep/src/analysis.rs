@@ -3,6 +3,7 @@
 
 use crate::cli::{AnalysisArgs, GradientArg};
 use anyhow::Context;
+use tet_cli::{ExitKind, KindExt};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -68,7 +69,7 @@ pub fn run_analyze(path: &Path, output: Option<&Path>, args: &AnalysisArgs, as_j
     let secs = t.elapsed().as_secs_f64();
     let bundle = bundle.with_analysis(analysis);
     let out = output.unwrap_or(path);
-    bundle.write(out).context("writing the bundle failed")?;
+    bundle.write(out).context("writing the bundle failed").kind(ExitKind::Output)?;
     if as_json {
         let mut v = info_json(&bundle);
         v["output"] = json!(out.display().to_string());

@@ -317,22 +317,36 @@ mod tests {
         assert_eq!(ExitKind::of(&e), ExitKind::Output);
         assert_eq!(exit_code(&e), 5);
         // Tagging keeps the text, printed once.
-        assert_eq!(describe(&e), "while saving: not a tetkit bundle (the file does not start with the .tetb magic): b.tetb");
+        assert_eq!(
+            describe(&e),
+            "while saving: not a tetkit bundle (the file does not start with the .tetb magic): b.tetb"
+        );
     }
 
     #[test]
     fn untagged_errors_are_classified_by_type() {
         let cases: Vec<(anyhow::Error, ExitKind)> = vec![
-            (tet_io::ReadError::Io { source: io(std::io::ErrorKind::NotFound), path: "m.vtu".into() }.into(), ExitKind::Input),
             (
-                tet_io::ReadError::MissingOption { format: tet_io::Format::Raw, what: "--dims".into(), path: "v.raw".into() }
-                    .into(),
+                tet_io::ReadError::Io { source: io(std::io::ErrorKind::NotFound), path: "m.vtu".into() }.into(),
+                ExitKind::Input,
+            ),
+            (
+                tet_io::ReadError::MissingOption {
+                    format: tet_io::Format::Raw,
+                    what: "--dims".into(),
+                    path: "v.raw".into(),
+                }
+                .into(),
                 ExitKind::Usage,
             ),
             (tet_bundle::BundleError::Damaged { what: "short".into(), path: "b".into() }.into(), ExitKind::Input),
             (
-                tet_bundle::BundleError::Io { action: "read", source: io(std::io::ErrorKind::NotFound), path: "b".into() }
-                    .into(),
+                tet_bundle::BundleError::Io {
+                    action: "read",
+                    source: io(std::io::ErrorKind::NotFound),
+                    path: "b".into(),
+                }
+                .into(),
                 ExitKind::Input,
             ),
             (

@@ -213,8 +213,8 @@ fn sweep(method: Method, quick: bool) -> Vec<(BakeOptions, String)> {
 pub fn run(args: &BenchArgs) -> Result<()> {
     let tf = read_tf(&args.tf)?;
     let bundle = read_bundle(&args.bundle)?;
-    let mut domain = TableDomain::from_bundle(&bundle)
-        .with_context(|| format!("domain of {}", args.bundle.display()))?;
+    let mut domain =
+        TableDomain::from_bundle(&bundle).with_context(|| format!("domain of {}", args.bundle.display()))?;
     if args.full_domain {
         domain = TableDomain::full(domain.s_lo, domain.s_hi, domain.len_max_world).kind(ExitKind::Bake)?;
     }
@@ -272,7 +272,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             })
             .collect();
     if cells.is_empty() {
-        return Err(fail(ExitKind::Rejected, format!("{}: no segment can be drawn (no cell with volume)", args.bundle.display())));
+        return Err(fail(
+            ExitKind::Rejected,
+            format!("{}: no segment can be drawn (no cell with volume)", args.bundle.display()),
+        ));
     }
     let g_max = grads.as_ref().map_or(0.0, |g| g.iter().copied().fold(0.0, f64::max));
     let mut state = 0x51u64;

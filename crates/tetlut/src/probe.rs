@@ -76,10 +76,10 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
             [sf, sb, l] => (sf, sb, l, 0.0, 0.0),
             [sf, sb, l, gf, gb] => (sf, sb, l, gf, gb),
             _ => {
-                return Err(fail(ExitKind::Input, format!(
-                    "{name}: line {n}: expected 3 numbers (Sf Sb l) or 5 (Sf Sb l gf gb), found {}",
-                    v.len()
-                )))
+                return Err(fail(
+                    ExitKind::Input,
+                    format!("{name}: line {n}: expected 3 numbers (Sf Sb l) or 5 (Sf Sb l gf gb), found {}", v.len()),
+                ))
             }
         };
         if !(v.iter().all(|x| x.is_finite()) && l >= 0.0 && gf >= 0.0 && gb >= 0.0) {

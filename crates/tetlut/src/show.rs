@@ -289,11 +289,14 @@ pub fn run(args: &ShowArgs) -> Result<()> {
             )
         }
         other => {
-            return Err(fail(ExitKind::Input, format!(
-                "{}: method {} tabulates nothing (the file holds only the transfer function)",
-                args.lut.display(),
-                other.method()
-            )))
+            return Err(fail(
+                ExitKind::Input,
+                format!(
+                    "{}: method {} tabulates nothing (the file holds only the transfer function)",
+                    args.lut.display(),
+                    other.method()
+                ),
+            ))
         }
     };
     canvas.write_png(&args.output).map_err(anyhow::Error::new).kind(ExitKind::Output)?;

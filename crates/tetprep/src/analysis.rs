@@ -3,13 +3,13 @@
 
 use crate::cli::{AnalysisArgs, GradientArg};
 use anyhow::Context;
-use tet_cli::{ExitKind, KindExt};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 use tet_analysis::{Analysis, AnalysisOptions, Analyzer, GradientMethod, HistogramOptions};
 use tet_bundle::Bundle;
+use tet_cli::{ExitKind, KindExt};
 
 pub fn method(g: GradientArg) -> GradientMethod {
     match g {

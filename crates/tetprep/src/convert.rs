@@ -6,10 +6,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use std::time::{Duration, Instant};
 use tet_bundle::{Bundle, BundleMeta};
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_delaunay::{triangulate_cloud, CloudMode, DelaunayOptions};
 use tet_io::cursor::Endian;
 use tet_io::{plot3d::Plot3dOptions, raw::RawSpec, ReadOptions};
-use tet_cli::{usage, ExitKind, KindExt};
 use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions, NanPolicy, SplitMode, Step};
 
 fn endian(e: EndianArg) -> Endian {
@@ -37,7 +37,9 @@ fn read_options(args: &ConvertArgs) -> anyhow::Result<ReadOptions> {
         }
         (None, None) => None,
         _ => {
-            return Err(usage("a raw volume needs both --dims NX,NY,NZ and --type T (and --endian for multi-byte types)"))
+            return Err(usage(
+                "a raw volume needs both --dims NX,NY,NZ and --type T (and --endian for multi-byte types)",
+            ))
         }
     };
     let plot3d = Plot3dOptions {

@@ -1,11 +1,11 @@
 //! `tetprep info` and `tetprep export`.
 
 use anyhow::Context;
-use tet_cli::{ExitKind, KindExt};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
 use tet_bundle::{Bundle, FORMAT_VERSION};
+use tet_cli::{ExitKind, KindExt};
 use tet_mesh::Field;
 
 pub fn run(path: &Path, as_json: bool) -> anyhow::Result<()> {

@@ -190,10 +190,15 @@ fn render(h: &Histograms, name: &str, title: &str, log: bool, units: &AxisUnits)
 
 /// Writes the bin volumes: one row per 1D bin, then one per joint bin.
 fn write_csv(h: &Histograms, path: &Path) -> anyhow::Result<()> {
-    let f = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display())).kind(ExitKind::Output)?;
+    let f = std::fs::File::create(path)
+        .with_context(|| format!("cannot create {}", path.display()))
+        .kind(ExitKind::Output)?;
     let mut w = std::io::BufWriter::new(f);
     let io = |e: std::io::Error| {
-        tet_cli::Tagged::new(ExitKind::Output, anyhow::Error::new(e).context(format!("writing {} failed", path.display())))
+        tet_cli::Tagged::new(
+            ExitKind::Output,
+            anyhow::Error::new(e).context(format!("writing {} failed", path.display())),
+        )
     };
     writeln!(
         w,

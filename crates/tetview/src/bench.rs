@@ -19,13 +19,13 @@
 //! over black, Reinhard tone mapping fitted to the reference (applied to
 //! both) and sRGB encoding — what `tetview diff` reports.
 
-use tet_cli::{usage, ExitKind, KindExt};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::{Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{
@@ -90,9 +90,7 @@ pub fn select_methods(spec: &str, has_widgets: bool) -> Result<(Vec<Method>, Vec
     let asked: Vec<Method> = if spec == "all" {
         Method::ALL.to_vec()
     } else {
-        spec.split(',')
-            .map(|s| s.trim().parse::<Method>().kind(ExitKind::Usage))
-            .collect::<Result<_>>()?
+        spec.split(',').map(|s| s.trim().parse::<Method>().kind(ExitKind::Usage)).collect::<Result<_>>()?
     };
     let mut notes = vec![];
     let mut out = vec![];
@@ -223,10 +221,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.renderers.is_empty() {
         return Err(usage("--renderers: name at least one of walk, pt"));
     }
-    let tf_text =
-        std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display())).kind(ExitKind::Input)?;
-    let tf_file =
-        TransferFunction::from_json(&tf_text).with_context(|| format!("in {}", args.tf.display())).kind(ExitKind::Usage)?;
+    let tf_text = std::fs::read_to_string(&args.tf)
+        .with_context(|| format!("reading {}", args.tf.display()))
+        .kind(ExitKind::Input)?;
+    let tf_file = TransferFunction::from_json(&tf_text)
+        .with_context(|| format!("in {}", args.tf.display()))
+        .kind(ExitKind::Usage)?;
     let has_widgets = !tf_file.widgets().is_empty();
     let (methods, notes) = select_methods(&args.methods, has_widgets)?;
     let cache = cache_dir(args);
@@ -237,8 +237,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         out.push_str(&format!("note: {note}\n"));
     }
     for bundle_path in &args.bundles {
-        let bundle_bytes =
-            std::fs::read(bundle_path).with_context(|| format!("reading {}", bundle_path.display())).kind(ExitKind::Input)?;
+        let bundle_bytes = std::fs::read(bundle_path)
+            .with_context(|| format!("reading {}", bundle_path.display()))
+            .kind(ExitKind::Input)?;
         let bundle = Bundle::read(bundle_path)?;
         let name = bundle_path.file_stem().map_or("bundle".into(), |s| s.to_string_lossy().into_owned());
         let stats = &bundle.meta.stats;

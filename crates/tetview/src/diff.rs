@@ -10,11 +10,11 @@
 //! PNGs are compared as 8-bit RGBA (values / 255). A float image against a
 //! PNG: the float one is displayed first and the 8-bit images compared.
 
-use tet_cli::{fail, usage, ExitKind, KindExt};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use tet_cli::{fail, usage, ExitKind, KindExt};
 use tet_render::image::{diff_image_rgba8, linear_to_srgb, Reinhard};
 use tet_render::{diff, DiffStats, Image};
 

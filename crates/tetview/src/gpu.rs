@@ -8,11 +8,11 @@
 //! unless `--no-cull`), projection, rasterization, compositing and tone
 //! mapping run on the GPU.
 
-use tet_cli::{fail, usage, ExitKind, KindExt};
 use crate::render::RenderArgs;
 use anyhow::{Context, Result};
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{fail, usage, ExitKind, KindExt};
 use tet_gpu::{
     FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader,
     GpuTable3d, RasterPath, GPU_METHODS,

@@ -3,12 +3,12 @@
 //! `tetview diff`.
 
 use anyhow::{Context, Result};
-use tet_cli::{usage, ExitKind, KindExt};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_render::{Camera, Display, ReferenceOptions, ReferenceRenderer, ToneMap, ViewSpec};
 
 #[derive(Debug, Clone, Args)]

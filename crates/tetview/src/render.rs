@@ -1,12 +1,12 @@
 //! `tetview render`: one image of a bundle.
 
-use tet_cli::{usage, ExitKind, KindExt};
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_preint::{load_shader, BakeOptions, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{Display, Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ToneMap, ViewSpec};
 
@@ -165,7 +165,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         Some(path) => {
             let lut = LutFile::read(path)?;
             let tf = lut.transfer_function().with_context(|| path.display().to_string()).kind(ExitKind::Input)?;
-            let method: Method = lut.header.method.parse().with_context(|| path.display().to_string()).kind(ExitKind::Input)?;
+            let method = lut
+                .header
+                .method
+                .parse::<Method>()
+                .with_context(|| path.display().to_string())
+                .kind(ExitKind::Input)?;
             (method, tf, Some((lut, path.clone())))
         }
         None => {
@@ -195,10 +200,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let view = match &args.view {
         Some(p) => {
-            let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading view {}", p.display())).kind(ExitKind::Input)?;
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("reading view {}", p.display()))
+                .kind(ExitKind::Input)?;
             // A view file that does not parse is a malformed input.
-            let mut v = ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?;
+            let mut v =
+                ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?;
             if let Some(s) = args.size {
                 v.size = s;
             }

@@ -2,10 +2,10 @@
 //! automatic one of the bundle (tet_preint's `auto_tf`, the same the viewer
 //! opens on), with `--colormap`, `--opacity-scale` and `--save-tf`.
 
-use tet_cli::{usage, ExitKind, KindExt};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_preint::{choose_tf, Colormap, TransferFunction};
 
 /// The TF options `render` and `reference` share.
@@ -52,7 +52,11 @@ pub fn resolve(
             let text =
                 std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display())).kind(ExitKind::Input)?;
             // Contents that are not a valid TF are a usage error, as in tetlut.
-            Some(TransferFunction::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Usage)?)
+            Some(
+                TransferFunction::from_json(&text)
+                    .with_context(|| format!("in {}", p.display()))
+                    .kind(ExitKind::Usage)?,
+            )
         }
         None => None,
     };

@@ -664,7 +664,16 @@ fn exit_codes_are_the_shared_ones() {
     let out = render(&b, &typo, &png);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("opacity[1]"), "{}", stderr(&out));
-    let out = tetview(&["render", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--range", "1,0", "-o", png.to_str().unwrap()]);
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--range",
+        "1,0",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     // 5: an output in a directory that does not exist (PNG, --save-view, reference).
     let out = render(&b, &t, &dir.path().join("no/such/dir/a.png"));

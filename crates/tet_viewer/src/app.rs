@@ -34,12 +34,16 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
     let model = match &opts.tf {
         Some(p) => {
             let text = std::fs::read_to_string(p).map_err(|e| ViewerError::Io { source: e, path: p.clone() })?;
-            TfModel::new(&TransferFunction::from_json(&text)?, scalar_range)?
+            let (tf, _) = tet_preint::choose_tf(Some(TransferFunction::from_json(&text)?), None, opts.colormap, 1.0)?;
+            TfModel::new(&tf, scalar_range)?
         }
         // The automatic TF `tetview render` uses without --tf (tet_preint's
         // auto_tf, one implementation for both); a constant scalar has none
         // and opens on a ramp of opacity 1 (optical depth ~2 through the mesh).
-        None => match tet_preint::auto_tf(&bundle, &tet_preint::AutoTfOptions::default()) {
+        None => match tet_preint::auto_tf(
+            &bundle,
+            &tet_preint::AutoTfOptions { colormap: opts.colormap.unwrap_or_default(), ..Default::default() },
+        ) {
             Ok(auto) => TfModel::new(&auto.tf, scalar_range)?,
             Err(_) => TfModel::ramp(scalar_range, 0.5 * diagonal(lo, hi)),
         },

@@ -76,6 +76,11 @@ pub struct ViewerOptions {
     /// Transfer function JSON (a normalized one is mapped onto the bundle's
     /// scalar range); a ramp when `None`.
     pub tf: Option<PathBuf>,
+    /// Colour map of the automatic TF (without `tf`), or the colours that
+    /// replace those of `tf` over its nodes' span (tet_preint's `choose_tf`,
+    /// as `tetview render --colormap`); `None`: the file's colours, or the
+    /// automatic TF's default map.
+    pub colormap: Option<tet_preint::Colormap>,
     pub method: Method,
     /// View JSON (as `tetview render --view`); framing the bounds when `None`.
     pub view: Option<PathBuf>,
@@ -104,6 +109,7 @@ impl ViewerOptions {
         ViewerOptions {
             bundle,
             tf: None,
+            colormap: None,
             method: Method::PtLinear,
             view: None,
             view_up: None,

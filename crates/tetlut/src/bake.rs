@@ -7,9 +7,8 @@ use anyhow::{Context, Result};
 use serde_json::json;
 use tet_preint::{Baked, Colormap, Method, RECONSTRUCTION_GAP};
 
-use crate::common::{
-    describe_res, human_bytes, parse_method, read_bundle, read_tf, usage, CodeExt, DomainArgs, TableArgs, BAKE, OUTPUT,
-};
+use crate::common::{describe_res, human_bytes, parse_method, read_bundle, read_tf, DomainArgs, TableArgs};
+use tet_cli::{usage, ExitKind, KindExt};
 
 fn parse_colormap(s: &str) -> std::result::Result<Colormap, String> {
     s.parse().map_err(|e: tet_preint::TfError| e.to_string())
@@ -56,16 +55,16 @@ pub fn run(args: &BakeArgs) -> Result<()> {
         (None, Some(p)) => Some(read_bundle(p)?),
         (Some(_), _) => None,
     };
-    let (tf, auto) = tet_preint::choose_tf(given, bundle.as_ref(), args.colormap, args.opacity_scale).code(BAKE)?;
+    let (tf, auto) = tet_preint::choose_tf(given, bundle.as_ref(), args.colormap, args.opacity_scale)?;
     if let Some(note) = auto.as_ref().and_then(|a| a.source.note()) {
         eprintln!("warning: {note}");
     }
     let opts = args.table.options(args.method)?;
     let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
     let (domain, bundle) = args.domain.resolve(&tf, tabulated)?;
-    let tf = tet_preint::tf_for_domain(&tf, &domain).code(BAKE)?;
+    let tf = tet_preint::tf_for_domain(&tf, &domain).kind(ExitKind::Bake)?;
     if let Some(p) = &args.save_tf {
-        std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display())).code(OUTPUT)?;
+        std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }
     let spinner = (!args.json).then(|| {
         let s = indicatif::ProgressBar::new_spinner();
@@ -83,13 +82,13 @@ pub fn run(args: &BakeArgs) -> Result<()> {
     };
     let baked = Baked::build_with_cells(args.method, &tf, &domain, &opts, &cells)
         .with_context(|| format!("cannot bake {}", args.method))
-        .code(BAKE)?;
+        .kind(ExitKind::Bake)?;
     let bake_s = t0.elapsed().as_secs_f64();
     if let Some(s) = spinner {
         s.finish_and_clear();
     }
     let lut = baked.to_lut(&tf, &domain);
-    lut.write(&args.output).map_err(anyhow::Error::new).code(OUTPUT)?;
+    lut.write(&args.output).map_err(anyhow::Error::new).kind(ExitKind::Output)?;
     let file_bytes = std::fs::metadata(&args.output).map(|m| m.len()).unwrap_or(0);
     let (mem, full) = (baked.memory_bytes(), baked.full_memory_bytes());
     let saved = if full > 0 { 1.0 - mem as f64 / full as f64 } else { 0.0 };

@@ -23,7 +23,8 @@ use tet_preint::{
     TransferFunction, RECONSTRUCTION_GAP,
 };
 
-use crate::common::{describe_res, human_bytes, input, read_bundle, read_tf, usage, CodeExt, BAKE, OUTPUT};
+use crate::common::{describe_res, human_bytes, read_bundle, read_tf};
+use tet_cli::{fail, usage, ExitKind, KindExt};
 
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
@@ -212,13 +213,12 @@ fn sweep(method: Method, quick: bool) -> Vec<(BakeOptions, String)> {
 pub fn run(args: &BenchArgs) -> Result<()> {
     let tf = read_tf(&args.tf)?;
     let bundle = read_bundle(&args.bundle)?;
-    let mut domain = TableDomain::from_bundle(&bundle)
-        .with_context(|| format!("domain of {}", args.bundle.display()))
-        .code(crate::common::INPUT)?;
+    let mut domain =
+        TableDomain::from_bundle(&bundle).with_context(|| format!("domain of {}", args.bundle.display()))?;
     if args.full_domain {
-        domain = TableDomain::full(domain.s_lo, domain.s_hi, domain.len_max_world).code(BAKE)?;
+        domain = TableDomain::full(domain.s_lo, domain.s_hi, domain.len_max_world).kind(ExitKind::Bake)?;
     }
-    let tf = tet_preint::tf_for_domain(&tf, &domain).code(BAKE)?;
+    let tf = tet_preint::tf_for_domain(&tf, &domain).kind(ExitKind::Bake)?;
     let tf1 = tf.without_widgets();
     if args.paper {
         print!("{}", crate::paper::run(&tf1, &domain, args.quick));
@@ -272,7 +272,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             })
             .collect();
     if cells.is_empty() {
-        return Err(input(format!("{}: no segment can be drawn (no cell with volume)", args.bundle.display())));
+        return Err(fail(
+            ExitKind::Rejected,
+            format!("{}: no segment can be drawn (no cell with volume)", args.bundle.display()),
+        ));
     }
     let g_max = grads.as_ref().map_or(0.0, |g| g.iter().copied().fold(0.0, f64::max));
     let mut state = 0x51u64;
@@ -332,7 +335,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let t = Instant::now();
                 let b = Baked::build(m, tfm, &domain, &opts)
                     .with_context(|| format!("cannot bake {m} {short}"))
-                    .code(BAKE)?;
+                    .kind(ExitKind::Bake)?;
                 best = best.min(t.elapsed().as_secs_f64());
                 baked = Some(b);
             }
@@ -451,7 +454,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         });
         std::fs::write(path, serde_json::to_string_pretty(&v)?)
             .with_context(|| format!("writing {}", path.display()))
-            .code(OUTPUT)?;
+            .kind(ExitKind::Output)?;
     }
     if let Some(path) = &args.output {
         let series = |x: &dyn Fn(&Row) -> f64| -> Vec<Series> {
@@ -491,7 +494,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             pareto: true,
         }
         .draw(1000, 520);
-        a.above(&b).write_png(path).map_err(anyhow::Error::new).code(OUTPUT)?;
+        a.above(&b).write_png(path).map_err(anyhow::Error::new).kind(ExitKind::Output)?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())

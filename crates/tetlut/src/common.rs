@@ -1,12 +1,12 @@
-//! Command line, exit codes, and what every subcommand shares: reading a
+//! Command line and what every subcommand shares: reading a
 //! transfer function, a bundle or a `.tetl`, the (Sf, Sb, l) domain, and the
 //! bake options.
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_preint::{BakeOptions, Build3d, Method, Precision, TableDomain, TransferFunction};
 
 /// Pre-integration tables for ray segments through linear tetrahedra: bake
@@ -16,13 +16,9 @@ use tet_preint::{BakeOptions, Build3d, Method, Precision, TableDomain, TransferF
 /// Methods (`tet_preint::Method`): exact, pt-linear, table3d, atlas2d, poly1, poly2,
 /// poly4, partial, biv-exact, biv-approx.
 ///
-/// Exit codes: 0 success, 1 unexpected failure, 2 bad command line,
-/// 3 unreadable or malformed input (transfer function, bundle, .tetl,
-/// probe lines), 4 the method cannot be baked with these inputs (e.g. a TF
-/// with 2D widgets for a 1D method, a table too large), 5 the output cannot
-/// be written.
+/// Exit codes: listed below (`tet_cli::ExitKind`, the same in every tetkit program).
 #[derive(Debug, Parser)]
-#[command(name = "tetlut", version, about, long_about)]
+#[command(name = "tetlut", version, about, long_about, after_help = tet_cli::EXIT_CODES_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -55,74 +51,14 @@ pub enum Command {
     Bench(crate::bench::BenchArgs),
 }
 
-/// An error carrying its exit code (see [`Cli`]'s help); displays as the
-/// wrapped error with its whole chain.
-#[derive(Debug)]
-pub struct Coded {
-    pub code: u8,
-    pub inner: anyhow::Error,
-}
-
-impl fmt::Display for Coded {
-    /// The chain joined by ": ", leaving out causes whose text an outer
-    /// message already quotes (library errors often embed their source).
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut text = String::new();
-        for cause in self.inner.chain() {
-            let c = cause.to_string();
-            if text.contains(&c) {
-                continue;
-            }
-            if !text.is_empty() {
-                text.push_str(": ");
-            }
-            text.push_str(&c);
-        }
-        f.write_str(&text)
+/// Runs the subcommand.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Bake(args) => crate::bake::run(&args),
+        Command::Show(args) => crate::show::run(&args),
+        Command::Probe(args) => crate::probe::run(&args),
+        Command::Bench(args) => crate::bench::run(&args),
     }
-}
-
-impl std::error::Error for Coded {}
-
-pub const USAGE: u8 = 2;
-pub const INPUT: u8 = 3;
-pub const BAKE: u8 = 4;
-pub const OUTPUT: u8 = 5;
-
-/// Tags a result's error with an exit code.
-pub trait CodeExt<T> {
-    fn code(self, code: u8) -> Result<T>;
-}
-
-impl<T, E: Into<anyhow::Error>> CodeExt<T> for std::result::Result<T, E> {
-    fn code(self, code: u8) -> Result<T> {
-        self.map_err(|e| anyhow::Error::new(Coded { code, inner: e.into() }))
-    }
-}
-
-/// A usage error (exit code 2).
-pub fn usage(msg: impl Into<String>) -> anyhow::Error {
-    anyhow::Error::new(Coded { code: USAGE, inner: anyhow::anyhow!(msg.into()) })
-}
-
-/// An input error (exit code 3).
-pub fn input(msg: impl Into<String>) -> anyhow::Error {
-    anyhow::Error::new(Coded { code: INPUT, inner: anyhow::anyhow!(msg.into()) })
-}
-
-/// The exit code of an error: the outermost [`Coded`] in its chain, else 1.
-pub fn exit_code(e: &anyhow::Error) -> u8 {
-    e.chain().find_map(|c| c.downcast_ref::<Coded>()).map_or(1, |c| c.code)
-}
-
-pub fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected LO,HI")?;
-    let p = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"));
-    let (lo, hi) = (p(a)?, p(b)?);
-    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return Err(format!("need finite LO < HI, got {lo},{hi}"));
-    }
-    Ok((lo, hi))
 }
 
 pub fn parse_method(s: &str) -> std::result::Result<Method, String> {
@@ -134,20 +70,25 @@ pub fn parse_precision(s: &str) -> std::result::Result<Precision, String> {
 }
 
 /// Reads a TF: formats/tf.md JSON, or a ParaView colour-map preset (a file
-/// with "RGBPoints"; imported normalized with unit distance 1).
+/// with "RGBPoints"; imported normalized with unit distance 1). A file that
+/// cannot be read is an input error; contents that are not a valid TF are a
+/// usage error (the same as `tetview`'s `--tf`).
 pub fn read_tf(path: &Path) -> Result<TransferFunction> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display())).code(INPUT)?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display())).kind(ExitKind::Input)?;
     match TransferFunction::from_json(&text) {
         Ok(tf) => Ok(tf),
         Err(e) if text.contains("\"RGBPoints\"") => TransferFunction::from_paraview_json(&text, None, 1.0)
             .with_context(|| format!("in {} (read as a ParaView preset; as tetkit JSON: {e})", path.display()))
-            .code(INPUT),
-        Err(e) => Err(e).with_context(|| format!("in {}", path.display())).code(INPUT),
+            .kind(ExitKind::Usage),
+        Err(e) => Err(e).with_context(|| format!("in {}", path.display())).kind(ExitKind::Usage),
     }
 }
 
+/// Reads a bundle (its errors classify themselves: unreadable or corrupt is
+/// an input error).
 pub fn read_bundle(path: &Path) -> Result<tet_bundle::Bundle> {
-    tet_bundle::Bundle::read(path).map_err(anyhow::Error::new).code(INPUT)
+    Ok(tet_bundle::Bundle::read(path)?)
 }
 
 /// Where the (Sf, Sb, l) domain comes from.
@@ -158,7 +99,7 @@ pub struct DomainArgs {
     #[arg(long, value_name = "B.tetb")]
     pub bundle: Option<PathBuf>,
     /// Scalar range LO,HI (without --bundle); also where a normalized TF's [0,1] goes.
-    #[arg(long, value_parser = parse_range, allow_hyphen_values = true, value_name = "LO,HI")]
+    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true, value_name = "LO,HI")]
     pub range: Option<(f64, f64)>,
     /// Largest segment length, world units (without --bundle).
     #[arg(long, value_name = "L")]
@@ -181,10 +122,10 @@ impl DomainArgs {
                 return Err(usage("--range, --max-len and --max-ds are taken from --bundle; give one or the other"));
             }
             let b = read_bundle(path)?;
-            let mut d =
-                TableDomain::from_bundle(&b).with_context(|| format!("domain of {}", path.display())).code(INPUT)?;
+            // A bundle whose data spans no domain is rejected data (its TableError says so).
+            let mut d = TableDomain::from_bundle(&b).with_context(|| format!("domain of {}", path.display()))?;
             if self.full_domain {
-                d = TableDomain::full(d.s_lo, d.s_hi, d.len_max_world).code(INPUT)?;
+                d = TableDomain::full(d.s_lo, d.s_hi, d.len_max_world)?;
             }
             return Ok((d, Some(b)));
         }

@@ -4,6 +4,7 @@
 //! labelled images), `probe` (segments in, premultiplied RGBA out) and
 //! `bench` (bake time, memory and error of every method; `--paper`
 //! reproduces the tables of Röttger & Ertl 2002 (Tables 1–2) and Guthe et al. 2002 (Table 4)).
+//! Exit codes: `tet_cli::ExitKind`, the same in every tetkit program.
 mod bake;
 mod bench;
 mod common;
@@ -12,20 +13,14 @@ mod probe;
 mod show;
 
 use clap::Parser;
+use std::process::ExitCode;
 
-fn main() -> std::process::ExitCode {
-    let cli = common::Cli::parse();
-    let result = match cli.command {
-        common::Command::Bake(args) => bake::run(&args),
-        common::Command::Show(args) => show::run(&args),
-        common::Command::Probe(args) => probe::run(&args),
-        common::Command::Bench(args) => bench::run(&args),
-    };
-    match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+fn main() -> ExitCode {
+    match common::run(common::Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("tetlut: {e:#}");
-            std::process::ExitCode::from(common::exit_code(&e))
+            eprintln!("tetlut: {}", tet_cli::describe(&e));
+            ExitCode::from(tet_cli::exit_code(&e))
         }
     }
 }

@@ -7,7 +7,8 @@ use anyhow::{Context, Result};
 use tet_preint::bivariate::Seg2;
 use tet_preint::{integrate_segment_with, Baked, LutFile, Method, Segment};
 
-use crate::common::{input, parse_method, read_tf, usage, CodeExt, DomainArgs, TableArgs, BAKE, INPUT};
+use crate::common::{parse_method, read_tf, DomainArgs, TableArgs};
+use tet_cli::{fail, usage, ExitKind, KindExt};
 
 /// Reads segments "Sf Sb l [gf gb]", one per line (whitespace-separated;
 /// blank lines and lines starting with '#' skipped; gf, gb = |∇s| at entry
@@ -36,8 +37,8 @@ pub struct ProbeArgs {
 pub fn run(args: &ProbeArgs) -> Result<()> {
     let baked = match (&args.lut, &args.tf) {
         (Some(path), _) => {
-            let lut = LutFile::read(path).map_err(anyhow::Error::new).code(INPUT)?;
-            Baked::from_lut(&lut, path).map_err(anyhow::Error::new).code(INPUT)?
+            let lut = LutFile::read(path).map_err(anyhow::Error::new).kind(ExitKind::Input)?;
+            Baked::from_lut(&lut, path).map_err(anyhow::Error::new).kind(ExitKind::Input)?
         }
         (None, Some(tf_path)) => {
             let tf = read_tf(tf_path)?;
@@ -46,13 +47,13 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
             let (domain, _) = args.domain.resolve(&tf, tabulated)?;
             Baked::build(args.method, &tf, &domain, &opts)
                 .with_context(|| format!("cannot bake {}", args.method))
-                .code(BAKE)?
+                .kind(ExitKind::Bake)?
         }
         (None, None) => return Err(usage("give --lut L, or --tf T with --method M")),
     };
     let reader: Box<dyn BufRead> = match &args.file {
         Some(p) => Box::new(std::io::BufReader::new(
-            std::fs::File::open(p).with_context(|| format!("opening {}", p.display())).code(INPUT)?,
+            std::fs::File::open(p).with_context(|| format!("opening {}", p.display())).kind(ExitKind::Input)?,
         )),
         None => Box::new(std::io::stdin().lock()),
     };
@@ -61,7 +62,7 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
     let mut scratch = Vec::new();
     for (i, line) in reader.lines().enumerate() {
         let n = i + 1;
-        let line = line.with_context(|| format!("{name}: line {n}")).code(INPUT)?;
+        let line = line.with_context(|| format!("{name}: line {n}")).kind(ExitKind::Input)?;
         let t = line.trim();
         if t.is_empty() || t.starts_with('#') {
             continue;
@@ -70,19 +71,19 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
             .split_whitespace()
             .map(|x| x.parse::<f64>())
             .collect::<Result<_, _>>()
-            .map_err(|_| input(format!("{name}: line {n}: not numbers: {t:?}")))?;
+            .map_err(|_| fail(ExitKind::Input, format!("{name}: line {n}: not numbers: {t:?}")))?;
         let (sf, sb, l, gf, gb) = match v[..] {
             [sf, sb, l] => (sf, sb, l, 0.0, 0.0),
             [sf, sb, l, gf, gb] => (sf, sb, l, gf, gb),
             _ => {
-                return Err(input(format!(
-                    "{name}: line {n}: expected 3 numbers (Sf Sb l) or 5 (Sf Sb l gf gb), found {}",
-                    v.len()
-                )))
+                return Err(fail(
+                    ExitKind::Input,
+                    format!("{name}: line {n}: expected 3 numbers (Sf Sb l) or 5 (Sf Sb l gf gb), found {}", v.len()),
+                ))
             }
         };
         if !(v.iter().all(|x| x.is_finite()) && l >= 0.0 && gf >= 0.0 && gb >= 0.0) {
-            return Err(input(format!("{name}: line {n}: need finite values with l, gf, gb ≥ 0")));
+            return Err(fail(ExitKind::Input, format!("{name}: line {n}: need finite values with l, gf, gb ≥ 0")));
         }
         let px: [f64; 4] = match &baked {
             Baked::Exact(s) => integrate_segment_with(s.transfer_function(), sf, sb, l, &mut scratch).to_array(),

@@ -7,7 +7,7 @@ use tet_plot::canvas::{BLACK, GREY};
 use tet_plot::{fmt_num, viridis, Canvas, Rgb};
 use tet_preint::{Baked, LutFile};
 
-use crate::common::{input, CodeExt, INPUT, OUTPUT};
+use tet_cli::{fail, ExitKind, KindExt};
 
 #[derive(Debug, clap::Args)]
 pub struct ShowArgs {
@@ -118,8 +118,8 @@ fn compose(title: &str, notes: &[String], rows: &[Vec<Tile>], target: usize) -> 
 }
 
 pub fn run(args: &ShowArgs) -> Result<()> {
-    let lut = LutFile::read(&args.lut).map_err(anyhow::Error::new).code(INPUT)?;
-    let baked = Baked::from_lut(&lut, &args.lut).map_err(anyhow::Error::new).code(INPUT)?;
+    let lut = LutFile::read(&args.lut).map_err(anyhow::Error::new).kind(ExitKind::Input)?;
+    let baked = Baked::from_lut(&lut, &args.lut).map_err(anyhow::Error::new).kind(ExitKind::Input)?;
     let name = args.lut.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let d = lut.header.domain;
     let dom = d.map_or(String::new(), |d| {
@@ -289,14 +289,17 @@ pub fn run(args: &ShowArgs) -> Result<()> {
             )
         }
         other => {
-            return Err(input(format!(
-                "{}: method {} tabulates nothing (the file holds only the transfer function)",
-                args.lut.display(),
-                other.method()
-            )))
+            return Err(fail(
+                ExitKind::Input,
+                format!(
+                    "{}: method {} tabulates nothing (the file holds only the transfer function)",
+                    args.lut.display(),
+                    other.method()
+                ),
+            ))
         }
     };
-    canvas.write_png(&args.output).map_err(anyhow::Error::new).code(OUTPUT)?;
+    canvas.write_png(&args.output).map_err(anyhow::Error::new).kind(ExitKind::Output)?;
     println!("wrote {} ({}x{})", args.output.display(), canvas.w, canvas.h);
     match &lut.header.certificate {
         Some(c) => println!("error {}", c.summary()),

@@ -198,9 +198,10 @@ fn bake_errors_have_clear_messages_and_exit_codes() {
     );
     let bad = dir.path().join("bad.json");
     std::fs::write(&bad, r#"{"color": [[0, 1, 1, 1]], "opacity": [[0.5, 1], [0.2, 1]], "unit_distance": 1}"#).unwrap();
+    // A TF file with invalid contents is a usage error (as `tetview render --tf`).
     fails(
         &tetlut(&["bake", "--bundle", &bundle, "--tf", &bad.to_string_lossy(), "--method", "table3d", "-o", &o], ""),
-        3,
+        2,
         "opacity[1]",
     );
     fails(
@@ -223,12 +224,12 @@ fn bake_errors_have_clear_messages_and_exit_codes() {
     let wtf = widget_tf(dir.path());
     fails(
         &tetlut(&["bake", "--bundle", &bundle, "--tf", &wtf.to_string_lossy(), "--method", "exact", "-o", &o], ""),
-        4,
+        6,
         "biv-exact",
     );
     fails(
         &tetlut(&["bake", "--bundle", &bundle, "--tf", &tf, "--method", "table3d", "--res", "9000", "-o", &o], ""),
-        4,
+        6,
         "n_s",
     );
     fails(
@@ -236,7 +237,7 @@ fn bake_errors_have_clear_messages_and_exit_codes() {
             &["bake", "--bundle", &bundle, "--tf", &tf, "--method", "poly2", "--precision", "unorm8", "-o", &o],
             "",
         ),
-        4,
+        6,
         "unorm8",
     );
     // Output directory missing.
@@ -343,4 +344,39 @@ fn bench_quick_writes_table_json_and_plot() {
     for t in ["Table 1", "Table 2", "Table 4", "| poly4 |"] {
         assert!(text.contains(t), "{t} missing: {text}");
     }
+}
+
+/// The exit codes every tetkit program shares (tet_cli::ExitKind), for the
+/// failures `tetprep` and `tetview` test the same way in their tests/cli.rs.
+#[test]
+fn exit_codes_are_the_shared_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("x.tetl").to_string_lossy().into_owned();
+    let tf = sample("tf_mild.json");
+    let bundle = sample("cube5.tetb");
+    let bake = |bundle: &str, tf: &str, out: &str| {
+        tetlut(&["bake", "--bundle", bundle, "--tf", tf, "--method", "poly1", "--res", "8", "-o", out], "")
+    };
+    // 3: a truncated bundle (as `tetprep info` and `tetview render`), a missing TF file.
+    let cut = dir.path().join("cut.tetb");
+    let bytes = std::fs::read(&bundle).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    fails(&bake(&cut.to_string_lossy(), &tf, &o), 3, "cut.tetb");
+    fails(&bake(&bundle, &dir.path().join("none.json").to_string_lossy(), &o), 3, "none.json");
+    // 2: a typo in the TF file (not JSON at all, or an unknown colour map name).
+    let typo = dir.path().join("typo.json");
+    std::fs::write(&typo, r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1] [1, 1]], "unit_distance": 1}"#).unwrap();
+    fails(&bake(&bundle, &typo.to_string_lossy(), &o), 2, "typo.json");
+    fails(&tetlut(&["probe", "--tf", &tf, "--range", "1,0"], ""), 2, "below");
+    // 5: an output in a directory that does not exist, for every writer.
+    let nowhere = dir.path().join("no/such/dir");
+    fails(&bake(&bundle, &tf, &nowhere.join("x.tetl").to_string_lossy()), 5, "no/such/dir");
+    fails(
+        &tetlut(&["show", &sample("mild8.tetl"), "-o", &nowhere.join("m.png").to_string_lossy()], ""),
+        5,
+        "no/such/dir",
+    );
+    // --help lists the table.
+    let help = String::from_utf8_lossy(&tetlut(&["--help"], "").stdout).into_owned();
+    assert!(help.contains("Exit codes") && help.contains("6  the method cannot bake"), "{help}");
 }

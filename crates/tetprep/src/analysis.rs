@@ -9,6 +9,7 @@ use std::path::Path;
 use std::time::Instant;
 use tet_analysis::{Analysis, AnalysisOptions, Analyzer, GradientMethod, HistogramOptions};
 use tet_bundle::Bundle;
+use tet_cli::{ExitKind, KindExt};
 
 pub fn method(g: GradientArg) -> GradientMethod {
     match g {
@@ -68,7 +69,7 @@ pub fn run_analyze(path: &Path, output: Option<&Path>, args: &AnalysisArgs, as_j
     let secs = t.elapsed().as_secs_f64();
     let bundle = bundle.with_analysis(analysis);
     let out = output.unwrap_or(path);
-    bundle.write(out).context("writing the bundle failed")?;
+    bundle.write(out).context("writing the bundle failed").kind(ExitKind::Output)?;
     if as_json {
         let mut v = info_json(&bundle);
         v["output"] = json!(out.display().to_string());

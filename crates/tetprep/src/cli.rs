@@ -6,11 +6,9 @@ use std::path::PathBuf;
 /// Convert meshes, curvilinear grids, volumes and point clouds into validated tetrahedral
 /// bundles (.tetb) for tetlut and tetview.
 ///
-/// Exit codes: 0 success, 1 unexpected failure, 2 bad command line,
-/// 3 unreadable or malformed input, 4 the mesh cannot be made valid,
-/// 5 the output cannot be written or a bundle cannot be read.
+/// Exit codes: listed below (`tet_cli::ExitKind`, the same in every tetkit program).
 #[derive(Debug, Parser)]
-#[command(name = "tetprep", version, about, long_about = None)]
+#[command(name = "tetprep", version, about, long_about = None, after_help = tet_cli::EXIT_CODES_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -81,10 +79,10 @@ pub enum Command {
         #[arg(long, value_parser = parse_bins)]
         bins: Option<[u32; 2]>,
         /// Scalar axis range LO,HI (recomputes).
-        #[arg(long, value_parser = parse_range)]
+        #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
         scalar_range: Option<(f64, f64)>,
         /// |∇s| axis range LO,HI (recomputes).
-        #[arg(long, value_parser = parse_range)]
+        #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
         gradient_range: Option<(f64, f64)>,
         /// Units of the scalar for the axis labels, e.g. "kg/m^3" (input files
         /// rarely carry units, so tetkit cannot know them).
@@ -120,10 +118,10 @@ pub struct AnalysisArgs {
     #[arg(long, value_parser = parse_bins, default_value = "256,256")]
     pub bins: [u32; 2],
     /// Histogram scalar range LO,HI (default: the scalar's range).
-    #[arg(long, value_parser = parse_range)]
+    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub scalar_range: Option<(f64, f64)>,
     /// Histogram |∇s| range LO,HI (default: 0 to the 99.9% volume quantile).
-    #[arg(long, value_parser = parse_range)]
+    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub gradient_range: Option<(f64, f64)>,
 }
 
@@ -266,15 +264,6 @@ fn parse_bins(s: &str) -> Result<[u32; 2], String> {
     Ok(b)
 }
 
-fn parse_range(s: &str) -> Result<(f64, f64), String> {
-    let v: Vec<f64> =
-        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
-    match v[..] {
-        [lo, hi] if lo.is_finite() && hi.is_finite() && lo < hi => Ok((lo, hi)),
-        _ => Err(format!("expected LO,HI with LO < HI, got '{s}'")),
-    }
-}
-
 fn parse_usize3(s: &str) -> Result<[usize; 3], String> {
     let v: Vec<usize> =
         s.split(',').map(|t| t.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
@@ -317,26 +306,4 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             crate::plot::run_hist(&bundle, &output, csv.as_deref(), &req)
         }
     }
-}
-
-/// Maps an error chain to the documented exit code.
-pub fn exit_code(e: &anyhow::Error) -> u8 {
-    for cause in e.chain() {
-        if cause.downcast_ref::<tet_io::ReadError>().is_some() {
-            return 3;
-        }
-        if cause.downcast_ref::<tet_mesh::MeshError>().is_some()
-            || cause.downcast_ref::<tet_delaunay::DelaunayError>().is_some()
-        {
-            return 4;
-        }
-        if cause.downcast_ref::<tet_analysis::AnalysisError>().is_some() {
-            return 2;
-        }
-        if cause.downcast_ref::<tet_bundle::BundleError>().is_some() || cause.downcast_ref::<std::io::Error>().is_some()
-        {
-            return 5;
-        }
-    }
-    1
 }

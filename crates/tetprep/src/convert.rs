@@ -1,11 +1,12 @@
 //! `tetprep convert`: read → tetrahedralize → validate → adjacency → write.
 
 use crate::cli::{ConvertArgs, EndianArg, ModeArg, NanArg, SplitArg};
-use anyhow::{bail, Context};
+use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use std::time::{Duration, Instant};
 use tet_bundle::{Bundle, BundleMeta};
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_delaunay::{triangulate_cloud, CloudMode, DelaunayOptions};
 use tet_io::cursor::Endian;
 use tet_io::{plot3d::Plot3dOptions, raw::RawSpec, ReadOptions};
@@ -22,7 +23,7 @@ fn read_options(args: &ConvertArgs) -> anyhow::Result<ReadOptions> {
     let raw = match (&args.raw.dims, &args.raw.voxel_type) {
         (Some(dims), Some(ty)) => {
             let Some(scalar_type) = tet_io::raw::parse_scalar_type(ty) else {
-                bail!("unknown --type '{ty}'; use one of i8 u8 i16 u16 i32 u32 i64 u64 f32 f64");
+                return Err(usage(format!("unknown --type '{ty}'; use one of i8 u8 i16 u16 i32 u32 i64 u64 f32 f64")));
             };
             Some(RawSpec {
                 dims: *dims,
@@ -35,7 +36,11 @@ fn read_options(args: &ConvertArgs) -> anyhow::Result<ReadOptions> {
             })
         }
         (None, None) => None,
-        _ => bail!("a raw volume needs both --dims NX,NY,NZ and --type T (and --endian for multi-byte types)"),
+        _ => {
+            return Err(usage(
+                "a raw volume needs both --dims NX,NY,NZ and --type T (and --endian for multi-byte types)",
+            ))
+        }
     };
     let plot3d = Plot3dOptions {
         byte_order: args.plot3d.plot3d_endian.map(endian),
@@ -102,7 +107,10 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         Some(r)
     } else {
         if args.max_circumradius.is_some() || matches!(args.mode, ModeArg::Layered) {
-            bail!("--mode layered and --max-circumradius apply to point clouds; {} has cells", args.input.display());
+            return Err(usage(format!(
+                "--mode layered and --max-circumradius apply to point clouds; {} has cells",
+                args.input.display()
+            )));
         }
         None
     };
@@ -209,7 +217,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         timings.push(("analysis", t.elapsed().as_secs_f64()));
     }
     let t = Instant::now();
-    bundle.write(&args.output).context("writing the bundle failed")?;
+    bundle.write(&args.output).context("writing the bundle failed").kind(ExitKind::Output)?;
     timings.push(("write", t.elapsed().as_secs_f64()));
     let total = t_all.elapsed().as_secs_f64();
     progress.finish();

@@ -5,6 +5,7 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
 use tet_bundle::{Bundle, FORMAT_VERSION};
+use tet_cli::{ExitKind, KindExt};
 use tet_mesh::Field;
 
 pub fn run(path: &Path, as_json: bool) -> anyhow::Result<()> {
@@ -31,9 +32,12 @@ pub fn export(path: &Path, output: &Path) -> anyhow::Result<()> {
         let mag = g.per_point.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect();
         fields.push(Field::new(format!("{name}_magnitude"), 1, mag));
     }
-    let file = std::fs::File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
+    let file = std::fs::File::create(output)
+        .with_context(|| format!("cannot create {}", output.display()))
+        .kind(ExitKind::Output)?;
     tet_io::vtk_xml::write_vtu(std::io::BufWriter::new(file), &mesh.points, &mesh.tets, &fields, &[])
-        .with_context(|| format!("writing {} failed", output.display()))?;
+        .with_context(|| format!("writing {} failed", output.display()))
+        .kind(ExitKind::Output)?;
     println!(
         "wrote {} ({} points, {} tets, {} point fields)",
         output.display(),

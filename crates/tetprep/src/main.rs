@@ -1,5 +1,7 @@
 //! `tetprep`: meshes, grids and volumes in, validated tetkit bundles out.
+//! Exit codes: `tet_cli::ExitKind`, the same in every tetkit program.
 use clap::Parser;
+use std::process::ExitCode;
 
 mod analysis;
 mod cli;
@@ -7,13 +9,12 @@ mod convert;
 mod info;
 mod plot;
 
-fn main() -> std::process::ExitCode {
-    let args = cli::Cli::parse();
-    match cli::run(args) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+fn main() -> ExitCode {
+    match cli::run(cli::Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            std::process::ExitCode::from(cli::exit_code(&e))
+            eprintln!("tetprep: {}", tet_cli::describe(&e));
+            ExitCode::from(tet_cli::exit_code(&e))
         }
     }
 }

@@ -7,6 +7,7 @@ use std::io::Write;
 use std::path::Path;
 use tet_analysis::{Axis, HistogramOptions, Histograms, Scale};
 use tet_bundle::Bundle;
+use tet_cli::{ExitKind, KindExt};
 use tet_plot::canvas::{Canvas, Rgb, BLACK, GREY, WHITE};
 use tet_plot::{fmt_num, nice_ticks, viridis};
 
@@ -189,9 +190,16 @@ fn render(h: &Histograms, name: &str, title: &str, log: bool, units: &AxisUnits)
 
 /// Writes the bin volumes: one row per 1D bin, then one per joint bin.
 fn write_csv(h: &Histograms, path: &Path) -> anyhow::Result<()> {
-    let f = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    let f = std::fs::File::create(path)
+        .with_context(|| format!("cannot create {}", path.display()))
+        .kind(ExitKind::Output)?;
     let mut w = std::io::BufWriter::new(f);
-    let io = |e: std::io::Error| anyhow::Error::new(e).context(format!("writing {} failed", path.display()));
+    let io = |e: std::io::Error| {
+        tet_cli::Tagged::new(
+            ExitKind::Output,
+            anyhow::Error::new(e).context(format!("writing {} failed", path.display())),
+        )
+    };
     writeln!(
         w,
         "# total_volume={} scalar_below={} scalar_above={} joint_outside={}",
@@ -250,7 +258,7 @@ pub fn run_hist(path: &Path, output: &Path, csv: Option<&Path>, req: &HistReques
     let name = &bundle.mesh.scalar_name;
     let file = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
     let title = format!("{file}: {name} × |∇{name}|");
-    render(h, name, &title, log, units).write_png(output)?;
+    render(h, name, &title, log, units).write_png(output).kind(ExitKind::Output)?;
     if let Some(csv) = csv {
         write_csv(h, csv)?;
     }

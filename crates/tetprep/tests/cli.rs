@@ -65,12 +65,13 @@ fn bluntfin_convert_info_export() {
 }
 
 #[test]
-fn wrong_scalar_lists_the_fields_and_exits_4() {
+fn wrong_scalar_lists_the_fields_and_exits_2() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.tetb");
     let o =
         tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(4));
+    // A --scalar the file lacks is a bad flag value (usage, exit 2).
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let e = stderr(&o);
     assert!(e.contains("no scalar named 'Nope'") && e.contains("Pressure"), "{e}");
     assert!(!out.exists(), "a failed conversion must not leave an output");
@@ -159,7 +160,7 @@ fn sample_bundle_info() {
     assert_eq!(v["tets"], 5);
     assert_eq!(v["convex"], true);
     let o = tetprep(&["info", data("vtk/post.vtk").to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(5));
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("not a tetkit bundle"));
 }
 
@@ -187,9 +188,10 @@ fn raw_volume_from_the_command_line() {
     ]));
     assert_eq!(v["tets"], 15 * 15 * 15 * 5);
     assert_eq!(v["bounds"]["max"][2], 30.0);
-    // Missing layout options are a clear error, not a guess.
+    // Missing layout options are a clear error, not a guess: an option the
+    // input needs is a usage error (exit 2).
     let o = tetprep(&["convert", raw.to_str().unwrap(), "--format", "raw", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--dims"), "{}", stderr(&o));
     // A file shorter than the declared dims says by how much.
     let o = tetprep(&[
@@ -468,4 +470,82 @@ fn outputs_get_the_mode_file_create_gives() {
     for p in [&b, &vtu, &png] {
         assert_eq!(mode(p), mode(&plain), "{}", p.display());
     }
+}
+
+/// The exit codes every tetkit program shares (tet_cli::ExitKind), for the
+/// failures `tetlut` and `tetview` test the same way in their tests/cli.rs.
+#[test]
+fn exit_codes_are_the_shared_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/cube5.tetb");
+    let post = data("vtk/post.vtk");
+    // 3: a truncated bundle (as `tetview render`), a missing input.
+    let cut = dir.path().join("cut.tetb");
+    let bytes = std::fs::read(&sample).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    for args in [vec!["info", cut.to_str().unwrap()], vec!["export", cut.to_str().unwrap(), "-o", "x.vtu"]] {
+        let o = tetprep(&args);
+        assert_eq!(o.status.code(), Some(3), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("cut.tetb"), "{}", stderr(&o));
+    }
+    let o = tetprep(&["info", dir.path().join("missing.tetb").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    // 5: outputs in a directory that does not exist (reading worked).
+    let nowhere = dir.path().join("no/such/dir");
+    let o = tetprep(&["convert", post.to_str().unwrap(), "-o", nowhere.join("x.tetb").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(5), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no/such/dir"), "{}", stderr(&o));
+    for args in [
+        vec!["export", sample.to_str().unwrap(), "-o", nowhere.join("x.vtu").to_str().unwrap()],
+        vec!["hist", sample.to_str().unwrap(), "-o", nowhere.join("h.png").to_str().unwrap()],
+        vec!["analyze", sample.to_str().unwrap(), "-o", nowhere.join("a.tetb").to_str().unwrap()],
+    ] {
+        let o = tetprep(&args);
+        assert_eq!(o.status.code(), Some(5), "{args:?}: {}", stderr(&o));
+    }
+    let ok_png = dir.path().join("h.png");
+    let o = tetprep(&[
+        "hist",
+        sample.to_str().unwrap(),
+        "-o",
+        ok_png.to_str().unwrap(),
+        "--csv",
+        nowhere.join("h.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(5), "{}", stderr(&o));
+    // 2: bad values (a range that is not LO < HI, a --type that does not exist).
+    let o = tetprep(&["hist", sample.to_str().unwrap(), "-o", ok_png.to_str().unwrap(), "--scalar-range", "1,0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = tetprep(&["hist", sample.to_str().unwrap(), "-o", ok_png.to_str().unwrap(), "--scalar-range", "-1,2"]);
+    assert!(o.status.success(), "a negative LO is a value, not a flag: {}", stderr(&o));
+    let raw = dir.path().join("v.raw");
+    std::fs::write(&raw, [0u8; 8]).unwrap();
+    let out = dir.path().join("v.tetb");
+    let o = tetprep(&[
+        "convert",
+        raw.to_str().unwrap(),
+        "--format",
+        "raw",
+        "--dims",
+        "2,2,2",
+        "--type",
+        "u7",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // 4: the data cannot become a valid mesh (every cell dropped for NaN).
+    let nan = dir.path().join("nan.vtk");
+    std::fs::write(
+        &nan,
+        "# vtk DataFile Version 3.0\nnan\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n\
+         0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n\
+         POINT_DATA 4\nSCALARS t float 1\nLOOKUP_TABLE default\n0 1 2 nan\n",
+    )
+    .unwrap();
+    let o = tetprep(&["convert", nan.to_str().unwrap(), "--nan", "drop", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    // --help lists the table.
+    let help = String::from_utf8_lossy(&tetprep(&["--help"]).stdout).into_owned();
+    assert!(help.contains("Exit codes") && help.contains("4  input data rejected"), "{help}");
 }

@@ -19,13 +19,13 @@
 //! over black, Reinhard tone mapping fitted to the reference (applied to
 //! both) and sRGB encoding — what `tetview diff` reports.
 
-use crate::cli::{InputError, UsageError};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::{Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{
@@ -47,7 +47,7 @@ pub struct BenchArgs {
     #[arg(long, default_value = "all")]
     pub methods: String,
     /// Image size WxH.
-    #[arg(long, default_value = "512x512", value_parser = parse_size)]
+    #[arg(long, default_value = "512x512", value_parser = tet_cli::parse_size)]
     pub size: [u32; 2],
     /// Views per bundle: the default framing orbited by 360°/N steps of azimuth.
     #[arg(long, default_value_t = 1)]
@@ -74,17 +74,6 @@ pub struct BenchArgs {
     pub cache: Option<PathBuf>,
 }
 
-fn parse_size(s: &str) -> Result<[u32; 2], String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 512x512")?;
-    let p = |x: &str| x.trim().parse::<u32>().map_err(|e| format!("{x:?}: {e}"));
-    let (w, h) = (p(w)?, p(h)?);
-    let max = tet_render::camera::MAX_IMAGE_SIDE;
-    if w == 0 || h == 0 || w > max || h > max {
-        return Err(format!("{s}: each side must be 1..={max}"));
-    }
-    Ok([w, h])
-}
-
 /// 64-bit FNV-1a: a stable content key for the reference cache (not a
 /// security hash; a collision only reuses a wrong cached image).
 fn fnv1a(bytes: &[u8], mut h: u64) -> u64 {
@@ -101,9 +90,7 @@ pub fn select_methods(spec: &str, has_widgets: bool) -> Result<(Vec<Method>, Vec
     let asked: Vec<Method> = if spec == "all" {
         Method::ALL.to_vec()
     } else {
-        spec.split(',')
-            .map(|s| s.trim().parse::<Method>().map_err(|e| UsageError(e.to_string()).into()))
-            .collect::<Result<_>>()?
+        spec.split(',').map(|s| s.trim().parse::<Method>().kind(ExitKind::Usage)).collect::<Result<_>>()?
     };
     let mut notes = vec![];
     let mut out = vec![];
@@ -229,13 +216,17 @@ fn reference_image(
 
 pub fn run(args: &BenchArgs) -> Result<()> {
     if args.views == 0 || args.repeat == 0 {
-        return Err(UsageError("--views and --repeat must be at least 1".into()).into());
+        return Err(usage("--views and --repeat must be at least 1"));
     }
     if args.renderers.is_empty() {
-        return Err(UsageError("--renderers: name at least one of walk, pt".into()).into());
+        return Err(usage("--renderers: name at least one of walk, pt"));
     }
-    let tf_text = std::fs::read_to_string(&args.tf).with_context(|| format!("reading {}", args.tf.display()))?;
-    let tf_file = TransferFunction::from_json(&tf_text).with_context(|| format!("in {}", args.tf.display()))?;
+    let tf_text = std::fs::read_to_string(&args.tf)
+        .with_context(|| format!("reading {}", args.tf.display()))
+        .kind(ExitKind::Input)?;
+    let tf_file = TransferFunction::from_json(&tf_text)
+        .with_context(|| format!("in {}", args.tf.display()))
+        .kind(ExitKind::Usage)?;
     let has_widgets = !tf_file.widgets().is_empty();
     let (methods, notes) = select_methods(&args.methods, has_widgets)?;
     let cache = cache_dir(args);
@@ -246,8 +237,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         out.push_str(&format!("note: {note}\n"));
     }
     for bundle_path in &args.bundles {
-        let bundle_bytes =
-            std::fs::read(bundle_path).map_err(|e| InputError(format!("reading {}: {e}", bundle_path.display())))?;
+        let bundle_bytes = std::fs::read(bundle_path)
+            .with_context(|| format!("reading {}", bundle_path.display()))
+            .kind(ExitKind::Input)?;
         let bundle = Bundle::read(bundle_path)?;
         let name = bundle_path.file_stem().map_or("bundle".into(), |s| s.to_string_lossy().into_owned());
         let stats = &bundle.meta.stats;
@@ -257,7 +249,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
             tf = tf.denormalize(lo, hi)?;
         }
-        let domain = TableDomain::from_bundle(&bundle).map_err(|e| InputError(e.to_string()))?;
+        let domain = TableDomain::from_bundle(&bundle)?;
         let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", bundle_path.display()))?;
         let (lo, hi) = scene.bounds();
         let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);

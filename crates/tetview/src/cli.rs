@@ -1,4 +1,4 @@
-//! Command line: subcommands and exit codes.
+//! Command line: subcommands and the flags they share (exit codes: tet_cli).
 
 use clap::{Parser, Subcommand};
 
@@ -6,11 +6,9 @@ use clap::{Parser, Subcommand};
 /// visibility order (MPVO), per-fragment segment integration, HDR tone
 /// mapping, and a float image for measurement.
 ///
-/// Exit codes: 0 ok, 2 bad command line or unusable transfer function /
-/// method, 3 unreadable bundle or view, 4 no GPU adapter (`render --gpu`),
-/// 5 output I/O, 1 anything else.
+/// Exit codes: listed below (`tet_cli::ExitKind`, the same in every tetkit program).
 #[derive(Debug, Parser)]
-#[command(name = "tetview", version, about, long_about)]
+#[command(name = "tetview", version, about, long_about, after_help = tet_cli::EXIT_CODES_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -69,60 +67,4 @@ pub fn warn_if_constant_scalar(bundle: &tet_bundle::Bundle) {
             bundle.mesh.scalar_name, st.scalar_min
         );
     }
-}
-
-/// A command line that parses but cannot be carried out (exit code 2).
-#[derive(Debug)]
-pub struct UsageError(pub String);
-
-impl std::fmt::Display for UsageError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-impl std::error::Error for UsageError {}
-
-/// Input that cannot be read (exit code 3).
-#[derive(Debug)]
-pub struct InputError(pub String);
-
-impl std::fmt::Display for InputError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-impl std::error::Error for InputError {}
-
-pub fn exit_code(e: &anyhow::Error) -> u8 {
-    for cause in e.chain() {
-        if cause.downcast_ref::<crate::gpu::NoGpuError>().is_some() {
-            return 4;
-        }
-        if cause.downcast_ref::<UsageError>().is_some() || cause.downcast_ref::<tet_preint::TfError>().is_some() {
-            return 2;
-        }
-        if cause.downcast_ref::<InputError>().is_some() || cause.downcast_ref::<tet_bundle::BundleError>().is_some() {
-            return 3;
-        }
-        if let Some(v) = cause.downcast_ref::<tet_viewer::ViewerError>() {
-            match v {
-                tet_viewer::ViewerError::Input(_) | tet_viewer::ViewerError::Method(_) => return 2,
-                tet_viewer::ViewerError::Io { .. } => return 3,
-                _ => {}
-            }
-        }
-        if let Some(r) = cause.downcast_ref::<tet_render::RenderError>() {
-            return match r {
-                tet_render::RenderError::View(_) => 2,
-                tet_render::RenderError::Io { .. }
-                | tet_render::RenderError::Png(_)
-                | tet_render::RenderError::Npy { .. } => 5,
-                _ => 1,
-            };
-        }
-        if cause.downcast_ref::<std::io::Error>().is_some() {
-            return 5;
-        }
-    }
-    1
 }

@@ -14,6 +14,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use tet_cli::{fail, usage, ExitKind, KindExt};
 use tet_render::image::{diff_image_rgba8, linear_to_srgb, Reinhard};
 use tet_render::{diff, DiffStats, Image};
 
@@ -73,14 +74,13 @@ fn is_png(path: &Path) -> bool {
     path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png"))
 }
 
+/// Reads an input image; any failure is an input error (exit code 3).
 fn load(path: &Path) -> Result<Loaded> {
     if is_png(path) {
-        let (width, height, rgba) = read_png_rgba8(path)?;
+        let (width, height, rgba) = read_png_rgba8(path).kind(ExitKind::Input)?;
         Ok(Loaded::Bytes { width, height, rgba })
     } else {
-        // The library error already names the path; flatten its chain so
-        // the cause is not printed twice.
-        Ok(Loaded::Float(Image::read_npy(path).map_err(|e| anyhow::anyhow!("{e}"))?))
+        Ok(Loaded::Float(Image::read_npy(path).kind(ExitKind::Input)?))
     }
 }
 
@@ -203,11 +203,14 @@ pub fn compare(args: &DiffArgs) -> Result<(DiffReport, Vec<u8>)> {
     let b = load(&args.b)?;
     if a.size() != b.size() {
         let ([aw, ah], [bw, bh]) = (a.size(), b.size());
-        bail!(
-            "images differ in size: {} is {aw}x{ah}, {} is {bw}x{bh} (width x height); render both at the same --size",
-            args.a.display(),
-            args.b.display()
-        );
+        return Err(fail(
+            ExitKind::Rejected,
+            format!(
+                "images differ in size: {} is {aw}x{ah}, {} is {bw}x{bh} (width x height); render both at the same --size",
+                args.a.display(),
+                args.b.display()
+            ),
+        ));
     }
     let [width, height] = a.size();
     let reinhard = args.tonemap == "reinhard";
@@ -262,7 +265,7 @@ fn colour_diff_picture(grey: &[u8], width: u32, height: u32, full_scale: f64) ->
 pub fn run(args: &DiffArgs) -> Result<()> {
     if let Some(s) = args.scale {
         if !(s > 0.0 && s.is_finite()) {
-            bail!("--scale {s}: must be a positive number");
+            return Err(usage(format!("--scale {s}: must be a positive number")));
         }
     }
     let (r, picture) = compare(args)?;
@@ -271,7 +274,8 @@ pub fn run(args: &DiffArgs) -> Result<()> {
         let full = if full > 0.0 && full.is_finite() { full } else { 1.0 };
         colour_diff_picture(&picture, r.width, r.height, full as f64)
             .write_png(out)
-            .with_context(|| format!("writing {}", out.display()))?;
+            .with_context(|| format!("writing {}", out.display()))
+            .kind(ExitKind::Output)?;
     }
     let s = &r.stats;
     // writeln! rather than println!: a closed pipe is an error, not a panic.

@@ -8,11 +8,11 @@
 //! unless `--no-cull`), projection, rasterization, compositing and tone
 //! mapping run on the GPU.
 
-use crate::cli::UsageError;
 use crate::render::RenderArgs;
 use anyhow::{Context, Result};
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{fail, usage, ExitKind, KindExt};
 use tet_gpu::{
     FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuOrder, GpuRenderer, GpuScene, GpuShader,
     GpuTable3d, RasterPath, GPU_METHODS,
@@ -29,36 +29,21 @@ pub fn gpu_methods() -> String {
 /// A method or input the GPU path lacks is a usage error (exit code 2).
 fn unsupported(e: GpuError) -> anyhow::Error {
     match e {
-        GpuError::Unsupported(_) => UsageError(format!("--gpu: {e}; run without --gpu to render on the CPU")).into(),
+        GpuError::Unsupported(_) => usage(format!("--gpu: {e}; run without --gpu to render on the CPU")),
         e => e.into(),
     }
 }
 
-/// No GPU adapter (exit code 4): `tetview render` without `--gpu` works.
-#[derive(Debug)]
-pub struct NoGpuError(pub String);
-
-impl std::fmt::Display for NoGpuError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-impl std::error::Error for NoGpuError {}
-
 /// Checks what the GPU path cannot do before any work (exit code 2).
 pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
     if !GPU_METHODS.contains(&method) {
-        return Err(UsageError(format!(
-            "--gpu: method {method} is not on the GPU yet (GPU methods: {})",
-            gpu_methods()
-        ))
-        .into());
+        return Err(usage(format!("--gpu: method {method} is not on the GPU yet (GPU methods: {})", gpu_methods())));
     }
     if args.light || args.silhouette.is_some() {
-        return Err(UsageError("--gpu: --light and --silhouette are CPU-only for now".into()).into());
+        return Err(usage("--gpu: --light and --silhouette are CPU-only for now"));
     }
     if args.gpu_bake && method != Method::Table3d {
-        return Err(UsageError(format!("--gpu-bake: method {method} has no table to bake (only table3d)")).into());
+        return Err(usage(format!("--gpu-bake: method {method} has no table to bake (only table3d)")));
     }
     Ok(())
 }
@@ -79,7 +64,8 @@ pub fn render(
     let t = Instant::now();
     let ctx = GpuContext::new_headless().map_err(|e| match e {
         GpuError::NoAdapter { .. } | GpuError::MissingFeature { .. } | GpuError::Device { .. } => {
-            anyhow::Error::new(NoGpuError(format!("--gpu: {e}; run without --gpu to render on the CPU")))
+            // No usable adapter (exit code 7): `tetview render` without `--gpu` works.
+            fail(ExitKind::NoGpu, format!("--gpu: {e}; run without --gpu to render on the CPU"))
         }
         e => e.into(),
     })?;
@@ -155,7 +141,7 @@ pub fn render(
         frame.image.write_npy(p)?;
     }
     if let Some(p) = &args.save_view {
-        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display()))?;
+        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }
     let total_seconds = start.elapsed().as_secs_f64();
     let s = &frame.stats;

@@ -1,6 +1,8 @@
 //! `tetview`: render tetkit bundles on the CPU (projected tetrahedra with an
 //! exact visibility order, HDR tone mapping, float output for measurement).
+//! Exit codes: `tet_cli::ExitKind`, the same in every tetkit program.
 use clap::Parser;
+use std::process::ExitCode;
 
 mod bench;
 mod cli;
@@ -11,13 +13,12 @@ mod render;
 mod tf_choice;
 mod view;
 
-fn main() -> std::process::ExitCode {
-    let args = cli::Cli::parse();
-    match cli::run(args) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+fn main() -> ExitCode {
+    match cli::run(cli::Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("tetview: {e:#}");
-            std::process::ExitCode::from(cli::exit_code(&e))
+            eprintln!("tetview: {}", tet_cli::describe(&e));
+            ExitCode::from(tet_cli::exit_code(&e))
         }
     }
 }

@@ -2,12 +2,13 @@
 //! (the same as `tetview render --reference`), the ground truth for
 //! `tetview diff`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_render::{Camera, Display, ReferenceOptions, ReferenceRenderer, ToneMap, ViewSpec};
 
 #[derive(Debug, Clone, Args)]
@@ -22,13 +23,13 @@ pub struct ReferenceArgs {
     #[command(flatten)]
     pub tf_choice: crate::tf_choice::TfChoiceArgs,
     /// Scalar range LO,HI for a normalized transfer function.
-    #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
+    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
     /// Camera JSON (VTK semantics); without it the bounds are framed.
     #[arg(long)]
     pub view: Option<PathBuf>,
     /// Image size WxH (default: the view's, else 512x512).
-    #[arg(long, value_parser = parse_size)]
+    #[arg(long, value_parser = tet_cli::parse_size)]
     pub size: Option<[u32; 2]>,
     /// Orbit the camera: degrees about view-up, then elevation, then zoom.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
@@ -69,31 +70,9 @@ pub struct ReferenceArgs {
     pub json: bool,
 }
 
-fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
-    let v: Vec<&str> = s.split(',').collect();
-    let [lo, hi] = v.as_slice() else { return Err(format!("{s}: expected LO,HI")) };
-    let lo: f64 = lo.trim().parse().map_err(|e| format!("{s}: {e}"))?;
-    let hi: f64 = hi.trim().parse().map_err(|e| format!("{s}: {e}"))?;
-    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return Err(format!("{s}: need finite LO < HI"));
-    }
-    Ok((lo, hi))
-}
-
-fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s}: expected WxH, e.g. 512x512"))?;
-    let w: u32 = w.trim().parse().map_err(|e| format!("{s}: {e}"))?;
-    let h: u32 = h.trim().parse().map_err(|e| format!("{s}: {e}"))?;
-    let max = tet_render::camera::MAX_IMAGE_SIDE;
-    if w == 0 || h == 0 || w > max || h > max {
-        return Err(format!("{s}: each side must be 1..={max}"));
-    }
-    Ok([w, h])
-}
-
 pub fn run(args: &ReferenceArgs) -> Result<()> {
     if args.output.is_none() && args.float.is_none() {
-        bail!("nothing to write: give -o out.png and/or --float out.npy");
+        return Err(usage("nothing to write: give -o out.png and/or --float out.npy"));
     }
     let bundle = Bundle::read(&args.bundle)?;
     let mesh = &bundle.mesh;
@@ -102,8 +81,9 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
 
     let mut spec = match &args.view {
         Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display()))?
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display())).kind(ExitKind::Input)?;
+            ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?
         }
         None => {
             let (lo, hi) = bounds(&mesh.points);
@@ -120,7 +100,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     spec = spec.orbit(args.azimuth, args.elevation, args.zoom);
     let camera = Camera::new(&spec)?;
     if let Some(p) = &args.save_view {
-        std::fs::write(p, spec.to_json()).with_context(|| format!("writing {}", p.display()))?;
+        std::fs::write(p, spec.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }
 
     let t0 = Instant::now();

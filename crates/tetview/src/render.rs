@@ -1,12 +1,12 @@
 //! `tetview render`: one image of a bundle.
 
-use crate::cli::{InputError, UsageError};
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_preint::{load_shader, BakeOptions, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{Display, Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ToneMap, ViewSpec};
 
@@ -41,7 +41,7 @@ pub struct RenderArgs {
     #[arg(long, conflicts_with_all = ["tf", "colormap", "opacity_scale", "save_tf"])]
     pub lut: Option<PathBuf>,
     /// Scalar range LO,HI for a normalized transfer function.
-    #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
+    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
     /// View JSON (VTK camera fields; see `--save-view`).
     #[arg(long, conflicts_with_all = ["azimuth", "elevation", "zoom", "view_up"])]
@@ -59,7 +59,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub parallel: bool,
     /// Image size WxH (default 512x512, or the view file's).
-    #[arg(long, value_parser = parse_size)]
+    #[arg(long, value_parser = tet_cli::parse_size)]
     pub size: Option<[u32; 2]>,
     /// Linear background colour r,g,b under the volume.
     #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
@@ -104,7 +104,7 @@ pub struct RenderArgs {
     /// Render on the GPU (tet_gpu; methods pt-linear, table3d, atlas2d,
     /// poly1/2/4, partial, biv-exact and biv-approx; the same
     /// visibility order and tables as the CPU, culling on the GPU). Exit
-    /// code 4 where no GPU adapter exists; without --gpu tetview renders on
+    /// code 7 where no GPU adapter exists; without --gpu tetview renders on
     /// the CPU.
     #[arg(long)]
     pub gpu: bool,
@@ -117,18 +117,6 @@ pub struct RenderArgs {
     /// texture the renderer samples, instead of on the CPU and uploading it.
     #[arg(long, requires = "gpu")]
     pub gpu_bake: bool,
-}
-
-fn parse_pair(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected LO,HI")?;
-    let p = |x: &str| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"));
-    Ok((p(a)?, p(b)?))
-}
-
-fn parse_size(s: &str) -> Result<[u32; 2], String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 512x512")?;
-    let p = |x: &str| x.trim().parse::<u32>().map_err(|e| format!("{x:?}: {e}"));
-    Ok([p(w)?, p(h)?])
 }
 
 fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
@@ -156,7 +144,8 @@ pub fn tables_baked() -> u32 {
 }
 
 /// The shader of a method, baked now over the bundle's (Sf, Sb, l) domain
-/// with tet_preint's default resolutions (the same as `tetlut bake`).
+/// with tet_preint's default resolutions (the same as `tetlut bake`). A
+/// method that cannot bake for this TF is exit code 6, as in `tetlut bake`.
 pub fn make_shader(method: Method, tf: &TransferFunction, domain: &TableDomain) -> Result<Box<dyn SegmentShader>> {
     // exact, pt-linear and biv-exact evaluate the TF directly; every other
     // method bakes a table.
@@ -164,7 +153,8 @@ pub fn make_shader(method: Method, tf: &TransferFunction, domain: &TableDomain) 
         count_table_bake();
     }
     tet_preint::make_shader(method, tf, domain, &BakeOptions::default())
-        .map_err(|e| UsageError(format!("method {method}: {e}")).into())
+        .map_err(|e| anyhow::Error::new(e).context(format!("method {method}")))
+        .kind(ExitKind::Bake)
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
@@ -173,15 +163,18 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     // Either a baked .tetl (its TF travels in the file) or a TF and a method.
     let (method, tf, lut) = match &args.lut {
         Some(path) => {
-            let lut = LutFile::read(path).map_err(|e| InputError(e.to_string()))?;
-            let tf = lut.transfer_function().map_err(|e| InputError(format!("{}: {e}", path.display())))?;
-            let method: Method =
-                lut.header.method.parse().map_err(|e: tet_preint::UnknownMethod| InputError(e.to_string()))?;
+            let lut = LutFile::read(path)?;
+            let tf = lut.transfer_function().with_context(|| path.display().to_string()).kind(ExitKind::Input)?;
+            let method = lut
+                .header
+                .method
+                .parse::<Method>()
+                .with_context(|| path.display().to_string())
+                .kind(ExitKind::Input)?;
             (method, tf, Some((lut, path.clone())))
         }
         None => {
-            let method: Method =
-                args.method.parse().map_err(|e: tet_preint::UnknownMethod| UsageError(e.to_string()))?;
+            let method: Method = args.method.parse()?;
             let tf = crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?;
             (method, tf, None)
         }
@@ -190,7 +183,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let shading = Shading { light: args.light.then(Light::default), silhouette: args.silhouette };
     if let Some(p) = args.silhouette {
         if !(p >= 0.0 && p.is_finite()) {
-            return Err(UsageError(format!("--silhouette {p}: need a finite exponent ≥ 0")).into());
+            return Err(usage(format!("--silhouette {p}: need a finite exponent ≥ 0")));
         }
     }
     let mut scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
@@ -207,9 +200,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let view = match &args.view {
         Some(p) => {
-            let text =
-                std::fs::read_to_string(p).map_err(|e| InputError(format!("reading view {}: {e}", p.display())))?;
-            let mut v = ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display()))?;
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("reading view {}", p.display()))
+                .kind(ExitKind::Input)?;
+            // A view file that does not parse is a malformed input.
+            let mut v =
+                ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?;
             if let Some(s) = args.size {
                 v.size = s;
             }
@@ -238,9 +234,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let t = Instant::now();
     let shader: Arc<dyn SegmentShader> = match &lut {
-        Some((lut, path)) => load_shader(lut, path).map_err(|e| InputError(e.to_string()))?.into(),
+        Some((lut, path)) => load_shader(lut, path)?.into(),
         None => {
-            let domain = TableDomain::from_bundle(&bundle).map_err(|e| InputError(e.to_string()))?;
+            let domain = TableDomain::from_bundle(&bundle)?;
             make_shader(method, &tf, &domain)?.into()
         }
     };
@@ -273,7 +269,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         image.write_npy(p)?;
     }
     if let Some(p) = &args.save_view {
-        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display()))?;
+        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }
     if args.json {
         let mut v = serde_json::to_value(&st)?;

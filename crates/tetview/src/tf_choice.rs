@@ -2,10 +2,10 @@
 //! automatic one of the bundle (tet_preint's `auto_tf`, the same the viewer
 //! opens on), with `--colormap`, `--opacity-scale` and `--save-tf`.
 
-use crate::cli::UsageError;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use tet_bundle::Bundle;
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_preint::{choose_tf, Colormap, TransferFunction};
 
 /// The TF options `render` and `reference` share.
@@ -49,8 +49,14 @@ pub fn resolve(
 ) -> Result<TransferFunction> {
     let given = match tf_path {
         Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            Some(TransferFunction::from_json(&text).with_context(|| format!("in {}", p.display()))?)
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display())).kind(ExitKind::Input)?;
+            // Contents that are not a valid TF are a usage error, as in tetlut.
+            Some(
+                TransferFunction::from_json(&text)
+                    .with_context(|| format!("in {}", p.display()))
+                    .kind(ExitKind::Usage)?,
+            )
         }
         None => None,
     };
@@ -72,10 +78,10 @@ pub fn resolve(
         let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
         tf = tf.denormalize(lo, hi)?;
     } else if range.is_some() {
-        return Err(UsageError("--range is only for normalized transfer functions".into()).into());
+        return Err(usage("--range is only for normalized transfer functions"));
     }
     if let Some(p) = &args.save_tf {
-        std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display()))?;
+        std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }
     Ok(tf)
 }

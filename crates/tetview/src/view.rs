@@ -1,9 +1,10 @@
 //! `tetview view`: the interactive window (crate tet_viewer).
 
-use crate::cli::UsageError;
 use anyhow::Result;
 use std::path::PathBuf;
-use tet_preint::Method;
+use tet_cli::{classify, ExitKind};
+use tet_preint::{Colormap, Method};
+use tet_viewer::ViewerError;
 
 /// Open BUNDLE in a window.
 ///
@@ -19,6 +20,11 @@ pub struct ViewArgs {
     /// one `tetview render` builds without --tf).
     #[arg(long)]
     pub tf: Option<PathBuf>,
+    /// Colour map of the automatic TF (without --tf), or the colours that
+    /// replace those of --tf over its nodes' span: viridis, inferno, magma,
+    /// plasma, cool-to-warm, turbo, grayscale (as `tetview render --colormap`).
+    #[arg(long, value_parser = crate::tf_choice::parse_colormap)]
+    pub colormap: Option<Colormap>,
     /// Method id (exact, pt-linear, table3d, atlas2d, poly1/2/4, partial,
     /// biv-exact, biv-approx); all but exact run on the GPU.
     #[arg(long, default_value = "pt-linear")]
@@ -37,8 +43,8 @@ pub struct ViewArgs {
     /// (its GPU checkbox switches either way).
     #[arg(long)]
     pub gpu: bool,
-    /// Window size WxH in points.
-    #[arg(long, default_value = "1100x720", value_parser = parse_size)]
+    /// Window size WxH in points (each side 64..=16384).
+    #[arg(long, default_value = "1100x720", value_parser = tet_cli::parse_window_size)]
     pub window: [f32; 2],
     /// Scripted run: render N full-resolution frames, save a screenshot of
     /// the window to --screenshot, and exit (for tests and CI); frames of an
@@ -53,20 +59,13 @@ pub struct ViewArgs {
     pub spin: f64,
 }
 
-fn parse_size(s: &str) -> Result<[f32; 2], String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH, e.g. 1100x720")?;
-    let p = |x: &str| match x.trim().parse::<f32>() {
-        Ok(v) if (64.0..=16384.0).contains(&v) => Ok(v),
-        Ok(v) => Err(format!("{v}: need 64 to 16384")),
-        Err(e) => Err(format!("{x:?}: {e}")),
-    };
-    Ok([p(w)?, p(h)?])
-}
-
-pub fn run(args: &ViewArgs) -> Result<()> {
-    let method: Method = args.method.parse().map_err(|e: tet_preint::UnknownMethod| UsageError(e.to_string()))?;
+/// The viewer's options for `args` (a method id that does not exist is a
+/// usage error).
+pub fn options(args: &ViewArgs) -> Result<tet_viewer::ViewerOptions> {
+    let method: Method = args.method.parse()?;
     let mut opts = tet_viewer::ViewerOptions::new(args.bundle.clone());
     opts.tf = args.tf.clone();
+    opts.colormap = args.colormap;
     opts.method = method;
     opts.view = args.view.clone();
     opts.view_up = args.view_up;
@@ -76,6 +75,69 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     opts.frames = args.frames;
     opts.screenshot = args.screenshot.clone();
     opts.spin_deg = args.spin;
-    tet_viewer::run(opts)?;
-    Ok(())
+    Ok(opts)
+}
+
+/// The exit kind of a viewer failure. Its transparent variants hide the
+/// library error from the chain, so it is classified here by variant.
+fn viewer_kind(e: &ViewerError) -> ExitKind {
+    match e {
+        ViewerError::Bundle(e) => classify(e).unwrap_or(ExitKind::Internal),
+        ViewerError::Render(e) => classify(e).unwrap_or(ExitKind::Internal),
+        ViewerError::Tf(e) => classify(e).unwrap_or(ExitKind::Usage),
+        // The method cannot be baked for this TF (as `render`'s make_shader).
+        ViewerError::Method(_) => ExitKind::Bake,
+        // Options that cannot go together.
+        ViewerError::Input(_) => ExitKind::Usage,
+        // Reading --tf or --view.
+        ViewerError::Io { .. } => ExitKind::Input,
+        // The window starts on the CPU where the GPU fails, so a GPU error
+        // that still ends the run, no window (no display), or a scripted run
+        // without its screenshot is unexpected.
+        ViewerError::Gpu(_) | ViewerError::Window(_) | ViewerError::Scripted(_) => ExitKind::Internal,
+    }
+}
+
+pub fn run(args: &ViewArgs) -> Result<()> {
+    let opts = options(args)?;
+    tet_viewer::run(opts).map_err(|e| anyhow::Error::new(tet_cli::Tagged::new(viewer_kind(&e), e)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    /// `tetview view`'s arguments on their own.
+    #[derive(Debug, Parser)]
+    struct ViewOnly {
+        #[command(flatten)]
+        view: ViewArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<ViewArgs, clap::Error> {
+        ViewOnly::try_parse_from(std::iter::once("view").chain(args.iter().copied())).map(|v| v.view)
+    }
+
+    #[test]
+    fn colormap_is_parsed_and_passed_to_the_viewer() {
+        let opts = options(&parse(&["b.tetb", "--colormap", "inferno"]).unwrap()).unwrap();
+        assert_eq!(opts.colormap, Some(Colormap::Inferno));
+        let opts = options(&parse(&["b.tetb", "--tf", "t.json", "--colormap", "cool-to-warm"]).unwrap()).unwrap();
+        assert_eq!(opts.colormap, Some(Colormap::CoolToWarm));
+        assert_eq!(opts.tf.as_deref(), Some(std::path::Path::new("t.json")));
+        assert_eq!(options(&parse(&["b.tetb"]).unwrap()).unwrap().colormap, None);
+        let e = parse(&["b.tetb", "--colormap", "rainbow"]).unwrap_err();
+        assert_eq!(e.kind(), clap::error::ErrorKind::ValueValidation);
+        assert!(e.to_string().contains("rainbow"), "{e}");
+    }
+
+    #[test]
+    fn window_size_and_method_use_the_shared_parsers_and_kinds() {
+        let opts = options(&parse(&["b.tetb", "--window", "800x600"]).unwrap()).unwrap();
+        assert_eq!(opts.window_size, [800.0, 600.0]);
+        assert!(parse(&["b.tetb", "--window", "10x600"]).is_err());
+        let e = options(&parse(&["b.tetb", "--method", "table9d"]).unwrap()).unwrap_err();
+        assert_eq!(tet_cli::exit_code(&e), 2);
+    }
 }

@@ -208,7 +208,8 @@ fn bad_methods_luts_and_input_are_clear_errors() {
         "-o",
         png.to_str().unwrap(),
     ]);
-    assert_eq!(out.status.code(), Some(2));
+    // Exit code 6 (the method cannot bake with this TF), as `tetlut bake`.
+    assert_eq!(out.status.code(), Some(6), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("biv-exact"), "{}", String::from_utf8_lossy(&out.stderr));
     // A missing or damaged .tetl is an input error naming the file.
     let out = tetview(&["render", b.to_str().unwrap(), "--lut", "x.tetl", "-o", png.to_str().unwrap()]);
@@ -286,7 +287,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
         }
         eprintln!("skipped: {e}");
         let out = render(&["--gpu"], &dir.path().join("x.npy"));
-        assert_eq!(out.status.code(), Some(4), "{}", String::from_utf8_lossy(&out.stderr));
+        assert_eq!(out.status.code(), Some(7), "{}", String::from_utf8_lossy(&out.stderr));
         return;
     }
     let diff = |a: &Path, b: &Path| {
@@ -380,14 +381,14 @@ fn gpu_render_matches_the_cpu_or_skips() {
         assert!(tet_render::Image::read_npy(&g).unwrap().pixels().iter().any(|p| p[3] > 0.05), "{method}");
     }
 
-    // A backend with no adapter (GL is not compiled in): exit code 4 and a
+    // A backend with no adapter (GL is not compiled in): exit code 7 and a
     // clear message; the CPU path is unaffected.
     let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
         .env("WGPU_BACKEND", "gl")
         .args(["render", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--gpu", "-o", png.to_str().unwrap()])
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(4), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(7), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no GPU adapter"));
 }
 
@@ -629,4 +630,102 @@ fn every_output_gets_the_mode_file_create_gives() {
     for p in [&png, &npy, &view, &rpng, &rnpy, &dpng] {
         assert_eq!(mode(p), mode(&plain), "{}", p.display());
     }
+}
+
+fn stderr(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// The exit codes every tetkit program shares (tet_cli::ExitKind), for the
+/// failures `tetprep` and `tetlut` test the same way in their tests/cli.rs.
+#[test]
+fn exit_codes_are_the_shared_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let png = dir.path().join("a.png");
+    let render = |bundle: &Path, tf: &Path, out: &Path| {
+        tetview(&["render", bundle.to_str().unwrap(), "--tf", tf.to_str().unwrap(), "-o", out.to_str().unwrap()])
+    };
+    // 3: a truncated bundle (as `tetprep info`), a missing bundle or TF file.
+    let cut = dir.path().join("cut.tetb");
+    let bytes = std::fs::read(&b).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let out = render(&cut, &t, &png);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    assert!(stderr(&out).contains("cut.tetb"), "{}", stderr(&out));
+    let out = render(&dir.path().join("missing.tetb"), &t, &png);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    let out = render(&b, &dir.path().join("missing.json"), &png);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    assert!(stderr(&out).contains("missing.json"), "{}", stderr(&out));
+    // 2: a typo in the TF file (as `tetlut bake`), a bad --range or --size.
+    let typo = dir.path().join("typo.json");
+    std::fs::write(&typo, r#"{"color": [[0, 1, 1, 1]], "opacity": [[0.5, 1], [0.2, 1]], "unit_distance": 1}"#).unwrap();
+    let out = render(&b, &typo, &png);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("opacity[1]"), "{}", stderr(&out));
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--range",
+        "1,0",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    // 5: an output in a directory that does not exist (PNG, --save-view, reference).
+    let out = render(&b, &t, &dir.path().join("no/such/dir/a.png"));
+    assert_eq!(out.status.code(), Some(5), "{}", stderr(&out));
+    let out = tetview(&[
+        "render",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--save-view",
+        dir.path().join("no/such/dir/v.json").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(5), "{}", stderr(&out));
+    let out = tetview(&[
+        "reference",
+        b.to_str().unwrap(),
+        "--tf",
+        t.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--float",
+        dir.path().join("no/such/dir/r.npy").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(5), "{}", stderr(&out));
+    // 3 for an unreadable image in `diff`, 4 for two that do not match in size.
+    let (small, big) = (dir.path().join("s.npy"), dir.path().join("b.npy"));
+    for (p, size) in [(&small, "8x8"), (&big, "9x8")] {
+        let out = tetview(&[
+            "reference",
+            b.to_str().unwrap(),
+            "--tf",
+            t.to_str().unwrap(),
+            "--size",
+            size,
+            "--float",
+            p.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let out = tetview(&["diff", small.to_str().unwrap(), dir.path().join("none.npy").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    let out = tetview(&["diff", small.to_str().unwrap(), big.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
+    // `view`'s flags are checked before any window opens: an unknown
+    // --colormap (the flag `render` has too) is a usage error.
+    let out = tetview(&["view", b.to_str().unwrap(), "--colormap", "rainbow"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("rainbow"), "{}", stderr(&out));
+    // --help lists the table.
+    let out = tetview(&["--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("Exit codes") && help.contains("7  no usable GPU adapter"), "{help}");
 }

@@ -174,3 +174,49 @@ fn view_renders_frames_and_saves_a_window_screenshot() {
     scripted_view(&x, "pt-linear", &["--gpu"]);
     scripted_view(&x, "exact", &[]);
 }
+
+/// `--colormap` reaches the window as it reaches `tetview render`: with
+/// `grayscale` the volume in the screenshot's image area is grey (R = G = B
+/// within rounding), where the file's own colours (blue, white, red) are not.
+#[test]
+fn view_colormap_recolours_the_volume() {
+    let Some(x) = xvfb_or_skip() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = samples().join("cube5.tetb");
+    let tf = samples().join("tf_normalized.json");
+    // The share of bright image-area pixels whose channels differ by more than 24.
+    let coloured_share = |extra: &[&str], name: &str| -> f64 {
+        let shot = dir.path().join(name);
+        let out = tetview_on(&x, dir.path())
+            .args([bundle.to_str().unwrap(), "--tf", tf.to_str().unwrap(), "--method", "pt-linear", "--cpu"])
+            .args(["--window", "760x480", "--frames", "2", "--screenshot", shot.to_str().unwrap()])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&shot).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        let (w, h, step) = (info.width as usize, info.height as usize, info.color_type.samples());
+        let (mut bright, mut coloured) = (0usize, 0usize);
+        for y in h / 10..h * 8 / 10 {
+            for x in w * 6 / 10..w * 95 / 100 {
+                let p = &buf[(y * w + x) * step..][..3];
+                if p.iter().any(|&c| c > 60) {
+                    bright += 1;
+                    if p.iter().max().unwrap() - p.iter().min().unwrap() > 24 {
+                        coloured += 1;
+                    }
+                }
+            }
+        }
+        assert!(bright > 100, "{extra:?}: the image area is (nearly) empty");
+        coloured as f64 / bright as f64
+    };
+    let own = coloured_share(&[], "own.png");
+    let grey = coloured_share(&["--colormap", "grayscale"], "grey.png");
+    eprintln!("coloured share of the volume: own colours {own:.3}, grayscale {grey:.3}");
+    assert!(own > 0.2, "the file's colours: {own}");
+    assert!(grey < 0.05, "--colormap grayscale: {grey} of the volume is coloured");
+}

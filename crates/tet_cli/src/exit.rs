@@ -1,0 +1,414 @@
+//! Exit codes: [`ExitKind`], tagging ([`Tagged`], [`KindExt`]) and the
+//! classification of an error chain ([`exit_code`], [`classify`]).
+
+use std::error::Error as StdError;
+use std::fmt;
+
+/// What went wrong, as the exit code every tetkit program returns for it.
+///
+/// One meaning per number in all three programs; `0` is success. clap's own
+/// command-line errors exit 2 as well, so [`ExitKind::Usage`] covers both a
+/// flag clap refuses and a value the program refuses after parsing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ExitKind {
+    /// 1: an unexpected failure (a bug; nothing the user did).
+    Internal,
+    /// 2: a bad command line: an unknown or conflicting flag, a bad value, an
+    /// option the input needs that is missing (`--dims` for a raw volume, a
+    /// `--scalar` the file lacks), or a transfer-function file whose
+    /// contents are invalid (a typo, unsorted nodes, an unknown colour map).
+    Usage,
+    /// 3: an input cannot be read: missing or unreadable, malformed,
+    /// truncated or corrupt, or of a format tetkit does not read.
+    Input,
+    /// 4: an input was read but its data is rejected: the mesh cannot be made
+    /// valid (non-manifold faces, non-finite values, no cells left), or the
+    /// data is degenerate (no volume, a constant scalar a table needs to span).
+    Rejected,
+    /// 5: an output cannot be written.
+    Output,
+    /// 6: the method cannot bake or certify its table with these inputs and
+    /// limits (a TF with 2D widgets for a 1D method, a table over the size
+    /// limit, a precision the method cannot store).
+    Bake,
+    /// 7: no usable GPU adapter (`tetview render --gpu`; without `--gpu`
+    /// tetview renders on the CPU).
+    NoGpu,
+}
+
+impl ExitKind {
+    /// Every kind, in code order.
+    pub const ALL: [ExitKind; 7] = [
+        ExitKind::Internal,
+        ExitKind::Usage,
+        ExitKind::Input,
+        ExitKind::Rejected,
+        ExitKind::Output,
+        ExitKind::Bake,
+        ExitKind::NoGpu,
+    ];
+
+    /// The process exit code.
+    pub fn code(self) -> u8 {
+        match self {
+            ExitKind::Internal => 1,
+            ExitKind::Usage => 2,
+            ExitKind::Input => 3,
+            ExitKind::Rejected => 4,
+            ExitKind::Output => 5,
+            ExitKind::Bake => 6,
+            ExitKind::NoGpu => 7,
+        }
+    }
+
+    /// One line saying what the code means (the `--help` table's wording).
+    pub fn meaning(self) -> &'static str {
+        match self {
+            ExitKind::Internal => "unexpected failure (a bug)",
+            ExitKind::Usage => "bad command line: flag, value, missing option, invalid transfer-function contents",
+            ExitKind::Input => "an input cannot be read: missing, malformed, truncated, corrupt or unsupported",
+            ExitKind::Rejected => "input data rejected: the mesh cannot be made valid, degenerate data",
+            ExitKind::Output => "an output cannot be written",
+            ExitKind::Bake => "the method cannot bake or certify its table with these inputs and limits",
+            ExitKind::NoGpu => "no usable GPU adapter (render --gpu)",
+        }
+    }
+
+    /// The kind of an error chain (see [`exit_code`]).
+    pub fn of(e: &anyhow::Error) -> ExitKind {
+        e.chain().find_map(classify).unwrap_or(ExitKind::Internal)
+    }
+}
+
+impl fmt::Display for ExitKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} ({})", self.code(), self.meaning())
+    }
+}
+
+/// The exit-code table for each program's `--help` (`after_help`); a unit
+/// test keeps it equal to [`ExitKind::ALL`]'s codes and meanings.
+pub const EXIT_CODES_HELP: &str = "\
+Exit codes (the same in tetprep, tetlut and tetview):
+  0  success
+  1  unexpected failure (a bug)
+  2  bad command line: flag, value, missing option, invalid transfer-function contents
+  3  an input cannot be read: missing, malformed, truncated, corrupt or unsupported
+  4  input data rejected: the mesh cannot be made valid, degenerate data
+  5  an output cannot be written
+  6  the method cannot bake or certify its table with these inputs and limits
+  7  no usable GPU adapter (render --gpu)";
+
+/// An error tagged with the kind of failure it is; [`exit_code`] takes the
+/// outermost tag of a chain. Displays as the wrapped error's whole chain
+/// (see [`describe`]), so tagging loses no text; it has no `source`, so the
+/// chain's text is not printed twice.
+#[derive(Debug)]
+pub struct Tagged {
+    kind: ExitKind,
+    inner: anyhow::Error,
+}
+
+impl Tagged {
+    pub fn new(kind: ExitKind, inner: impl Into<anyhow::Error>) -> Tagged {
+        Tagged { kind, inner: inner.into() }
+    }
+
+    pub fn kind(&self) -> ExitKind {
+        self.kind
+    }
+
+    /// The tagged error, with its own chain.
+    pub fn inner(&self) -> &anyhow::Error {
+        &self.inner
+    }
+}
+
+impl fmt::Display for Tagged {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&describe(&self.inner))
+    }
+}
+
+impl StdError for Tagged {}
+
+/// Tags a result's error with a kind: `std::fs::write(p, b).kind(ExitKind::Output)?`.
+pub trait KindExt<T> {
+    fn kind(self, kind: ExitKind) -> anyhow::Result<T>;
+}
+
+impl<T, E: Into<anyhow::Error>> KindExt<T> for Result<T, E> {
+    fn kind(self, kind: ExitKind) -> anyhow::Result<T> {
+        self.map_err(|e| anyhow::Error::new(Tagged::new(kind, e)))
+    }
+}
+
+/// A new error of `kind` with the message `msg`.
+pub fn fail(kind: ExitKind, msg: impl Into<String>) -> anyhow::Error {
+    anyhow::Error::new(Tagged::new(kind, anyhow::Error::msg(msg.into())))
+}
+
+/// A usage error (exit code 2) with the message `msg`.
+pub fn usage(msg: impl Into<String>) -> anyhow::Error {
+    fail(ExitKind::Usage, msg)
+}
+
+/// The exit code of an error: the outermost [`Tagged`] in its chain wins,
+/// else the first cause [`classify`] knows, else 1 ([`ExitKind::Internal`]).
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    ExitKind::of(e).code()
+}
+
+/// The chain of `e` joined by ": ", leaving out a cause whose text an outer
+/// message already holds (library errors often quote their source). What
+/// the programs print after their name.
+pub fn describe(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let c = cause.to_string();
+        if c.is_empty() || text.contains(&c) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&c);
+    }
+    text
+}
+
+/// The kind of one cause of a chain: a [`Tagged`] error's tag, or the kind
+/// of a library error by its type and variant; `None` for anything else
+/// (context messages, errors of crates this one does not know).
+///
+/// A bare `std::io::Error` counts as [`ExitKind::Output`]: the programs
+/// tag every read of an input with [`ExitKind::Input`] where it happens,
+/// and library errors carry the direction themselves (`BundleError::Io`'s
+/// and `LutError::Io`'s `action`, `ReadError` always reads).
+pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
+    use ExitKind::*;
+    if let Some(t) = cause.downcast_ref::<Tagged>() {
+        return Some(t.kind);
+    }
+    if let Some(e) = cause.downcast_ref::<tet_io::ReadError>() {
+        return Some(match e {
+            tet_io::ReadError::MissingOption { .. } => Usage,
+            _ => Input,
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<tet_bundle::BundleError>() {
+        return Some(match e {
+            tet_bundle::BundleError::Io { action, .. } => read_or_write(action),
+            _ => Input,
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<tet_preint::LutError>() {
+        return Some(match e {
+            tet_preint::LutError::Io { action, .. } => read_or_write(action),
+            tet_preint::LutError::SectionName(_) => Internal,
+            _ => Input,
+        });
+    }
+    if cause.downcast_ref::<tet_container::ContainerError>().is_some() {
+        return Some(Input);
+    }
+    if cause.downcast_ref::<tet_container::AtomicWriteError>().is_some() {
+        return Some(Output);
+    }
+    if let Some(e) = cause.downcast_ref::<tet_mesh::MeshError>() {
+        return Some(match e {
+            // `--scalar NAME` names no field of the file: a bad value.
+            tet_mesh::MeshError::UnknownScalar { .. } => Usage,
+            _ => Rejected,
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<tet_delaunay::DelaunayError>() {
+        return Some(match e {
+            tet_delaunay::DelaunayError::BadCircumradius(_) => Usage,
+            _ => Rejected,
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<tet_analysis::AnalysisError>() {
+        return Some(match e {
+            tet_analysis::AnalysisError::BadAxis { .. } | tet_analysis::AnalysisError::BadTolerance(_) => Usage,
+            _ => Rejected,
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<tet_preint::TfError>() {
+        return Some(match e {
+            // The automatic TF cannot be built from this bundle's data.
+            tet_preint::TfError::AutoTf(_) => Rejected,
+            _ => Usage,
+        });
+    }
+    if cause.downcast_ref::<tet_preint::UnknownMethod>().is_some() {
+        return Some(Usage);
+    }
+    if let Some(e) = cause.downcast_ref::<tet_preint::TableError>() {
+        return Some(match e {
+            // A domain from a bundle with no scalar span or no cell size; a
+            // domain from the command line is tagged Usage by the caller.
+            tet_preint::TableError::Domain { .. } => Rejected,
+            tet_preint::TableError::Resolution { .. } => Usage,
+            tet_preint::TableError::TooLarge { .. } | tet_preint::TableError::Invalid(_) => Bake,
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<tet_preint::PolyError>() {
+        return Some(match e {
+            tet_preint::PolyError::Degree(_) | tet_preint::PolyError::Resolution(_) => Usage,
+            _ => Bake,
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<tet_render::RenderError>() {
+        use tet_render::RenderError as R;
+        return Some(match e {
+            // Camera values (a view file's or the flags') that make no view.
+            R::View(_) => Usage,
+            R::ImageSize { .. } | R::SizeMismatch { .. } | R::InvalidMesh { .. } | R::Scene(_) => Rejected,
+            // Image files are mostly written; `tetview diff` tags its reads.
+            R::Png(_) | R::Npy { .. } | R::Io { .. } => Output,
+            R::NormalizedTransferFunction | R::NotReady(_) => Internal,
+        });
+    }
+    if cause.downcast_ref::<tet_plot::PlotError>().is_some() {
+        return Some(Output);
+    }
+    if cause.downcast_ref::<std::io::Error>().is_some() {
+        return Some(Output);
+    }
+    None
+}
+
+/// The kind of a library's I/O failure by the action it names ("read",
+/// "open"; anything else — create, write, sync, rename — is writing).
+fn read_or_write(action: &str) -> ExitKind {
+    match action {
+        "read" | "open" => ExitKind::Input,
+        _ => ExitKind::Output,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anyhow::Context;
+    use std::path::PathBuf;
+
+    fn io(kind: std::io::ErrorKind) -> std::io::Error {
+        std::io::Error::new(kind, "boom")
+    }
+
+    #[test]
+    fn codes_are_distinct_and_the_help_table_lists_each_one() {
+        let codes: Vec<u8> = ExitKind::ALL.iter().map(|k| k.code()).collect();
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7]);
+        for k in ExitKind::ALL {
+            let line = format!("  {}  {}", k.code(), k.meaning());
+            assert!(EXIT_CODES_HELP.lines().any(|l| l == line), "help lacks {line:?}");
+        }
+        assert_eq!(EXIT_CODES_HELP.lines().count(), 1 + 1 + ExitKind::ALL.len());
+    }
+
+    #[test]
+    fn the_outermost_tag_wins_over_inner_tags_and_library_errors() {
+        let bundle = tet_bundle::BundleError::BadMagic { path: "b.tetb".into() };
+        let e: anyhow::Result<()> = Err(bundle).kind(ExitKind::Rejected);
+        let e = e.kind(ExitKind::Output).context("while saving").unwrap_err();
+        assert_eq!(ExitKind::of(&e), ExitKind::Output);
+        assert_eq!(exit_code(&e), 5);
+        // Tagging keeps the text, printed once.
+        assert_eq!(
+            describe(&e),
+            "while saving: not a tetkit bundle (the file does not start with the .tetb magic): b.tetb"
+        );
+    }
+
+    #[test]
+    fn untagged_errors_are_classified_by_type() {
+        let cases: Vec<(anyhow::Error, ExitKind)> = vec![
+            (
+                tet_io::ReadError::Io { source: io(std::io::ErrorKind::NotFound), path: "m.vtu".into() }.into(),
+                ExitKind::Input,
+            ),
+            (
+                tet_io::ReadError::MissingOption {
+                    format: tet_io::Format::Raw,
+                    what: "--dims".into(),
+                    path: "v.raw".into(),
+                }
+                .into(),
+                ExitKind::Usage,
+            ),
+            (tet_bundle::BundleError::Damaged { what: "short".into(), path: "b".into() }.into(), ExitKind::Input),
+            (
+                tet_bundle::BundleError::Io {
+                    action: "read",
+                    source: io(std::io::ErrorKind::NotFound),
+                    path: "b".into(),
+                }
+                .into(),
+                ExitKind::Input,
+            ),
+            (
+                tet_bundle::BundleError::Io {
+                    action: "rename into place",
+                    source: io(std::io::ErrorKind::PermissionDenied),
+                    path: "b".into(),
+                }
+                .into(),
+                ExitKind::Output,
+            ),
+            (tet_preint::LutError::BadMagic { path: "t.tetl".into() }.into(), ExitKind::Input),
+            (
+                tet_preint::LutError::Io { action: "write", source: io(std::io::ErrorKind::Other), path: "t".into() }
+                    .into(),
+                ExitKind::Output,
+            ),
+            (tet_mesh::MeshError::Empty { reason: "all NaN".into() }.into(), ExitKind::Rejected),
+            (tet_mesh::MeshError::UnknownScalar { name: "p".into(), available: "q".into() }.into(), ExitKind::Usage),
+            (tet_delaunay::DelaunayError::NoPoints.into(), ExitKind::Rejected),
+            (tet_delaunay::DelaunayError::BadCircumradius(-1.0).into(), ExitKind::Usage),
+            (tet_preint::TfError::Json("expected ','".into()).into(), ExitKind::Usage),
+            (tet_preint::TfError::AutoTf("degenerate mesh".into()).into(), ExitKind::Rejected),
+            (tet_preint::TableError::TooLarge { entries: 1 << 40, max: 1 << 28 }.into(), ExitKind::Bake),
+            (tet_preint::PolyError::Widgets(2).into(), ExitKind::Bake),
+            (tet_render::RenderError::View("zero size".into()).into(), ExitKind::Usage),
+            (
+                tet_render::RenderError::Io { source: io(std::io::ErrorKind::NotFound), path: PathBuf::from("o.png") }
+                    .into(),
+                ExitKind::Output,
+            ),
+            (tet_render::RenderError::NotReady("no shader").into(), ExitKind::Internal),
+            (io(std::io::ErrorKind::PermissionDenied).into(), ExitKind::Output),
+            (anyhow::anyhow!("something odd"), ExitKind::Internal),
+        ];
+        for (e, want) in cases {
+            assert_eq!(ExitKind::of(&e), want, "{e:#}");
+        }
+    }
+
+    #[test]
+    fn a_library_error_under_context_is_still_found() {
+        let r: Result<(), _> = Err(tet_mesh::MeshError::NoCells { points: 3 });
+        let e = r.context("converting x.vtk failed").context("outer").unwrap_err();
+        assert_eq!(exit_code(&e), 4);
+    }
+
+    #[test]
+    fn an_untagged_io_error_reading_is_tagged_input_at_the_call_site() {
+        let read = std::fs::read_to_string("/nonexistent/tf.json").kind(ExitKind::Input);
+        assert_eq!(exit_code(&read.unwrap_err()), 3);
+        let write = std::fs::write("/nonexistent/dir/out.json", "{}");
+        assert_eq!(exit_code(&write.unwrap_err().into()), 5);
+    }
+
+    #[test]
+    fn made_errors_carry_their_message_and_kind() {
+        let e = usage("--range is only for normalized transfer functions");
+        assert_eq!(exit_code(&e), 2);
+        assert_eq!(e.to_string(), "--range is only for normalized transfer functions");
+        let e = fail(ExitKind::NoGpu, "no adapter");
+        assert_eq!(exit_code(&e), 7);
+        assert_eq!(format!("{e:#}"), "no adapter");
+    }
+}

@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build install test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
+.PHONY: all build install ci test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -29,6 +29,12 @@ test: gpu-driver viewer-deps
 	trap '[ -z "$$d" ] || rm -rf "$$d"' EXIT; \
 	echo "$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc"; \
 	$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc
+
+## What CI runs (.ci/run): formatting and clippy (-D warnings), then the whole suite with
+## every GPU test required to find an adapter (gpu-driver installs Mesa's lavapipe where no
+## Vulkan driver is): a GPU test that would skip fails instead.
+ci: lint
+	TETKIT_REQUIRE_GPU=1 $(MAKE) test
 
 ## The GPU renderer's tests, where a skip (no adapter) is a failure.
 test-gpu: gpu-driver

@@ -232,6 +232,14 @@ impl GpuContext {
     }
 }
 
+/// Whether a missing GPU adapter must fail a test instead of skipping it:
+/// `TETKIT_REQUIRE_GPU=1` (`make test-gpu`, and `make ci` where a Vulkan
+/// driver is installed). Any other value, or none, lets tests skip with a
+/// printed reason. The one reading of the variable, for every crate's tests.
+pub fn gpu_required() -> bool {
+    std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
 /// The WGSL of every module as the GPU receives it (shared declarations
 /// prepended), by name: what the naga test validates.
 pub fn shader_sources() -> Vec<(&'static str, String)> {

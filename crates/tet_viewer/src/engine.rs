@@ -696,8 +696,8 @@ mod tests {
         let bundle = sample_bundle();
         let mut engine = Engine::new(&bundle, true).unwrap();
         if !engine.has_gpu() {
-            if std::env::var_os("TETKIT_REQUIRE_GPU").is_some() {
-                panic!("TETKIT_REQUIRE_GPU is set but {}", engine.gpu_note());
+            if tet_gpu::gpu_required() {
+                panic!("TETKIT_REQUIRE_GPU=1 but {}", engine.gpu_note());
             }
             println!("skipped: {}", engine.gpu_note());
             return;
@@ -741,8 +741,8 @@ mod tests {
         let bundle = sample_bundle();
         let mut gpu = Engine::new(&bundle, true).unwrap();
         if !gpu.has_gpu() {
-            if std::env::var_os("TETKIT_REQUIRE_GPU").is_some() {
-                panic!("TETKIT_REQUIRE_GPU is set but {}", gpu.gpu_note());
+            if tet_gpu::gpu_required() {
+                panic!("TETKIT_REQUIRE_GPU=1 but {}", gpu.gpu_note());
             }
             println!("skipped: {}", gpu.gpu_note());
             return;

@@ -282,7 +282,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
         .contains("GPU methods: pt-linear, table3d, atlas2d, poly1, poly2, poly4, partial, biv-exact, biv-approx"));
 
     if let Err(e) = tet_gpu::GpuContext::new_headless() {
-        if std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+        if tet_gpu::gpu_required() {
             panic!("TETKIT_REQUIRE_GPU=1 but: {e}");
         }
         eprintln!("skipped: {e}");

@@ -16,7 +16,7 @@ pub fn gpu() -> Option<GpuContext> {
             Some(ctx)
         }
         Err(e) => {
-            if std::env::var("TETKIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+            if tet_gpu::gpu_required() {
                 panic!("TETKIT_REQUIRE_GPU=1 but: {e}");
             }
             eprintln!("skipped: {e}");

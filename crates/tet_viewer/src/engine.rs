@@ -379,10 +379,21 @@ impl Engine {
         self.poll_certification();
         let table3d = req.method == Method::Table3d && req.tf.widgets().is_empty();
         let cert_key = (req.tf_revision, req.table_n_s);
-        // The certified table of this TF and resolution, when it is done.
-        let certified = match &self.certifier.done {
-            Some((k, Ok(t))) if table3d && *k == cert_key => Some(t.clone()),
-            _ => None,
+        // The certified table of this TF and resolution, when it is done,
+        // and what the frame says of its table.
+        let (certified, accuracy) = match &self.certifier.done {
+            _ if !table3d => (None, TableAccuracy::NotApplicable),
+            Some((k, Ok(t))) if *k == cert_key => {
+                let accuracy = match t.certificate() {
+                    Some(c) => {
+                        TableAccuracy::Measured { certified: c.certified, max_error: c.max_error, target: c.target }
+                    }
+                    None => TableAccuracy::Failed("the bake measured nothing".into()),
+                };
+                (Some(t.clone()), accuracy)
+            }
+            Some((k, Err(e))) if *k == cert_key => (None, TableAccuracy::Failed(e.clone())),
+            _ => (None, TableAccuracy::Certifying),
         };
         // The key says which table is drawn: plain (false) or certified.
         let key = (req.tf_revision, req.method, req.table_n_s, certified.is_some());
@@ -394,6 +405,9 @@ impl Engine {
         if rebaked {
             let prev_key = self.cpu_key;
             let t = Instant::now();
+            // Swapping in the certified table bakes nothing: the bake
+            // figures stay those of the last bake.
+            let swap = certified.is_some();
             let shader: Arc<dyn SegmentShader> = if let Some(c) = certified {
                 c
             } else if table3d {
@@ -411,8 +425,10 @@ impl Engine {
                     .map_err(|e| ViewerError::Method(format!("{}: {e}", req.method)))?
                     .into()
             };
-            bake_seconds = t.elapsed().as_secs_f64();
-            self.last_bake_seconds = bake_seconds;
+            if !swap {
+                bake_seconds = t.elapsed().as_secs_f64();
+                self.last_bake_seconds = bake_seconds;
+            }
             self.cpu.set_shader(shader);
             // A new TF re-culls; a new method, resolution or the certified
             // table alone does not.
@@ -422,20 +438,6 @@ impl Engine {
             self.cpu_key = Some(key);
         }
         self.cert_wanted = table3d.then_some(cert_key);
-        let accuracy = if !table3d {
-            TableAccuracy::NotApplicable
-        } else {
-            match &self.certifier.done {
-                Some((k, Ok(t))) if *k == cert_key => match t.certificate() {
-                    Some(c) => {
-                        TableAccuracy::Measured { certified: c.certified, max_error: c.max_error, target: c.target }
-                    }
-                    None => TableAccuracy::Failed("the bake measured nothing".into()),
-                },
-                Some((k, Err(e))) if *k == cert_key => TableAccuracy::Failed(e.clone()),
-                _ => TableAccuracy::Certifying,
-            }
-        };
         self.cpu.set_view(&req.view)?;
         let (image, st) = self.cpu.render(&|_, _| {})?;
         let rgba8 = image.to_rgba8(&req.display);

@@ -35,7 +35,8 @@
 //!   [`TfError::AutoTf`], "the scalar is constant (v): … give --tf"; the
 //!   CLIs exit 4, input data rejected, and so does the viewer);
 //! * a given normalized TF is mapped onto [v − 0.5, v + 0.5]
-//!   ([`normalized_tf_range`]), so the value sits at the TF's middle;
+//!   ([`normalized_tf_range`], [`tf_for_bundle`]), so the value sits at the
+//!   TF's middle (not onto the table domain's tiny padded range);
 //! * the programs warn with [`constant_scalar_warning`] (every TF then draws
 //!   the mesh in one colour).
 //!
@@ -363,6 +364,19 @@ pub fn normalized_tf_range(lo: f64, hi: f64) -> (f64, f64) {
     } else {
         (lo - 0.5, lo + 0.5)
     }
+}
+
+/// `tf` in `bundle`'s scalar units: a normalized TF mapped onto
+/// [`normalized_tf_range`] of the bundle's scalar range (its
+/// `meta.stats`), any other TF as it is. What `tetlut` and `tetview` do
+/// with a normalized TF and a bundle (the viewer's `TfModel` the same).
+pub fn tf_for_bundle(tf: &TransferFunction, bundle: &Bundle) -> Result<TransferFunction, TfError> {
+    if !tf.normalized() {
+        return Ok(tf.clone());
+    }
+    let st = &bundle.meta.stats;
+    let (lo, hi) = normalized_tf_range(st.scalar_min, st.scalar_max);
+    tf.denormalize(lo, hi)
 }
 
 /// The warning every program prints for a bundle whose scalar is constant

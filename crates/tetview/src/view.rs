@@ -15,9 +15,10 @@ use tet_viewer::ViewerError;
 pub struct ViewArgs {
     /// The bundle (.tetb) written by `tetprep convert`.
     pub bundle: PathBuf,
-    /// Transfer function JSON (formats/tf.md); a normalized TF is mapped onto
-    /// the bundle's scalar range. Default: the bundle's automatic TF (the
-    /// one `tetview render` builds without --tf).
+    /// Transfer function: JSON (formats/tf.md) or a ParaView preset (its
+    /// first); a normalized TF is mapped onto the bundle's scalar range.
+    /// Default: the bundle's automatic TF (the one `tetview render` builds
+    /// without --tf; none for a constant scalar: exit 4, as render).
     #[arg(long)]
     pub tf: Option<PathBuf>,
     /// Colour map of the automatic TF (without --tf), or the colours that
@@ -85,6 +86,9 @@ fn viewer_kind(e: &ViewerError) -> ExitKind {
         ViewerError::Bundle(e) => classify(e).unwrap_or(ExitKind::Internal),
         ViewerError::Render(e) => classify(e).unwrap_or(ExitKind::Internal),
         ViewerError::Tf(e) => classify(e).unwrap_or(ExitKind::Usage),
+        // A bundle whose data spans no table domain: rejected data (4), as
+        // `render`'s TableError::Domain.
+        ViewerError::Table(e) => classify(e).unwrap_or(ExitKind::Rejected),
         // The method cannot be baked for this TF (as `render`'s make_shader).
         ViewerError::Method(_) => ExitKind::Bake,
         // Options that cannot go together.

@@ -140,6 +140,18 @@ mod tests {
     }
 
     #[test]
+    fn the_shared_fixture_files_load_or_fail_as_the_clis_expect() {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tf");
+        let preset = load_tf(&data.join("preset_cool_to_warm.json")).unwrap();
+        assert!(preset.normalized() && preset.color_nodes().len() == 3 && preset.opacity_nodes().len() == 2);
+        assert_eq!((preset.color_nodes()[1].x, preset.opacity_nodes()[1].a), (0.5, 2.0));
+        let e = load_tf(&data.join("bad_syntax.json")).unwrap_err();
+        assert!(e.to_string().contains("at line 3 column 22"), "{e}");
+        let e = load_tf(&data.join("bad_unsorted.json")).unwrap_err();
+        assert!(matches!(e.contents(), TfError::Unsorted { list: "opacity", index: 1, .. }), "{e}");
+    }
+
+    #[test]
     fn a_missing_file_is_the_read_variant_naming_the_path_last() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("absent.json");

@@ -137,6 +137,17 @@ mod tests {
     }
 
     #[test]
+    fn a_bundle_without_a_table_domain_is_rejected_data_as_in_render() {
+        let e = ViewerError::Table(tet_preint::TableError::Domain { what: "no scalar span".into() });
+        assert_eq!(viewer_kind(&e), ExitKind::Rejected);
+        // What `render` gets for the same failure (tet_cli's classify).
+        let same = tet_preint::TableError::Domain { what: "no scalar span".into() };
+        assert_eq!(classify(&same), Some(ExitKind::Rejected));
+        let read = tet_preint::load_tf(std::path::Path::new("/nonexistent/tf.json")).unwrap_err();
+        assert_eq!(viewer_kind(&ViewerError::Tf(read)), ExitKind::Input);
+    }
+
+    #[test]
     fn window_size_and_method_use_the_shared_parsers_and_kinds() {
         let opts = options(&parse(&["b.tetb", "--window", "800x600"]).unwrap()).unwrap();
         assert_eq!(opts.window_size, [800.0, 600.0]);

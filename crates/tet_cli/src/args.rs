@@ -1,5 +1,5 @@
-//! clap `value_parser`s shared by the programs: `WxH` sizes and `LO,HI`
-//! ranges. Each returns a message naming what it got and what it expects.
+//! clap `value_parser`s shared by the programs: `WxH` sizes, `LO,HI`
+//! ranges and `R,G,B` colours. Each returns a message naming what it got and what it expects.
 
 use tet_render::camera::MAX_IMAGE_SIDE;
 
@@ -49,6 +49,19 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
     Ok((lo, hi))
 }
 
+/// A colour `R,G,B`: three finite numbers ≥ 0 (linear, not limited to 1;
+/// spaces around each are allowed), e.g. a `--background`.
+pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
+    let expected = || format!("{s:?}: expected R,G,B, three non-negative numbers, e.g. 0,0,0");
+    let v: Vec<f32> =
+        s.split(',').map(|x| x.trim().parse::<f32>().map_err(|_| expected())).collect::<Result<_, _>>()?;
+    match v[..] {
+        [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
+        [_, _, _] => Err(format!("{s:?}: each of R,G,B must be finite and ≥ 0")),
+        _ => Err(expected()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -81,5 +94,17 @@ mod tests {
         }
         assert!(parse_range("2,1").unwrap_err().contains("below"));
         assert!(parse_range("0,inf").unwrap_err().contains("finite"));
+    }
+
+    #[test]
+    fn colours_need_three_finite_non_negative_numbers() {
+        assert_eq!(parse_rgb("0,0,0"), Ok([0.0, 0.0, 0.0]));
+        assert_eq!(parse_rgb(" 1, 0.5 ,2 "), Ok([1.0, 0.5, 2.0]));
+        for bad in ["", "1,2", "1,2,3,4", "a,b,c", "1,,2", "1;2;3", "-1,0,0", "0,inf,0", "NaN,0,0"] {
+            let e = parse_rgb(bad).unwrap_err();
+            assert!(e.starts_with(&format!("{bad:?}: ")), "{bad:?}: {e}");
+        }
+        assert!(parse_rgb("-1,0,0").unwrap_err().contains("≥ 0"));
+        assert!(parse_rgb("1,2").unwrap_err().contains("expected R,G,B"));
     }
 }

@@ -236,9 +236,11 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
     }
     if let Some(e) = cause.downcast_ref::<tet_preint::TfError>() {
         return Some(match e {
-            // The automatic TF cannot be built from this bundle's data.
-            tet_preint::TfError::AutoTf(_) => Rejected,
-            _ => Usage,
+            // `tet_preint::load_tf` could not read the file.
+            tet_preint::TfError::Read { .. } => Input,
+            // A file's contents: as the reason they are rejected.
+            tet_preint::TfError::File { .. } => tf_kind(e.contents()),
+            e => tf_kind(e),
         });
     }
     if cause.downcast_ref::<tet_preint::UnknownMethod>().is_some() {
@@ -277,6 +279,17 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
         return Some(Output);
     }
     None
+}
+
+/// The kind of a transfer-function error that is not about reading a file:
+/// contents that are not a valid TF are a usage error; the automatic TF
+/// that this bundle's data cannot give is rejected data.
+fn tf_kind(e: &tet_preint::TfError) -> ExitKind {
+    match e {
+        tet_preint::TfError::AutoTf(_) => ExitKind::Rejected,
+        tet_preint::TfError::Read { .. } => ExitKind::Input,
+        _ => ExitKind::Usage,
+    }
 }
 
 /// The kind of a library's I/O failure by the action it names ("read",
@@ -385,6 +398,28 @@ mod tests {
         for (e, want) in cases {
             assert_eq!(ExitKind::of(&e), want, "{e:#}");
         }
+    }
+
+    #[test]
+    fn a_tf_file_that_cannot_be_read_is_input_and_bad_contents_are_usage() {
+        let dir = std::env::temp_dir().join(format!("tet_cli_tf_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let missing = dir.join("absent.json");
+        let e = anyhow::Error::new(tet_preint::load_tf(&missing).unwrap_err());
+        assert_eq!(ExitKind::of(&e), ExitKind::Input);
+        assert!(describe(&e).ends_with(&missing.display().to_string()), "{}", describe(&e));
+        // The io error's text is printed once.
+        assert_eq!(describe(&e).matches("No such file").count(), 1, "{}", describe(&e));
+        let bad = dir.join("bad.json");
+        std::fs::write(&bad, "{\"color\": [[0, 1, 0, 0]],").unwrap();
+        let e = anyhow::Error::new(tet_preint::load_tf(&bad).unwrap_err());
+        assert_eq!(ExitKind::of(&e), ExitKind::Usage);
+        assert!(describe(&e).contains("line 1 column"), "{}", describe(&e));
+        // Under context, and for a variant the file wrapper holds.
+        let inner =
+            tet_preint::TfError::File { source: Box::new(tet_preint::TfError::AutoTf("x".into())), path: bad.clone() };
+        assert_eq!(ExitKind::of(&anyhow::Error::new(inner).context("baking")), ExitKind::Rejected);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

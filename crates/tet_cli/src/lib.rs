@@ -11,8 +11,8 @@
 //! * [`exit_code`]: the code of an error chain — the outermost tag wins,
 //!   else the first library error in the chain is classified by its type
 //!   ([`classify`]), else 1. [`describe`] is the message the programs print.
-//! * [`parse_size`], [`parse_window_size`], [`parse_range`]: clap
-//!   `value_parser`s for `WxH` and `LO,HI`.
+//! * [`parse_size`], [`parse_window_size`], [`parse_range`], [`parse_rgb`]:
+//!   clap `value_parser`s for `WxH`, `LO,HI` and `R,G,B`.
 //!
 //! This crate serves binaries only, so it speaks `anyhow` (the libraries
 //! below it return their own `thiserror` types, which [`classify`] knows).
@@ -42,5 +42,5 @@
 mod args;
 mod exit;
 
-pub use args::{parse_range, parse_size, parse_window_size, WINDOW_SIDE};
+pub use args::{parse_range, parse_rgb, parse_size, parse_window_size, WINDOW_SIDE};
 pub use exit::{classify, describe, exit_code, fail, usage, ExitKind, KindExt, Tagged, EXIT_CODES_HELP};

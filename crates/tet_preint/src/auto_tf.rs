@@ -26,6 +26,20 @@
 //! histogram alone decides (rare values opaque). [`AutoTf::source`] says
 //! which, so a CLI can warn. A constant scalar is an error.
 //!
+//! # A constant scalar: the one policy
+//!
+//! Every program and the viewer treat a bundle whose scalar has one value
+//! everywhere the same way, through the functions here:
+//!
+//! * the automatic TF cannot be built ([`auto_tf`] and [`choose_tf`] return
+//!   [`TfError::AutoTf`], "the scalar is constant (v): … give --tf"; the
+//!   CLIs exit 4, input data rejected, and so does the viewer);
+//! * a given normalized TF is mapped onto [v − 0.5, v + 0.5]
+//!   ([`normalized_tf_range`], [`tf_for_bundle`]), so the value sits at the
+//!   TF's middle (not onto the table domain's tiny padded range);
+//! * the programs warn with [`constant_scalar_warning`] (every TF then draws
+//!   the mesh in one colour).
+//!
 //! ```
 //! use tet_bundle::{Bundle, BundleMeta};
 //! use tet_mesh::{build_adjacency, mesh_stats, TetMesh};
@@ -340,15 +354,50 @@ pub fn choose_tf(
     Ok((tf, auto))
 }
 
-/// The x span of a TF's colour and opacity nodes (a single point widened by 1).
-pub fn node_span(tf: &TransferFunction) -> (f64, f64) {
-    let xs = tf.color_nodes().iter().map(|c| c.x).chain(tf.opacity_nodes().iter().map(|o| o.x));
-    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
-    if lo < hi {
+/// The scalar range a normalized TF's [0, 1] is mapped onto for data over
+/// [lo, hi] (a bundle's scalar range): [lo, hi] itself, or for a constant
+/// scalar (hi ≤ lo) [lo − 0.5, lo + 0.5]. See the module docs' constant
+/// scalar policy; the caller checks that lo and hi are finite.
+pub fn normalized_tf_range(lo: f64, hi: f64) -> (f64, f64) {
+    if hi > lo {
         (lo, hi)
     } else {
         (lo - 0.5, lo + 0.5)
     }
+}
+
+/// `tf` in `bundle`'s scalar units: a normalized TF mapped onto
+/// [`normalized_tf_range`] of the bundle's scalar range (its
+/// `meta.stats`), any other TF as it is. What `tetlut` and `tetview` do
+/// with a normalized TF and a bundle (the viewer's `TfModel` the same).
+pub fn tf_for_bundle(tf: &TransferFunction, bundle: &Bundle) -> Result<TransferFunction, TfError> {
+    if !tf.normalized() {
+        return Ok(tf.clone());
+    }
+    let st = &bundle.meta.stats;
+    let (lo, hi) = normalized_tf_range(st.scalar_min, st.scalar_max);
+    tf.denormalize(lo, hi)
+}
+
+/// The warning every program prints for a bundle whose scalar is constant
+/// (`None` otherwise): every transfer function then draws the mesh in one
+/// colour.
+pub fn constant_scalar_warning(bundle: &Bundle) -> Option<String> {
+    let st = &bundle.meta.stats;
+    (st.scalar_min == st.scalar_max).then(|| {
+        format!(
+            "the scalar '{}' is constant ({}) over the mesh, so the image has one colour; \
+             convert the input again with another --scalar",
+            bundle.mesh.scalar_name, st.scalar_min
+        )
+    })
+}
+
+/// The x span of a TF's colour and opacity nodes (a single point widened by 1).
+pub fn node_span(tf: &TransferFunction) -> (f64, f64) {
+    let xs = tf.color_nodes().iter().map(|c| c.x).chain(tf.opacity_nodes().iter().map(|o| o.x));
+    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+    normalized_tf_range(lo, hi)
 }
 
 #[cfg(test)]

@@ -12,6 +12,10 @@
 //!   implements for the renderers ([`ExactShader`], [`PtLinearShader`], tables).
 //! * [`PolyTable`] (module [`poly`]): `poly1`/`poly2`/`poly4`, Guthe et al.'s (2002)
 //!   mean-extinction table, 16-bit α table and chromaticity polynomial in l.
+//! * [`load_tf`] (module [`load`]): the one reader of transfer-function
+//!   files every program and the viewer use — tetkit JSON or a ParaView
+//!   preset, errors naming the file ([`TfError::Read`] when it cannot be
+//!   read, [`TfError::File`] when its contents are not a TF).
 //! * [`auto_tf`] (module [`auto_tf`]): a TF built from a bundle's scalar ×
 //!   |∇s| histogram (Kindlmann and Durkin, 1998), coloured by a named
 //!   [`Colormap`] (module [`colormap`]: viridis, inferno, magma, plasma,
@@ -81,6 +85,7 @@ pub mod domain;
 pub mod error;
 pub mod exact;
 pub mod factory;
+pub mod load;
 pub mod lut_file;
 pub mod method;
 pub mod partial;
@@ -98,7 +103,10 @@ pub mod tf;
 pub mod widget;
 
 pub use atlas2d::{Atlas2d, Atlas2dParams};
-pub use auto_tf::{auto_tf, choose_tf, AutoTf, AutoTfOptions, BoundarySource};
+pub use auto_tf::{
+    auto_tf, choose_tf, constant_scalar_warning, normalized_tf_range, tf_for_bundle, AutoTf, AutoTfOptions,
+    BoundarySource,
+};
 pub use biv_tables::{BandKind, BandTable, GaussErfTable};
 pub use bivariate::{BivApprox, BivExact, BivTables, FbTable};
 pub use certify::{Certificate, CertifiedTable3d, CertifyOptions};
@@ -107,6 +115,7 @@ pub use domain::{ScalarQuantiles, TableDomain, TableError, QUANTILES};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
 pub use factory::{make_shader, tf_for_domain, Baked};
+pub use load::{load_tf, load_tf_with, parse_tf, LoadOptions};
 pub use lut_file::{
     bake, load_shader, BakeOptions, FbFileParams, LutError, LutFile, LutHeader, PolyFileParams, SectionInfo,
 };
@@ -156,4 +165,66 @@ pub enum TfError {
     AutoTf(String),
     #[error("ParaView preset: {0}")]
     Preset(String),
+    /// A transfer-function file that cannot be read (missing, unreadable):
+    /// the CLIs' "input unreadable" (exit 3). Written by [`load_tf`].
+    #[error("cannot read transfer function: {source}: {}", path.display())]
+    Read {
+        #[source]
+        source: IoFailure,
+        path: std::path::PathBuf,
+    },
+    /// A transfer-function file that was read but whose contents are not a
+    /// transfer function: `source` says why (for JSON syntax, with line and
+    /// column). Written by [`load_tf`]; classified as `source` is.
+    #[error("{source}: {}", path.display())]
+    File {
+        #[source]
+        source: Box<TfError>,
+        path: std::path::PathBuf,
+    },
+}
+
+impl TfError {
+    /// The error about the contents themselves: `source` of
+    /// [`TfError::File`] (innermost), else `self`.
+    pub fn contents(&self) -> &TfError {
+        match self {
+            TfError::File { source, .. } => source.contents(),
+            e => e,
+        }
+    }
+}
+
+/// The `std::io::Error` of [`TfError::Read`], shared so that [`TfError`]
+/// stays `Clone`; two are equal when their kind and text are.
+#[derive(Debug, Clone)]
+pub struct IoFailure(pub std::sync::Arc<std::io::Error>);
+
+impl IoFailure {
+    pub fn new(e: std::io::Error) -> IoFailure {
+        IoFailure(std::sync::Arc::new(e))
+    }
+
+    /// The error as the operating system gave it.
+    pub fn io(&self) -> &std::io::Error {
+        &self.0
+    }
+}
+
+impl PartialEq for IoFailure {
+    fn eq(&self, other: &IoFailure) -> bool {
+        self.0.kind() == other.0.kind() && self.0.to_string() == other.0.to_string()
+    }
+}
+
+impl std::fmt::Display for IoFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for IoFailure {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
 }

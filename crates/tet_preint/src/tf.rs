@@ -242,9 +242,20 @@ impl TransferFunction {
     /// optical model needs linear pieces). The result is `normalized`: x is
     /// rescaled from the preset's own span onto [0, 1], as ParaView rescales
     /// a preset to the data range.
+    ///
+    /// To read a file, use [`crate::load_tf`], which takes either format.
     pub fn from_paraview_json(text: &str, name: Option<&str>, unit_distance: f64) -> Result<Self, TfError> {
         let v: serde_json::Value = serde_json::from_str(text).map_err(|e| TfError::Json(e.to_string()))?;
-        let presets: Vec<&serde_json::Value> = match &v {
+        Self::from_paraview_value(&v, name, unit_distance)
+    }
+
+    /// [`Self::from_paraview_json`] of parsed JSON.
+    pub(crate) fn from_paraview_value(
+        v: &serde_json::Value,
+        name: Option<&str>,
+        unit_distance: f64,
+    ) -> Result<Self, TfError> {
+        let presets: Vec<&serde_json::Value> = match v {
             serde_json::Value::Array(a) => a.iter().collect(),
             o @ serde_json::Value::Object(_) => vec![o],
             _ => return Err(TfError::Preset("expected a preset object or a list of them".into())),

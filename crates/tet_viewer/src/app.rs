@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use tet_analysis::{Axis, Histograms, Scale};
 use tet_bundle::Bundle;
 use tet_preint::widget::{MAX_FREQUENCY, UNBOUNDED};
-use tet_preint::{Method, Shape, TransferFunction};
+use tet_preint::{LoadOptions, Method, Shape};
 use tet_render::{Display, ToneMap, ViewSpec};
 
 type Reply = (u64, Result<Frame, String>);
@@ -31,23 +31,15 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
     let engine = Engine::new(&bundle, !opts.cpu_only)?;
     let scalar_range = engine.scene().scalar_range();
     let (lo, hi) = engine.scene().bounds();
-    let model = match &opts.tf {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| ViewerError::Io { source: e, path: p.clone() })?;
-            let (tf, _) = tet_preint::choose_tf(Some(TransferFunction::from_json(&text)?), None, opts.colormap, 1.0)?;
-            TfModel::new(&tf, scalar_range)?
-        }
-        // The automatic TF `tetview render` uses without --tf (tet_preint's
-        // auto_tf, one implementation for both); a constant scalar has none
-        // and opens on a ramp of opacity 1 (optical depth ~2 through the mesh).
-        None => match tet_preint::auto_tf(
-            &bundle,
-            &tet_preint::AutoTfOptions { colormap: opts.colormap.unwrap_or_default(), ..Default::default() },
-        ) {
-            Ok(auto) => TfModel::new(&auto.tf, scalar_range)?,
-            Err(_) => TfModel::ramp(scalar_range, 0.5 * diagonal(lo, hi)),
-        },
-    };
+    // The TF `tetview render` would use: tet_preint's one loader for `tf`
+    // (tetkit JSON or a ParaView preset, unit distance 1 as in the CLIs),
+    // else the automatic TF, both through `choose_tf`. A constant scalar
+    // has no automatic TF: the same error as `render` (exit 4), by the one
+    // constant-scalar policy (tet_preint's auto_tf module docs).
+    let given = opts.tf.as_deref().map(tet_preint::load_tf).transpose()?;
+    let (tf, _) = tet_preint::choose_tf(given, Some(&bundle), opts.colormap, 1.0)?;
+    let model = TfModel::new(&tf, scalar_range)?;
+    let constant_warning = tet_preint::constant_scalar_warning(&bundle);
     let home = match &opts.view {
         Some(p) => {
             let text = std::fs::read_to_string(p).map_err(|e| ViewerError::Io { source: e, path: p.clone() })?;
@@ -108,6 +100,9 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
                 result,
             );
             app.histograms = histograms;
+            if let Some(w) = constant_warning {
+                app.status = format!("warning: {w}");
+            }
             Ok(Box::new(app))
         }),
     )
@@ -126,15 +121,6 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
         }
     }
     Ok(())
-}
-
-fn diagonal(lo: [f64; 3], hi: [f64; 3]) -> f64 {
-    let d = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
-    if d > 0.0 && d.is_finite() {
-        d
-    } else {
-        1.0
-    }
 }
 
 /// Renders the newest request, replies, and wakes the UI.
@@ -687,9 +673,11 @@ impl ViewerApp {
         };
     }
 
+    /// "Load TF": tet_preint's one loader (tetkit JSON, or a ParaView
+    /// preset imported with the current TF's unit distance).
     fn load_tf(&mut self, path: &Path) -> Result<(), String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let tf = TransferFunction::from_json(&text).map_err(|e| e.to_string())?;
+        let opts = LoadOptions { preset_name: None, preset_unit_distance: self.model.unit_distance() };
+        let tf = tet_preint::load_tf_with(path, &opts).map_err(|e| e.to_string())?;
         self.model.replace(&tf, self.scalar_range).map_err(|e| e.to_string())?;
         self.editor.selected_color = None;
         self.widgets.selected = None;
@@ -697,11 +685,12 @@ impl ViewerApp {
         Ok(())
     }
 
+    /// "Import preset": the same loader, picking the preset by its name
+    /// (the first without one), with the current TF's unit distance.
     fn import_preset(&mut self) -> Result<(), String> {
-        let text = std::fs::read_to_string(&self.preset_path).map_err(|e| format!("{}: {e}", self.preset_path))?;
         let name = Some(self.preset_name.trim()).filter(|n| !n.is_empty());
-        let tf =
-            TransferFunction::from_paraview_json(&text, name, self.model.unit_distance()).map_err(|e| e.to_string())?;
+        let opts = LoadOptions { preset_name: name, preset_unit_distance: self.model.unit_distance() };
+        let tf = tet_preint::load_tf_with(Path::new(&self.preset_path), &opts).map_err(|e| e.to_string())?;
         self.model.replace(&tf, self.scalar_range).map_err(|e| e.to_string())?;
         self.editor.selected_color = None;
         Ok(())

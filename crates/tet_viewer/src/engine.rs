@@ -211,7 +211,7 @@ impl Engine {
     /// [`Engine::gpu_note`] says why).
     pub fn new(bundle: &Bundle, try_gpu: bool) -> Result<Engine, ViewerError> {
         let scene = Scene::from_bundle(bundle)?;
-        let domain = TableDomain::from_bundle(bundle).map_err(|e| ViewerError::Input(e.to_string()))?;
+        let domain = TableDomain::from_bundle(bundle)?;
         let (gpu, gpu_note) = if try_gpu {
             match open_gpu(bundle) {
                 Ok(g) => {

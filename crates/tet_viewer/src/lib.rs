@@ -54,6 +54,10 @@ pub enum ViewerError {
     Gpu(#[from] tet_gpu::GpuError),
     #[error(transparent)]
     Tf(#[from] tet_preint::TfError),
+    /// The bundle's data spans no table domain (no scalar span, no cell
+    /// size): rejected data, as in `tetview render`.
+    #[error(transparent)]
+    Table(#[from] tet_preint::TableError),
     /// The method cannot be baked for this TF (e.g. 2D widgets on a 1D method).
     #[error("method {0}")]
     Method(String),
@@ -73,8 +77,10 @@ pub enum ViewerError {
 #[derive(Debug, Clone)]
 pub struct ViewerOptions {
     pub bundle: PathBuf,
-    /// Transfer function JSON (a normalized one is mapped onto the bundle's
-    /// scalar range); a ramp when `None`.
+    /// Transfer function file, read by `tet_preint::load_tf` (tetkit JSON or
+    /// a ParaView preset; a normalized one is mapped onto the bundle's
+    /// scalar range); the bundle's automatic TF when `None` (an error for a
+    /// constant scalar, as in `tetview render`).
     pub tf: Option<PathBuf>,
     /// Colour map of the automatic TF (without `tf`), or the colours that
     /// replace those of `tf` over its nodes' span (tet_preint's `choose_tf`,

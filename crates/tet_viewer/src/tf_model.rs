@@ -134,9 +134,8 @@ impl TfModel {
         if !(lo.is_finite() && hi.is_finite()) {
             (lo, hi) = (0.0, 1.0);
         }
-        if hi <= lo {
-            (lo, hi) = (lo - 0.5, lo + 0.5);
-        }
+        // The one constant-scalar policy (as tetlut's and tetview's).
+        (lo, hi) = tet_preint::normalized_tf_range(lo, hi);
         let tf = if tf.normalized() { tf.denormalize(lo, hi)? } else { tf.clone() };
         let xs = tf.color_nodes().iter().map(|c| c.x).chain(tf.opacity_nodes().iter().map(|o| o.x));
         for x in xs {

@@ -7,7 +7,10 @@ use anyhow::{Context, Result};
 use serde_json::json;
 use tet_preint::{Baked, Colormap, Method, RECONSTRUCTION_GAP};
 
-use crate::common::{describe_res, human_bytes, parse_method, read_bundle, read_tf, DomainArgs, TableArgs};
+use crate::common::{
+    describe_res, human_bytes, parse_method, read_bundle, read_tf, tf_in_data_units, warn_if_constant_scalar,
+    DomainArgs, TableArgs,
+};
 use tet_cli::{usage, ExitKind, KindExt};
 
 fn parse_colormap(s: &str) -> std::result::Result<Colormap, String> {
@@ -62,7 +65,10 @@ pub fn run(args: &BakeArgs) -> Result<()> {
     let opts = args.table.options(args.method)?;
     let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
     let (domain, bundle) = args.domain.resolve(&tf, tabulated)?;
-    let tf = tet_preint::tf_for_domain(&tf, &domain).kind(ExitKind::Bake)?;
+    if let Some(b) = &bundle {
+        warn_if_constant_scalar(b);
+    }
+    let tf = tf_in_data_units(&tf, &domain, bundle.as_ref())?;
     if let Some(p) = &args.save_tf {
         std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }

@@ -23,7 +23,7 @@ use tet_preint::{
     TransferFunction, RECONSTRUCTION_GAP,
 };
 
-use crate::common::{describe_res, human_bytes, read_bundle, read_tf};
+use crate::common::{describe_res, human_bytes, read_bundle, read_tf, tf_in_data_units, warn_if_constant_scalar};
 use tet_cli::{fail, usage, ExitKind, KindExt};
 
 #[derive(Debug, clap::Args)]
@@ -218,7 +218,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.full_domain {
         domain = TableDomain::full(domain.s_lo, domain.s_hi, domain.len_max_world).kind(ExitKind::Bake)?;
     }
-    let tf = tet_preint::tf_for_domain(&tf, &domain).kind(ExitKind::Bake)?;
+    warn_if_constant_scalar(&bundle);
+    let tf = tf_in_data_units(&tf, &domain, Some(&bundle))?;
     let tf1 = tf.without_widgets();
     if args.paper {
         print!("{}", crate::paper::run(&tf1, &domain, args.quick));

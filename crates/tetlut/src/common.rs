@@ -69,19 +69,36 @@ pub fn parse_precision(s: &str) -> std::result::Result<Precision, String> {
     s.parse::<Precision>()
 }
 
-/// Reads a TF: formats/tf.md JSON, or a ParaView colour-map preset (a file
-/// with "RGBPoints"; imported normalized with unit distance 1). A file that
-/// cannot be read is an input error; contents that are not a valid TF are a
-/// usage error (the same as `tetview`'s `--tf`).
+/// Reads a TF with the loader every tetkit program uses
+/// (`tet_preint::load_tf`: formats/tf.md JSON, or a ParaView preset imported
+/// normalized with unit distance 1). Its errors classify themselves: a file
+/// that cannot be read is an input error (3), contents that are not a valid
+/// TF a usage error (2), the same as `tetview`'s `--tf`.
 pub fn read_tf(path: &Path) -> Result<TransferFunction> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display())).kind(ExitKind::Input)?;
-    match TransferFunction::from_json(&text) {
-        Ok(tf) => Ok(tf),
-        Err(e) if text.contains("\"RGBPoints\"") => TransferFunction::from_paraview_json(&text, None, 1.0)
-            .with_context(|| format!("in {} (read as a ParaView preset; as tetkit JSON: {e})", path.display()))
-            .kind(ExitKind::Usage),
-        Err(e) => Err(e).with_context(|| format!("in {}", path.display())).kind(ExitKind::Usage),
+    Ok(tet_preint::load_tf(path)?)
+}
+
+/// `tf` in data units for a table over `domain`: with a bundle, a
+/// normalized TF goes onto the bundle's scalar range by the one policy
+/// (`tet_preint::tf_for_bundle`, which a constant scalar widens to ±0.5, as
+/// `tetview` does), else onto the domain's scalar range.
+pub fn tf_in_data_units(
+    tf: &TransferFunction,
+    domain: &TableDomain,
+    bundle: Option<&tet_bundle::Bundle>,
+) -> Result<TransferFunction> {
+    let tf = match bundle {
+        Some(b) => tet_preint::tf_for_bundle(tf, b)?,
+        None => tf.clone(),
+    };
+    tet_preint::tf_for_domain(&tf, domain).kind(ExitKind::Bake)
+}
+
+/// Prints the constant-scalar warning (`tet_preint::constant_scalar_warning`,
+/// the same text `tetview` prints) for `bundle`.
+pub fn warn_if_constant_scalar(bundle: &tet_bundle::Bundle) {
+    if let Some(w) = tet_preint::constant_scalar_warning(bundle) {
+        eprintln!("warning: {w}");
     }
 }
 

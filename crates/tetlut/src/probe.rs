@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use tet_preint::bivariate::Seg2;
 use tet_preint::{integrate_segment_with, Baked, LutFile, Method, Segment};
 
-use crate::common::{parse_method, read_tf, DomainArgs, TableArgs};
+use crate::common::{parse_method, read_tf, tf_in_data_units, DomainArgs, TableArgs};
 use tet_cli::{fail, usage, ExitKind, KindExt};
 
 /// Reads segments "Sf Sb l [gf gb]", one per line (whitespace-separated;
@@ -44,7 +44,8 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
             let tf = read_tf(tf_path)?;
             let opts = args.table.options(args.method)?;
             let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
-            let (domain, _) = args.domain.resolve(&tf, tabulated)?;
+            let (domain, bundle) = args.domain.resolve(&tf, tabulated)?;
+            let tf = tf_in_data_units(&tf, &domain, bundle.as_ref())?;
             Baked::build(args.method, &tf, &domain, &opts)
                 .with_context(|| format!("cannot bake {}", args.method))
                 .kind(ExitKind::Bake)?

@@ -380,3 +380,66 @@ fn exit_codes_are_the_shared_ones() {
     let help = String::from_utf8_lossy(&tetlut(&["--help"], "").stdout).into_owned();
     assert!(help.contains("Exit codes") && help.contains("6  the method cannot bake"), "{help}");
 }
+
+const TF_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../tet_preint/tests/data/tf");
+
+/// The first stderr line for each TF file of `tet_preint/tests/data/tf`
+/// (and a missing one), without the program's name, and its exit code.
+/// crates/tetview/tests/cli.rs checks `tetview render` against the same
+/// table: one loader (`tet_preint::load_tf`), one message, one code.
+fn tf_failures() -> Vec<(String, i32, String)> {
+    let p = |name: &str| format!("{TF_DATA}/{name}");
+    vec![
+        (
+            p("bad_unsorted.json"),
+            2,
+            format!(
+                "opacity[1]: x = 0.2 is below the previous control point's 0.5 (points must increase): {}",
+                p("bad_unsorted.json")
+            ),
+        ),
+        (
+            p("bad_syntax.json"),
+            2,
+            format!("transfer function JSON: expected `,` or `]` at line 3 column 22: {}", p("bad_syntax.json")),
+        ),
+        (
+            p("absent.json"),
+            3,
+            format!(
+                "cannot read transfer function: {}: {}",
+                std::fs::read(p("absent.json")).unwrap_err(),
+                p("absent.json")
+            ),
+        ),
+    ]
+}
+
+#[test]
+fn tf_files_fail_as_in_tetview_and_a_paraview_preset_bakes() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("x.tetl").to_string_lossy().into_owned();
+    let bundle = sample("cube5.tetb");
+    let bake = |tf: &str, extra: &[&str]| {
+        let args = [&["bake", "--bundle", &bundle, "--tf", tf, "--method", "poly1", "--res", "8", "-o", &o][..], extra];
+        tetlut(&args.concat(), "")
+    };
+    for (tf, code, line) in tf_failures() {
+        let out = bake(&tf, &[]);
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(code), "{tf}: {err}");
+        assert_eq!(err.lines().next(), Some(format!("tetlut: {line}").as_str()), "{tf}");
+    }
+    // A ParaView preset: imported normalized, mapped onto the bundle's
+    // scalar range as tetview maps it (tet_preint::tf_for_bundle).
+    let preset = format!("{TF_DATA}/preset_cool_to_warm.json");
+    let saved = dir.path().join("saved.json");
+    ok(&bake(&preset, &["--save-tf", &saved.to_string_lossy()]));
+    let want = tet_preint::tf_for_bundle(
+        &tet_preint::load_tf(Path::new(&preset)).unwrap(),
+        &tet_bundle::Bundle::read(Path::new(&bundle)).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(tet_preint::load_tf(&saved).unwrap(), want);
+    assert!(!want.normalized() && want.color_nodes().len() == 3);
+}

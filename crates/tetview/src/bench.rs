@@ -38,7 +38,7 @@ pub struct BenchArgs {
     /// Bundles (.tetb) to measure, each with its own table.
     #[arg(required = true)]
     pub bundles: Vec<PathBuf>,
-    /// Transfer function JSON (formats/tf.md); a normalized one is mapped onto
+    /// Transfer function (formats/tf.md JSON or a ParaView preset); a normalized one is mapped onto
     /// each bundle's scalar range.
     #[arg(long)]
     pub tf: PathBuf,
@@ -221,12 +221,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.renderers.is_empty() {
         return Err(usage("--renderers: name at least one of walk, pt"));
     }
-    let tf_text = std::fs::read_to_string(&args.tf)
-        .with_context(|| format!("reading {}", args.tf.display()))
-        .kind(ExitKind::Input)?;
-    let tf_file = TransferFunction::from_json(&tf_text)
-        .with_context(|| format!("in {}", args.tf.display()))
-        .kind(ExitKind::Usage)?;
+    // The bytes key the cache; the TF comes from the one loader.
+    let tf_text = std::fs::read(&args.tf)
+        .map_err(|e| tet_preint::TfError::Read { source: tet_preint::IoFailure::new(e), path: args.tf.clone() })?;
+    let tf_file = tet_preint::load_tf(&args.tf)?;
     let has_widgets = !tf_file.widgets().is_empty();
     let (methods, notes) = select_methods(&args.methods, has_widgets)?;
     let cache = cache_dir(args);
@@ -242,13 +240,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             .kind(ExitKind::Input)?;
         let bundle = Bundle::read(bundle_path)?;
         let name = bundle_path.file_stem().map_or("bundle".into(), |s| s.to_string_lossy().into_owned());
-        let stats = &bundle.meta.stats;
-        let mut tf = tf_file.without_widgets();
-        if tf.normalized() {
-            let (lo, hi) = (stats.scalar_min, stats.scalar_max);
-            let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
-            tf = tf.denormalize(lo, hi)?;
-        }
+        let tf = tet_preint::tf_for_bundle(&tf_file.without_widgets(), &bundle)?;
         let domain = TableDomain::from_bundle(&bundle)?;
         let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", bundle_path.display()))?;
         let (lo, hi) = scene.bounds();
@@ -256,7 +248,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let base = ViewSpec::default_for(lo, hi, args.size, z_up, None)?;
         let views: Vec<ViewSpec> =
             (0..args.views).map(|i| base.orbit(360.0 * f64::from(i) / f64::from(args.views), 0.0, 1.0)).collect();
-        let key = fnv1a(tf_text.as_bytes(), fnv1a(&bundle_bytes, FNV_OFFSET));
+        let key = fnv1a(&tf_text, fnv1a(&bundle_bytes, FNV_OFFSET));
         drop(bundle_bytes);
 
         let mut references = vec![];

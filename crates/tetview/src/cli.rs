@@ -57,14 +57,10 @@ pub const VIEW_UP_HELP: &str = "View-up X,Y,Z (world) of the default view, which
     and data flat in z (z extent under a fifth of the x and y extents), else +y, seen from +z";
 
 /// Warns on stderr when the bundle's scalar has one value everywhere: every
-/// transfer function then draws the mesh in one colour.
+/// transfer function then draws the mesh in one colour. The text is
+/// tet_preint's `constant_scalar_warning`, the one tetlut prints too.
 pub fn warn_if_constant_scalar(bundle: &tet_bundle::Bundle) {
-    let st = &bundle.meta.stats;
-    if st.scalar_min == st.scalar_max {
-        eprintln!(
-            "warning: the scalar '{}' is constant ({}) over the mesh, so the image has one colour; \
-             convert the input again with another --scalar",
-            bundle.mesh.scalar_name, st.scalar_min
-        );
+    if let Some(w) = tet_preint::constant_scalar_warning(bundle) {
+        eprintln!("warning: {w}");
     }
 }

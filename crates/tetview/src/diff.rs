@@ -35,24 +35,12 @@ pub struct DiffArgs {
     #[arg(long)]
     pub scale: Option<f32>,
     /// Background under the volume for the 8-bit comparison, linear R,G,B.
-    #[arg(long, value_parser = parse_rgb, default_value = "0,0,0")]
+    #[arg(long, value_parser = tet_cli::parse_rgb, default_value = "0,0,0")]
     pub background: [f32; 3],
     /// Display operator for the 8-bit comparison: none (linear, clamped) or
     /// reinhard (fitted to A, applied to both, then sRGB).
     #[arg(long, default_value = "reinhard", value_parser = ["none", "reinhard"])]
     pub tonemap: String,
-}
-
-pub fn parse_rgb(s: &str) -> std::result::Result<[f32; 3], String> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f32>())
-        .collect::<std::result::Result<_, _>>()
-        .map_err(|e| format!("{s}: {e}"))?;
-    match v.as_slice() {
-        &[r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok([r, g, b]),
-        _ => Err(format!("{s}: expected three non-negative numbers R,G,B")),
-    }
 }
 
 /// An input image: float (from `.npy`) or 8-bit RGBA (from `.png`).

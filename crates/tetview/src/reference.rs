@@ -15,7 +15,7 @@ use tet_render::{Camera, Display, ReferenceOptions, ReferenceRenderer, ToneMap, 
 pub struct ReferenceArgs {
     /// The bundle (.tetb) to render.
     pub bundle: PathBuf,
-    /// Transfer function JSON (formats/tf.md); a normalized one is mapped
+    /// Transfer function (formats/tf.md JSON or a ParaView preset); a normalized one is mapped
     /// onto the bundle's scalar range (or --range). Without it: the
     /// automatic TF of the bundle, as `tetview render` builds it.
     #[arg(long)]
@@ -51,7 +51,7 @@ pub struct ReferenceArgs {
     #[arg(long)]
     pub float: Option<PathBuf>,
     /// Background for the PNG, linear R,G,B.
-    #[arg(long, value_parser = crate::diff::parse_rgb, default_value = "0,0,0")]
+    #[arg(long, value_parser = tet_cli::parse_rgb, default_value = "0,0,0")]
     pub background: [f32; 3],
     /// PNG display: none (linear colour clamped) or reinhard.
     #[arg(long, default_value = "reinhard", value_parser = ["none", "reinhard"])]

@@ -21,8 +21,8 @@ pub enum ToneMapArg {
 pub struct RenderArgs {
     /// The bundle (.tetb) written by `tetprep convert`.
     pub bundle: PathBuf,
-    /// Transfer function JSON (formats/tf.md); a normalized TF is mapped
-    /// onto --range, or the bundle's scalar range. Without --tf and --lut:
+    /// Transfer function: formats/tf.md JSON or a ParaView preset (as
+    /// tetlut reads it); a normalized TF is mapped onto --range, or the bundle's scalar range. Without --tf and --lut:
     /// an automatic TF built from the bundle (opacity where its scalar ×
     /// |∇s| histogram shows boundaries, colours from --colormap).
     #[arg(long)]
@@ -62,7 +62,7 @@ pub struct RenderArgs {
     #[arg(long, value_parser = tet_cli::parse_size)]
     pub size: Option<[u32; 2]>,
     /// Linear background colour r,g,b under the volume.
-    #[arg(long, default_value = "0,0,0", value_parser = parse_rgb)]
+    #[arg(long, default_value = "0,0,0", value_parser = tet_cli::parse_rgb)]
     pub background: [f32; 3],
     #[arg(long, value_enum, default_value = "reinhard")]
     pub tonemap: ToneMapArg,
@@ -117,15 +117,6 @@ pub struct RenderArgs {
     /// texture the renderer samples, instead of on the CPU and uploading it.
     #[arg(long, requires = "gpu")]
     pub gpu_bake: bool,
-}
-
-fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
-    let v: Vec<f32> =
-        s.split(',').map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
-    match v[..] {
-        [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([r, g, b]),
-        _ => Err("expected three non-negative numbers r,g,b".into()),
-    }
 }
 
 /// Tables baked by this process (`make_shader` of a tabulated method, or

@@ -47,19 +47,9 @@ pub fn resolve(
     bundle: &Bundle,
     args: &TfChoiceArgs,
 ) -> Result<TransferFunction> {
-    let given = match tf_path {
-        Some(p) => {
-            let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display())).kind(ExitKind::Input)?;
-            // Contents that are not a valid TF are a usage error, as in tetlut.
-            Some(
-                TransferFunction::from_json(&text)
-                    .with_context(|| format!("in {}", p.display()))
-                    .kind(ExitKind::Usage)?,
-            )
-        }
-        None => None,
-    };
+    // tet_preint's one loader: unreadable is an input error (3), contents
+    // that are not a valid TF a usage error (2), as in tetlut.
+    let given = tf_path.map(tet_preint::load_tf).transpose()?;
     let (mut tf, auto) = choose_tf(given, Some(bundle), args.colormap, args.opacity_scale)?;
     if let Some(a) = &auto {
         if let Some(note) = a.source.note() {
@@ -72,11 +62,11 @@ pub fn resolve(
             a.color_range.1
         );
     }
-    if tf.normalized() {
-        let stats = &bundle.meta.stats;
-        let (lo, hi) = range.unwrap_or((stats.scalar_min, stats.scalar_max));
-        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo - 0.5, lo + 0.5) };
+    if let (true, Some((lo, hi))) = (tf.normalized(), range) {
         tf = tf.denormalize(lo, hi)?;
+    } else if tf.normalized() {
+        // The one constant-scalar policy (tet_preint::tf_for_bundle).
+        tf = tet_preint::tf_for_bundle(&tf, bundle)?;
     } else if range.is_some() {
         return Err(usage("--range is only for normalized transfer functions"));
     }

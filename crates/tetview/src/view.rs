@@ -15,9 +15,10 @@ use tet_viewer::ViewerError;
 pub struct ViewArgs {
     /// The bundle (.tetb) written by `tetprep convert`.
     pub bundle: PathBuf,
-    /// Transfer function JSON (formats/tf.md); a normalized TF is mapped onto
-    /// the bundle's scalar range. Default: the bundle's automatic TF (the
-    /// one `tetview render` builds without --tf).
+    /// Transfer function: JSON (formats/tf.md) or a ParaView preset (its
+    /// first); a normalized TF is mapped onto the bundle's scalar range.
+    /// Default: the bundle's automatic TF (the one `tetview render` builds
+    /// without --tf; none for a constant scalar: exit 4, as render).
     #[arg(long)]
     pub tf: Option<PathBuf>,
     /// Colour map of the automatic TF (without --tf), or the colours that
@@ -85,6 +86,9 @@ fn viewer_kind(e: &ViewerError) -> ExitKind {
         ViewerError::Bundle(e) => classify(e).unwrap_or(ExitKind::Internal),
         ViewerError::Render(e) => classify(e).unwrap_or(ExitKind::Internal),
         ViewerError::Tf(e) => classify(e).unwrap_or(ExitKind::Usage),
+        // A bundle whose data spans no table domain: rejected data (4), as
+        // `render`'s TableError::Domain.
+        ViewerError::Table(e) => classify(e).unwrap_or(ExitKind::Rejected),
         // The method cannot be baked for this TF (as `render`'s make_shader).
         ViewerError::Method(_) => ExitKind::Bake,
         // Options that cannot go together.
@@ -130,6 +134,17 @@ mod tests {
         let e = parse(&["b.tetb", "--colormap", "rainbow"]).unwrap_err();
         assert_eq!(e.kind(), clap::error::ErrorKind::ValueValidation);
         assert!(e.to_string().contains("rainbow"), "{e}");
+    }
+
+    #[test]
+    fn a_bundle_without_a_table_domain_is_rejected_data_as_in_render() {
+        let e = ViewerError::Table(tet_preint::TableError::Domain { what: "no scalar span".into() });
+        assert_eq!(viewer_kind(&e), ExitKind::Rejected);
+        // What `render` gets for the same failure (tet_cli's classify).
+        let same = tet_preint::TableError::Domain { what: "no scalar span".into() };
+        assert_eq!(classify(&same), Some(ExitKind::Rejected));
+        let read = tet_preint::load_tf(std::path::Path::new("/nonexistent/tf.json")).unwrap_err();
+        assert_eq!(viewer_kind(&ViewerError::Tf(read)), ExitKind::Input);
     }
 
     #[test]

@@ -729,3 +729,80 @@ fn exit_codes_are_the_shared_ones() {
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("Exit codes") && help.contains("7  no usable GPU adapter"), "{help}");
 }
+
+const TF_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../tet_preint/tests/data/tf");
+const SAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/samples");
+
+/// The first stderr line for each TF file of `tet_preint/tests/data/tf`
+/// (and a missing one), without the program's name, and its exit code: the
+/// same table as crates/tetlut/tests/cli.rs checks `tetlut bake` against.
+fn tf_failures() -> Vec<(String, i32, String)> {
+    let p = |name: &str| format!("{TF_DATA}/{name}");
+    vec![
+        (
+            p("bad_unsorted.json"),
+            2,
+            format!(
+                "opacity[1]: x = 0.2 is below the previous control point's 0.5 (points must increase): {}",
+                p("bad_unsorted.json")
+            ),
+        ),
+        (
+            p("bad_syntax.json"),
+            2,
+            format!("transfer function JSON: expected `,` or `]` at line 3 column 22: {}", p("bad_syntax.json")),
+        ),
+        (
+            p("absent.json"),
+            3,
+            format!(
+                "cannot read transfer function: {}: {}",
+                std::fs::read(p("absent.json")).unwrap_err(),
+                p("absent.json")
+            ),
+        ),
+    ]
+}
+
+#[test]
+fn tf_files_fail_as_in_tetlut_and_a_paraview_preset_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("a.png");
+    let bundle = format!("{SAMPLES}/cube5.tetb");
+    let render = |tf: &str, extra: &[&str]| {
+        let args = [
+            &["render", &bundle, "--tf", tf, "--method", "pt-linear", "--size", "16x16", "-o", png.to_str().unwrap()][..],
+            extra,
+        ];
+        tetview(&args.concat())
+    };
+    for (tf, code, line) in tf_failures() {
+        let out = render(&tf, &[]);
+        assert_eq!(out.status.code(), Some(code), "{tf}: {}", stderr(&out));
+        assert_eq!(stderr(&out).lines().next(), Some(format!("tetview: {line}").as_str()), "{tf}");
+    }
+    // A ParaView preset: imported normalized, mapped onto the bundle's
+    // scalar range as tetlut maps it (tet_preint::tf_for_bundle).
+    let preset = format!("{TF_DATA}/preset_cool_to_warm.json");
+    let saved = dir.path().join("saved.json");
+    let out = render(&preset, &["--save-tf", saved.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let want = tet_preint::tf_for_bundle(
+        &tet_preint::load_tf(Path::new(&preset)).unwrap(),
+        &Bundle::read(Path::new(&bundle)).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(tet_preint::load_tf(&saved).unwrap(), want);
+}
+
+/// A bundle whose scalar is constant has no automatic TF: `render` exits 4
+/// with tet_preint's one message (the viewer the same; see tests/view.rs).
+#[test]
+fn constant_scalar_without_tf_is_rejected_with_the_one_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = bundle_with(dir.path(), "flat.tetb", |_| 0.75, "");
+    let png = dir.path().join("a.png");
+    let out = tetview(&["render", b.to_str().unwrap(), "--size", "16x16", "-o", png.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
+    assert!(stderr(&out).contains("the scalar is constant (0.75)"), "{}", stderr(&out));
+}

@@ -220,3 +220,68 @@ fn view_colormap_recolours_the_volume() {
     assert!(own > 0.2, "the file's colours: {own}");
     assert!(grey < 0.05, "--colormap grayscale: {grey} of the volume is coloured");
 }
+
+/// `tetview view` with no display: the failures before the window opens.
+fn view_without_display(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tetview"))
+        .arg("view")
+        .args(args)
+        .arg("--cpu")
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap()
+}
+
+/// The viewer reads `--tf` with the loader `render` and `tetlut` use: the
+/// same exit code and first line (the table of tests/cli.rs, in part).
+#[test]
+fn view_refuses_bad_tf_files_as_render_does() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tet_preint/tests/data/tf");
+    let bundle = samples().join("cube5.tetb");
+    let bad = data.join("bad_unsorted.json");
+    let absent = data.join("absent.json");
+    let cases = [
+        (
+            &bad,
+            2,
+            format!(
+                "opacity[1]: x = 0.2 is below the previous control point's 0.5 (points must increase): {}",
+                bad.display()
+            ),
+        ),
+        (
+            &absent,
+            3,
+            format!("cannot read transfer function: {}: {}", std::fs::read(&absent).unwrap_err(), absent.display()),
+        ),
+    ];
+    for (tf, code, line) in cases {
+        let out = view_without_display(&[bundle.to_str().unwrap(), "--tf", tf.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(code), "{err}");
+        assert_eq!(err.lines().next(), Some(format!("tetview: {line}").as_str()));
+    }
+}
+
+/// A constant scalar has no automatic TF, in the viewer as in `render`:
+/// exit 4 (input data rejected) with tet_preint's one message.
+#[test]
+fn view_of_a_constant_scalar_without_tf_is_rejected_as_render_is() {
+    use tet_mesh::{build_adjacency, mesh_stats, TetMesh};
+    let dir = tempfile::tempdir().unwrap();
+    let points = vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]];
+    let tets = vec![[0, 1, 2, 3]];
+    let scalar = vec![0.75; 4];
+    let stats = mesh_stats(&points, &tets, &scalar);
+    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
+    let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let path = dir.path().join("flat.tetb");
+    tet_bundle::Bundle::new(mesh, adjacency, tet_bundle::BundleMeta { stats, ..Default::default() })
+        .write(&path)
+        .unwrap();
+    let out = view_without_display(&[path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(4), "{err}");
+    assert!(err.contains("the scalar is constant (0.75)") && err.contains("give --tf"), "{err}");
+}

@@ -7,7 +7,8 @@
 //!
 //! The first frame is cold (view, cull, sort); the others reuse the order.
 //! `TET_TILE=16` sets the tile side; `TET_WALK_INTERLEAVE=K` walks K rays at
-//! once (`RasterOptions::walk_interleave`; default 1); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
+//! once (`RasterOptions::walk_interleave`; default 1); `TET_WALK_PREFETCH=0` turns the walker's
+//! prefetch of the next step's records off (`RasterOptions::walk_prefetch`); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
 //! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
 //! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
 //! turns the camera D degrees of azimuth before every frame after the
@@ -90,7 +91,8 @@ fn main() {
     let orbit: f64 = std::env::var("TET_ORBIT").ok().and_then(|d| d.parse().ok()).unwrap_or(0.0);
     let walk_interleave =
         std::env::var("TET_WALK_INTERLEAVE").ok().map(|k| k.parse().expect("TET_WALK_INTERLEAVE: rays"));
-    let mut opts = RasterOptions { fast_path, tile, walk_interleave, ..Default::default() };
+    let walk_prefetch = std::env::var("TET_WALK_PREFETCH").map_or(true, |v| v != "0");
+    let mut opts = RasterOptions { fast_path, tile, walk_interleave, walk_prefetch, ..Default::default() };
     if !keep {
         opts.setup_cache_bytes = 0;
     }
@@ -111,7 +113,7 @@ fn main() {
         }
         let cpu = process_cpu_seconds() - c0;
         println!(
-            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} exact tests, {} setups, {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
             st.renderer,
             st.total_seconds,
             st.view_seconds,
@@ -123,6 +125,9 @@ fn main() {
             st.tets_drawn,
             st.fragments,
             st.crossings,
+            st.walk_runs,
+            st.walk_front_faces,
+            st.walk_terminated,
             st.walk_exact_tests,
             st.setups,
             st.tets_per_second() / 1e6,

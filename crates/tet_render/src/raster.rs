@@ -54,6 +54,10 @@ pub struct RasterOptions {
     /// measurable even on the 20M-tet volume
     /// (`crates/tetview/results/walker.md`). The image is the same either way.
     pub walk_interleave: Option<usize>,
+    /// The walker: request the records of the tets a ray may step into
+    /// next while the current step is computed (`walk::prefetch`). Meshes
+    /// far larger than the caches gain most; the image is the same either way.
+    pub walk_prefetch: bool,
 }
 
 impl Default for RasterOptions {
@@ -65,6 +69,7 @@ impl Default for RasterOptions {
             fast_path: true,
             setup_cache_bytes: 512 << 20,
             walk_interleave: None,
+            walk_prefetch: true,
         }
     }
 }

@@ -513,10 +513,11 @@ fn culling_changes_the_walkers_image_only_by_rounding() {
 }
 
 /// Walking several rays at once (one step each in turn) gives the same bits
-/// as one at a time: outside and inside views, culling, lighting, a
-/// bivariate method, early termination.
+/// as one at a time, and so does walking without prefetching the next
+/// step's records: outside and inside views, culling, lighting, a bivariate
+/// method, early termination.
 #[test]
-fn interleaved_rays_give_the_same_image() {
+fn interleaved_rays_and_prefetch_give_the_same_image() {
     let (points, tets, scalar) = grid_mesh(5, 0.2, [0.0; 3], 13, |p| 0.2 + 0.6 * p[0] * p[1] + 0.2 * p[2]);
     let (mesh, adj) = mesh_of(points, tets, scalar);
     let bundle = Bundle::new(mesh, adj, BundleMeta::default());
@@ -531,18 +532,27 @@ fn interleaved_rays_give_the_same_image() {
         for m in [Method::Table3d, Method::Exact, Method::BivApprox] {
             let shader: Arc<dyn SegmentShader> = make_shader(m, &tf, &domain, &BakeOptions::default()).unwrap().into();
             for (shading, cull) in [(Shading::default(), false), (lit, true)] {
-                let image = |lanes: usize| {
+                let image_with = |lanes: usize, walk_prefetch: bool| {
                     let mut r = Renderer::new(scene.clone());
                     r.set_view(&view).unwrap();
                     r.set_shader(shader.clone());
-                    r.set_raster_options(RasterOptions { shading, walk_interleave: Some(lanes), ..Default::default() });
+                    r.set_raster_options(RasterOptions {
+                        shading,
+                        walk_interleave: Some(lanes),
+                        walk_prefetch,
+                        ..Default::default()
+                    });
                     if cull {
                         r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
                     }
                     r.render(&|_, _| {}).unwrap()
                 };
+                let image = |lanes: usize| image_with(lanes, true);
                 let (one, s1) = image(1);
                 assert_eq!(s1.renderer, "walk");
+                let (plain, s0) = image_with(1, false);
+                assert_eq!(one.pixels(), plain.pixels(), "{m}, no prefetch, cull {cull}");
+                assert_eq!((s1.crossings, s1.fragments, s1.walk_runs), (s0.crossings, s0.fragments, s0.walk_runs));
                 for lanes in [2, 4, 7] {
                     let (many, sn) = image(lanes);
                     assert_eq!(one.pixels(), many.pixels(), "{m}, {lanes} lanes, cull {cull}");

@@ -44,6 +44,7 @@
 
 pub mod edge;
 pub mod hom;
+mod prefetch;
 
 use crate::camera::Camera;
 use crate::image::Image;
@@ -122,19 +123,27 @@ const fn exit_edges() -> [[[usize; 2]; 4]; 4] {
     out
 }
 
+/// One tet as a step reads it: its four walk vertex ids and its four links,
+/// each packed as `neighbour · 4 + the neighbour's face that points back`.
+/// 32 bytes, aligned: a step reads one cache line, and one prefetch of a
+/// neighbour's record brings both halves.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[repr(C, align(32))]
+pub struct WalkTet {
+    pub verts: [u32; 4],
+    pub links: [u32; 4],
+}
+
 /// What the walker keeps of a scene across views: the tets renumbered along
 /// a Morton curve of their centroids and the vertices in order of first use
 /// by them (a tile's rays then touch a few hundred pages, not one page a
-/// step, on meshes far larger than the caches); every link packed as
-/// `neighbour · 4 + the neighbour's face that points back` (one 16-byte
-/// record a tet, read once per step); the boundary faces; the scalars and,
-/// when the scene has them, f32 gradients (lighting, bivariate methods) in
-/// the new vertex order.
+/// step, on meshes far larger than the caches), each tet one [`WalkTet`];
+/// the boundary faces; the scalars and, when the scene has them, f32
+/// gradients (lighting, bivariate methods) in the new vertex order.
 #[derive(Debug, Clone)]
 pub struct WalkMesh {
-    /// Tets in walk order, with walk vertex ids.
-    tets: Vec<[u32; 4]>,
-    links: Vec<[u32; 4]>,
+    /// Tets in walk order: walk vertex ids and links.
+    tets: Vec<WalkTet>,
     /// `scene_tet[t]`: the scene's id of walk tet t.
     scene_tet: Vec<u32>,
     /// `scene_vertex[v]`: the scene's id of walk vertex v.
@@ -207,7 +216,8 @@ impl WalkMesh {
                 }
             }
         }
-        let tets = scene_tet.par_iter().map(|&t| stets[t as usize].map(|v| walk_of_vertex[v as usize])).collect();
+        let verts: Vec<[u32; 4]> =
+            scene_tet.par_iter().map(|&t| stets[t as usize].map(|v| walk_of_vertex[v as usize])).collect();
         // Scenes larger than the packing can address are walked as if
         // every face were a boundary: `Renderer` draws them by PT instead
         // (`WalkView::unsupported`).
@@ -232,9 +242,9 @@ impl WalkMesh {
             .flat_map(|(t, l)| (0..4).filter(move |&f| l[f] == LINK_BOUNDARY).map(move |f| (t * 4 + f) as u32))
             .collect();
         let by_vertex = |v: &[f64]| -> Vec<f32> { scene_vertex.iter().map(|&i| v[i as usize] as f32).collect() };
+        let tets = verts.into_par_iter().zip(links).map(|(verts, links)| WalkTet { verts, links }).collect();
         WalkMesh {
             tets,
-            links,
             boundary,
             broken_links,
             grads: scene.gradients().map(|g| scene_vertex.iter().map(|&i| g[i as usize].map(|c| c as f32)).collect()),
@@ -254,11 +264,12 @@ impl WalkMesh {
     /// no steps at all.
     pub fn entry_faces(&self, visible: Option<&[bool]>) -> Vec<u32> {
         let Some(vis) = visible else { return self.boundary.clone() };
-        self.links
+        self.tets
             .par_iter()
             .enumerate()
             .filter(|(t, _)| vis[*t])
-            .flat_map_iter(|(t, l)| {
+            .flat_map_iter(|(t, rec)| {
+                let l = rec.links;
                 (0..4)
                     .filter(move |&f| l[f] == LINK_BOUNDARY || (l[f] < LINK_BROKEN && !vis[(l[f] / 4) as usize]))
                     .map(move |f| (t * 4 + f) as u32)
@@ -283,8 +294,7 @@ impl WalkMesh {
 
     /// Bytes held beyond the scene.
     pub fn memory_bytes(&self) -> usize {
-        self.tets.len() * 16
-            + self.links.len() * 16
+        self.tets.len() * std::mem::size_of::<WalkTet>()
             + self.scene_tet.len() * 4
             + self.scene_vertex.len() * 4
             + self.pos_rel.len() * 24
@@ -406,7 +416,7 @@ impl WalkView {
                 .tets
                 .par_iter()
                 .enumerate()
-                .map(|(t, &tet)| (t, hom::holds_eye(&view.hom, tet)))
+                .map(|(t, rec)| (t, hom::holds_eye(&view.hom, rec.verts)))
                 .filter(|(_, h)| *h != Some(false))
                 .collect();
             if let Some((t, _)) = located.iter().find(|(_, h)| h.is_none()) {
@@ -503,14 +513,14 @@ impl WalkView {
                 let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
                 let fv = FACE_OUTWARD[f];
                 if self.near_clipped {
-                    let q = [0, 1, 2].map(|k| self.hom[tets[t][fv[k]] as usize]);
+                    let q = [0, 1, 2].map(|k| self.hom[tets[t].verts[fv[k]] as usize]);
                     if hom::face_orientation(&q[0], &q[1], &q[2]) != Some(true) {
                         return None;
                     }
                     return hom::face_rect(q, w, h)
                         .map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile]);
                 }
-                let p = [0, 1, 2].map(|k| pos.px(tets[t][fv[k]]));
+                let p = [0, 1, 2].map(|k| pos.px(tets[t].verts[fv[k]]));
                 let o = orient2d(
                     Coord { x: p[0][0], y: p[0][1] },
                     Coord { x: p[1][0], y: p[1][1] },
@@ -668,6 +678,7 @@ pub fn walk_frame(
         want_grad_mag: shader.method().is_bivariate() && mesh.grad_mag.is_some(),
         lit: opts.shading.is_active() && mesh.grads.is_some(),
         lanes: opts.walk_interleave.unwrap_or(1).clamp(1, 64),
+        prefetch: opts.walk_prefetch,
     };
     let done = AtomicUsize::new(0);
     let tiles: Vec<(Vec<[f32; 4]>, WalkStats)> = (0..n_tiles)
@@ -704,6 +715,8 @@ struct WalkCtx<'a> {
     lit: bool,
     /// Rays walked at once ([`RasterOptions::walk_interleave`]).
     lanes: usize,
+    /// Request the records of the next step's candidate tets ([`RasterOptions::walk_prefetch`]).
+    prefetch: bool,
 }
 
 /// A point on a face along one ray: depth, scalar and the barycentric
@@ -906,7 +919,7 @@ impl WalkCtx<'_> {
             let eye = view
                 .eye_tet
                 .filter(|&t| self.visible.is_none_or(|vis| vis[t as usize]))
-                .map(|t| (t, self.mesh.tets[t as usize]));
+                .map(|t| (t, self.mesh.tets[t as usize].verts));
             let g = Homogeneous { verts: &view.hom, near_depth: view.frame.near_depth as f32, eye, size };
             self.tile_with(&g, ti)
         } else {
@@ -1005,7 +1018,8 @@ impl WalkCtx<'_> {
         for &packed in faces {
             let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
             let fv = FACE_OUTWARD[f];
-            let ids = [tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]];
+            let tv = tets[t].verts;
+            let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
             let Some(r) = g.face_rect(ids) else {
                 continue;
             };
@@ -1106,7 +1120,6 @@ impl WalkCtx<'_> {
         counters: &mut EdgeCounters,
     ) -> bool {
         let tets = &self.mesh.tets[..];
-        let links = &self.mesh.links[..];
         let (fx, fy) = (ray.fx, ray.fy);
         let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
         let back_orient = -front_orient;
@@ -1119,7 +1132,8 @@ impl WalkCtx<'_> {
             st.runs += 1;
             (ray.t, ray.f_in) = ((packed / 4) as usize, (packed % 4) as usize);
             let fv = FACE_OUTWARD[ray.f_in];
-            let ids = [tets[ray.t][fv[0]], tets[ray.t][fv[1]], tets[ray.t][fv[2]]];
+            let tv = tets[ray.t].verts;
+            let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
             let l = [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
             ray.p_in = g.face_point(ids, l, front_orient);
             ray.steps = 0;
@@ -1132,7 +1146,17 @@ impl WalkCtx<'_> {
             ray.in_run = false;
             return false;
         }
-        let tet = tets[t];
+        let rec = tets[t];
+        if self.prefetch {
+            // The three neighbours the ray may step into: their records are
+            // requested while this step's edge tests run (`prefetch`).
+            for (f, &n) in rec.links.iter().enumerate() {
+                if f != f_in {
+                    prefetch::prefetch(tets, (n / 4) as usize);
+                }
+            }
+        }
+        let tet = rec.verts;
         let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
         // Branches, not a table lookup: a predicted exit lets the next
         // tet's loads start before the edge tests finish (the walk is a
@@ -1152,7 +1176,7 @@ impl WalkCtx<'_> {
             return false;
         };
         ray.crossings += 1;
-        let link = links[t][f_out & 3];
+        let link = rec.links[f_out & 3];
         // The exit face as (v, x, y), a rotation of its outward order: the
         // edge values opposite v, x and y.
         let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);

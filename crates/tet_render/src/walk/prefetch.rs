@@ -1,0 +1,30 @@
+//! A hint that the walker will soon read a tet's record: the one place in
+//! this crate with `unsafe` code.
+//!
+//! A ray's walk is a chain of dependent loads (tet → its neighbour's record
+//! → that record's new vertex), and on meshes far larger than the caches
+//! each link of the chain waits for memory. While one step's edge tests
+//! run, the records of the three neighbours the ray may step into next are
+//! requested, so the one it does step into is on its way.
+//!
+//! The portable twin (every other architecture) does nothing; a prefetch
+//! changes no value the program computes, so images are the same either
+//! way (`tests/walk.rs` compares them bit for bit).
+#![allow(unsafe_code)]
+
+/// Asks the cache hierarchy for the line holding `slice[i]`. Does nothing
+/// when `i` is out of bounds.
+#[inline(always)]
+pub fn prefetch<T>(slice: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if i < slice.len() {
+        let p = slice.as_ptr().wrapping_add(i).cast::<i8>();
+        // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 CPU has (it
+        // is in the x86-64 baseline the crate is built for). A prefetch
+        // never faults and reads nothing the program observes; `p` points
+        // into `slice` (checked above) in any case.
+        unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (slice, i);
+}

@@ -1,7 +1,8 @@
 //! Issue 17's "how we will know": `tetview render B -o x.png` with no TF,
 //! no tone-mapping or opacity flag, on Blunt Fin and on data kinds the
 //! defaults were not tuned on (curvilinear CFD, a CT-like volume, a point
-//! cloud), gives a picture with visible structure and colour. Over the
+//! cloud, and aerial lidar from a LAS file, which tetview frames z-up),
+//! gives a picture with visible structure and colour. Over the
 //! covered pixels of the PNG (α > tet_render's COVERED_ALPHA in the float
 //! image written beside it): luminance spread (p95 − p5 of luma) ≥ 0.08, at
 //! most 40% near-white pixels, median chroma ≥ 0.15. Before issue 17 the
@@ -20,13 +21,16 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// Converts `file` as `tetprep convert` does (point clouds by 3D
-/// Delaunay), with `--gradients --histogram` when `analysis`.
+/// Converts `file` as `tetprep convert` does with its defaults (point
+/// clouds by 3D Delaunay, recorded in the bundle's `split` and `delaunay`
+/// as tetprep records them, which is what makes tetview frame them z-up),
+/// with `--gradients --histogram` when `analysis`.
 fn bundle(file: &str, q: Option<&str>, scalar: Option<&str>, analysis: bool) -> Bundle {
     let opts = tet_io::ReadOptions { q_path: q.map(|q| root().join(q)), ..Default::default() };
     let mut source = tet_io::read_file(&root().join(file), &opts).unwrap();
+    let mut meta = BundleMeta::default();
     if source.num_cells() == 0 {
-        tet_delaunay::triangulate_cloud(
+        let cloud = tet_delaunay::triangulate_cloud(
             &mut source,
             tet_delaunay::CloudMode::Delaunay,
             &tet_delaunay::DelaunayOptions::default(),
@@ -34,12 +38,14 @@ fn bundle(file: &str, q: Option<&str>, scalar: Option<&str>, analysis: bool) -> 
             false,
         )
         .unwrap();
+        meta.split = "delaunay".into();
+        meta.delaunay = cloud.fills_convex_hull;
     }
     let copts = tet_mesh::ConvertOptions { scalar: scalar.map(String::from), ..Default::default() };
     let (mesh, _) = tet_mesh::tetrahedralize(&source, &copts, &mut |_| {}).unwrap();
     let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets).unwrap();
     let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
-    let b = Bundle::with_stats(mesh, adjacency, BundleMeta::default(), stats);
+    let b = Bundle::with_stats(mesh, adjacency, meta, stats);
     if !analysis {
         return b;
     }
@@ -87,7 +93,7 @@ fn default_render_shows_structure_and_colour_on_four_kinds_of_data() {
     let dir = tempfile::tempdir().unwrap();
     // (name, file, PLOT3D Q file, scalar, stored analysis)
     type Case = (&'static str, &'static str, Option<&'static str>, Option<&'static str>, bool);
-    let cases: [Case; 4] = [
+    let cases: [Case; 5] = [
         (
             "bluntfin",
             "tests/data/plot3d/bluntfinxyz.bin",
@@ -98,16 +104,31 @@ fn default_render_shows_structure_and_colour_on_four_kinds_of_data() {
         ("combustor", "tests/data/plot3d/combxyz.bin", Some("tests/data/plot3d/combq.bin"), Some("density"), false),
         ("iron16", "tests/data/volume/iron16_raw.nrrd", None, None, false),
         ("stars", "tests/data/points/stars_lum_ci.ply", None, Some("lum"), false),
+        // Aerial lidar (LAS) with tetprep's default scalar: terrain seen
+        // from above the horizon with +z up, not from the top.
+        ("autzen", "tests/data/points/autzen_trim.las", None, None, false),
     ];
     for (name, file, q, scalar, analysis) in cases {
         let b = bundle(file, q, scalar, analysis);
         let path = dir.path().join(format!("{name}.tetb"));
         b.write(&path).unwrap();
-        let (m, stderr) = render_metrics(dir.path(), name, &path, &[]);
+        let view = dir.path().join(format!("{name}_view.json"));
+        let (m, stderr) = render_metrics(dir.path(), name, &path, &["--save-view", view.to_str().unwrap()]);
         assert!(stderr.contains("automatic transfer function"), "{name}: {stderr}");
         // Without a stored histogram the CLI says it computed one.
         assert_eq!(stderr.contains("no histogram section"), !analysis, "{name}: {stderr}");
         check(name, &m);
+        // Point clouds get the z-up default view (+z up on screen, looking
+        // down on them from above the horizon); the rest VTK's +y up.
+        let view = tet_render::ViewSpec::from_json(&std::fs::read_to_string(&view).unwrap()).unwrap();
+        let from_cloud = file.starts_with("tests/data/points/");
+        assert_eq!(tet_render::camera::bundle_is_z_up(&b.meta), from_cloud, "{name}");
+        if from_cloud {
+            let forward_z = view.focal_point[2] - view.position[2];
+            assert!(view.view_up[2] > 0.8 && forward_z < 0.0, "{name}: not a z-up view: {view:?}");
+        } else {
+            assert_eq!(view.view_up, tet_render::camera::Y_UP, "{name}");
+        }
     }
 }
 

@@ -193,3 +193,65 @@ fn exposure_light_colormap_and_saved_tf() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("viridis"));
 }
+
+/// Decoded 8-bit RGBA of a PNG that tetview wrote.
+fn png_rgba8(path: &Path) -> Vec<u8> {
+    let file = std::fs::File::open(path).unwrap();
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    reader.next_frame(&mut buf).unwrap();
+    buf
+}
+
+/// A thin TF on Blunt Fin, end to end: red emission everywhere, opacity
+/// only over the densest scalar range (density ≥ 2, the shock's
+/// stagnation region in front of the fin), at an optical depth that gives
+/// mid-opacity pixels. Through the CLI's Reinhard tone mapping that region
+/// is red in the PNG (red well above green and blue, green and blue equal
+/// as in the TF colour, never near-white), at the default exposure and at
+/// a high one.
+#[test]
+fn thin_tf_keeps_bluntfins_densest_region_red() {
+    let dir = tempfile::tempdir().unwrap();
+    let b =
+        bundle("tests/data/plot3d/bluntfinxyz.bin", Some("tests/data/plot3d/bluntfinq.bin"), Some("density"), false);
+    let (lo, hi) = (b.meta.stats.scalar_min, b.meta.stats.scalar_max);
+    assert!(lo < 1.9 && hi > 4.0, "Blunt Fin's density range moved: {lo}..{hi}");
+    let path = dir.path().join("b.tetb");
+    b.write(&path).unwrap();
+    let tf = dir.path().join("red.json");
+    std::fs::write(
+        &tf,
+        r#"{"color": [[0, 0.9, 0.05, 0.05], [5, 0.9, 0.05, 0.05]],
+            "opacity": [[0, 0], [1.9, 0], [2.0, 0.2], [5, 0.2]],
+            "unit_distance": 1}"#,
+    )
+    .unwrap();
+    // The demo's orbit, closer in: the region is small in the default framing.
+    let view = ["--tf", tf.to_str().unwrap(), "--azimuth", "35", "--elevation", "25", "--zoom", "2"];
+    for exposure in ["1", "4"] {
+        let mut extra = view.to_vec();
+        extra.extend(["--exposure", exposure]);
+        let name = format!("red{exposure}");
+        let (m, _) = render_metrics(dir.path(), &name, &path, &extra);
+        eprintln!("thin red TF, exposure {exposure}: {m}");
+        let img = Image::read_npy(&dir.path().join(format!("{name}.npy"))).unwrap();
+        let rgba = png_rgba8(&dir.path().join(format!("{name}.png")));
+        // Mid opacity: the region is neither faint nor an opaque block.
+        let max_alpha = img.pixels().iter().map(|p| p[3]).fold(0.0f32, f32::max);
+        assert!((0.3..=0.8).contains(&max_alpha), "exposure {exposure}: largest α {max_alpha}");
+        let mid: Vec<[i32; 3]> = img
+            .pixels()
+            .iter()
+            .zip(rgba.chunks_exact(4))
+            .filter(|(q, _)| q[3] >= 0.1)
+            .map(|(_, p)| [p[0], p[1], p[2]].map(i32::from))
+            .collect();
+        assert!(mid.len() > 200, "exposure {exposure}: only {} pixels of α ≥ 0.1", mid.len());
+        for &[r, g, b] in &mid {
+            assert!(r - g.max(b) >= 64 && (g - b).abs() <= 3, "exposure {exposure}: {:?} is not red", [r, g, b]);
+            assert!(g.min(b) < 200, "exposure {exposure}: {:?} is near-white", [r, g, b]);
+        }
+        assert_eq!(m.near_white, 0.0, "exposure {exposure}: {m}");
+    }
+}

@@ -255,3 +255,42 @@ fn thin_tf_keeps_bluntfins_densest_region_red() {
         assert_eq!(m.near_white, 0.0, "exposure {exposure}: {m}");
     }
 }
+
+/// `--light` on a bundle without gradients says so on stderr (they are
+/// computed now, for the shading normals) and still lights the picture
+/// visibly: the mean change of covered luminance against the unlit render
+/// is as large as `exposure_light_colormap_and_saved_tf` asks of a bundle
+/// with stored gradients.
+#[test]
+fn light_without_stored_gradients_notes_it_and_shows() {
+    let dir = tempfile::tempdir().unwrap();
+    let b =
+        bundle("tests/data/plot3d/bluntfinxyz.bin", Some("tests/data/plot3d/bluntfinq.bin"), Some("density"), false);
+    assert!(b.analysis.is_none());
+    let path = dir.path().join("b.tetb");
+    b.write(&path).unwrap();
+    let note = "note: the bundle has no gradients";
+    let (_, plain_err) = render_metrics(dir.path(), "plain", &path, &[]);
+    assert!(!plain_err.contains(note), "{plain_err}");
+    let (m, lit_err) = render_metrics(dir.path(), "lit", &path, &["--light"]);
+    assert!(lit_err.contains(note) && lit_err.contains("computed now"), "{lit_err}");
+    check("bluntfin without gradients, --light", &m);
+    let covered: Vec<bool> = Image::read_npy(&dir.path().join("plain.npy"))
+        .unwrap()
+        .pixels()
+        .iter()
+        .map(|p| p[3] > tet_render::image::COVERED_ALPHA)
+        .collect();
+    let luma = |name: &str| -> Vec<f64> {
+        png_rgba8(&dir.path().join(format!("{name}.png")))
+            .chunks_exact(4)
+            .map(|p| (0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64) / 255.0)
+            .collect()
+    };
+    let (plain, lit) = (luma("plain"), luma("lit"));
+    let n = covered.iter().filter(|&&c| c).count();
+    assert!(n > 0);
+    let change = (0..plain.len()).filter(|&i| covered[i]).map(|i| (lit[i] - plain[i]).abs()).sum::<f64>() / n as f64;
+    eprintln!("--light without stored gradients: mean |change| of covered luma {change:.3}");
+    assert!(change > 0.03, "--light barely changes the picture");
+}

@@ -1,4 +1,7 @@
-// ---- biv-exact (seed 004) per fragment, in f32 ------------------------------
+// ---- biv-exact per fragment, in f32 ----------------------------------------
+//
+// biv-exact: Song et al., "Bivariate Transfer Functions on Unstructured
+// Grids", 2009.
 //
 // Appended after fragment.wgsl (see `shader_source_fragment` in lib.rs): it
 // reads the merged 1D knots (`knot_row`, `knot_eval`) and the widget rows
@@ -16,7 +19,7 @@
 // 0 (nothing); every other piece (the 1D part alone, overlapping parts,
 // independent emission) → C = ∫ E·T l dx by panelled 8-point Gauss–Legendre
 // with T from the closed-form depths. The CPU takes the exact 1D integrator
-// for a piece the 1D part carries and seed 004's Gaussian / band tables for
+// for a piece the 1D part carries and Song et al.'s (2009) Gaussian / band tables for
 // independent-emission pieces one widget carries; the GPU integrates those by
 // quadrature too (agreement ~1e-6, tests/gpu_methods.rs).
 //

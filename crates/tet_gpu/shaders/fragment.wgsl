@@ -246,8 +246,9 @@ fn atlas_bilinear(plane: u32, s: f32, t: f32) -> vec4<f32> {
     return out;
 }
 
-// Atlas2d::lookup: (Sf, Sb, l) normalised to [0, 1], then seed 000's
-// pseudo-angle α and L∞ radius s (tet_preint::atlas2d::table_to_plane), the
+// Atlas2d::lookup: (Sf, Sb, l) normalised to [0, 1], then the pseudo-angle α
+// of Röttger & Ertl, "A Two-Step Approach for Interactive Pre-Integrated
+// Volume Rendering of Unstructured Grids", 2002, and L∞ radius s (tet_preint::atlas2d::table_to_plane), the
 // two planes nearest α blended linearly, bilinear in (s, t = Sb) in each.
 fn atlas_lookup(sf: f32, sb: f32, len: f32) -> vec4<f32> {
     let nf = clamp((sf - shp.s_lo) * shp.s_scale, 0.0, 1.0);
@@ -464,7 +465,8 @@ fn partial_shade(sf: f32, sb: f32, len: f32) -> vec4<f32> {
 // with its own code only (the renderer builds one set per method).
 override SHADE_METHOD: u32 = 1u;
 
-// ---- biv-approx (seed 004 §5): 2D widgets, the F/B table ------------------
+// ---- biv-approx: 2D widgets, the F/B table ---------------------------------
+// Song et al., "Bivariate Transfer Functions on Unstructured Grids", 2009, §5.
 
 // Widget w's rows after the TF rows: (shape parameters), (colour, ρ_w =
 // opacity / unit distance), (support s0, s1, g0, g1), (kind, bands: f_hi,

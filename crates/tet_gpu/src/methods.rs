@@ -286,7 +286,8 @@ impl GpuShader {
     /// every breakpoint, each piece's optical depth in closed form and its
     /// colour in closed form or by Gauss–Legendre panels
     /// (shaders/biv_exact.wgsl, which states its f32 limits and work caps).
-    /// Seed 004's emission-only tables are not used: those pieces go to the
+    /// The emission-only tables of Song et al., "Bivariate Transfer Functions
+    /// on Unstructured Grids", 2009, are not used: those pieces go to the
     /// quadrature too.
     pub fn biv_exact(ctx: &GpuContext, shader: &BivExact) -> Result<GpuShader, GpuError> {
         let tf = shader.transfer_function();

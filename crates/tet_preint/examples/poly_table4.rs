@@ -1,4 +1,5 @@
-//! Seed 003's Table 4 on this machine: bake time of the 512² `poly1`,
+//! Table 4 of Guthe et al., "High-Quality Unstructured Volume Rendering on
+//! the PC Platform", 2002, on this machine: bake time of the 512² `poly1`,
 //! `poly2`, `poly4` tables, and their error against `exact` over uniform
 //! random (Sf, Sb, l) triples.
 //!

@@ -67,7 +67,9 @@ pub struct Atlas2dParams {
 }
 
 impl Atlas2dParams {
-    /// Seed 000's choices for an N-sample table: `factor` 4 (exact), 1 or ½
+    /// The choices of Röttger & Ertl, "A Two-Step Approach for Interactive
+    /// Pre-Integrated Volume Rendering of Unstructured Grids", 2002, for an
+    /// N-sample table: `factor` 4 (exact), 1 or ½
     /// (given as quarters: 16, 4, 2), `res` = N.
     pub fn for_table(table: &Table3d, planes_per_n_quarters: usize, precision: Precision) -> Atlas2dParams {
         let n = table.params().n_s;

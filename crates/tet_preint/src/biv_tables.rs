@@ -1,4 +1,5 @@
-//! Seed 004's pre-integrated Gaussian ([`GaussErfTable`]) and triangle- and
+//! The pre-integrated tables of Song et al., "Bivariate Transfer Functions
+//! on Unstructured Grids", 2009: Gaussian ([`GaussErfTable`]) and triangle- and
 //! sine-wave ([`BandTable`]) tables for the emission-only model
 //! (`"emission": "independent"`), used by `biv-exact`. The band tables are
 //! built the same way as the Gaussian one described here.
@@ -251,7 +252,7 @@ pub fn band_window_quadrature(kind: BandKind, p: f64, a: f64, b: f64, panels: us
     gl8_panels(a, b, panels, |x| (-p * kind.depth_between(a, x)).exp())
 }
 
-/// Seed 004's triangle- and sine-wave tables for the emission-only model,
+/// Song et al.'s (2009) triangle- and sine-wave tables for the emission-only model,
 /// built like [`GaussErfTable`]: on a piece carried by one band widget the
 /// depth from the piece's entry is P·(M(φ) − M(φ₀)) with
 /// P = (opacity/unit)·l/|dφ/dx|, and the colour needs

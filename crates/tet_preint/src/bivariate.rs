@@ -250,7 +250,8 @@ pub struct BivExact {
     tables: BivTables,
 }
 
-/// Seed 004's tables `biv-exact` may use under the emission-only model;
+/// The tables of Song et al., "Bivariate Transfer Functions on Unstructured
+/// Grids", 2009, that `biv-exact` may use under the emission-only model;
 /// each `None` sends its pieces to the quadrature.
 #[derive(Debug, Clone, Default)]
 pub struct BivTables {
@@ -601,7 +602,7 @@ fn adaptive(tf: &TransferFunction, seg: &Seg2, a: f64, b: f64, tol: f64, level: 
     (std::array::from_fn(|k| cl[k] + tl * cr[k]), dl + dr)
 }
 
-/// Seed 004's approximated-mode tables. For a sub-segment with colour κ and
+/// Song et al.'s (2009) approximated-mode tables. For a sub-segment with colour κ and
 /// extinction ρ linear between its ends, C = κ_f·F + κ_b·B (density) and
 /// C = β·(κ_f·F + κ_b·B) (independent, β = d·(1 − e^(−D))/D, D = (a_f + a_b)/2).
 /// F and B depend on the optical depths a_f = ρ_f·d, a_b = ρ_b·d only, so

@@ -262,8 +262,9 @@ impl Baked {
             Baked::Partial(s) => s.psi().memory_bytes(),
             Baked::Poly(t, p) => (t.rho().len() + t.coef().len()) * p.bytes() + 2 * t.alpha_table().data().len(),
             Baked::BivApprox(s, p) => (s.table().f().len() + s.table().b().len()) * p.bytes(),
-            // Seed 004's erf and band tables (none unless the emission is
-            // independent and the TF has the matching widgets).
+            // The erf and band tables of Song et al., "Bivariate Transfer
+            // Functions on Unstructured Grids", 2009 (none unless the emission
+            // is independent and the TF has the matching widgets).
             Baked::BivExact(s) => s.tables().memory_bytes(),
             Baked::Exact(_) | Baked::PtLinear(_) => 0,
         }

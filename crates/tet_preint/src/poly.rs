@@ -13,7 +13,10 @@
 //! The weight w depends on the emission model. Density (κ·ρ, the paper's):
 //! w = α, and the l → 0 limit is Ĉ₀ = ∫κρ ds / ∫ρ ds over [Sf, Sb] (the mean
 //! colour ∫κ ds / (Sb − Sf) where ∫ρ = 0, so the colour stays defined where
-//! α = 0). Independent (κ alone, seeds 000/004): C/α is unbounded where ρ = 0
+//! α = 0). Independent (κ alone, as in Röttger & Ertl, "A Two-Step Approach
+//! for Interactive Pre-Integrated Volume Rendering of Unstructured Grids",
+//! 2002, and Song et al., "Bivariate Transfer Functions on Unstructured
+//! Grids", 2009): C/α is unbounded where ρ = 0
 //! (C = κ·l while α = 0), so w = β = ∫₀ˡ exp(−ρ̂ t) dt = l·(1 − e^(−x))/x with
 //! x = l·ρ̂ instead; then Ĉ₀ is the plain mean of κ over [Sf, Sb].
 //!

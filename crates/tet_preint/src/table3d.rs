@@ -75,7 +75,9 @@ pub enum Build3d {
     /// every slice l at once (module docs). Independent emission: the slice
     /// recurrence with oversampling 2.
     Adaptive { tolerance: f32 },
-    /// Seed 000's frame-buffer integration: `steps` samples per segment, sums
+    /// The frame-buffer integration of Röttger & Ertl, "A Two-Step Approach
+    /// for Interactive Pre-Integrated Volume Rendering of Unstructured
+    /// Grids", 2002: `steps` samples per segment, sums
     /// rounded to `accumulation` after each step.
     Blend { steps: u32, accumulation: Accumulation },
     /// Composite a short front piece over the previous slice (O(N³)).

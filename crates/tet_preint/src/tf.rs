@@ -475,7 +475,8 @@ impl TransferFunction {
         })
     }
 
-    /// Seed 004's frequency limit: a banded widget's closed forms assume at
+    /// The frequency limit of Song et al., "Bivariate Transfer Functions on
+    /// Unstructured Grids", 2009: a banded widget's closed forms assume at
     /// most one peak per cell, which holds when its period 1/f exceeds the
     /// largest per-cell scalar range `max_cell_ds`. Returns (widget index,
     /// frequency, largest allowed frequency 1/max_cell_ds) for each widget

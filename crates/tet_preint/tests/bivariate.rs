@@ -293,7 +293,8 @@ proptest! {
     }
 }
 
-/// Seed 004's Gaussian table (emission-only model): the window integral
+/// The Gaussian table of Song et al., "Bivariate Transfer Functions on
+/// Unstructured Grids", 2009 (emission-only model): the window integral
 /// against 400-panel Gauss–Legendre over fixed-seed random (P, u₀, u₁),
 /// and `biv-exact` using it against the adaptive reference. Measured
 /// maxima (default 192 × 769 table): window 1.7e-7 relative to max(W, 1),
@@ -336,7 +337,7 @@ fn gauss_erf_table_matches_quadrature_and_reference() {
     assert!(e_with < 3e-7 && e_without < 1e-12, "{e_with:e} {e_without:e}");
 }
 
-/// Seed 004's triangle- and sine-wave tables (emission-only model), default
+/// Song et al.'s (2009) triangle- and sine-wave tables (emission-only model), default
 /// sizes (columns from the frequency-limit rule at ε = 1%): the window
 /// integral against 600-panel Gauss–Legendre over fixed-seed random
 /// (P, φ₀, φ₁), and `biv-exact` using them against the adaptive reference

@@ -153,8 +153,10 @@ impl TfModel {
         })
     }
 
-    /// A grey ramp with a linear opacity ramp over `scalar_range` (the
-    /// viewer's TF when none is given); `unit_distance` sets the scale of opacity.
+    /// A fixed blue-to-orange colour ramp with a linear opacity ramp over
+    /// `scalar_range`, for tests and examples (the viewer opens on
+    /// tet_preint's `choose_tf`: the given TF or the bundle's automatic
+    /// one); `unit_distance` sets the scale of opacity.
     pub fn ramp(scalar_range: [f64; 2], unit_distance: f64) -> TfModel {
         let u = if unit_distance > 0.0 && unit_distance.is_finite() { unit_distance } else { 1.0 };
         let tf = TransferFunction::new(

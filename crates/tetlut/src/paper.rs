@@ -1,15 +1,15 @@
 //! `tetlut bench --paper`: the papers' tables reproduced on this machine,
 //! as markdown.
 //!
-//! * Seed 000, Table 1: error of the slice-parallel "hardware" integration
+//! * Röttger & Ertl 2002, Table 1: error of the slice-parallel "hardware" integration
 //!   (`Build3d::Blend`) against the exact table, by integration steps and
 //!   accumulation bits (8, 12, 16, 32), at the grid nodes of a full
 //!   64 × 64 × 32 table.
-//! * Seed 000, Table 2: per-entry integration (f64 exact per entry, the
+//! * Röttger & Ertl 2002, Table 2: per-entry integration (f64 exact per entry, the
 //!   "software" build) against slice-parallel builds (blend with n_s/2 steps
 //!   as in the paper, our slice recurrence, VTK-style incremental) at
 //!   64×64×32, 128×128×64 and 256×256×128.
-//! * Seed 003, Table 4: 512² poly1/2/4 tables, bake time and error against
+//! * Guthe et al. 2002, Table 4: 512² poly1/2/4 tables, bake time and error against
 //!   exact over uniform random triples.
 
 use std::fmt::Write;
@@ -81,7 +81,7 @@ pub fn run(tf: &TransferFunction, domain: &TableDomain, quick: bool) -> String {
     let exact = build(tf, &d, n_s, n_l, Build3d::Exact);
     let _ = writeln!(
         out,
-        "**Seed 000, Table 1** — slice-parallel integration (`Build3d::Blend`) against the exact table at the \
+        "**Röttger & Ertl 2002, Table 1** — slice-parallel integration (`Build3d::Blend`) against the exact table at the \
          nodes of a {n_s}×{n_s}×{n_l} table: RMS / max absolute error of premultiplied (C, α), in % of 1, \
          by integration steps and accumulation precision (the paper: 12 bits, 32 steps: 0.13 % / 14 %; \
          8 bits, 32 steps: 1.1 % / 18.5 %).\n"
@@ -115,7 +115,7 @@ pub fn run(tf: &TransferFunction, domain: &TableDomain, quick: bool) -> String {
     let sizes: &[(usize, usize)] = if quick { &[(32, 16)] } else { &[(64, 32), (128, 64), (256, 128)] };
     let _ = writeln!(
         out,
-        "**Seed 000, Table 2** — per-entry integration (f64 exact per entry, the paper's \"software\") against \
+        "**Röttger & Ertl 2002, Table 2** — per-entry integration (f64 exact per entry, the paper's \"software\") against \
          slice-parallel builds; speedup over per-entry, max |error| against the per-entry table (the paper, \
          SGI Octane: 128×128×64 in 216 s software, 2.9 s hardware, speedup 76).\n"
     );
@@ -156,7 +156,7 @@ pub fn run(tf: &TransferFunction, domain: &TableDomain, quick: bool) -> String {
         .collect();
     let _ = writeln!(
         out,
-        "\n**Seed 003, Table 4** — {res}² poly tables (full square): bake time (best of 5) and error against \
+        "\n**Guthe et al. 2002, Table 4** — {res}² poly tables (full square): bake time (best of 5) and error against \
          exact over {n} uniform triples (the paper, Pentium 4 2 GHz: 4.4 / 6.6 / 11.0 s in software, \
          0.6 / 1.0 / 1.7 s on a Radeon 8500).\n"
     );

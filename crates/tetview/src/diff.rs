@@ -31,7 +31,9 @@ pub struct DiffArgs {
     /// Print a JSON object instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Difference shown as white in the `-o` image (default: the largest one).
+    /// Difference at the top of the `-o` image's colour bar (viridis'
+    /// brightest colour; larger ones are clamped to it). Default: the
+    /// largest difference.
     #[arg(long)]
     pub scale: Option<f32>,
     /// Background under the volume for the 8-bit comparison, linear R,G,B.

@@ -120,7 +120,7 @@ fn check_2d_precision(method: Method, p: Precision) -> Result<(), TableError> {
 /// `pt-linear`, `biv-exact`) hold that at f32::MAX; a table would store
 /// infinity, so the bake is refused, naming both factors.
 fn check_f32_colour(method: Method, tf: &TransferFunction, domain: &TableDomain) -> Result<(), TableError> {
-    if matches!(method, Method::Exact | Method::PtLinear | Method::BivExact) || tf.emission() != Emission::Independent {
+    if !method.is_tabulated() || tf.emission() != Emission::Independent {
         return Ok(());
     }
     let widgets: f64 = tf.widgets().iter().map(|w| w.color.iter().fold(0.0f64, |m, &c| m.max(c))).sum();

@@ -62,6 +62,21 @@ impl Method {
     pub fn is_bivariate(self) -> bool {
         matches!(self, Method::BivExact | Method::BivApprox)
     }
+
+    /// Whether the method bakes a table: every method but the integrators
+    /// `exact`, `pt-linear` and `biv-exact`, which evaluate the TF for each
+    /// segment (their `.tetl` holds the TF and no table section).
+    pub fn is_tabulated(self) -> bool {
+        !matches!(self, Method::Exact | Method::PtLinear | Method::BivExact)
+    }
+
+    /// Whether projected tetrahedra shade one segment per tet, the thickest
+    /// (`pt-linear`: Shirley & Tuchman, "A polygonal approximation to direct
+    /// scalar volume rendering", 1990, colour interpolated across the
+    /// projection) rather than one per fragment.
+    pub fn shades_per_tet(self) -> bool {
+        self == Method::PtLinear
+    }
 }
 
 impl fmt::Display for Method {

@@ -24,7 +24,7 @@ use crate::scene::Scene;
 use crate::shading::Shading;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use tet_preint::{Method, Rgba32, Segment, SegmentBatch, SegmentShader, BATCH};
+use tet_preint::{Rgba32, Segment, SegmentBatch, SegmentShader, BATCH};
 
 /// Rasterizer settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -139,10 +139,10 @@ pub fn rasterize(
         view,
         want_grad_mag: shader.method().is_bivariate(),
         want_normals: opts.shading.is_active(),
-        want_thick: shader.method() == Method::PtLinear,
-        want_span: shader.method() != Method::PtLinear,
+        want_thick: shader.method().shades_per_tet(),
+        want_span: !shader.method().shades_per_tet(),
     };
-    let pt_linear = shader.method() == Method::PtLinear;
+    let pt_linear = shader.method().shades_per_tet();
     let fragments = AtomicU64::new(0);
     let setups = AtomicU64::new(0);
     let terminated = AtomicUsize::new(0);
@@ -302,7 +302,7 @@ impl Part {
 /// Whether [`rasterize`] takes the fast path for these options and shader
 /// (per-fragment methods without lighting, images up to 32768 wide).
 pub fn fast_path_applies(view: &ViewGeometry, shader: &dyn SegmentShader, opts: &RasterOptions) -> bool {
-    opts.fast_path && !opts.shading.is_active() && shader.method() != Method::PtLinear && view.frame.width <= 1 << 15
+    opts.fast_path && !opts.shading.is_active() && !shader.method().shades_per_tet() && view.frame.width <= 1 << 15
 }
 
 /// [`rasterize`] with a cache of the fast path's setup: `order` is the

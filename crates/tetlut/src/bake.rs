@@ -63,7 +63,7 @@ pub fn run(args: &BakeArgs) -> Result<()> {
         eprintln!("warning: {note}");
     }
     let opts = args.table.options(args.method)?;
-    let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
+    let tabulated = args.method.is_tabulated();
     let (domain, bundle) = args.domain.resolve(&tf, tabulated)?;
     if let Some(b) = &bundle {
         warn_if_constant_scalar(b);

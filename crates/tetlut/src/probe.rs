@@ -43,7 +43,7 @@ pub fn run(args: &ProbeArgs) -> Result<()> {
         (None, Some(tf_path)) => {
             let tf = read_tf(tf_path)?;
             let opts = args.table.options(args.method)?;
-            let tabulated = !matches!(args.method, Method::Exact | Method::PtLinear | Method::BivExact);
+            let tabulated = args.method.is_tabulated();
             let (domain, bundle) = args.domain.resolve(&tf, tabulated)?;
             let tf = tf_in_data_units(&tf, &domain, bundle.as_ref())?;
             Baked::build(args.method, &tf, &domain, &opts)

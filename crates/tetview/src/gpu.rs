@@ -104,13 +104,13 @@ pub fn render(
             let baked = match lut {
                 Some((lut, path)) => Baked::from_lut(lut, path)?,
                 None => {
-                    if method != Method::PtLinear {
+                    if method.is_tabulated() {
                         crate::render::count_table_bake();
                     }
                     Baked::build(method, tf, &TableDomain::from_bundle(bundle)?, &BakeOptions::default())?
                 }
             };
-            if method != Method::PtLinear {
+            if method.is_tabulated() {
                 bake_seconds = tb.elapsed().as_secs_f64();
             }
             GpuShader::from_baked(&ctx, &baked).map_err(unsupported)?
@@ -164,7 +164,7 @@ pub fn render(
             "cull_setup_seconds": cull_setup_seconds,
             "sort_seconds": sort_seconds,
             "table_bake_seconds": bake_seconds,
-            "table_bake_device": if method == Method::PtLinear { "none" } else if args.gpu_bake { "gpu" } else { "cpu" },
+            "table_bake_device": if !method.is_tabulated() { "none" } else if args.gpu_bake { "gpu" } else { "cpu" },
             "table_bake_setup_seconds": bake_setup_seconds,
             "tables_baked": crate::render::tables_baked(),
             "setup_seconds": setup_seconds,

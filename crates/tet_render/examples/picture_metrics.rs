@@ -25,7 +25,7 @@ fn rgba8(path: &Path) -> Result<(Vec<u8>, u32, u32), String> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.is_empty() || args.len() % 2 != 0 {
+    if args.is_empty() || !args.len().is_multiple_of(2) {
         eprintln!("usage: picture_metrics PICTURE.png FLOAT.npy [PICTURE.png FLOAT.npy …]");
         std::process::exit(2);
     }

@@ -5,6 +5,7 @@ use clap::Parser;
 use std::process::ExitCode;
 
 mod bench;
+mod camera_args;
 mod cli;
 mod diff;
 mod gpu;

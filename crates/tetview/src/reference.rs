@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_render::{Camera, Display, ReferenceOptions, ReferenceRenderer, ToneMap, ViewSpec};
+use tet_render::{Camera, ReferenceOptions, ReferenceRenderer};
 
 #[derive(Debug, Clone, Args)]
 pub struct ReferenceArgs {
@@ -25,40 +25,16 @@ pub struct ReferenceArgs {
     /// Scalar range LO,HI for a normalized transfer function.
     #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
-    /// Camera JSON (VTK semantics); without it the bounds are framed.
-    #[arg(long)]
-    pub view: Option<PathBuf>,
-    /// Image size WxH (default: the view's, else 512x512).
-    #[arg(long, value_parser = tet_cli::parse_size)]
-    pub size: Option<[u32; 2]>,
-    /// Orbit the camera: degrees about view-up, then elevation, then zoom.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub azimuth: f64,
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub elevation: f64,
-    #[arg(long, default_value_t = 1.0)]
-    pub zoom: f64,
-    #[arg(long, value_parser = crate::cli::parse_view_up, allow_hyphen_values = true,
-          conflicts_with = "view", help = crate::cli::VIEW_UP_HELP)]
-    pub view_up: Option<[f64; 3]>,
-    /// Parallel projection (with the framing's parallel scale unless --view sets one).
-    #[arg(long)]
-    pub parallel: bool,
+    #[command(flatten)]
+    pub camera: crate::camera_args::CameraArgs,
     /// PNG output (8-bit sRGB after tone mapping, over --background).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Float output: NumPy .npy, float32 H×W×4 linear premultiplied RGBA, row 0 at the top.
     #[arg(long)]
     pub float: Option<PathBuf>,
-    /// Background for the PNG, linear R,G,B.
-    #[arg(long, value_parser = tet_cli::parse_rgb, default_value = "0,0,0")]
-    pub background: [f32; 3],
-    /// PNG display: none (linear colour clamped) or reinhard.
-    #[arg(long, default_value = "reinhard", value_parser = ["none", "reinhard"])]
-    pub tonemap: String,
-    /// Reinhard exposure.
-    #[arg(long, default_value_t = 1.0)]
-    pub exposure: f32,
+    #[command(flatten)]
+    pub display: crate::camera_args::DisplayArgs,
     /// Integrate every ray to its end (default: stop at α ≥ 1 − 1e-9).
     #[arg(long)]
     pub no_early_termination: bool,
@@ -79,25 +55,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     crate::cli::warn_if_constant_scalar(&bundle);
     let tf = crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?;
 
-    let mut spec = match &args.view {
-        Some(p) => {
-            let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display())).kind(ExitKind::Input)?;
-            ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?
-        }
-        None => {
-            let (lo, hi) = bounds(&mesh.points);
-            let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
-            ViewSpec::default_for(lo, hi, [512, 512], z_up, args.view_up)?
-        }
-    };
-    if let Some(size) = args.size {
-        spec.size = size;
-    }
-    if args.parallel {
-        spec.parallel = true;
-    }
-    spec = spec.orbit(args.azimuth, args.elevation, args.zoom);
+    let spec = args.camera.resolve(bounds(&mesh.points), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
     let camera = Camera::new(&spec)?;
     if let Some(p) = &args.save_view {
         std::fs::write(p, spec.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
@@ -121,11 +79,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
         image.write_npy(p)?;
     }
     if let Some(p) = &args.output {
-        let tonemap = match args.tonemap.as_str() {
-            "none" => ToneMap::None,
-            _ => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
-        };
-        image.write_png(p, &Display { background: args.background, tonemap })?;
+        image.write_png(p, &args.display.display())?;
     }
     let seg_per_s = stats.segments as f64 / render_s.max(1e-9);
     // writeln! rather than println!: a closed pipe is an error, not a panic.

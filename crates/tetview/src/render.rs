@@ -8,13 +8,7 @@ use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_preint::{load_shader, BakeOptions, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
-use tet_render::{Display, Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller, ToneMap, ViewSpec};
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ToneMapArg {
-    None,
-    Reinhard,
-}
+use tet_render::{Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller};
 
 /// Render BUNDLE with a transfer function and method (or a baked table).
 #[derive(Debug, clap::Args)]
@@ -43,32 +37,10 @@ pub struct RenderArgs {
     /// Scalar range LO,HI for a normalized transfer function.
     #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
-    /// View JSON (VTK camera fields; see `--save-view`).
-    #[arg(long, conflicts_with_all = ["azimuth", "elevation", "zoom", "view_up"])]
-    pub view: Option<PathBuf>,
-    /// Degrees about the view-up, from the default view that frames the bounds.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub azimuth: f64,
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub elevation: f64,
-    #[arg(long, default_value_t = 1.0)]
-    pub zoom: f64,
-    #[arg(long, value_parser = crate::cli::parse_view_up, allow_hyphen_values = true, help = crate::cli::VIEW_UP_HELP)]
-    pub view_up: Option<[f64; 3]>,
-    /// Parallel projection for the default view.
-    #[arg(long)]
-    pub parallel: bool,
-    /// Image size WxH (default 512x512, or the view file's).
-    #[arg(long, value_parser = tet_cli::parse_size)]
-    pub size: Option<[u32; 2]>,
-    /// Linear background colour r,g,b under the volume.
-    #[arg(long, default_value = "0,0,0", value_parser = tet_cli::parse_rgb)]
-    pub background: [f32; 3],
-    #[arg(long, value_enum, default_value = "reinhard")]
-    pub tonemap: ToneMapArg,
-    /// Exposure multiplier for Reinhard tone mapping.
-    #[arg(long, default_value_t = 1.0)]
-    pub exposure: f32,
+    #[command(flatten)]
+    pub camera: crate::camera_args::CameraArgs,
+    #[command(flatten)]
+    pub display: crate::camera_args::DisplayArgs,
     /// CPU algorithm: walk (face-adjacency ray walking, the default; cost
     /// follows the image) or pt (projected tetrahedra in a visibility
     /// order, as on the GPU). A view whose near plane cuts the mesh is drawn
@@ -138,9 +110,7 @@ pub fn tables_baked() -> u32 {
 /// with tet_preint's default resolutions (the same as `tetlut bake`). A
 /// method that cannot bake for this TF is exit code 6, as in `tetlut bake`.
 pub fn make_shader(method: Method, tf: &TransferFunction, domain: &TableDomain) -> Result<Box<dyn SegmentShader>> {
-    // exact, pt-linear and biv-exact evaluate the TF directly; every other
-    // method bakes a table.
-    if !matches!(method, Method::Exact | Method::PtLinear | Method::BivExact) {
+    if method.is_tabulated() {
         count_table_bake();
     }
     tet_preint::make_shader(method, tf, domain, &BakeOptions::default())
@@ -189,35 +159,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.gpu {
         crate::gpu::check_args(args, method)?;
     }
-    let view = match &args.view {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("reading view {}", p.display()))
-                .kind(ExitKind::Input)?;
-            // A view file that does not parse is a malformed input.
-            let mut v =
-                ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?;
-            if let Some(s) = args.size {
-                v.size = s;
-            }
-            v
-        }
-        None => {
-            let (lo, hi) = scene.bounds();
-            let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
-            let mut v = ViewSpec::default_for(lo, hi, args.size.unwrap_or([512, 512]), z_up, args.view_up)?;
-            v.parallel = args.parallel;
-            v.orbit(args.azimuth, args.elevation, args.zoom)
-        }
-    };
-
-    let display = Display {
-        background: args.background,
-        tonemap: match args.tonemap {
-            ToneMapArg::None => ToneMap::None,
-            ToneMapArg::Reinhard => ToneMap::Reinhard { key: 0.18, exposure: args.exposure },
-        },
-    };
+    let view = args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
+    let display = args.display.display();
     if args.gpu {
         // The GPU path bakes its own table (or none): building the CPU
         // shader first would bake table3d twice.

@@ -558,6 +558,40 @@ fn view_up_flag_default_z_up_and_saved_views_round_trip() {
     assert_eq!(saved_view(Path::new(&view)).view_up, [0.0, 1.0, 0.0]);
 }
 
+/// `render` and `reference` take one set of camera and display flags
+/// (`camera_args`): the same orbit, zoom, projection and size give the same
+/// saved view; a view file with orbit or projection flags is refused by both
+/// (before, `reference` orbited the file's camera and `render` refused); the
+/// same tone-map values are accepted.
+#[test]
+fn render_and_reference_share_the_camera_and_display_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let f = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (b, t) = (b.to_str().unwrap().to_string(), t.to_str().unwrap().to_string());
+    let (png, npy, rv, vv) = (f("a.png"), f("a.npy"), f("r.json"), f("v.json"));
+    let camera = ["--azimuth", "-25", "--elevation", "30", "--zoom", "1.5", "--parallel", "--size", "40x24"];
+    let out = tetview(&[&["render", &b, "--tf", &t, "-o", &png, "--save-view", &vv][..], &camera].concat());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = tetview(&[&["reference", &b, "--tf", &t, "--float", &npy, "--save-view", &rv][..], &camera].concat());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (v, r) = (saved_view(Path::new(&vv)), saved_view(Path::new(&rv)));
+    assert_eq!(v, r);
+    assert!(v.parallel && v.size == [40, 24], "{v:?}");
+    for cmd in [["render", "-o", png.as_str()], ["reference", "--float", npy.as_str()]] {
+        for bad in [
+            &["--view", vv.as_str(), "--azimuth", "10"][..],
+            &["--view", vv.as_str(), "--parallel"],
+            &["--tonemap", "filmic"],
+        ] {
+            let out = tetview(&[&[cmd[0], &b, "--tf", &t, cmd[1], cmd[2]][..], bad].concat());
+            assert_eq!(out.status.code(), Some(2), "{} {bad:?}: {}", cmd[0], stderr(&out));
+        }
+        let out = tetview(&[cmd[0], &b, "--tf", &t, cmd[1], cmd[2], "--view", &vv, "--tonemap", "none"]);
+        assert!(out.status.success(), "{}: {}", cmd[0], stderr(&out));
+    }
+}
+
 /// A bundle whose scalar is constant renders, with a warning naming the value.
 #[test]
 fn constant_scalar_warns_with_its_value() {

@@ -1,5 +1,6 @@
 //! clap `value_parser`s shared by the programs: `WxH` sizes, `LO,HI`
-//! ranges and `R,G,B` colours. Each returns a message naming what it got and what it expects.
+//! ranges, `R,G,B` colours, `X,Y,Z` points and directions and `I,J,K`
+//! counts. Each returns a message naming what it got and what it expects.
 
 use tet_render::camera::MAX_IMAGE_SIDE;
 
@@ -62,9 +63,60 @@ pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     }
 }
 
+/// A point or vector `X,Y,Z`: three finite numbers (spaces around each are
+/// allowed), e.g. a raw volume's `--spacing` or `--origin`. Flags taking it
+/// should set `allow_hyphen_values` so that a negative X is not read as a flag.
+pub fn parse_xyz(s: &str) -> Result<[f64; 3], String> {
+    let expected = || format!("{s:?}: expected X,Y,Z, three numbers, e.g. 0,0,1");
+    let v: Vec<f64> =
+        s.split(',').map(|x| x.trim().parse::<f64>().map_err(|_| expected())).collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        [_, _, _] => Err(format!("{s:?}: each of X,Y,Z must be finite")),
+        _ => Err(expected()),
+    }
+}
+
+/// A direction `X,Y,Z`: [`parse_xyz`], not all zero (e.g. a `--view-up`).
+pub fn parse_direction(s: &str) -> Result<[f64; 3], String> {
+    let v = parse_xyz(s)?;
+    if v == [0.0; 3] {
+        return Err(format!("{s:?}: a direction cannot be 0,0,0 (e.g. 0,0,1)"));
+    }
+    Ok(v)
+}
+
+/// Three whole numbers `I,J,K` (e.g. a raw volume's `--dims`), each ≥ 1.
+pub fn parse_counts3(s: &str) -> Result<[usize; 3], String> {
+    let expected = || format!("{s:?}: expected I,J,K, three whole numbers ≥ 1, e.g. 64,64,32");
+    let v: Vec<usize> =
+        s.split(',').map(|x| x.trim().parse::<usize>().map_err(|_| expected())).collect::<Result<_, _>>()?;
+    match v[..] {
+        [i, j, k] if i >= 1 && j >= 1 && k >= 1 => Ok([i, j, k]),
+        _ => Err(expected()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn points_directions_and_counts_take_three_values() {
+        assert_eq!(parse_xyz(" -1.5, 0 ,2e3"), Ok([-1.5, 0.0, 2000.0]));
+        assert_eq!(parse_direction("0,0,1"), Ok([0.0, 0.0, 1.0]));
+        assert_eq!(parse_counts3("64, 64,32"), Ok([64, 64, 32]));
+        for bad in ["", "1,2", "1,2,3,4", "a,b,c", "1,,2", "1;2;3", "nan,0,0", "0,inf,0"] {
+            let e = parse_xyz(bad).unwrap_err();
+            assert!(e.starts_with(&format!("{bad:?}: ")), "{bad:?}: {e}");
+            assert!(parse_direction(bad).is_err(), "{bad:?}");
+        }
+        assert!(parse_xyz("nan,0,0").unwrap_err().contains("finite"));
+        assert!(parse_direction("0,0,0").unwrap_err().contains("cannot be 0,0,0"));
+        for bad in ["", "1,2", "0,4,4", "-1,2,3", "1.5,2,3", "1,2,3,4"] {
+            assert!(parse_counts3(bad).unwrap_err().contains("expected I,J,K"), "{bad:?}");
+        }
+    }
 
     #[test]
     fn sizes_parse_within_their_bounds() {

@@ -228,7 +228,7 @@ pub struct Plot3dArgs {
 #[derive(Debug, Args)]
 pub struct RawArgs {
     /// Raw volume size in voxels: NX,NY,NZ.
-    #[arg(long, value_parser = parse_usize3)]
+    #[arg(long, value_parser = tet_cli::parse_counts3)]
     pub dims: Option<[usize; 3]>,
     /// Raw voxel type: i8 u8 i16 u16 i32 u32 i64 u64 f32 f64.
     #[arg(long = "type")]
@@ -237,10 +237,10 @@ pub struct RawArgs {
     #[arg(long, value_enum)]
     pub endian: Option<EndianArg>,
     /// Raw voxel spacing: SX,SY,SZ.
-    #[arg(long, value_parser = parse_f64x3, default_value = "1,1,1")]
+    #[arg(long, value_parser = tet_cli::parse_xyz, default_value = "1,1,1", allow_hyphen_values = true)]
     pub spacing: [f64; 3],
     /// Raw volume origin: OX,OY,OZ.
-    #[arg(long, value_parser = parse_f64x3, default_value = "0,0,0")]
+    #[arg(long, value_parser = tet_cli::parse_xyz, default_value = "0,0,0", allow_hyphen_values = true)]
     pub origin: [f64; 3],
     /// Bytes to skip at the start of a raw file.
     #[arg(long, default_value_t = 0)]
@@ -262,18 +262,6 @@ fn parse_bins(s: &str) -> Result<[u32; 2], String> {
         return Err(format!("bin counts must be 1..={}", tet_analysis::histogram::MAX_BINS));
     }
     Ok(b)
-}
-
-fn parse_usize3(s: &str) -> Result<[usize; 3], String> {
-    let v: Vec<usize> =
-        s.split(',').map(|t| t.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
-    v.try_into().map_err(|_| format!("expected three comma-separated integers, got '{s}'"))
-}
-
-fn parse_f64x3(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> =
-        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
-    v.try_into().map_err(|_| format!("expected three comma-separated numbers, got '{s}'"))
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {

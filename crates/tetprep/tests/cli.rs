@@ -208,6 +208,23 @@ fn raw_volume_from_the_command_line() {
     ]);
     assert_eq!(o.status.code(), Some(3));
     assert!(stderr(&o).contains("iron16.raw"), "{}", stderr(&o));
+    // Non-finite spacing or origin, and zero dims, are refused on the command
+    // line (exit 2); a negative origin is a number, not a flag.
+    let raw_with = |extra: &[&str]| {
+        let base = ["convert", raw.to_str().unwrap(), "--format", "raw", "--type", "u8", "-o", out.to_str().unwrap()];
+        tetprep(&[&base[..], extra].concat())
+    };
+    for (bad, says) in [
+        (&["--dims", "16,16,16", "--spacing", "nan,1,1"][..], "finite"),
+        (&["--dims", "16,16,16", "--origin", "0,inf,0"], "finite"),
+        (&["--dims", "16,0,16"], "I,J,K"),
+    ] {
+        let o = raw_with(bad);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{bad:?}: {}", stderr(&o));
+    }
+    let o = raw_with(&["--dims", "16,16,16", "--origin", "-8,-8,-16"]);
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]

@@ -23,7 +23,7 @@ pub struct CameraArgs {
     /// Zoom after azimuth and elevation (2: twice as close).
     #[arg(long, default_value_t = 1.0)]
     pub zoom: f64,
-    #[arg(long, value_parser = crate::cli::parse_view_up, allow_hyphen_values = true, help = crate::cli::VIEW_UP_HELP)]
+    #[arg(long, value_parser = tet_cli::parse_direction, allow_hyphen_values = true, help = crate::cli::VIEW_UP_HELP)]
     pub view_up: Option<[f64; 3]>,
     /// Parallel projection for the default view (with the framing's parallel scale).
     #[arg(long)]

@@ -41,16 +41,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// `--view-up X,Y,Z`: three finite numbers, not all zero.
-pub fn parse_view_up(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> =
-        s.split(',').map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) && v.iter().any(|c| *c != 0.0) => Ok([x, y, z]),
-        _ => Err("expected three finite numbers X,Y,Z, not all zero (e.g. 0,0,1)".into()),
-    }
-}
-
 /// Help shared by every `--view-up` flag.
 pub const VIEW_UP_HELP: &str = "View-up X,Y,Z (world) of the default view, which frames the bounds \
     (before --azimuth/--elevation). Default: +z, seen from -y and 30 degrees above, for point clouds \

@@ -33,7 +33,7 @@ pub struct ViewArgs {
     /// View JSON (as `tetview render --view`); the reset view.
     #[arg(long)]
     pub view: Option<PathBuf>,
-    #[arg(long, value_parser = crate::cli::parse_view_up, allow_hyphen_values = true,
+    #[arg(long, value_parser = tet_cli::parse_direction, allow_hyphen_values = true,
           conflicts_with = "view", help = crate::cli::VIEW_UP_HELP)]
     pub view_up: Option<[f64; 3]>,
     /// Render on the CPU even where a GPU adapter exists.

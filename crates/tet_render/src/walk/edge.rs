@@ -21,7 +21,7 @@
 //! walk through it always finds an exit (see the module above).
 
 use robust::{orient2d, Coord};
-use wide::{f32x4, CmpGt, CmpLt};
+use wide::{f32x4, i32x4, CmpGt, CmpLt};
 
 /// A vertex of one view for the walker: pixel position and the two values
 /// interpolated across faces. Perspective: `w` is 1/depth (affine in screen
@@ -173,6 +173,15 @@ const LANE_MASKS: [[u32; 4]; 16] = {
     m
 };
 
+/// Bit k set where `ids[k] < v` (unsigned), in four lanes: flipping the
+/// top bit makes the signed comparison the unsigned one.
+#[inline(always)]
+fn below_mask(ids: [u32; 4], v: u32) -> usize {
+    let top = i32x4::splat(i32::MIN);
+    let lanes = i32x4::from(ids.map(|x| x as i32)) ^ top;
+    lanes.cmp_lt(i32x4::splat(v as i32) ^ top).move_mask() as usize
+}
+
 /// The sides of the ray against the four edges v → u_k, u_k = `tet[k]`, of
 /// one tet at once (lane `skip`, v itself, is meaningless): the f32 values
 /// of v → u_k and, as bits, whether the centre passes left of each. Each
@@ -202,10 +211,7 @@ pub fn sides_from<P: PixelPositions + ?Sized>(
     let (vx, vy) = (f32x4::splat(vv.x_px), f32x4::splat(vv.y_px));
     // Lanes whose canonical edge is u → v (u has the smaller id), as bits
     // and as a lane mask.
-    let flip_bits = (tet[0] < v) as usize
-        | ((tet[1] < v) as usize) << 1
-        | ((tet[2] < v) as usize) << 2
-        | ((tet[3] < v) as usize) << 3;
+    let flip_bits = below_mask(tet, v);
     let swap = f32x4::from(LANE_MASKS[flip_bits].map(f32::from_bits));
     let (ax, ay) = (swap.blend(ux, vx), swap.blend(uy, vy));
     let (bx, by) = (swap.blend(vx, ux), swap.blend(vy, uy));
@@ -303,6 +309,18 @@ mod tests {
                 let (val, left) = side(&verts, &pos[..], tet[skip], tet[k], px, py, 512.0, &mut cnt);
                 prop_assert_eq!(vals[k].to_bits(), val.to_bits());
                 prop_assert_eq!(bits >> k & 1 == 1, left);
+            }
+        }
+    }
+
+    #[test]
+    fn below_mask_is_the_unsigned_comparison() {
+        let big = [0u32, 1, 1 << 31, (1 << 31) - 1, u32::MAX - 1, u32::MAX, 12345, 3 << 30];
+        for &v in &big {
+            for a in big.chunks_exact(4).chain([&[u32::MAX, 0, 1 << 31, 7][..]]) {
+                let ids = [a[0], a[1], a[2], a[3]];
+                let want = (0..4).fold(0, |m, k| m | usize::from(ids[k] < v) << k);
+                assert_eq!(below_mask(ids, v), want, "{ids:?} < {v}");
             }
         }
     }

@@ -969,7 +969,20 @@ impl WalkCtx<'_> {
         let mut flight: Vec<Option<(u32, RayState)>> = vec![None; lanes];
         let mut next = 0;
         let mut active = 0;
-        loop {
+        if lanes == 1 {
+            // One ray at a time (the default): its state stays a local.
+            let batch = &mut batches[0];
+            for &(pix, first, end) in &rays {
+                let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
+                batch.segs.len = 0;
+                st.rays += 1;
+                let mut ray = self.start_ray(px, py, first, end);
+                while !self.step(g, &mut ray, &entries, batch, &mut st, &mut counters) {}
+                acc[pix as usize] = ray.acc;
+            }
+            next = rays.len();
+        }
+        while next < rays.len() || active > 0 {
             for (lane, slot) in flight.iter_mut().enumerate() {
                 if slot.is_none() && next < rays.len() {
                     let (pix, first, end) = rays[next];
@@ -987,9 +1000,6 @@ impl WalkCtx<'_> {
                         active -= 1;
                     }
                 }
-            }
-            if active == 0 && next == rays.len() {
-                break;
             }
         }
         st.exact_tests = counters.exact;
@@ -1149,11 +1159,11 @@ impl WalkCtx<'_> {
         let rec = tets[t];
         if self.prefetch {
             // The three neighbours the ray may step into: their records are
-            // requested while this step's edge tests run (`prefetch`).
-            for (f, &n) in rec.links.iter().enumerate() {
-                if f != f_in {
-                    prefetch::prefetch(tets, (n / 4) as usize);
-                }
+            // requested while this step's edge tests run (`prefetch`). The
+            // fourth, the tet the ray came from, is in the cache already: asking
+            // for it too costs less than a branch.
+            for &n in &rec.links {
+                prefetch::prefetch(tets, (n / 4) as usize);
             }
         }
         let tet = rec.verts;

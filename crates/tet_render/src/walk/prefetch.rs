@@ -12,17 +12,22 @@
 //! way (`tests/walk.rs` compares them bit for bit).
 #![allow(unsafe_code)]
 
-/// Asks the cache hierarchy for the line holding `slice[i]`. Does nothing
-/// when `i` is out of bounds.
+/// Asks the cache hierarchy for the line holding `slice[i]`. An index out
+/// of bounds (a boundary link's) asks for an address outside the slice,
+/// which is harmless: the hint is dropped, nothing is read.
 #[inline(always)]
 pub fn prefetch<T>(slice: &[T], i: usize) {
     #[cfg(target_arch = "x86_64")]
-    if i < slice.len() {
+    {
+        // `wrapping_add`: defined for any index, no bounds check in the
+        // walker's hottest loop.
         let p = slice.as_ptr().wrapping_add(i).cast::<i8>();
         // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 CPU has (it
-        // is in the x86-64 baseline the crate is built for). A prefetch
-        // never faults and reads nothing the program observes; `p` points
-        // into `slice` (checked above) in any case.
+        // is in the x86-64 baseline the crate is built for). PREFETCHT0 is a
+        // hint: it never faults, whatever the address (an unmapped or
+        // non-canonical one is ignored), and it writes nothing and returns
+        // nothing the program can observe, so no Rust aliasing or validity
+        // rule is involved.
         unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p) }
     }
     #[cfg(not(target_arch = "x86_64"))]

@@ -67,6 +67,16 @@ pub enum ToneMapArg {
     Reinhard,
 }
 
+impl ToneMapArg {
+    /// The id as written on the command line and in `--json` output.
+    pub fn id(self) -> &'static str {
+        match self {
+            ToneMapArg::None => "none",
+            ToneMapArg::Reinhard => "reinhard",
+        }
+    }
+}
+
 /// How the PNG shows the linear image.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DisplayArgs {

@@ -41,8 +41,8 @@ pub struct DiffArgs {
     pub background: [f32; 3],
     /// Display operator for the 8-bit comparison: none (linear, clamped) or
     /// reinhard (fitted to A, applied to both, then sRGB).
-    #[arg(long, default_value = "reinhard", value_parser = ["none", "reinhard"])]
-    pub tonemap: String,
+    #[arg(long, value_enum, default_value = "reinhard")]
+    pub tonemap: crate::camera_args::ToneMapArg,
 }
 
 /// An input image: float (from `.npy`) or 8-bit RGBA (from `.png`).
@@ -203,7 +203,7 @@ pub fn compare(args: &DiffArgs) -> Result<(DiffReport, Vec<u8>)> {
         ));
     }
     let [width, height] = a.size();
-    let reinhard = args.tonemap == "reinhard";
+    let reinhard = args.tonemap == crate::camera_args::ToneMapArg::Reinhard;
     // Fitted to A's covered pixels, as `render` displays A.
     let op_for = |img: &Image| {
         let alpha: Vec<f32> = img.pixels().iter().map(|p| p[3]).collect();
@@ -283,7 +283,7 @@ pub fn run(args: &DiffArgs) -> Result<()> {
             "mean_abs": s.mean_abs,
             "max_8bit": r.max_8bit,
             "max_8bit_at": {"x": r.max_8bit_at.0, "y": r.max_8bit_at.1, "channel": CHANNELS[r.max_8bit_at.2]},
-            "tonemap": args.tonemap,
+            "tonemap": args.tonemap.id(),
             "background": args.background,
             "diff_png": args.output.as_ref().map(|p| p.display().to_string()),
         });
@@ -305,7 +305,7 @@ pub fn run(args: &DiffArgs) -> Result<()> {
             r.max_8bit_at.0,
             r.max_8bit_at.1,
             CHANNELS[r.max_8bit_at.2],
-            args.tonemap,
+            args.tonemap.id(),
             args.background[0],
             args.background[1],
             args.background[2]
@@ -334,7 +334,7 @@ mod tests {
             json: false,
             scale: None,
             background: [0.0; 3],
-            tonemap: "none".into(),
+            tonemap: crate::camera_args::ToneMapArg::None,
         }
     }
 

@@ -4,10 +4,10 @@
 //! Every perspective ray starts at the eye, so the side of a ray and an
 //! edge (the sign of their Plücker product) is the 2D orientation of the
 //! edge's projected endpoints and the pixel centre; under parallel
-//! projection it is the same 2D test. The predicate is evaluated per edge
-//! in one canonical vertex order (smaller vertex id first) and negated for
-//! the other direction, so the tets sharing an edge agree bit for bit and a
-//! ray can neither leak between them nor cross both.
+//! projection it is the same 2D test. The f32 value is the cross product of
+//! the endpoints translated to the pixel centre, which is exactly
+//! antisymmetric ([`value`]), so the tets sharing an edge agree bit for bit
+//! and a ray can neither leak between them nor cross both.
 //!
 //! The value is computed in f32 from the f32 vertex positions; where it is
 //! too close to zero for its sign to be certain (a bound on the rounding of
@@ -21,7 +21,7 @@
 //! walk through it always finds an exit (see the module above).
 
 use robust::{orient2d, Coord};
-use wide::{f32x4, i32x4, CmpGt, CmpLt};
+use wide::{f32x4, CmpGt, CmpLt};
 
 /// A vertex of one view for the walker: pixel position and the two values
 /// interpolated across faces. Perspective: `w` is 1/depth (affine in screen
@@ -38,13 +38,26 @@ pub struct WalkVertex {
 /// Unit roundoff of f32 (round to nearest).
 const U32: f32 = f32::EPSILON * 0.5;
 
+/// The f32 edge function's error bound is `BOUND_REL·k·(s_a + s_b) +
+/// BOUND_ABS·k²`, with s = |x − px| + |y − py| of each endpoint as computed
+/// and k a bound on every |coordinate| of the view ([`side`]).
+const BOUND_REL: f32 = 10.0 * U32;
+const BOUND_ABS: f32 = 64.0 * U32 * U32;
+
 /// Edge function of the directed edge a → b at pixel centre (px, py) in
 /// f32: twice the signed area of (a, b, p), positive when p is left of
-/// a → b (counter-clockwise in pixel coordinates). Only for barycentric
-/// weights; signs come from [`side`].
+/// a → b (counter-clockwise in pixel coordinates), computed as the cross
+/// product of the endpoints translated to the centre,
+/// (a − p) × (b − p). Each translation rounds once per vertex, whatever the
+/// edge, and `x·y′ − y·x′` is exactly antisymmetric in IEEE arithmetic
+/// (no fused multiply-add), so a → b and b → a give the same number negated
+/// (a zero is +0 both ways), in every tet that holds the edge (Woop, Benthin & Wald,
+/// "Watertight ray/triangle intersection", 2013, translate the same way).
 #[inline(always)]
 pub fn value(a: &WalkVertex, b: &WalkVertex, px: f32, py: f32) -> f32 {
-    (b.x_px - a.x_px) * (py - a.y_px) - (b.y_px - a.y_px) * (px - a.x_px)
+    let (ax, ay) = (a.x_px - px, a.y_px - py);
+    let (bx, by) = (b.x_px - px, b.y_px - py);
+    ax * by - ay * bx
 }
 
 /// Where the exact predicate finds a vertex's f64 pixel position (the one
@@ -67,47 +80,6 @@ pub struct EdgeCounters {
     pub exact: u64,
 }
 
-/// The canonical edge (a, b) with id(a) < id(b): its f32 value at p and
-/// whether p passes left of a → b (ties by the perturbation above).
-/// `pos_f64` holds the f64 pixel positions the f32 ones were rounded from;
-/// `p_max` bounds |px| and |py|.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn canonical<P: PixelPositions + ?Sized>(
-    a: &WalkVertex,
-    b: &WalkVertex,
-    ia: u32,
-    ib: u32,
-    pos_f64: &P,
-    px: f32,
-    py: f32,
-    p_max: f32,
-    counters: &mut EdgeCounters,
-) -> (f32, bool) {
-    let f1 = b.x_px - a.x_px;
-    let g1 = py - a.y_px;
-    let f2 = b.y_px - a.y_px;
-    let g2 = px - a.x_px;
-    let p1 = f1 * g1;
-    let p2 = f2 * g2;
-    let e = p1 - p2;
-    // |e − e_exact| for the f64 inputs: rounding each input to f32 moves it
-    // by at most u·k, each difference carries that into its product, and
-    // the two products and the difference round once more. Doubled for
-    // margin (derivation in ARCHITECTURE.md, "The walker").
-    let k = a.x_px.abs().max(a.y_px.abs()).max(b.x_px.abs()).max(b.y_px.abs()).max(p_max);
-    let bound = 2.0 * U32 * (k * (f1.abs() + f2.abs() + 2.0 * (g1.abs() + g2.abs())) + 4.0 * (p1.abs() + p2.abs()))
-        + 16.0 * U32 * U32 * k * k;
-    if e > bound {
-        return (e, true);
-    }
-    if e < -bound {
-        return (e, false);
-    }
-    counters.exact += 1;
-    (e, exact_left(pos_f64.px(ia), pos_f64.px(ib), px as f64, py as f64))
-}
-
 /// Whether pixel centre (px, py) is left of a → b in exact arithmetic on
 /// the f64 positions, ties broken by the perturbation (−ε, ε²) of the centre.
 #[inline(never)]
@@ -122,9 +94,33 @@ pub fn exact_left(a: [f64; 2], b: [f64; 2], px: f64, py: f64) -> bool {
     dy > 0.0 || (dy == 0.0 && dx > 0.0)
 }
 
+/// The exact side of the directed edge u → v, decided on the canonical
+/// edge (smaller id first) so that the tie rule, which is antisymmetric
+/// except for coincident endpoints, gives both directions opposite answers.
+#[inline(never)]
+fn exact_side<P: PixelPositions + ?Sized>(pos_f64: &P, iu: u32, iv: u32, px: f32, py: f32) -> bool {
+    if iu < iv {
+        exact_left(pos_f64.px(iu), pos_f64.px(iv), px as f64, py as f64)
+    } else {
+        !exact_left(pos_f64.px(iv), pos_f64.px(iu), px as f64, py as f64)
+    }
+}
+
 /// The directed edge u → v (vertex ids iu, iv) at pixel centre (px, py):
-/// its f32 value (for weights) and whether p passes left of it, decided on
-/// the canonical edge so both directions and every tet agree.
+/// its f32 value ([`value`]) and whether p passes left of it. `k_view`
+/// bounds |x| and |y| of every projected vertex (f64 and f32) and pixel
+/// centre of the view.
+///
+/// The value decides where it exceeds its error bound: rounding each f64
+/// coordinate to f32 moves it by at most u·k, each translation rounds once
+/// more (u·|x − px|), each product carries both into an error of at most
+/// u·k·(|x| + |y′|) + 2u·|x·y′|, and the products and the difference round
+/// once each; with |x·y′| + |y·x′| ≤ k·(s_a + s_b) the whole is at most
+/// 5u·k·(s_a + s_b) plus terms in u²·k², doubled for margin
+/// ([`BOUND_REL`], [`BOUND_ABS`]; ARCHITECTURE.md, "The walker"). Closer
+/// to zero, Shewchuk's exact `orient2d` decides on the f64 positions, an
+/// exact zero broken by the perturbation of [`exact_left`]. So every
+/// decision equals the exact sign of one fixed perturbed arrangement.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn side<P: PixelPositions + ?Sized>(
@@ -134,60 +130,36 @@ pub fn side<P: PixelPositions + ?Sized>(
     iv: u32,
     px: f32,
     py: f32,
-    p_max: f32,
+    k_view: f32,
     counters: &mut EdgeCounters,
 ) -> (f32, bool) {
-    if iu < iv {
-        canonical(&verts[iu as usize], &verts[iv as usize], iu, iv, pos_f64, px, py, p_max, counters)
-    } else {
-        let (e, left) = canonical(&verts[iv as usize], &verts[iu as usize], iv, iu, pos_f64, px, py, p_max, counters);
-        (-e, !left)
+    let (a, b) = (&verts[iu as usize], &verts[iv as usize]);
+    let (ax, ay) = (a.x_px - px, a.y_px - py);
+    let (bx, by) = (b.x_px - px, b.y_px - py);
+    let e = ax * by - ay * bx;
+    let bound = BOUND_REL * k_view * ((ax.abs() + ay.abs()) + (bx.abs() + by.abs())) + BOUND_ABS * k_view * k_view;
+    if e > bound {
+        return (e, true);
     }
+    if e < -bound {
+        return (e, false);
+    }
+    counters.exact += 1;
+    (e, exact_side(pos_f64, iu, iv, px, py))
 }
 
-/// The f32 value of the directed edge u → v, computed on the canonical edge
-/// (so it is the same number, negated, for v → u).
+/// The f32 value of the directed edge u → v ([`value`]: the same number,
+/// negated, for v → u).
 #[inline(always)]
 pub fn directed_value(verts: &[WalkVertex], iu: u32, iv: u32, px: f32, py: f32) -> f32 {
-    if iu < iv {
-        value(&verts[iu as usize], &verts[iv as usize], px, py)
-    } else {
-        -value(&verts[iv as usize], &verts[iu as usize], px, py)
-    }
-}
-
-/// `LANE_MASKS[bits]`: all-ones in the lanes whose bit is set.
-const LANE_MASKS: [[u32; 4]; 16] = {
-    let mut m = [[0u32; 4]; 16];
-    let mut b = 0;
-    while b < 16 {
-        let mut l = 0;
-        while l < 4 {
-            if b >> l & 1 == 1 {
-                m[b][l] = u32::MAX;
-            }
-            l += 1;
-        }
-        b += 1;
-    }
-    m
-};
-
-/// Bit k set where `ids[k] < v` (unsigned), in four lanes: flipping the
-/// top bit makes the signed comparison the unsigned one.
-#[inline(always)]
-fn below_mask(ids: [u32; 4], v: u32) -> usize {
-    let top = i32x4::splat(i32::MIN);
-    let lanes = i32x4::from(ids.map(|x| x as i32)) ^ top;
-    lanes.cmp_lt(i32x4::splat(v as i32) ^ top).move_mask() as usize
+    value(&verts[iu as usize], &verts[iv as usize], px, py)
 }
 
 /// The sides of the ray against the four edges v → u_k, u_k = `tet[k]`, of
 /// one tet at once (lane `skip`, v itself, is meaningless): the f32 values
 /// of v → u_k and, as bits, whether the centre passes left of each. Each
-/// lane computes the same canonical-order operations as [`side`], so the
-/// values are the same numbers; `k_view` bounds |x| and |y| of every
-/// projected vertex and pixel centre of the view.
+/// lane computes the operations of [`side`] in the same order, so values
+/// and decisions are the same.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn sides_from<P: PixelPositions + ?Sized>(
@@ -200,52 +172,28 @@ pub fn sides_from<P: PixelPositions + ?Sized>(
     k_view: f32,
     counters: &mut EdgeCounters,
 ) -> ([f32; 4], u32) {
-    let v = tet[skip];
-    // Four separate loads (an array indexed by `skip` would go through the
-    // stack and stall store forwarding).
-    let vv = verts[v as usize];
-    let (q0, q1, q2, q3) =
-        (verts[tet[0] as usize], verts[tet[1] as usize], verts[tet[2] as usize], verts[tet[3] as usize]);
-    let ux = f32x4::from([q0.x_px, q1.x_px, q2.x_px, q3.x_px]);
-    let uy = f32x4::from([q0.y_px, q1.y_px, q2.y_px, q3.y_px]);
-    let (vx, vy) = (f32x4::splat(vv.x_px), f32x4::splat(vv.y_px));
-    // Lanes whose canonical edge is u → v (u has the smaller id), as bits
-    // and as a lane mask.
-    let flip_bits = below_mask(tet, v);
-    let swap = f32x4::from(LANE_MASKS[flip_bits].map(f32::from_bits));
-    let (ax, ay) = (swap.blend(ux, vx), swap.blend(uy, vy));
-    let (bx, by) = (swap.blend(vx, ux), swap.blend(vy, uy));
-    let (pxv, pyv) = (f32x4::splat(px), f32x4::splat(py));
-    let f1 = bx - ax;
-    let g1 = pyv - ay;
-    let f2 = by - ay;
-    let g2 = pxv - ax;
-    let p1 = f1 * g1;
-    let p2 = f2 * g2;
-    let e = p1 - p2;
-    // The bound of `canonical` with the view's bound on every coordinate.
-    // The bound of `canonical` loosened to one product: |g| ≤ 2k, so
-    // 4(|p1| + |p2|) ≤ 8k(|f1| + |f2|) and the whole is at most
-    // 18u·k·(|f1| + |f2| + |g1| + |g2|) (+ the u² term). A few more
-    // exact decisions (still a fraction of a per mille) for fewer operations.
-    let bound = f32x4::splat(18.0 * U32 * k_view) * ((f1.abs() + f2.abs()) + (g1.abs() + g2.abs()))
-        + f32x4::splat(16.0 * U32 * U32 * k_view * k_view);
+    let q = tet.map(|i| verts[i as usize]);
+    let [xs, ys, _, _] = f32x4::transpose(q.map(|v| f32x4::from([v.x_px, v.y_px, v.w, v.scalar])));
+    let (xr, yr) = (xs - f32x4::splat(px), ys - f32x4::splat(py));
+    let (xa, ya) = (xr.to_array(), yr.to_array());
+    let (vx, vy) = (xa[skip & 3], ya[skip & 3]);
+    let e = f32x4::splat(vx) * yr - f32x4::splat(vy) * xr;
+    let s = xr.abs() + yr.abs();
+    let s_v = vx.abs() + vy.abs();
+    let bound = f32x4::splat(BOUND_REL * k_view) * (f32x4::splat(s_v) + s) + f32x4::splat(BOUND_ABS * k_view * k_view);
     let pos = e.cmp_gt(bound).move_mask() as u32;
     let neg = e.cmp_lt(-bound).move_mask() as u32;
-    let mut left_canon = pos;
+    let mut left = pos;
     let mut unsure = !(pos | neg) & 0xf & !(1 << skip);
     while unsure != 0 {
         let l = unsure.trailing_zeros() as usize;
         unsure &= unsure - 1;
         counters.exact += 1;
-        let (ia, ib) = if flip_bits >> l & 1 == 1 { (tet[l], v) } else { (v, tet[l]) };
-        if exact_left(pos_f64.px(ia), pos_f64.px(ib), px as f64, py as f64) {
-            left_canon |= 1 << l;
+        if exact_side(pos_f64, tet[skip & 3], tet[l], px, py) {
+            left |= 1 << l;
         }
     }
-    // v → u is the canonical edge negated: flip the sign bit.
-    let vals = (e ^ (swap & f32x4::splat(-0.0))).to_array();
-    (vals, (left_canon ^ flip_bits as u32) & 0xf)
+    (e.to_array(), left)
 }
 
 #[cfg(test)]
@@ -278,11 +226,15 @@ mod tests {
             } else { b };
             let pos = [a, b];
             let verts = [vert(a), vert(b)];
+            // The view's bound on every coordinate.
+            let k = [a[0], a[1], b[0], b[1], px as f64, py as f64].iter().fold(0.0f64, |m, v| m.max(v.abs())) as f32;
             let mut c = EdgeCounters::default();
-            let (_, left) = side(&verts, &pos[..], 0, 1, px, py, 512.0, &mut c);
+            let (e_ab, left) = side(&verts, &pos[..], 0, 1, px, py, k, &mut c);
             prop_assert_eq!(left, exact_left(a, b, px as f64, py as f64));
-            let (_, right) = side(&verts, &pos[..], 1, 0, px, py, 512.0, &mut c);
+            let (e_ba, right) = side(&verts, &pos[..], 1, 0, px, py, k, &mut c);
             prop_assert_eq!(right, !left);
+            // Both directions: the same value negated (zero is +0 both ways).
+            prop_assert_eq!(e_ab, -e_ba);
         }
     }
 
@@ -306,22 +258,36 @@ mod tests {
             let (vals, bits) = sides_from(&verts, &pos[..], tet, skip, px, py, 601.0, &mut cnt);
             for k in 0..4 {
                 if k == skip { continue; }
-                let (val, left) = side(&verts, &pos[..], tet[skip], tet[k], px, py, 512.0, &mut cnt);
+                let (val, left) = side(&verts, &pos[..], tet[skip], tet[k], px, py, 601.0, &mut cnt);
                 prop_assert_eq!(vals[k].to_bits(), val.to_bits());
                 prop_assert_eq!(bits >> k & 1 == 1, left);
+                let (p, q) = (pos[tet[skip] as usize], pos[tet[k] as usize]);
+                prop_assert_eq!(left, exact_left(p, q, px as f64, py as f64) || (p == q && tet[skip] > tet[k]));
             }
         }
     }
 
-    #[test]
-    fn below_mask_is_the_unsigned_comparison() {
-        let big = [0u32, 1, 1 << 31, (1 << 31) - 1, u32::MAX - 1, u32::MAX, 12345, 3 << 30];
-        for &v in &big {
-            for a in big.chunks_exact(4).chain([&[u32::MAX, 0, 1 << 31, 7][..]]) {
-                let ids = [a[0], a[1], a[2], a[3]];
-                let want = (0..4).fold(0, |m, k| m | usize::from(ids[k] < v) << k);
-                assert_eq!(below_mask(ids, v), want, "{ids:?} < {v}");
-            }
+    proptest! {
+        /// Coordinates that do not round to f32 exactly, vertices far off
+        /// screen and centres within rounding of the edge: the filter
+        /// never decides against the exact sign.
+        #[test]
+        fn filter_holds_for_rounded_and_far_vertices(
+            ax in -5e4f64..5e4, ay in -5e4f64..5e4, dir in 0.0f64..std::f64::consts::TAU,
+            len in 1e-3f64..1e4, off in -1e-2f64..1e-2, ix in 0u32..2048, iy in 0u32..2048,
+        ) {
+            // An edge from a through (nearly) the centre, continued by `len`.
+            let (px, py) = (ix as f32 + 0.5, iy as f32 + 0.5);
+            let a = [ax, ay];
+            let d = [px as f64 - ax, py as f64 - ay];
+            let n = (d[0] * d[0] + d[1] * d[1]).sqrt().max(1e-9);
+            let b = [px as f64 + d[0] / n * len + off * dir.cos(), py as f64 + d[1] / n * len + off * dir.sin()];
+            let pos = [a, b];
+            let verts = [vert(a), vert(b)];
+            let k = [a[0], a[1], b[0], b[1], px as f64, py as f64].iter().fold(0.0f64, |m, v| m.max(v.abs())) as f32;
+            let mut c = EdgeCounters::default();
+            let (_, left) = side(&verts, &pos[..], 0, 1, px, py, k, &mut c);
+            prop_assert_eq!(left, exact_left(a, b, px as f64, py as f64));
         }
     }
 

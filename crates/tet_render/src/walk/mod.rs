@@ -16,8 +16,7 @@
 //! * the ray entered tet t through face f; the exit is one of the three
 //!   faces around the opposite vertex v, found from the sides of the ray
 //!   against the three edges from v ([`edge::side`]: f32 with an exact
-//!   fallback, one canonical order per edge, so neighbours agree bit for
-//!   bit). The signed areas of a tet's four projected faces cancel at every
+//!   fallback, exactly antisymmetric, so neighbours agree bit for bit). The signed areas of a tet's four projected faces cancel at every
 //!   point, so with exact, consistently perturbed signs an entry face that
 //!   contains the centre always has an exit face that does too;
 //! * the exit point's perspective-correct barycentrics (edge-function
@@ -101,6 +100,32 @@ const EXIT_CANDIDATES: [[(usize, usize, usize); 3]; 4] = {
     }
     out
 };
+
+/// `EXIT_BY_SIDES[f_in][bits]`: the first of [`EXIT_CANDIDATES`]`[f_in]`
+/// the sides `bits` (bit k set where the centre passes left of v → local
+/// vertex k) leave by, packed as `f | x << 2 | y << 4`, or [`NO_EXIT`].
+const EXIT_BY_SIDES: [[u8; 16]; 4] = {
+    let mut out = [[NO_EXIT; 16]; 4];
+    let mut f_in = 0;
+    while f_in < 4 {
+        let mut bits = 0;
+        while bits < 16 {
+            let mut c = 0;
+            while c < 3 {
+                let (f, x, y) = EXIT_CANDIDATES[f_in][c];
+                if (bits >> x & 1 == 1) == BACK_IS_LEFT && (bits >> y & 1 == 1) != BACK_IS_LEFT {
+                    out[f_in][bits] = (f | x << 2 | y << 4) as u8;
+                    break;
+                }
+                c += 1;
+            }
+            bits += 1;
+        }
+        f_in += 1;
+    }
+    out
+};
+const NO_EXIT: u8 = u8::MAX;
 
 const fn exit_edges() -> [[[usize; 2]; 4]; 4] {
     let mut out = [[[0usize; 2]; 4]; 4];
@@ -317,8 +342,6 @@ pub struct WalkView {
     hom: Vec<HomVertex>,
     /// Near-clipped views: the tet holding the eye (walk order).
     eye_tet: Option<u32>,
-    /// Bounds |x| and |y| of every pixel centre.
-    p_max: f32,
     /// Bounds |x| and |y| of every projected vertex and pixel centre.
     k_view: f32,
     tile: u32,
@@ -365,7 +388,6 @@ impl WalkView {
             near_clipped: false,
             hom: Vec::new(),
             eye_tet: None,
-            p_max,
             k_view: p_max,
             tile,
             tiles_x,
@@ -745,16 +767,22 @@ fn face_point(verts: &[WalkVertex], ids: [u32; 3], l: [f32; 3], orient: f32, par
             0.0
         }
     });
-    let (lam, depth);
+    // The weights stay unnormalized until one division: depth and scalar
+    // are the weighted sums times 1/Σ (the normalized weights only feed the
+    // gradients, which not every frame reads).
+    let (lam, depth, scalar);
     if parallel {
         let sum = l[0] + l[1] + l[2];
         if sum > 0.0 {
             let inv = 1.0 / sum;
             lam = l.map(|v| v * inv);
+            depth = (l[0] * q[0].w + l[1] * q[1].w + l[2] * q[2].w) * inv;
+            scalar = (l[0] * q[0].scalar + l[1] * q[1].scalar + l[2] * q[2].scalar) * inv;
         } else {
             lam = [1.0 / 3.0; 3];
+            depth = (q[0].w + q[1].w + q[2].w) * (1.0 / 3.0);
+            scalar = (q[0].scalar + q[1].scalar + q[2].scalar) * (1.0 / 3.0);
         }
-        depth = lam[0] * q[0].w + lam[1] * q[1].w + lam[2] * q[2].w;
     } else {
         let lw = [l[0] * q[0].w, l[1] * q[1].w, l[2] * q[2].w];
         let sum_w = lw[0] + lw[1] + lw[2];
@@ -762,13 +790,14 @@ fn face_point(verts: &[WalkVertex], ids: [u32; 3], l: [f32; 3], orient: f32, par
             let inv = 1.0 / sum_w;
             lam = lw.map(|v| v * inv);
             depth = (l[0] + l[1] + l[2]) * inv;
+            scalar = (lw[0] * q[0].scalar + lw[1] * q[1].scalar + lw[2] * q[2].scalar) * inv;
         } else {
             // The centre on a vertex: any point of the face is that vertex.
             lam = [1.0 / 3.0; 3];
             depth = 3.0 / (q[0].w + q[1].w + q[2].w);
+            scalar = (q[0].scalar + q[1].scalar + q[2].scalar) * (1.0 / 3.0);
         }
     }
-    let scalar = lam[0] * q[0].scalar + lam[1] * q[1].scalar + lam[2] * q[2].scalar;
     FacePoint { depth, scalar, ids, lam }
 }
 
@@ -781,11 +810,12 @@ struct RayState {
     /// Its entries left: `entries[next_entry..end]`.
     next_entry: usize,
     end: usize,
-    /// The run in progress: tet, entry face, entry point, steps so far.
+    /// The run in progress: tet, entry face, entry point, steps it may
+    /// still take.
     t: usize,
     f_in: usize,
     p_in: FacePoint,
-    steps: u32,
+    steps_left: u32,
     in_run: bool,
     acc: [f32; 4],
     /// Segments to gather before the next shading.
@@ -828,7 +858,6 @@ trait RayGeometry: Sync {
 struct Projected<'a> {
     verts: &'a [WalkVertex],
     pos: Projector<'a>,
-    p_max: f32,
     k_view: f32,
     parallel: bool,
     size: [u32; 2],
@@ -838,7 +867,7 @@ impl RayGeometry for Projected<'_> {
     const NEAR_CLIP: bool = false;
     #[inline(always)]
     fn side(&self, iu: u32, iv: u32, fx: f32, fy: f32, c: &mut EdgeCounters) -> (f32, bool) {
-        edge::side(self.verts, &self.pos, iu, iv, fx, fy, self.p_max, c)
+        edge::side(self.verts, &self.pos, iu, iv, fx, fy, self.k_view, c)
     }
     #[inline(always)]
     fn value(&self, iu: u32, iv: u32, fx: f32, fy: f32) -> f32 {
@@ -912,6 +941,9 @@ impl RayGeometry for Homogeneous<'_> {
 }
 
 impl WalkCtx<'_> {
+    // One call a tile; kept out of line so profiles can count a frame's
+    // walk (the callgrind scripts toggle on it).
+    #[inline(never)]
     fn tile(&self, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
         let view = self.view;
         let size = [view.frame.width, view.frame.height];
@@ -921,21 +953,31 @@ impl WalkCtx<'_> {
                 .filter(|&t| self.visible.is_none_or(|vis| vis[t as usize]))
                 .map(|t| (t, self.mesh.tets[t as usize].verts));
             let g = Homogeneous { verts: &view.hom, near_depth: view.frame.near_depth as f32, eye, size };
-            self.tile_with(&g, ti)
+            self.tile_full(&g, ti)
         } else {
             let g = Projected {
                 verts: &view.verts,
                 pos: Projector { frame: &view.frame, pos_rel: &self.mesh.pos_rel },
-                p_max: view.p_max,
                 k_view: view.k_view,
                 parallel: view.frame.parallel,
                 size,
             };
-            self.tile_with(&g, ti)
+            self.tile_full(&g, ti)
         }
     }
 
-    fn tile_with<G: RayGeometry>(&self, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+    /// [`Self::tile_with`], compiled without the per-vertex gradient reads
+    /// where the frame needs none (neither lighting nor a bivariate method):
+    /// the exit points' weights and vertex ids are then never kept.
+    fn tile_full<G: RayGeometry>(&self, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+        if self.lit || self.want_grad_mag {
+            self.tile_with::<G, true>(g, ti)
+        } else {
+            self.tile_with::<G, false>(g, ti)
+        }
+    }
+
+    fn tile_with<G: RayGeometry, const GRADS: bool>(&self, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
         let view = self.view;
         let (w, h) = (view.frame.width, view.frame.height);
         let tile = view.tile;
@@ -977,7 +1019,7 @@ impl WalkCtx<'_> {
                 batch.segs.len = 0;
                 st.rays += 1;
                 let mut ray = self.start_ray(px, py, first, end);
-                while !self.step(g, &mut ray, &entries, batch, &mut st, &mut counters) {}
+                while !self.step::<G, GRADS>(g, &mut ray, &entries, batch, &mut st, &mut counters) {}
                 acc[pix as usize] = ray.acc;
             }
             next = rays.len();
@@ -994,7 +1036,7 @@ impl WalkCtx<'_> {
                     active += 1;
                 }
                 if let Some((pix, ray)) = slot {
-                    if self.step(g, ray, &entries, &mut batches[lane], &mut st, &mut counters) {
+                    if self.step::<G, GRADS>(g, ray, &entries, &mut batches[lane], &mut st, &mut counters) {
                         acc[*pix as usize] = ray.acc;
                         *slot = None;
                         active -= 1;
@@ -1105,7 +1147,7 @@ impl WalkCtx<'_> {
             t: 0,
             f_in: 0,
             p_in: FacePoint { depth: 0.0, scalar: 0.0, ids: [0; 3], lam: [0.0; 3] },
-            steps: 0,
+            steps_left: 0,
             in_run: false,
             acc: [0.0; 4],
             cap: FIRST_BATCH,
@@ -1120,7 +1162,7 @@ impl WalkCtx<'_> {
     /// the interleaving.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn step<G: RayGeometry>(
+    fn step<G: RayGeometry, const GRADS: bool>(
         &self,
         g: &G,
         ray: &mut RayState,
@@ -1146,16 +1188,16 @@ impl WalkCtx<'_> {
             let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
             let l = [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
             ray.p_in = g.face_point(ids, l, front_orient);
-            ray.steps = 0;
+            ray.steps_left = self.view.max_steps;
             ray.in_run = true;
         }
         let (t, f_in) = (ray.t, ray.f_in);
-        ray.steps += 1;
-        if ray.steps > self.view.max_steps {
+        if ray.steps_left == 0 {
             st.step_limit += 1;
             ray.in_run = false;
             return false;
         }
+        ray.steps_left -= 1;
         let rec = tets[t];
         if self.prefetch {
             // The three neighbours the ray may step into: their records are
@@ -1168,23 +1210,17 @@ impl WalkCtx<'_> {
         }
         let tet = rec.verts;
         let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
-        // Branches, not a table lookup: a predicted exit lets the next
-        // tet's loads start before the edge tests finish (the walk is a
-        // chain of dependent loads).
-        let mut exit = None;
-        for &(f, x, y) in &EXIT_CANDIDATES[f_in & 3] {
-            if (bits >> x & 1 == 1) == BACK_IS_LEFT && (bits >> y & 1 == 1) != BACK_IS_LEFT {
-                exit = Some((f, x & 3, y & 3));
-                break;
-            }
-        }
-        let Some((f_out, x, y)) = exit else {
+        // One table read: with the candidates' records already requested
+        // (above), a branch per candidate no longer lets loads start sooner.
+        let exit = EXIT_BY_SIDES[f_in & 3][(bits & 0xf) as usize];
+        if exit == NO_EXIT {
             // Cannot happen with exact signs (module docs); counted with the
             // step bound rather than trusted.
             st.step_limit += 1;
             ray.in_run = false;
             return false;
-        };
+        }
+        let (f_out, x, y) = ((exit & 3) as usize, (exit >> 2 & 3) as usize, (exit >> 4 & 3) as usize);
         ray.crossings += 1;
         let link = rec.links[f_out & 3];
         // The exit face as (v, x, y), a rotation of its outward order: the
@@ -1200,11 +1236,11 @@ impl WalkCtx<'_> {
             let keep = p_out.depth > near;
             if keep {
                 let t_front = (near - p_in.depth) / (p_out.depth - p_in.depth);
-                self.push_clipped(batch, &p_in, &p_out, (p_out.depth - near) * ray.len_per_depth, t_front);
+                self.push_clipped::<GRADS>(batch, &p_in, &p_out, (p_out.depth - near) * ray.len_per_depth, t_front);
             }
             keep
         } else if len > 0.0 {
-            self.push(batch, &p_in, &p_out, len);
+            self.push::<GRADS>(batch, &p_in, &p_out, len);
             true
         } else {
             false
@@ -1244,15 +1280,22 @@ impl WalkCtx<'_> {
     /// [`Self::push`] for a segment cut by the near plane: its front values
     /// are those at `t_front` of the way from `a` to `b` (every field is
     /// linear along the ray inside the tet).
-    fn push_clipped(&self, batch: &mut RayBatch, a: &FacePoint, b: &FacePoint, len: f32, t_front: f32) {
+    fn push_clipped<const GRADS: bool>(
+        &self,
+        batch: &mut RayBatch,
+        a: &FacePoint,
+        b: &FacePoint,
+        len: f32,
+        t_front: f32,
+    ) {
         let k = batch.segs.len;
-        self.push(batch, a, b, len);
+        self.push::<GRADS>(batch, a, b, len);
         let mix = |fa: f32, fb: f32| fa + t_front * (fb - fa);
         batch.segs.s_front[k] = mix(a.scalar, b.scalar);
-        if self.want_grad_mag {
+        if GRADS && self.want_grad_mag {
             batch.segs.grad_front[k] = mix(batch.segs.grad_front[k], batch.segs.grad_back[k]);
         }
-        if self.lit {
+        if GRADS && self.lit {
             // push() left the mean of the two ends; the cut segment's
             // midpoint is t_front/2 further towards b.
             let g = self.mesh.grads.as_deref().expect("checked in lit");
@@ -1269,12 +1312,15 @@ impl WalkCtx<'_> {
     }
 
     #[inline(always)]
-    fn push(&self, batch: &mut RayBatch, a: &FacePoint, b: &FacePoint, len: f32) {
+    fn push<const GRADS: bool>(&self, batch: &mut RayBatch, a: &FacePoint, b: &FacePoint, len: f32) {
         let k = batch.segs.len;
         batch.segs.s_front[k] = a.scalar;
         batch.segs.s_back[k] = b.scalar;
         batch.segs.len_world[k] = len;
-        if self.want_grad_mag {
+        if !GRADS {
+            // The batch was made by this tile's walk with zero gradients
+            // (`tile_with`), and nothing here writes them.
+        } else if self.want_grad_mag {
             let g = self.mesh.grad_mag.as_deref().expect("checked in want_grad_mag");
             let at = |p: &FacePoint| {
                 p.lam[0] * g[p.ids[0] as usize] + p.lam[1] * g[p.ids[1] as usize] + p.lam[2] * g[p.ids[2] as usize]
@@ -1285,7 +1331,7 @@ impl WalkCtx<'_> {
             batch.segs.grad_front[k] = 0.0;
             batch.segs.grad_back[k] = 0.0;
         }
-        if self.lit {
+        if GRADS && self.lit {
             let g = self.mesh.grads.as_deref().expect("checked in lit");
             let mut mid = [0.0f32; 3];
             for p in [a, b] {

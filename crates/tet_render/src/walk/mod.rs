@@ -1198,7 +1198,7 @@ impl WalkCtx<'_> {
             return false;
         }
         ray.steps_left -= 1;
-        let rec = tets[t];
+        let rec = &tets[t];
         if self.prefetch {
             // The three neighbours the ray may step into: their records are
             // requested while this step's edge tests run (`prefetch`). The
@@ -1262,7 +1262,13 @@ impl WalkCtx<'_> {
             ray.in_run = false;
             return false;
         }
-        ray.p_in = p_out;
+        if GRADS {
+            ray.p_in = p_out;
+        } else {
+            // Only depth and scalar are read (`push`): the weights and ids
+            // are not worth a store.
+            (ray.p_in.depth, ray.p_in.scalar) = (p_out.depth, p_out.scalar);
+        }
         ray.t = (link / 4) as usize;
         ray.f_in = (link % 4) as usize;
         false

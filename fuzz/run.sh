@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -57,6 +57,10 @@ head -c 20000 "$data"/plot3d/bluntfinxyz.bin > corpus/plot3d/bf_head
 # (head closes the pipe early: the writer's SIGPIPE is expected, not an error)
 { printf '\x40'; cat "$data"/plot3d/bluntfinxyz.bin "$data"/plot3d/bluntfinq.bin; } | head -c 250000 > corpus/plot3d/bf || true
 { printf '\x10\x10\x10\x01\x00\x01\x00\x00'; head -c 4104 "$data"/volume/iron16.raw; } > corpus/raw/iron16
+# SU2: the brick mesh's head (elements), then its point section's head, a NUL and a CSV solution.
+mkdir -p corpus/su2
+{ printf 'NDIME= 3\nNELEM= 1\n10 0 1 2 3\nNPOIN= 4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n\0PointID,x,y,z,p\n0,0,0,0,1\n1,1,0,0,2\n2,0,1,0,3\n3,0,0,1,4\n'; } > corpus/su2/tet
+gzip -dc "$data"/su2/mesh_brick_prism_ffd.su2.gz | head -c 60000 > corpus/su2/brick_head || true
 { head -c 3000 "$data"/tetgen/twobox.1.node; printf '\0'; head -c 3000 "$data"/tetgen/twobox.1.ele; } > corpus/tetgen/twobox
 status=0
 for t in "${targets[@]}"; do

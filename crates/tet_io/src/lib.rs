@@ -32,6 +32,7 @@ pub mod obj;
 pub mod plot3d;
 pub mod ply;
 pub mod raw;
+pub mod su2;
 pub mod tetgen;
 pub mod vtk_legacy;
 pub mod vtk_xml;
@@ -116,8 +117,6 @@ pub enum ReadError {
 /// file is instead of asking for a `--format` that does not exist.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Unsupported {
-    /// SU2 native mesh (`.su2`, `NDIME=`).
-    Su2,
     /// Exodus II (`.exo`, `.ex2`, `.e`, `.g` holding NetCDF or HDF5).
     Exodus,
     /// CGNS (`.cgns`, HDF5 or ADF).
@@ -134,7 +133,6 @@ pub enum Unsupported {
 impl fmt::Display for Unsupported {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Unsupported::Su2 => "an SU2 mesh",
             Unsupported::Exodus => "an Exodus II mesh (NetCDF/HDF5)",
             Unsupported::Cgns => "a CGNS file",
             Unsupported::NetCdf => "a NetCDF file",
@@ -172,16 +170,12 @@ pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
     }
     let text = String::from_utf8_lossy(&head[..head.len().min(4096)]);
     match ext.as_str() {
-        "su2" => return Some(Unsupported::Su2),
         "exo" | "ex2" | "exii" => return Some(Unsupported::Exodus),
         "cgns" | "adf" => return Some(Unsupported::Cgns),
         "foam" => return Some(Unsupported::OpenFoam),
         "nc" | "cdf" => return Some(Unsupported::NetCdf),
         "h5" | "hdf5" | "hdf" => return Some(Unsupported::Hdf5),
         _ => {}
-    }
-    if text.trim_start().starts_with("NDIME=") || text.lines().any(|l| l.trim_start().starts_with("NDIME=")) {
-        return Some(Unsupported::Su2);
     }
     if text.contains("FoamFile") {
         return Some(Unsupported::OpenFoam);
@@ -226,6 +220,9 @@ pub enum Format {
     Gltf,
     /// CSV / XYZ point table (header line or [`ReadOptions::columns`]).
     Csv,
+    /// SU2 native mesh (`.su2`, ASCII), with an optional CSV solution
+    /// ([`ReadOptions::solution`]).
+    Su2,
 }
 
 impl Format {
@@ -245,10 +242,11 @@ impl Format {
             Format::Obj => "obj",
             Format::Gltf => "gltf",
             Format::Csv => "csv",
+            Format::Su2 => "su2",
         }
     }
 
-    pub const ALL: [Format; 13] = [
+    pub const ALL: [Format; 14] = [
         Format::VtkLegacy,
         Format::VtkXml,
         Format::Pvtu,
@@ -262,6 +260,7 @@ impl Format {
         Format::Obj,
         Format::Gltf,
         Format::Csv,
+        Format::Su2,
     ];
 
     /// Parses a `--format` name; `laz`, `glb` and `xyz-points` are accepted
@@ -298,6 +297,7 @@ impl fmt::Display for Format {
             Format::Obj => "OBJ",
             Format::Gltf => "glTF",
             Format::Csv => "CSV",
+            Format::Su2 => "SU2",
         })
     }
 }
@@ -312,6 +312,9 @@ pub struct ReadOptions {
     pub plot3d: plot3d::Plot3dOptions,
     /// Layout of a raw volume (required for [`Format::Raw`]).
     pub raw: Option<raw::RawSpec>,
+    /// SU2 solution: a CSV table with a row per mesh point (SU2's
+    /// `restart_flow.csv` or `flow.csv`).
+    pub solution: Option<PathBuf>,
     /// Column names of a CSV/XYZ point table, in order (`x`, `y`, `z` and
     /// field names; `_` skips a column). Replaces the file's header line.
     pub columns: Option<Vec<String>>,
@@ -334,6 +337,7 @@ pub fn read_bytes(bytes: &[u8], format: Format) -> Result<SourceMesh, FormatErro
         Format::Las => las::read(bytes),
         Format::Obj => obj::read(bytes),
         Format::Csv => csv::read(bytes, None),
+        Format::Su2 => su2::read(bytes),
         Format::Gltf => gltf::read(bytes, &mut |uri: &str| {
             Err(std::io::Error::new(std::io::ErrorKind::NotFound, format!("external buffer '{uri}' not available")))
         }),
@@ -373,6 +377,9 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
     if head.starts_with(b"LASF") {
         return Some(Format::Las);
     }
+    if text.lines().take(64).any(|l| l.trim_start().starts_with("NDIME=")) {
+        return Some(Format::Su2);
+    }
     if head.starts_with(b"glTF") || (text.trim_start().starts_with('{') && text.contains("\"asset\"")) {
         return Some(Format::Gltf);
     }
@@ -391,6 +398,7 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
         "vtk" => Some(Format::VtkLegacy),
         "vtu" | "vts" | "vti" | "vtr" => Some(Format::VtkXml),
         "msh" => Some(Format::Gmsh),
+        "su2" => Some(Format::Su2),
         "node" | "ele" => Some(Format::TetGen),
         "nrrd" | "nhdr" => Some(Format::Nrrd),
         "raw" if opts.raw.is_some() => Some(Format::Raw),
@@ -486,6 +494,15 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadErro
                 std::fs::read(p)
             });
             result.map_err(|e| malformed(e, path, external.as_deref()))
+        }
+        Format::Su2 => {
+            let bytes = read_all(path)?;
+            let mut mesh = su2::read(&bytes).map_err(|e| malformed(e, path, None))?;
+            if let Some(sol) = &opts.solution {
+                let csv = read_all(sol)?;
+                su2::attach_solution(&mut mesh, &csv).map_err(|e| malformed(e, path, Some(sol)))?;
+            }
+            Ok(mesh)
         }
         Format::VtkLegacy | Format::VtkXml | Format::Gmsh | Format::Ply | Format::Las | Format::Obj => {
             let bytes = read_all(path)?;

@@ -23,13 +23,6 @@ fn file(dir: &Path, name: &str, bytes: &[u8]) -> std::path::PathBuf {
 }
 
 #[test]
-fn su2_by_extension_and_by_content() {
-    let d = tempfile::tempdir().unwrap();
-    assert_eq!(kind_of(&file(d.path(), "wing.su2", b"NDIME= 3\nNELEM= 0\n")), Unsupported::Su2);
-    assert_eq!(kind_of(&file(d.path(), "wing.mesh", b"% SU2 mesh\nNDIME= 3\n")), Unsupported::Su2);
-}
-
-#[test]
 fn exodus_netcdf_and_hdf5_flavours() {
     let d = tempfile::tempdir().unwrap();
     for (name, magic) in [

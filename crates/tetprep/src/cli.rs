@@ -20,8 +20,8 @@ pub enum Command {
     ///
     /// Formats (detected from content or extension; --format to force):
     /// legacy VTK (.vtk), VTK XML (.vtu .vts .vti .pvtu), PLOT3D grid (+ --q
-    /// solution), Gmsh (.msh 2.2/4.1), TetGen (.node/.ele), NRRD (.nrrd
-    /// .nhdr), raw volumes (--format raw --dims --type --endian); point clouds:
+    /// solution), Gmsh (.msh 2.2/4.1), TetGen (.node/.ele), SU2 (.su2, +
+    /// --solution CSV), NRRD (.nrrd .nhdr), raw volumes (--format raw --dims --type --endian); point clouds:
     /// PLY, LAS/LAZ, OBJ vertex lists, glTF/GLB POINTS, CSV/XYZ tables
     /// (header line or --columns).
     ///
@@ -202,6 +202,11 @@ pub struct ConvertArgs {
     /// skips a column). Replaces the file's header line.
     #[arg(long, value_delimiter = ',', help_heading = "Point tables")]
     pub columns: Option<Vec<String>>,
+
+    /// SU2 meshes: the solution as SU2 writes it in CSV (restart_flow.csv,
+    /// flow.csv; a header line, one row per mesh point, matched by PointID).
+    #[arg(long, help_heading = "SU2")]
+    pub solution: Option<PathBuf>,
 
     #[command(flatten, next_help_heading = "PLOT3D")]
     pub plot3d: Plot3dArgs,

@@ -48,7 +48,14 @@ fn read_options(args: &ConvertArgs) -> anyhow::Result<ReadOptions> {
         gamma: args.plot3d.gamma,
         ..Plot3dOptions::default()
     };
-    Ok(ReadOptions { format: args.format, q_path: args.plot3d.q.clone(), plot3d, raw, columns: args.columns.clone() })
+    Ok(ReadOptions {
+        format: args.format,
+        q_path: args.plot3d.q.clone(),
+        plot3d,
+        raw,
+        solution: args.solution.clone(),
+        columns: args.columns.clone(),
+    })
 }
 
 /// A spinner that appears only for steps that take over a second.

@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -61,6 +61,9 @@ head -c 20000 "$data"/plot3d/bluntfinxyz.bin > corpus/plot3d/bf_head
 mkdir -p corpus/su2
 { printf 'NDIME= 3\nNELEM= 1\n10 0 1 2 3\nNPOIN= 4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n\0PointID,x,y,z,p\n0,0,0,0,1\n1,1,0,0,2\n2,0,1,0,3\n3,0,0,1,4\n'; } > corpus/su2/tet
 gzip -dc "$data"/su2/mesh_brick_prism_ffd.su2.gz | head -c 60000 > corpus/su2/brick_head || true
+# Exodus II: the hand-made three-block, two-step file, step 1.
+mkdir -p corpus/exodus
+{ printf '\1'; cat "$data"/exodus/small.exo; } > corpus/exodus/small
 { head -c 3000 "$data"/tetgen/twobox.1.node; printf '\0'; head -c 3000 "$data"/tetgen/twobox.1.ele; } > corpus/tetgen/twobox
 status=0
 for t in "${targets[@]}"; do

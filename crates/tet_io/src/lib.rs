@@ -24,9 +24,11 @@
 
 pub mod csv;
 pub mod cursor;
+pub mod exodus;
 pub mod gltf;
 pub mod gmsh;
 pub mod las;
+pub mod netcdf;
 pub mod nrrd;
 pub mod obj;
 pub mod plot3d;
@@ -117,7 +119,8 @@ pub enum ReadError {
 /// file is instead of asking for a `--format` that does not exist.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Unsupported {
-    /// Exodus II (`.exo`, `.ex2`, `.e`, `.g` holding NetCDF or HDF5).
+    /// Exodus II in its netCDF-4 (HDF5) form (`.exo`, `.ex2`, `.e`, `.g`);
+    /// the classic netCDF form is [`Format::Exodus`].
     Exodus,
     /// CGNS (`.cgns`, HDF5 or ADF).
     Cgns,
@@ -133,7 +136,10 @@ pub enum Unsupported {
 impl fmt::Display for Unsupported {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Unsupported::Exodus => "an Exodus II mesh (NetCDF/HDF5)",
+            Unsupported::Exodus => {
+                "an Exodus II mesh in netCDF-4/HDF5 form (the classic netCDF form is read: \
+                 `nccopy -k classic` rewrites it)"
+            }
             Unsupported::Cgns => "a CGNS file",
             Unsupported::NetCdf => "a NetCDF file",
             Unsupported::Hdf5 => "an HDF5 file",
@@ -160,6 +166,10 @@ pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
     let ext = lower_ext(path);
     let exodus_ext = matches!(ext.as_str(), "exo" | "ex2" | "exii" | "e" | "g" | "gen");
     let hdf5 = head.starts_with(HDF5_MAGIC);
+    if is_netcdf(head) && (exodus_ext || looks_like_exodus(head)) {
+        // Read by [`Format::Exodus`].
+        return None;
+    }
     if is_netcdf(head) || hdf5 {
         return Some(match ext.as_str() {
             "cgns" => Unsupported::Cgns,
@@ -170,7 +180,6 @@ pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
     }
     let text = String::from_utf8_lossy(&head[..head.len().min(4096)]);
     match ext.as_str() {
-        "exo" | "ex2" | "exii" => return Some(Unsupported::Exodus),
         "cgns" | "adf" => return Some(Unsupported::Cgns),
         "foam" => return Some(Unsupported::OpenFoam),
         "nc" | "cdf" => return Some(Unsupported::NetCdf),
@@ -181,6 +190,12 @@ pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
         return Some(Unsupported::OpenFoam);
     }
     head.starts_with(b"ADF Database Version").then_some(Unsupported::Cgns)
+}
+
+/// A netCDF header naming Exodus II's dimensions.
+fn looks_like_exodus(head: &[u8]) -> bool {
+    let has = |n: &[u8]| head.windows(n.len()).any(|w| w == n);
+    has(b"num_el_blk") && has(b"num_nodes")
 }
 
 /// "at byte 12 of x.vtk", "at line 3 of x.msh", or "in x.bin" for whole-file problems.
@@ -223,6 +238,9 @@ pub enum Format {
     /// SU2 native mesh (`.su2`, ASCII), with an optional CSV solution
     /// ([`ReadOptions::solution`]).
     Su2,
+    /// Exodus II in netCDF classic form, results at
+    /// [`ReadOptions::time_step`].
+    Exodus,
 }
 
 impl Format {
@@ -243,10 +261,11 @@ impl Format {
             Format::Gltf => "gltf",
             Format::Csv => "csv",
             Format::Su2 => "su2",
+            Format::Exodus => "exodus",
         }
     }
 
-    pub const ALL: [Format; 14] = [
+    pub const ALL: [Format; 15] = [
         Format::VtkLegacy,
         Format::VtkXml,
         Format::Pvtu,
@@ -261,6 +280,7 @@ impl Format {
         Format::Gltf,
         Format::Csv,
         Format::Su2,
+        Format::Exodus,
     ];
 
     /// Parses a `--format` name; `laz`, `glb` and `xyz-points` are accepted
@@ -298,6 +318,7 @@ impl fmt::Display for Format {
             Format::Gltf => "glTF",
             Format::Csv => "CSV",
             Format::Su2 => "SU2",
+            Format::Exodus => "Exodus II",
         })
     }
 }
@@ -315,6 +336,9 @@ pub struct ReadOptions {
     /// SU2 solution: a CSV table with a row per mesh point (SU2's
     /// `restart_flow.csv` or `flow.csv`).
     pub solution: Option<PathBuf>,
+    /// Results files (Exodus II): the time step (0-based) whose fields are
+    /// read; the first when unset.
+    pub time_step: Option<usize>,
     /// Column names of a CSV/XYZ point table, in order (`x`, `y`, `z` and
     /// field names; `_` skips a column). Replaces the file's header line.
     pub columns: Option<Vec<String>>,
@@ -338,6 +362,7 @@ pub fn read_bytes(bytes: &[u8], format: Format) -> Result<SourceMesh, FormatErro
         Format::Obj => obj::read(bytes),
         Format::Csv => csv::read(bytes, None),
         Format::Su2 => su2::read(bytes),
+        Format::Exodus => exodus::read(bytes, &exodus::ExodusOptions::default()),
         Format::Gltf => gltf::read(bytes, &mut |uri: &str| {
             Err(std::io::Error::new(std::io::ErrorKind::NotFound, format!("external buffer '{uri}' not available")))
         }),
@@ -377,6 +402,11 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
     if head.starts_with(b"LASF") {
         return Some(Format::Las);
     }
+    if is_netcdf(head)
+        && (looks_like_exodus(head) || matches!(ext.as_str(), "exo" | "ex2" | "exii" | "e" | "g" | "gen"))
+    {
+        return Some(Format::Exodus);
+    }
     if text.lines().take(64).any(|l| l.trim_start().starts_with("NDIME=")) {
         return Some(Format::Su2);
     }
@@ -399,6 +429,7 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
         "vtu" | "vts" | "vti" | "vtr" => Some(Format::VtkXml),
         "msh" => Some(Format::Gmsh),
         "su2" => Some(Format::Su2),
+        "exo" | "ex2" | "exii" => Some(Format::Exodus),
         "node" | "ele" => Some(Format::TetGen),
         "nrrd" | "nhdr" => Some(Format::Nrrd),
         "raw" if opts.raw.is_some() => Some(Format::Raw),
@@ -494,6 +525,11 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadErro
                 std::fs::read(p)
             });
             result.map_err(|e| malformed(e, path, external.as_deref()))
+        }
+        Format::Exodus => {
+            let bytes = read_all(path)?;
+            exodus::read(&bytes, &exodus::ExodusOptions { time_step: opts.time_step })
+                .map_err(|e| malformed(e, path, None))
         }
         Format::Su2 => {
             let bytes = read_all(path)?;

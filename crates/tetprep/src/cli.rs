@@ -21,7 +21,8 @@ pub enum Command {
     /// Formats (detected from content or extension; --format to force):
     /// legacy VTK (.vtk), VTK XML (.vtu .vts .vti .pvtu), PLOT3D grid (+ --q
     /// solution), Gmsh (.msh 2.2/4.1), TetGen (.node/.ele), SU2 (.su2, +
-    /// --solution CSV), NRRD (.nrrd .nhdr), raw volumes (--format raw --dims --type --endian); point clouds:
+    /// --solution CSV), Exodus II (netCDF classic; --time-step), NRRD (.nrrd
+    /// .nhdr), raw volumes (--format raw --dims --type --endian); point clouds:
     /// PLY, LAS/LAZ, OBJ vertex lists, glTF/GLB POINTS, CSV/XYZ tables
     /// (header line or --columns).
     ///
@@ -207,6 +208,11 @@ pub struct ConvertArgs {
     /// flow.csv; a header line, one row per mesh point, matched by PointID).
     #[arg(long, help_heading = "SU2")]
     pub solution: Option<PathBuf>,
+
+    /// Results files (Exodus II): the time step, from 0, whose nodal and
+    /// element variables are read (default: the first).
+    #[arg(long, help_heading = "Exodus II")]
+    pub time_step: Option<usize>,
 
     #[command(flatten, next_help_heading = "PLOT3D")]
     pub plot3d: Plot3dArgs,

@@ -54,6 +54,7 @@ fn read_options(args: &ConvertArgs) -> anyhow::Result<ReadOptions> {
         plot3d,
         raw,
         solution: args.solution.clone(),
+        time_step: args.time_step,
         columns: args.columns.clone(),
     })
 }

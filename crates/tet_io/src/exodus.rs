@@ -1,0 +1,343 @@
+//! Exodus II meshes and results in netCDF classic form (`.exo`, `.ex2`,
+//! `.e`, `.g`).
+//!
+//! The data model: Schoof & Yarberry, "EXODUS II: A Finite Element Data
+//! Model" (Sandia report SAND92-2137, 1994), as the Exodus library (SEACAS)
+//! writes it into netCDF ([`crate::netcdf`]): dimensions `num_dim`,
+//! `num_nodes`, `num_el_blk`, `num_el_in_blk{i}`, `num_nod_per_el{i}` and the
+//! record dimension `time_step`; coordinates in `coordx`/`coordy`/`coordz` or
+//! one `coord` (num_dim × num_nodes); per element block `connect{i}` with
+//! 1-based node numbers and its `elem_type` attribute; block ids in
+//! `eb_prop1`; times in `time_whole`; nodal results named by `name_nod_var`
+//! in `vals_nod_var{j}` (or one `vals_nod_var`, time × variable × node, in
+//! older files); element results named by `name_elem_var` in
+//! `vals_elem_var{j}eb{i}` where the truth table `elem_var_tab` says so.
+//!
+//! Tetrahedra, hexahedra, wedges and pyramids are read, higher-order
+//! variants (TETRA10, HEX20, HEX27, WEDGE15, PYRAMID13, …) reduced to their
+//! corner nodes, which Exodus lists first; blocks of other types (shells,
+//! beams, spheres, polyhedra) are skipped with a note. Nodal variables
+//! become point fields and element variables cell fields (NaN in blocks the
+//! truth table leaves out), all at one time step ([`ExodusOptions`]);
+//! `block_id` is a cell field.
+//!
+//! The netCDF-4 (HDF5) form of Exodus is not read here: `nccopy -k
+//! classic in.exo out.exo` rewrites it in the classic form.
+
+use tet_mesh::{Block, CellType, Cells, Field};
+
+use crate::netcdf::{NetCdf, Variable};
+use crate::{FormatError, Location, SourceMesh};
+
+/// What to read of a results file.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ExodusOptions {
+    /// Time step (0-based) whose results become the fields; the first when
+    /// unset.
+    pub time_step: Option<usize>,
+}
+
+/// The linear cell an Exodus element type stands for, given its nodes per
+/// element; `None` for types that are not volume cells tetkit reads.
+fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
+    let t = elem_type.trim().to_ascii_uppercase();
+    let (c, ok) = if t.starts_with("TET") {
+        (CellType::Tetra, matches!(nodes, 4 | 8 | 10 | 11 | 14 | 15))
+    } else if t.starts_with("HEX") {
+        (CellType::Hexahedron, matches!(nodes, 8 | 9 | 16 | 20 | 27))
+    } else if t.starts_with("WEDGE") {
+        (CellType::Wedge, matches!(nodes, 6 | 12 | 15 | 16 | 18 | 20 | 21 | 24 | 52))
+    } else if t.starts_with("PYRAMID") {
+        (CellType::Pyramid, matches!(nodes, 5 | 13 | 14 | 18 | 19))
+    } else {
+        return None;
+    };
+    ok.then_some(c)
+}
+
+fn whole(m: impl Into<String>) -> FormatError {
+    FormatError::new(Location::Whole, m)
+}
+
+fn need<'f>(f: &'f NetCdf<'_>, name: &str) -> Result<&'f Variable, FormatError> {
+    f.var(name).ok_or_else(|| whole(format!("no variable '{name}' (is this an Exodus II file?)")))
+}
+
+/// Reads an Exodus II file held in memory.
+pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatError> {
+    let f = NetCdf::parse(bytes)?;
+    let num_dim = f.dim_len("num_dim").ok_or_else(|| whole("no dimension 'num_dim': not an Exodus II file"))?;
+    if num_dim != 3 {
+        return Err(whole(format!("a {num_dim}D Exodus mesh has no volume cells; tetkit renders 3D meshes")));
+    }
+    let num_nodes = f.dim_len("num_nodes").unwrap_or(0);
+    // Coordinates: three arrays, or one num_dim × num_nodes array.
+    let mut points = vec![[0.0f64; 3]; num_nodes];
+    if let Some(coord) = f.var("coord") {
+        let v = f.read(coord, None)?;
+        if f.shape(coord) != [3, num_nodes] {
+            return Err(whole(format!("'coord' has shape {:?}, expected [3, {num_nodes}]", f.shape(coord))));
+        }
+        for (k, p) in points.iter_mut().enumerate() {
+            *p = [v[k], v[num_nodes + k], v[2 * num_nodes + k]];
+        }
+    } else {
+        for (c, name) in ["coordx", "coordy", "coordz"].iter().enumerate() {
+            let v = f.read(need(&f, name)?, None)?;
+            if v.len() != num_nodes {
+                return Err(whole(format!("'{name}' has {} values for {num_nodes} nodes", v.len())));
+            }
+            for (p, x) in points.iter_mut().zip(v) {
+                p[c] = x;
+            }
+        }
+    }
+    let num_blocks = f.dim_len("num_el_blk").unwrap_or(0);
+    let block_ids = match f.var("eb_prop1") {
+        Some(v) => f.read(v, None)?,
+        None => (1..=num_blocks).map(|i| i as f64).collect(),
+    };
+    let mut cells = Cells::new();
+    let mut block_of_cell: Vec<u32> = Vec::new();
+    // Per block read: (block index, first cell, cells).
+    let mut read_blocks: Vec<(usize, usize, usize)> = Vec::new();
+    let (mut reduced, mut skipped) = (0usize, Vec::new());
+    for b in 0..num_blocks {
+        let name = format!("connect{}", b + 1);
+        let Some(connect) = f.var(&name) else {
+            // A null block (eb_status 0) has no connectivity.
+            continue;
+        };
+        let shape = f.shape(connect);
+        let elem_type = connect.text_attr("elem_type").unwrap_or("").to_string();
+        let [n_elems, per] = shape[..] else {
+            return Err(FormatError::new(Location::Whole, format!("'{name}' has shape {shape:?}, expected 2-D")));
+        };
+        let Some(ct) = cell_type(&elem_type, per) else {
+            let id = block_ids.get(b).copied().unwrap_or((b + 1) as f64);
+            let plural = if n_elems == 1 { "" } else { "s" };
+            skipped.push(format!("block {id} ({elem_type}, {n_elems} element{plural})"));
+            continue;
+        };
+        let ids = f.read(connect, None)?;
+        let first = cells.len();
+        let mut node = [0u32; 8];
+        for e in 0..n_elems {
+            for (k, slot) in node.iter_mut().take(ct.num_nodes()).enumerate() {
+                let id = ids[e * per + k];
+                if !(id >= 1.0 && id <= num_nodes as f64 && id.fract() == 0.0) {
+                    return Err(whole(format!(
+                        "element {} of block {} names node {id}; nodes are 1..={num_nodes}",
+                        e + 1,
+                        block_ids.get(b).copied().unwrap_or((b + 1) as f64)
+                    )));
+                }
+                *slot = id as u32 - 1;
+            }
+            cells.push(ct, &node[..ct.num_nodes()]);
+        }
+        if per > ct.num_nodes() {
+            reduced += n_elems;
+        }
+        block_of_cell.extend(std::iter::repeat_n(b as u32, n_elems));
+        read_blocks.push((b, first, n_elems));
+    }
+    let num_cells = cells.len();
+    let mut mesh = SourceMesh { format: "Exodus II".to_string(), points, ..Default::default() };
+    mesh.cell_fields.push(Field::new(
+        "block_id",
+        1,
+        block_of_cell.iter().map(|&b| block_ids.get(b as usize).copied().unwrap_or((b + 1) as f64)).collect(),
+    ));
+    // Results at one time step.
+    let steps = f.num_records;
+    let times = match f.var("time_whole") {
+        Some(t) if steps > 0 => (0..steps).map(|r| f.read(t, Some(r)).map(|v| v[0])).collect::<Result<Vec<_>, _>>()?,
+        _ => Vec::new(),
+    };
+    let step = opts.time_step.unwrap_or(0);
+    if opts.time_step.is_some() && step >= steps.max(1) {
+        return Err(whole(format!("time step {step} asked for; the file has {steps} (0..{})", steps.max(1) - 1)));
+    }
+    if steps > 0 {
+        let names = match f.var("name_nod_var") {
+            Some(v) => f.read_strings(v)?,
+            None => Vec::new(),
+        };
+        let combined = f.var("vals_nod_var");
+        for (j, n) in names.iter().enumerate() {
+            let values = if let Some(v) = f.var(&format!("vals_nod_var{}", j + 1)) {
+                f.read(v, Some(step))?
+            } else if let Some(v) = combined {
+                let all = f.read(v, Some(step))?;
+                all.get(j * num_nodes..(j + 1) * num_nodes).map(<[f64]>::to_vec).unwrap_or_default()
+            } else {
+                return Err(whole(format!("nodal variable '{n}' has no values")));
+            };
+            if values.len() != num_nodes {
+                return Err(whole(format!("nodal variable '{n}' has {} values for {num_nodes} nodes", values.len())));
+            }
+            mesh.point_fields.push(Field::new(field_name(n, j), 1, values));
+        }
+        let enames = match f.var("name_elem_var") {
+            Some(v) => f.read_strings(v)?,
+            None => Vec::new(),
+        };
+        let truth = match f.var("elem_var_tab") {
+            Some(v) => Some(f.read(v, None)?),
+            None => None,
+        };
+        let mut partial = Vec::new();
+        for (j, n) in enames.iter().enumerate() {
+            let mut values = vec![f64::NAN; num_cells];
+            let mut complete = true;
+            for &(b, first, count) in &read_blocks {
+                let on = truth.as_ref().is_none_or(|t| t.get(b * enames.len() + j).is_some_and(|&x| x != 0.0));
+                let var = f.var(&format!("vals_elem_var{}eb{}", j + 1, b + 1));
+                match (on, var) {
+                    (true, Some(v)) => {
+                        let vals = f.read(v, Some(step))?;
+                        if vals.len() != count {
+                            return Err(whole(format!(
+                                "element variable '{n}' has {} values in block {} of {count} elements",
+                                vals.len(),
+                                b + 1
+                            )));
+                        }
+                        values[first..first + count].copy_from_slice(&vals);
+                    }
+                    _ => complete = false,
+                }
+            }
+            if !complete {
+                partial.push(n.clone());
+            }
+            mesh.cell_fields.push(Field::new(field_name(n, j), 1, values));
+        }
+        if !partial.is_empty() {
+            mesh.notes.push(format!("element variables missing in some blocks (NaN there): {}", partial.join(", ")));
+        }
+        let t = times.get(step).copied().unwrap_or(f64::NAN);
+        mesh.notes.push(match times.as_slice() {
+            [first, .., last] => format!(
+                "{steps} time steps (t = {first} … {last}); fields of step {step} (t = {t}); --time-step N picks another"
+            ),
+            _ => format!("1 time step (t = {t})"),
+        });
+    }
+    if reduced > 0 {
+        mesh.notes.push(format!("reduced {reduced} higher-order elements to their corner nodes"));
+    }
+    if !skipped.is_empty() {
+        mesh.notes.push(format!("skipped element blocks that are not volume cells: {}", skipped.join(", ")));
+    }
+    mesh.blocks.push(Block::Unstructured(cells));
+    mesh.check().map_err(whole)?;
+    Ok(mesh)
+}
+
+/// A variable's name, or `variable_J` when the file leaves it blank.
+fn field_name(name: &str, j: usize) -> String {
+    if name.is_empty() {
+        format!("variable_{}", j + 1)
+    } else {
+        name.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::netcdf::tests::Writer;
+
+    /// Two tets (one TETRA block) and a HEX8 block over 12 nodes, with two
+    /// time steps of a nodal and an element variable.
+    fn file() -> Writer {
+        let names = |list: &[&str]| -> Vec<f64> {
+            list.iter().flat_map(|n| format!("{n:\0<8}").into_bytes().into_iter().map(f64::from)).collect()
+        };
+        let coord: Vec<f64> = (0..12)
+            .map(|i| (i % 2) as f64)
+            .chain((0..12).map(|i| (i / 2 % 2) as f64))
+            .chain((0..12).map(|i| (i / 4) as f64))
+            .collect();
+        Writer {
+            dims: vec![
+                ("time_step".into(), 0),
+                ("num_dim".into(), 3),
+                ("num_nodes".into(), 12),
+                ("num_el_blk".into(), 2),
+                ("num_el_in_blk1".into(), 1),
+                ("num_nod_per_el1".into(), 4),
+                ("num_el_in_blk2".into(), 1),
+                ("num_nod_per_el2".into(), 8),
+                ("num_nod_var".into(), 1),
+                ("num_elem_var".into(), 1),
+                ("len_name".into(), 8),
+            ],
+            vars: vec![
+                ("coord".into(), vec![1, 2], 6, vec![], coord),
+                ("eb_prop1".into(), vec![3], 4, vec![], vec![10.0, 20.0]),
+                (
+                    "connect1".into(),
+                    vec![4, 5],
+                    4,
+                    vec![("elem_type".into(), "TETRA".into())],
+                    vec![1.0, 2.0, 3.0, 5.0],
+                ),
+                (
+                    "connect2".into(),
+                    vec![6, 7],
+                    4,
+                    vec![("elem_type".into(), "HEX8".into())],
+                    vec![5.0, 6.0, 8.0, 7.0, 9.0, 10.0, 12.0, 11.0],
+                ),
+                ("name_nod_var".into(), vec![8, 10], 2, vec![], names(&["Temp"])),
+                ("name_elem_var".into(), vec![9, 10], 2, vec![], names(&["Stress"])),
+                ("elem_var_tab".into(), vec![3, 9], 4, vec![], vec![0.0, 1.0]),
+                ("time_whole".into(), vec![0], 6, vec![], vec![0.0, 2.5]),
+                ("vals_nod_var1".into(), vec![0, 2], 6, vec![], (0..24).map(f64::from).collect()),
+                ("vals_elem_var1eb2".into(), vec![0, 6], 6, vec![], vec![100.0, 200.0]),
+            ],
+            num_records: 2,
+        }
+    }
+
+    #[test]
+    fn blocks_fields_and_time_steps() {
+        for offset64 in [false, true] {
+            let bytes = file().write(offset64);
+            let m = read(&bytes, &ExodusOptions::default()).unwrap();
+            assert_eq!(m.points.len(), 12);
+            assert_eq!(m.points[11], [1.0, 1.0, 2.0]);
+            let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
+            assert_eq!(c.types, vec![CellType::Tetra, CellType::Hexahedron]);
+            assert_eq!(c.nodes(0), &[0, 1, 2, 4]);
+            let temp = m.point_fields.iter().find(|f| f.name == "Temp").unwrap();
+            assert_eq!(temp.values, (0..12).map(f64::from).collect::<Vec<_>>());
+            let stress = m.cell_fields.iter().find(|f| f.name == "Stress").unwrap();
+            assert!(stress.values[0].is_nan() && stress.values[1] == 100.0);
+            let ids = m.cell_fields.iter().find(|f| f.name == "block_id").unwrap();
+            assert_eq!(ids.values, vec![10.0, 20.0]);
+            assert!(m.notes.iter().any(|n| n.contains("2 time steps (t = 0 … 2.5)")), "{:?}", m.notes);
+            let m1 = read(&bytes, &ExodusOptions { time_step: Some(1) }).unwrap();
+            let temp = m1.point_fields.iter().find(|f| f.name == "Temp").unwrap();
+            assert_eq!(temp.values[0], 12.0);
+            assert_eq!(m1.cell_fields.iter().find(|f| f.name == "Stress").unwrap().values[1], 200.0);
+            let e = read(&bytes, &ExodusOptions { time_step: Some(2) }).unwrap_err();
+            assert!(e.message.contains("the file has 2"), "{e}");
+        }
+    }
+
+    #[test]
+    fn bad_node_numbers_and_truncation_are_errors() {
+        let mut w = file();
+        w.vars[2].4[3] = 13.0;
+        let e = read(&w.write(false), &ExodusOptions::default()).unwrap_err();
+        assert!(e.message.contains("names node 13"), "{e}");
+        let bytes = file().write(false);
+        for cut in (0..bytes.len()).step_by(7) {
+            let _ = read(&bytes[..cut], &ExodusOptions::default());
+        }
+    }
+}

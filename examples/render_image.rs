@@ -9,14 +9,15 @@
 //!
 //!     cargo run --release --example render_image -- [OUT.png] [AZIMUTH_DEG] [--check]
 use std::path::Path;
-use std::sync::Arc;
 use tetkit::bundle::{Bundle, BundleMeta};
+use tetkit::engine::{
+    resolve_tf, CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look, ReferenceFrameRenderer, TfRequest,
+    TfSource,
+};
 use tetkit::io::{read_file, ReadOptions};
 use tetkit::mesh::{build_adjacency, tetrahedralize, ConvertOptions};
-use tetkit::preint::{make_shader, BakeOptions, Method, TableDomain, TransferFunction};
-use tetkit::render::{
-    diff, image::diff_rgba8, render_reference, Camera, Display, ReferenceOptions, Renderer, Scene, TfCuller, ViewSpec,
-};
+use tetkit::preint::Method;
+use tetkit::render::{diff, image::diff_rgba8, Display, ViewSpec};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (flags, mut args): (Vec<String>, Vec<String>) = std::env::args().skip(1).partition(|a| a.starts_with("--"));
@@ -41,27 +42,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let stats = &bundle.meta.stats;
     println!("{} tets, density in [{:.3}, {:.3}]", bundle.mesh.tets.len(), stats.scalar_min, stats.scalar_max);
 
-    // The demo's transfer function (formats/tf.md): normalized, so its
-    // [0, 1] is stretched over the data's range.
-    let tf_json = std::fs::read_to_string(root.join("formats/samples/tf_normalized.json"))?;
-    let tf = TransferFunction::from_json(&tf_json)?.denormalize(stats.scalar_min, stats.scalar_max)?;
+    // The demo's transfer function (formats/tf.md): normalized, so the
+    // engine stretches its [0, 1] over the data's range.
+    let tf_path = root.join("formats/samples/tf_normalized.json");
+    let request = TfRequest { source: TfSource::File(tf_path), ..TfRequest::default() };
+    let tf = resolve_tf(&bundle, &request)?.tf;
 
     // Bake the table over the (Sf, Sb, l) the bundle's segments can reach.
-    let domain = TableDomain::from_bundle(&bundle)?;
-    let t0 = std::time::Instant::now();
-    let shader = make_shader(Method::Table3d, &tf, &domain, &BakeOptions::default())?;
-    println!("table3d baked in {:.0} ms", t0.elapsed().as_secs_f64() * 1e3);
+    let look = Look::bake(&bundle, Method::Table3d, tf)?;
+    println!("table3d baked in {:.0} ms", look.shader_seconds * 1e3);
 
     // Render: a view that frames the bounds, turned by the azimuth; cells
-    // the TF makes fully transparent are culled.
-    let scene = Scene::from_bundle(&bundle)?;
-    let (lo, hi) = scene.bounds();
+    // the TF makes fully transparent are culled (the request's default).
+    let mut renderer = CpuFrameRenderer::new(&bundle)?;
+    let (lo, hi) = renderer.renderer().scene().bounds();
     let view = ViewSpec::framing(lo, hi, [512, 512]).orbit(azimuth, 20.0, 1.0);
-    let mut renderer = Renderer::new(scene);
-    renderer.set_view(&view)?;
-    renderer.set_shader(Arc::from(shader));
-    renderer.set_culler(Some(Arc::new(TfCuller::new(&tf))));
-    let (image, st) = renderer.render(&|_, _| {})?;
+    let frame = renderer.render(&look, &FrameRequest::new(view.clone()), &|_, _| {})?;
+    let (image, FrameStats::Cpu(st)) = (frame.image, frame.stats) else { unreachable!("CPU statistics") };
     println!(
         "{} of {} tets drawn, {} fragments, {:.0} ms ({:.2} M tets/s)",
         st.tets_drawn,
@@ -78,10 +75,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     if check {
         // Exact ray–tet segments, exact integration, f64 compositing.
-        let camera = Camera::new(&view)?;
         let t0 = std::time::Instant::now();
-        let (reference, _) =
-            render_reference(&bundle.mesh, &bundle.adjacency, &camera, &tf, &ReferenceOptions::default(), &|_, _| {})?;
+        let mut exact = ReferenceFrameRenderer::new(&bundle)?;
+        let reference = exact.render(&Look::exact(look.tf.clone()), &FrameRequest::new(view), &|_, _| {})?.image;
         let err = diff(&image, &reference)?;
         let max_8bit = diff_rgba8(&image.to_rgba8(&display), &reference.to_rgba8(&display));
         println!(

@@ -8,6 +8,8 @@
 //!   integrator and the pre-integration tables (`make_shader`, `.tetl`).
 //! - [`render`] (`tet_render`): the CPU renderer (camera, `Renderer`, images,
 //!   the reference ray caster).
+//! - [`engine`] (`tet_engine`): bundle + TF + method + view → frame, the
+//!   path every front end shares (the one TF policy, looks, renderers).
 //!
 //! `examples/render_image.rs` runs the whole path in one program: read a
 //! file, convert it to tets, bake a table for a transfer function, render
@@ -26,6 +28,7 @@
 #![forbid(unsafe_code)]
 
 pub use tet_bundle as bundle;
+pub use tet_engine as engine;
 pub use tet_io as io;
 pub use tet_mesh as mesh;
 pub use tet_preint as preint;

@@ -190,6 +190,18 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
     if let Some(t) = cause.downcast_ref::<Tagged>() {
         return Some(t.kind);
     }
+    if let Some(e) = cause.downcast_ref::<tet_engine::EngineError>() {
+        use tet_engine::EngineError as E;
+        return match e {
+            E::RangeForAbsoluteTf => Some(Usage),
+            // Every failure of a method's bake, whatever the table error.
+            E::Bake { .. } => Some(Bake),
+            // A .tetl whose stored TF or method is unusable: the file's fault.
+            E::LutTf { .. } | E::LutMethod { .. } => Some(Input),
+            // The lower crates' errors decide (next in the chain).
+            E::Tf(_) | E::Domain(_) | E::Lut(_) | E::Render(_) => None,
+        };
+    }
     if let Some(e) = cause.downcast_ref::<tet_io::ReadError>() {
         return Some(match e {
             tet_io::ReadError::MissingOption { .. } => Usage,
@@ -392,6 +404,27 @@ mod tests {
                 ExitKind::Output,
             ),
             (tet_render::RenderError::NotReady("no shader").into(), ExitKind::Internal),
+            // The engine's own meanings, and its wrapped errors by their type.
+            (tet_engine::EngineError::RangeForAbsoluteTf.into(), ExitKind::Usage),
+            (
+                tet_engine::EngineError::Bake {
+                    method: tet_preint::Method::Table3d,
+                    source: tet_preint::TableError::Resolution { what: "n_s", value: 1, min: 2, max: 4096 },
+                }
+                .into(),
+                ExitKind::Bake,
+            ),
+            (
+                tet_engine::EngineError::LutTf { path: "t.tetl".into(), source: tet_preint::TfError::Json("x".into()) }
+                    .into(),
+                ExitKind::Input,
+            ),
+            (tet_engine::EngineError::Tf(tet_preint::TfError::Json("x".into())).into(), ExitKind::Usage),
+            (tet_engine::EngineError::Render(tet_render::RenderError::View("zero".into())).into(), ExitKind::Usage),
+            (
+                tet_engine::EngineError::Domain(tet_preint::TableError::Domain { what: "no span".into() }).into(),
+                ExitKind::Rejected,
+            ),
             (io(std::io::ErrorKind::PermissionDenied).into(), ExitKind::Output),
             (anyhow::anyhow!("something odd"), ExitKind::Internal),
         ];

@@ -217,6 +217,12 @@ impl Renderer {
         &self.scene
     }
 
+    /// The scene back, dropping every cached stage (e.g. to add gradients
+    /// with [`Scene::ensure_gradients`] and start a new renderer on it).
+    pub fn into_scene(self) -> Scene {
+        self.scene
+    }
+
     /// Sets the camera; the view geometry and the order become stale unless
     /// the view is identical to the current one.
     pub fn set_view(&mut self, spec: &ViewSpec) -> Result<(), RenderError> {

@@ -27,7 +27,7 @@ use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_plot::{Point, ScatterPlot, Series};
-use tet_preint::{Method, SegmentShader, TableDomain, TransferFunction};
+use tet_preint::{Method, TransferFunction};
 use tet_render::{
     diff, Camera, CpuRenderer, Image, ReferenceOptions, ReferenceRenderer, Renderer, Scene, SortMethod, TfCuller,
     ViewSpec,
@@ -241,7 +241,6 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let bundle = Bundle::read(bundle_path)?;
         let name = bundle_path.file_stem().map_or("bundle".into(), |s| s.to_string_lossy().into_owned());
         let tf = tet_preint::tf_for_bundle(&tf_file.without_widgets(), &bundle)?;
-        let domain = TableDomain::from_bundle(&bundle)?;
         let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", bundle_path.display()))?;
         let (lo, hi) = scene.bounds();
         let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
@@ -271,7 +270,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let mut sort_used = String::new();
         for &m in &methods {
             let t = Instant::now();
-            let shader: Arc<dyn SegmentShader> = crate::render::make_shader(m, &tf, &domain)?.into();
+            let shader = tet_engine::Look::bake(&bundle, m, tf.clone())?.shader;
             let bake_s = t.elapsed().as_secs_f64();
             r.set_shader(shader);
             for &kind in &args.renderers {

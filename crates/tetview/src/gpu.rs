@@ -89,7 +89,7 @@ pub fn render(
         // so --gpu and CPU images agree.
         Method::Table3d if args.gpu_bake => {
             let domain = TableDomain::from_bundle(bundle)?;
-            crate::render::count_table_bake();
+            tet_engine::count_table_bake();
             // The GPU bakes the slice recurrence (the CPU default is the
             // adaptive build): same axis and resolution, entries within ~1e-5.
             let params = Table3dParams { build: Build3d::default(), ..BakeOptions::default().table3d };
@@ -105,7 +105,7 @@ pub fn render(
                 Some((lut, path)) => Baked::from_lut(lut, path)?,
                 None => {
                     if method.is_tabulated() {
-                        crate::render::count_table_bake();
+                        tet_engine::count_table_bake();
                     }
                     Baked::build(method, tf, &TableDomain::from_bundle(bundle)?, &BakeOptions::default())?
                 }
@@ -166,7 +166,7 @@ pub fn render(
             "table_bake_seconds": bake_seconds,
             "table_bake_device": if !method.is_tabulated() { "none" } else if args.gpu_bake { "gpu" } else { "cpu" },
             "table_bake_setup_seconds": bake_setup_seconds,
-            "tables_baked": crate::render::tables_baked(),
+            "tables_baked": tet_engine::tables_baked(),
             "setup_seconds": setup_seconds,
             "upload_seconds": s.upload_seconds,
             "classify_seconds": s.classify_seconds,

@@ -6,10 +6,10 @@ use anyhow::{Context, Result};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
-use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_render::{Camera, ReferenceOptions, ReferenceRenderer};
+use tet_engine::{FrameRenderer, FrameRequest, FrameStats, Look, ReferenceFrameRenderer};
+use tet_render::Camera;
 
 #[derive(Debug, Clone, Args)]
 pub struct ReferenceArgs {
@@ -61,19 +61,21 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
         std::fs::write(p, spec.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }
 
-    let t0 = Instant::now();
-    let renderer = ReferenceRenderer::new(mesh, &bundle.adjacency)?;
-    let setup_s = t0.elapsed().as_secs_f64();
-    let options = ReferenceOptions { early_termination: !args.no_early_termination, ..Default::default() };
+    let mut renderer = ReferenceFrameRenderer::new(&bundle)?;
+    let setup_s = renderer.setup_seconds;
+    // The reference integrates the TF exactly, whatever a method would do.
+    let look = Look::exact(tf);
+    let request = FrameRequest { early_termination: !args.no_early_termination, ..FrameRequest::new(spec.clone()) };
     let bar = indicatif::ProgressBar::new(camera.height() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("reference {bar:30} {pos}/{len} rows, {elapsed_precise} (eta {eta})")
             .expect("valid template"),
     );
-    let t1 = Instant::now();
-    let (image, stats) = renderer.render(&camera, &tf, &options, &|done, _| bar.set_position(done as u64))?;
-    let render_s = t1.elapsed().as_secs_f64();
+    let frame = renderer.render(&look, &request, &|done, _| bar.set_position(done as u64))?;
     bar.finish_and_clear();
+    let (image, FrameStats::Reference { stats, render_seconds: render_s }) = (frame.image, frame.stats) else {
+        unreachable!("the reference renderer reports reference statistics")
+    };
 
     if let Some(p) = &args.float {
         image.write_npy(p)?;

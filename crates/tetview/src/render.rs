@@ -2,13 +2,16 @@
 
 use anyhow::{Context, Result};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::Arc;
-use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_preint::{load_shader, BakeOptions, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
-use tet_render::{Light, RasterOptions, Renderer, Scene, Shading, SortMethod, TfCuller};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look};
+use tet_preint::{LutFile, Method};
+use tet_render::{Light, Scene, Shading, SortMethod};
+
+/// What `render` says when shading needs gradients the bundle lacks (the
+/// engine's note for the CPU path says the same).
+const GRADIENTS_NOTE: &str = "the bundle has no gradients: per-vertex gradients (least squares) computed now \
+                              (tetprep convert --gradients stores them)";
 
 /// Render BUNDLE with a transfer function and method (or a baked table).
 #[derive(Debug, clap::Args)]
@@ -91,53 +94,19 @@ pub struct RenderArgs {
     pub gpu_bake: bool,
 }
 
-/// Tables baked by this process (`make_shader` of a tabulated method, or
-/// the GPU path's table3d): reported by `--json` as `tables_baked`, so a
-/// path that bakes the same table twice shows.
-static TABLES_BAKED: AtomicU32 = AtomicU32::new(0);
-
-/// Counts one table bake (see [`tables_baked`]).
-pub fn count_table_bake() {
-    TABLES_BAKED.fetch_add(1, Ordering::Relaxed);
-}
-
-/// Tables baked so far by this process.
-pub fn tables_baked() -> u32 {
-    TABLES_BAKED.load(Ordering::Relaxed)
-}
-
-/// The shader of a method, baked now over the bundle's (Sf, Sb, l) domain
-/// with tet_preint's default resolutions (the same as `tetlut bake`). A
-/// method that cannot bake for this TF is exit code 6, as in `tetlut bake`.
-pub fn make_shader(method: Method, tf: &TransferFunction, domain: &TableDomain) -> Result<Box<dyn SegmentShader>> {
-    if method.is_tabulated() {
-        count_table_bake();
-    }
-    tet_preint::make_shader(method, tf, domain, &BakeOptions::default())
-        .map_err(|e| anyhow::Error::new(e).context(format!("method {method}")))
-        .kind(ExitKind::Bake)
-}
-
 pub fn run(args: &RenderArgs) -> Result<()> {
     let bundle = Bundle::read(&args.bundle)?;
     crate::cli::warn_if_constant_scalar(&bundle);
     // Either a baked .tetl (its TF travels in the file) or a TF and a method.
-    let (method, tf, lut) = match &args.lut {
-        Some(path) => {
-            let lut = LutFile::read(path)?;
-            let tf = lut.transfer_function().with_context(|| path.display().to_string()).kind(ExitKind::Input)?;
-            let method = lut
-                .header
-                .method
-                .parse::<Method>()
-                .with_context(|| path.display().to_string())
-                .kind(ExitKind::Input)?;
-            (method, tf, Some((lut, path.clone())))
-        }
+    let lut = match &args.lut {
+        Some(path) => Some((LutFile::read(path)?, path.clone())),
+        None => None,
+    };
+    let (tf, method) = match &lut {
+        Some((lut, path)) => Look::lut_tf_and_method(lut, path)?,
         None => {
             let method: Method = args.method.parse()?;
-            let tf = crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?;
-            (method, tf, None)
+            (crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?, method)
         }
     };
 
@@ -147,44 +116,36 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             return Err(usage(format!("--silhouette {p}: need a finite exponent ≥ 0")));
         }
     }
-    let mut scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
-    if shading.is_active() || method.is_bivariate() {
-        if scene.gradients().is_none() && shading.is_active() {
-            eprintln!(
-                "note: the bundle has no gradients: per-vertex gradients (least squares) computed now for the shading normals (tetprep convert --gradients stores them)"
-            );
-        }
-        scene = scene.ensure_gradients()?;
-    }
+    let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
     if args.gpu {
         crate::gpu::check_args(args, method)?;
     }
     let view = args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
     let display = args.display.display();
     if args.gpu {
+        let mut scene = scene;
+        if shading.is_active() || method.is_bivariate() {
+            if scene.gradients().is_none() && shading.is_active() {
+                eprintln!("note: {GRADIENTS_NOTE}");
+            }
+            scene = scene.ensure_gradients()?;
+        }
         // The GPU path bakes its own table (or none): building the CPU
         // shader first would bake table3d twice.
         return crate::gpu::render(args, &bundle, &scene, &tf, method, &view, &display, lut.as_ref());
     }
-    let t = Instant::now();
-    let shader: Arc<dyn SegmentShader> = match &lut {
-        Some((lut, path)) => load_shader(lut, path)?.into(),
-        None => {
-            let domain = TableDomain::from_bundle(&bundle)?;
-            make_shader(method, &tf, &domain)?.into()
-        }
+    let look = match &lut {
+        Some((lut, path)) => Look::from_lut_file(lut, path)?,
+        None => Look::bake(&bundle, method, tf)?,
     };
-    let shader_seconds = t.elapsed().as_secs_f64();
-
-    let mut r = Renderer::new(scene);
-    r.set_view(&view)?;
-    r.set_shader(shader);
-    r.set_sort(args.sort);
-    r.set_renderer(args.renderer);
-    if !args.no_cull {
-        r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
-    }
-    r.set_raster_options(RasterOptions { shading, ..Default::default() });
+    let mut renderer = CpuFrameRenderer::from_scene(scene);
+    let request = FrameRequest {
+        shading,
+        cpu: args.renderer,
+        sort: args.sort,
+        cull: !args.no_cull,
+        ..FrameRequest::new(view.clone())
+    };
     let bar = if args.json { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(0) };
     bar.set_style(
         indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} tiles")
@@ -192,11 +153,17 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             .progress_chars("=> "),
     );
     bar.set_message("rendering");
-    let (image, st) = r.render(&|done, total| {
+    let frame = renderer.render(&look, &request, &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })?;
     bar.finish_and_clear();
+    for note in &frame.notes {
+        eprintln!("note: {note}");
+    }
+    let (image, FrameStats::Cpu(st)) = (frame.image, frame.stats) else {
+        unreachable!("the CPU renderer reports CPU statistics")
+    };
 
     image.write_png(&args.output, &display)?;
     if let Some(p) = &args.float {
@@ -208,10 +175,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.json {
         let mut v = serde_json::to_value(&st)?;
         v["method"] = method.id().into();
-        v["shader_seconds"] = shader_seconds.into();
-        v["tables_baked"] = tables_baked().into();
+        v["shader_seconds"] = look.shader_seconds.into();
+        v["tables_baked"] = tet_engine::tables_baked().into();
         v["tets_per_second"] = st.tets_per_second().into();
-        v["walk_bytes"] = r.walk_bytes().into();
+        v["walk_bytes"] = renderer.renderer().walk_bytes().into();
         v["output"] = args.output.display().to_string().into();
         v["size"] = serde_json::json!(view.size);
         println!("{}", serde_json::to_string_pretty(&v)?);

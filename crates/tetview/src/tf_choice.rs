@@ -5,8 +5,9 @@
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use tet_bundle::Bundle;
-use tet_cli::{usage, ExitKind, KindExt};
-use tet_preint::{choose_tf, Colormap, TransferFunction};
+use tet_cli::{ExitKind, KindExt};
+use tet_engine::{TfRequest, TfSource};
+use tet_preint::{Colormap, TransferFunction};
 
 /// The TF options `render` and `reference` share.
 #[derive(Debug, Clone, clap::Args)]
@@ -37,24 +38,23 @@ fn parse_scale(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
-/// Reads `tf_path` (or builds the automatic TF of `bundle`), applies the
-/// options, maps a normalized TF onto `range` (or the bundle's scalar
-/// range), writes `--save-tf`, and prints a note on stderr for an
-/// automatic TF (and a warning when its histogram had to be computed).
+/// The engine's TF policy ([`tet_engine::resolve_tf`]) for `tf_path` (or
+/// the automatic TF of `bundle`) with the options; writes `--save-tf`, and
+/// prints a note on stderr for an automatic TF (and a warning when its
+/// histogram had to be computed).
 pub fn resolve(
     tf_path: Option<&Path>,
     range: Option<(f64, f64)>,
     bundle: &Bundle,
     args: &TfChoiceArgs,
 ) -> Result<TransferFunction> {
-    // tet_preint's one loader: unreadable is an input error (3), contents
-    // that are not a valid TF a usage error (2), as in tetlut.
-    let given = tf_path.map(tet_preint::load_tf).transpose()?;
-    let (mut tf, auto) = choose_tf(given, Some(bundle), args.colormap, args.opacity_scale)?;
-    if let Some(a) = &auto {
-        if let Some(note) = a.source.note() {
-            eprintln!("warning: {note}");
-        }
+    let source = tf_path.map_or(TfSource::Auto, |p| TfSource::File(p.to_path_buf()));
+    let request = TfRequest { source, colormap: args.colormap, opacity_scale: args.opacity_scale, range };
+    let resolved = tet_engine::resolve_tf(bundle, &request)?;
+    for note in &resolved.notes {
+        eprintln!("warning: {note}");
+    }
+    if let Some(a) = &resolved.auto {
         eprintln!(
             "note: no --tf: automatic transfer function (opacity on the scalar × |∇s| boundaries, {} over {:.4}..{:.4}); --save-tf writes it",
             args.colormap.unwrap_or_default(),
@@ -62,16 +62,9 @@ pub fn resolve(
             a.color_range.1
         );
     }
-    if let (true, Some((lo, hi))) = (tf.normalized(), range) {
-        tf = tf.denormalize(lo, hi)?;
-    } else if tf.normalized() {
-        // The one constant-scalar policy (tet_preint::tf_for_bundle).
-        tf = tet_preint::tf_for_bundle(&tf, bundle)?;
-    } else if range.is_some() {
-        return Err(usage("--range is only for normalized transfer functions"));
-    }
     if let Some(p) = &args.save_tf {
+        let tf = &resolved.tf;
         std::fs::write(p, tf.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
     }
-    Ok(tf)
+    Ok(resolved.tf)
 }

@@ -1,0 +1,209 @@
+//! Frame requests and the renderers that answer them.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use tet_bundle::Bundle;
+use tet_render::{
+    Camera, CpuRenderer, Image, RasterOptions, ReferenceOptions, ReferenceRenderer, ReferenceStats, RenderStats,
+    Renderer, Scene, Shading, SortMethod, TfCuller, ViewSpec,
+};
+
+use crate::{EngineError, Look};
+
+/// Everything about a frame but its look: where from, how big, how lit,
+/// which CPU algorithm, what may be skipped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameRequest {
+    pub view: ViewSpec,
+    /// Lighting and silhouettes (the scene gets per-vertex gradients when
+    /// the bundle has none; the reference draws unshaded).
+    pub shading: Shading,
+    /// The CPU algorithm of [`CpuFrameRenderer`].
+    pub cpu: CpuRenderer,
+    /// Visibility order of projected tetrahedra.
+    pub sort: SortMethod,
+    /// Skip cells the TF makes fully transparent ([`TfCuller`]).
+    pub cull: bool,
+    /// Stop rays once nothing behind can change the pixel (the reference:
+    /// α ≥ 1 − 1e-9; the CPU renderers: their opaque α).
+    pub early_termination: bool,
+}
+
+impl FrameRequest {
+    /// A request with the defaults of `tetview render`: no shading, the
+    /// walker, automatic order, culling and early termination on.
+    pub fn new(view: ViewSpec) -> FrameRequest {
+        FrameRequest {
+            view,
+            shading: Shading::default(),
+            cpu: CpuRenderer::default(),
+            sort: SortMethod::Auto,
+            cull: true,
+            early_termination: true,
+        }
+    }
+}
+
+/// What a renderer reports about a frame.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FrameStats {
+    /// [`CpuFrameRenderer`]: the staged pipeline's timings and counts.
+    Cpu(RenderStats),
+    /// [`ReferenceFrameRenderer`]: ray counts and the render's seconds.
+    Reference { stats: ReferenceStats, render_seconds: f64 },
+}
+
+/// A rendered frame: linear premultiplied RGBA and how it was made.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    pub image: Image,
+    pub stats: FrameStats,
+    /// What a front end may tell the user (e.g. gradients computed now).
+    pub notes: Vec<String>,
+}
+
+/// A way to draw frames of one bundle. Implementations keep what they can
+/// reuse between frames (the view's geometry while only the look changes,
+/// the look's cull mask while only the view changes); the image depends
+/// only on the look and the request, never on what was drawn before or on
+/// the thread count.
+pub trait FrameRenderer {
+    /// Short id for reports (`walk`, `pt`, `reference`).
+    fn id(&self) -> &'static str;
+    /// Draws `look` as `req` asks; `progress(done, total)` may be called
+    /// from worker threads.
+    fn render(
+        &mut self,
+        look: &Look,
+        req: &FrameRequest,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Frame, EngineError>;
+}
+
+/// The CPU renderers of [`tet_render::Renderer`]: the face-adjacency
+/// walker or projected tetrahedra, as [`FrameRequest::cpu`] says.
+pub struct CpuFrameRenderer {
+    /// `None` only while gradients are being added.
+    renderer: Option<Renderer>,
+    /// The shader last set (compared by address: the same shader keeps the
+    /// cull mask).
+    shader: Option<Arc<dyn tet_preint::SegmentShader>>,
+    cull: Option<bool>,
+}
+
+impl CpuFrameRenderer {
+    /// The renderer's copy of `bundle` (positions about the mesh centre).
+    pub fn new(bundle: &Bundle) -> Result<CpuFrameRenderer, EngineError> {
+        Ok(CpuFrameRenderer::from_scene(Scene::from_bundle(bundle)?))
+    }
+
+    pub fn from_scene(scene: Scene) -> CpuFrameRenderer {
+        CpuFrameRenderer { renderer: Some(Renderer::new(scene)), shader: None, cull: None }
+    }
+
+    /// The staged renderer (its scene, the walker's memory, the order).
+    pub fn renderer(&self) -> &Renderer {
+        self.renderer.as_ref().expect("a renderer outside ensure_gradients")
+    }
+
+    /// Adds per-vertex gradients to the scene if it has none; true when it
+    /// computed them.
+    fn ensure_gradients(&mut self) -> Result<bool, EngineError> {
+        if self.renderer().scene().gradients().is_some() {
+            return Ok(false);
+        }
+        let scene = self.renderer.take().expect("a renderer").into_scene();
+        match scene.ensure_gradients() {
+            Ok(scene) => {
+                self.renderer = Some(Renderer::new(scene));
+                self.shader = None;
+                self.cull = None;
+                Ok(true)
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+}
+
+impl FrameRenderer for CpuFrameRenderer {
+    fn id(&self) -> &'static str {
+        self.renderer().renderer().id()
+    }
+
+    fn render(
+        &mut self,
+        look: &Look,
+        req: &FrameRequest,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Frame, EngineError> {
+        let mut notes = Vec::new();
+        if (req.shading.is_active() || look.method.is_bivariate()) && self.ensure_gradients()? {
+            notes.push(
+                "the bundle has no gradients: per-vertex gradients (least squares) computed now \
+                 (tetprep convert --gradients stores them)"
+                    .to_string(),
+            );
+        }
+        let same_shader =
+            self.shader.as_ref().is_some_and(|s| std::ptr::addr_eq(Arc::as_ptr(s), Arc::as_ptr(&look.shader)));
+        let r = self.renderer.as_mut().expect("a renderer");
+        r.set_view(&req.view)?;
+        r.set_renderer(req.cpu);
+        r.set_sort(req.sort);
+        if !same_shader {
+            r.set_shader(look.shader.clone());
+            self.shader = Some(look.shader.clone());
+        }
+        if !same_shader || self.cull != Some(req.cull) {
+            r.set_culler(req.cull.then(|| Arc::new(TfCuller::new(&look.tf)) as Arc<dyn tet_render::CellCuller>));
+            self.cull = Some(req.cull);
+        }
+        let mut raster = RasterOptions { shading: req.shading, ..Default::default() };
+        if !req.early_termination {
+            raster.opaque_alpha = f32::INFINITY;
+        }
+        r.set_raster_options(raster);
+        let (image, stats) = r.render(progress)?;
+        Ok(Frame { image, stats: FrameStats::Cpu(stats), notes })
+    }
+}
+
+/// The exact ray caster ([`tet_render::ReferenceRenderer`]): exact ray–tet
+/// segments, the exact integral of the look's TF (whatever its method), f64
+/// compositing. Draws unshaded and uncropped by culling.
+pub struct ReferenceFrameRenderer<'b> {
+    renderer: ReferenceRenderer<'b>,
+    /// Seconds to build the boundary hierarchy rays enter by.
+    pub setup_seconds: f64,
+}
+
+impl<'b> ReferenceFrameRenderer<'b> {
+    pub fn new(bundle: &'b Bundle) -> Result<ReferenceFrameRenderer<'b>, EngineError> {
+        let t = Instant::now();
+        let renderer = ReferenceRenderer::new(&bundle.mesh, &bundle.adjacency)?;
+        Ok(ReferenceFrameRenderer { renderer, setup_seconds: t.elapsed().as_secs_f64() })
+    }
+}
+
+impl FrameRenderer for ReferenceFrameRenderer<'_> {
+    fn id(&self) -> &'static str {
+        "reference"
+    }
+
+    fn render(
+        &mut self,
+        look: &Look,
+        req: &FrameRequest,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Frame, EngineError> {
+        let camera = Camera::new(&req.view)?;
+        let options = ReferenceOptions { early_termination: req.early_termination, ..Default::default() };
+        let t = Instant::now();
+        let (image, stats) = self
+            .renderer
+            .render(&camera, &look.tf, &options, &|done, total| progress(done as usize, total as usize))?;
+        let render_seconds = t.elapsed().as_secs_f64();
+        Ok(Frame { image, stats: FrameStats::Reference { stats, render_seconds }, notes: Vec::new() })
+    }
+}

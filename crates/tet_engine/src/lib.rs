@@ -1,0 +1,109 @@
+//! One render engine for every front end: `tetview render` and
+//! `reference`, the examples, and (to come) the viewer and the Python
+//! package ask it for frames instead of each wiring bundle + TF → image.
+//!
+//! * [`TfRequest`] → [`resolve_tf`] → [`ResolvedTf`]: the one transfer
+//!   function policy — a file (formats/tf.md JSON or a ParaView preset), a
+//!   TF in memory, or the bundle's automatic TF; a colour map and opacity
+//!   scale over it; a normalized TF mapped onto `range` or, by the one
+//!   constant-scalar rule ([`tet_preint::tf_for_bundle`]), the bundle's
+//!   scalar range.
+//! * [`Look`]: a TF, its method and the shader that draws it — baked now
+//!   over the bundle's (Sf, Sb, l) domain ([`Look::bake`]) or read from a
+//!   `.tetl` ([`Look::from_lut`]). [`tables_baked`] counts this process's
+//!   bakes, so a front end that bakes one table twice shows it.
+//! * [`FrameRequest`] (view, shading, culling, the CPU algorithm, early
+//!   termination) and the [`FrameRenderer`] trait: [`CpuFrameRenderer`]
+//!   (the face-adjacency walker or projected tetrahedra, keeping
+//!   [`tet_render::Renderer`]'s per-view caches across frames) and
+//!   [`ReferenceFrameRenderer`] (exact ray casting, the ground truth). A new
+//!   renderer is one more implementation of the trait.
+//! * [`Frame`]: the linear image with [`FrameStats`].
+//!
+//! Libraries here print nothing: what a front end may want to tell the user
+//! (an automatic TF was built, gradients were computed) comes back as notes.
+//!
+//! ```
+//! use tet_bundle::{Bundle, BundleMeta};
+//! use tet_engine::{resolve_tf, CpuFrameRenderer, FrameRenderer, FrameRequest, Look, TfRequest, TfSource};
+//! use tet_preint::{Method, TransferFunction};
+//!
+//! // One tet with a linear scalar.
+//! let mesh = tet_mesh::TetMesh {
+//!     points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+//!     tets: vec![[0, 1, 2, 3]],
+//!     scalar_name: "s".into(),
+//!     scalar: vec![0.0, 1.0, 2.0, 3.0],
+//!     point_fields: vec![],
+//! };
+//! let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets)?;
+//! let bundle = Bundle::new(mesh, adjacency, BundleMeta::default());
+//!
+//! // A normalized TF is stretched over the bundle's scalar range [0, 3].
+//! let tf = TransferFunction::from_json(r#"{"normalized": true, "color": [[0, 1, 0, 0], [1, 0, 0, 1]],
+//!     "opacity": [[0, 0.5], [1, 2]], "unit_distance": 1}"#)?;
+//! let resolved = resolve_tf(&bundle, &TfRequest { source: TfSource::Given(tf), ..TfRequest::default() })?;
+//! assert!(!resolved.tf.normalized());
+//!
+//! let look = Look::bake(&bundle, Method::Exact, resolved.tf)?;
+//! let mut renderer = CpuFrameRenderer::new(&bundle)?;
+//! let view = tet_render::ViewSpec::framing([0.0; 3], [1.0; 3], [32, 32]);
+//! let frame = renderer.render(&look, &FrameRequest::new(view), &|_, _| {})?;
+//! assert!(frame.image.pixels().iter().any(|p| p[3] > 0.0));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+#![forbid(unsafe_code)]
+
+mod frame;
+mod look;
+mod tf;
+
+pub use frame::{CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer};
+pub use look::{count_table_bake, tables_baked, Look};
+pub use tf::{resolve_tf, ResolvedTf, TfRequest, TfSource};
+
+use std::path::PathBuf;
+
+/// What can go wrong between a request and a frame. Errors of the crates
+/// below pass through as their sources (a front end maps them to exit codes
+/// by type); the variants with their own meaning say what to fix.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    /// Reading or checking the transfer function (`TfError::Read`: the file;
+    /// other variants: its contents).
+    #[error("{0}")]
+    Tf(#[from] tet_preint::TfError),
+    /// A range was given for a TF in absolute scalar units.
+    #[error("a scalar range is only for normalized transfer functions (this one is in scalar units)")]
+    RangeForAbsoluteTf,
+    /// The method's table cannot be built for this TF and domain.
+    #[error("method {method}: {source}")]
+    Bake {
+        method: tet_preint::Method,
+        #[source]
+        source: tet_preint::TableError,
+    },
+    /// The bundle gives no table domain (no scalar span or no cell size).
+    #[error("{0}")]
+    Domain(#[source] tet_preint::TableError),
+    /// A `.tetl` that cannot be read or loaded.
+    #[error("{0}")]
+    Lut(#[from] tet_preint::LutError),
+    /// A `.tetl` whose stored TF is invalid.
+    #[error("the transfer function stored in {path}: {source}")]
+    LutTf {
+        path: PathBuf,
+        #[source]
+        source: tet_preint::TfError,
+    },
+    /// A `.tetl` naming a method this build does not know.
+    #[error("the method stored in {path}: {source}")]
+    LutMethod {
+        path: PathBuf,
+        #[source]
+        source: tet_preint::UnknownMethod,
+    },
+    /// Scene, view or rasterization (see [`tet_render::RenderError`]).
+    #[error("{0}")]
+    Render(#[from] tet_render::RenderError),
+}

@@ -26,6 +26,17 @@ fn disk_on_disk(dir: &Path, name: &str) -> PathBuf {
     p
 }
 
+/// The tets `tetprep convert` would make of `m` (scalar `scalar`), and
+/// their total volume.
+fn tets_and_volume(m: &tet_mesh::SourceMesh, scalar: &str) -> (usize, f64) {
+    let opts = ConvertOptions { scalar: Some(scalar.into()), ..ConvertOptions::default() };
+    let (t, _) = tetrahedralize(m, &opts, &mut |_| {}).unwrap();
+    let p = |i: u32| &t.points[i as usize];
+    let volume =
+        t.tets.iter().map(|v| tet_mesh::predicates::signed_tet_volume(p(v[0]), p(v[1]), p(v[2]), p(v[3])).abs()).sum();
+    (t.tets.len(), volume)
+}
+
 #[test]
 fn the_disk_reads_with_its_declared_counts_connectivity_and_fields() {
     let bytes = disk();
@@ -69,17 +80,8 @@ fn the_disk_reads_with_its_declared_counts_connectivity_and_fields() {
 #[test]
 fn the_disk_tetrahedralizes_into_a_closed_volume() {
     let m = exodus::read(&disk(), &ExodusOptions::default()).unwrap();
-    let opts = ConvertOptions { scalar: Some("Temp".into()), ..ConvertOptions::default() };
-    let (t, _) = tetrahedralize(&m, &opts, &mut |_| {}).unwrap();
-    assert_eq!(t.tets.len(), 7472 * 6);
-    let volume: f64 = t
-        .tets
-        .iter()
-        .map(|v| {
-            let p = |i: u32| &t.points[i as usize];
-            tet_mesh::predicates::signed_tet_volume(p(v[0]), p(v[1]), p(v[2]), p(v[3])).abs()
-        })
-        .sum();
+    let (tets, volume) = tets_and_volume(&m, "Temp");
+    assert_eq!(tets, 7472 * 6);
     // The disk is two 36-sided prisms around the z axis: an annulus of radii
     // 3.81 and 5.75 for -10 <= z <= 0 and a full disk of radius 5.75 for
     // 0 <= z <= 10.16 (radii and heights as stored, in f32). A regular
@@ -155,16 +157,7 @@ fn blocks_steps_and_element_variables_of_a_small_file() {
     assert!(e.to_string().contains('2'), "{e}");
 
     // Hex (volume 1) + pyramid on its top face (base 1, height 1: 1/3).
-    let opts = ConvertOptions { scalar: Some("T".into()), ..ConvertOptions::default() };
-    let (t, _) = tetrahedralize(&m, &opts, &mut |_| {}).unwrap();
-    let volume: f64 = t
-        .tets
-        .iter()
-        .map(|v| {
-            let p = |i: u32| &t.points[i as usize];
-            tet_mesh::predicates::signed_tet_volume(p(v[0]), p(v[1]), p(v[2]), p(v[3])).abs()
-        })
-        .sum();
+    let (_, volume) = tets_and_volume(&m, "T");
     assert!((volume - 4.0 / 3.0).abs() < 1e-12, "{volume}");
 }
 

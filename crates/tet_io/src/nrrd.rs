@@ -1,10 +1,16 @@
 //! NRRD volumes (`NRRD0001`–`NRRD0005`): 3D scalar grids, or 4D grids whose
 //! first axis (at most 4 samples) holds the components of a vector field.
 //!
-//! Data may follow the header (attached) or live in a detached file named by
-//! `data file`, loaded through the caller's callback. Encodings: raw, gzip,
-//! ascii. Not supported: bzip2 and hex encodings, `data file: LIST` and
-//! numbered multi-file data, `block` type, 2D images.
+//! Data may follow the header (attached) or live in detached files named by
+//! `data file` (Kindlmann, "Definition of NRRD File Format", teem.sf.net):
+//! one file; a numbered series, `data file: <format> <min> <max> <step>
+//! [<subdim>]` with a printf `%d` conversion (`slice.%03d.raw 1 93 1 2`);
+//! or `data file: LIST [<subdim>]` with one name a line to the end of the
+//! header. Several files hold equal, consecutive parts of the samples (each
+//! a slab of the slowest axes; `subdim` says how many of the fastest axes
+//! one file spans) and each gets the line skip, byte skip and encoding.
+//! Files are loaded through the caller's callback. Encodings: raw, gzip,
+//! ascii. Not supported: bzip2 and hex encodings, `block` type, 2D images.
 
 use std::io::Read;
 
@@ -33,6 +39,8 @@ struct Header {
     origin: Option<[f64; 3]>,
     axis_mins: Option<Vec<f64>>,
     data_file: Option<String>,
+    /// `data file: LIST [subdim]`: the names listed after it, and subdim.
+    data_list: Option<(Vec<String>, Option<usize>)>,
     line_skip: usize,
     byte_skip: i64,
     content: Option<String>,
@@ -96,22 +104,55 @@ pub fn read(
     };
 
     let mut notes = Vec::new();
-    let detached_storage;
-    let (source, base, companion): (&[u8], usize, bool) = match (&h.data_file, h.data_start) {
-        (Some(name), _) => {
-            if name == "LIST" || name.split_whitespace().count() > 1 {
-                return Err(FormatError::new(
-                    line,
-                    format!("'data file: {name}' names several files; only a single detached data file is supported"),
-                ));
-            }
-            detached_storage = load_detached(name).map_err(|e| {
+    let values = match (data_files(&h, &sizes, count).map_err(|m| FormatError::new(line, m))?, h.data_start) {
+        (Some(files), _) if files.len() == 1 => {
+            let name = &files[0];
+            let data = load_detached(name).map_err(|e| {
                 FormatError::new(Location::Whole, format!("cannot read detached data file '{name}': {e}")).companion()
             })?;
             notes.push(format!("data read from detached file '{name}'"));
-            (&detached_storage[..], 0, true)
+            decode_data(&data, 0, &h, encoding, scalar_type, endian, count, data_bytes, &mut notes)
+                .map_err(FormatError::companion)?
         }
-        (None, Some(start)) => (bytes, start, false),
+        (Some(files), _) => {
+            // Equal parts, one a file, in order (data_files checked that
+            // they divide the samples).
+            let per_file = count / files.len();
+            let mut values = Vec::with_capacity(count.min(1 << 28));
+            for name in &files {
+                let in_file =
+                    |e: FormatError| FormatError::new(e.at, format!("data file '{name}': {}", e.message)).companion();
+                let data = load_detached(name).map_err(|e| {
+                    FormatError::new(Location::Whole, format!("cannot read detached data file '{name}': {e}"))
+                        .companion()
+                })?;
+                let mut file_notes = Vec::new();
+                let part = decode_data(
+                    &data,
+                    0,
+                    &h,
+                    encoding,
+                    scalar_type,
+                    endian,
+                    per_file,
+                    per_file * scalar_type.size(),
+                    &mut file_notes,
+                )
+                .map_err(in_file)?;
+                notes.extend(file_notes.into_iter().map(|n| format!("data file '{name}': {n}")));
+                values.extend(part);
+            }
+            notes.push(format!(
+                "data read from {} detached files ('{}' … '{}'), {per_file} samples each",
+                files.len(),
+                files[0],
+                files[files.len() - 1]
+            ));
+            values
+        }
+        (None, Some(start)) => {
+            decode_data(bytes, start, &h, encoding, scalar_type, endian, count, data_bytes, &mut notes)?
+        }
         (None, None) => {
             return Err(FormatError::new(
                 line,
@@ -119,10 +160,7 @@ pub fn read(
             ))
         }
     };
-    let mark = |e: FormatError| if companion { e.companion() } else { e };
-
-    let values =
-        decode_data(source, base, &h, encoding, scalar_type, endian, count, data_bytes, &mut notes).map_err(mark)?;
+    let companion = h.data_file.is_some();
 
     // Geometry: space directions beat spacings; space origin beats axis mins.
     let spatial = |v: &[f64]| -> Option<[f64; 3]> {
@@ -192,6 +230,121 @@ pub fn read(
     }
     mesh.check().map_err(|e| FormatError::new(Location::Whole, e))?;
     Ok(mesh)
+}
+
+/// The detached data files of `h` in order (`None`: the data are attached),
+/// checked to split `count` samples into equal parts, each a slab of whole
+/// `subdim`-dimensional pieces of the fastest axes.
+fn data_files(h: &Header, sizes: &[usize], count: usize) -> Result<Option<Vec<String>>, String> {
+    let (names, subdim) = match (&h.data_list, &h.data_file) {
+        (Some((names, subdim)), _) => (names.clone(), *subdim),
+        (None, None) => return Ok(None),
+        (None, Some(value)) => {
+            let tokens: Vec<&str> = value.split_whitespace().collect();
+            match tokens[..] {
+                [one] => return Ok(Some(vec![one.to_string()])),
+                [format, min, max, step, ref rest @ ..] if rest.len() <= 1 => {
+                    let int = |t: &str| t.parse::<i64>().map_err(|_| format!("'data file: {value}': '{t}' is not an integer"));
+                    let (min, max, step) = (int(min)?, int(max)?, int(step)?);
+                    let subdim = match rest {
+                        [d] => Some(d.parse::<usize>().map_err(|_| format!("'data file: {value}': bad subdim '{d}'"))?),
+                        _ => None,
+                    };
+                    if step == 0 || (max - min).signum() * step.signum() < 0 {
+                        return Err(format!("'data file: {value}': step {step} never goes from {min} to {max}"));
+                    }
+                    let n = (max - min) / step + 1;
+                    // Every file holds at least one sample: more files than
+                    // samples is an error, not a long loop.
+                    if n as u128 > count as u128 {
+                        return Err(format!("'data file: {value}' names {n} files for {count} samples"));
+                    }
+                    let names = (0..n)
+                        .map(|k| printf_int(format, min + k * step))
+                        .collect::<Result<Vec<_>, _>>()
+                        .map_err(|e| format!("'data file: {value}': {e}"))?;
+                    (names, subdim)
+                }
+                _ => {
+                    return Err(format!(
+                        "'data file: {value}': expected one file name, '<format> <min> <max> <step> [<subdim>]' or 'LIST [<subdim>]'"
+                    ))
+                }
+            }
+        }
+    };
+    if names.is_empty() {
+        return Err("'data file: LIST' is followed by no file names".to_string());
+    }
+    if !count.is_multiple_of(names.len()) {
+        return Err(format!("{count} samples do not split into {} data files of equal size", names.len()));
+    }
+    if let Some(d) = subdim {
+        // subdim below the dimension: each file is one d-dimensional piece;
+        // equal to it: each file is a slab of whole slices of the slowest axis.
+        let per_file: usize = sizes.iter().take(d).product();
+        let fits = match d {
+            _ if d == sizes.len() => sizes[d - 1].is_multiple_of(names.len()),
+            _ => per_file * names.len() == count,
+        };
+        if d == 0 || d > sizes.len() || !fits {
+            return Err(format!(
+                "data file subdim {d}: {} files of the first {d} axes of sizes {sizes:?} do not make the volume",
+                names.len()
+            ));
+        }
+    }
+    Ok(Some(names))
+}
+
+/// `format` (one printf integer conversion: `%d`, `%i`, `%u`, with an
+/// optional `0` flag and width; `%%` is a percent sign) applied to `v`.
+fn printf_int(format: &str, v: i64) -> Result<String, String> {
+    let mut out = String::new();
+    let mut chars = format.chars().peekable();
+    let mut used = false;
+    while let Some(c) = chars.next() {
+        if c != '%' {
+            out.push(c);
+            continue;
+        }
+        if chars.peek() == Some(&'%') {
+            chars.next();
+            out.push('%');
+            continue;
+        }
+        let zero = chars.peek() == Some(&'0');
+        if zero {
+            chars.next();
+        }
+        let mut width = 0usize;
+        while let Some(d) = chars.peek().and_then(|c| c.to_digit(10)) {
+            width = width.saturating_mul(10).saturating_add(d as usize);
+            chars.next();
+        }
+        if width > 32 {
+            return Err(format!("field width {width} in '{format}' is too wide"));
+        }
+        match chars.next() {
+            Some('d' | 'i' | 'u') if !used => {
+                used = true;
+                let digits = v.unsigned_abs().to_string();
+                let sign = if v < 0 { "-" } else { "" };
+                let pad = width.saturating_sub(digits.len() + sign.len());
+                if zero {
+                    out += &format!("{sign}{}{digits}", "0".repeat(pad));
+                } else {
+                    out += &format!("{}{sign}{digits}", " ".repeat(pad));
+                }
+            }
+            _ => return Err(format!("'{format}' needs exactly one %d conversion")),
+        }
+    }
+    if used {
+        Ok(out)
+    } else {
+        Err(format!("'{format}' has no %d conversion for the file number"))
+    }
 }
 
 /// Applies line skip and byte skip, decodes the encoding and converts the
@@ -408,7 +561,27 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
             "space dimension" if value != "3" => {
                 return Err(err(format!("space dimension {value} is not supported (only 3)")));
             }
-            "data file" | "datafile" => h.data_file = Some(value.to_string()),
+            "data file" | "datafile" => {
+                let mut tokens = value.split_whitespace();
+                if tokens.next() == Some("LIST") {
+                    let subdim = match tokens.next() {
+                        Some(d) => Some(d.parse().map_err(|_| err(format!("bad subdim '{d}' after LIST")))?),
+                        None => None,
+                    };
+                    // The rest of the header file names the data files.
+                    let mut names = Vec::new();
+                    while let Some(l) = text.line_str() {
+                        if !l.trim().is_empty() {
+                            names.push(l.trim().to_string());
+                        }
+                    }
+                    h.data_file = Some(value.to_string());
+                    h.data_list = Some((names, subdim));
+                    h.end_line = text.line();
+                    break;
+                }
+                h.data_file = Some(value.to_string());
+            }
             "line skip" | "lineskip" => {
                 h.line_skip = value.parse().map_err(|_| err(format!("bad line skip '{value}'")))?
             }

@@ -269,3 +269,62 @@ fn corrupted_volumes_never_panic() {
     let hostile = RawSpec { header_bytes: usize::MAX, ..iron_spec() };
     assert!(raw::read(&raw_bytes, &hostile).is_err());
 }
+
+/// The real sub-block cut into detached files as NRRD's multi-file forms
+/// lay them out: 16 numbered slices (`%02d`, subdim 2), and four gzip slabs
+/// of four slices listed by name (`LIST 3`). Both read back to the voxels.
+#[test]
+fn nrrd_multi_file_data() {
+    let d = tempfile::tempdir().unwrap();
+    let raw = load("iron16.raw");
+    let geometry = "type: unsigned char\ndimension: 3\nsizes: 16 16 16\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (26,26,26)\n";
+    for (k, slice) in raw.chunks(256).enumerate() {
+        std::fs::write(d.path().join(format!("iron16.{k:02}.raw")), slice).unwrap();
+    }
+    let mut slabs = String::new();
+    for (k, slab) in raw.chunks(1024).enumerate() {
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        std::io::Write::write_all(&mut gz, slab).unwrap();
+        std::fs::write(d.path().join(format!("slab{k}.raw.gz")), gz.finish().unwrap()).unwrap();
+        slabs += &format!("slab{k}.raw.gz\n");
+    }
+    let numbered = format!("NRRD0004\n{geometry}encoding: raw\ndata file: iron16.%02d.raw 0 15 1 2\n");
+    let listed = format!("NRRD0004\n{geometry}encoding: gzip\ndata file: LIST 3\n{slabs}");
+    let mut load_from = |name: &str| std::fs::read(d.path().join(name));
+    for header in [&numbered, &listed] {
+        let m = nrrd::read(header.as_bytes(), &mut load_from).unwrap_or_else(|e| panic!("{header}: {e}"));
+        assert_eq!(m.point_fields[0].values, iron_values(), "{header}");
+        assert_eq!(m.points[4095], [41.0; 3]);
+        assert!(m.notes.iter().any(|n| n.contains("detached files")), "{:?}", m.notes);
+    }
+    // Counting down reads the slices in reverse order.
+    let down = format!("NRRD0004\n{geometry}encoding: raw\ndata file: iron16.%02d.raw 15 0 -1\n");
+    let m = nrrd::read(down.as_bytes(), &mut load_from).unwrap();
+    let reversed: Vec<f64> = raw.chunks(256).rev().flatten().map(|&b| f64::from(b)).collect();
+    assert_eq!(m.point_fields[0].values, reversed);
+
+    // Bad input: each a clear error, never a partial volume.
+    std::fs::write(d.path().join("iron16.07.raw"), &raw[..100]).unwrap();
+    let e = nrrd::read(numbered.as_bytes(), &mut load_from).unwrap_err();
+    assert!(e.in_companion && e.message.contains("iron16.07.raw") && e.message.contains("truncated"), "{e}");
+    std::fs::remove_file(d.path().join("iron16.07.raw")).unwrap();
+    let e = nrrd::read(numbered.as_bytes(), &mut load_from).unwrap_err();
+    assert!(e.in_companion && e.message.contains("iron16.07.raw"), "{e}");
+    for (value, says) in [
+        ("iron16.%02d.raw 0 4 1", "equal size"),
+        ("iron16.%02d.raw 0 15 0", "step"),
+        ("iron16.%02d.raw 0 15 -1", "step"),
+        ("x%d.raw 1 1000000000 1", "files for 4096 samples"),
+        ("x.raw 0 15 1", "no %d"),
+        ("x%d%d.raw 0 15 1", "exactly one"),
+        ("iron16.%02d.raw 0 15 1 1", "subdim"),
+        ("two files", "expected one file name"),
+    ] {
+        let header = format!("NRRD0004\n{geometry}encoding: raw\ndata file: {value}\n");
+        let e = nrrd::read(header.as_bytes(), &mut load_from).unwrap_err();
+        assert!(e.message.contains(says), "{value}: {e}");
+    }
+    let e = nrrd::read(format!("NRRD0004\n{geometry}encoding: raw\ndata file: LIST\n\n").as_bytes(), &mut load_from)
+        .unwrap_err();
+    assert!(e.message.contains("no file names"), "{e}");
+}

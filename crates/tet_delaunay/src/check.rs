@@ -29,6 +29,10 @@ pub enum DelaunayViolation {
     BadMerge { point: usize, representative: u32 },
     #[error("point {point} lies beyond boundary face {face:?}: the tets do not fill the convex hull")]
     NotConvex { face: [u32; 3], point: usize },
+    #[error("neighbours of tet {tet} across face {face}: {found}, but the faces say {expected} (u32::MAX: none)")]
+    Neighbors { tet: usize, face: usize, found: u32, expected: u32 },
+    #[error("{found} neighbour entries for {tets} tets")]
+    NeighborCount { found: usize, tets: usize },
     #[error("point {point} lies strictly inside the circumsphere of tet {tet} {vertices:?}")]
     NotEmpty { tet: usize, vertices: [u32; 4], point: usize },
 }
@@ -37,7 +41,8 @@ pub enum DelaunayViolation {
 /// every tet positive, every face in one or two tets with opposite
 /// orientations, and — when the tets fill the convex hull — a ball whose
 /// boundary faces number `d.hull_facets` and which uses every distinct
-/// point; duplicates map to identical points. With `brute_force`, also that
+/// point; duplicates map to identical points; `d.neighbors` names, across
+/// each face, the other tet of that face (or none). With `brute_force`, also that
 /// the boundary is convex (no point beyond any boundary face) and that no
 /// point lies strictly inside any tet's circumsphere (cospherical points
 /// are allowed), in O((tets + faces) × points): for small sets.
@@ -54,13 +59,16 @@ pub fn check_delaunay(points: &[[f64; 3]], d: &Delaunay, brute_force: bool) -> R
     }
     // Outward faces of each positive tet, keyed by their sorted vertices.
     let mut faces: HashMap<[u32; 3], Vec<[u32; 3]>> = HashMap::new();
+    // The tets of each face, for the neighbour check.
+    let mut face_tets: HashMap<[u32; 3], Vec<u32>> = HashMap::new();
     let mut edges = HashSet::new();
     let mut verts = HashSet::new();
-    for t in &d.tets {
+    for (ti, t) in d.tets.iter().enumerate() {
         for f in [[t[1], t[2], t[3]], [t[0], t[3], t[2]], [t[0], t[1], t[3]], [t[0], t[2], t[1]]] {
             let mut k = f;
             k.sort_unstable();
             faces.entry(k).or_default().push(f);
+            face_tets.entry(k).or_default().push(ti as u32);
         }
         for i in 0..4 {
             verts.insert(t[i]);
@@ -84,6 +92,20 @@ pub fn check_delaunay(points: &[[f64; 3]], d: &Delaunay, brute_force: bool) -> R
                 }
             }
             count => return Err(DelaunayViolation::FaceOverused { face: *k, count }),
+        }
+    }
+    if d.neighbors.len() != d.tets.len() {
+        return Err(DelaunayViolation::NeighborCount { found: d.neighbors.len(), tets: d.tets.len() });
+    }
+    for (ti, t) in d.tets.iter().enumerate() {
+        for f in 0..4 {
+            let mut k: Vec<u32> = (0..4).filter(|&i| i != f).map(|i| t[i]).collect();
+            k.sort_unstable();
+            let expected =
+                face_tets[&[k[0], k[1], k[2]]].iter().copied().find(|&o| o as usize != ti).unwrap_or(u32::MAX);
+            if d.neighbors[ti][f] != expected {
+                return Err(DelaunayViolation::Neighbors { tet: ti, face: f, found: d.neighbors[ti][f], expected });
+            }
         }
     }
     for (i, &r) in d.merged_into.iter().enumerate() {
@@ -166,6 +188,7 @@ mod tests {
         let pts = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.3, 0.3, 1.0], [0.3, 0.3, -0.05]];
         let bipyramid = Delaunay {
             tets: vec![[0, 1, 2, 3], [1, 0, 2, 4]],
+            neighbors: vec![[u32::MAX, u32::MAX, u32::MAX, 1], [u32::MAX, u32::MAX, u32::MAX, 0]],
             merged_into: (0..5).collect(),
             duplicates: 0,
             hull_facets: 6,

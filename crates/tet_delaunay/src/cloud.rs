@@ -36,6 +36,10 @@ pub struct CloudReport {
     /// Layered: layers and columns found.
     pub layers: usize,
     pub columns: usize,
+    /// Delaunay: the triangulation's face adjacency, one entry per cell in
+    /// the order of the new cell list (see [`crate::Delaunay::neighbors`]),
+    /// for `tet_mesh::adjacency_from_neighbors` once the cells are tets.
+    pub neighbors: Option<Vec<[u32; 4]>>,
 }
 
 /// Replaces the (empty) cell list of a point-cloud `source` with tets over
@@ -78,6 +82,7 @@ pub fn triangulate_cloud(
         fills_convex_hull: false,
         layers: 0,
         columns: 0,
+        neighbors: None,
     };
     let tets: Vec<[u32; 4]> = match mode {
         CloudMode::Delaunay => {
@@ -90,7 +95,9 @@ pub fn triangulate_cloud(
             })?;
             report.removed_cells = d.removed_cells;
             report.fills_convex_hull = d.fills_convex_hull();
-            d.tets.iter().map(|t| t.map(|v| distinct[v as usize])).collect()
+            let tets = d.tets.iter().map(|t| t.map(|v| distinct[v as usize])).collect();
+            report.neighbors = Some(d.neighbors);
+            tets
         }
         CloudMode::Layered => {
             let (layers, ids) = layers_from_columns(&source.points, &distinct)?;

@@ -101,6 +101,11 @@ pub struct Delaunay {
     /// Positively oriented tets (det[p1−p0, p2−p0, p3−p0] > 0) indexing the
     /// input points. Only representatives of duplicate groups appear.
     pub tets: Vec<[u32; 4]>,
+    /// `neighbors[t][f]`: the tet across the face of `tets[t]` opposite its
+    /// vertex `f`, or `u32::MAX` on the boundary — the face adjacency the
+    /// insertion maintained, in `tet_mesh::Adjacency`'s convention, so a
+    /// caller need not rebuild it.
+    pub neighbors: Vec<[u32; 4]>,
     /// For each input point, the point it was merged into: the first point
     /// with bit-identical coordinates (±0 equal), or itself.
     pub merged_into: Vec<u32>,
@@ -197,9 +202,10 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
         }
         None => (None, 0),
     };
-    let (tets, hull_facets) = tri.finite_tets(removed.as_deref());
+    let (tets, neighbors, hull_facets) = tri.finite_tets(removed.as_deref());
     Ok(Delaunay {
         tets,
+        neighbors,
         merged_into,
         duplicates,
         hull_facets,

@@ -222,7 +222,7 @@ mod tests {
 
     /// Finite tets as sorted vertex sets in input ids, sorted.
     fn canonical(t: &Triangulation) -> Vec<[u32; 4]> {
-        let (mut tets, _) = t.finite_tets(None);
+        let (mut tets, _, _) = t.finite_tets(None);
         for v in &mut tets {
             v.sort_unstable();
         }

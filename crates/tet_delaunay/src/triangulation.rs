@@ -295,9 +295,11 @@ impl Triangulation {
         (removed, count)
     }
 
-    /// Finite tets in input ids (skipping `removed` ones) and the number of
-    /// hull facets.
-    pub(crate) fn finite_tets(&self, removed: Option<&[bool]>) -> (Vec<[u32; 4]>, usize) {
+    /// Finite tets in input ids (skipping `removed` ones), their neighbours
+    /// (`[t][f]`: the output tet across the face opposite vertex `f`, or
+    /// `u32::MAX` where the hull, a ghost or a removed tet is), and the
+    /// number of hull facets.
+    pub(crate) fn finite_tets(&self, removed: Option<&[bool]>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>, usize) {
         use rayon::prelude::*;
         // Two passes over fixed chunks: count, then fill each chunk's exact
         // share of the output, so the output is in slot order whatever the
@@ -318,25 +320,44 @@ impl Triangulation {
                 (kept, ghosts)
             })
             .collect();
-        let mut out = vec![[0u32; 4]; counts.iter().map(|c| c.0).sum()];
+        let total: usize = counts.iter().map(|c| c.0).sum();
+        let mut out = vec![[0u32; 4]; total];
+        // Output index of every slot (u32::MAX: not kept).
+        let mut index = vec![u32::MAX; slots.len()];
         let mut parts = Vec::with_capacity(counts.len());
         let mut rest = &mut out[..];
+        let mut base = 0usize;
         for &(kept, _) in &counts {
             let (part, tail) = rest.split_at_mut(kept);
-            parts.push(part);
+            parts.push((part, base));
             rest = tail;
+            base += kept;
         }
-        parts.into_par_iter().zip(slots.par_chunks(CHUNK)).enumerate().for_each(|(c, (part, chunk))| {
-            let mut k = 0;
-            for (j, tet) in chunk.iter().enumerate() {
-                let v = tet.load().v;
-                if keep(c * CHUNK + j, &v) {
-                    part[k] = v.map(|x| self.orig[x as usize]);
-                    k += 1;
+        parts.into_par_iter().zip(slots.par_chunks(CHUNK).zip(index.par_chunks_mut(CHUNK))).enumerate().for_each(
+            |(c, ((part, base), (chunk, index)))| {
+                let mut k = 0;
+                for (j, tet) in chunk.iter().enumerate() {
+                    let v = tet.load().v;
+                    if keep(c * CHUNK + j, &v) {
+                        part[k] = v.map(|x| self.orig[x as usize]);
+                        index[j] = (base + k) as u32;
+                        k += 1;
+                    }
                 }
+            },
+        );
+        // Kept slots in output order, then their neighbours' output indices.
+        let mut kept_slots = vec![0u32; total];
+        for (s, &o) in index.iter().enumerate() {
+            if o != u32::MAX {
+                kept_slots[o as usize] = s as u32;
             }
-        });
-        (out, counts.iter().map(|c| c.1).sum())
+        }
+        let neighbors: Vec<[u32; 4]> = kept_slots
+            .par_iter()
+            .map(|&s| self.tets[s as usize].load().n.map(|m| index.get(m as usize).copied().unwrap_or(u32::MAX)))
+            .collect();
+        (out, neighbors, counts.iter().map(|c| c.1).sum())
     }
 }
 
@@ -925,7 +946,7 @@ pub(crate) mod tests {
         let before = t.tets.len();
         t.insert_all();
         check(&t, true);
-        let (tets, _) = t.finite_tets(None);
+        let (tets, _, _) = t.finite_tets(None);
         assert_eq!(tets.len(), 299 * 299);
         assert!(tets.len() > before, "{} tets fit in the initial {before} slots", tets.len());
     }

@@ -331,3 +331,18 @@ fn max_circumradius_peels_a_concavity() {
     assert!(full.tets.iter().any(|t| in_notch(centroid(t))));
     assert!(!peeled.tets.iter().any(|t| in_notch(centroid(t))));
 }
+
+/// The adjacency the insertion hands over is the one the faces give, with
+/// the hull whole and with hull-filling tets peeled off.
+#[test]
+fn handed_neighbours_equal_the_built_adjacency() {
+    let mut rng = SplitMix64(42);
+    let pts: Vec<[f64; 3]> = (0..20_000).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64() * 0.3]).collect();
+    for max_circumradius in [None, Some(0.05)] {
+        let d = tetrahedralize_points(&pts, &DelaunayOptions { max_circumradius }).unwrap();
+        let built = tet_mesh::build_adjacency(&pts, &d.tets).unwrap();
+        let handed = tet_mesh::adjacency_from_neighbors(&pts, &d.tets, d.neighbors.clone()).expect("consistent links");
+        assert_eq!(handed, built, "max_circumradius {max_circumradius:?}");
+        assert_eq!(max_circumradius.is_some(), d.removed_cells > 0);
+    }
+}

@@ -130,6 +130,47 @@ pub fn build_adjacency(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Adjacen
     Ok(Adjacency { neighbors, boundary_faces, convex })
 }
 
+/// The adjacency a tetrahedralizer already knows (`neighbors[t][f]`: the
+/// tet across the face opposite vertex `f`, or [`NO_NEIGHBOR`]), checked in
+/// one parallel pass instead of rebuilt: every link in range, symmetric,
+/// and joining two tets through the same three vertices. `None` when any
+/// check fails (the caller then builds it with [`build_adjacency`]). Faces
+/// marked as boundary are trusted to be unshared: the source must know it
+/// (tet_delaunay's checker tests exactly that).
+pub fn adjacency_from_neighbors(points: &[[f64; 3]], tets: &[[u32; 4]], neighbors: Vec<[u32; 4]>) -> Option<Adjacency> {
+    if neighbors.len() != tets.len() || tets.len() > (u32::MAX / 4) as usize {
+        return None;
+    }
+    let face = |t: &[u32; 4], f: usize| {
+        let mut v = [t[(f + 1) % 4], t[(f + 2) % 4], t[(f + 3) % 4]];
+        v.sort_unstable();
+        v
+    };
+    let consistent = (0..tets.len()).into_par_iter().all(|t| {
+        (0..4).all(|f| {
+            let u = neighbors[t][f];
+            if u == NO_NEIGHBOR {
+                return true;
+            }
+            let Some(back) = neighbors.get(u as usize) else { return false };
+            match (0..4).find(|&g| back[g] == t as u32) {
+                Some(g) => u as usize != t && face(&tets[t], f) == face(&tets[u as usize], g),
+                None => false,
+            }
+        })
+    });
+    if !consistent {
+        return None;
+    }
+    let boundary_faces: Vec<u32> = neighbors
+        .iter()
+        .enumerate()
+        .flat_map(|(t, n)| (0..4).filter(move |&f| n[f] == NO_NEIGHBOR).map(move |f| (t * 4 + f) as u32))
+        .collect();
+    let convex = boundary_is_convex(points, tets, &boundary_faces);
+    Some(Adjacency { neighbors, boundary_faces, convex })
+}
+
 /// A face in its smallest vertex's bucket: the other two vertices (sorted)
 /// and `tet * 4 + face`.
 type FaceEntry = (u32, u32, u32);
@@ -192,6 +233,52 @@ fn boundary_is_convex(points: &[[f64; 3]], tets: &[[u32; 4]], boundary: &[u32]) 
     }
     let root = find(&mut parent, 0);
     (0..faces.len()).all(|i| find(&mut parent, i) == root)
+}
+
+#[cfg(test)]
+mod from_neighbors_tests {
+    use super::*;
+
+    /// The five tets of a cube: the hand-off agrees with the build, and a
+    /// link that is not symmetric, or joins tets that share no face, or a
+    /// tet whose vertices were swapped after the links were made, is refused.
+    #[test]
+    fn agrees_with_the_build_and_refuses_bad_links() {
+        let points = [
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0., 1., 0.],
+            [0., 0., 1.],
+            [1., 0., 1.],
+            [1., 1., 1.],
+            [0., 1., 1.],
+        ];
+        let mut tets = vec![[0, 1, 3, 4], [1, 2, 3, 6], [1, 6, 4, 5], [3, 4, 6, 7], [1, 3, 4, 6]];
+        for t in &mut tets {
+            let p = |i: u32| &points[i as usize];
+            if tet_orientation(p(t[0]), p(t[1]), p(t[2]), p(t[3])) != TetOrientation::Positive {
+                t.swap(2, 3);
+            }
+        }
+        let built = build_adjacency(&points, &tets).unwrap();
+        let handed = adjacency_from_neighbors(&points, &tets, built.neighbors.clone()).unwrap();
+        assert_eq!(handed, built);
+        let mut one_way = built.neighbors.clone();
+        let (t, f) =
+            (0..5).flat_map(|t| (0..4).map(move |f| (t, f))).find(|&(t, f)| one_way[t][f] != NO_NEIGHBOR).unwrap();
+        one_way[t][f] = NO_NEIGHBOR;
+        assert!(adjacency_from_neighbors(&points, &tets, one_way).is_none());
+        let mut wrong_face = built.neighbors.clone();
+        wrong_face[4].rotate_left(1);
+        assert!(adjacency_from_neighbors(&points, &tets, wrong_face).is_none());
+        let mut swapped = tets.clone();
+        swapped[4].swap(2, 3);
+        assert!(adjacency_from_neighbors(&points, &swapped, built.neighbors.clone()).is_none());
+        let mut out_of_range = built.neighbors;
+        out_of_range[0][0] = 99;
+        assert!(adjacency_from_neighbors(&points, &tets, out_of_range).is_none());
+    }
 }
 
 /// Invariant checker for tests and fuzzing: neighbours are symmetric, share

@@ -42,7 +42,7 @@ pub mod source;
 pub mod split;
 pub mod stats;
 
-pub use adjacency::{build_adjacency, check_adjacency, Adjacency, FACE_OUTWARD, NO_NEIGHBOR};
+pub use adjacency::{adjacency_from_neighbors, build_adjacency, check_adjacency, Adjacency, FACE_OUTWARD, NO_NEIGHBOR};
 pub use convert::{
     check_tet_mesh, tetrahedralize, ConversionReport, ConvertOptions, Finding, NanPolicy, Step, TetMesh,
 };

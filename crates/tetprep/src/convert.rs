@@ -101,7 +101,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
 
     // A point cloud (points, no cells) is tetrahedralized first; from then
     // on it is a mesh like any other.
-    let cloud = if source.num_cells() == 0 && !source.points.is_empty() {
+    let mut cloud = if source.num_cells() == 0 && !source.points.is_empty() {
         progress.step("tetrahedralizing the point cloud");
         let t = Instant::now();
         let mode = match args.mode {
@@ -154,9 +154,22 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
 
     progress.step("building face adjacency");
     let t = Instant::now();
+    // A Delaunay cloud hands over the adjacency its insertion kept, checked
+    // in one pass, when the conversion kept its tets as they were (same
+    // order, same vertex order); otherwise it is built from the faces.
+    let handed = cloud.as_mut().and_then(|c| c.neighbors.take()).filter(|n| {
+        n.len() == mesh.tets.len() && report.tet_source_cell.iter().enumerate().all(|(i, &c)| c as usize == i)
+    });
+    let mut adjacency_source = "built from the faces";
     // Statistics run beside the adjacency, whose face bucketing is serial.
     let (adjacency, stats) = rayon::join(
-        || build_adjacency(&mesh.points, &mesh.tets),
+        || match handed.and_then(|n| tet_mesh::adjacency_from_neighbors(&mesh.points, &mesh.tets, n)) {
+            Some(a) => {
+                adjacency_source = "handed over by the Delaunay tetrahedralization";
+                Ok(a)
+            }
+            None => build_adjacency(&mesh.points, &mesh.tets),
+        },
         || tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar),
     );
     let adjacency = adjacency.map_err(|e| {
@@ -176,7 +189,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         match c.mode {
             CloudMode::Delaunay => {
                 findings.push(format!(
-                    "Delaunay tetrahedralization of {} distinct points: {} tets{}",
+                    "Delaunay tetrahedralization of {} distinct points: {} tets{}; face adjacency {adjacency_source}",
                     c.distinct_points,
                     c.tets,
                     if c.fills_convex_hull { ", filling the convex hull" } else { "" }

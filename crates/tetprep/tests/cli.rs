@@ -372,6 +372,11 @@ fn point_clouds_are_tetrahedralized() {
     assert_eq!(v["convex"], true);
     let findings = v["findings"].as_array().unwrap();
     assert!(findings.iter().any(|f| f.as_str().unwrap().starts_with("merged 1 duplicate points")), "{findings:?}");
+    // The Delaunay insertion's adjacency is handed over, and it is the one
+    // the faces give.
+    assert!(findings.iter().any(|f| f.as_str().unwrap().contains("face adjacency handed over")), "{findings:?}");
+    let b = tet_bundle::Bundle::read(&out).unwrap();
+    assert_eq!(b.adjacency, tet_mesh::build_adjacency(&b.mesh.points, &b.mesh.tets).unwrap());
 
     let out = dir.path().join("autzen.tetb");
     let v = json(&tetprep(&[

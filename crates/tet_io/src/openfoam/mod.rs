@@ -11,9 +11,9 @@
 //! patches, read only for the summary and ignored when absent). Files follow
 //! the User Guide's §4.2 "Basic input/output file format" (a `FoamFile`
 //! header dictionary, ASCII or binary per its `format` and `arch`; see the
-//! [`foam_file`] parser); any of them may be gzip-compressed (`points.gz`).
+//! `foam_file` parser); any of them may be gzip-compressed (`points.gz`).
 //!
-//! Cells are rebuilt from their faces ([`cells`]): tetrahedra, pyramids,
+//! Cells are rebuilt from their faces (module `cells`): tetrahedra, pyramids,
 //! prisms and hexahedra become those linear cells in VTK order; any other
 //! cell is a polyhedron, split into tets around an added centre point by
 //! [`tet_mesh::PolyhedronSplitter`] (face triangulations conform with the

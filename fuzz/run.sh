@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus openfoam raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -64,6 +64,14 @@ gzip -dc "$data"/su2/mesh_brick_prism_ffd.su2.gz | head -c 60000 > corpus/su2/br
 # Exodus II: the hand-made three-block, two-step file, step 1.
 mkdir -p corpus/exodus
 { printf '\1'; cat "$data"/exodus/small.exo; } > corpus/exodus/small
+# OpenFOAM: the four polyMesh files joined by NULs (the binary two-cell case, the cavity's heads).
+mkdir -p corpus/openfoam
+for c in 64BitFloats; do
+    pm="$data"/openfoam/$c/constant/polyMesh
+    { cat "$pm"/points; printf '\0'; cat "$pm"/faces; printf '\0'; cat "$pm"/owner; printf '\0'; cat "$pm"/neighbour; } > corpus/openfoam/$c
+done
+pm="$data"/openfoam/cavity/constant/polyMesh
+{ cat "$pm"/points; printf '\0'; cat "$pm"/faces; printf '\0'; cat "$pm"/owner; printf '\0'; cat "$pm"/neighbour; } > corpus/openfoam/cavity
 { head -c 3000 "$data"/tetgen/twobox.1.node; printf '\0'; head -c 3000 "$data"/tetgen/twobox.1.ele; } > corpus/tetgen/twobox
 status=0
 for t in "${targets[@]}"; do

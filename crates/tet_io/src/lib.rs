@@ -31,6 +31,7 @@ pub mod las;
 pub mod netcdf;
 pub mod nrrd;
 pub mod obj;
+pub mod openfoam;
 pub mod plot3d;
 pub mod ply;
 pub mod raw;
@@ -128,9 +129,6 @@ pub enum Unsupported {
     NetCdf,
     /// An HDF5 file of no known mesh convention.
     Hdf5,
-    /// An OpenFOAM case (a directory with `constant/polyMesh` or
-    /// `system/controlDict`, a `.foam` file, or a `FoamFile` dictionary).
-    OpenFoam,
 }
 
 impl fmt::Display for Unsupported {
@@ -143,7 +141,6 @@ impl fmt::Display for Unsupported {
             Unsupported::Cgns => "a CGNS file",
             Unsupported::NetCdf => "a NetCDF file",
             Unsupported::Hdf5 => "an HDF5 file",
-            Unsupported::OpenFoam => "an OpenFOAM case",
         })
     }
 }
@@ -160,8 +157,7 @@ const HDF5_MAGIC: &[u8] = b"\x89HDF\r\n\x1a\n";
 /// extension; `head` is the file's first bytes (empty for a directory).
 pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
     if path.is_dir() {
-        let foam = ["constant/polyMesh", "system/controlDict"].iter().any(|p| path.join(p).exists());
-        return foam.then_some(Unsupported::OpenFoam);
+        return None;
     }
     let ext = lower_ext(path);
     let exodus_ext = matches!(ext.as_str(), "exo" | "ex2" | "exii" | "e" | "g" | "gen");
@@ -178,16 +174,11 @@ pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
             _ => Unsupported::NetCdf,
         });
     }
-    let text = String::from_utf8_lossy(&head[..head.len().min(4096)]);
     match ext.as_str() {
         "cgns" | "adf" => return Some(Unsupported::Cgns),
-        "foam" => return Some(Unsupported::OpenFoam),
         "nc" | "cdf" => return Some(Unsupported::NetCdf),
         "h5" | "hdf5" | "hdf" => return Some(Unsupported::Hdf5),
         _ => {}
-    }
-    if text.contains("FoamFile") {
-        return Some(Unsupported::OpenFoam);
     }
     head.starts_with(b"ADF Database Version").then_some(Unsupported::Cgns)
 }
@@ -241,6 +232,9 @@ pub enum Format {
     /// Exodus II in netCDF classic form, results at
     /// [`ReadOptions::time_step`].
     Exodus,
+    /// An OpenFOAM case (directory, `*.foam` file or polyMesh directory),
+    /// polyhedra included, cell fields at [`ReadOptions::time_step`].
+    OpenFoam,
 }
 
 impl Format {
@@ -262,10 +256,11 @@ impl Format {
             Format::Csv => "csv",
             Format::Su2 => "su2",
             Format::Exodus => "exodus",
+            Format::OpenFoam => "openfoam",
         }
     }
 
-    pub const ALL: [Format; 15] = [
+    pub const ALL: [Format; 16] = [
         Format::VtkLegacy,
         Format::VtkXml,
         Format::Pvtu,
@@ -281,6 +276,7 @@ impl Format {
         Format::Csv,
         Format::Su2,
         Format::Exodus,
+        Format::OpenFoam,
     ];
 
     /// Parses a `--format` name; `laz`, `glb` and `xyz-points` are accepted
@@ -319,6 +315,7 @@ impl fmt::Display for Format {
             Format::Csv => "CSV",
             Format::Su2 => "SU2",
             Format::Exodus => "Exodus II",
+            Format::OpenFoam => "OpenFOAM",
         })
     }
 }
@@ -336,8 +333,9 @@ pub struct ReadOptions {
     /// SU2 solution: a CSV table with a row per mesh point (SU2's
     /// `restart_flow.csv` or `flow.csv`).
     pub solution: Option<PathBuf>,
-    /// Results files (Exodus II): the time step (0-based) whose fields are
-    /// read; the first when unset.
+    /// Results files: the time step (0-based) whose fields are read. Exodus
+    /// II: the first when unset. OpenFOAM: an index into the case's time
+    /// directories sorted by time, the latest when unset.
     pub time_step: Option<usize>,
     /// Column names of a CSV/XYZ point table, in order (`x`, `y`, `z` and
     /// field names; `_` skips a column). Replaces the file's header line.
@@ -366,9 +364,9 @@ pub fn read_bytes(bytes: &[u8], format: Format) -> Result<SourceMesh, FormatErro
         Format::Gltf => gltf::read(bytes, &mut |uri: &str| {
             Err(std::io::Error::new(std::io::ErrorKind::NotFound, format!("external buffer '{uri}' not available")))
         }),
-        Format::Pvtu | Format::TetGen | Format::Raw => Err(FormatError::new(
+        Format::Pvtu | Format::TetGen | Format::Raw | Format::OpenFoam => Err(FormatError::new(
             Location::Whole,
-            format!("{format} input needs companion files or options; use read_file"),
+            format!("{format} input needs companion files, a directory or options; use read_file"),
         )),
     }
 }
@@ -379,6 +377,10 @@ fn lower_ext(path: &Path) -> String {
 
 /// Detects the format from the first bytes, then the extension.
 pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<Format> {
+    if path.is_dir() {
+        // A case directory, or one inside a case (its constant/polyMesh).
+        return openfoam::case_dir(path).is_some().then_some(Format::OpenFoam);
+    }
     let ext = lower_ext(path);
     if matches!(ext.as_str(), "pvtu" | "pvts" | "pvti") {
         return Some(Format::Pvtu);
@@ -409,6 +411,9 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
     }
     if text.lines().take(64).any(|l| l.trim_start().starts_with("NDIME=")) {
         return Some(Format::Su2);
+    }
+    if ext == "foam" || text.contains("FoamFile") {
+        return Some(Format::OpenFoam);
     }
     if head.starts_with(b"glTF") || (text.trim_start().starts_with('{') && text.contains("\"asset\"")) {
         return Some(Format::Gltf);
@@ -452,11 +457,13 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadErro
         None => {
             if lower_ext(path) == "ele" {
                 Format::TetGen
+            } else if path.is_dir() {
+                detect_format(path, &[], opts).ok_or_else(|| ReadError::UnknownFormat {
+                    hint: "a directory is read only as an OpenFOAM case (constant/polyMesh, system/controlDict or processor0 in it or above it)".into(),
+                    path: path.to_path_buf(),
+                })?
             } else {
                 let unsupported = |kind| ReadError::Unsupported { kind, path: path.to_path_buf() };
-                if let Some(kind) = path.is_dir().then(|| detect_unsupported(path, &[])).flatten() {
-                    return Err(unsupported(kind));
-                }
                 let bytes = read_all(path)?;
                 let head = &bytes[..bytes.len().min(4096)];
                 if let Some(kind) = detect_unsupported(path, head) {
@@ -531,6 +538,7 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadErro
             exodus::read(&bytes, &exodus::ExodusOptions { time_step: opts.time_step })
                 .map_err(|e| malformed(e, path, None))
         }
+        Format::OpenFoam => openfoam::read_case(path, &openfoam::FoamOptions { time_step: opts.time_step }),
         Format::Su2 => {
             let bytes = read_all(path)?;
             let mut mesh = su2::read(&bytes).map_err(|e| malformed(e, path, None))?;

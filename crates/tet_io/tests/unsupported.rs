@@ -1,5 +1,6 @@
 //! Formats tetkit recognises but does not read yet: one error variant that
 //! says what the file is, never "pass --format" (no --format reads them).
+//! (OpenFOAM was one; it is read now, and its recognition is checked here.)
 use std::path::Path;
 use tet_io::{read_file, ReadError, ReadOptions, Unsupported};
 
@@ -58,15 +59,31 @@ fn cgns_hdf5_and_adf() {
     assert_eq!(kind_of(&file(d.path(), "m.cgns", b"ADF Database Version A02011>")), Unsupported::Cgns);
 }
 
+/// OpenFOAM is read now (tests/openfoam.rs): a case directory, a `.foam`
+/// file and a FoamFile dictionary are recognised as OpenFOAM, and a case
+/// without a mesh is a malformed-OpenFOAM error naming the path, no longer
+/// `Unsupported`.
 #[test]
-fn openfoam_case_directory_foam_file_and_dictionary() {
+fn openfoam_inputs_are_recognised_and_a_case_without_a_mesh_names_its_path() {
     let d = tempfile::tempdir().unwrap();
     let case = d.path().join("cavity");
     std::fs::create_dir_all(case.join("constant/polyMesh")).unwrap();
-    assert_eq!(kind_of(&case), Unsupported::OpenFoam);
-    assert_eq!(kind_of(&file(d.path(), "cavity.foam", b"")), Unsupported::OpenFoam);
     let dict = b"FoamFile\n{\n    version 2.0;\n    class vectorField;\n}\n";
-    assert_eq!(kind_of(&file(d.path(), "points", dict)), Unsupported::OpenFoam);
+    for p in [case.clone(), file(&case, "cavity.foam", b""), file(&case.join("constant/polyMesh"), "points.txt", dict)]
+    {
+        let e = read_file(&p, &ReadOptions::default()).unwrap_err();
+        match &e {
+            ReadError::Malformed { format: tet_io::Format::OpenFoam, path, .. } => assert_eq!(path, &case, "{e}"),
+            other => panic!("{}: expected a malformed OpenFOAM case, got {other:?}", p.display()),
+        }
+        let msg = e.to_string();
+        assert!(msg.contains("has no mesh") && msg.contains("constant/polyMesh/points"), "{msg}");
+    }
+    // A dictionary outside any case says so, naming the file.
+    let lone = file(d.path(), "points", dict);
+    let e = read_file(&lone, &ReadOptions::default()).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("not inside an OpenFOAM case") && msg.contains(&lone.display().to_string()), "{msg}");
 }
 
 #[test]

@@ -9,6 +9,8 @@
 //!   ([`Adjacency`]), what MPVO sorting needs.
 //! - [`mesh_stats`] — bounds, volumes, edge lengths, max cell diameter.
 //! - [`predicates`] — exact orientation tests every geometric decision uses.
+//! - [`polyhedron`] — polyhedral cells as conforming tets around added centre points
+//!   ([`PolyhedronSplitter`]), for the readers that meet them.
 //!
 //! ```
 //! use tet_mesh::{tetrahedralize, build_adjacency, Block, ConvertOptions, Field, SourceMesh, SplitMode};
@@ -35,6 +37,7 @@ pub mod adjacency;
 pub mod convert;
 mod error;
 pub mod merge;
+pub mod polyhedron;
 pub mod predicates;
 pub mod rng;
 pub mod scalar;
@@ -47,6 +50,7 @@ pub use convert::{
     check_tet_mesh, tetrahedralize, ConversionReport, ConvertOptions, Finding, NanPolicy, Step, TetMesh,
 };
 pub use error::MeshError;
+pub use polyhedron::PolyhedronSplitter;
 pub use rng::SplitMix64;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
 pub use split::SplitMode;

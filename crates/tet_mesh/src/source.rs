@@ -38,8 +38,10 @@ impl CellType {
     /// `num_nodes()` nodes reduces them to the linear cell.
     ///
     /// Returns `None` for non-volume cells (vertices, lines, polygons) and
-    /// for volume cell types tetkit cannot reduce (polyhedra, Lagrange cells
-    /// with variable node counts); readers skip those and say so in a note.
+    /// for volume cell types that are no linear cell (polyhedra, which
+    /// readers with a face stream split with
+    /// [`crate::polyhedron::PolyhedronSplitter`]; Lagrange cells with
+    /// variable node counts); readers skip the rest and say so in a note.
     pub fn from_vtk_id(id: u32) -> Option<(CellType, usize)> {
         Some(match id {
             10 => (CellType::Tetra, 4),

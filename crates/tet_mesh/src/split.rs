@@ -52,7 +52,7 @@ const VOXEL_AS_HEX: [usize; 8] = [0, 1, 3, 2, 4, 5, 7, 6];
 /// Cuts quad (a, b, c, d) (cyclic order) along the diagonal through its
 /// smallest id.
 #[inline]
-fn split_quad(q: [u32; 4]) -> [[u32; 3]; 2] {
+pub(crate) fn split_quad(q: [u32; 4]) -> [[u32; 3]; 2] {
     let [a, b, c, d] = q;
     if a.min(c) < b.min(d) {
         [[a, b, c], [a, c, d]]

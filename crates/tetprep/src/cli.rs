@@ -209,9 +209,10 @@ pub struct ConvertArgs {
     #[arg(long, help_heading = "SU2")]
     pub solution: Option<PathBuf>,
 
-    /// Results files (Exodus II): the time step, from 0, whose nodal and
-    /// element variables are read (default: the first).
-    #[arg(long, help_heading = "Exodus II")]
+    /// Results files: the time step, from 0, whose fields are read. Exodus
+    /// II: nodal and element variables (default: the first). OpenFOAM: the
+    /// N-th time directory in time order (default: the latest).
+    #[arg(long, help_heading = "Results (Exodus II, OpenFOAM)")]
     pub time_step: Option<usize>,
 
     #[command(flatten, next_help_heading = "PLOT3D")]

@@ -427,7 +427,9 @@ fn layered_csv_points_become_prisms() {
 /// --format" though no --format reads them; now the error says what the file
 /// is (exit 3, an input problem, as for any unreadable input). SU2 and
 /// classic-netCDF Exodus II are read now: a broken one is a malformed file of
-/// that format, still exit 3 and naming the path.
+/// that format, still exit 3 and naming the path. OpenFOAM is read now too:
+/// a case without a mesh is a malformed OpenFOAM case naming its directory
+/// (not "does not read yet"), and the cavity tutorial converts.
 #[test]
 fn unsupported_formats_say_what_they_are() {
     let dir = tempfile::tempdir().unwrap();
@@ -452,7 +454,13 @@ fn unsupported_formats_say_what_they_are() {
     }
     let o = tetprep(&["convert", case.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(3));
-    assert!(stderr(&o).contains("OpenFOAM"), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("OpenFOAM") && e.contains("has no mesh") && !e.contains("does not read yet"), "{e}");
+    assert!(e.contains(case.to_str().unwrap()), "{e}");
+    let cavity = data("openfoam/cavity");
+    let v = json(&tetprep(&["convert", cavity.to_str().unwrap(), "-o", out.to_str().unwrap(), "--json"]));
+    assert_eq!(v["tets"], 400 * 6);
+    assert!((v["total_volume"].as_f64().unwrap() - 1e-4).abs() < 1e-15, "{v}");
 }
 
 /// A scalar with one value everywhere is reported with that value.

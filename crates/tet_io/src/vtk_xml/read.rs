@@ -11,7 +11,7 @@ use base64::engine::DecodePaddingMode;
 use base64::Engine as _;
 use flate2::{Decompress, FlushDecompress, Status};
 use quick_xml::events::{BytesStart, Event};
-use tet_mesh::{Block, CellType, Cells, Field, SourceMesh};
+use tet_mesh::{Block, CellType, Cells, Field, PolyhedronSplitter, SourceMesh};
 
 use crate::cursor::{decode_to_f64, parse_f64, ByteCursor, Endian, ScalarType};
 use crate::{Format, FormatError, Location, ReadError};
@@ -44,10 +44,14 @@ const BASE64: GeneralPurpose = GeneralPurpose::new(
 /// them). All unstructured pieces go into one [`Block::Unstructured`]; each
 /// structured piece becomes its own [`Block::Structured`].
 ///
-/// Cells without volume (vertices, lines, polygons) and volume cells tetkit
-/// cannot reduce (polyhedra, Lagrange/Bézier cells, pentagonal and hexagonal
-/// prisms) are skipped with a note, and their cell-data tuples dropped so
-/// cell fields stay aligned. Quadratic cells are reduced to their corners
+/// Polyhedra (`VTK_POLYHEDRON`, id 42) with the `faces`/`faceoffsets` face
+/// stream are split into tets around added centre points by
+/// [`PolyhedronSplitter`] (each tet repeats the cell's data; the added
+/// points average the point data), with a note. Cells without volume
+/// (vertices, lines, polygons) and volume cells tetkit cannot reduce
+/// (polyhedra without a face stream, Lagrange/Bézier cells, pentagonal and
+/// hexagonal prisms) are skipped with a note counting them, and their
+/// cell-data tuples dropped so cell fields stay aligned. Quadratic cells are reduced to their corners
 /// (with a note). An unknown cell type id is an error. Point and cell arrays
 /// become fields of their `NumberOfComponents`; `FieldData` and non-numeric
 /// arrays are ignored.
@@ -241,6 +245,10 @@ struct Stats {
     skipped_unreducible: BTreeMap<u32, usize>,
     skipped_non_numeric: Vec<String>,
     flat_structured_cells: usize,
+    /// Polyhedra (id 42) split into tets, the tets and the centre points added.
+    split_polyhedra: usize,
+    polyhedron_tets: usize,
+    polyhedron_points: usize,
 }
 
 impl Stats {
@@ -257,12 +265,18 @@ impl Stats {
         }
         for (id, n) in &self.skipped_unreducible {
             let what = match id {
-                42 => "polyhedra (VTK_POLYHEDRON, id 42)".to_string(),
+                42 => "polyhedra (VTK_POLYHEDRON, id 42) with no 'faces'/'faceoffsets' arrays (VTK 9.4's polyhedron_* arrays are not read)".to_string(),
                 15 => "pentagonal prisms (id 15)".to_string(),
                 16 => "hexagonal prisms (id 16)".to_string(),
                 id => format!("Lagrange/Bézier volume cells of VTK type id {id}"),
             };
             notes.push(format!("skipped {n} {what}, which tetkit cannot reduce, and their cell data"));
+        }
+        if self.split_polyhedra > 0 {
+            notes.push(format!(
+                "split {} polyhedra (VTK_POLYHEDRON) into {} tets around {} added cell- and face-centre points; each tet carries its cell's data",
+                self.split_polyhedra, self.polyhedron_tets, self.polyhedron_points
+            ));
         }
         if !self.skipped_non_numeric.is_empty() {
             notes.push(format!("skipped non-numeric arrays: {}", self.skipped_non_numeric.join(", ")));
@@ -929,12 +943,13 @@ impl<'a> Ctx<'a> {
     }
 
     /// Numeric arrays of a `<PointData>`/`<CellData>` element as fields of
-    /// `num_tuples` tuples; with `kept`, only the tuples of kept cells.
+    /// `num_tuples` tuples; with `gather`, the tuples it lists, in its order
+    /// (cells kept, a polyhedron's tuple once per tet).
     fn fields(
         &self,
         data_el: Option<usize>,
         num_tuples: usize,
-        kept: Option<&[bool]>,
+        gather: Option<&[u32]>,
         stats: &mut Stats,
     ) -> Result<Vec<Field>, FormatError> {
         let Some(data_el) = data_el else {
@@ -958,15 +973,12 @@ impl<'a> Ctx<'a> {
                 .checked_mul(ncomp)
                 .ok_or_else(|| self.err_at(array, format!("array '{name}': size overflows")))?;
             let mut values = self.array_f64(array, Some(n))?;
-            if let Some(kept) = kept {
-                let mut w = 0;
-                for (t, &keep) in kept.iter().enumerate() {
-                    if keep {
-                        values.copy_within(t * ncomp..(t + 1) * ncomp, w * ncomp);
-                        w += 1;
-                    }
+            if let Some(gather) = gather {
+                let mut out = Vec::with_capacity(gather.len() * ncomp);
+                for &t in gather {
+                    out.extend_from_slice(&values[t as usize * ncomp..(t as usize + 1) * ncomp]);
                 }
-                values.truncate(w * ncomp);
+                values = out;
             }
             fields.push(Field::new(name, ncomp, values));
         }
@@ -984,7 +996,8 @@ impl<'a> Ctx<'a> {
         let points = self.points(piece, num_points)?;
 
         let mut cells = Cells::new();
-        let mut kept: Option<Vec<bool>> = None;
+        let mut gather: Option<Vec<u32>> = None;
+        let mut splitter = PolyhedronSplitter::new(num_points);
         if num_cells > 0 {
             let cells_el = self
                 .child(piece, "Cells")
@@ -1006,11 +1019,26 @@ impl<'a> Ctx<'a> {
                 );
             }
             let connectivity = self.array_i64(conn_el, None)?;
-            cells = self.build_cells(&types, &offsets, &connectivity, num_points, piece, &mut kept, stats)?;
+            // Polyhedra (id 42) carry their faces in a separate stream.
+            let poly = match (self.named_array(cells_el, "faces"), self.named_array(cells_el, "faceoffsets")) {
+                (Some(f), Some(o)) if types.contains(&42) => Some(PolyFaces {
+                    faces: self.array_i64(f, None)?,
+                    offsets: self.array_i64(o, Some(num_cells))?,
+                    at: f,
+                }),
+                _ => None,
+            };
+            let input =
+                CellArrays { types: &types, offsets: &offsets, connectivity: &connectivity, poly: poly.as_ref() };
+            let mut source = Vec::with_capacity(num_cells);
+            cells = self.build_cells(&input, num_points, piece, &mut source, &mut splitter, stats)?;
+            if source.len() != num_cells || source.iter().enumerate().any(|(i, &c)| c as usize != i) {
+                gather = Some(source);
+            }
         }
         let point_fields = self.fields(self.child(piece, "PointData"), num_points, None, stats)?;
-        let cell_fields = self.fields(self.child(piece, "CellData"), num_cells, kept.as_deref(), stats)?;
-        Ok(SourceMesh {
+        let cell_fields = self.fields(self.child(piece, "CellData"), num_cells, gather.as_deref(), stats)?;
+        let mut mesh = SourceMesh {
             points,
             blocks: vec![Block::Unstructured(cells)],
             point_fields,
@@ -1018,21 +1046,27 @@ impl<'a> Ctx<'a> {
             active_point_scalar: self.active_scalar(piece, "PointData"),
             active_cell_scalar: self.active_scalar(piece, "CellData"),
             ..Default::default()
-        })
+        };
+        stats.polyhedron_points += splitter.num_added_points();
+        splitter.finish(&mut mesh).map_err(|m| self.err_at(piece, m))?;
+        Ok(mesh)
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// The piece's cells; `source` receives, per cell kept, the index of
+    /// the file's cell it came from (a polyhedron gives several tets).
     fn build_cells(
         &self,
-        types: &[i64],
-        offsets: &[i64],
-        connectivity: &[i64],
+        input: &CellArrays<'_>,
         num_points: usize,
         piece: usize,
-        kept: &mut Option<Vec<bool>>,
+        source: &mut Vec<u32>,
+        splitter: &mut PolyhedronSplitter,
         stats: &mut Stats,
     ) -> Result<Cells, FormatError> {
+        let CellArrays { types, offsets, connectivity, poly } = *input;
         let num_cells = types.len();
+        // End of the previous polyhedron's face stream.
+        let mut poly_start = 0usize;
         let mut cells = Cells {
             types: Vec::with_capacity(num_cells),
             offsets: Vec::with_capacity(num_cells + 1),
@@ -1079,6 +1113,33 @@ impl<'a> Ctx<'a> {
                     cells.push(cell_type, &nodes[..n]);
                     true
                 }
+                None if id == 42 && poly.is_some() => {
+                    let pf = poly.expect("checked");
+                    let end = usize::try_from(pf.offsets[c])
+                        .ok()
+                        .filter(|&e| e >= poly_start && e <= pf.faces.len())
+                        .ok_or_else(|| {
+                        self.err_at(
+                            pf.at,
+                            format!(
+                                "cell {c}: faceoffsets entry {} is outside {poly_start}..={} of 'faces'",
+                                pf.offsets[c],
+                                pf.faces.len()
+                            ),
+                        )
+                    })?;
+                    let faces = polyhedron_faces(&pf.faces[poly_start..end], num_points)
+                        .map_err(|m| self.err_at(pf.at, format!("polyhedron cell {c}: {m}")))?;
+                    poly_start = end;
+                    let first_cell = cells.len();
+                    splitter
+                        .split(faces.iter().map(Vec::as_slice), &mut |t| cells.push(CellType::Tetra, &t))
+                        .map_err(|m| self.err_at(pf.at, format!("polyhedron cell {c}: {m}")))?;
+                    stats.split_polyhedra += 1;
+                    stats.polyhedron_tets += cells.len() - first_cell;
+                    source.extend(std::iter::repeat_n(c as u32, cells.len() - first_cell));
+                    false
+                }
                 None if CellType::vtk_id_is_surface_or_lower(id) => {
                     stats.skipped_without_volume += 1;
                     false
@@ -1091,11 +1152,8 @@ impl<'a> Ctx<'a> {
                     return Err(self.err_at(piece, format!("cell {c} has unknown VTK cell type id {id}")));
                 }
             };
-            if !keep && kept.is_none() {
-                *kept = Some(vec![true; num_cells]);
-            }
-            if let Some(mask) = kept.as_mut() {
-                mask[c] = keep;
+            if keep {
+                source.push(c as u32);
             }
         }
         Ok(cells)
@@ -1120,13 +1178,12 @@ impl<'a> Ctx<'a> {
         // cells of flat pieces; tetkit keeps only volume cells.
         let vtk_cells = if dims.contains(&0) { 0 } else { dims.iter().map(|&d| (d - 1).max(1)).product() };
         let volume_cells: usize = dims.iter().map(|&d| d.saturating_sub(1)).product();
-        let kept_none;
+        // A flat piece keeps none of its (lower-dimensional) cells' tuples.
         let kept = if volume_cells == vtk_cells {
             None
         } else {
             stats.flat_structured_cells += vtk_cells;
-            kept_none = vec![false; vtk_cells];
-            Some(kept_none.as_slice())
+            Some(&[][..])
         };
         let point_fields = self.fields(self.child(piece, "PointData"), num_points, None, stats)?;
         let cell_fields = self.fields(self.child(piece, "CellData"), vtk_cells, kept, stats)?;
@@ -1208,6 +1265,53 @@ impl<'a> Ctx<'a> {
         }
         Ok(points)
     }
+}
+
+/// A piece's `<Cells>` arrays.
+#[derive(Clone, Copy)]
+struct CellArrays<'a> {
+    types: &'a [i64],
+    offsets: &'a [i64],
+    connectivity: &'a [i64],
+    poly: Option<&'a PolyFaces>,
+}
+
+/// The polyhedron face stream: `faces` holds, per polyhedron, its face
+/// count then each face as a point count and point ids; `faceoffsets[c]`
+/// is the end of cell c's stream (-1 for other cells).
+struct PolyFaces {
+    faces: Vec<i64>,
+    offsets: Vec<i64>,
+    /// The `faces` DataArray element, for errors.
+    at: usize,
+}
+
+/// One polyhedron's faces from its stream `[nfaces, n0, ids…, n1, ids…]`.
+fn polyhedron_faces(stream: &[i64], num_points: usize) -> Result<Vec<Vec<u32>>, String> {
+    let (&nf, mut rest) = stream.split_first().ok_or("its face stream is empty")?;
+    let nf = usize::try_from(nf)
+        .ok()
+        .filter(|&n| n >= 4 && n <= rest.len())
+        .ok_or_else(|| format!("face count {nf} is not between 4 and the {} entries of its stream", rest.len()))?;
+    let mut faces = Vec::with_capacity(nf);
+    for f in 0..nf {
+        let (&k, tail) = rest.split_first().ok_or_else(|| format!("its stream ends before face {f}"))?;
+        let k = usize::try_from(k)
+            .ok()
+            .filter(|&k| k >= 3 && k <= tail.len())
+            .ok_or_else(|| format!("face {f} has point count {k}; needs 3 to the {} entries left", tail.len()))?;
+        let ids = tail[..k]
+            .iter()
+            .map(|&p| u32::try_from(p).ok().filter(|&q| (q as usize) < num_points))
+            .collect::<Option<Vec<u32>>>()
+            .ok_or_else(|| format!("face {f} refers to a point outside the piece's {num_points}"))?;
+        faces.push(ids);
+        rest = &tail[k..];
+    }
+    if !rest.is_empty() {
+        return Err(format!("{} entries are left after its {nf} faces", rest.len()));
+    }
+    Ok(faces)
 }
 
 fn loc_offset(loc: Location) -> u64 {
@@ -1352,6 +1456,47 @@ mod tests {
         assert_eq!(m.num_cells(), 2);
         assert_eq!(m.cell_fields[0].values, vec![1.0, 3.0]);
         assert!(m.notes.iter().any(|n| n.contains("polyhedra")), "{:?}", m.notes);
+    }
+
+    /// Two unit cubes along x: cell 0 a VTK_POLYHEDRON (its faces in the
+    /// `faces`/`faceoffsets` stream), cell 1 a hexahedron sharing its x = 1
+    /// face. The polyhedron becomes 12 positive tets around its centre
+    /// (cell data repeated, point data averaged) that conform with the hex.
+    #[test]
+    fn polyhedra_are_split_into_tets_from_their_face_stream() {
+        let faces = "6 4 0 3 2 1 4 4 5 6 7 4 0 1 5 4 4 1 2 6 5 4 2 3 7 6 4 3 0 4 7";
+        let text = format!(
+            r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian">
+<UnstructuredGrid><Piece NumberOfPoints="12" NumberOfCells="2">
+<PointData><DataArray type="Float64" Name="s" format="ascii">0 1 2 3 4 5 6 7 8 9 10 11</DataArray></PointData>
+<CellData><DataArray type="Int32" Name="id" format="ascii">7 9</DataArray></CellData>
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">
+0 0 0 1 0 0 1 1 0 0 1 0 0 0 1 1 0 1 1 1 1 0 1 1 2 0 0 2 1 0 2 0 1 2 1 1</DataArray></Points>
+<Cells><DataArray type="Int64" Name="connectivity" format="ascii">0 1 2 3 4 5 6 7 1 8 9 2 5 10 11 6</DataArray>
+<DataArray type="Int64" Name="offsets" format="ascii">8 16</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">42 12</DataArray>
+<DataArray type="Int64" Name="faces" format="ascii">{faces}</DataArray>
+<DataArray type="Int64" Name="faceoffsets" format="ascii">31 -1</DataArray></Cells>
+</Piece></UnstructuredGrid></VTKFile>"#
+        );
+        let m = read(text.as_bytes()).unwrap();
+        let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
+        assert_eq!(c.len(), 13);
+        assert_eq!(m.cell_fields[0].values, [vec![7.0; 12], vec![9.0]].concat());
+        assert_eq!(m.points.len(), 13);
+        assert_eq!(m.points[12], [0.5, 0.5, 0.5]);
+        assert_eq!(m.point_fields[0].values[12], 3.5);
+        assert!(m.notes.iter().any(|n| n.contains("split 1 polyhedra")), "{:?}", m.notes);
+        let (t, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+        assert!(!report.findings.iter().any(|f| matches!(f, tet_mesh::Finding::ReorientedTets { .. })));
+        let adj = tet_mesh::build_adjacency(&t.points, &t.tets).unwrap();
+        // 12 + 6 tets; the boundary of the 2 × 1 × 1 box: 10 unit squares.
+        assert_eq!((t.tets.len(), adj.boundary_faces.len(), adj.convex), (18, 20, true));
+        // A broken stream is an error naming the cell.
+        let bad = text.replace(faces, "6 4 0 3 2 1 4 4 5 6 7 4 0 1 5 4 4 1 2 6 5 4 2 3 7 6 4 3 0 4 70");
+        let e = read(bad.as_bytes()).unwrap_err();
+        assert!(e.message.contains("polyhedron cell 0: face 5 refers to a point outside"), "{e}");
     }
 
     #[test]

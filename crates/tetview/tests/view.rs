@@ -129,22 +129,25 @@ fn every_scripted_run_exits() {
     let mut runs = Vec::new();
     for (i, (frames, spin, cpu)) in variants.iter().enumerate() {
         let shot = dir.path().join(format!("shot{i}.png"));
+        // Each run's stderr goes to a file, quoted when the run fails.
+        let err = std::fs::File::create(dir.path().join(format!("stderr{i}.txt"))).unwrap();
         let mut c = tetview_on(&x, dir.path());
         c.args([bundle.to_str().unwrap(), "--window", "320x240", "--frames", &frames.to_string()])
             .args(["--screenshot", shot.to_str().unwrap()])
             .stdout(Stdio::null())
-            .stderr(Stdio::null());
+            .stderr(err);
         if let Some(deg) = spin {
             c.args(["--spin", deg]);
         }
         if *cpu {
             c.arg("--cpu");
         }
-        runs.push((format!("--frames {frames} spin {spin:?} cpu {cpu}"), c.spawn().unwrap(), shot));
+        runs.push((format!("--frames {frames} spin {spin:?} cpu {cpu}"), c.spawn().unwrap(), shot, i));
     }
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     let mut failures = Vec::new();
-    for (what, mut child, shot) in runs {
+    for (what, mut child, shot, i) in runs {
+        let stderr = || std::fs::read_to_string(dir.path().join(format!("stderr{i}.txt"))).unwrap_or_default();
         let status = loop {
             if let Some(status) = child.try_wait().unwrap() {
                 break Some(status);
@@ -158,8 +161,10 @@ fn every_scripted_run_exits() {
         };
         match status {
             Some(s) if s.success() && shot.exists() => {}
-            Some(s) => failures.push(format!("{what}: {s}, screenshot written: {}", shot.exists())),
-            None => failures.push(format!("{what}: still running after 60 s (killed)")),
+            Some(s) => {
+                failures.push(format!("{what}: {s}, screenshot written: {}; stderr: {}", shot.exists(), stderr()))
+            }
+            None => failures.push(format!("{what}: still running after 60 s (killed); stderr: {}", stderr())),
         }
     }
     assert!(failures.is_empty(), "{failures:#?}");

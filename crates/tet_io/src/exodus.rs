@@ -71,21 +71,25 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
         return Err(whole(format!("a {num_dim}D Exodus mesh has no volume cells; tetkit renders 3D meshes")));
     }
     let num_nodes = f.dim_len("num_nodes").unwrap_or(0);
-    // Coordinates: three arrays, or one num_dim × num_nodes array.
-    let mut points = vec![[0.0f64; 3]; num_nodes];
+    // Coordinates: three arrays, or one num_dim × num_nodes array. The
+    // points are allocated only once the coordinates were read (which checks
+    // them against the file's size), never from the header's count alone.
+    let mut points: Vec<[f64; 3]>;
     if let Some(coord) = f.var("coord") {
-        let v = f.read(coord, None)?;
         if f.shape(coord) != [3, num_nodes] {
             return Err(whole(format!("'coord' has shape {:?}, expected [3, {num_nodes}]", f.shape(coord))));
         }
-        for (k, p) in points.iter_mut().enumerate() {
-            *p = [v[k], v[num_nodes + k], v[2 * num_nodes + k]];
-        }
+        let v = f.read(coord, None)?;
+        points = (0..num_nodes).map(|k| [v[k], v[num_nodes + k], v[2 * num_nodes + k]]).collect();
     } else {
+        points = Vec::new();
         for (c, name) in ["coordx", "coordy", "coordz"].iter().enumerate() {
             let v = f.read(need(&f, name)?, None)?;
             if v.len() != num_nodes {
                 return Err(whole(format!("'{name}' has {} values for {num_nodes} nodes", v.len())));
+            }
+            if c == 0 {
+                points = vec![[0.0f64; 3]; num_nodes];
             }
             for (p, x) in points.iter_mut().zip(v) {
                 p[c] = x;
@@ -102,7 +106,18 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     // Per block read: (block index, first cell, cells).
     let mut read_blocks: Vec<(usize, usize, usize)> = Vec::new();
     let (mut reduced, mut skipped) = (0usize, Vec::new());
-    for b in 0..num_blocks {
+    // The blocks that have connectivity, from the variables' names (a null
+    // block has none): the header's block count alone never drives a loop.
+    let mut with_connect: Vec<usize> = f
+        .vars
+        .iter()
+        .filter_map(|v| v.name.strip_prefix("connect")?.parse::<usize>().ok())
+        .filter(|&i| (1..=num_blocks).contains(&i))
+        .map(|i| i - 1)
+        .collect();
+    with_connect.sort_unstable();
+    with_connect.dedup();
+    for b in with_connect {
         let name = format!("connect{}", b + 1);
         let Some(connect) = f.var(&name) else {
             // A null block (eb_status 0) has no connectivity.
@@ -164,12 +179,15 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
             Some(v) => f.read_strings(v)?,
             None => Vec::new(),
         };
-        let combined = f.var("vals_nod_var");
+        // The older combined array (variable × node at each step), read once.
+        let combined = match f.var("vals_nod_var") {
+            Some(v) => Some(f.read(v, Some(step))?),
+            None => None,
+        };
         for (j, n) in names.iter().enumerate() {
             let values = if let Some(v) = f.var(&format!("vals_nod_var{}", j + 1)) {
                 f.read(v, Some(step))?
-            } else if let Some(v) = combined {
-                let all = f.read(v, Some(step))?;
+            } else if let Some(all) = &combined {
                 all.get(j * num_nodes..(j + 1) * num_nodes).map(<[f64]>::to_vec).unwrap_or_default()
             } else {
                 return Err(whole(format!("nodal variable '{n}' has no values")));
@@ -300,6 +318,25 @@ mod tests {
                 ("vals_elem_var1eb2".into(), vec![0, 6], 6, vec![], vec![100.0, 200.0]),
             ],
             num_records: 2,
+        }
+    }
+
+    /// Regression (fuzzing): the header's node and block counts drove an
+    /// allocation and a loop before any data was read, so a 100-byte file
+    /// declaring 2³¹ nodes or blocks could abort or spin. Now both are an
+    /// error at the first read past the end, at once.
+    #[test]
+    fn huge_declared_counts_are_errors_not_allocations() {
+        for (dim, value) in [("num_nodes", (1u32 << 31) - 1), ("num_el_blk", (1 << 31) - 1)] {
+            // The header now declares more than the data written: the
+            // dimension's length follows its name, padded to 4 bytes.
+            let mut bytes = file().write(true);
+            let at = bytes.windows(dim.len()).position(|w| w == dim.as_bytes()).unwrap() + dim.len().div_ceil(4) * 4;
+            bytes[at..at + 4].copy_from_slice(&value.to_be_bytes());
+            let t = std::time::Instant::now();
+            let r = read(&bytes, &ExodusOptions::default());
+            assert!(r.is_err() || dim == "num_el_blk", "{dim}");
+            assert!(t.elapsed().as_secs_f64() < 5.0, "{dim}: {:?}", t.elapsed());
         }
     }
 

@@ -29,56 +29,127 @@ fn order_key(v: f64) -> u64 {
 const KEY_SHIFT: u32 = 45;
 const BINS: usize = 1 << (64 - KEY_SHIFT);
 
+/// Running min, max and bit-pattern histogram of one quantity.
+struct Acc {
+    min: f64,
+    max: f64,
+    hist: Vec<u32>,
+}
+
+impl Acc {
+    fn new() -> Acc {
+        Acc { min: f64::INFINITY, max: f64::NEG_INFINITY, hist: vec![0; BINS] }
+    }
+
+    #[inline]
+    fn add(&mut self, v: f64) {
+        self.min = self.min.min(v);
+        self.max = self.max.max(v);
+        self.hist[(order_key(v) >> KEY_SHIFT) as usize] += 1;
+    }
+
+    fn merge(mut self, b: Acc) -> Acc {
+        self.min = self.min.min(b.min);
+        self.max = self.max.max(b.max);
+        self.hist.iter_mut().zip(&b.hist).for_each(|(x, y)| *x += y);
+        self
+    }
+
+    /// The bin holding the element of rank ⌊n/2⌋ and the count below it.
+    fn median_bin(&self, n: usize) -> (u64, u64) {
+        let rank = (n / 2) as u64;
+        let mut below = 0u64;
+        for (b, &c) in self.hist.iter().enumerate() {
+            if below + c as u64 > rank {
+                return (b as u64, below);
+            }
+            below += c as u64;
+        }
+        (0, below)
+    }
+}
+
+/// Picks the element of rank ⌊n/2⌋ from the values of its bin.
+fn median_of_bin(mut in_bin: Vec<f64>, n: usize, below: u64) -> f64 {
+    let rank = (n / 2) as u64;
+    let (_, median, _) = in_bin.select_nth_unstable_by((rank - below) as usize, f64::total_cmp);
+    *median
+}
+
+/// Few, large chunks: each fold allocates its 2 MiB histograms.
+fn fold_chunk(n_groups: usize) -> usize {
+    n_groups.div_ceil(rayon::current_num_threads() * 2).max(1 << 14)
+}
+
 impl Spread {
     /// Exact min, median (the element of rank ⌊n/2⌋) and max of all values
     /// of `group(0..n_groups)` (K values each), without materializing them:
     /// one parallel pass builds min, max and a histogram over the values'
     /// bit patterns, a second collects only the bin holding the median.
     pub fn of_groups<const K: usize>(n_groups: usize, group: impl Fn(usize) -> [f64; K] + Sync) -> Spread {
-        let n = n_groups * K;
-        if n == 0 {
-            return Spread::default();
+        let (a, _, _) = Spread::of_two_groups(n_groups, |g| (group(g), [0.0; 0]));
+        a
+    }
+
+    /// [`Spread::of_groups`] of two quantities computed together (one
+    /// evaluation of `group` a pass, which matters when it gathers from
+    /// memory), and the sum of the first.
+    pub fn of_two_groups<const K: usize, const L: usize>(
+        n_groups: usize,
+        group: impl Fn(usize) -> ([f64; K], [f64; L]) + Sync,
+    ) -> (Spread, Spread, f64) {
+        let (n_a, n_b) = (n_groups * K, n_groups * L);
+        if n_groups == 0 {
+            return (Spread::default(), Spread::default(), 0.0);
         }
-        struct Acc {
-            min: f64,
-            max: f64,
-            hist: Vec<u32>,
-        }
-        let new = || Acc { min: f64::INFINITY, max: f64::NEG_INFINITY, hist: vec![0; BINS] };
-        // Few, large chunks: each fold allocates a 2 MiB histogram.
-        let chunk = n_groups.div_ceil(rayon::current_num_threads() * 2).max(1 << 14);
-        let acc = (0..n_groups)
+        let (acc_a, acc_b, sum) = (0..n_groups)
             .into_par_iter()
-            .with_min_len(chunk)
-            .fold(new, |mut a, g| {
-                for v in group(g) {
-                    a.min = a.min.min(v);
-                    a.max = a.max.max(v);
-                    a.hist[(order_key(v) >> KEY_SHIFT) as usize] += 1;
-                }
-                a
-            })
-            .reduce(new, |mut a, b| {
-                a.min = a.min.min(b.min);
-                a.max = a.max.max(b.max);
-                a.hist.iter_mut().zip(&b.hist).for_each(|(x, y)| *x += y);
-                a
-            });
-        let rank = (n / 2) as u64;
-        let (mut target, mut below) = (0u64, 0u64);
-        for (b, &c) in acc.hist.iter().enumerate() {
-            if below + c as u64 > rank {
-                target = b as u64;
-                break;
-            }
-            below += c as u64;
-        }
-        let mut in_bin: Vec<f64> = (0..n_groups)
+            .with_min_len(fold_chunk(n_groups))
+            .fold(
+                || (Acc::new(), if L > 0 { Acc::new() } else { Acc { min: 0.0, max: 0.0, hist: vec![] } }, 0.0),
+                |(mut a, mut b, mut sum), g| {
+                    let (va, vb) = group(g);
+                    for v in va {
+                        a.add(v);
+                        sum += v;
+                    }
+                    for v in vb {
+                        b.add(v);
+                    }
+                    (a, b, sum)
+                },
+            )
+            .reduce_with(|x, y| (x.0.merge(y.0), if L > 0 { x.1.merge(y.1) } else { x.1 }, x.2 + y.2))
+            .expect("n_groups > 0");
+        let (bin_a, below_a) = acc_a.median_bin(n_a);
+        let (bin_b, below_b) = if L > 0 { acc_b.median_bin(n_b) } else { (0, 0) };
+        let in_bin = |v: f64, bin: u64| order_key(v) >> KEY_SHIFT == bin;
+        let (vals_a, vals_b): (Vec<f64>, Vec<f64>) = (0..n_groups)
             .into_par_iter()
-            .flat_map_iter(|g| group(g).into_iter().filter(|&v| order_key(v) >> KEY_SHIFT == target))
-            .collect();
-        let (_, median, _) = in_bin.select_nth_unstable_by((rank - below) as usize, f64::total_cmp);
-        Spread { min: acc.min, median: *median, max: acc.max }
+            .fold(
+                || (Vec::new(), Vec::new()),
+                |(mut xa, mut xb), g| {
+                    let (va, vb) = group(g);
+                    xa.extend(va.into_iter().filter(|&v| in_bin(v, bin_a)));
+                    xb.extend(vb.into_iter().filter(|&v| in_bin(v, bin_b)));
+                    (xa, xb)
+                },
+            )
+            .reduce(
+                || (Vec::new(), Vec::new()),
+                |(mut a1, mut b1), (a2, b2)| {
+                    a1.extend(a2);
+                    b1.extend(b2);
+                    (a1, b1)
+                },
+            );
+        let a = Spread { min: acc_a.min, median: median_of_bin(vals_a, n_a, below_a), max: acc_a.max };
+        let b = if L > 0 {
+            Spread { min: acc_b.min, median: median_of_bin(vals_b, n_b, below_b), max: acc_b.max }
+        } else {
+            Spread::default()
+        };
+        (a, b, sum)
     }
 }
 
@@ -116,22 +187,17 @@ pub fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 /// Computes [`MeshStats`]; volumes and lengths in the mesh's units.
 pub fn mesh_stats(points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> MeshStats {
     let (lo, hi) = bounds(points);
-    let volume = |t: usize| {
-        let t = &tets[t];
-        let p = |k: usize| &points[t[k] as usize];
-        [signed_tet_volume(p(0), p(1), p(2), p(3))]
-    };
-    let edges = |t: usize| {
+    // Volume and the six edge lengths of each tet from one gather of its
+    // vertices, twice (histograms, then the medians' bins).
+    let (tet_volume, edge_length, total_volume) = Spread::of_two_groups(tets.len(), |t| {
         let p = tets[t].map(|v| &points[v as usize]);
-        EDGES.map(|(a, b)| dist2(p[a], p[b]).sqrt())
-    };
-    let total_volume = (0..tets.len()).into_par_iter().map(|t| volume(t)[0]).sum();
-    let edge_length = Spread::of_groups(tets.len(), edges);
+        ([signed_tet_volume(p[0], p[1], p[2], p[3])], EDGES.map(|(a, b)| dist2(p[a], p[b]).sqrt()))
+    });
     MeshStats {
         bounds_min: lo,
         bounds_max: hi,
         total_volume,
-        tet_volume: Spread::of_groups(tets.len(), volume),
+        tet_volume,
         max_cell_diameter: edge_length.max,
         edge_length,
         scalar_min: scalar.iter().copied().fold(f64::INFINITY, f64::min),
@@ -156,6 +222,18 @@ mod tests {
         let neg = Spread::of_groups(5, |i| [[-3.0, 2.0, -1.0, 0.0, 5.0][i]]);
         assert_eq!((neg.min, neg.median, neg.max), (-3.0, 0.0, 5.0));
         assert_eq!(two.median, 1.0);
+    }
+
+    /// Two quantities together give what each gives alone.
+    #[test]
+    fn two_groups_match_one_group_each() {
+        let f = |i: usize| ((i * 7919) % 1009) as f64 - 300.5;
+        let g = |i: usize| [f(i) * 1e-3, (f(i) * 3.0).abs(), -f(i)];
+        let (a, b, sum) = Spread::of_two_groups(50_001, |i| ([f(i)], g(i)));
+        assert_eq!(a, Spread::of_groups(50_001, |i| [f(i)]));
+        assert_eq!(b, Spread::of_groups(50_001, g));
+        let direct: f64 = (0..50_001).map(f).sum();
+        assert!((sum - direct).abs() <= 1e-9 * direct.abs().max(1.0), "{sum} {direct}");
     }
 
     #[test]

@@ -26,12 +26,10 @@ use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
+use tet_engine::{FrameRenderer, FrameRequest, FrameStats, Look, ReferenceFrameRenderer};
 use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::{Method, TransferFunction};
-use tet_render::{
-    diff, Camera, CpuRenderer, Image, ReferenceOptions, ReferenceRenderer, Renderer, Scene, SortMethod, TfCuller,
-    ViewSpec,
-};
+use tet_render::{diff, CpuRenderer, Image, Renderer, Scene, SortMethod, TfCuller, ViewSpec};
 
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
@@ -194,16 +192,18 @@ fn reference_image(
         }
     }
     let t = Instant::now();
-    let renderer = ReferenceRenderer::new(&bundle.mesh, &bundle.adjacency)?;
-    let camera = Camera::new(spec)?;
-    let bar = indicatif::ProgressBar::new(camera.height() as u64);
+    let mut renderer = ReferenceFrameRenderer::new(bundle)?;
+    let bar = indicatif::ProgressBar::new(u64::from(spec.size[1]));
     bar.set_style(
         indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} rows (eta {eta})").expect("valid template"),
     );
     bar.set_message(format!("reference {label}"));
-    let (img, stats) =
-        renderer.render(&camera, tf, &ReferenceOptions::default(), &|done, _| bar.set_position(done as u64))?;
+    let look = Look::exact(tf.clone());
+    let frame = renderer.render(&look, &FrameRequest::new(spec.clone()), &|done, _| bar.set_position(done as u64))?;
     bar.finish_and_clear();
+    let (img, FrameStats::Reference { stats, .. }) = (frame.image, frame.stats) else {
+        unreachable!("the reference renderer reports reference statistics")
+    };
     if stats.walk_failures > 0 {
         eprintln!("warning: {label}: {} reference ray walks failed; those rays are incomplete", stats.walk_failures);
     }

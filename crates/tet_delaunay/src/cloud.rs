@@ -40,6 +40,10 @@ pub struct CloudReport {
     /// the order of the new cell list (see [`crate::Delaunay::neighbors`]),
     /// for `tet_mesh::adjacency_from_neighbors` once the cells are tets.
     pub neighbors: Option<Vec<[u32; 4]>>,
+    /// The duplicate merge the triangulation used (each point's
+    /// representative), for `tet_mesh::tetrahedralize_merged`, so the
+    /// conversion does not merge the points a second time.
+    pub merged_into: Vec<u32>,
 }
 
 /// Replaces the (empty) cell list of a point-cloud `source` with tets over
@@ -83,6 +87,7 @@ pub fn triangulate_cloud(
         layers: 0,
         columns: 0,
         neighbors: None,
+        merged_into: Vec::new(),
     };
     let tets: Vec<[u32; 4]> = match mode {
         CloudMode::Delaunay => {
@@ -118,6 +123,7 @@ pub fn triangulate_cloud(
     source.blocks = vec![Block::Unstructured(cells)];
     // Cell fields of a point cloud would not match the new cells.
     source.cell_fields.clear();
+    report.merged_into = rep;
     Ok(report)
 }
 

@@ -170,6 +170,20 @@ pub fn tetrahedralize(
     opts: &ConvertOptions,
     progress: &mut dyn FnMut(Step),
 ) -> Result<(TetMesh, ConversionReport), MeshError> {
+    tetrahedralize_merged(source, opts, None, progress)
+}
+
+/// [`tetrahedralize`] for a source whose duplicate points an earlier step
+/// already found with [`merge_duplicate_points`] at `opts`'s tolerance (a
+/// point cloud's triangulation): `merged_into` is that result, used instead
+/// of merging again. `None` merges as [`tetrahedralize`] does; a list of
+/// the wrong length is an error.
+pub fn tetrahedralize_merged(
+    source: &SourceMesh,
+    opts: &ConvertOptions,
+    merged_into: Option<Vec<u32>>,
+    progress: &mut dyn FnMut(Step),
+) -> Result<(TetMesh, ConversionReport), MeshError> {
     source.check().map_err(MeshError::BadSource)?;
     if source.num_cells() == 0 {
         return Err(MeshError::NoCells { points: source.points.len() });
@@ -194,7 +208,17 @@ pub fn tetrahedralize(
     progress(Step::Merge);
     let diag = bbox_diagonal(&source.points);
     let tolerance = opts.merge_tolerance_rel * diag;
-    let rep = merge_duplicate_points(&source.points, tolerance);
+    let rep = match merged_into {
+        Some(rep) if rep.len() == source.points.len() && rep.iter().all(|&r| rep.get(r as usize) == Some(&r)) => rep,
+        Some(rep) => {
+            return Err(MeshError::BadSource(format!(
+                "{} merge targets for {} points (or a target out of range or not its own representative)",
+                rep.len(),
+                source.points.len()
+            )))
+        }
+        None => merge_duplicate_points(&source.points, tolerance),
+    };
     let merged = rep.iter().enumerate().filter(|&(i, &r)| r as usize != i).count();
     if merged > 0 {
         let with_different_scalar = if scalar.location == ScalarLocation::Point {
@@ -439,4 +463,50 @@ pub fn check_tet_mesh(m: &TetMesh) -> Result<(), String> {
         return Err(format!("scalar at point {i} is not finite"));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::{Block, Field};
+
+    /// Two unit cubes side by side, the shared face's four points listed
+    /// twice (as two separately written blocks would): a merge handed over
+    /// gives what merging here gives; a wrong one is refused.
+    #[test]
+    fn a_handed_merge_equals_merging_here() {
+        let mut points = vec![];
+        for x0 in [0.0, 1.0] {
+            for k in 0..2 {
+                for j in 0..2 {
+                    for i in 0..2 {
+                        points.push([x0 + i as f64, j as f64, k as f64]);
+                    }
+                }
+            }
+        }
+        let s: Vec<f64> = points.iter().map(|p| p[0] + 2.0 * p[1] - p[2]).collect();
+        let src = SourceMesh {
+            points,
+            blocks: vec![
+                Block::Structured { dims: [2, 2, 2], first_point: 0 },
+                Block::Structured { dims: [2, 2, 2], first_point: 8 },
+            ],
+            point_fields: vec![Field::new("s", 1, s)],
+            ..Default::default()
+        };
+        let opts = ConvertOptions::default();
+        let here = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
+        let rep = merge_duplicate_points(&src.points, opts.merge_tolerance_rel * bbox_diagonal(&src.points));
+        assert_eq!(rep.iter().enumerate().filter(|&(i, &r)| r as usize != i).count(), 4);
+        let handed = tetrahedralize_merged(&src, &opts, Some(rep.clone()), &mut |_| {}).unwrap();
+        assert_eq!(handed.0, here.0);
+        assert_eq!(handed.1.findings, here.1.findings);
+        let mut short = rep.clone();
+        short.pop();
+        assert!(matches!(tetrahedralize_merged(&src, &opts, Some(short), &mut |_| {}), Err(MeshError::BadSource(_))));
+        let mut chained = rep;
+        chained[0] = 8; // point 8 is itself merged into 1: not a representative
+        assert!(matches!(tetrahedralize_merged(&src, &opts, Some(chained), &mut |_| {}), Err(MeshError::BadSource(_))));
+    }
 }

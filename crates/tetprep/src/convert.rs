@@ -10,7 +10,7 @@ use tet_cli::{usage, ExitKind, KindExt};
 use tet_delaunay::{triangulate_cloud, CloudMode, DelaunayOptions};
 use tet_io::cursor::Endian;
 use tet_io::{plot3d::Plot3dOptions, raw::RawSpec, ReadOptions};
-use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions, NanPolicy, SplitMode, Step};
+use tet_mesh::{build_adjacency, tetrahedralize_merged, ConvertOptions, NanPolicy, SplitMode, Step};
 
 fn endian(e: EndianArg) -> Endian {
     match e {
@@ -138,7 +138,9 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     };
     let mut step_start = (Instant::now(), "select_scalar");
     let mut step_times: Vec<(&str, f64)> = Vec::new();
-    let (mesh, report) = tetrahedralize(&source, &convert_opts, &mut |s| {
+    // A cloud's points were merged before its triangulation: not again.
+    let merged_into = cloud.as_mut().map(|c| std::mem::take(&mut c.merged_into));
+    let (mesh, report) = tetrahedralize_merged(&source, &convert_opts, merged_into, &mut |s| {
         let (msg, key) = match s {
             Step::Merge => ("merging duplicate points", "merge"),
             Step::Split => ("splitting cells into tets", "split"),

@@ -11,6 +11,11 @@ use tet_render::{
 
 use crate::{EngineError, Look};
 
+/// The note for a scene that got per-vertex gradients now because the
+/// bundle stores none (front ends that add them themselves say the same).
+pub const GRADIENTS_NOTE: &str = "the bundle has no gradients: per-vertex gradients (least squares) computed now \
+                                  (tetprep convert --gradients stores them)";
+
 /// Everything about a frame but its look: where from, how big, how lit,
 /// which CPU algorithm, what may be skipped.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,11 +144,7 @@ impl FrameRenderer for CpuFrameRenderer {
     ) -> Result<Frame, EngineError> {
         let mut notes = Vec::new();
         if (req.shading.is_active() || look.method.is_bivariate()) && self.ensure_gradients()? {
-            notes.push(
-                "the bundle has no gradients: per-vertex gradients (least squares) computed now \
-                 (tetprep convert --gradients stores them)"
-                    .to_string(),
-            );
+            notes.push(GRADIENTS_NOTE.to_string());
         }
         let same_shader =
             self.shader.as_ref().is_some_and(|s| std::ptr::addr_eq(Arc::as_ptr(s), Arc::as_ptr(&look.shader)));

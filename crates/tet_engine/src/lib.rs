@@ -58,7 +58,9 @@ mod frame;
 mod look;
 mod tf;
 
-pub use frame::{CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer};
+pub use frame::{
+    CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer, GRADIENTS_NOTE,
+};
 pub use look::{count_table_bake, tables_baked, Look};
 pub use tf::{resolve_tf, ResolvedTf, TfRequest, TfSource};
 

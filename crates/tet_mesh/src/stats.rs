@@ -106,7 +106,7 @@ impl Spread {
             .into_par_iter()
             .with_min_len(fold_chunk(n_groups))
             .fold(
-                || (Acc::new(), if L > 0 { Acc::new() } else { Acc { min: 0.0, max: 0.0, hist: vec![] } }, 0.0),
+                || (Acc::new(), Acc::new(), 0.0),
                 |(mut a, mut b, mut sum), g| {
                     let (va, vb) = group(g);
                     for v in va {
@@ -119,10 +119,10 @@ impl Spread {
                     (a, b, sum)
                 },
             )
-            .reduce_with(|x, y| (x.0.merge(y.0), if L > 0 { x.1.merge(y.1) } else { x.1 }, x.2 + y.2))
+            .reduce_with(|x, y| (x.0.merge(y.0), x.1.merge(y.1), x.2 + y.2))
             .expect("n_groups > 0");
         let (bin_a, below_a) = acc_a.median_bin(n_a);
-        let (bin_b, below_b) = if L > 0 { acc_b.median_bin(n_b) } else { (0, 0) };
+        let (bin_b, below_b) = acc_b.median_bin(n_b);
         let in_bin = |v: f64, bin: u64| order_key(v) >> KEY_SHIFT == bin;
         let (vals_a, vals_b): (Vec<f64>, Vec<f64>) = (0..n_groups)
             .into_par_iter()

@@ -4,14 +4,9 @@ use anyhow::{Context, Result};
 use std::path::PathBuf;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look, GRADIENTS_NOTE};
 use tet_preint::{LutFile, Method};
 use tet_render::{Light, Scene, Shading, SortMethod};
-
-/// What `render` says when shading needs gradients the bundle lacks (the
-/// engine's note for the CPU path says the same).
-const GRADIENTS_NOTE: &str = "the bundle has no gradients: per-vertex gradients (least squares) computed now \
-                              (tetprep convert --gradients stores them)";
 
 /// Render BUNDLE with a transfer function and method (or a baked table).
 #[derive(Debug, clap::Args)]

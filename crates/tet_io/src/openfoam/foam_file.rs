@@ -11,7 +11,7 @@
 //! then `)`. Errors in text name the line; errors inside a binary payload
 //! the byte offset (of the decompressed content for a `.gz` file).
 
-use crate::cursor::{clip, parse_f64, Endian};
+use crate::cursor::{clip, decode_to_f64, parse_f64, Endian, ScalarType};
 use crate::{FormatError, Location};
 
 /// What the `FoamFile` header says.
@@ -250,15 +250,6 @@ impl<'a> FoamFile<'a> {
         }
     }
 
-    fn scalar_of(&self, raw: &[u8]) -> f64 {
-        match (self.header.scalar_bytes, self.header.endian) {
-            (4, Endian::Little) => f32::from_le_bytes(raw.try_into().expect("4 bytes")) as f64,
-            (4, Endian::Big) => f32::from_be_bytes(raw.try_into().expect("4 bytes")) as f64,
-            (_, Endian::Little) => f64::from_le_bytes(raw.try_into().expect("8 bytes")),
-            (_, Endian::Big) => f64::from_be_bytes(raw.try_into().expect("8 bytes")),
-        }
-    }
-
     fn ascii_label(&mut self, what: &str) -> Result<(i64, usize), FormatError> {
         match self.expect_token(what)? {
             (Tok::Word(w), at) => w
@@ -380,7 +371,9 @@ impl<'a> FoamFile<'a> {
             Some(n) if self.header.binary => {
                 let size = self.header.scalar_bytes;
                 let (raw, _) = self.payload(n, size * ncomp, what)?;
-                let out = raw.chunks_exact(size).map(|c| self.scalar_of(c)).collect();
+                let ty = if size == 4 { ScalarType::F32 } else { ScalarType::F64 };
+                let mut out = Vec::new();
+                decode_to_f64(raw, ty, self.header.endian, &mut out);
                 self.close(b')', what)?;
                 Ok((out, at))
             }

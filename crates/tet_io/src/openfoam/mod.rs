@@ -578,26 +578,27 @@ pub fn read_case(input: &Path, opts: &FoamOptions) -> Result<SourceMesh, ReadErr
         let bytes = MeshBytes { points: &files[0].1, faces: &files[1].1, owner: &files[2].1, neighbour: &files[3].1 };
         assemble(mesh, num_cells, fields, &bytes).map_err(|(part, e)| malformed(&files[part as usize].0, e))?
     } else {
-        // Cells are checked per processor first, so errors name its files.
-        for d in &domains {
-            let bytes = MeshBytes {
-                points: &d.files[0].1,
-                faces: &d.files[1].1,
-                owner: &d.files[2].1,
-                neighbour: &d.files[3].1,
-            };
-            cells::build(&d.mesh, d.num_cells).map_err(|e| {
+        // A processor's mesh that cannot make cells is blamed by its own
+        // files: on failure of the merged build (only then: the cells are
+        // built once on the way that works), each processor is built alone
+        // to find the one at fault.
+        let blame = |domains: &[Domain]| -> Option<ReadError> {
+            domains.iter().find_map(|d| {
+                let e = cells::build(&d.mesh, d.num_cells).err()?;
                 let (part, at) = match e.face {
-                    Some((f, true)) => (Part::Neighbour, FoamFile::label_location(bytes.neighbour, f)),
-                    Some((f, false)) => (Part::Owner, FoamFile::label_location(bytes.owner, f)),
+                    Some((f, true)) => (Part::Neighbour, FoamFile::label_location(&d.files[3].1, f)),
+                    Some((f, false)) => (Part::Owner, FoamFile::label_location(&d.files[2].1, f)),
                     None => (Part::Owner, Location::Whole),
                 };
-                malformed(&d.files[part as usize].0, FormatError::new(at, e.message))
-            })?;
-        }
+                Some(malformed(&d.files[part as usize].0, FormatError::new(at, e.message)))
+            })
+        };
         let (m, n) = merge_domains(&mut domains, &mut notes);
         let empty = MeshBytes { points: &[], faces: &[], owner: &[], neighbour: &[] };
-        assemble(m, n, fields, &empty).map_err(|(_, e)| whole(&case, e.message))?
+        match assemble(m, n, fields, &empty) {
+            Ok(mesh) => mesh,
+            Err((_, e)) => return Err(blame(&domains).unwrap_or_else(|| whole(&case, e.message))),
+        }
     };
     if let Some(patches) = read_maybe_gz(&domain_dirs[0].join("constant/polyMesh/boundary"))
         .ok()

@@ -198,6 +198,13 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             E::Bake { .. } => Some(Bake),
             // A .tetl whose stored TF or method is unusable: the file's fault.
             E::LutTf { .. } | E::LutMethod { .. } => Some(Input),
+            // A front end handed a renderer a look it cannot draw: our bug.
+            E::NotBaked { .. } => Some(Internal),
+            E::Gpu { kind, .. } => match kind {
+                tet_engine::GpuFailure::NoDevice => Some(NoGpu),
+                tet_engine::GpuFailure::Unsupported => Some(Usage),
+                tet_engine::GpuFailure::Failed => Some(Internal),
+            },
             // The lower crates' errors decide (next in the chain).
             E::Tf(_) | E::Domain(_) | E::Lut(_) | E::Render(_) => None,
         };
@@ -425,9 +432,16 @@ mod tests {
                 tet_engine::EngineError::Domain(tet_preint::TableError::Domain { what: "no span".into() }).into(),
                 ExitKind::Rejected,
             ),
+            (gpu(tet_engine::GpuFailure::NoDevice), ExitKind::NoGpu),
+            (gpu(tet_engine::GpuFailure::Unsupported), ExitKind::Usage),
+            (gpu(tet_engine::GpuFailure::Failed), ExitKind::Internal),
+            (tet_engine::EngineError::NotBaked { method: tet_preint::Method::Table3d }.into(), ExitKind::Internal),
             (io(std::io::ErrorKind::PermissionDenied).into(), ExitKind::Output),
             (anyhow::anyhow!("something odd"), ExitKind::Internal),
         ];
+        fn gpu(kind: tet_engine::GpuFailure) -> anyhow::Error {
+            tet_engine::EngineError::Gpu { kind, source: "the device said no".into() }.into()
+        }
         for (e, want) in cases {
             assert_eq!(ExitKind::of(&e), want, "{e:#}");
         }

@@ -57,6 +57,9 @@ pub enum FrameStats {
     Cpu(RenderStats),
     /// [`ReferenceFrameRenderer`]: ray counts and the render's seconds.
     Reference { stats: ReferenceStats, render_seconds: f64 },
+    /// [`crate::GpuFrameRenderer`]: the device's stages and counts.
+    #[cfg(feature = "gpu")]
+    Gpu(Box<crate::GpuFrameStats>),
 }
 
 /// A rendered frame: linear premultiplied RGBA and how it was made.
@@ -91,9 +94,9 @@ pub trait FrameRenderer {
 pub struct CpuFrameRenderer {
     /// `None` only while gradients are being added.
     renderer: Option<Renderer>,
-    /// The shader last set (compared by address: the same shader keeps the
+    /// The key of the look last set ([`Look::key`]: the same look keeps the
     /// cull mask).
-    shader: Option<Arc<dyn tet_preint::SegmentShader>>,
+    look: Option<u64>,
     cull: Option<bool>,
 }
 
@@ -104,7 +107,7 @@ impl CpuFrameRenderer {
     }
 
     pub fn from_scene(scene: Scene) -> CpuFrameRenderer {
-        CpuFrameRenderer { renderer: Some(Renderer::new(scene)), shader: None, cull: None }
+        CpuFrameRenderer { renderer: Some(Renderer::new(scene)), look: None, cull: None }
     }
 
     /// The staged renderer (its scene, the walker's memory, the order).
@@ -122,7 +125,7 @@ impl CpuFrameRenderer {
         match scene.ensure_gradients() {
             Ok(scene) => {
                 self.renderer = Some(Renderer::new(scene));
-                self.shader = None;
+                self.look = None;
                 self.cull = None;
                 Ok(true)
             }
@@ -146,15 +149,15 @@ impl FrameRenderer for CpuFrameRenderer {
         if (req.shading.is_active() || look.method.is_bivariate()) && self.ensure_gradients()? {
             notes.push(GRADIENTS_NOTE.to_string());
         }
-        let same_shader =
-            self.shader.as_ref().is_some_and(|s| std::ptr::addr_eq(Arc::as_ptr(s), Arc::as_ptr(&look.shader)));
+        let shader = look.shader()?;
+        let same_shader = self.look == Some(look.key());
         let r = self.renderer.as_mut().expect("a renderer");
         r.set_view(&req.view)?;
         r.set_renderer(req.cpu);
         r.set_sort(req.sort);
         if !same_shader {
-            r.set_shader(look.shader.clone());
-            self.shader = Some(look.shader.clone());
+            r.set_shader(shader);
+            self.look = Some(look.key());
         }
         if !same_shader || self.cull != Some(req.cull) {
             r.set_culler(req.cull.then(|| Arc::new(TfCuller::new(&look.tf)) as Arc<dyn tet_render::CellCuller>));

@@ -55,8 +55,13 @@
 #![forbid(unsafe_code)]
 
 mod frame;
+#[cfg(feature = "gpu")]
+mod gpu;
 mod look;
 mod tf;
+
+#[cfg(feature = "gpu")]
+pub use gpu::{GpuFrameOptions, GpuFrameRenderer, GpuFrameStats};
 
 pub use frame::{
     CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer, GRADIENTS_NOTE,
@@ -105,7 +110,33 @@ pub enum EngineError {
         #[source]
         source: tet_preint::UnknownMethod,
     },
+    /// A look whose tables the renderer was to bake ([`Look::baked_by_renderer`])
+    /// given to one that cannot.
+    #[error(
+        "method {method}: this look's tables are baked by the GPU renderer; bake them for the CPU with Look::bake"
+    )]
+    NotBaked { method: tet_preint::Method },
+    /// The GPU renderer (cargo feature `gpu`) failed; `kind` says whether
+    /// the device is missing, the request is beyond it, or it failed.
+    #[error("{source}")]
+    Gpu {
+        kind: GpuFailure,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// Scene, view or rasterization (see [`tet_render::RenderError`]).
     #[error("{0}")]
     Render(#[from] tet_render::RenderError),
+}
+
+/// What kind of GPU failure an [`EngineError::Gpu`] is (defined whether or
+/// not the `gpu` feature is on, so front ends classify it either way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GpuFailure {
+    /// No usable adapter (none, lacking a feature, or the device refused).
+    NoDevice,
+    /// A method or option the GPU renderer does not have.
+    Unsupported,
+    /// The device failed (validation, memory limits, read-back).
+    Failed,
 }

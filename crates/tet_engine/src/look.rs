@@ -1,12 +1,12 @@
 //! A transfer function with its method and the shader that draws it.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
 use tet_bundle::Bundle;
-use tet_preint::{BakeOptions, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
+use tet_preint::{BakeOptions, Baked, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
 
 use crate::EngineError;
 
@@ -25,24 +25,37 @@ pub fn tables_baked() -> u32 {
     TABLES_BAKED.load(Ordering::Relaxed)
 }
 
+/// The next look's key (see [`Look::key`]).
+static NEXT_LOOK: AtomicU64 = AtomicU64::new(1);
+
+fn next_key() -> u64 {
+    NEXT_LOOK.fetch_add(1, Ordering::Relaxed)
+}
+
 /// What a frame is drawn with: the TF in scalar units, the method, and the
-/// method's shader (its tables baked over the bundle's domain, or read
-/// from a `.tetl`). Cloning shares the shader.
+/// method baked (its tables over the bundle's domain, read from a `.tetl`,
+/// or the integrating shader). Cloning shares the tables and keeps the
+/// [`Look::key`].
 #[derive(Clone)]
 pub struct Look {
     pub tf: TransferFunction,
     pub method: Method,
-    pub shader: Arc<dyn SegmentShader>,
-    /// The `.tetl` the shader was read from, if any.
+    /// The baked method: what CPU renderers shade with ([`Look::shader`])
+    /// and the GPU uploads. `None` for a look whose table the renderer
+    /// bakes itself ([`Look::baked_by_renderer`]).
+    pub baked: Option<Arc<Baked>>,
+    /// The `.tetl` the tables were read from, if any.
     pub lut_path: Option<PathBuf>,
-    /// Seconds spent baking or loading the shader.
+    /// Seconds spent baking or loading the tables.
     pub shader_seconds: f64,
+    key: u64,
 }
 
 impl std::fmt::Debug for Look {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Look")
             .field("method", &self.method)
+            .field("key", &self.key)
             .field("lut_path", &self.lut_path)
             .field("shader_seconds", &self.shader_seconds)
             .finish_non_exhaustive()
@@ -59,16 +72,47 @@ impl Look {
         if method.is_tabulated() {
             count_table_bake();
         }
-        let shader = tet_preint::make_shader(method, &tf, &domain, &BakeOptions::default())
+        let baked = Baked::build(method, &tf, &domain, &BakeOptions::default())
             .map_err(|source| EngineError::Bake { method, source })?;
-        Ok(Look { tf, method, shader: shader.into(), lut_path: None, shader_seconds: t.elapsed().as_secs_f64() })
+        Ok(Look::new(tf, method, Some(baked), None, t.elapsed().as_secs_f64()))
     }
 
     /// The exact integrator of `tf` (no table): what the reference draws,
     /// and the slowest, most accurate CPU method.
     pub fn exact(tf: TransferFunction) -> Look {
-        let shader = Arc::new(tet_preint::ExactShader::new(tf.clone()));
-        Look { tf, method: Method::Exact, shader, lut_path: None, shader_seconds: 0.0 }
+        let baked = Baked::Exact(tet_preint::ExactShader::new(tf.clone()));
+        Look::new(tf, Method::Exact, Some(baked), None, 0.0)
+    }
+
+    /// `tf` drawn by `method` with tables the renderer bakes itself (the
+    /// GPU renderer's on-device table3d bake); CPU renderers refuse it
+    /// ([`EngineError::NotBaked`]).
+    pub fn baked_by_renderer(tf: TransferFunction, method: Method) -> Look {
+        Look::new(tf, method, None, None, 0.0)
+    }
+
+    fn new(
+        tf: TransferFunction,
+        method: Method,
+        baked: Option<Baked>,
+        lut_path: Option<PathBuf>,
+        shader_seconds: f64,
+    ) -> Look {
+        Look { tf, method, baked: baked.map(Arc::new), lut_path, shader_seconds, key: next_key() }
+    }
+
+    /// Identifies this look and its clones: renderers keep what they derived
+    /// from a look (uploaded tables, cull masks) while the key is the same.
+    pub fn key(&self) -> u64 {
+        self.key
+    }
+
+    /// The baked method as the CPU renderers' shader.
+    pub fn shader(&self) -> Result<Arc<dyn SegmentShader>, EngineError> {
+        match &self.baked {
+            Some(b) => Ok(b.clone() as Arc<dyn SegmentShader>),
+            None => Err(EngineError::NotBaked { method: self.method }),
+        }
     }
 
     /// Reads a `.tetl` written by `tetlut bake`: its TF, method and tables.
@@ -97,13 +141,7 @@ impl Look {
     pub fn from_lut_file(lut: &LutFile, path: &Path) -> Result<Look, EngineError> {
         let t = Instant::now();
         let (tf, method) = Look::lut_tf_and_method(lut, path)?;
-        let shader = tet_preint::load_shader(lut, path)?;
-        Ok(Look {
-            tf,
-            method,
-            shader: shader.into(),
-            lut_path: Some(path.into()),
-            shader_seconds: t.elapsed().as_secs_f64(),
-        })
+        let baked = Baked::from_lut(lut, path)?;
+        Ok(Look::new(tf, method, Some(baked), Some(path.into()), t.elapsed().as_secs_f64()))
     }
 }

@@ -61,7 +61,7 @@ fn the_engine_draws_what_the_staged_renderer_draws() {
         let mut by_hand = Renderer::new(Scene::from_bundle(&bundle).unwrap());
         by_hand.set_view(&view).unwrap();
         by_hand.set_renderer(cpu);
-        by_hand.set_shader(look.shader.clone());
+        by_hand.set_shader(look.shader().expect("baked"));
         by_hand.set_culler(Some(Arc::new(TfCuller::new(&tf))));
         let (expect, _) = by_hand.render(&|_, _| {}).unwrap();
         let mut engine = CpuFrameRenderer::new(&bundle).unwrap();
@@ -138,4 +138,18 @@ fn one_tf_policy_with_clear_errors() {
     let bad = dir.path().join("bad.tetl");
     std::fs::write(&bad, b"not a table").unwrap();
     assert!(matches!(Look::from_lut(&bad), Err(EngineError::Lut(_))));
+}
+
+/// A look whose tables the GPU bakes is refused by the CPU renderer with a
+/// message, not drawn with nothing and not a panic.
+#[test]
+fn a_look_baked_by_the_gpu_is_refused_on_the_cpu() {
+    let bundle = grid_bundle(4, false);
+    let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::Given(peaks()), ..TfRequest::default() }).unwrap().tf;
+    let look = Look::baked_by_renderer(tf, Method::Table3d);
+    let mut cpu = CpuFrameRenderer::new(&bundle).unwrap();
+    let view = ViewSpec::framing([0.0; 3], [3.0; 3], [16, 16]);
+    let e = cpu.render(&look, &FrameRequest::new(view), &|_, _| {}).unwrap_err();
+    assert!(matches!(e, tet_engine::EngineError::NotBaked { method: Method::Table3d }), "{e}");
+    assert!(e.to_string().contains("Look::bake"), "{e}");
 }

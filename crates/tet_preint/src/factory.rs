@@ -38,7 +38,7 @@ use crate::bivariate::{BivApprox, BivExact, FbTable};
 use crate::certify::CertifiedTable3d;
 use crate::domain::{check_res, TableDomain, TableError};
 use crate::lut_file::BakeOptions;
-use crate::method::{ExactShader, Method, PtLinearShader, SegmentShader};
+use crate::method::{ExactShader, Method, PtLinearShader, Rgba32, Segment, SegmentBatch, SegmentShader};
 use crate::partial::{PartialShader, PsiTable};
 use crate::poly::{PolyParams, PolyTable};
 use crate::precision::{Precision, Storage};
@@ -252,7 +252,31 @@ impl Baked {
             Baked::BivApprox(s, _) => Box::new(s),
         }
     }
+}
 
+/// A baked method draws as its shader: one `Arc<Baked>` serves the CPU
+/// renderers (as `Arc<dyn SegmentShader>`) and the GPU (which uploads the
+/// typed tables), so a look's tables are held once. Each call forwards to
+/// the variant's own implementation, so the values are its values.
+impl SegmentShader for Baked {
+    fn method(&self) -> Method {
+        self.shader().method()
+    }
+
+    fn shade(&self, seg: &Segment) -> Rgba32 {
+        self.shader().shade(seg)
+    }
+
+    fn shade_span(&self, segs: &[Segment], out: &mut [Rgba32]) {
+        self.shader().shade_span(segs, out)
+    }
+
+    fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; crate::method::BATCH]) {
+        self.shader().shade_batch(segs, out)
+    }
+}
+
+impl Baked {
     /// Bytes of tabulated data as stored in a `.tetl` (0 for methods
     /// without tables).
     pub fn memory_bytes(&self) -> usize {

@@ -270,7 +270,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let mut sort_used = String::new();
         for &m in &methods {
             let t = Instant::now();
-            let shader = tet_engine::Look::bake(&bundle, m, tf.clone())?.shader;
+            let shader = tet_engine::Look::bake(&bundle, m, tf.clone())?.shader()?;
             let bake_s = t.elapsed().as_secs_f64();
             r.set_shader(shader);
             for &kind in &args.renderers {

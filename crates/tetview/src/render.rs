@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use std::path::PathBuf;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look, GRADIENTS_NOTE};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look};
 use tet_preint::{LutFile, Method};
 use tet_render::{Light, Scene, Shading, SortMethod};
 
@@ -117,23 +117,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let view = args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
     let display = args.display.display();
-    if args.gpu {
-        let mut scene = scene;
-        if shading.is_active() || method.is_bivariate() {
-            if scene.gradients().is_none() && shading.is_active() {
-                eprintln!("note: {GRADIENTS_NOTE}");
-            }
-            scene = scene.ensure_gradients()?;
-        }
-        // The GPU path bakes its own table (or none): building the CPU
-        // shader first would bake table3d twice.
-        return crate::gpu::render(args, &bundle, &scene, &tf, method, &view, &display, lut.as_ref());
-    }
-    let look = match &lut {
-        Some((lut, path)) => Look::from_lut_file(lut, path)?,
-        None => Look::bake(&bundle, method, tf)?,
-    };
-    let mut renderer = CpuFrameRenderer::from_scene(scene);
     let request = FrameRequest {
         shading,
         cpu: args.renderer,
@@ -141,6 +124,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         cull: !args.no_cull,
         ..FrameRequest::new(view.clone())
     };
+    if args.gpu {
+        // The GPU path opens its device before baking (without one nothing
+        // is baked), and --gpu-bake bakes on the device instead.
+        return crate::gpu::render(args, &bundle, scene, &tf, method, &request, &display, lut.as_ref());
+    }
+    let look = match &lut {
+        Some((lut, path)) => Look::from_lut_file(lut, path)?,
+        None => Look::bake(&bundle, method, tf)?,
+    };
+    let mut renderer = CpuFrameRenderer::from_scene(scene);
     let bar = if args.json { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(0) };
     bar.set_style(
         indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} tiles")

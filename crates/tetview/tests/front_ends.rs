@@ -103,3 +103,38 @@ fn cli_and_library_draw_the_same_frames() {
     let frame = exact.render(&Look::exact(look.tf.clone()), &FrameRequest::new(spec), &|_, _| {}).unwrap();
     same_bits(&Image::read_npy(&npy).unwrap(), &frame.image, "reference");
 }
+
+/// `render --gpu` is the engine's GPU renderer: the same look and request
+/// drawn by the library give the same bits (skipped without an adapter
+/// unless TETKIT_REQUIRE_GPU=1), and a second look on the same renderer
+/// replaces the first's tables and cull (not reused by mistake).
+#[test]
+fn gpu_cli_and_library_draw_the_same_frames() {
+    if let Err(e) = tet_gpu::GpuContext::new_headless() {
+        assert!(!tet_gpu::gpu_required(), "TETKIT_REQUIRE_GPU is set but there is no adapter: {e}");
+        eprintln!("skipped: no GPU adapter ({e})");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bluntfin(dir.path()), peaks_tf(dir.path()));
+    let (bs, ts) = (b.to_str().unwrap(), t.to_str().unwrap());
+    let bundle = Bundle::read(&b).unwrap();
+    let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::File(t.clone()), ..TfRequest::default() }).unwrap().tf;
+    let scene = tet_render::Scene::from_bundle(&bundle).unwrap();
+    let mut gpu = tet_engine::GpuFrameRenderer::new(&bundle, scene, Default::default()).unwrap();
+    let mut frames = vec![];
+    for method in ["pt-linear", "table3d"] {
+        let (npy, view) = (dir.path().join(format!("{method}.npy")), dir.path().join("view.json"));
+        let png = dir.path().join("x.png");
+        let mut args = vec!["render", bs, "--tf", ts, "--gpu", "--method", method, "--size", "96x72"];
+        args.extend(["--azimuth", "40", "-o", png.to_str().unwrap(), "--float", npy.to_str().unwrap()]);
+        args.extend(["--save-view", view.to_str().unwrap()]);
+        tetview(&args);
+        let spec = ViewSpec::from_json(&std::fs::read_to_string(&view).unwrap()).unwrap();
+        let look = Look::bake(&bundle, method.parse::<Method>().unwrap(), tf.clone()).unwrap();
+        let frame = gpu.render(&look, &FrameRequest::new(spec), &|_, _| {}).unwrap();
+        same_bits(&Image::read_npy(&npy).unwrap(), &frame.image, &format!("render --gpu --method {method}"));
+        frames.push(frame.image);
+    }
+    assert_ne!(frames[0].pixels(), frames[1].pixels(), "two methods, two images");
+}

@@ -1,0 +1,258 @@
+//! The GPU renderer behind the [`FrameRenderer`] trait (cargo feature
+//! `gpu`): projected tetrahedra on tet_gpu, with the CPU's visibility order
+//! and the look's own tables, so GPU and CPU images agree.
+//!
+//! Per frame: the view's geometry and visibility order come from
+//! tet_render exactly as the CPU renderer computes them (every tet ordered;
+//! the GPU compacts the culled ones out), then culling, classification,
+//! rasterization and compositing run on the device and the linear image is
+//! read back. What depends only on the look (its tables uploaded, or baked
+//! on the device; the cull's TF) is kept while the look's key stays the
+//! same.
+
+use std::time::Instant;
+
+use tet_bundle::Bundle;
+use tet_gpu::{
+    FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer,
+    GpuScene, GpuShader, GpuTable3d, RasterPath, ToneResult, GPU_METHODS,
+};
+use tet_preint::{BakeOptions, Build3d, Method, Table3dParams, TableDomain, TableError};
+use tet_render::project::ViewGeometry;
+use tet_render::{visibility_order, Camera, Display, Scene};
+
+use crate::{count_table_bake, EngineError, Frame, FrameRenderer, FrameRequest, FrameStats, GpuFailure, Look};
+
+/// Where a GPU frame's time went and what it drew (wall-clock seconds; each
+/// device stage waited for on its own so it can be timed).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GpuFrameStats {
+    /// The device's stages and counts.
+    pub render: GpuRenderStats,
+    /// The adapter ([`GpuContext::describe`]).
+    pub device: String,
+    /// The order's method id and the cycles it broke.
+    pub sort_method: &'static str,
+    pub cycles_broken: usize,
+    pub tets_total: usize,
+    pub view_seconds: f64,
+    pub sort_seconds: f64,
+    /// Tables baked on the device this frame (0 otherwise; a CPU bake is
+    /// the look's [`Look::shader_seconds`]).
+    pub device_bake_seconds: f64,
+    pub device_bake_setup_seconds: f64,
+    /// Building the cull's TF data this frame.
+    pub cull_setup_seconds: f64,
+    /// Tables uploaded or baked and the cull built this frame (0 when the
+    /// look was the last frame's).
+    pub setup_seconds: f64,
+}
+
+/// How the GPU renderer draws.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct GpuFrameOptions {
+    /// The compute-shader tile rasterizer or the hardware one (same images).
+    pub raster: RasterPath,
+}
+
+/// Projected tetrahedra on the GPU. Lighting and silhouettes are CPU-only
+/// (an unsupported request is [`GpuFailure::Unsupported`]).
+pub struct GpuFrameRenderer {
+    ctx: GpuContext,
+    /// `None` only while gradients are being added (as `gpu_scene`).
+    scene: Option<Scene>,
+    gpu_scene: Option<GpuScene>,
+    /// The bundle's table domain (for tables baked on the device).
+    domain: Result<TableDomain, TableError>,
+    renderer: GpuRenderer,
+    options: GpuFrameOptions,
+    /// The shader of the look with this key.
+    shader: Option<(u64, GpuShader)>,
+    /// The cull of the look with this key.
+    cull: Option<(u64, GpuCull)>,
+    /// The last frame (its HDR texture, for [`GpuFrameRenderer::tonemap_last`]).
+    last: Option<GpuFrame>,
+    /// Seconds to open the device.
+    pub device_seconds: f64,
+}
+
+/// Wraps a tet_gpu error with what a front end needs to act on it.
+pub(crate) fn gpu_error(e: GpuError) -> EngineError {
+    let kind = match e {
+        GpuError::NoAdapter { .. } | GpuError::MissingFeature { .. } | GpuError::Device { .. } => GpuFailure::NoDevice,
+        GpuError::Unsupported(_) => GpuFailure::Unsupported,
+        _ => GpuFailure::Failed,
+    };
+    EngineError::Gpu { kind, source: Box::new(e) }
+}
+
+fn unsupported(what: String) -> EngineError {
+    gpu_error(GpuError::Unsupported(what))
+}
+
+impl GpuFrameRenderer {
+    /// Opens the first GPU adapter (headless) and uploads `bundle`'s mesh;
+    /// `scene` is the CPU scene of the same bundle (its visibility order;
+    /// gradients are added when a bivariate look needs them).
+    pub fn new(bundle: &Bundle, scene: Scene, options: GpuFrameOptions) -> Result<GpuFrameRenderer, EngineError> {
+        let t = Instant::now();
+        let ctx = GpuContext::new_headless().map_err(gpu_error)?;
+        let device_seconds = t.elapsed().as_secs_f64();
+        let mesh = &bundle.mesh;
+        let gpu_scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).map_err(gpu_error)?;
+        let renderer = GpuRenderer::new(&ctx).map_err(gpu_error)?;
+        Ok(GpuFrameRenderer {
+            ctx,
+            scene: Some(scene),
+            gpu_scene: Some(gpu_scene),
+            domain: TableDomain::from_bundle(bundle),
+            renderer,
+            options,
+            shader: None,
+            cull: None,
+            last: None,
+            device_seconds,
+        })
+    }
+
+    fn gpu_scene(&self) -> &GpuScene {
+        self.gpu_scene.as_ref().expect("a GPU scene outside gradient upload")
+    }
+
+    /// What the adapter is.
+    pub fn describe(&self) -> String {
+        self.ctx.describe()
+    }
+
+    /// Whether the GPU draws `method` with `req`'s shading; `Err` says why
+    /// not (checked before any device work by front ends that want to).
+    pub fn supports(method: Method, req: &FrameRequest) -> Result<(), String> {
+        if !GPU_METHODS.contains(&method) {
+            let ids: Vec<&str> = GPU_METHODS.iter().map(|m| m.id()).collect();
+            return Err(format!("method {method} is not on the GPU yet (GPU methods: {})", ids.join(", ")));
+        }
+        if req.shading.is_active() {
+            return Err("lighting and silhouettes are CPU-only for now".into());
+        }
+        Ok(())
+    }
+
+    /// Tone maps the last frame on the device as `display` says (8-bit
+    /// sRGB; the same operator as [`tet_render::Image::to_rgba8`]).
+    pub fn tonemap_last(&self, display: &Display) -> Result<ToneResult, EngineError> {
+        let frame = self.last.as_ref().ok_or_else(|| gpu_error(GpuError::Input("no frame rendered yet".into())))?;
+        self.renderer.tonemap(&self.ctx, frame, display).map_err(gpu_error)
+    }
+
+    /// The look's shader on the device: its tables uploaded, or (a look
+    /// [`Look::baked_by_renderer`] of table3d) baked on the device with the
+    /// CPU's axis and resolution. Returns (device bake, its setup) seconds.
+    fn ensure_shader(&mut self, look: &Look) -> Result<(f64, f64), EngineError> {
+        if self.shader.as_ref().is_some_and(|(k, _)| *k == look.key()) {
+            return Ok((0.0, 0.0));
+        }
+        self.shader = None;
+        let (shader, seconds) = match &look.baked {
+            Some(baked) => (GpuShader::from_baked(&self.ctx, baked).map_err(gpu_error)?, (0.0, 0.0)),
+            None if look.method == Method::Table3d => {
+                let domain = self.domain.clone().map_err(EngineError::Domain)?;
+                count_table_bake();
+                // The slice recurrence on the device (the CPU default is the
+                // adaptive build): same axis and resolution, entries within ~1e-5.
+                let params = Table3dParams { build: Build3d::default(), ..BakeOptions::default().table3d };
+                let table =
+                    GpuTable3d::bake(&self.ctx, &look.tf, &domain, &params, GpuAccumulation::F32).map_err(gpu_error)?;
+                let s = table.stats();
+                let seconds = (s.bake_seconds, s.setup_seconds);
+                (GpuShader::table3d_baked(&self.ctx, &table).map_err(gpu_error)?, seconds)
+            }
+            None => return Err(EngineError::NotBaked { method: look.method }),
+        };
+        self.shader = Some((look.key(), shader));
+        Ok(seconds)
+    }
+}
+
+impl FrameRenderer for GpuFrameRenderer {
+    fn id(&self) -> &'static str {
+        "gpu"
+    }
+
+    fn render(
+        &mut self,
+        look: &Look,
+        req: &FrameRequest,
+        _progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Frame, EngineError> {
+        GpuFrameRenderer::supports(look.method, req).map_err(unsupported)?;
+        let mut notes = Vec::new();
+        if look.method.is_bivariate() && !self.gpu_scene().has_gradient_magnitudes() {
+            let scene = self.scene.take().expect("a scene outside this block");
+            if scene.gradients().is_none() {
+                notes.push(crate::GRADIENTS_NOTE.to_string());
+            }
+            let scene = self.scene.insert(scene.ensure_gradients()?);
+            let g = scene.gradient_magnitudes().expect("gradients ensured above");
+            let gpu_scene = self.gpu_scene.take().expect("a GPU scene outside this block");
+            self.gpu_scene = Some(gpu_scene.with_gradient_magnitudes(&self.ctx, g).map_err(gpu_error)?);
+            self.cull = None;
+        }
+        let camera = Camera::new(&req.view)?;
+        let t = Instant::now();
+        let scene = self.scene.as_ref().expect("a scene");
+        let geometry = ViewGeometry::new(scene, &camera);
+        let view_seconds = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let order = visibility_order(scene, &geometry, req.sort, None);
+        let tets_total = scene.num_tets();
+        let sort_seconds = t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let (device_bake_seconds, device_bake_setup_seconds) = self.ensure_shader(look)?;
+        let t_cull = Instant::now();
+        if !req.cull {
+            self.cull = None;
+        } else if self.cull.as_ref().is_none_or(|(k, _)| *k != look.key()) {
+            self.cull = None;
+            let cull = GpuCull::new(&self.ctx, self.gpu_scene(), &look.tf).map_err(|e| match e {
+                GpuError::Unsupported(w) => unsupported(format!("culling: {w}; draw without culling")),
+                e => gpu_error(e),
+            })?;
+            self.cull = Some((look.key(), cull));
+        }
+        let cull_setup_seconds = t_cull.elapsed().as_secs_f64();
+        let setup_seconds = t.elapsed().as_secs_f64();
+
+        let shader = &self.shader.as_ref().expect("ensured above").1;
+        let opts = FrameOptions { raster: self.options.raster, cull: self.cull.as_ref().map(|c| &c.1) };
+        // The previous frame's texture is reused by this one.
+        self.last = None;
+        let frame = self
+            .renderer
+            .render_frame(
+                &self.ctx,
+                self.gpu_scene.as_ref().expect("a GPU scene"),
+                &camera,
+                GpuOrder::Given(&order.tets),
+                shader,
+                &opts,
+            )
+            .map_err(gpu_error)?;
+        let stats = GpuFrameStats {
+            render: frame.stats.clone(),
+            device: self.ctx.describe(),
+            sort_method: order.method.id(),
+            cycles_broken: order.cycles_broken,
+            tets_total,
+            view_seconds,
+            sort_seconds,
+            device_bake_seconds,
+            device_bake_setup_seconds,
+            cull_setup_seconds,
+            setup_seconds,
+        };
+        let image = frame.image.clone();
+        self.last = Some(frame);
+        Ok(Frame { image, stats: FrameStats::Gpu(Box::new(stats)), notes })
+    }
+}

@@ -2,7 +2,9 @@
 //! scalar, point fields, face adjacency and the facts later stages need.
 //!
 //! Main types: [`Bundle`] (what is stored), [`BundleMeta`] (the bincode
-//! header section), [`BundleError`]. [`Bundle::write`] writes atomically
+//! header section), [`TimeSteps`] (a time series' scalar per step on the
+//! one mesh; [`Bundle::set_time`] interpolates between steps),
+//! [`BundleError`]. [`Bundle::write`] writes atomically
 //! (temporary file in the same directory, fsync, rename), so an interrupted
 //! run never leaves a truncated file under the final name; [`Bundle::read`]
 //! rejects a wrong magic, a newer format version, a bad section checksum or
@@ -97,6 +99,127 @@ pub struct Bundle {
     /// them (optional sections `ANALYSIS`, `CELLRANGE`, `CELLGRANGE`,
     /// `GRADIENT`; bundles without them read as `None`).
     pub analysis: Option<Analysis>,
+    /// A time series' steps on this mesh (optional sections `TIMES`,
+    /// `STEP00000`…); `mesh.scalar` is the first step's unless
+    /// [`Bundle::set_time`] chose another time.
+    pub steps: Option<TimeSteps>,
+}
+
+/// Most time steps a bundle holds (one section each, under the container's
+/// 65,536 sections).
+pub const MAX_STEPS: usize = 60_000;
+
+/// The scalar of every time step of a series on one mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeSteps {
+    times: Vec<f64>,
+    scalars: Vec<Vec<f64>>,
+    sources: Vec<String>,
+    /// Over every step.
+    scalar_min: f64,
+    scalar_max: f64,
+}
+
+/// A time a bundle cannot be drawn at.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TimeError {
+    #[error("the bundle has no time steps (convert a .pvd, .series or --all-steps input to get them)")]
+    NoSteps,
+    #[error("time {time} is outside the bundle's steps, {first} to {last}")]
+    OutOfRange { time: f64, first: f64, last: f64 },
+}
+
+/// Where a time falls: steps `lo` and `hi` (equal at a step or with one
+/// step) and the weight of `hi`, in [0, 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeSample {
+    pub lo: usize,
+    pub hi: usize,
+    pub weight_hi: f64,
+}
+
+impl TimeSteps {
+    /// Steps at `times` (finite, strictly increasing, at least one) with a
+    /// scalar per point each (finite) and where each came from.
+    pub fn new(times: Vec<f64>, scalars: Vec<Vec<f64>>, sources: Vec<String>) -> Result<TimeSteps, String> {
+        if times.is_empty() {
+            return Err("a time series needs at least one step".into());
+        }
+        if times.len() > MAX_STEPS {
+            return Err(format!("{} steps; a bundle holds at most {MAX_STEPS}", times.len()));
+        }
+        if scalars.len() != times.len() || sources.len() != times.len() {
+            return Err(format!("{} times, {} scalars and {} sources", times.len(), scalars.len(), sources.len()));
+        }
+        if let Some(t) = times.iter().find(|t| !t.is_finite()) {
+            return Err(format!("time {t} is not finite"));
+        }
+        if let Some(w) = times.windows(2).find(|w| w[0] >= w[1]) {
+            return Err(format!("times must increase: {} then {}", w[0], w[1]));
+        }
+        let n = scalars[0].len();
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (k, s) in scalars.iter().enumerate() {
+            if s.len() != n {
+                return Err(format!("step {k} has {} values, step 0 has {n}", s.len()));
+            }
+            for (i, &v) in s.iter().enumerate() {
+                if !v.is_finite() {
+                    return Err(format!("step {k} (time {}): value {v} at point {i}", times[k]));
+                }
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        Ok(TimeSteps { times, scalars, sources, scalar_min: lo, scalar_max: hi })
+    }
+
+    pub fn len(&self) -> usize {
+        self.times.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.times.is_empty()
+    }
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+    /// Step `k`'s scalar per point.
+    pub fn scalar(&self, k: usize) -> &[f64] {
+        &self.scalars[k]
+    }
+    /// Where step `k` came from (a file, or a file and its step).
+    pub fn source(&self, k: usize) -> &str {
+        &self.sources[k]
+    }
+    /// The scalar's range over every step.
+    pub fn scalar_range(&self) -> (f64, f64) {
+        (self.scalar_min, self.scalar_max)
+    }
+
+    /// The steps around `time` and the later one's weight.
+    pub fn sample(&self, time: f64) -> Result<TimeSample, TimeError> {
+        let (first, last) = (self.times[0], self.times[self.times.len() - 1]);
+        if !(time >= first && time <= last) {
+            return Err(TimeError::OutOfRange { time, first, last });
+        }
+        // The last step at or before `time`.
+        let lo = self.times.partition_point(|&t| t <= time) - 1;
+        if self.times[lo] == time || lo + 1 == self.times.len() {
+            return Ok(TimeSample { lo, hi: lo, weight_hi: 0.0 });
+        }
+        let w = (time - self.times[lo]) / (self.times[lo + 1] - self.times[lo]);
+        Ok(TimeSample { lo, hi: lo + 1, weight_hi: w })
+    }
+
+    /// The scalar at `time`: a step's own values at its time, else linear
+    /// between the two steps around it, `(1 − w)·a + w·b` per point.
+    pub fn scalar_at(&self, time: f64) -> Result<Vec<f64>, TimeError> {
+        let TimeSample { lo, hi, weight_hi: w } = self.sample(time)?;
+        if lo == hi {
+            return Ok(self.scalars[lo].clone());
+        }
+        Ok(self.scalars[lo].iter().zip(&self.scalars[hi]).map(|(&a, &b)| (1.0 - w) * a + w * b).collect())
+    }
 }
 
 /// What the `ANALYSIS` section holds (the arrays have their own sections).
@@ -140,7 +263,7 @@ impl Bundle {
         if meta.writer.is_empty() {
             meta.writer = format!("tetkit {}", env!("CARGO_PKG_VERSION"));
         }
-        Bundle { meta, mesh, adjacency, analysis: None }
+        Bundle { meta, mesh, adjacency, analysis: None, steps: None }
     }
 
     /// The sections in file order, payloads borrowed where possible.
@@ -185,6 +308,15 @@ impl Bundle {
             }
             if let Some(g) = &a.gradients {
                 sections.push(("GRADIENT".into(), layout::le_bytes(g.per_point.as_flattened())));
+            }
+        }
+        if let Some(st) = &self.steps {
+            let record = TimesRecord { times: st.times.clone(), sources: st.sources.clone() };
+            let bytes =
+                bincode::serde::encode_to_vec(&record, bincode::config::standard()).expect("times always encode");
+            sections.push(("TIMES".into(), Cow::Owned(bytes)));
+            for (k, s) in st.scalars.iter().enumerate() {
+                sections.push((format!("STEP{k:05}"), layout::le_bytes(s)));
             }
         }
         sections
@@ -290,12 +422,40 @@ impl Bundle {
             None => None,
             Some(sec) => Some(read_analysis(sec, &section, np, tets.len()).map_err(damaged)?),
         };
+        let steps = match section("TIMES") {
+            None => None,
+            Some(sec) => Some(read_steps(sec, &section, np).map_err(damaged)?),
+        };
         Ok(Bundle {
             meta: record.meta,
             mesh: TetMesh { points, tets, scalar_name: record.scalar_name, scalar, point_fields },
             adjacency: Adjacency { neighbors, boundary_faces, convex: record.convex },
             analysis,
+            steps,
         })
+    }
+
+    /// Adds a time series' steps (replacing any earlier ones); the mesh's
+    /// scalar stays as it is (conventionally the first step's).
+    pub fn with_steps(mut self, steps: TimeSteps) -> Result<Bundle, String> {
+        if steps.scalars[0].len() != self.mesh.points.len() {
+            return Err(format!("{} values a step for {} points", steps.scalars[0].len(), self.mesh.points.len()));
+        }
+        self.steps = Some(steps);
+        Ok(self)
+    }
+
+    /// Makes the mesh's scalar the one at `time` ([`TimeSteps::scalar_at`])
+    /// and the statistics' scalar range the whole series' (so a normalized
+    /// TF means the same colours at every time). The analysis describes one
+    /// step's scalar, so it is dropped (what needs it is computed again);
+    /// the steps stay.
+    pub fn set_time(&mut self, time: f64) -> Result<(), TimeError> {
+        let steps = self.steps.as_ref().ok_or(TimeError::NoSteps)?;
+        self.mesh.scalar = steps.scalar_at(time)?;
+        (self.meta.stats.scalar_min, self.meta.stats.scalar_max) = steps.scalar_range();
+        self.analysis = None;
+        Ok(())
     }
 
     /// Sets the analysis part (replacing any earlier one).
@@ -308,6 +468,33 @@ impl Bundle {
     pub fn sections(bytes: &[u8], path: &Path) -> Result<Vec<SectionEntry>, BundleError> {
         layout::parse(bytes, path)
     }
+}
+
+/// What the `TIMES` section holds (the scalars have their own sections).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct TimesRecord {
+    times: Vec<f64>,
+    sources: Vec<String>,
+}
+
+/// Decodes the optional time-series sections; errors say what is
+/// inconsistent.
+fn read_steps<'a>(sec: &[u8], section: &dyn Fn(&str) -> Option<&'a [u8]>, np: usize) -> Result<TimeSteps, String> {
+    let (record, _): (TimesRecord, usize) =
+        bincode::serde::decode_from_slice(sec, bincode::config::standard().with_limit::<{ 1 << 26 }>())
+            .map_err(|e| format!("TIMES section does not decode ({e})"))?;
+    let mut scalars = Vec::with_capacity(record.times.len().min(1 << 16));
+    for k in 0..record.times.len() {
+        let tag = format!("STEP{k:05}");
+        let bytes =
+            section(&tag).ok_or_else(|| format!("TIMES lists {} steps but {tag} is missing", record.times.len()))?;
+        let values = layout::le_to_f64s(bytes, 1).map_err(|e| format!("{tag}: {e}"))?;
+        if values.len() != np {
+            return Err(format!("{tag} has {} values for {np} points", values.len()));
+        }
+        scalars.push(values);
+    }
+    TimeSteps::new(record.times, scalars, record.sources).map_err(|e| format!("TIMES: {e}"))
 }
 
 /// Decodes the optional analysis sections; errors say what is inconsistent.

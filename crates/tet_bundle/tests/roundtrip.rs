@@ -155,3 +155,82 @@ fn damaged_analysis_sections_are_errors() {
         assert!(Bundle::from_bytes(&bytes[..len], p).is_err(), "truncated at {len} was accepted");
     }
 }
+
+/// Three steps of a scalar on the sample's mesh.
+fn series_bundle() -> Bundle {
+    let b = sample_bundle();
+    let n = b.mesh.points.len();
+    let scalars: Vec<Vec<f64>> =
+        (0..3).map(|k| (0..n).map(|i| (i as f64 * 0.37 + k as f64).sin() * (k + 1) as f64).collect()).collect();
+    let steps = tet_bundle::TimeSteps::new(
+        vec![0.5, 1.0, 3.0],
+        scalars,
+        ["a.vtu", "b.vtu", "c.vtu"].map(String::from).to_vec(),
+    )
+    .unwrap();
+    b.with_steps(steps).unwrap()
+}
+
+/// A time series' steps round-trip; old readers see the first step as the
+/// scalar; `set_time` is the step itself at its time and linear between.
+#[test]
+fn time_steps_round_trip_and_interpolate() {
+    let b = series_bundle();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.tetb");
+    b.write(&path).unwrap();
+    let back = Bundle::read(&path).unwrap();
+    assert_eq!(back, b);
+    let st = back.steps.as_ref().unwrap();
+    assert_eq!((st.len(), st.times(), st.source(2)), (3, &[0.5, 1.0, 3.0][..], "c.vtu"));
+
+    let mut at = back.clone();
+    at.set_time(1.0).unwrap();
+    assert_eq!(at.mesh.scalar, st.scalar(1));
+    assert!(at.analysis.is_none());
+    assert_eq!((at.meta.stats.scalar_min, at.meta.stats.scalar_max), st.scalar_range());
+    at.set_time(2.5).unwrap();
+    for (i, v) in at.mesh.scalar.iter().enumerate() {
+        let want = 0.25 * st.scalar(1)[i] + 0.75 * st.scalar(2)[i];
+        assert!((v - want).abs() <= 1e-15 * want.abs().max(1.0), "point {i}: {v} vs {want}");
+    }
+    at.set_time(3.0).unwrap();
+    assert_eq!(at.mesh.scalar, st.scalar(2));
+
+    let e = at.set_time(3.5).unwrap_err();
+    assert_eq!(e, tet_bundle::TimeError::OutOfRange { time: 3.5, first: 0.5, last: 3.0 });
+    assert!(at.set_time(f64::NAN).is_err());
+    assert_eq!(sample_bundle().set_time(1.0), Err(tet_bundle::TimeError::NoSteps));
+}
+
+/// Bad steps are refused when built and when read: a step section missing
+/// or short, times not increasing.
+#[test]
+fn damaged_time_steps_are_named() {
+    let ok =
+        |t: Vec<f64>| tet_bundle::TimeSteps::new(t.clone(), vec![vec![1.0]; t.len()], vec![String::new(); t.len()]);
+    assert!(ok(vec![1.0, 1.0]).unwrap_err().contains("increase"));
+    assert!(ok(vec![]).is_err());
+    assert!(ok(vec![0.0, f64::INFINITY]).is_err());
+    assert!(tet_bundle::TimeSteps::new(vec![0.0], vec![vec![f64::NAN]], vec![String::new()]).is_err());
+    assert!(sample_bundle()
+        .with_steps(tet_bundle::TimeSteps::new(vec![0.0], vec![vec![1.0; 2]], vec![String::new()]).unwrap())
+        .is_err());
+
+    // A file whose TIMES lists a step without its section.
+    let b = series_bundle();
+    let bytes = b.to_bytes();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.tetb");
+    let table = Bundle::sections(&bytes, &path).unwrap();
+    let step2 = table.iter().find(|e| e.name == "STEP00002").unwrap();
+    // Renaming the section (and fixing the table's checksum) hides it.
+    let mut renamed = bytes.clone();
+    let at = 32 + 40 * table.iter().position(|e| e.name == "STEP00002").unwrap();
+    renamed[at..at + 9].copy_from_slice(b"XTEP00002");
+    let crc = crc32fast::hash(&renamed[32..32 + 40 * table.len()]);
+    renamed[24..28].copy_from_slice(&crc.to_le_bytes());
+    let e = Bundle::from_bytes(&renamed, &path).unwrap_err();
+    assert!(e.to_string().contains("STEP00002 is missing"), "{e}");
+    assert!(step2.length > 0);
+}

@@ -238,6 +238,8 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
         return Some(match e {
             // `--scalar NAME` names no field of the file: a bad value.
             tet_mesh::MeshError::UnknownScalar { .. } => Usage,
+            // A series whose later step does not fit the first: the input's fault.
+            tet_mesh::MeshError::StepMeshDiffers { .. } | tet_mesh::MeshError::NonFiniteInStep { .. } => Input,
             _ => Rejected,
         });
     }

@@ -63,6 +63,16 @@ fn need<'f>(f: &'f NetCdf<'_>, name: &str) -> Result<&'f Variable, FormatError> 
     f.var(name).ok_or_else(|| whole(format!("no variable '{name}' (is this an Exodus II file?)")))
 }
 
+/// The time of each step (`time_whole`; empty when the file has no steps).
+pub fn times(bytes: &[u8]) -> Result<Vec<f64>, FormatError> {
+    let f = NetCdf::parse(bytes)?;
+    let steps = f.num_records;
+    match f.var("time_whole") {
+        Some(t) if steps > 0 => (0..steps).map(|r| f.read(t, Some(r)).map(|v| v[0])).collect(),
+        _ => Ok(Vec::new()),
+    }
+}
+
 /// Reads an Exodus II file held in memory.
 pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatError> {
     let f = NetCdf::parse(bytes)?;

@@ -35,6 +35,7 @@ pub mod openfoam;
 pub mod plot3d;
 pub mod ply;
 pub mod raw;
+pub mod series;
 pub mod su2;
 pub mod tetgen;
 pub mod vtk_legacy;
@@ -105,6 +106,9 @@ pub enum ReadError {
     },
     #[error("{format}: {message} ({})", place(at, path))]
     Malformed { format: Format, message: String, at: Location, path: PathBuf },
+    /// A time-series index (`.pvd`, `.series`) that cannot be used.
+    #[error("time series: {message} ({})", place(at, path))]
+    BadSeries { message: String, at: Location, path: PathBuf },
     #[error("cannot tell the format of {}: {hint}; pass --format", path.display())]
     UnknownFormat { hint: String, path: PathBuf },
     #[error("{format} input needs {what} ({})", path.display())]

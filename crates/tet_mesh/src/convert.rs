@@ -154,6 +154,12 @@ pub struct ConversionReport {
     /// For each tet of the resulting mesh, the source cell it came from, so
     /// later errors (e.g. a face shared by three tets) can name input cells.
     pub tet_source_cell: Vec<u32>,
+    /// For each point of the resulting mesh, the source point it is (a
+    /// merged duplicate's representative), so later time steps' fields map
+    /// the same way ([`crate::StepMapper`]).
+    pub point_source: Vec<u32>,
+    /// Where the chosen scalar lived in the source.
+    pub scalar_location: Option<ScalarLocation>,
 }
 
 /// Steps reported to the progress callback.
@@ -422,6 +428,8 @@ pub fn tetrahedralize_merged(
         }
     }
     report.tet_source_cell = tet_cell;
+    report.point_source = kept.iter().map(|&i| i as u32).collect();
+    report.scalar_location = Some(scalar.location);
     Ok((TetMesh { points, tets, scalar_name: scalar.name, scalar: scalar_values, point_fields }, report))
 }
 

@@ -9,6 +9,13 @@ pub enum MeshError {
         "no volume cells to convert (the input has {points} points and no tetrahedra, hexahedra, wedges or pyramids)"
     )]
     NoCells { points: usize },
+    /// A later time step whose mesh is not the first step's.
+    #[error("this time step's mesh is not the first step's: {what}")]
+    StepMeshDiffers { what: String },
+    /// A later time step with a non-finite scalar where the mesh needs one
+    /// (`--nan drop` cannot drop cells of one step only).
+    #[error("scalar '{name}' is {value} at {place} in this time step; the steps share one mesh, so no cells can be dropped for one step: leave the step out of the series")]
+    NonFiniteInStep { name: String, place: String, value: f64 },
     #[error("no scalar named '{name}'; this file has: {available}")]
     UnknownScalar { name: String, available: String },
     #[error("scalar '{name}' is {value} at vertex {vertex} (source point index); pass --nan drop to drop the cells touching such vertices")]

@@ -41,6 +41,7 @@ pub mod polyhedron;
 pub mod predicates;
 pub mod rng;
 pub mod scalar;
+pub mod series;
 pub mod source;
 pub mod split;
 pub mod stats;
@@ -53,6 +54,7 @@ pub use convert::{
 pub use error::MeshError;
 pub use polyhedron::PolyhedronSplitter;
 pub use rng::SplitMix64;
+pub use series::StepMapper;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
 pub use split::SplitMode;
 pub use stats::{mesh_stats, MeshStats, Spread};

@@ -24,7 +24,9 @@ pub enum Command {
     /// --solution CSV), Exodus II (netCDF classic; --time-step), NRRD (.nrrd
     /// .nhdr), raw volumes (--format raw --dims --type --endian); point clouds:
     /// PLY, LAS/LAZ, OBJ vertex lists, glTF/GLB POINTS, CSV/XYZ tables
-    /// (header line or --columns).
+    /// (header line or --columns). Time series: a ParaView .pvd or .series
+    /// listing one file a step, or --all-steps of an Exodus file or
+    /// OpenFOAM case: the mesh once, the scalar of every step.
     ///
     /// Example: tetprep convert bluntfinxyz.bin --q bluntfinq.bin --scalar density -o bluntfin.tetb
     Convert(Box<ConvertArgs>),
@@ -212,8 +214,15 @@ pub struct ConvertArgs {
     /// Results files: the time step, from 0, whose fields are read. Exodus
     /// II: nodal and element variables (default: the first). OpenFOAM: the
     /// N-th time directory in time order (default: the latest).
-    #[arg(long, help_heading = "Results (Exodus II, OpenFOAM)")]
+    #[arg(long, help_heading = "Results (Exodus II, OpenFOAM)", conflicts_with = "all_steps")]
     pub time_step: Option<usize>,
+
+    /// Results files: every time step into one bundle (the mesh once, the
+    /// scalar of each step with its time; `tetview render --time T`).
+    /// Exodus II: each step of `time_whole`; OpenFOAM: each time directory.
+    /// A ParaView .pvd or .series input is always read as a time series.
+    #[arg(long, help_heading = "Results (Exodus II, OpenFOAM)")]
+    pub all_steps: bool,
 
     #[command(flatten, next_help_heading = "PLOT3D")]
     pub plot3d: Plot3dArgs,

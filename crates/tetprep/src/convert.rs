@@ -81,6 +81,12 @@ impl Progress {
         }
     }
 
+    fn set(&self, msg: String) {
+        if let Some(b) = &self.bar {
+            b.set_message(msg);
+        }
+    }
+
     fn finish(&self) {
         if let Some(b) = &self.bar {
             b.finish_and_clear();
@@ -96,7 +102,18 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
 
     progress.step("reading");
     let t = Instant::now();
-    let mut source = tet_io::read_file(&args.input, &opts).context("reading the input failed")?;
+    // A time series: the first step is converted as any input, the others
+    // are mapped onto its mesh.
+    let series = tet_io::series::series_steps(&args.input, &opts, args.all_steps)
+        .with_context(|| format!("reading the time steps of {} failed", args.input.display()))?;
+    let mut source = match &series {
+        Some(steps) => {
+            let first = &steps[0];
+            tet_io::read_file(&first.path, &ReadOptions { time_step: first.time_step, ..opts.clone() })
+                .with_context(|| format!("reading time step 0 ({}) failed", first.label))?
+        }
+        None => tet_io::read_file(&args.input, &opts).context("reading the input failed")?,
+    };
     timings.push(("read", t.elapsed().as_secs_f64()));
 
     // A point cloud (points, no cells) is tetrahedralized first; from then
@@ -122,6 +139,12 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         }
         None
     };
+    if cloud.is_some() && series.is_some() {
+        return Err(usage(format!(
+            "{} is a time series of point clouds; a series must share one mesh (convert one step at a time)",
+            args.input.display()
+        )));
+    }
 
     let convert_opts = ConvertOptions {
         split: match args.split {
@@ -186,7 +209,41 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     })?;
     timings.push(("adjacency_stats", t.elapsed().as_secs_f64()));
 
+    // The other steps' scalars, mapped onto this mesh.
+    let steps = match &series {
+        Some(list) => {
+            let t = Instant::now();
+            let mapper = tet_mesh::StepMapper::new(&source, &mesh, &report)?;
+            let mut scalars = vec![mesh.scalar.clone()];
+            for (k, step) in list.iter().enumerate().skip(1) {
+                progress.set(format!("time step {k} of {}: {}", list.len(), step.label));
+                let s = tet_io::read_file(&step.path, &ReadOptions { time_step: step.time_step, ..opts.clone() })
+                    .with_context(|| format!("reading time step {k} ({}) failed", step.label))?;
+                scalars
+                    .push(mapper.scalar(&s, &mesh).with_context(|| format!("time step {k} ({}) failed", step.label))?);
+            }
+            let times = list.iter().map(|s| s.time).collect();
+            let labels = list.iter().map(|s| s.label.clone()).collect();
+            let steps = tet_bundle::TimeSteps::new(times, scalars, labels)
+                .map_err(|e| anyhow::anyhow!("the time steps of {}: {e}", args.input.display()))
+                .kind(ExitKind::Input)?;
+            timings.push(("time_steps", t.elapsed().as_secs_f64()));
+            Some(steps)
+        }
+        None => None,
+    };
+
     let mut findings: Vec<String> = Vec::new();
+    if let Some(st) = &steps {
+        let (lo, hi) = st.scalar_range();
+        findings.push(format!(
+            "time series: {} steps, times {} to {}; scalar '{}' over all steps {lo} to {hi}",
+            st.len(),
+            st.times()[0],
+            st.times()[st.len() - 1],
+            mesh.scalar_name
+        ));
+    }
     let split = if let Some(c) = &cloud {
         match c.mode {
             CloudMode::Delaunay => {
@@ -232,6 +289,9 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     drop(source);
     progress.step("writing the bundle");
     let mut bundle = Bundle::with_stats(mesh, adjacency, meta, stats);
+    if let Some(st) = steps {
+        bundle = bundle.with_steps(st).map_err(anyhow::Error::msg)?;
+    }
     if let Some(opts) = crate::analysis::requested(&args.analysis) {
         progress.step("analysing the scalar");
         let t = Instant::now();

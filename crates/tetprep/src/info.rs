@@ -78,7 +78,22 @@ fn summary_json_mesh(b: &Bundle) -> Value {
         "split_tets": b.meta.split_tets,
         "source": { "path": b.meta.source_path, "format": b.meta.source_format, "points": b.meta.source_points, "cells": b.meta.source_cells },
         "findings": b.meta.findings,
+        "time_steps": b.steps.as_ref().map(|st| {
+            let (lo, hi) = st.scalar_range();
+            json!({
+                "count": st.len(),
+                "scalar_range": [lo, hi],
+                "steps": (0..st.len()).map(|k| {
+                    let (mn, mx) = min_max(st.scalar(k));
+                    json!({"time": st.times()[k], "source": st.source(k), "scalar_min": mn, "scalar_max": mx})
+                }).collect::<Vec<_>>(),
+            })
+        }),
     })
+}
+
+fn min_max(v: &[f64]) -> (f64, f64) {
+    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)))
 }
 
 pub fn summary_text(b: &Bundle) -> String {
@@ -125,6 +140,26 @@ pub fn summary_text(b: &Bundle) -> String {
         if b.adjacency.convex { "convex" } else { "not convex" },
         if m.delaunay { " (Delaunay)" } else { "" }
     );
+    if let Some(st) = &b.steps {
+        let (lo, hi) = st.scalar_range();
+        let _ = writeln!(
+            o,
+            "time steps  {}, t = {} to {}; scalar over all steps [{lo:.6e}, {hi:.6e}] (the scalar above is step 0's)",
+            st.len(),
+            st.times()[0],
+            st.times()[st.len() - 1]
+        );
+        // Every step of a short series; the ends of a long one.
+        let shown: Vec<usize> =
+            if st.len() <= 12 { (0..st.len()).collect() } else { (0..5).chain(st.len() - 5..st.len()).collect() };
+        for (i, &k) in shown.iter().enumerate() {
+            if i > 0 && k != shown[i - 1] + 1 {
+                let _ = writeln!(o, "  …         {} more", k - shown[i - 1] - 1);
+            }
+            let (mn, mx) = min_max(st.scalar(k));
+            let _ = writeln!(o, "  {k:>4}  t = {:<12} [{mn:.6e}, {mx:.6e}]  {}", st.times()[k], st.source(k));
+        }
+    }
     o.push_str(&crate::analysis::info_text(b));
     if !m.findings.is_empty() {
         let _ = writeln!(o, "findings:");

@@ -583,3 +583,85 @@ fn exit_codes_are_the_shared_ones() {
     let help = String::from_utf8_lossy(&tetprep(&["--help"]).stdout).into_owned();
     assert!(help.contains("Exit codes") && help.contains("4  input data rejected"), "{help}");
 }
+
+/// A time series (hurricane Isabel's eye, tests/data/series/LICENSE.md) as
+/// a .pvd and as a .series: the mesh once, every step's scalar with its
+/// time, listed by `info`; Exodus steps and OpenFOAM time directories with
+/// --all-steps; a step on another mesh, a step file missing and point
+/// clouds are clear errors that write nothing.
+#[test]
+fn time_series_become_one_bundle_with_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let conv = |input: &Path, extra: &[&str], name: &str| {
+        let out = dir.path().join(name);
+        let mut args = vec!["convert", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--json"];
+        args.extend(extra);
+        (tetprep(&args), out)
+    };
+    let (o, pvd_out) = conv(&data("series/isabel_eye.pvd"), &[], "pvd.tetb");
+    let v = json(&o);
+    assert_eq!(v["points"], 24 * 24 * 10);
+    let steps = &v["time_steps"];
+    assert_eq!(steps["count"], 4, "{steps}");
+    let times: Vec<f64> = steps["steps"].as_array().unwrap().iter().map(|s| s["time"].as_f64().unwrap()).collect();
+    assert_eq!(times, [2.0, 3.0, 4.0, 5.0]);
+    assert_eq!(steps["steps"][1]["source"], "isabel_eye_03.vti");
+    // Step k is the file converted alone.
+    let pvd = tet_bundle::Bundle::read(&pvd_out).unwrap();
+    let st = pvd.steps.as_ref().unwrap();
+    for k in 0..4 {
+        let (o, alone) = conv(&data(&format!("series/isabel_eye_0{}.vti", k + 2)), &[], "alone.tetb");
+        assert!(o.status.success(), "{}", stderr(&o));
+        let alone = tet_bundle::Bundle::read(&alone).unwrap();
+        assert_eq!(alone.mesh.points, pvd.mesh.points);
+        assert_eq!(st.scalar(k), &alone.mesh.scalar[..], "step {k}");
+    }
+    assert_eq!(pvd.mesh.scalar, st.scalar(0));
+    let (lo, hi) = st.scalar_range();
+    assert_eq!(steps["scalar_range"], serde_json::json!([lo, hi]));
+
+    // The .series index gives the same steps.
+    let (o, series_out) = conv(&data("series/isabel_eye.vti.series"), &[], "series.tetb");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(tet_bundle::Bundle::read(&series_out).unwrap().steps, pvd.steps);
+
+    let info = tetprep(&["info", pvd_out.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(text.contains("time steps  4, t = 2 to 5"), "{text}");
+    assert!(text.contains("isabel_eye_05.vti"), "{text}");
+
+    // Exodus steps and OpenFOAM time directories.
+    let (o, _) = conv(&data("exodus/small.exo"), &["--all-steps"], "exo.tetb");
+    assert_eq!(json(&o)["time_steps"]["count"], 2);
+    let (o, _) = conv(&data("openfoam/cavity"), &["--all-steps"], "foam.tetb");
+    let v = json(&o);
+    assert_eq!(v["time_steps"]["count"], 6);
+    assert_eq!(v["time_steps"]["steps"][3]["time"], 1.5);
+    let (o, _) = conv(&data("exodus/small.exo"), &["--all-steps", "--time-step", "1"], "x.tetb");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let (o, _) = conv(&data("vtk/hexa.vtk"), &["--all-steps"], "x.tetb");
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--all-steps reads the time steps of Exodus"), "{}", stderr(&o));
+
+    // A step on another mesh; a listed file that is missing.
+    let series = |name: &str, files: &[(f64, &Path)]| {
+        let p = dir.path().join(name);
+        let body: Vec<String> =
+            files.iter().map(|(t, f)| format!(r#"<DataSet timestep="{t}" file="{}"/>"#, f.display())).collect();
+        std::fs::write(
+            &p,
+            format!(r#"<VTKFile type="Collection"><Collection>{}</Collection></VTKFile>"#, body.concat()),
+        )
+        .unwrap();
+        p
+    };
+    let other = series("other.pvd", &[(0.0, &data("series/isabel_eye_02.vti")), (1.0, &data("vtk/hexa.vtk"))]);
+    let (o, out) = conv(&other, &[], "other.tetb");
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("time step 1 (") && stderr(&o).contains("not the first step's"), "{}", stderr(&o));
+    assert!(!out.exists(), "a failed series writes nothing");
+    let missing = series("missing.pvd", &[(0.0, &data("series/isabel_eye_02.vti")), (1.0, Path::new("gone.vti"))]);
+    let (o, _) = conv(&missing, &[], "missing.tetb");
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("gone.vti") && stderr(&o).contains("missing.pvd"), "{}", stderr(&o));
+}

@@ -54,3 +54,27 @@ pub fn warn_if_constant_scalar(bundle: &tet_bundle::Bundle) {
         eprintln!("warning: {w}");
     }
 }
+
+/// `--time T`: a time series' scalar at time T (linear between the two
+/// steps around it; the normalized TF spans every step's range).
+#[derive(Debug, Clone, clap::Args)]
+pub struct TimeArgs {
+    /// Time to draw a time-series bundle at (`tetprep info` lists its
+    /// steps): a step's own scalar at its time, linear between steps;
+    /// normalized TFs span the scalar's range over every step, so colours
+    /// mean the same at every time. Without --time: the first step.
+    #[arg(long, allow_hyphen_values = true)]
+    pub time: Option<f64>,
+}
+
+impl TimeArgs {
+    /// Reads the bundle at `path`, at `--time` if given. A time outside the
+    /// steps, or on a bundle without steps, is a usage error (exit code 2).
+    pub fn read_bundle(&self, path: &std::path::Path) -> anyhow::Result<tet_bundle::Bundle> {
+        let mut bundle = tet_bundle::Bundle::read(path)?;
+        if let Some(t) = self.time {
+            bundle.set_time(t).map_err(|e| tet_cli::usage(format!("--time {t}: {e} ({})", path.display())))?;
+        }
+        Ok(bundle)
+    }
+}

@@ -6,7 +6,6 @@ use anyhow::{Context, Result};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
-use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_engine::{FrameRenderer, FrameRequest, FrameStats, Look, ReferenceFrameRenderer};
 use tet_render::Camera;
@@ -25,6 +24,8 @@ pub struct ReferenceArgs {
     /// Scalar range LO,HI for a normalized transfer function.
     #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
+    #[command(flatten)]
+    pub time: crate::cli::TimeArgs,
     #[command(flatten)]
     pub camera: crate::camera_args::CameraArgs,
     /// PNG output (8-bit sRGB after tone mapping, over --background).
@@ -50,7 +51,7 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     if args.output.is_none() && args.float.is_none() {
         return Err(usage("nothing to write: give -o out.png and/or --float out.npy"));
     }
-    let bundle = Bundle::read(&args.bundle)?;
+    let bundle = args.time.read_bundle(&args.bundle)?;
     let mesh = &bundle.mesh;
     crate::cli::warn_if_constant_scalar(&bundle);
     let tf = crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?;

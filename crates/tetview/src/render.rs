@@ -2,7 +2,6 @@
 
 use anyhow::{Context, Result};
 use std::path::PathBuf;
-use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look};
 use tet_preint::{LutFile, Method};
@@ -35,6 +34,8 @@ pub struct RenderArgs {
     /// Scalar range LO,HI for a normalized transfer function.
     #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub range: Option<(f64, f64)>,
+    #[command(flatten)]
+    pub time: crate::cli::TimeArgs,
     #[command(flatten)]
     pub camera: crate::camera_args::CameraArgs,
     #[command(flatten)]
@@ -90,7 +91,7 @@ pub struct RenderArgs {
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
-    let bundle = Bundle::read(&args.bundle)?;
+    let bundle = args.time.read_bundle(&args.bundle)?;
     crate::cli::warn_if_constant_scalar(&bundle);
     // Either a baked .tetl (its TF travels in the file) or a TF and a method.
     let lut = match &args.lut {

@@ -138,3 +138,78 @@ fn gpu_cli_and_library_draw_the_same_frames() {
     }
     assert_ne!(frames[0].pixels(), frames[1].pixels(), "two methods, two images");
 }
+
+/// Hurricane Isabel's eye over four steps (tests/data/series/LICENSE.md)
+/// as a time-series bundle built as `tetprep convert` builds it.
+fn isabel_series(dir: &Path) -> PathBuf {
+    let series = Path::new(DATA).join("../series");
+    let read = |t: u32| tet_io::read_file(&series.join(format!("isabel_eye_0{t}.vti")), &Default::default()).unwrap();
+    let first = read(2);
+    let (mesh, report) = tet_mesh::tetrahedralize(&first, &Default::default(), &mut |_| {}).unwrap();
+    let mapper = tet_mesh::StepMapper::new(&first, &mesh, &report).unwrap();
+    let scalars: Vec<Vec<f64>> = (2..6).map(|t| mapper.scalar(&read(t), &mesh).unwrap()).collect();
+    let steps = tet_bundle::TimeSteps::new(vec![2.0, 3.0, 4.0, 5.0], scalars, (2..6).map(|t| format!("{t}")).collect())
+        .unwrap();
+    let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let bundle = Bundle::new(mesh, adjacency, BundleMeta::default()).with_steps(steps).unwrap();
+    let path = dir.join("isabel.tetb");
+    bundle.write(&path).unwrap();
+    path
+}
+
+/// `render --time T` draws the scalar interpolated at T over the series'
+/// range: the library's `Bundle::set_time` and the engine give the same
+/// bits; a time between steps differs from both steps; a time outside the
+/// steps or on a bundle without steps is a usage error.
+#[test]
+fn time_series_frames_are_the_scalar_at_that_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (isabel_series(dir.path()), peaks_tf(dir.path()));
+    let (bs, ts) = (b.to_str().unwrap(), t.to_str().unwrap());
+    let mut images = vec![];
+    for time in ["3", "3.25", "4"] {
+        let (npy, view, png) =
+            (dir.path().join(format!("{time}.npy")), dir.path().join("v.json"), dir.path().join("x.png"));
+        let mut args = vec!["render", bs, "--tf", ts, "--time", time, "--size", "80x64", "--elevation", "50"];
+        args.extend([
+            "-o",
+            png.to_str().unwrap(),
+            "--float",
+            npy.to_str().unwrap(),
+            "--save-view",
+            view.to_str().unwrap(),
+        ]);
+        tetview(&args);
+        let mut bundle = Bundle::read(&b).unwrap();
+        bundle.set_time(time.parse().unwrap()).unwrap();
+        let tf =
+            resolve_tf(&bundle, &TfRequest { source: TfSource::File(t.clone()), ..TfRequest::default() }).unwrap().tf;
+        let look = Look::bake(&bundle, Method::Table3d, tf).unwrap();
+        let spec = ViewSpec::from_json(&std::fs::read_to_string(&view).unwrap()).unwrap();
+        let frame =
+            CpuFrameRenderer::new(&bundle).unwrap().render(&look, &FrameRequest::new(spec), &|_, _| {}).unwrap();
+        let cli = Image::read_npy(&npy).unwrap();
+        same_bits(&cli, &frame.image, &format!("render --time {time}"));
+        images.push(cli);
+    }
+    assert_ne!(images[1].pixels(), images[0].pixels());
+    assert_ne!(images[1].pixels(), images[2].pixels());
+
+    let png = dir.path().join("x.png");
+    for (bundle, time, want) in [(bs, "9", "outside the bundle's steps, 2 to 5"), (bs, "-1", "outside")] {
+        let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+            .args(["render", bundle, "--tf", ts, "--time", time, "-o", png.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(want), "{err}");
+    }
+    let plain = bluntfin(dir.path());
+    let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+        .args(["reference", plain.to_str().unwrap(), "--time", "1", "-o", png.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no time steps"));
+}

@@ -247,6 +247,21 @@ pub fn read_poly_mesh(points: &[u8], faces: &[u8], owner: &[u8], neighbour: &[u8
     Ok(mesh)
 }
 
+/// The time directories of the case `input` is in (of processor0 for a
+/// decomposed case), sorted: (time, directory name). Step k of
+/// [`FoamOptions::time_step`] is the k-th.
+pub fn case_times(input: &Path) -> Result<Vec<(f64, String)>, ReadError> {
+    let case = case_dir(input).ok_or_else(|| {
+        whole(
+            input,
+            "not inside an OpenFOAM case (no directory with constant/polyMesh, system/controlDict or processor0)",
+        )
+    })?;
+    let has_top = ["points", "points.gz"].iter().any(|p| case.join("constant/polyMesh").join(p).is_file());
+    let dir = if has_top { Some(case.clone()) } else { processor_dirs(&case).into_iter().next() };
+    time_dirs(&dir.unwrap_or(case))
+}
+
 /// The numeric subdirectories of `dir`, sorted by value: (value, name).
 fn time_dirs(dir: &Path) -> Result<Vec<(f64, String)>, ReadError> {
     let rd = std::fs::read_dir(dir).map_err(|source| ReadError::Io { source, path: dir.to_path_buf() })?;

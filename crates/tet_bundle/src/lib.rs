@@ -445,6 +445,16 @@ impl Bundle {
         Ok(self)
     }
 
+    /// The scalar's range a transfer function is normalized over: over every
+    /// time step for a series (so a normalized TF means the same colours at
+    /// every time), else the statistics' range of the one scalar.
+    pub fn scalar_range(&self) -> (f64, f64) {
+        match &self.steps {
+            Some(st) => st.scalar_range(),
+            None => (self.meta.stats.scalar_min, self.meta.stats.scalar_max),
+        }
+    }
+
     /// Makes the mesh's scalar the one at `time` ([`TimeSteps::scalar_at`])
     /// and the statistics' scalar range the whole series' (so a normalized
     /// TF means the same colours at every time). The analysis describes one

@@ -115,6 +115,16 @@ impl CpuFrameRenderer {
         self.renderer.as_ref().expect("a renderer outside ensure_gradients")
     }
 
+    /// Replaces the bundle's scalar (a time step, e.g. from
+    /// [`tet_bundle::TimeSteps::scalar_at`]): the per-scene and per-view
+    /// geometry stays, what depends on the scalar is redone (see
+    /// [`Renderer::set_scalar`]).
+    pub fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), EngineError> {
+        self.renderer.as_mut().expect("a renderer").set_scalar(scalar)?;
+        self.cull = None;
+        Ok(())
+    }
+
     /// Adds per-vertex gradients to the scene if it has none; true when it
     /// computed them.
     fn ensure_gradients(&mut self) -> Result<bool, EngineError> {

@@ -115,6 +115,17 @@ impl GpuFrameRenderer {
         })
     }
 
+    /// Replaces the bundle's scalar (a time step): the mesh on the device
+    /// stays, the scalar is written into its buffers; the cull and the
+    /// gradients of the old scalar are dropped.
+    pub fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), EngineError> {
+        let gpu_scene = self.gpu_scene.as_mut().expect("a GPU scene outside gradient upload");
+        gpu_scene.set_scalar(&self.ctx, &scalar).map_err(gpu_error)?;
+        self.scene.as_mut().expect("a scene outside gradient upload").set_scalar(scalar)?;
+        self.cull = None;
+        Ok(())
+    }
+
     fn gpu_scene(&self) -> &GpuScene {
         self.gpu_scene.as_ref().expect("a GPU scene outside gradient upload")
     }

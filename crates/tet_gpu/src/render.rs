@@ -115,9 +115,8 @@ impl GpuScene {
                 init("scalar ranks", bytemuck::cast_slice(&ranks)),
             )
         })?;
-        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
         Ok(GpuScene {
-            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            id: next_scene_id(),
             centre_in_world: centre,
             n_points: points.len(),
             pos_rel,
@@ -164,6 +163,29 @@ impl GpuScene {
         Ok(self)
     }
 
+    /// Replaces the scalar (a time series' step; one finite value per
+    /// point), written into the existing buffers. Gradient magnitudes
+    /// describe the old scalar and are dropped; the scene gets a new id, so
+    /// a [`crate::GpuCull`] of the old scalar is refused rather than used.
+    pub fn set_scalar(&mut self, ctx: &GpuContext, scalar: &[f64]) -> Result<(), GpuError> {
+        if scalar.len() != self.n_points {
+            return Err(GpuError::Input(format!("{} scalars for {} points", scalar.len(), self.n_points)));
+        }
+        if let Some(i) = scalar.iter().position(|s| !s.is_finite()) {
+            return Err(GpuError::Input(format!("scalar of point {i} is not finite")));
+        }
+        let s32: Vec<f32> = scalar.iter().map(|&s| s as f32).collect();
+        let (distinct, ranks) = distinct_and_ranks(scalar);
+        ctx.checked(|| {
+            ctx.queue.write_buffer(&self.scalars, 0, bytemuck::cast_slice(&s32));
+            ctx.queue.write_buffer(&self.ranks, 0, bytemuck::cast_slice(&ranks));
+        })?;
+        self.distinct = distinct;
+        (self.gmags, self.g_ranks, self.g_distinct) = (None, None, None);
+        self.id = next_scene_id();
+        Ok(())
+    }
+
     /// Whether the scene carries gradient magnitudes.
     pub fn has_gradient_magnitudes(&self) -> bool {
         self.gmags.is_some()
@@ -201,6 +223,12 @@ impl GpuScene {
 }
 
 /// The distinct values ascending, and each value's index among them.
+/// A new scene id (a scene's, or a scene's after its scalar changed).
+fn next_scene_id() -> u64 {
+    static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
 fn distinct_and_ranks(values: &[f64]) -> (Vec<f64>, Vec<u32>) {
     let mut distinct = values.to_vec();
     distinct.par_sort_unstable_by(f64::total_cmp);

@@ -374,8 +374,8 @@ pub fn tf_for_bundle(tf: &TransferFunction, bundle: &Bundle) -> Result<TransferF
     if !tf.normalized() {
         return Ok(tf.clone());
     }
-    let st = &bundle.meta.stats;
-    let (lo, hi) = normalized_tf_range(st.scalar_min, st.scalar_max);
+    let (lo, hi) = bundle.scalar_range();
+    let (lo, hi) = normalized_tf_range(lo, hi);
     tf.denormalize(lo, hi)
 }
 
@@ -383,12 +383,13 @@ pub fn tf_for_bundle(tf: &TransferFunction, bundle: &Bundle) -> Result<TransferF
 /// (`None` otherwise): every transfer function then draws the mesh in one
 /// colour.
 pub fn constant_scalar_warning(bundle: &Bundle) -> Option<String> {
-    let st = &bundle.meta.stats;
-    (st.scalar_min == st.scalar_max).then(|| {
+    let (lo, hi) = bundle.scalar_range();
+    (lo == hi).then(|| {
         format!(
-            "the scalar '{}' is constant ({}) over the mesh, so the image has one colour; \
+            "the scalar '{}' is constant ({lo}) over the mesh{}, so the image has one colour; \
              convert the input again with another --scalar",
-            bundle.mesh.scalar_name, st.scalar_min
+            bundle.mesh.scalar_name,
+            if bundle.steps.is_some() { " at every time step" } else { "" }
         )
     })
 }

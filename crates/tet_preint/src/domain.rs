@@ -52,6 +52,17 @@ pub const QUANTILES: usize = 32;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScalarQuantiles(pub [f64; QUANTILES + 1]);
 
+/// A constant scalar's range widened by a relative 1e-6, so tables have a
+/// span.
+fn widen_constant(mut lo: f64, mut hi: f64) -> (f64, f64) {
+    if lo.is_finite() && hi.is_finite() && lo >= hi {
+        let pad = 1e-6 * lo.abs().max(1.0);
+        lo -= pad;
+        hi += pad;
+    }
+    (lo, hi)
+}
+
 impl ScalarQuantiles {
     /// Quantiles of the finite values of `scalars`; `None` when there are none.
     pub fn of(scalars: &[f64]) -> Option<ScalarQuantiles> {
@@ -112,31 +123,42 @@ impl TableDomain {
     /// A constant field gets a tiny non-empty range around its value.
     pub fn from_bundle(bundle: &tet_bundle::Bundle) -> Result<Self, TableError> {
         let stats = &bundle.meta.stats;
-        let (mut lo, mut hi, max_ds, len) = match &bundle.analysis {
+        let max_cell_range = |s: &[f64]| {
+            bundle
+                .mesh
+                .tets
+                .iter()
+                .map(|t| {
+                    let v = t.map(|i| s.get(i as usize).copied().unwrap_or(0.0));
+                    let (mn, mx) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+                    mx - mn
+                })
+                .fold(0.0, f64::max)
+        };
+        if let Some(steps) = &bundle.steps {
+            // A time series: one domain for every time, so one table draws
+            // them all. Between steps k and k+1 the scalar is a convex
+            // combination of theirs, so its range is inside the steps' and
+            // a cell's range is at most the larger of its two steps'.
+            let (lo, hi) = steps.scalar_range();
+            let max_ds = (0..steps.len()).map(|k| max_cell_range(steps.scalar(k))).fold(0.0, f64::max);
+            let (lo, hi) = widen_constant(lo, hi);
+            let mut d = Self::new(lo, hi, max_ds, stats.max_cell_diameter)?;
+            // The data's distribution over every step (at most ~4M values).
+            let total: usize = (0..steps.len()).map(|k| steps.scalar(k).len()).sum();
+            let stride = total.div_ceil(1 << 22).max(1);
+            let all: Vec<f64> =
+                (0..steps.len()).flat_map(|k| steps.scalar(k).iter().copied()).step_by(stride).collect();
+            d.s_quantiles = ScalarQuantiles::of(&all);
+            return Ok(d);
+        }
+        let (lo, hi, max_ds, len) = match &bundle.analysis {
             Some(a) => {
                 (a.facts.scalar_min, a.facts.scalar_max, a.facts.max_cell_scalar_range, a.facts.max_cell_diameter)
             }
-            None => {
-                let s = &bundle.mesh.scalar;
-                let max_ds = bundle
-                    .mesh
-                    .tets
-                    .iter()
-                    .map(|t| {
-                        let v = t.map(|i| s.get(i as usize).copied().unwrap_or(0.0));
-                        let (mn, mx) =
-                            v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
-                        mx - mn
-                    })
-                    .fold(0.0, f64::max);
-                (stats.scalar_min, stats.scalar_max, max_ds, stats.max_cell_diameter)
-            }
+            None => (stats.scalar_min, stats.scalar_max, max_cell_range(&bundle.mesh.scalar), stats.max_cell_diameter),
         };
-        if lo.is_finite() && hi.is_finite() && lo >= hi {
-            let pad = 1e-6 * lo.abs().max(1.0);
-            lo -= pad;
-            hi += pad;
-        }
+        let (lo, hi) = widen_constant(lo, hi);
         let mut d = Self::new(lo, hi, max_ds, len)?;
         d.s_quantiles = ScalarQuantiles::of(&bundle.mesh.scalar);
         Ok(d)

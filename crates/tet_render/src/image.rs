@@ -168,6 +168,23 @@ impl Image {
         out
     }
 
+    /// [`Image::to_rgba8`] with Reinhard's operator given (fitted to a
+    /// whole animation by [`Reinhard::fit_sequence`], so the exposure does
+    /// not flicker from frame to frame); `ToneMap::None` ignores it.
+    pub fn to_rgba8_with(&self, display: &Display, op: &Reinhard) -> Vec<u8> {
+        if display.tonemap == ToneMap::None {
+            return self.to_rgba8(display);
+        }
+        let rgb = composite_over(self, display.background);
+        let mut out = Vec::with_capacity(rgb.len() * 4);
+        for c in &rgb {
+            let m = op.apply(*c);
+            out.extend(m.iter().map(|&v| unit_to_u8(linear_to_srgb(v))));
+            out.push(255);
+        }
+        out
+    }
+
     /// Writes an 8-bit sRGB PNG after compositing and tone mapping.
     pub fn write_png(&self, path: &Path, display: &Display) -> Result<(), RenderError> {
         write_png_rgba8(path, self.width, self.height, &self.to_rgba8(display))
@@ -261,6 +278,26 @@ impl Reinhard {
         Reinhard::fit_where(covered(), key, exposure)
     }
 
+    /// One operator for a sequence of frames (an animation): fitted to the
+    /// covered pixels of all of them together (each over `display`'s
+    /// background), as [`Reinhard::fit_covered`] fits one frame. `None`
+    /// for `ToneMap::None`.
+    pub fn fit_sequence(frames: &[Image], display: &Display) -> Option<Reinhard> {
+        let ToneMap::Reinhard { key, exposure } = display.tonemap else { return None };
+        let composited: Vec<(Vec<[f32; 3]>, &Image)> =
+            frames.iter().map(|f| (composite_over(f, display.background), f)).collect();
+        let covered = || {
+            composited
+                .iter()
+                .flat_map(|(rgb, f)| rgb.iter().zip(f.pixels()).filter(|(_, p)| p[3] > COVERED_ALPHA).map(|(c, _)| *c))
+        };
+        Some(if covered().next().is_none() {
+            Reinhard::fit_where(composited.iter().flat_map(|(rgb, _)| rgb.iter().copied()), key, exposure)
+        } else {
+            Reinhard::fit_where(covered(), key, exposure)
+        })
+    }
+
     fn fit_where(pixels: impl Iterator<Item = [f32; 3]> + Clone, key: f32, exposure: f32) -> Reinhard {
         // δ keeps log finite on black pixels (Reinhard et al. 2002).
         const DELTA: f64 = 1e-4;
@@ -341,6 +378,39 @@ pub fn write_png_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Res
         enc.set_depth(png::BitDepth::Eight);
         let mut w = enc.write_header().map_err(|e| RenderError::Png(e.to_string()))?;
         w.write_image_data(rgba).map_err(|e| RenderError::Png(e.to_string()))?;
+    }
+    write_atomic(path, &bytes)
+}
+
+/// Writes an animated PNG (APNG): `frames` of 8-bit RGBA, each
+/// `width`×`height`, shown `1/fps` s each, looping forever. Viewers without
+/// APNG support show the first frame.
+pub fn write_apng_rgba8(path: &Path, width: u32, height: u32, frames: &[Vec<u8>], fps: f64) -> Result<(), RenderError> {
+    let png_err = |e: png::EncodingError| RenderError::Png(e.to_string());
+    if frames.is_empty() || frames.len() > u32::MAX as usize {
+        return Err(RenderError::Png(format!("an animation of {} frames", frames.len())));
+    }
+    if !(fps.is_finite() && fps > 0.0) {
+        return Err(RenderError::Png(format!("{fps} frames per second")));
+    }
+    // The delay as a fraction with a u16 numerator and denominator.
+    let (num, den) = if fps >= 1.0 {
+        (1, fps.round().clamp(1.0, 65535.0) as u16)
+    } else {
+        ((1.0 / fps).round().min(65535.0) as u16, 1)
+    };
+    let mut bytes = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut bytes, width, height);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_animated(frames.len() as u32, 0).map_err(png_err)?;
+        enc.set_frame_delay(num, den).map_err(png_err)?;
+        let mut w = enc.write_header().map_err(png_err)?;
+        for f in frames {
+            w.write_image_data(f).map_err(png_err)?;
+        }
+        w.finish().map_err(png_err)?;
     }
     write_atomic(path, &bytes)
 }

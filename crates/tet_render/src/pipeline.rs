@@ -223,6 +223,31 @@ impl Renderer {
         self.scene
     }
 
+    /// Replaces the scene's scalar (a time series' step): the walker keeps
+    /// its per-scene links and vertex order and PT its view geometry and
+    /// order (unless it is a radix order of culled tets), while the cull
+    /// mask, the walker's projection (it carries the scalar) and PT's
+    /// per-tet setup are redone. Gradients are dropped with the old scalar
+    /// (the walker's copy with them).
+    pub fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), RenderError> {
+        let had_gradients = self.scene.set_scalar(scalar)?;
+        match &mut self.walk_mesh {
+            Some(_) if had_gradients => self.walk_mesh = None,
+            Some(m) => m.set_scalar(&self.scene),
+            None => {}
+        }
+        self.walk_view_stale = true;
+        self.prepared = None;
+        self.cull = None;
+        self.replaced_cull = None;
+        self.walk_visible = None;
+        self.walk_entries = None;
+        if self.order.as_ref().is_some_and(|o| o.method == SortMethod::Radix) {
+            self.order = None;
+        }
+        Ok(())
+    }
+
     /// Sets the camera; the view geometry and the order become stale unless
     /// the view is identical to the current one.
     pub fn set_view(&mut self, spec: &ViewSpec) -> Result<(), RenderError> {

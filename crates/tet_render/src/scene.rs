@@ -9,8 +9,9 @@ use glam::DVec3;
 use tet_bundle::Bundle;
 use tet_mesh::{build_adjacency, NO_NEIGHBOR};
 
-/// The renderer's copy of a mesh. Immutable once built; views, transfer
-/// functions and shaders change around it.
+/// The renderer's copy of a mesh. Its geometry is fixed once built; views,
+/// transfer functions and shaders change around it, and a time series
+/// changes its scalar ([`Scene::set_scalar`]).
 #[derive(Debug, Clone)]
 pub struct Scene {
     centre_in_world: DVec3,
@@ -105,6 +106,22 @@ impl Scene {
         self.grad_mag = Some(per_point.iter().map(|g| DVec3::from(*g).length()).collect());
         self.gradients = Some(per_point);
         Ok(self)
+    }
+
+    /// Replaces the scalar (a time series' next step: the geometry stays).
+    /// Gradients describe the old scalar, so they are dropped (true when
+    /// there were some); [`Scene::ensure_gradients`] computes new ones.
+    pub fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<bool, RenderError> {
+        if scalar.len() != self.pos_rel.len() {
+            return Err(RenderError::Scene(format!("{} scalars for {} points", scalar.len(), self.pos_rel.len())));
+        }
+        if let Some(i) = scalar.iter().position(|s| !s.is_finite()) {
+            return Err(RenderError::Scene(format!("scalar of point {i} is not finite")));
+        }
+        self.scalar_range = scalar.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &s| [a.min(s), b.max(s)]);
+        self.scalar = scalar;
+        self.grad_mag = None;
+        Ok(self.gradients.take().is_some())
     }
 
     /// Computes least-squares per-vertex gradients when none are attached.

@@ -285,3 +285,62 @@ fn fast_path_is_bit_identical_to_the_per_tile_path() {
         }
     }
 }
+
+/// A time step's new scalar on a renderer that drew the old one gives the
+/// bits a fresh renderer gives, for both CPU renderers, culled or not, with
+/// lighting (whose gradients follow the scalar); the cull is redone, the
+/// walker's per-scene links are kept.
+#[test]
+fn a_new_scalar_draws_what_a_fresh_renderer_draws() {
+    let (p, t, s0) = grid_mesh(6, 0.3, [0.0; 3], 9, wave);
+    let s1: Vec<f64> = p.iter().map(|&q| 1.0 - wave([q[1], q[2], q[0]])).collect();
+    let shading = Shading { light: Some(tet_render::Light::default()), silhouette: None };
+    for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
+        for (cull, light) in [(false, false), (true, false), (true, true)] {
+            let setup = |scalar: &[f64]| {
+                let mut scene = Scene::new(&p, t.clone(), scalar.to_vec()).unwrap();
+                if light {
+                    scene = scene.ensure_gradients().unwrap();
+                }
+                let mut r = Renderer::new(scene);
+                r.set_renderer(kind);
+                r.set_view(&view()).unwrap();
+                r.set_shader(Arc::new(ExactShader::new(tf(SPARSE))));
+                if cull {
+                    r.set_culler(Some(Arc::new(TfCuller::new(&tf(SPARSE)))));
+                }
+                r.set_raster_options(RasterOptions {
+                    shading: if light { shading } else { Shading::default() },
+                    ..Default::default()
+                });
+                r
+            };
+            let mut moving = setup(&s0);
+            let first = moving.render(&|_, _| {}).unwrap().0;
+            moving.set_scalar(s1.clone()).unwrap();
+            if light {
+                // The gradients went with the old scalar.
+                assert!(moving.scene().gradients().is_none());
+                let scene = moving.into_scene().ensure_gradients().unwrap();
+                moving = Renderer::new(scene);
+                moving.set_renderer(kind);
+                moving.set_view(&view()).unwrap();
+                moving.set_shader(Arc::new(ExactShader::new(tf(SPARSE))));
+                moving.set_culler(Some(Arc::new(TfCuller::new(&tf(SPARSE)))));
+                moving.set_raster_options(RasterOptions { shading, ..Default::default() });
+            }
+            let (moved, st) = moving.render(&|_, _| {}).unwrap();
+            let fresh = setup(&s1).render(&|_, _| {}).unwrap().0;
+            assert_eq!(moved.pixels(), fresh.pixels(), "{kind:?} cull {cull} light {light}");
+            assert_ne!(moved.pixels(), first.pixels(), "{kind:?}: the scalar changed the image");
+            if cull {
+                assert!(st.recomputed_cull, "{kind:?}: a new scalar re-culls");
+            }
+        }
+    }
+    let mut r = Renderer::new(Scene::new(&p, t.clone(), s0.clone()).unwrap());
+    assert!(r.set_scalar(vec![0.0; 3]).is_err());
+    let mut bad = s0.clone();
+    bad[4] = f64::NAN;
+    assert!(r.set_scalar(bad).unwrap_err().to_string().contains("point 4"));
+}

@@ -22,6 +22,9 @@ enum Command {
     Reference(crate::reference::ReferenceArgs),
     /// Compare two images (.npy float or .png): RMSE, max/mean abs, 8-bit max after display.
     Diff(crate::diff::DiffArgs),
+    /// An orbit and/or a time series as an animated PNG (and numbered PNG
+    /// frames), one look for every frame, one tone-mapping fit for all.
+    Animate(crate::animate::AnimateArgs),
     /// Run time against image error of every method, on real bundles, against
     /// the reference render: markdown table, Pareto PNG, JSON.
     Bench(crate::bench::BenchArgs),
@@ -37,6 +40,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reference(args) => crate::reference::run(&args),
         Command::Diff(args) => crate::diff::run(&args),
         Command::Bench(args) => crate::bench::run(&args),
+        Command::Animate(args) => crate::animate::run(&args),
         Command::View(args) => crate::view::run(&args),
     }
 }

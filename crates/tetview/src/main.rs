@@ -4,6 +4,7 @@
 use clap::Parser;
 use std::process::ExitCode;
 
+mod animate;
 mod bench;
 mod camera_args;
 mod cli;

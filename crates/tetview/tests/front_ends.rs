@@ -137,6 +137,22 @@ fn gpu_cli_and_library_draw_the_same_frames() {
         frames.push(frame.image);
     }
     assert_ne!(frames[0].pixels(), frames[1].pixels(), "two methods, two images");
+
+    // A new scalar (a time step) on the same renderer draws what a fresh
+    // renderer on a bundle with that scalar draws.
+    let spec = ViewSpec::from_json(&std::fs::read_to_string(dir.path().join("view.json")).unwrap()).unwrap();
+    let look = Look::bake(&bundle, Method::Table3d, tf.clone()).unwrap();
+    let (lo, hi) = (bundle.meta.stats.scalar_min, bundle.meta.stats.scalar_max);
+    let flipped: Vec<f64> = bundle.mesh.scalar.iter().map(|s| lo + hi - s).collect();
+    gpu.set_scalar(flipped.clone()).unwrap();
+    let moved = gpu.render(&look, &FrameRequest::new(spec.clone()), &|_, _| {}).unwrap().image;
+    let mut other = bundle.clone();
+    other.mesh.scalar = flipped;
+    let scene = tet_render::Scene::from_bundle(&other).unwrap();
+    let mut fresh = tet_engine::GpuFrameRenderer::new(&other, scene, Default::default()).unwrap();
+    let want = fresh.render(&look, &FrameRequest::new(spec), &|_, _| {}).unwrap().image;
+    same_bits(&moved, &want, "GPU after set_scalar");
+    assert_ne!(moved.pixels(), frames[1].pixels());
 }
 
 /// Hurricane Isabel's eye over four steps (tests/data/series/LICENSE.md)
@@ -212,4 +228,85 @@ fn time_series_frames_are_the_scalar_at_that_time() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no time steps"));
+}
+
+/// Decoded 8-bit RGBA of a PNG, and the APNG frame count when animated.
+fn png_pixels(path: &Path) -> (Vec<u8>, Option<u32>) {
+    let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let frames = reader.info().animation_control().map(|a| a.num_frames);
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (buf, frames)
+}
+
+/// `animate` on a time series: one frame a step by default, an APNG and
+/// numbered frames; without a fitted tone map each frame is the picture
+/// `render --time` draws at its time, pixel for pixel; one table is baked
+/// for all frames. An orbit of a plain bundle loops; bad ranges and counts
+/// are usage errors.
+#[test]
+fn animate_draws_each_time_as_render_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (isabel_series(dir.path()), peaks_tf(dir.path()));
+    let (bs, ts) = (b.to_str().unwrap(), t.to_str().unwrap());
+    let (apng, frames) = (dir.path().join("a.png"), dir.path().join("frames"));
+    let common = ["--tf", ts, "--size", "64x48", "--elevation", "50", "--tonemap", "none"];
+    let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+        .args(["animate", bs, "-o", apng.to_str().unwrap(), "--frames-dir", frames.to_str().unwrap(), "--json"])
+        .args(common)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((v["frames"].as_u64(), v["tables_baked"].as_u64()), (Some(4), Some(1)), "{v}");
+    assert_eq!(v["time_range"], serde_json::json!([2.0, 5.0]));
+    let (first, count) = png_pixels(&apng);
+    assert_eq!(count, Some(4));
+    assert_eq!(first, png_pixels(&frames.join("frame_0000.png")).0);
+    for (i, time) in ["2", "3", "4", "5"].iter().enumerate() {
+        let png = dir.path().join(format!("r{time}.png"));
+        let mut args = vec!["render", bs, "--time", time, "-o", png.to_str().unwrap()];
+        args.extend(common);
+        tetview(&args);
+        assert_eq!(
+            png_pixels(&frames.join(format!("frame_{i:04}.png"))).0,
+            png_pixels(&png).0,
+            "frame {i} against render --time {time}"
+        );
+    }
+
+    // An orbit of a bundle without steps (default 360°, 36 frames asked down to 6).
+    let bf = bluntfin(dir.path());
+    let orbit = dir.path().join("o.png");
+    tetview(&[
+        "animate",
+        bf.to_str().unwrap(),
+        "--tf",
+        ts,
+        "--frames",
+        "6",
+        "--size",
+        "48x40",
+        "-o",
+        orbit.to_str().unwrap(),
+    ]);
+    assert_eq!(png_pixels(&orbit).1, Some(6));
+
+    for (bundle, extra, want) in [
+        (bf.to_str().unwrap(), vec!["--time-range", "0,1"], "no time steps"),
+        (bs, vec!["--time-range", "1,3"], "outside the bundle's steps"),
+        (bs, vec!["--frames", "0"], "--frames 0"),
+        (bs, vec!["--fps", "0"], "--fps 0"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+            .args(["animate", bundle, "--tf", ts, "-o", orbit.to_str().unwrap()])
+            .args(&extra)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(err.contains(want), "{extra:?}: {err}");
+    }
 }

@@ -281,6 +281,16 @@ impl WalkMesh {
         }
     }
 
+    /// Takes the scene's scalar again (a time step; the links, order and
+    /// positions stay). The scene must be the one this mesh was built from,
+    /// without gradients (a scene whose scalar changed has none).
+    pub fn set_scalar(&mut self, scene: &Scene) {
+        let s = scene.scalar();
+        self.scalar = self.scene_vertex.iter().map(|&i| s[i as usize] as f32).collect();
+        self.grads = None;
+        self.grad_mag = None;
+    }
+
     /// The faces through which rays enter the tets marked `visible` (walk
     /// order; `None`: all): faces of visible tets on the mesh boundary or
     /// shared with a culled tet. Rays then walk visible tets only: a run

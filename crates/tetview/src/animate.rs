@@ -1,0 +1,313 @@
+//! `tetview animate`: a camera orbit and/or a time series as an animated
+//! PNG (and numbered PNG frames), drawn by the engine.
+//!
+//! One look serves every frame: a time-series bundle's table is baked over
+//! the scalar's domain at every time (`TableDomain::from_bundle`), so time
+//! moves only the scalar ([`CpuFrameRenderer::set_scalar`]: the walker keeps
+//! its per-scene links, the GPU its uploaded mesh) and the camera only the
+//! view. Reinhard's operator is fitted once to every frame together, so the
+//! exposure does not flicker.
+
+use anyhow::{Context, Result};
+use std::path::PathBuf;
+use std::time::Instant;
+use tet_cli::{fail, usage, ExitKind, KindExt};
+use tet_engine::{
+    CpuFrameRenderer, EngineError, Frame, FrameRenderer, FrameRequest, FrameStats, GpuFrameOptions, GpuFrameRenderer,
+    Look,
+};
+use tet_preint::{LutFile, Method};
+use tet_render::image::{write_apng_rgba8, Reinhard};
+use tet_render::{Image, Scene, ToneMap};
+
+/// Render an orbit and/or a time series to an animated PNG.
+#[derive(Debug, clap::Args)]
+pub struct AnimateArgs {
+    /// The bundle (.tetb); a time-series bundle (`tetprep convert` of a
+    /// .pvd, .series or --all-steps input) animates its steps.
+    pub bundle: PathBuf,
+    /// Transfer function (as `render --tf`; default: the automatic TF). A
+    /// normalized TF spans the scalar's range over every time step.
+    #[arg(long)]
+    pub tf: Option<PathBuf>,
+    #[command(flatten)]
+    pub tf_choice: crate::tf_choice::TfChoiceArgs,
+    /// Method id (as `render --method`); its tables are baked once for
+    /// every frame.
+    #[arg(long, default_value = "table3d")]
+    pub method: String,
+    /// Tables baked by `tetlut bake` instead of --tf/--method.
+    #[arg(long, conflicts_with_all = ["tf", "colormap", "opacity_scale", "save_tf"])]
+    pub lut: Option<PathBuf>,
+    /// Scalar range LO,HI for a normalized transfer function.
+    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
+    pub range: Option<(f64, f64)>,
+    #[command(flatten)]
+    pub camera: crate::camera_args::CameraArgs,
+    #[command(flatten)]
+    pub display: crate::camera_args::DisplayArgs,
+    /// Degrees of azimuth the camera turns over the animation, from the
+    /// view the camera flags give (360: one orbit that loops seamlessly).
+    /// Default: 360 for a bundle without time steps, 0 for a time series.
+    #[arg(long, allow_hyphen_values = true)]
+    pub orbit: Option<f64>,
+    /// Times T0,T1 of the first and last frame (a time-series bundle;
+    /// default: its first and last step), linear in between.
+    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
+    pub time_range: Option<(f64, f64)>,
+    /// Number of frames (default: one a time step for a time series, 36
+    /// for an orbit).
+    #[arg(long)]
+    pub frames: Option<u32>,
+    /// Frames per second of the animated PNG.
+    #[arg(long, default_value_t = 12.0)]
+    pub fps: f64,
+    /// CPU algorithm (as `render --renderer`).
+    #[arg(long, default_value = "walk")]
+    pub renderer: tet_render::CpuRenderer,
+    /// Render on the GPU (as `render --gpu`: GPU methods, no lighting).
+    #[arg(long)]
+    pub gpu: bool,
+    /// Draw every tet (turn off culling of invisible cells).
+    #[arg(long)]
+    pub no_cull: bool,
+    /// The animated PNG (APNG; viewers without APNG show the first frame).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write every frame as DIR/frame_0000.png, … (DIR is created).
+    #[arg(long)]
+    pub frames_dir: Option<PathBuf>,
+    /// Print statistics as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Most bytes of linear frames kept for the sequence's tone-mapping fit.
+const MAX_KEPT_BYTES: u64 = 8 << 30;
+
+/// The CPU or GPU renderer of the animation.
+enum Animator {
+    Cpu(Box<CpuFrameRenderer>),
+    Gpu(Box<GpuFrameRenderer>),
+}
+
+impl Animator {
+    fn render(&mut self, look: &Look, req: &FrameRequest) -> Result<Frame, EngineError> {
+        match self {
+            Animator::Cpu(r) => r.render(look, req, &|_, _| {}),
+            Animator::Gpu(r) => r.render(look, req, &|_, _| {}),
+        }
+    }
+    fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), EngineError> {
+        match self {
+            Animator::Cpu(r) => r.set_scalar(scalar),
+            Animator::Gpu(r) => r.set_scalar(scalar),
+        }
+    }
+}
+
+/// Where frame `i` of `n` is: its azimuth offset and its time.
+fn frame_at(i: u32, n: u32, orbit: f64, times: Option<(f64, f64)>) -> (f64, Option<f64>) {
+    let azimuth = orbit * i as f64 / n as f64;
+    let time = times.map(|(t0, t1)| if n > 1 { t0 + (t1 - t0) * i as f64 / (n - 1) as f64 } else { t0 });
+    (azimuth, time.map(|t| t.min(times.map_or(t, |r| r.1))))
+}
+
+pub fn run(args: &AnimateArgs) -> Result<()> {
+    let start = Instant::now();
+    let bundle = tet_bundle::Bundle::read(&args.bundle)?;
+    crate::cli::warn_if_constant_scalar(&bundle);
+    let steps = bundle.steps.clone();
+    let times = match (&steps, args.time_range) {
+        (None, Some((a, b))) => {
+            return Err(usage(format!(
+                "--time-range {a},{b}: {} has no time steps (convert a .pvd, .series or --all-steps input)",
+                args.bundle.display()
+            )))
+        }
+        (Some(st), range) => {
+            let (first, last) = (st.times()[0], st.times()[st.len() - 1]);
+            let (t0, t1) = range.unwrap_or((first, last));
+            if t0 < first || t1 > last {
+                return Err(usage(format!(
+                    "--time-range {t0},{t1}: outside the bundle's steps, {first} to {last} ({})",
+                    args.bundle.display()
+                )));
+            }
+            Some((t0, t1))
+        }
+        (None, None) => None,
+    };
+    let orbit = args.orbit.unwrap_or(if times.is_some() { 0.0 } else { 360.0 });
+    if !orbit.is_finite() {
+        return Err(usage(format!("--orbit {orbit}: need a finite angle")));
+    }
+    let n = args.frames.unwrap_or(match &steps {
+        Some(st) if args.time_range.is_none() => st.len() as u32,
+        _ => 36,
+    });
+    if n == 0 || n > 100_000 {
+        return Err(usage(format!("--frames {n}: need 1 to 100000")));
+    }
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        return Err(usage(format!("--fps {}: need a positive rate", args.fps)));
+    }
+    if times.is_none() && orbit == 0.0 && n > 1 {
+        eprintln!("warning: no time steps and --orbit 0: every frame is the same picture");
+    }
+
+    let lut = match &args.lut {
+        Some(path) => Some((LutFile::read(path)?, path.clone())),
+        None => None,
+    };
+    let (tf, method) = match &lut {
+        Some((lut, path)) => Look::lut_tf_and_method(lut, path)?,
+        None => {
+            let method: Method = args.method.parse()?;
+            (crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?, method)
+        }
+    };
+    let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
+    let base = args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
+    let request = |view| FrameRequest { cpu: args.renderer, cull: !args.no_cull, ..FrameRequest::new(view) };
+    if args.gpu {
+        if let Err(why) = GpuFrameRenderer::supports(method, &request(base.clone())) {
+            return Err(usage(format!("--gpu: {why}; run without --gpu to render on the CPU")));
+        }
+    }
+    let display = args.display.display();
+    let frame_bytes = base.size[0] as u64 * base.size[1] as u64 * 16;
+    let keep_linear = display.tonemap != ToneMap::None;
+    if keep_linear && frame_bytes * n as u64 > MAX_KEPT_BYTES {
+        return Err(usage(format!(
+            "{n} frames of {}x{} are {:.1} GiB of linear images for the animation's one tone-mapping fit \
+             (at most {} GiB): fewer frames, a smaller --size, or --tonemap none (no fit, frames streamed)",
+            base.size[0],
+            base.size[1],
+            (frame_bytes * n as u64) as f64 / (1u64 << 30) as f64,
+            MAX_KEPT_BYTES >> 30
+        )));
+    }
+    let mut animator = if args.gpu {
+        let r = GpuFrameRenderer::new(&bundle, scene, GpuFrameOptions::default()).map_err(|e| match &e {
+            EngineError::Gpu { kind: tet_engine::GpuFailure::NoDevice, .. } => {
+                fail(ExitKind::NoGpu, format!("--gpu: {e}; run without --gpu to render on the CPU"))
+            }
+            _ => e.into(),
+        })?;
+        Animator::Gpu(Box::new(r))
+    } else {
+        Animator::Cpu(Box::new(CpuFrameRenderer::from_scene(scene)))
+    };
+    let look = match &lut {
+        Some((lut, path)) => Look::from_lut_file(lut, path)?,
+        None => Look::bake(&bundle, method, tf)?,
+    };
+    if let Some(dir) = &args.frames_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display())).kind(ExitKind::Output)?;
+    }
+
+    let bar = if args.json { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(n as u64) };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} frames ({eta} left)")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_message("rendering");
+    let (mut linear, mut rgba8): (Vec<Image>, Vec<Vec<u8>>) = (Vec::new(), Vec::new());
+    let (mut render_seconds, mut crossings) = (0.0, 0u64);
+    let mut notes: Vec<String> = Vec::new();
+    let mut last_time = None;
+    for i in 0..n {
+        let (azimuth, time) = frame_at(i, n, orbit, times);
+        if let (Some(t), Some(st)) = (time, &steps) {
+            if last_time != Some(t) {
+                animator.set_scalar(st.scalar_at(t).map_err(|e| usage(format!("frame {i}: {e}")))?)?;
+                last_time = Some(t);
+            }
+        }
+        let t = Instant::now();
+        let view = if azimuth == 0.0 { base.clone() } else { base.orbit(azimuth, 0.0, 1.0) };
+        let frame = animator.render(&look, &request(view))?;
+        render_seconds += t.elapsed().as_secs_f64();
+        if let FrameStats::Cpu(s) = &frame.stats {
+            crossings += s.crossings;
+        }
+        for note in frame.notes {
+            if !notes.contains(&note) {
+                eprintln!("note: {note}");
+                notes.push(note);
+            }
+        }
+        if keep_linear {
+            linear.push(frame.image);
+        } else {
+            let px = frame.image.to_rgba8(&display);
+            write_frame(args, i, &base.size, &px)?;
+            rgba8.push(px);
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let fit = Reinhard::fit_sequence(&linear, &display);
+    if let Some(op) = &fit {
+        for (i, img) in linear.iter().enumerate() {
+            let px = img.to_rgba8_with(&display, op);
+            write_frame(args, i as u32, &base.size, &px)?;
+            rgba8.push(px);
+        }
+    }
+    write_apng_rgba8(&args.output, base.size[0], base.size[1], &rgba8, args.fps)?;
+    let total = start.elapsed().as_secs_f64();
+    if args.json {
+        let v = serde_json::json!({
+            "frames": n,
+            "size": base.size,
+            "fps": args.fps,
+            "orbit_degrees": orbit,
+            "time_range": times.map(|(a, b)| [a, b]),
+            "method": method.id(),
+            "renderer": if args.gpu { "gpu" } else { args.renderer.id() },
+            "render_seconds": render_seconds,
+            "seconds_per_frame": render_seconds / n as f64,
+            "crossings": crossings,
+            "tables_baked": tet_engine::tables_baked(),
+            "total_seconds": total,
+            "output": args.output.display().to_string(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        eprintln!(
+            "{n} frames {}x{} ({method}, {}{}{}) in {total:.2} s ({:.3} s a frame) → {}",
+            base.size[0],
+            base.size[1],
+            if args.gpu { "gpu" } else { args.renderer.id() },
+            if orbit != 0.0 { format!(", orbit {orbit}°") } else { String::new() },
+            times.map_or(String::new(), |(a, b)| format!(", t = {a} to {b}")),
+            render_seconds / n as f64,
+            args.output.display()
+        );
+    }
+    Ok(())
+}
+
+fn write_frame(args: &AnimateArgs, i: u32, size: &[u32; 2], px: &[u8]) -> Result<()> {
+    if let Some(dir) = &args.frames_dir {
+        tet_render::image::write_png_rgba8(&dir.join(format!("frame_{i:04}.png")), size[0], size[1], px)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_span_the_times_and_an_orbit_loops() {
+        assert_eq!(frame_at(0, 4, 360.0, None), (0.0, None));
+        assert_eq!(frame_at(2, 4, 360.0, None), (180.0, None));
+        let t: Vec<f64> = (0..4).map(|i| frame_at(i, 4, 0.0, Some((2.0, 5.0))).1.unwrap()).collect();
+        assert_eq!(t, [2.0, 3.0, 4.0, 5.0]);
+        assert_eq!(frame_at(0, 1, 90.0, Some((1.0, 2.0))), (0.0, Some(1.0)));
+    }
+}

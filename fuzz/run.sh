@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus openfoam raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus openfoam series raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -72,6 +72,10 @@ for c in 64BitFloats; do
 done
 pm="$data"/openfoam/cavity/constant/polyMesh
 { cat "$pm"/points; printf '\0'; cat "$pm"/faces; printf '\0'; cat "$pm"/owner; printf '\0'; cat "$pm"/neighbour; } > corpus/openfoam/cavity
+# Time series: the Isabel .pvd (kind byte 0) and .series JSON (kind byte 1).
+mkdir -p corpus/series
+{ printf '\0'; cat "$data"/series/isabel_eye.pvd; } > corpus/series/pvd
+{ printf '\1'; cat "$data"/series/isabel_eye.vti.series; } > corpus/series/json
 { head -c 3000 "$data"/tetgen/twobox.1.node; printf '\0'; head -c 3000 "$data"/tetgen/twobox.1.ele; } > corpus/tetgen/twobox
 status=0
 for t in "${targets[@]}"; do

@@ -29,7 +29,19 @@ type ScriptResult = Arc<Mutex<Option<Result<(), String>>>>;
 pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
     let bundle = Bundle::read(&opts.bundle)?;
     let engine = Engine::new(&bundle, !opts.cpu_only)?;
-    let scalar_range = engine.scene().scalar_range();
+    let scalar_range = engine.scalar_range();
+    let time_steps: Option<Vec<f64>> = engine.time_steps().map(|st| st.times().to_vec());
+    if let (Some(t), Some(times)) = (opts.time, &time_steps) {
+        if !(t >= times[0] && t <= times[times.len() - 1]) {
+            return Err(ViewerError::Input(format!(
+                "time {t} is outside the bundle's steps, {} to {}",
+                times[0],
+                times[times.len() - 1]
+            )));
+        }
+    } else if let (Some(t), None) = (opts.time, &time_steps) {
+        return Err(ViewerError::Input(format!("time {t}: the bundle has no time steps")));
+    }
     let (lo, hi) = engine.scene().bounds();
     // The TF `tetview render` would use: tet_preint's one loader for `tf`
     // (tetkit JSON or a ParaView preset, unit distance 1 as in the CLIs),
@@ -100,6 +112,8 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
                 result,
             );
             app.histograms = histograms;
+            app.time = time_steps.as_ref().map(|times| app.time.unwrap_or(times[0]));
+            app.time_steps = time_steps;
             if let Some(w) = constant_warning {
                 app.status = format!("warning: {w}");
             }
@@ -222,6 +236,8 @@ struct Script {
     frames: usize,
     done: usize,
     spin_deg: f64,
+    /// Time advanced between frames (clamped to the last step).
+    time_step: f64,
     path: PathBuf,
     requested: bool,
     started: Instant,
@@ -231,6 +247,9 @@ struct Script {
 struct ViewerApp {
     model: TfModel,
     scalar_range: [f64; 2],
+    /// A time series' step times and the time shown (the slider's).
+    time_steps: Option<Vec<f64>>,
+    time: Option<f64>,
     editor: EditorState,
     widgets: WidgetState,
     /// The bundle's joint (scalar, |∇s|) histogram, under the 2D widget editor.
@@ -290,6 +309,7 @@ impl ViewerApp {
                 frames: frames.max(1),
                 done: 0,
                 spin_deg: opts.spin_deg,
+                time_step: opts.time_step,
                 path: path.clone(),
                 requested: false,
                 started: Instant::now(),
@@ -300,6 +320,8 @@ impl ViewerApp {
         ViewerApp {
             model,
             scalar_range,
+            time_steps: None,
+            time: opts.time,
             editor: EditorState { drag: None, selected_color: None, a_max },
             widgets: WidgetState::default(),
             histograms: None,
@@ -415,10 +437,28 @@ impl ViewerApp {
             table_n_s: self.table_n_s,
             prefer_gpu: self.prefer_gpu,
             display: self.display(),
+            time: self.time,
         })
     }
 
     fn controls(&mut self, ui: &mut egui::Ui) {
+        if let (Some(times), Some(t)) = (&self.time_steps, &mut self.time) {
+            ui.heading("Time");
+            let (first, last) = (times[0], times[times.len() - 1]);
+            ui.add(egui::Slider::new(t, first..=last).text("time"));
+            // The step at or before the time, and stepping buttons.
+            let k = times.partition_point(|&x| x <= *t).saturating_sub(1);
+            ui.horizontal(|ui| {
+                if ui.button("< step").clicked() {
+                    *t = times[if times[k] < *t { k } else { k.saturating_sub(1) }];
+                }
+                ui.label(format!("step {} of {} (t = {})", k + 1, times.len(), times[k]));
+                if ui.button("step >").clicked() {
+                    *t = times[(k + 1).min(times.len() - 1)];
+                }
+            });
+            ui.separator();
+        }
         ui.heading("Render");
         egui::ComboBox::from_label("method").selected_text(self.method.id()).show_ui(ui, |ui| {
             for m in Method::ALL {
@@ -797,6 +837,9 @@ impl ViewerApp {
         s.done += 1;
         if s.done < s.frames {
             self.view = nav::orbit(&self.view, -s.spin_deg / nav::ORBIT_DEG_PER_PX, 0.0);
+            if let (Some(t), Some(times)) = (&mut self.time, &self.time_steps) {
+                *t = (*t + s.time_step).min(times[times.len() - 1]);
+            }
         } else {
             s.requested = true;
             request_screenshot(ctx, s.path.clone(), self.shot_slot.clone());

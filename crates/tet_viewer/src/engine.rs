@@ -47,6 +47,9 @@ pub struct FrameRequest {
     /// Use tet_gpu when it can render `method`.
     pub prefer_gpu: bool,
     pub display: Display,
+    /// A time-series bundle's time (`None`: the scalar as loaded, the
+    /// first step).
+    pub time: Option<f64>,
 }
 
 impl FrameRequest {
@@ -58,6 +61,7 @@ impl FrameRequest {
             && self.table_n_s == other.table_n_s
             && self.prefer_gpu == other.prefer_gpu
             && self.display == other.display
+            && self.time == other.time
     }
 }
 
@@ -203,6 +207,11 @@ pub struct Engine {
     /// Segments through the bundle's cells, measured by every certified
     /// bake besides its own sets ([`tet_preint::certify::cell_triples`]).
     cells: Arc<Vec<[f32; 3]>>,
+    /// A time series' steps, and the time the scene's scalar is at.
+    steps: Option<tet_bundle::TimeSteps>,
+    time: Option<f64>,
+    /// The range a normalized TF spans (every step's, for a series).
+    scalar_range: [f64; 2],
 }
 
 impl Engine {
@@ -237,6 +246,9 @@ impl Engine {
             certifier: Certifier::default(),
             cert_wanted: None,
             cells,
+            steps: bundle.steps.clone(),
+            time: None,
+            scalar_range: bundle.scalar_range().into(),
         })
     }
 
@@ -264,9 +276,38 @@ impl Engine {
     pub fn domain(&self) -> &TableDomain {
         &self.domain
     }
+    /// The time steps of a time-series bundle.
+    pub fn time_steps(&self) -> Option<&tet_bundle::TimeSteps> {
+        self.steps.as_ref()
+    }
+    /// The scalar range a normalized TF spans: over every step for a time
+    /// series (so colours mean the same at every time), else the scene's.
+    pub fn scalar_range(&self) -> [f64; 2] {
+        self.scalar_range
+    }
+
+    /// Moves the scene's scalar to `time` (a time series; `None` keeps it):
+    /// the CPU renderer keeps its per-scene walker links, the GPU its mesh;
+    /// what the scalar feeds (culls, gradients) is redone.
+    fn apply_time(&mut self, time: Option<f64>) -> Result<(), ViewerError> {
+        let (Some(t), Some(steps)) = (time, &self.steps) else { return Ok(()) };
+        if self.time == Some(t) {
+            return Ok(());
+        }
+        let scalar = steps.scalar_at(t).map_err(|e| ViewerError::Input(e.to_string()))?;
+        if let Some(g) = &mut self.gpu {
+            g.scene.set_scalar(&g.ctx, &scalar)?;
+            g.gradients = false;
+        }
+        self.cpu.set_scalar(scalar)?;
+        self.mask = None;
+        self.time = Some(t);
+        Ok(())
+    }
 
     /// Renders `req`, recomputing only what changed since the last call.
     pub fn render(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
+        self.apply_time(req.time)?;
         let use_gpu = req.prefer_gpu && self.gpu.is_some() && gpu_supports(req.method);
         if use_gpu {
             return self.render_gpu(req);
@@ -575,6 +616,7 @@ mod tests {
             table_n_s: 32,
             prefer_gpu,
             display: Display::default(),
+            time: None,
         }
     }
 
@@ -658,6 +700,7 @@ mod tests {
             table_n_s: 32,
             prefer_gpu: false,
             display: Display::default(),
+            time: None,
         };
         let plain = engine.render(&req).unwrap();
         assert_eq!(plain.stats.accuracy, TableAccuracy::Certifying);
@@ -767,6 +810,52 @@ mod tests {
             let c = cpu.render(&request(&cpu, &model, m, false)).unwrap();
             let d = tet_render::diff(&f.image, &c.image).unwrap();
             assert!(d.max_abs < 2.0 / 255.0 && d.mean_abs < 0.5 / 255.0, "{m}: {d:?}");
+        }
+    }
+
+    /// A time-series bundle: a new time redraws the scalar at that time
+    /// (the engine's frame equals a fresh engine on the bundle moved there
+    /// with `set_time`), on the CPU and, where an adapter exists, the GPU;
+    /// the TF's range is every step's; a time outside the steps is an error.
+    #[test]
+    fn a_new_time_draws_the_scalar_at_that_time() {
+        let mut bundle = sample_bundle();
+        let n = bundle.mesh.points.len();
+        let steps: Vec<Vec<f64>> =
+            (0..3).map(|k| (0..n).map(|i| ((i * 7 + k * 3) % 11) as f64 * 0.1 + k as f64).collect()).collect();
+        let st = tet_bundle::TimeSteps::new(vec![0.0, 1.0, 2.0], steps, vec![String::new(); 3]).unwrap();
+        let range: [f64; 2] = st.scalar_range().into();
+        bundle = bundle.with_steps(st).unwrap();
+        for try_gpu in [false, true] {
+            let mut engine = Engine::new(&bundle, try_gpu).unwrap();
+            if try_gpu && !engine.has_gpu() {
+                assert!(!tet_gpu::gpu_required(), "TETKIT_REQUIRE_GPU is set but there is no adapter");
+                continue;
+            }
+            assert_eq!(engine.scalar_range(), range);
+            let model = TfModel::new(
+                &TransferFunction::from_json(
+                    r#"{"color": [[0, 1, 0, 0], [3, 0, 0, 1]],
+                "opacity": [[0, 0.5], [1.5, 3], [3, 1]], "unit_distance": 1}"#,
+                )
+                .unwrap(),
+                engine.scalar_range(),
+            )
+            .unwrap();
+            let mut req = request(&engine, &model, Method::PtLinear, try_gpu);
+            let first = engine.render(&req).unwrap();
+            req.time = Some(1.25);
+            let moved = engine.render(&req).unwrap();
+            assert_ne!(moved.image.pixels(), first.image.pixels());
+            let mut there = bundle.clone();
+            there.set_time(1.25).unwrap();
+            let mut fresh = Engine::new(&there, try_gpu).unwrap();
+            req.time = None;
+            let want = fresh.render(&req).unwrap();
+            assert_eq!(moved.image.pixels(), want.image.pixels(), "gpu {try_gpu}");
+            req.time = Some(2.5);
+            let Err(e) = engine.render(&req) else { panic!("time 2.5 is outside the steps") };
+            assert!(e.to_string().contains("outside"), "{e}");
         }
     }
 }

@@ -108,6 +108,11 @@ pub struct ViewerOptions {
     pub screenshot: Option<PathBuf>,
     /// Scripted run: degrees of azimuth between frames (exercises re-sorting).
     pub spin_deg: f64,
+    /// A time-series bundle's time to open at (`None`: its first step);
+    /// the window's time slider moves it.
+    pub time: Option<f64>,
+    /// Scripted run: time advanced between frames (exercises new scalars).
+    pub time_step: f64,
 }
 
 impl ViewerOptions {
@@ -125,6 +130,8 @@ impl ViewerOptions {
             frames: None,
             screenshot: None,
             spin_deg: 0.0,
+            time: None,
+            time_step: 0.0,
         }
     }
 }

@@ -55,6 +55,13 @@ pub struct ViewArgs {
     /// PNG of the window's contents, written after --frames.
     #[arg(long, requires = "frames")]
     pub screenshot: Option<PathBuf>,
+    /// A time-series bundle's time to open at (default: its first step);
+    /// the window's time slider moves it.
+    #[arg(long, allow_hyphen_values = true)]
+    pub time: Option<f64>,
+    /// Scripted run: time advanced between frames (a time-series bundle).
+    #[arg(long, default_value_t = 0.0, requires = "frames")]
+    pub time_step: f64,
     /// Scripted run: degrees of azimuth between frames.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub spin: f64,
@@ -76,6 +83,8 @@ pub fn options(args: &ViewArgs) -> Result<tet_viewer::ViewerOptions> {
     opts.frames = args.frames;
     opts.screenshot = args.screenshot.clone();
     opts.spin_deg = args.spin;
+    opts.time = args.time;
+    opts.time_step = args.time_step;
     Ok(opts)
 }
 

@@ -290,3 +290,33 @@ fn view_of_a_constant_scalar_without_tf_is_rejected_as_render_is() {
     assert_eq!(out.status.code(), Some(4), "{err}");
     assert!(err.contains("the scalar is constant (0.75)") && err.contains("give --tf"), "{err}");
 }
+
+/// A time-series bundle in the window: a scripted run that moves the time
+/// slider every frame exits with its screenshot; a start time outside the
+/// steps is refused before a window opens.
+#[test]
+fn a_time_series_window_steps_through_time() {
+    let Some(x) = xvfb_or_skip() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = tet_bundle::Bundle::read(&samples().join("cube5.tetb")).unwrap();
+    let n = bundle.mesh.points.len();
+    let scalars: Vec<Vec<f64>> =
+        (0..3).map(|k| (0..n).map(|i| ((i * 5 + k) % 7) as f64 * 0.5 + k as f64).collect()).collect();
+    let steps = tet_bundle::TimeSteps::new(vec![0.0, 1.0, 2.0], scalars, vec![String::new(); 3]).unwrap();
+    let series = dir.path().join("series.tetb");
+    bundle.with_steps(steps).unwrap().write(&series).unwrap();
+    let shot = dir.path().join("shot.png");
+    let out = tetview_on(&x, dir.path())
+        .args([series.to_str().unwrap(), "--window", "640x420", "--frames", "4", "--time", "0.25"])
+        .args(["--time-step", "0.5", "--screenshot", shot.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{:?}: {}", out.status, String::from_utf8_lossy(&out.stderr));
+    assert!(shot.exists());
+    let out = tetview_on(&x, dir.path())
+        .args([series.to_str().unwrap(), "--time", "9", "--frames", "1", "--screenshot", shot.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("outside the bundle's steps, 0 to 2"), "{err}");
+}

@@ -13,7 +13,7 @@
 //! linear: trapezoid; box: ρ·d; triangle: linear; sine: sinc form; Gaussian:
 //! erfcx form, [`gaussian_depth`]), so α is exact. The colour is exact in
 //! closed form when one part carries the piece — density emission: a widget
-//! alone gives C = c·α (the DESIGN note), the 1D part alone goes through
+//! alone gives C = c·α (docs/design.md, §1), the 1D part alone goes through
 //! [`crate::integrate_segment`]; independent emission: the 1D part alone.
 //! Where parts overlap (or a widget emits independently of its extinction),
 //! C = ∫ E·T is integrated by panelled 8-point Gauss–Legendre with T from the
@@ -25,8 +25,8 @@
 //! the piece: C = (κ₁D + c)·l/k·W(P, u₀, u₁) from Song et al.'s (2009) Gaussian table
 //! ([`GaussErfTable`], built once per `BivExact` when the TF has such a
 //! widget) instead of the quadrature; P beyond the table falls back to it.
-//! Likewise a piece carried by one triangle- or sine-wave widget uses seed
-//! 004's band tables ([`BandTable`], one per kind present): the piece lies
+//! Likewise a piece carried by one triangle- or sine-wave widget uses Song
+//! et al.'s (2009) band tables ([`BandTable`], one per kind present): the piece lies
 //! within half a period, so its phase φ is monotone and
 //! C = (κ₁D + c)·l/|dφ/dx|·W(P, φ₀, φ₁).
 

@@ -22,8 +22,8 @@
 //!   cool-to-warm, turbo, grayscale); [`choose_tf`] is what the CLIs call.
 //! * [`Widget`] (module [`widget`]): 2D (scalar × |∇s|) widgets of Song et al. 2009;
 //!   [`BivExact`], [`BivApprox`] and [`FbTable`] (module [`bivariate`]);
-//!   [`GaussErfTable`] and [`BandTable`] (module [`biv_tables`]), seed
-//!   004's Gaussian, triangle- and sine-wave tables for the emission-only
+//!   [`GaussErfTable`] and [`BandTable`] (module [`biv_tables`]), Song
+//!   et al.'s (2009) Gaussian, triangle- and sine-wave tables for the emission-only
 //!   model ([`BivTables`]).
 //!
 //! ```

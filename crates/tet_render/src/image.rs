@@ -7,7 +7,9 @@
 //! without a transfer curve, which is what VTK's framebuffer holds and so
 //! what comparisons with other renderers need — or `ToneMap::Reinhard`,
 //! Reinhard's global operator on luminance with the log-average luminance
-//! of the covered pixels (seed 001), colour kept, followed by the sRGB curve.
+//! of the covered pixels (as in Vollrath, Weiskopf & Ertl, "A Generic Software
+//! Framework for the GPU Volume Rendering Pipeline", VMV 2005), colour kept,
+//! followed by the sRGB curve.
 //! [`PictureMetrics`] measures what a viewer sees in the 8-bit result.
 
 use crate::RenderError;

@@ -1,5 +1,7 @@
 //! The renderer as stages that recompute only what a change invalidates
-//! (seed 001's shared state with change notification, done with types):
+//! (the shared state with change notification of Vollrath, Weiskopf & Ertl,
+//! "A Generic Software Framework for the GPU Volume Rendering Pipeline",
+//! VMV 2005, done with types):
 //!
 //! | change | invalidates |
 //! |---|---|

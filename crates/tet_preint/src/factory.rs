@@ -17,7 +17,10 @@
 //!   segment); `biv-approx` bakes the F/B table.
 //!
 //! Default resolutions ([`BakeOptions::default`]): table3d 128 × 128 × 256
-//! f32 (slice recurrence, o = 2); atlas2d from that table with N planes;
+//! f32 on the data-following scalar axis with every TF control point a
+//! sample, built adaptively ([`crate::Table3dParams::data`]; the GPU's
+//! on-device bake runs the slice recurrence on the same axis); atlas2d from
+//! a table with N planes;
 //! partial Ψ 1024² f32; poly1/2/4 at 512² f32; biv-approx F/B at 128² f32
 //! with 4 sub-segments. Their bake times and errors on Blunt Fin, measured
 //! by `tetlut bench`, are in `crates/tetlut/results/bluntfin.md`; partial's

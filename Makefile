@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build install ci test test-gpu gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
+.PHONY: all build install ci test test-gpu python-test python-deps gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -29,6 +29,30 @@ test: gpu-driver viewer-deps
 	trap '[ -z "$$d" ] || rm -rf "$$d"' EXIT; \
 	echo "$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc"; \
 	$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc
+	$(MAKE) python-test
+
+## The Python package (python/, the native module crates/tet_python): a virtual environment
+## in cargo's target directory with maturin, pytest and numpy from the registry, the package
+## built in release (`maturin develop`), and its tests run against the tetview binary the
+## cargo tests built (renders equal bit for bit).
+TARGET_DIR = $(abspath $(or $(CARGO_TARGET_DIR),target))
+PYVENV ?= $(TARGET_DIR)/pyvenv
+python-test: python-deps
+	@test -x $(PYVENV)/bin/python || python3 -m venv $(PYVENV)
+	$(PYVENV)/bin/python -m pip install -q --upgrade "maturin>=1.5,<2" pytest numpy
+	cd python && VIRTUAL_ENV=$(PYVENV) PATH="$(PYVENV)/bin:$$PATH" maturin develop --release -q
+	$(CARGO) build -q -p tetview
+	TETVIEW=$(TARGET_DIR)/debug/tetview $(PYVENV)/bin/python -m pytest -q python/tests
+
+## Python 3 with venv and its headers for the Python package, installed with apt-get when
+## missing (needs root or passwordless sudo, otherwise prints a note and the Python tests fail).
+python-deps:
+	@if ! python3 -c "import venv, ensurepip, sysconfig" >/dev/null 2>&1; then \
+		if command -v apt-get >/dev/null 2>&1 && { [ "$$(id -u)" = 0 ] || sudo -n true 2>/dev/null; }; then \
+			SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+			$$SUDO apt-get install -y python3 python3-venv python3-dev || { $$SUDO apt-get update && $$SUDO apt-get install -y python3 python3-venv python3-dev; }; \
+		else echo "note: no python3 with venv, and it cannot be installed here (needs apt-get and root or sudo)"; fi; \
+	fi
 
 ## What CI runs (.ci/run): formatting and clippy (-D warnings), then the whole suite with
 ## every GPU test required to find an adapter (gpu-driver installs Mesa's lavapipe where no

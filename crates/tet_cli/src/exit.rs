@@ -209,6 +209,22 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             E::Tf(_) | E::Domain(_) | E::Lut(_) | E::Render(_) => None,
         };
     }
+    if let Some(e) = cause.downcast_ref::<tet_convert::ConvertError>() {
+        use tet_convert::ConvertError as C;
+        return match e {
+            // Point-cloud options for a mesh, a series of clouds: the request.
+            C::CloudOptions { .. } | C::CloudSeries { .. } => Some(Usage),
+            C::BadSteps { .. } => Some(Input),
+            // The reader's, the triangulation's or the mesh's error decides.
+            C::Read(_)
+            | C::Steps { .. }
+            | C::ReadStep { .. }
+            | C::Cloud { .. }
+            | C::Mesh { .. }
+            | C::Invalid { .. }
+            | C::Step { .. } => None,
+        };
+    }
     if let Some(e) = cause.downcast_ref::<tet_io::ReadError>() {
         return Some(match e {
             tet_io::ReadError::MissingOption { .. } => Usage,

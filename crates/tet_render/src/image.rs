@@ -373,6 +373,11 @@ fn unit_to_u8(v: f32) -> u8 {
 
 /// Writes 8-bit RGBA rows (row 0 at the top) as a PNG, atomically.
 pub fn write_png_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<(), RenderError> {
+    write_atomic(path, &encode_png_rgba8(width, height, rgba)?)
+}
+
+/// The bytes of an 8-bit RGBA PNG (`rgba`: width × height × 4 values).
+pub fn encode_png_rgba8(width: u32, height: u32, rgba: &[u8]) -> Result<Vec<u8>, RenderError> {
     let mut bytes = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut bytes, width, height);
@@ -381,7 +386,7 @@ pub fn write_png_rgba8(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Res
         let mut w = enc.write_header().map_err(|e| RenderError::Png(e.to_string()))?;
         w.write_image_data(rgba).map_err(|e| RenderError::Png(e.to_string()))?;
     }
-    write_atomic(path, &bytes)
+    Ok(bytes)
 }
 
 /// Writes an animated PNG (APNG): `frames` of 8-bit RGBA, each

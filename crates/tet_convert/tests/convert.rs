@@ -1,0 +1,34 @@
+//! The conversion as a library: stages reported in order with their
+//! timings, time series mapped, and requests that do not fit the input
+//! refused with errors naming it.
+
+use std::path::{Path, PathBuf};
+use tet_convert::{convert, ConvertError, ConvertRequest, Stage};
+
+fn data(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(p)
+}
+
+#[test]
+fn stages_timings_and_time_steps() {
+    let mut stages = vec![];
+    let done = convert(&data("series/isabel_eye.pvd"), &ConvertRequest::default(), &mut |s| stages.push(s)).unwrap();
+    assert_eq!(stages[0], Stage::Reading);
+    assert!(stages.contains(&Stage::Adjacency));
+    assert_eq!(stages.last(), Some(&Stage::TimeStep { index: 4, count: 4, label: "isabel_eye_05.vti".into() }));
+    let keys: Vec<&str> = done.timings.iter().map(|t| t.0).collect();
+    assert_eq!(keys, ["read", "select_scalar", "merge", "split", "validate", "adjacency_stats", "time_steps"]);
+    let st = done.bundle.steps.as_ref().unwrap();
+    assert_eq!(st.times(), [2.0, 3.0, 4.0, 5.0]);
+    assert_eq!(done.bundle.mesh.scalar, st.scalar(0));
+}
+
+#[test]
+fn requests_that_do_not_fit_the_input_are_refused() {
+    let req = ConvertRequest { max_circumradius: Some(1.0), ..Default::default() };
+    let e = convert(&data("vtk/hexa.vtk"), &req, &mut |_| {}).unwrap_err();
+    assert!(matches!(e, ConvertError::CloudOptions { .. }), "{e}");
+    assert!(e.to_string().contains("hexa.vtk"), "{e}");
+    let e = convert(&data("no/such.vtu"), &ConvertRequest::default(), &mut |_| {}).unwrap_err();
+    assert!(matches!(e, ConvertError::Read(_)), "{e}");
+}

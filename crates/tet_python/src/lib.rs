@@ -1,0 +1,472 @@
+//! The native module of the `tetkit` Python package (`tetkit._tetkit`,
+//! built by maturin from `python/pyproject.toml`): a thin client of
+//! [`tet_engine`] with numpy arrays in and out.
+//!
+//! Main types: [`PyBundle`] (Python `tetkit.Bundle`: a validated mesh with
+//! its scalar, face adjacency and time steps), the functions `load`, `read`,
+//! `from_arrays`, `render`, `reference`, `tonemap`, `diff` and `encode_png`,
+//! and the exceptions `TetkitError` (a `ValueError`: bad arguments or data)
+//! and `TetkitIOError` (an `OSError`: a file that cannot be read or
+//! written), whose messages are the command-line programs' (the same
+//! [`tet_cli::describe`] of the same error chain).
+//!
+//! Every call that does real work releases the GIL. Images are H×W×4
+//! float32 arrays of linear premultiplied RGBA, row 0 at the top, handed to
+//! numpy without a copy. The Python layer (`python/tetkit/__init__.py`)
+//! adds what is Python's own: notebook display, TF dicts, keyword defaults.
+//!
+//! No `#![forbid(unsafe_code)]`: PyO3's macros expand to `unsafe` FFI; this
+//! crate's own code has none.
+//!
+//! ```
+//! // The module's functions are Python-facing; in Rust the same engine
+//! // calls draw the same frame (what `render` does underneath).
+//! let bundle = tet_bundle::Bundle::read(std::path::Path::new(concat!(
+//!     env!("CARGO_MANIFEST_DIR"), "/../../formats/samples/cube5.tetb")))?;
+//! let view = tet_python::view_of(&bundle, None, 30.0, 20.0, 1.0, [16, 16])?;
+//! assert_eq!(view.size, [16, 16]);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use std::path::PathBuf;
+
+use numpy::ndarray::Array3;
+use numpy::{IntoPyArray, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+use tet_bundle::Bundle;
+use tet_cli::ExitKind;
+use tet_engine::{
+    resolve_tf, CpuFrameRenderer, FrameRenderer, FrameRequest, Look, ReferenceFrameRenderer, TfRequest, TfSource,
+};
+use tet_preint::{Colormap, Method, TransferFunction};
+use tet_render::{CpuRenderer, Display, Image, Light, Shading, ToneMap, ViewSpec};
+
+create_exception!(
+    _tetkit,
+    TetkitError,
+    PyValueError,
+    "tetkit could not do what was asked with these arguments or this data (the message is tetview's or tetprep's)."
+);
+create_exception!(_tetkit, TetkitIOError, PyOSError, "A file tetkit needed could not be read or written.");
+
+/// A Python exception for an error chain: its kind decides the class, the
+/// CLI's description is the message.
+fn py_err(e: anyhow::Error) -> PyErr {
+    let msg = tet_cli::describe(&e);
+    match ExitKind::of(&e) {
+        ExitKind::Input | ExitKind::Output => TetkitIOError::new_err(msg),
+        _ => TetkitError::new_err(msg),
+    }
+}
+
+fn arg_err(name: &str, what: impl std::fmt::Display) -> PyErr {
+    TetkitError::new_err(format!("{name}: {what}"))
+}
+
+/// A tetrahedral mesh with one scalar per point, its face adjacency and,
+/// for a time series, the scalar of every step.
+#[pyclass(name = "Bundle", module = "tetkit")]
+pub struct PyBundle {
+    pub bundle: Bundle,
+}
+
+#[pymethods]
+impl PyBundle {
+    /// Points, N×3 float64 (a copy).
+    #[getter]
+    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        let p = &self.bundle.mesh.points;
+        numpy::ndarray::Array2::from_shape_vec((p.len(), 3), p.as_flattened().to_vec()).expect("N×3").into_pyarray(py)
+    }
+    /// Tets, M×4 uint32 point indices, positively oriented (a copy).
+    #[getter]
+    fn tets<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<u32>> {
+        let t = &self.bundle.mesh.tets;
+        numpy::ndarray::Array2::from_shape_vec((t.len(), 4), t.as_flattened().to_vec()).expect("M×4").into_pyarray(py)
+    }
+    /// The scalar per point, float64 (a copy).
+    #[getter]
+    fn scalar<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray1<f64>> {
+        self.bundle.mesh.scalar.clone().into_pyarray(py)
+    }
+    #[getter]
+    fn scalar_name(&self) -> String {
+        self.bundle.mesh.scalar_name.clone()
+    }
+    /// (min, max) a normalized TF spans: over every time step of a series.
+    #[getter]
+    fn scalar_range(&self) -> (f64, f64) {
+        self.bundle.scalar_range()
+    }
+    /// ((xmin, ymin, zmin), (xmax, ymax, zmax)).
+    #[getter]
+    fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let s = &self.bundle.meta.stats;
+        (s.bounds_min, s.bounds_max)
+    }
+    #[getter]
+    fn num_points(&self) -> usize {
+        self.bundle.mesh.points.len()
+    }
+    #[getter]
+    fn num_tets(&self) -> usize {
+        self.bundle.mesh.tets.len()
+    }
+    /// The times of a time series' steps, or None.
+    #[getter]
+    fn times(&self) -> Option<Vec<f64>> {
+        self.bundle.steps.as_ref().map(|s| s.times().to_vec())
+    }
+    /// The conversion's findings (merged points, dropped cells, …).
+    #[getter]
+    fn findings(&self) -> Vec<String> {
+        self.bundle.meta.findings.clone()
+    }
+    /// A copy at time `t` of a time series (linear between steps).
+    fn at_time(&self, t: f64) -> PyResult<PyBundle> {
+        let mut b = self.bundle.clone();
+        b.set_time(t).map_err(|e| arg_err("time", e))?;
+        Ok(PyBundle { bundle: b })
+    }
+    /// Writes the bundle (.tetb) atomically.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.allow_threads(|| self.bundle.write(&path)).map_err(|e| py_err(e.into()))
+    }
+    fn __repr__(&self) -> String {
+        let b = &self.bundle;
+        let (lo, hi) = b.scalar_range();
+        let steps = b.steps.as_ref().map_or(String::new(), |s| format!(", {} time steps", s.len()));
+        format!(
+            "<tetkit.Bundle {} points, {} tets, scalar '{}' in [{lo}, {hi}]{steps}>",
+            b.mesh.points.len(),
+            b.mesh.tets.len(),
+            b.mesh.scalar_name
+        )
+    }
+}
+
+/// Reads a bundle written by `tetprep convert` (.tetb).
+#[pyfunction]
+fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyBundle> {
+    let bundle = py.allow_threads(|| Bundle::read(&path)).map_err(|e| py_err(e.into()))?;
+    Ok(PyBundle { bundle })
+}
+
+/// Reads any mesh, grid, volume or point cloud file tetprep reads and
+/// converts it as `tetprep convert` does with its defaults
+/// ([`tet_convert::convert`]: cells split into tets, duplicates merged,
+/// point clouds tetrahedralized by Delaunay, a `.pvd`/`.series` as a time
+/// series).
+#[pyfunction]
+#[pyo3(signature = (path, scalar=None, q=None, all_steps=false))]
+fn read(
+    py: Python<'_>,
+    path: PathBuf,
+    scalar: Option<String>,
+    q: Option<PathBuf>,
+    all_steps: bool,
+) -> PyResult<PyBundle> {
+    let request = tet_convert::ConvertRequest {
+        read: tet_io::ReadOptions { q_path: q, ..Default::default() },
+        convert: tet_mesh::ConvertOptions { scalar, ..Default::default() },
+        all_steps,
+        ..Default::default()
+    };
+    let bundle =
+        py.allow_threads(|| tet_convert::convert(&path, &request, &mut |_| {})).map_err(|e| py_err(e.into()))?.bundle;
+    Ok(PyBundle { bundle })
+}
+
+/// A bundle from arrays: points N×3 float64, tets M×4 integer indices (any
+/// orientation; flat tets are dropped), one scalar per point (length N) or
+/// per tet (length M, averaged onto the points by volume).
+#[pyfunction]
+fn from_arrays(
+    py: Python<'_>,
+    points: PyReadonlyArray2<'_, f64>,
+    tets: PyReadonlyArray2<'_, i64>,
+    scalars: PyReadonlyArray1<'_, f64>,
+) -> PyResult<PyBundle> {
+    let (p, t, s) = (points.as_array(), tets.as_array(), scalars.as_array());
+    if p.ncols() != 3 {
+        return Err(arg_err("points", format!("shape {:?}: need N×3", p.shape())));
+    }
+    if t.ncols() != 4 {
+        return Err(arg_err("tets", format!("shape {:?}: need M×4", t.shape())));
+    }
+    let (n, m) = (p.nrows(), t.nrows());
+    if let Some((i, _)) = p.outer_iter().enumerate().find(|(_, r)| !r.iter().all(|v| v.is_finite())) {
+        return Err(arg_err("points", format!("point {i} has a non-finite coordinate")));
+    }
+    if let Some((i, v)) = t.iter().enumerate().find(|(_, &v)| v < 0 || v as usize >= n) {
+        return Err(arg_err("tets", format!("tet {} refers to point {v}; there are {n} points", i / 4)));
+    }
+    let location = if s.len() == n {
+        "point"
+    } else if s.len() == m {
+        "cell"
+    } else {
+        return Err(arg_err("scalars", format!("length {}: need one a point ({n}) or one a tet ({m})", s.len())));
+    };
+    if let Some((i, v)) = s.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return Err(arg_err("scalars", format!("value {i} is {v}")));
+    }
+    let points: Vec<[f64; 3]> = p.outer_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let conn: Vec<u32> = t.iter().map(|&v| v as u32).collect();
+    let values: Vec<f64> = s.iter().copied().collect();
+    let bundle = py
+        .allow_threads(|| -> anyhow::Result<Bundle> {
+            let field = tet_mesh::Field::new("scalar", 1, values);
+            let mut cells = tet_mesh::Cells::new();
+            for t in conn.chunks_exact(4) {
+                cells.push(tet_mesh::CellType::Tetra, t);
+            }
+            let source = tet_mesh::SourceMesh {
+                format: "numpy arrays".into(),
+                points,
+                blocks: vec![tet_mesh::Block::Unstructured(cells)],
+                point_fields: if location == "point" { vec![field.clone()] } else { vec![] },
+                cell_fields: if location == "cell" { vec![field] } else { vec![] },
+                ..Default::default()
+            };
+            let opts = tet_mesh::ConvertOptions { scalar: Some("scalar".into()), ..Default::default() };
+            let (mesh, report) = tet_mesh::tetrahedralize(&source, &opts, &mut |_| {})?;
+            let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets)?;
+            let meta = tet_bundle::BundleMeta {
+                source_format: "numpy arrays".into(),
+                source_points: n as u64,
+                source_cells: m as u64,
+                split_tets: report.split_tets as u64,
+                findings: report.findings.iter().map(|f| f.to_string()).collect(),
+                ..Default::default()
+            };
+            Ok(Bundle::new(mesh, adjacency, meta))
+        })
+        .map_err(py_err)?;
+    Ok(PyBundle { bundle })
+}
+
+/// The view of `tetview render`: a VTK-fields view JSON, or the default
+/// framing of the bundle's bounds orbited by azimuth/elevation/zoom.
+pub fn view_of(
+    bundle: &Bundle,
+    view_json: Option<&str>,
+    azimuth: f64,
+    elevation: f64,
+    zoom: f64,
+    size: [u32; 2],
+) -> Result<ViewSpec, tet_render::RenderError> {
+    if size[0] == 0 || size[1] == 0 || size[0] > 16384 || size[1] > 16384 {
+        return Err(tet_render::RenderError::View(format!("size {}x{}: need 1 to 16384 a side", size[0], size[1])));
+    }
+    match view_json {
+        Some(text) => {
+            let mut v = ViewSpec::from_json(text)?;
+            v.size = size;
+            Ok(v)
+        }
+        None => {
+            let s = &bundle.meta.stats;
+            let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
+            Ok(ViewSpec::default_for(s.bounds_min, s.bounds_max, size, z_up, None)?.orbit(azimuth, elevation, zoom))
+        }
+    }
+}
+
+/// The TF of a request: JSON text (tf.md schema), a file, or the automatic
+/// TF with an optional colour map.
+fn tf_of(
+    bundle: &Bundle,
+    tf_json: Option<&str>,
+    tf_path: Option<PathBuf>,
+    colormap: Option<&str>,
+) -> anyhow::Result<TransferFunction> {
+    let source = match (tf_json, tf_path) {
+        (Some(text), _) => TfSource::Given(TransferFunction::from_json(text)?),
+        (None, Some(p)) => TfSource::File(p),
+        (None, None) => TfSource::Auto,
+    };
+    let colormap = colormap.map(|c| c.parse::<Colormap>()).transpose()?;
+    Ok(resolve_tf(bundle, &TfRequest { source, colormap, ..TfRequest::default() })?.tf)
+}
+
+fn image_to_py(py: Python<'_>, image: Image) -> Bound<'_, PyArray3<f32>> {
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let flat: Vec<f32> = image.pixels().as_flattened().to_vec();
+    Array3::from_shape_vec((h, w, 4), flat).expect("H×W×4").into_pyarray(py)
+}
+
+fn image_from_py(name: &str, a: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
+    let v = a.as_array();
+    let shape = v.shape();
+    if shape[2] != 4 {
+        return Err(arg_err(name, format!("shape {shape:?}: need H×W×4 float32 RGBA")));
+    }
+    let px: Vec<[f32; 4]> =
+        v.outer_iter().flat_map(|row| row.outer_iter().map(|p| [p[0], p[1], p[2], p[3]]).collect::<Vec<_>>()).collect();
+    Image::from_pixels(shape[1] as u32, shape[0] as u32, px).map_err(|e| arg_err(name, e))
+}
+
+/// Renders on the CPU as `tetview render` does (same TF policy, bake,
+/// renderer and view), returning H×W×4 float32 linear premultiplied RGBA.
+#[pyfunction]
+#[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, method="table3d", lut=None, view_json=None,
+    azimuth=0.0, elevation=0.0, zoom=1.0, size=(512, 512), renderer="walk", light=false, cull=true))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    bundle: &PyBundle,
+    tf_json: Option<&str>,
+    tf_path: Option<PathBuf>,
+    colormap: Option<&str>,
+    method: &str,
+    lut: Option<PathBuf>,
+    view_json: Option<&str>,
+    azimuth: f64,
+    elevation: f64,
+    zoom: f64,
+    size: (u32, u32),
+    renderer: &str,
+    light: bool,
+    cull: bool,
+) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    let b = &bundle.bundle;
+    let image = py
+        .allow_threads(|| -> anyhow::Result<Image> {
+            let look = match &lut {
+                Some(p) => Look::from_lut(p)?,
+                None => Look::bake(b, method.parse::<Method>()?, tf_of(b, tf_json, tf_path.clone(), colormap)?)?,
+            };
+            let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
+            let cpu: CpuRenderer =
+                renderer.parse().map_err(|e: String| anyhow::Error::msg(format!("renderer: {e}")))?;
+            let request = FrameRequest {
+                shading: Shading { light: light.then(Light::default), silhouette: None },
+                cpu,
+                cull,
+                ..FrameRequest::new(view)
+            };
+            let mut r = CpuFrameRenderer::new(b)?;
+            Ok(r.render(&look, &request, &|_, _| {})?.image)
+        })
+        .map_err(py_err)?;
+    Ok(image_to_py(py, image))
+}
+
+/// The exact ray-cast reference of the same view and TF (`tetview
+/// reference`), H×W×4 float32.
+#[pyfunction]
+#[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, view_json=None, azimuth=0.0, elevation=0.0,
+    zoom=1.0, size=(512, 512)))]
+#[allow(clippy::too_many_arguments)]
+fn reference<'py>(
+    py: Python<'py>,
+    bundle: &PyBundle,
+    tf_json: Option<&str>,
+    tf_path: Option<PathBuf>,
+    colormap: Option<&str>,
+    view_json: Option<&str>,
+    azimuth: f64,
+    elevation: f64,
+    zoom: f64,
+    size: (u32, u32),
+) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    let b = &bundle.bundle;
+    let image = py
+        .allow_threads(|| -> anyhow::Result<Image> {
+            let tf = tf_of(b, tf_json, tf_path.clone(), colormap)?;
+            let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
+            let mut r = ReferenceFrameRenderer::new(b)?;
+            Ok(r.render(&Look::exact(tf), &FrameRequest::new(view), &|_, _| {})?.image)
+        })
+        .map_err(py_err)?;
+    Ok(image_to_py(py, image))
+}
+
+fn display(exposure: f32, background: (f32, f32, f32), reinhard: bool) -> PyResult<Display> {
+    if !(exposure.is_finite() && exposure > 0.0) {
+        return Err(arg_err("exposure", format!("{exposure}: need a positive number")));
+    }
+    let tonemap = if reinhard { ToneMap::Reinhard { key: 0.18, exposure } } else { ToneMap::None };
+    Ok(Display { background: [background.0, background.1, background.2], tonemap })
+}
+
+/// 8-bit sRGB RGBA (H×W×4 uint8) of a linear image, tone mapped as
+/// `tetview render` writes its PNG.
+#[pyfunction]
+#[pyo3(signature = (image, exposure=1.0, background=(0.0, 0.0, 0.0), reinhard=true))]
+fn tonemap<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray3<'py, f32>,
+    exposure: f32,
+    background: (f32, f32, f32),
+    reinhard: bool,
+) -> PyResult<Bound<'py, PyArray3<u8>>> {
+    let img = image_from_py("image", &image)?;
+    let d = display(exposure, background, reinhard)?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let rgba = py.allow_threads(|| img.to_rgba8(&d));
+    Ok(Array3::from_shape_vec((h, w, 4), rgba).expect("H×W×4").into_pyarray(py))
+}
+
+/// PNG bytes of an 8-bit RGBA array (H×W×4 uint8).
+#[pyfunction]
+fn encode_png(py: Python<'_>, rgba: numpy::PyReadonlyArray3<'_, u8>) -> PyResult<Vec<u8>> {
+    let v = rgba.as_array();
+    let shape = v.shape().to_vec();
+    if shape[2] != 4 {
+        return Err(arg_err("rgba", format!("shape {shape:?}: need H×W×4 uint8")));
+    }
+    let bytes: Vec<u8> = v.iter().copied().collect();
+    py.allow_threads(|| tet_render::image::encode_png_rgba8(shape[1] as u32, shape[0] as u32, &bytes))
+        .map_err(|e| arg_err("rgba", e))
+}
+
+/// Differences of two images of one size (linear premultiplied RGBA):
+/// (rmse, max_abs, mean_abs, max 8-bit difference after tone mapping each).
+#[pyfunction]
+fn diff(py: Python<'_>, a: PyReadonlyArray3<'_, f32>, b: PyReadonlyArray3<'_, f32>) -> PyResult<(f64, f64, f64, u8)> {
+    let (a, b) = (image_from_py("a", &a)?, image_from_py("b", &b)?);
+    py.allow_threads(|| {
+        let s = tet_render::image::diff(&a, &b)?;
+        let d = Display::default();
+        Ok::<_, tet_render::RenderError>((
+            s.rmse,
+            s.max_abs,
+            s.mean_abs,
+            tet_render::image::diff_rgba8(&a.to_rgba8(&d), &b.to_rgba8(&d)),
+        ))
+    })
+    .map_err(|e| arg_err("a, b", e))
+}
+
+/// The methods `render` takes.
+#[pyfunction]
+fn methods() -> Vec<&'static str> {
+    Method::ALL.iter().map(|m| m.id()).collect()
+}
+
+#[pymodule]
+#[pyo3(name = "_tetkit")]
+fn tetkit_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyBundle>()?;
+    for f in [
+        wrap_pyfunction!(load, m)?,
+        wrap_pyfunction!(read, m)?,
+        wrap_pyfunction!(from_arrays, m)?,
+        wrap_pyfunction!(render, m)?,
+        wrap_pyfunction!(reference, m)?,
+        wrap_pyfunction!(tonemap, m)?,
+        wrap_pyfunction!(encode_png, m)?,
+        wrap_pyfunction!(diff, m)?,
+        wrap_pyfunction!(methods, m)?,
+    ] {
+        m.add_function(f)?;
+    }
+    m.add("TetkitError", m.py().get_type::<TetkitError>())?;
+    m.add("TetkitIOError", m.py().get_type::<TetkitIOError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

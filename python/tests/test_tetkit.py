@@ -1,0 +1,146 @@
+"""The Python package as users call it: bundles from files and arrays,
+renders equal to tetview's bit for bit, the reference and diff, time series,
+notebook display, and bad input as Python exceptions naming the argument."""
+
+import json
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import tetkit
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DATA = ROOT / "tests" / "data"
+CUBE = ROOT / "formats" / "samples" / "cube5.tetb"
+# A held-out style TF: narrow opacity peaks over the normalized range.
+PEAKS = {
+    "normalized": True,
+    "color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.9, 0.2], [1, 1, 0.1, 0]],
+    "opacity": [v for c in (0.15, 0.32, 0.49, 0.66, 0.83) for v in ([c - 0.02, 0], [c, 8], [c + 0.02, 0])],
+    "unit_distance": 1,
+}
+
+
+def bluntfin():
+    return tetkit.read(DATA / "plot3d" / "bluntfinxyz.bin", scalar="density", q=DATA / "plot3d" / "bluntfinq.bin")
+
+
+def test_load_and_properties():
+    b = tetkit.load(CUBE)
+    assert (b.num_points, b.num_tets) == (8, 5)
+    assert b.points.shape == (8, 3) and b.points.dtype == np.float64
+    assert b.tets.shape == (5, 4) and b.tets.dtype == np.uint32
+    assert b.scalar.shape == (8,)
+    assert b.scalar_range == (float(b.scalar.min()), float(b.scalar.max()))
+    assert b.times is None
+    assert "5 tets" in repr(b)
+
+
+def test_from_arrays_is_the_same_mesh():
+    b = tetkit.load(CUBE)
+    a = tetkit.from_arrays(b.points, b.tets.astype(np.int32), b.scalar)
+    assert (a.num_points, a.num_tets) == (8, 5)
+    np.testing.assert_array_equal(a.points, b.points)
+    # One value a tet: averaged onto the points by volume.
+    c = tetkit.from_arrays(b.points, b.tets, np.arange(5.0))
+    assert c.scalar.min() >= 0 and c.scalar.max() <= 4
+
+
+@pytest.mark.parametrize(
+    "points, tets, scalars, argument, words",
+    [
+        (np.zeros((4, 2)), [[0, 1, 2, 3]], [0, 1, 2, 3], "points", "N×3"),
+        (["a"] * 4, [[0, 1, 2, 3]], [0, 1, 2, 3], "points", "dtype"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, np.nan]], [[0, 1, 2, 3]], [0, 1, 2, 3], "points", "non-finite"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 9]], [0, 1, 2, 3], "tets", "point 9"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3.5]], [0, 1, 2, 3], "tets", "integer"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], [0, 1, 2], "scalars", "length 3"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], [0, 1, np.inf, 3], "scalars", "inf"),
+    ],
+)
+def test_bad_arrays_name_the_argument(points, tets, scalars, argument, words):
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.from_arrays(points, tets, scalars)
+    assert str(e.value).startswith(argument) and words in str(e.value), str(e.value)
+    assert isinstance(e.value, ValueError)
+
+
+def test_files_that_cannot_be_read_are_oserrors():
+    with pytest.raises(tetkit.TetkitIOError) as e:
+        tetkit.load("/no/such/bundle.tetb")
+    assert "/no/such/bundle.tetb" in str(e.value) and isinstance(e.value, OSError)
+    with pytest.raises(OSError):
+        tetkit.read(DATA / "no_such_file.vtu")
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.read(DATA / "vtk" / "hexa.vtk", scalar="nope")
+    assert "no scalar named 'nope'" in str(e.value)
+
+
+def test_render_equals_tetview_bit_for_bit(tmp_path):
+    tetview = os.environ.get("TETVIEW")
+    if not tetview:
+        pytest.skip("TETVIEW (the tetview binary) is not set; make test sets it")
+    b = bluntfin()
+    bundle_path, tf_path, npy = tmp_path / "bf.tetb", tmp_path / "peaks.json", tmp_path / "cli.npy"
+    b.save(str(bundle_path))
+    tf_path.write_text(json.dumps(PEAKS))
+    for renderer in ("walk", "pt"):
+        subprocess.run(
+            [tetview, "render", str(bundle_path), "--tf", str(tf_path), "--size", "96x72", "--azimuth", "40",
+             "--renderer", renderer, "-o", str(tmp_path / "x.png"), "--float", str(npy)],
+            check=True, capture_output=True)
+        cli = np.load(npy)
+        mine = tetkit.render(b, tf=PEAKS, size=(96, 72), azimuth=40, renderer=renderer)
+        assert mine.shape == (72, 96, 4) and mine.dtype == np.float32
+        assert cli.tobytes() == np.asarray(mine).tobytes(), renderer
+        # A TF file and a TF dict are the same TF.
+        assert np.asarray(tetkit.render(b, tf=tf_path, size=(96, 72), azimuth=40, renderer=renderer)).tobytes() \
+            == cli.tobytes()
+
+
+def test_reference_diff_and_display():
+    b = bluntfin()
+    img = tetkit.render(b, tf=PEAKS, size=(64, 48), elevation=20)
+    ref = tetkit.reference(b, tf=PEAKS, size=(64, 48), elevation=20)
+    d = tetkit.diff(ref, img)
+    assert set(d) == {"rmse", "max_abs", "mean_abs", "max_8bit"}
+    assert 0 < d["rmse"] < 1e-2 and d["max_8bit"] <= 3, d
+    assert tetkit.diff(img, img)["max_abs"] == 0
+    png = img._repr_png_()
+    assert png.startswith(b"\x89PNG\r\n\x1a\n")
+    rgba = img.to_rgba8()
+    assert rgba.shape == (48, 64, 4) and rgba.dtype == np.uint8 and rgba[..., :3].max() > 100
+    with pytest.raises(tetkit.TetkitError):
+        tetkit.diff(img, img[:10])
+    # Every TF form: automatic, a colour map name, a dict.
+    for tf in (None, "inferno", PEAKS):
+        assert np.asarray(tetkit.render(b, tf=tf, size=(32, 24)))[..., 3].max() > 0
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.render(b, tf={"color": [], "opacity": []}, size=(8, 8))
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.render(b, method="nope", size=(8, 8))
+    assert "nope" in str(e.value)
+    with pytest.raises(tetkit.TetkitError):
+        tetkit.render(b, size=(0, 8))
+
+
+def test_time_series():
+    s = tetkit.read(DATA / "series" / "isabel_eye.pvd")
+    assert s.times == [2.0, 3.0, 4.0, 5.0]
+    a = tetkit.render(s, tf=PEAKS, size=(40, 32), time=3.5)
+    b = tetkit.render(s.at_time(3.5), tf=PEAKS, size=(40, 32))
+    assert np.asarray(a).tobytes() == np.asarray(b).tobytes()
+    assert np.asarray(a).tobytes() != np.asarray(tetkit.render(s, tf=PEAKS, size=(40, 32), time=2)).tobytes()
+    with pytest.raises(tetkit.TetkitError) as e:
+        s.at_time(9)
+    assert "outside" in str(e.value)
+
+
+def test_methods_render():
+    b = tetkit.load(CUBE)
+    assert "table3d" in tetkit.methods() and "exact" in tetkit.methods()
+    for m in ("exact", "pt-linear", "table3d"):
+        assert np.asarray(tetkit.render(b, method=m, size=(24, 24)))[..., 3].max() > 0, m

@@ -163,20 +163,23 @@ def _at(bundle: Bundle, time: Optional[float]) -> Bundle:
 def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any = None, azimuth: float = 0.0,
            elevation: float = 0.0, zoom: float = 1.0, size: Tuple[int, int] = (512, 512), renderer: str = "walk",
            lut: Optional[PathLike] = None, light: bool = False, cull: bool = True,
-           time: Optional[float] = None) -> Image:
+           time: Optional[float] = None, stats: bool = False) -> Any:
     """Renders on the CPU as ``tetview render`` does: the same TF policy,
     table bake (``method``: see :func:`methods`) or ``lut`` file, ``renderer``
     (``walk`` or ``pt``) and view (``view``: VTK camera fields as a dict or
     a view JSON file; else the default framing turned by ``azimuth`` and
     ``elevation`` degrees and ``zoom``). ``time`` draws a time series at
-    that time. Returns an :class:`Image`."""
+    that time. Returns an :class:`Image`, or with ``stats`` the pair
+    (image, dict of the frame's figures: ``engine_seconds`` spent in the
+    engine — bake or load, scene, frame — ``frame_seconds``, ``renderer``,
+    ``tets_drawn``, ``tets_culled``, ``crossings``, ``fragments``)."""
     args = _view_args(view, azimuth, elevation, zoom, size)
     args.update(_tf_args(tf))
     if lut is not None:
         args["lut"] = _path("lut", lut)
-    img = _tetkit.render(_at(bundle, time), method=method, renderer=renderer, light=bool(light), cull=bool(cull),
-                         **args)
-    return Image(img)
+    img, figures = _tetkit.render(_at(bundle, time), method=method, renderer=renderer, light=bool(light),
+                                  cull=bool(cull), **args)
+    return (Image(img), figures) if stats else Image(img)
 
 
 def reference(bundle: Bundle, tf: TfLike = None, view: Any = None, azimuth: float = 0.0, elevation: float = 0.0,

@@ -1,6 +1,6 @@
 """Type stubs of the native module (crates/tet_python)."""
 
-from typing import List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -54,7 +54,7 @@ def render(
     renderer: str = "walk",
     light: bool = False,
     cull: bool = True,
-) -> npt.NDArray[np.float32]: ...
+) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]: ...
 def reference(
     bundle: Bundle,
     tf_json: Optional[str] = None,

@@ -294,7 +294,8 @@ fn tf_of(
 
 fn image_to_py(py: Python<'_>, image: Image) -> Bound<'_, PyArray3<f32>> {
     let (w, h) = (image.width() as usize, image.height() as usize);
-    let flat: Vec<f32> = image.pixels().as_flattened().to_vec();
+    // The pixels' buffer becomes the array's: no copy.
+    let flat: Vec<f32> = image.into_pixels().into_flattened();
     Array3::from_shape_vec((h, w, 4), flat).expect("H×W×4").into_pyarray(py)
 }
 
@@ -331,28 +332,45 @@ fn render<'py>(
     renderer: &str,
     light: bool,
     cull: bool,
-) -> PyResult<Bound<'py, PyArray3<f32>>> {
+) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     let b = &bundle.bundle;
-    let image = py
-        .allow_threads(|| -> anyhow::Result<Image> {
-            let look = match &lut {
-                Some(p) => Look::from_lut(p)?,
-                None => Look::bake(b, method.parse::<Method>()?, tf_of(b, tf_json, tf_path.clone(), colormap)?)?,
+    let (image, stats, engine_seconds) = py
+        .allow_threads(|| -> anyhow::Result<(Image, tet_render::RenderStats, f64)> {
+            let start = std::time::Instant::now();
+            // The look and the renderer are dropped inside the timed block:
+            // freeing tables and the walker's mesh is the engine's time.
+            let frame = {
+                let look = match &lut {
+                    Some(p) => Look::from_lut(p)?,
+                    None => Look::bake(b, method.parse::<Method>()?, tf_of(b, tf_json, tf_path.clone(), colormap)?)?,
+                };
+                let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
+                let cpu: CpuRenderer =
+                    renderer.parse().map_err(|e: String| anyhow::Error::msg(format!("renderer: {e}")))?;
+                let request = FrameRequest {
+                    shading: Shading { light: light.then(Light::default), silhouette: None },
+                    cpu,
+                    cull,
+                    ..FrameRequest::new(view)
+                };
+                let mut r = CpuFrameRenderer::new(b)?;
+                r.render(&look, &request, &|_, _| {})?
             };
-            let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
-            let cpu: CpuRenderer =
-                renderer.parse().map_err(|e: String| anyhow::Error::msg(format!("renderer: {e}")))?;
-            let request = FrameRequest {
-                shading: Shading { light: light.then(Light::default), silhouette: None },
-                cpu,
-                cull,
-                ..FrameRequest::new(view)
+            let tet_engine::FrameStats::Cpu(stats) = frame.stats else {
+                unreachable!("the CPU renderer reports CPU statistics")
             };
-            let mut r = CpuFrameRenderer::new(b)?;
-            Ok(r.render(&look, &request, &|_, _| {})?.image)
+            Ok((frame.image, stats, start.elapsed().as_secs_f64()))
         })
         .map_err(py_err)?;
-    Ok(image_to_py(py, image))
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("engine_seconds", engine_seconds)?;
+    d.set_item("frame_seconds", stats.total_seconds)?;
+    d.set_item("renderer", stats.renderer.clone())?;
+    d.set_item("tets_drawn", stats.tets_drawn)?;
+    d.set_item("tets_culled", stats.tets_culled)?;
+    d.set_item("crossings", stats.crossings)?;
+    d.set_item("fragments", stats.fragments)?;
+    Ok((image_to_py(py, image), d))
 }
 
 /// The exact ray-cast reference of the same view and TF (`tetview

@@ -51,6 +51,10 @@ impl Image {
     pub fn pixels_mut(&mut self) -> &mut [[f32; 4]] {
         &mut self.pixels
     }
+    /// The pixels, row-major from the top (handing them on without a copy).
+    pub fn into_pixels(self) -> Vec<[f32; 4]> {
+        self.pixels
+    }
     pub fn pixel(&self, x: u32, y: u32) -> [f32; 4] {
         self.pixels[y as usize * self.width as usize + x as usize]
     }

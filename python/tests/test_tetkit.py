@@ -144,3 +144,89 @@ def test_methods_render():
     assert "table3d" in tetkit.methods() and "exact" in tetkit.methods()
     for m in ("exact", "pt-linear", "table3d"):
         assert np.asarray(tetkit.render(b, method=m, size=(24, 24)))[..., 3].max() > 0, m
+
+
+def hex_and_wedge():
+    """A hexahedron and a wedge on its top, a triangle (no volume), a point
+    scalar and a cell scalar: what meshio and PyVista hand over."""
+    pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1],
+                    [0.5, 0, 2], [0.5, 1, 2]], dtype=float)
+    return pts, [("hexahedron", [[0, 1, 2, 3, 4, 5, 6, 7]]), ("wedge", [[4, 5, 8, 7, 6, 9]]),
+                 ("triangle", [[0, 1, 2]])]
+
+
+def test_from_meshio():
+    meshio = pytest.importorskip("meshio")
+    pts, blocks = hex_and_wedge()
+    mesh = meshio.Mesh(pts, blocks, point_data={"t": pts[:, 2] * 2.0, "v": pts},
+                       cell_data={"c": [np.array([1.0]), np.array([5.0]), np.array([9.0])]})
+    b = tetkit.from_meshio(mesh)
+    assert b.num_points == 10 and b.num_tets >= 6 + 3 - 1, b
+    assert b.scalar_name == "t" and b.scalar_range == (0.0, 4.0)
+    assert tetkit.from_meshio(mesh, scalar="v:mag").scalar_name == "v:mag"
+    c = tetkit.from_meshio(mesh, scalar="c")
+    assert 1.0 <= c.scalar.min() and c.scalar.max() <= 5.0
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.from_meshio(mesh, scalar="nope")
+    assert "no scalar named 'nope'" in str(e.value) and "t (point)" in str(e.value)
+    with pytest.raises(tetkit.TetkitError):
+        tetkit.from_meshio(meshio.Mesh(pts, [("triangle", [[0, 1, 2]])]))
+
+
+class FakeData(dict):
+    """PyVista's DataSetAttributes as far as tetkit reads them."""
+
+
+class FakeUnstructured:
+    """The attributes of a pyvista.UnstructuredGrid that tetkit reads."""
+
+    def __init__(self, pts, cells, point_data, cell_data):
+        self.points = pts
+        self.celltypes = np.array([t for t, _ in cells], dtype=np.uint8)
+        self.cell_connectivity = np.concatenate([np.array(c) for _, c in cells])
+        self.offset = np.concatenate([[0], np.cumsum([len(c) for _, c in cells])])
+        self.point_data, self.cell_data = FakeData(point_data), FakeData(cell_data)
+        self.active_scalars_name = None
+
+
+class FakeImage:
+    """The attributes of a pyvista.ImageData that tetkit reads."""
+
+    def __init__(self, dims):
+        self.dimensions = dims
+        x, y, z = np.meshgrid(*[np.arange(d, dtype=float) for d in dims], indexing="ij")
+        self.points = np.stack([x.ravel(order="F"), y.ravel(order="F"), z.ravel(order="F")], axis=1)
+        self.point_data = FakeData({"s": self.points[:, 0] + 2 * self.points[:, 1]})
+        self.cell_data = FakeData()
+        self.active_scalars_name = "s"
+
+
+def test_from_pyvista_shaped_objects():
+    pts, _ = hex_and_wedge()
+    grid = FakeUnstructured(pts, [(12, [0, 1, 2, 3, 4, 5, 6, 7]), (13, [4, 5, 8, 7, 6, 9]), (5, [0, 1, 2])],
+                            {"t": pts[:, 2]}, {"c": np.array([1.0, 2.0, 3.0])})
+    b = tetkit.from_pyvista(grid)
+    assert b.num_points == 10 and b.scalar_name == "t" and "without volume" in " ".join(b.findings)
+    img = tetkit.from_pyvista(FakeImage((4, 3, 2)))
+    assert (img.num_points, img.num_tets) == (24, 6 * 5)
+    assert img.scalar_range == (0.0, 7.0)
+    bad = FakeUnstructured(pts, [(12, [0, 1, 2, 3, 4, 5, 6, 70])], {"t": pts[:, 2]}, {})
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.from_pyvista(bad)
+    assert str(e.value).startswith("connectivity") and "point 70" in str(e.value)
+    poly = FakeUnstructured(pts, [(42, [0, 1, 2, 3])], {"t": pts[:, 2]}, {})
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.from_pyvista(poly)
+    assert "VTK type 42" in str(e.value)
+    with pytest.raises(tetkit.TetkitError):
+        tetkit.from_pyvista(object())
+
+
+def test_from_real_pyvista():
+    pv = pytest.importorskip("pyvista")
+    img = pv.ImageData(dimensions=(5, 4, 3))
+    img.point_data["s"] = np.arange(img.n_points, dtype=float)
+    b = tetkit.from_pyvista(img)
+    assert (b.num_points, b.num_tets) == (60, 4 * 3 * 2 * 5)
+    u = tetkit.from_pyvista(img.cast_to_unstructured_grid())
+    assert u.num_points == 60 and u.scalar_range == (0.0, 59.0)

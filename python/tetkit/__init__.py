@@ -32,6 +32,8 @@ __all__ = [
     "load",
     "read",
     "from_arrays",
+    "from_meshio",
+    "from_pyvista",
     "render",
     "reference",
     "diff",
@@ -123,6 +125,88 @@ def from_arrays(points: Any, tets: Any, scalars: Any) -> Bundle:
     t = _array("tets", tets, _np.int64, 2, "iu")
     s = _array("scalars", scalars, _np.float64, 1, "fiu")
     return _tetkit.from_arrays(p, t, s)
+
+
+#: meshio cell type names → VTK cell type ids (volume cells; others are skipped).
+_MESHIO_VTK = {
+    "tetra": 10, "hexahedron": 12, "wedge": 13, "pyramid": 14, "tetra10": 24, "hexahedron20": 25,
+    "wedge15": 26, "pyramid13": 27, "hexahedron27": 29, "wedge12": 31, "wedge18": 32, "hexahedron24": 33,
+}
+
+
+def _fields(name: str, data: Any, keys: Any, count: int) -> list:
+    out = []
+    for k in keys:
+        a = _np.asarray(data[k])
+        if a.dtype.kind not in "fiub":
+            continue  # strings and objects are no scalars
+        out.append((str(k), _np.ascontiguousarray(a.reshape(count, -1) if a.ndim > 2 else a, dtype=_np.float64)))
+    return out
+
+
+def _points3(name: str, points: Any) -> _np.ndarray:
+    p = _array(name, points, _np.float64, 2, "fiu")
+    if p.shape[1] == 2:  # planar points: z = 0 (meshio stores 2D meshes so)
+        p = _np.hstack([p, _np.zeros((p.shape[0], 1))])
+    return p
+
+
+def from_meshio(mesh: Any, scalar: Optional[str] = None) -> Bundle:
+    """A bundle from a meshio ``Mesh`` (no temporary file): its volume cell
+    blocks (tetrahedra, hexahedra, wedges, pyramids and their quadratic
+    forms) split into tets as ``tetprep convert`` splits them, other blocks
+    skipped; ``scalar`` picks a point or cell field as ``--scalar`` does
+    (``NAME``, ``NAME:mag``, ``NAME:x``…; default: the first point field,
+    else the first cell field)."""
+    points = _points3("mesh.points", mesh.points)
+    types, ends, conn, kept, total = [], [], [], [], 0
+    for b, block in enumerate(mesh.cells):
+        vtk = _MESHIO_VTK.get(block.type)
+        if vtk is None:
+            continue
+        data = _np.asarray(block.data, dtype=_np.int64)
+        kept.append(b)
+        types.append(_np.full(len(data), vtk, dtype=_np.int64))
+        conn.append(data.reshape(-1))
+        ends.append(total + data.shape[1] * _np.arange(1, len(data) + 1, dtype=_np.int64))
+        total += data.size
+    if not kept:
+        raise TetkitError(f"mesh: no volume cells (blocks: {', '.join(b.type for b in mesh.cells) or 'none'})")
+    types = _np.concatenate(types)
+    offsets = _np.concatenate([_np.zeros(1, dtype=_np.int64)] + ends)
+    conn = _np.concatenate(conn)
+    point_fields = _fields("point", mesh.point_data, list(mesh.point_data), len(points))
+    cell_data = {k: _np.concatenate([_np.asarray(v[b]) for b in kept]) for k, v in mesh.cell_data.items()}
+    cell_fields = _fields("cell", cell_data, list(cell_data), len(types))
+    return _tetkit.from_cells(points, types, offsets, conn, point_fields, cell_fields, scalar, None, "meshio")
+
+
+def from_pyvista(grid: Any, scalar: Optional[str] = None) -> Bundle:
+    """A bundle from a PyVista dataset (no temporary file): an
+    ``UnstructuredGrid`` by its cells (split as ``tetprep convert`` splits
+    them), an ``ImageData``/``StructuredGrid``/``RectilinearGrid`` by its
+    points and dimensions (the structured 5-tet split); ``scalar`` picks a
+    point or cell array as ``--scalar`` does (default: the active scalars,
+    else the first point array, else the first cell array)."""
+    if not (hasattr(grid, "points") and (hasattr(grid, "celltypes") or hasattr(grid, "dimensions"))):
+        raise TetkitError(f"grid: a {type(grid).__name__} is no PyVista UnstructuredGrid, ImageData or StructuredGrid")
+    points = _points3("grid.points", grid.points)
+    if hasattr(grid, "celltypes"):
+        types = _np.asarray(grid.celltypes, dtype=_np.int64)
+        offsets = _np.asarray(grid.cell_offsets if hasattr(grid, "cell_offsets") else grid.offset, dtype=_np.int64)
+        conn = _np.asarray(grid.cell_connectivity, dtype=_np.int64)
+        dims = None
+        n_cells = len(types)
+    else:
+        dims = tuple(int(d) for d in grid.dimensions)
+        types = offsets = conn = _np.zeros(0, dtype=_np.int64)
+        n_cells = int(_np.prod([max(d - 1, 1) for d in dims]))
+    if scalar is None:
+        active = getattr(grid, "active_scalars_name", None)
+        scalar = active or None
+    point_fields = _fields("point", grid.point_data, list(grid.point_data.keys()), len(points))
+    cell_fields = _fields("cell", grid.cell_data, list(grid.cell_data.keys()), n_cells)
+    return _tetkit.from_cells(points, types, offsets, conn, point_fields, cell_fields, scalar, dims, "PyVista")
 
 
 def _tf_args(tf: TfLike) -> dict:

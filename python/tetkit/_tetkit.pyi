@@ -39,6 +39,17 @@ def read(path: str, scalar: Optional[str] = None, q: Optional[str] = None, all_s
 def from_arrays(
     points: npt.NDArray[np.float64], tets: npt.NDArray[np.int64], scalars: npt.NDArray[np.float64]
 ) -> Bundle: ...
+def from_cells(
+    points: npt.NDArray[np.float64],
+    cell_types: npt.NDArray[np.int64],
+    offsets: npt.NDArray[np.int64],
+    connectivity: npt.NDArray[np.int64],
+    point_fields: List[Tuple[str, npt.NDArray[np.float64]]],
+    cell_fields: List[Tuple[str, npt.NDArray[np.float64]]],
+    scalar: Optional[str] = None,
+    dims: Optional[Tuple[int, int, int]] = None,
+    format: str = "arrays",
+) -> Bundle: ...
 def render(
     bundle: Bundle,
     tf_json: Optional[str] = None,

@@ -248,6 +248,167 @@ fn from_arrays(
     Ok(PyBundle { bundle })
 }
 
+/// One named field: values per point or per cell, `components` each
+/// (a 1D array is one component).
+type FieldArg<'py> = (String, numpy::PyReadonlyArrayDyn<'py, f64>);
+
+fn fields_of(
+    kind: &str,
+    fields: Vec<FieldArg<'_>>,
+    count: usize,
+    keep: Option<&[u32]>,
+) -> PyResult<Vec<tet_mesh::Field>> {
+    let mut out = Vec::with_capacity(fields.len());
+    for (name, a) in fields {
+        let v = a.as_array();
+        let (rows, comps) = match v.shape() {
+            [n] => (*n, 1),
+            [n, c] => (*n, *c),
+            s => return Err(arg_err(&format!("{kind} field '{name}'"), format!("shape {s:?}: need one row a {kind}"))),
+        };
+        if rows != count || comps == 0 {
+            return Err(arg_err(
+                &format!("{kind} field '{name}'"),
+                format!("{rows}×{comps} values for {count} {kind}s"),
+            ));
+        }
+        let flat: Vec<f64> = v.iter().copied().collect();
+        let values = match keep {
+            Some(k) => {
+                k.iter().flat_map(|&c| flat[c as usize * comps..(c as usize + 1) * comps].iter().copied()).collect()
+            }
+            None => flat,
+        };
+        out.push(tet_mesh::Field::new(name, comps, values));
+    }
+    Ok(out)
+}
+
+/// A bundle from cells as VTK lists them (PyVista's `celltypes`,
+/// `offset`, `cell_connectivity`; meshio's blocks flattened) or from a
+/// structured grid's points (`dims`: x fastest), with named point and cell
+/// fields; converted as `tetprep convert` converts a file (cells split into
+/// tets, `scalar` chosen by the same rules). Cells without volume are
+/// skipped and counted in the findings; a volume cell tetkit cannot reduce
+/// is an error naming it.
+#[pyfunction]
+#[pyo3(signature = (points, cell_types, offsets, connectivity, point_fields, cell_fields, scalar=None, dims=None, format="arrays"))]
+#[allow(clippy::too_many_arguments)]
+fn from_cells(
+    py: Python<'_>,
+    points: PyReadonlyArray2<'_, f64>,
+    cell_types: PyReadonlyArray1<'_, i64>,
+    offsets: PyReadonlyArray1<'_, i64>,
+    connectivity: PyReadonlyArray1<'_, i64>,
+    point_fields: Vec<FieldArg<'_>>,
+    cell_fields: Vec<FieldArg<'_>>,
+    scalar: Option<String>,
+    dims: Option<(usize, usize, usize)>,
+    format: &str,
+) -> PyResult<PyBundle> {
+    let p = points.as_array();
+    if p.ncols() != 3 {
+        return Err(arg_err("points", format!("shape {:?}: need N×3", p.shape())));
+    }
+    let n = p.nrows();
+    if let Some((i, _)) = p.outer_iter().enumerate().find(|(_, r)| !r.iter().all(|v| v.is_finite())) {
+        return Err(arg_err("points", format!("point {i} has a non-finite coordinate")));
+    }
+    let (types, offs, conn) = (cell_types.as_array(), offsets.as_array(), connectivity.as_array());
+    let mut notes = Vec::new();
+    let (blocks, kept): (Vec<tet_mesh::Block>, Option<Vec<u32>>) = match dims {
+        Some((nx, ny, nz)) => {
+            if nx.checked_mul(ny).and_then(|v| v.checked_mul(nz)) != Some(n) {
+                return Err(arg_err("dims", format!("{nx}×{ny}×{nz} for {n} points")));
+            }
+            (vec![tet_mesh::Block::Structured { dims: [nx, ny, nz], first_point: 0 }], None)
+        }
+        None => {
+            let k = types.len();
+            if offs.len() != k + 1 {
+                return Err(arg_err(
+                    "offsets",
+                    format!("{} offsets for {k} cells: need one more than cells", offs.len()),
+                ));
+            }
+            let mut cells = tet_mesh::Cells::new();
+            let (mut kept, mut flat) = (Vec::new(), 0usize);
+            for c in 0..k {
+                let (a, b) = (offs[c], offs[c + 1]);
+                if a < 0 || b < a || b as usize > conn.len() {
+                    return Err(arg_err(
+                        "offsets",
+                        format!("cell {c}: {a}..{b} is outside the {} connectivity entries", conn.len()),
+                    ));
+                }
+                let id = u32::try_from(types[c]).unwrap_or(u32::MAX);
+                match tet_mesh::CellType::from_vtk_id(id) {
+                    Some((ty, stored)) => {
+                        if (b - a) as usize != stored {
+                            return Err(arg_err("connectivity", format!("cell {c} (VTK type {id}) lists {} points, needs {stored}", b - a)));
+                        }
+                        let mut nodes = [0u32; 8];
+                        for (slot, &v) in nodes.iter_mut().zip(conn.slice(numpy::ndarray::s![a as usize..b as usize]).iter()) {
+                            *slot = u32::try_from(v).ok().filter(|&q| (q as usize) < n).ok_or_else(|| {
+                                arg_err("connectivity", format!("cell {c} refers to point {v}; there are {n} points"))
+                            })?;
+                        }
+                        cells.push(ty, &nodes[..ty.num_nodes()]);
+                        kept.push(c as u32);
+                    }
+                    None if tet_mesh::CellType::vtk_id_is_surface_or_lower(id) => flat += 1,
+                    None => {
+                        return Err(arg_err(
+                            "cell_types",
+                            format!("cell {c} has VTK type {id}, which tetkit does not split (tetrahedra, hexahedra, voxels, wedges, pyramids and their quadratic forms are read)"),
+                        ))
+                    }
+                }
+            }
+            if flat > 0 {
+                notes.push(format!("skipped {flat} cells without volume (vertices, lines, polygons)"));
+            }
+            let all = kept.len() == k;
+            (vec![tet_mesh::Block::Unstructured(cells)], (!all).then_some(kept))
+        }
+    };
+    let num_cells: usize = blocks.iter().map(tet_mesh::Block::num_cells).sum();
+    let point_fields = fields_of("point", point_fields, n, None)?;
+    let cell_fields = match (&kept, dims) {
+        (_, Some(_)) => fields_of("cell", cell_fields, num_cells, None)?,
+        (Some(k), None) => fields_of("cell", cell_fields, types.len(), Some(k))?,
+        (None, None) => fields_of("cell", cell_fields, num_cells, None)?,
+    };
+    let points: Vec<[f64; 3]> = p.outer_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let source = tet_mesh::SourceMesh {
+        format: format.to_string(),
+        points,
+        blocks,
+        point_fields,
+        cell_fields,
+        notes,
+        ..Default::default()
+    };
+    let bundle = py
+        .allow_threads(|| -> anyhow::Result<Bundle> {
+            let opts = tet_mesh::ConvertOptions { scalar, ..Default::default() };
+            let (mesh, report) = tet_mesh::tetrahedralize(&source, &opts, &mut |_| {})?;
+            let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets)?;
+            let meta = tet_bundle::BundleMeta {
+                source_format: source.format.clone(),
+                source_points: report.source_points as u64,
+                source_cells: report.source_cells as u64,
+                split_tets: report.split_tets as u64,
+                split: if dims.is_some() { "5" } else { "6" }.into(),
+                findings: report.findings.iter().map(|f| f.to_string()).collect(),
+                ..Default::default()
+            };
+            Ok(Bundle::new(mesh, adjacency, meta))
+        })
+        .map_err(py_err)?;
+    Ok(PyBundle { bundle })
+}
+
 /// The view of `tetview render`: a VTK-fields view JSON, or the default
 /// framing of the bundle's bounds orbited by azimuth/elevation/zoom.
 pub fn view_of(
@@ -474,6 +635,7 @@ fn tetkit_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(load, m)?,
         wrap_pyfunction!(read, m)?,
         wrap_pyfunction!(from_arrays, m)?,
+        wrap_pyfunction!(from_cells, m)?,
         wrap_pyfunction!(render, m)?,
         wrap_pyfunction!(reference, m)?,
         wrap_pyfunction!(tonemap, m)?,

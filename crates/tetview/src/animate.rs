@@ -16,7 +16,6 @@ use tet_engine::{
     CpuFrameRenderer, EngineError, Frame, FrameRenderer, FrameRequest, FrameStats, GpuFrameOptions, GpuFrameRenderer,
     Look,
 };
-use tet_preint::{LutFile, Method};
 use tet_render::image::{write_apng_rgba8, Reinhard};
 use tet_render::{Image, Scene, ToneMap};
 
@@ -26,22 +25,10 @@ pub struct AnimateArgs {
     /// The bundle (.tetb); a time-series bundle (`tetprep convert` of a
     /// .pvd, .series or --all-steps input) animates its steps.
     pub bundle: PathBuf,
-    /// Transfer function (as `render --tf`; default: the automatic TF). A
-    /// normalized TF spans the scalar's range over every time step.
-    #[arg(long)]
-    pub tf: Option<PathBuf>,
+    /// What the frames are drawn with (as `render`); the tables are baked
+    /// once for every frame.
     #[command(flatten)]
-    pub tf_choice: crate::tf_choice::TfChoiceArgs,
-    /// Method id (as `render --method`); its tables are baked once for
-    /// every frame.
-    #[arg(long, default_value = "table3d")]
-    pub method: String,
-    /// Tables baked by `tetlut bake` instead of --tf/--method.
-    #[arg(long, conflicts_with_all = ["tf", "colormap", "opacity_scale", "save_tf"])]
-    pub lut: Option<PathBuf>,
-    /// Scalar range LO,HI for a normalized transfer function.
-    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
-    pub range: Option<(f64, f64)>,
+    pub look: crate::look_args::LookArgs,
     #[command(flatten)]
     pub camera: crate::camera_args::CameraArgs,
     #[command(flatten)]
@@ -156,17 +143,8 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
         eprintln!("warning: no time steps and --orbit 0: every frame is the same picture");
     }
 
-    let lut = match &args.lut {
-        Some(path) => Some((LutFile::read(path)?, path.clone())),
-        None => None,
-    };
-    let (tf, method) = match &lut {
-        Some((lut, path)) => Look::lut_tf_and_method(lut, path)?,
-        None => {
-            let method: Method = args.method.parse()?;
-            (crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?, method)
-        }
-    };
+    let chosen = args.look.resolve(&bundle)?;
+    let method = chosen.method;
     let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
     let base = args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
     let request = |view| FrameRequest { cpu: args.renderer, cull: !args.no_cull, ..FrameRequest::new(view) };
@@ -199,10 +177,7 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
     } else {
         Animator::Cpu(Box::new(CpuFrameRenderer::from_scene(scene)))
     };
-    let look = match &lut {
-        Some((lut, path)) => Look::from_lut_file(lut, path)?,
-        None => Look::bake(&bundle, method, tf)?,
-    };
+    let look = chosen.look(&bundle)?;
     if let Some(dir) = &args.frames_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display())).kind(ExitKind::Output)?;
     }

@@ -10,6 +10,7 @@ mod camera_args;
 mod cli;
 mod diff;
 mod gpu;
+mod look_args;
 mod reference;
 mod render;
 mod tf_choice;

@@ -3,8 +3,7 @@
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look};
-use tet_preint::{LutFile, Method};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats};
 use tet_render::{Light, Scene, Shading, SortMethod};
 
 /// Render BUNDLE with a transfer function and method (or a baked table).
@@ -12,28 +11,8 @@ use tet_render::{Light, Scene, Shading, SortMethod};
 pub struct RenderArgs {
     /// The bundle (.tetb) written by `tetprep convert`.
     pub bundle: PathBuf,
-    /// Transfer function: formats/tf.md JSON or a ParaView preset (as
-    /// tetlut reads it); a normalized TF is mapped onto --range, or the bundle's scalar range. Without --tf and --lut:
-    /// an automatic TF built from the bundle (opacity where its scalar ×
-    /// |∇s| histogram shows boundaries, colours from --colormap).
-    #[arg(long)]
-    pub tf: Option<PathBuf>,
     #[command(flatten)]
-    pub tf_choice: crate::tf_choice::TfChoiceArgs,
-    /// Method id: exact, pt-linear, table3d, atlas2d, poly1, poly2, poly4,
-    /// partial, biv-exact, biv-approx (tables are baked now over the
-    /// bundle's domain at tetlut's default resolutions). The default,
-    /// table3d (128×128×256 f32, baked on the fly), meets the accuracy
-    /// target against the reference; pt-linear is faster but misses it.
-    #[arg(long, default_value = "table3d")]
-    pub method: String,
-    /// Pre-integration tables baked by `tetlut bake` (.tetl) instead of
-    /// --tf/--method; the TF and method come from the file.
-    #[arg(long, conflicts_with_all = ["tf", "colormap", "opacity_scale", "save_tf"])]
-    pub lut: Option<PathBuf>,
-    /// Scalar range LO,HI for a normalized transfer function.
-    #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
-    pub range: Option<(f64, f64)>,
+    pub look: crate::look_args::LookArgs,
     #[command(flatten)]
     pub time: crate::cli::TimeArgs,
     #[command(flatten)]
@@ -94,17 +73,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let bundle = args.time.read_bundle(&args.bundle)?;
     crate::cli::warn_if_constant_scalar(&bundle);
     // Either a baked .tetl (its TF travels in the file) or a TF and a method.
-    let lut = match &args.lut {
-        Some(path) => Some((LutFile::read(path)?, path.clone())),
-        None => None,
-    };
-    let (tf, method) = match &lut {
-        Some((lut, path)) => Look::lut_tf_and_method(lut, path)?,
-        None => {
-            let method: Method = args.method.parse()?;
-            (crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?, method)
-        }
-    };
+    let chosen = args.look.resolve(&bundle)?;
+    let (tf, method) = (chosen.tf.clone(), chosen.method);
 
     let shading = Shading { light: args.light.then(Light::default), silhouette: args.silhouette };
     if let Some(p) = args.silhouette {
@@ -128,12 +98,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.gpu {
         // The GPU path opens its device before baking (without one nothing
         // is baked), and --gpu-bake bakes on the device instead.
-        return crate::gpu::render(args, &bundle, scene, &tf, method, &request, &display, lut.as_ref());
+        return crate::gpu::render(args, &bundle, scene, &tf, method, &request, &display, chosen.lut.as_ref());
     }
-    let look = match &lut {
-        Some((lut, path)) => Look::from_lut_file(lut, path)?,
-        None => Look::bake(&bundle, method, tf)?,
-    };
+    let look = chosen.look(&bundle)?;
     let mut renderer = CpuFrameRenderer::from_scene(scene);
     let bar = if args.json { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(0) };
     bar.set_style(

@@ -230,3 +230,39 @@ def test_from_real_pyvista():
     assert (b.num_points, b.num_tets) == (60, 4 * 3 * 2 * 5)
     u = tetkit.from_pyvista(img.cast_to_unstructured_grid())
     assert u.num_points == 60 and u.scalar_range == (0.0, 59.0)
+
+
+def test_histogram_gradients_limits():
+    b = bluntfin()
+    h = b.histogram(bins=(64, 32))
+    assert h["scalar"].shape == (64,) and h["joint"].shape == (32, 64)
+    assert h["scalar_edges"].shape == (65,) and h["gradient_edges"].shape == (33,)
+    # Every volume lands in a bin or off the axes.
+    total = h["scalar"].sum() + h["scalar_below"] + h["scalar_above"]
+    assert abs(total - h["total_volume"]) <= 1e-9 * h["total_volume"]
+    assert abs(h["joint"].sum() + h["joint_outside"] - h["total_volume"]) <= 1e-9 * h["total_volume"]
+    g = b.gradients()
+    assert g.shape == (b.num_points, 3) and np.isfinite(g).all()
+    with pytest.raises(tetkit.TetkitError):
+        b.gradients("nope")
+    lim = b.limits()
+    assert lim["max_cell_scalar_range"] > 0 and lim["frequency_limit"] > 0
+    with pytest.raises(tetkit.TetkitError):
+        b.histogram(bins=(0, 8))
+
+
+def test_bake_renders_and_saves_what_tetview_reads(tmp_path):
+    b = bluntfin()
+    t = tetkit.bake(b, tf=PEAKS)
+    assert t.method == "table3d" and t.memory_bytes > 0
+    c = t.certificate
+    assert c["certified"] and c["max_error"] <= c["target"], c
+    with_table = tetkit.render(b, table=t, size=(48, 40), azimuth=20)
+    baked_now = tetkit.render(b, tf=PEAKS, size=(48, 40), azimuth=20)
+    assert np.asarray(with_table).tobytes() == np.asarray(baked_now).tobytes()
+    path = tmp_path / "peaks.tetl"
+    t.save(str(path))
+    from_file = tetkit.render(b, lut=path, size=(48, 40), azimuth=20)
+    assert np.asarray(from_file).tobytes() == np.asarray(baked_now).tobytes()
+    with pytest.raises(tetkit.TetkitError):
+        tetkit.render(b, table="not a table", size=(8, 8))

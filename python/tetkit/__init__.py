@@ -21,11 +21,13 @@ from typing import Any, Mapping, Optional, Tuple, Union
 import numpy as _np
 
 from . import _tetkit
-from ._tetkit import Bundle, TetkitError, TetkitIOError, __version__
+from ._tetkit import Bundle, Table, TetkitError, TetkitIOError, __version__
 
 __all__ = [
     "Bundle",
     "Image",
+    "Table",
+    "bake",
     "TetkitError",
     "TetkitIOError",
     "COLORMAPS",
@@ -247,9 +249,10 @@ def _at(bundle: Bundle, time: Optional[float]) -> Bundle:
 def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any = None, azimuth: float = 0.0,
            elevation: float = 0.0, zoom: float = 1.0, size: Tuple[int, int] = (512, 512), renderer: str = "walk",
            lut: Optional[PathLike] = None, light: bool = False, cull: bool = True,
-           time: Optional[float] = None, stats: bool = False) -> Any:
+           time: Optional[float] = None, stats: bool = False, table: Optional[Table] = None) -> Any:
     """Renders on the CPU as ``tetview render`` does: the same TF policy,
-    table bake (``method``: see :func:`methods`) or ``lut`` file, ``renderer``
+    table bake (``method``: see :func:`methods`), ``table`` (from
+    :func:`bake`: drawn with its TF and method) or ``lut`` file, ``renderer``
     (``walk`` or ``pt``) and view (``view``: VTK camera fields as a dict or
     a view JSON file; else the default framing turned by ``azimuth`` and
     ``elevation`` degrees and ``zoom``). ``time`` draws a time series at
@@ -261,9 +264,20 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
     args.update(_tf_args(tf))
     if lut is not None:
         args["lut"] = _path("lut", lut)
+    if table is not None and not isinstance(table, Table):
+        raise TetkitError(f"table: expected a tetkit.Table from tetkit.bake, got {type(table).__name__}")
     img, figures = _tetkit.render(_at(bundle, time), method=method, renderer=renderer, light=bool(light),
-                                  cull=bool(cull), **args)
+                                  cull=bool(cull), table=table, **args)
     return (Image(img), figures) if stats else Image(img)
+
+
+def bake(bundle: Bundle, tf: TfLike = None, method: str = "table3d") -> Table:
+    """Bakes ``method``'s pre-integration tables for ``tf`` over the
+    bundle's domain, as ``tetview render`` does before drawing (table3d:
+    certified against the exact integral, see ``Table.certificate``).
+    Render with them (``render(bundle, table=t)``) or save them
+    (``t.save("b.tetl")``, what ``tetview render --lut`` reads)."""
+    return _tetkit.bake(_at(bundle, None), method=method, **_tf_args(tf))
 
 
 def reference(bundle: Bundle, tf: TfLike = None, view: Any = None, azimuth: float = 0.0, elevation: float = 0.0,

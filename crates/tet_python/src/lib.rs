@@ -124,6 +124,87 @@ impl PyBundle {
     fn findings(&self) -> Vec<String> {
         self.bundle.meta.findings.clone()
     }
+    /// Volume-weighted histograms of the scalar and of (|∇s|, scalar), as
+    /// `tetprep hist` computes them: a dict of numpy arrays — `scalar`
+    /// (volume per scalar bin), `joint` (gradient bins × scalar bins),
+    /// `scalar_edges`, `gradient_edges` — and the volumes `scalar_below`,
+    /// `scalar_above`, `joint_outside`, `total_volume`.
+    #[pyo3(signature = (bins=(256, 256), scalar_range=None, gradient_range=None))]
+    fn histogram<'py>(
+        &self,
+        py: Python<'py>,
+        bins: (u32, u32),
+        scalar_range: Option<(f64, f64)>,
+        gradient_range: Option<(f64, f64)>,
+    ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        let mesh = &self.bundle.mesh;
+        let opts = tet_analysis::HistogramOptions {
+            scalar_bins: bins.0,
+            gradient_bins: bins.1,
+            scalar_range,
+            gradient_range,
+            ..Default::default()
+        };
+        let h = py
+            .allow_threads(|| -> anyhow::Result<tet_analysis::Histograms> {
+                Ok(tet_analysis::Analyzer::from_mesh(mesh)?.histograms(&opts)?)
+            })
+            .map_err(py_err)?;
+        let edges = |a: &tet_analysis::histogram::Axis| (0..=a.bins as usize).map(|k| a.edge(k)).collect::<Vec<f64>>();
+        let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("scalar_edges", edges(&h.scalar_axis).into_pyarray(py))?;
+        d.set_item("gradient_edges", edges(&h.gradient_axis).into_pyarray(py))?;
+        d.set_item("scalar", h.scalar.into_pyarray(py))?;
+        let joint = numpy::ndarray::Array2::from_shape_vec((ng, ns), h.joint).expect("ng × ns");
+        d.set_item("joint", joint.into_pyarray(py))?;
+        d.set_item("scalar_below", h.scalar_below)?;
+        d.set_item("scalar_above", h.scalar_above)?;
+        d.set_item("joint_outside", h.joint_outside)?;
+        d.set_item("total_volume", h.total_volume)?;
+        Ok(d)
+    }
+
+    /// Per-point gradients of the scalar, N×3 (scalar units per world
+    /// length): the stored ones, else computed now by `method` (`lsq`,
+    /// least squares over the one-ring, or `tet-average`).
+    #[pyo3(signature = (method="lsq"))]
+    fn gradients<'py>(&self, py: Python<'py>, method: &str) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        let m = match method {
+            "lsq" => tet_analysis::GradientMethod::LeastSquares,
+            "tet-average" => tet_analysis::GradientMethod::TetAverage,
+            other => return Err(arg_err("method", format!("'{other}': use lsq or tet-average"))),
+        };
+        let stored = self.bundle.analysis.as_ref().and_then(|a| a.gradients.as_ref()).filter(|g| g.method == m);
+        let g: Vec<[f64; 3]> = match stored {
+            Some(g) => g.per_point.clone(),
+            None => py
+                .allow_threads(|| -> anyhow::Result<Vec<[f64; 3]>> {
+                    Ok(tet_analysis::Analyzer::from_mesh(&self.bundle.mesh)?.vertex_gradients(m).to_vec())
+                })
+                .map_err(py_err)?,
+        };
+        let n = g.len();
+        Ok(numpy::ndarray::Array2::from_shape_vec((n, 3), g.into_flattened()).expect("N×3").into_pyarray(py))
+    }
+
+    /// The segment facts and frequency limits `tetprep info` prints: the
+    /// largest scalar range of a cell, the longest cell diagonal, and the
+    /// band frequencies whose peaks no cell (or 99% of cells) holds twice.
+    fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+        let a = py
+            .allow_threads(|| -> anyhow::Result<tet_analysis::Analysis> {
+                Ok(tet_analysis::Analyzer::from_mesh(&self.bundle.mesh)?.analyze(&Default::default())?)
+            })
+            .map_err(py_err)?;
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("max_cell_scalar_range", a.facts.max_cell_scalar_range)?;
+        d.set_item("max_cell_diameter", a.facts.max_cell_diameter)?;
+        d.set_item("frequency_limit", a.limits.frequency_limit)?;
+        d.set_item("frequency_limit_99", a.limits.frequency_limit_99)?;
+        Ok(d)
+    }
+
     /// A copy at time `t` of a time series (linear between steps).
     fn at_time(&self, t: f64) -> PyResult<PyBundle> {
         let mut b = self.bundle.clone();
@@ -471,11 +552,84 @@ fn image_from_py(name: &str, a: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
     Image::from_pixels(shape[1] as u32, shape[0] as u32, px).map_err(|e| arg_err(name, e))
 }
 
+/// Pre-integration tables of a TF and a method baked over a bundle's
+/// domain (`tetlut bake --bundle`): render with them (`render(table=...)`)
+/// and save them as a `.tetl`.
+#[pyclass(name = "Table", module = "tetkit")]
+pub struct PyTable {
+    look: Look,
+    lut: tet_preint::LutFile,
+}
+
+#[pymethods]
+impl PyTable {
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.look.method.id()
+    }
+    /// Seconds the bake took.
+    #[getter]
+    fn bake_seconds(&self) -> f64 {
+        self.look.shader_seconds
+    }
+    /// Bytes of tabulated data (as stored in the file).
+    #[getter]
+    fn memory_bytes(&self) -> usize {
+        self.look.baked.as_ref().map_or(0, |b| b.memory_bytes())
+    }
+    /// table3d: what the bake measured of itself — `certified`,
+    /// `max_error` (largest per-segment error over its sample sets) and
+    /// `target`; None for other methods.
+    #[getter]
+    fn certificate<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, pyo3::types::PyDict>>> {
+        let Some(tet_preint::Baked::Table3d(t)) = self.look.baked.as_deref() else { return Ok(None) };
+        let Some(c) = t.certificate() else { return Ok(None) };
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("certified", c.certified)?;
+        d.set_item("max_error", c.max_error)?;
+        d.set_item("target", c.target)?;
+        Ok(Some(d))
+    }
+    /// Writes the tables as a `.tetl` (what `tetview render --lut` reads).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.allow_threads(|| self.lut.write(&path)).map_err(|e| py_err(e.into()))
+    }
+    fn __repr__(&self) -> String {
+        format!("<tetkit.Table {} ({} bytes)>", self.look.method.id(), self.memory_bytes())
+    }
+}
+
+/// Bakes `method`'s tables for the TF over the bundle's domain, as
+/// `tetview render` bakes them before drawing.
+#[pyfunction]
+#[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, method="table3d"))]
+fn bake(
+    py: Python<'_>,
+    bundle: &PyBundle,
+    tf_json: Option<&str>,
+    tf_path: Option<PathBuf>,
+    colormap: Option<&str>,
+    method: &str,
+) -> PyResult<PyTable> {
+    let b = &bundle.bundle;
+    let (look, lut) = py
+        .allow_threads(|| -> anyhow::Result<(Look, tet_preint::LutFile)> {
+            let tf = tf_of(b, tf_json, tf_path.clone(), colormap)?;
+            let look = Look::bake(b, method.parse::<Method>()?, tf)?;
+            let domain = tet_preint::TableDomain::from_bundle(b)?;
+            let tf_data = tet_preint::tf_for_domain(&look.tf, &domain)?;
+            let lut = look.baked.as_ref().expect("Look::bake bakes").to_lut(&tf_data, &domain);
+            Ok((look, lut))
+        })
+        .map_err(py_err)?;
+    Ok(PyTable { look, lut })
+}
+
 /// Renders on the CPU as `tetview render` does (same TF policy, bake,
 /// renderer and view), returning H×W×4 float32 linear premultiplied RGBA.
 #[pyfunction]
 #[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, method="table3d", lut=None, view_json=None,
-    azimuth=0.0, elevation=0.0, zoom=1.0, size=(512, 512), renderer="walk", light=false, cull=true))]
+    azimuth=0.0, elevation=0.0, zoom=1.0, size=(512, 512), renderer="walk", light=false, cull=true, table=None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -493,17 +647,22 @@ fn render<'py>(
     renderer: &str,
     light: bool,
     cull: bool,
+    table: Option<PyRef<'py, PyTable>>,
 ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     let b = &bundle.bundle;
+    let table_look = table.map(|t| t.look.clone());
     let (image, stats, engine_seconds) = py
         .allow_threads(|| -> anyhow::Result<(Image, tet_render::RenderStats, f64)> {
             let start = std::time::Instant::now();
             // The look and the renderer are dropped inside the timed block:
             // freeing tables and the walker's mesh is the engine's time.
             let frame = {
-                let look = match &lut {
-                    Some(p) => Look::from_lut(p)?,
-                    None => Look::bake(b, method.parse::<Method>()?, tf_of(b, tf_json, tf_path.clone(), colormap)?)?,
+                let look = match (&table_look, &lut) {
+                    (Some(l), _) => l.clone(),
+                    (None, Some(p)) => Look::from_lut(p)?,
+                    (None, None) => {
+                        Look::bake(b, method.parse::<Method>()?, tf_of(b, tf_json, tf_path.clone(), colormap)?)?
+                    }
                 };
                 let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
                 let cpu: CpuRenderer =
@@ -631,6 +790,7 @@ fn methods() -> Vec<&'static str> {
 #[pyo3(name = "_tetkit")]
 fn tetkit_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyBundle>()?;
+    m.add_class::<PyTable>()?;
     for f in [
         wrap_pyfunction!(load, m)?,
         wrap_pyfunction!(read, m)?,
@@ -638,6 +798,7 @@ fn tetkit_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(from_cells, m)?,
         wrap_pyfunction!(render, m)?,
         wrap_pyfunction!(reference, m)?,
+        wrap_pyfunction!(bake, m)?,
         wrap_pyfunction!(tonemap, m)?,
         wrap_pyfunction!(encode_png, m)?,
         wrap_pyfunction!(diff, m)?,

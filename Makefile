@@ -32,15 +32,15 @@ test: gpu-driver viewer-deps
 	$(MAKE) python-test
 
 ## The Python package (python/, the native module crates/tet_python): a virtual environment
-## in cargo's target directory with maturin, pytest, numpy, meshio and PyVista (with VTK) from
-## the registry, the package
+## in cargo's target directory with maturin, pytest, numpy, meshio, PyVista (with VTK), tqdm and
+## ipywidgets from the registry, the package
 ## built in release (`maturin develop`), and its tests run against the tetview binary the
 ## cargo tests built (renders equal bit for bit).
 TARGET_DIR = $(abspath $(or $(CARGO_TARGET_DIR),target))
 PYVENV ?= $(TARGET_DIR)/pyvenv
 python-test: python-deps
 	@test -x $(PYVENV)/bin/python || python3 -m venv $(PYVENV)
-	$(PYVENV)/bin/python -m pip install -q --upgrade "maturin>=1.5,<2" pytest numpy meshio pyvista
+	$(PYVENV)/bin/python -m pip install -q --upgrade "maturin>=1.5,<2" pytest numpy meshio pyvista tqdm ipywidgets
 	cd python && VIRTUAL_ENV=$(PYVENV) PATH="$(PYVENV)/bin:$$PATH" maturin develop --release -q
 	$(CARGO) build -q -p tetview
 	TETVIEW=$(TARGET_DIR)/debug/tetview $(PYVENV)/bin/python -m pytest -q python/tests

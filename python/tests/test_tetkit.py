@@ -266,3 +266,30 @@ def test_bake_renders_and_saves_what_tetview_reads(tmp_path):
     assert np.asarray(from_file).tobytes() == np.asarray(baked_now).tobytes()
     with pytest.raises(tetkit.TetkitError):
         tetkit.render(b, table="not a table", size=(8, 8))
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_progress_callbacks_and_interact():
+    b = bluntfin()
+    seen = []
+    tetkit.render(b, tf=PEAKS, size=(64, 64), progress=lambda done, total: seen.append((done, total)))
+    assert seen and seen[-1][0] == seen[-1][1] and all(d <= t for d, t in seen), seen
+    assert len(seen) <= 102
+    ref_seen = []
+    tetkit.reference(b, tf=PEAKS, size=(16, 16), progress=lambda d, t: ref_seen.append(d))
+    assert ref_seen
+    # An exception in the callback does not stop the render.
+    def boom(done, total):
+        raise RuntimeError("callback failed")
+    img = tetkit.render(b, tf=PEAKS, size=(16, 16), progress=boom)
+    assert img.shape == (16, 16, 4)
+    tetkit.render(b, tf=PEAKS, size=(16, 16), progress=True)  # tqdm where installed, else nothing
+    try:
+        import ipywidgets  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError) as e:
+            tetkit.interact(b, tf=PEAKS)
+        assert "pip install ipywidgets" in str(e.value)
+    else:
+        ui = tetkit.interact(b, tf=PEAKS, size=(32, 32))
+        assert ui is not None

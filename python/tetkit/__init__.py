@@ -41,6 +41,7 @@ __all__ = [
     "diff",
     "tonemap",
     "methods",
+    "interact",
     "__version__",
 ]
 
@@ -240,6 +241,30 @@ def _view_args(view: Any, azimuth: float, elevation: float, zoom: float, size: T
     return args
 
 
+def _progress(progress: Any, what: str) -> Any:
+    """The native progress callback: a callable ``f(done, total)`` as it
+    is; ``True``: a tqdm bar where tqdm is installed (else none); ``None``
+    or ``False``: none."""
+    if progress is None or progress is False:
+        return None
+    if callable(progress):
+        return progress
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return None
+    bar = tqdm(total=1, desc=what, unit="tile", leave=False)
+
+    def update(done: int, total: int) -> None:
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+        if done >= total:
+            bar.close()
+
+    return update
+
+
 def _at(bundle: Bundle, time: Optional[float]) -> Bundle:
     if not isinstance(bundle, Bundle):
         raise TetkitError(f"bundle: expected a tetkit.Bundle, got {type(bundle).__name__}")
@@ -249,7 +274,8 @@ def _at(bundle: Bundle, time: Optional[float]) -> Bundle:
 def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any = None, azimuth: float = 0.0,
            elevation: float = 0.0, zoom: float = 1.0, size: Tuple[int, int] = (512, 512), renderer: str = "walk",
            lut: Optional[PathLike] = None, light: bool = False, cull: bool = True,
-           time: Optional[float] = None, stats: bool = False, table: Optional[Table] = None) -> Any:
+           time: Optional[float] = None, stats: bool = False, table: Optional[Table] = None,
+           progress: Any = None) -> Any:
     """Renders on the CPU as ``tetview render`` does: the same TF policy,
     table bake (``method``: see :func:`methods`), ``table`` (from
     :func:`bake`: drawn with its TF and method) or ``lut`` file, ``renderer``
@@ -259,7 +285,9 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
     that time. Returns an :class:`Image`, or with ``stats`` the pair
     (image, dict of the frame's figures: ``engine_seconds`` spent in the
     engine — bake or load, scene, frame — ``frame_seconds``, ``renderer``,
-    ``tets_drawn``, ``tets_culled``, ``crossings``, ``fragments``)."""
+    ``tets_drawn``, ``tets_culled``, ``crossings``, ``fragments``).
+    ``progress``: a callable ``f(done, total)`` over tiles, or ``True`` for
+    a tqdm bar where tqdm is installed."""
     args = _view_args(view, azimuth, elevation, zoom, size)
     args.update(_tf_args(tf))
     if lut is not None:
@@ -267,7 +295,7 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
     if table is not None and not isinstance(table, Table):
         raise TetkitError(f"table: expected a tetkit.Table from tetkit.bake, got {type(table).__name__}")
     img, figures = _tetkit.render(_at(bundle, time), method=method, renderer=renderer, light=bool(light),
-                                  cull=bool(cull), table=table, **args)
+                                  cull=bool(cull), table=table, progress=_progress(progress, "render"), **args)
     return (Image(img), figures) if stats else Image(img)
 
 
@@ -281,12 +309,13 @@ def bake(bundle: Bundle, tf: TfLike = None, method: str = "table3d") -> Table:
 
 
 def reference(bundle: Bundle, tf: TfLike = None, view: Any = None, azimuth: float = 0.0, elevation: float = 0.0,
-              zoom: float = 1.0, size: Tuple[int, int] = (512, 512), time: Optional[float] = None) -> Image:
+              zoom: float = 1.0, size: Tuple[int, int] = (512, 512), time: Optional[float] = None,
+              progress: Any = None) -> Image:
     """The exact ray-cast reference (``tetview reference``) of the same
     view and TF: the ground truth :func:`diff` compares with."""
     args = _view_args(view, azimuth, elevation, zoom, size)
     args.update(_tf_args(tf))
-    return Image(_tetkit.reference(_at(bundle, time), **args))
+    return Image(_tetkit.reference(_at(bundle, time), progress=_progress(progress, "reference"), **args))
 
 
 def tonemap(image: Any, exposure: float = 1.0, background: Tuple[float, float, float] = (0.0, 0.0, 0.0),
@@ -309,3 +338,61 @@ def diff(a: Any, b: Any) -> dict:
 def methods() -> list:
     """The method ids :func:`render` takes."""
     return list(_tetkit.methods())
+
+
+def interact(bundle: Bundle, tf: TfLike = None, method: str = "table3d", size: Tuple[int, int] = (384, 384)) -> Any:
+    """A notebook widget: sliders for azimuth, elevation, zoom and the TF's
+    opacity scale (and time, for a time series) redraw the bundle. The table
+    is baked once (again only when the opacity scale moves). Needs
+    ipywidgets (``pip install ipywidgets``); without it, an ImportError
+    saying so."""
+    try:
+        import ipywidgets as w
+        from IPython.display import display
+    except ImportError as e:
+        raise ImportError("tetkit.interact needs ipywidgets and IPython: pip install ipywidgets") from e
+    if isinstance(tf, Mapping):
+        base = dict(tf)
+    elif tf is None or (isinstance(tf, str) and tf in COLORMAPS):
+        base = None
+    else:
+        with open(_path("tf", tf), encoding="utf-8") as f:
+            base = _json.load(f)
+    tables = {}
+
+    def table_for(scale: float) -> Table:
+        key = round(scale, 3)
+        if key not in tables:
+            if base is None:
+                tables.clear()
+                tables[key] = bake(bundle, tf, method)
+            else:
+                scaled = dict(base)
+                scaled["opacity"] = [[x, a * scale] for x, a in base["opacity"]]
+                tables.clear()
+                tables[key] = bake(bundle, scaled, method)
+        return tables[key]
+
+    out = w.Image(format="png")
+    controls = {
+        "azimuth": w.FloatSlider(value=0, min=-180, max=180, step=5, description="azimuth"),
+        "elevation": w.FloatSlider(value=20, min=-89, max=89, step=5, description="elevation"),
+        "zoom": w.FloatLogSlider(value=1, base=2, min=-2, max=3, step=0.1, description="zoom"),
+        "scale": w.FloatLogSlider(value=1, base=10, min=-2, max=2, step=0.05, description="opacity",
+                                  disabled=base is None),
+    }
+    times = bundle.times
+    if times:
+        controls["time"] = w.FloatSlider(value=times[0], min=times[0], max=times[-1],
+                                         step=(times[-1] - times[0]) / 100 or 1, description="time")
+
+    def draw(**v: Any) -> None:
+        t = table_for(v["scale"])
+        img = render(bundle, table=t, azimuth=v["azimuth"], elevation=v["elevation"], zoom=v["zoom"], size=size,
+                     time=v.get("time"))
+        out.value = img.png()
+
+    ui = w.interactive(draw, **controls)
+    display(w.VBox([out, ui]))
+    draw(**{k: c.value for k, c in controls.items()})
+    return ui

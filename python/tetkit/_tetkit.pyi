@@ -1,6 +1,6 @@
 """Type stubs of the native module (crates/tet_python)."""
 
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -87,6 +87,7 @@ def render(
     light: bool = False,
     cull: bool = True,
     table: Optional[Table] = None,
+    progress: Optional[Callable[[int, int], None]] = None,
 ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]: ...
 def reference(
     bundle: Bundle,
@@ -98,6 +99,7 @@ def reference(
     elevation: float = 0.0,
     zoom: float = 1.0,
     size: Tuple[int, int] = (512, 512),
+    progress: Optional[Callable[[int, int], None]] = None,
 ) -> npt.NDArray[np.float32]: ...
 def tonemap(
     image: npt.NDArray[np.float32], exposure: float = 1.0, background: Tuple[float, float, float] = ..., reinhard: bool = True

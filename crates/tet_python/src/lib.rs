@@ -629,7 +629,8 @@ fn bake(
 /// renderer and view), returning H×W×4 float32 linear premultiplied RGBA.
 #[pyfunction]
 #[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, method="table3d", lut=None, view_json=None,
-    azimuth=0.0, elevation=0.0, zoom=1.0, size=(512, 512), renderer="walk", light=false, cull=true, table=None))]
+    azimuth=0.0, elevation=0.0, zoom=1.0, size=(512, 512), renderer="walk", light=false, cull=true, table=None,
+    progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -648,8 +649,10 @@ fn render<'py>(
     light: bool,
     cull: bool,
     table: Option<PyRef<'py, PyTable>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     let b = &bundle.bundle;
+    let progress = progress_of(progress);
     let table_look = table.map(|t| t.look.clone());
     let (image, stats, engine_seconds) = py
         .allow_threads(|| -> anyhow::Result<(Image, tet_render::RenderStats, f64)> {
@@ -674,7 +677,7 @@ fn render<'py>(
                     ..FrameRequest::new(view)
                 };
                 let mut r = CpuFrameRenderer::new(b)?;
-                r.render(&look, &request, &|_, _| {})?
+                r.render(&look, &request, &progress)?
             };
             let tet_engine::FrameStats::Cpu(stats) = frame.stats else {
                 unreachable!("the CPU renderer reports CPU statistics")
@@ -693,11 +696,33 @@ fn render<'py>(
     Ok((image_to_py(py, image), d))
 }
 
+/// The engine's progress callback for a Python callable `f(done, total)`:
+/// called with the GIL from the worker threads at most about a hundred
+/// times a frame and once at the end; an exception in it is reported as
+/// unraisable (`sys.unraisablehook`) and does not stop the render.
+fn progress_of(f: Option<Py<PyAny>>) -> impl Fn(usize, usize) + Sync {
+    let last = std::sync::atomic::AtomicUsize::new(0);
+    move |done, total| {
+        let Some(f) = &f else { return };
+        let step = (total / 100).max(1);
+        let prev = last.load(std::sync::atomic::Ordering::Relaxed);
+        if done != total && done < prev + step {
+            return;
+        }
+        last.store(done, std::sync::atomic::Ordering::Relaxed);
+        Python::with_gil(|py| {
+            if let Err(e) = f.call1(py, (done, total)) {
+                e.write_unraisable(py, None);
+            }
+        });
+    }
+}
+
 /// The exact ray-cast reference of the same view and TF (`tetview
 /// reference`), H×W×4 float32.
 #[pyfunction]
 #[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, view_json=None, azimuth=0.0, elevation=0.0,
-    zoom=1.0, size=(512, 512)))]
+    zoom=1.0, size=(512, 512), progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn reference<'py>(
     py: Python<'py>,
@@ -710,14 +735,16 @@ fn reference<'py>(
     elevation: f64,
     zoom: f64,
     size: (u32, u32),
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let b = &bundle.bundle;
+    let progress = progress_of(progress);
     let image = py
         .allow_threads(|| -> anyhow::Result<Image> {
             let tf = tf_of(b, tf_json, tf_path.clone(), colormap)?;
             let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
             let mut r = ReferenceFrameRenderer::new(b)?;
-            Ok(r.render(&Look::exact(tf), &FrameRequest::new(view), &|_, _| {})?.image)
+            Ok(r.render(&Look::exact(tf), &FrameRequest::new(view), &progress)?.image)
         })
         .map_err(py_err)?;
     Ok(image_to_py(py, image))

@@ -210,6 +210,19 @@ fn time_series_frames_are_the_scalar_at_that_time() {
     }
     assert_ne!(images[1].pixels(), images[0].pixels());
     assert_ne!(images[1].pixels(), images[2].pixels());
+    // Without --time a series draws its first step with the series' TF
+    // range: the same bits as --time at the first step.
+    let (first, plain) = (dir.path().join("first.npy"), dir.path().join("plain.npy"));
+    for (npy, time) in [(&first, Some("2")), (&plain, None)] {
+        let png = dir.path().join("y.png");
+        let mut args = vec!["render", bs, "--tf", ts, "--size", "40x32", "-o", png.to_str().unwrap()];
+        args.extend(["--float", npy.to_str().unwrap()]);
+        if let Some(t) = time {
+            args.extend(["--time", t]);
+        }
+        tetview(&args);
+    }
+    same_bits(&Image::read_npy(&first).unwrap(), &Image::read_npy(&plain).unwrap(), "--time 2 against no --time");
 
     let png = dir.path().join("x.png");
     for (bundle, time, want) in [(bs, "9", "outside the bundle's steps, 2 to 5"), (bs, "-1", "outside")] {

@@ -1,0 +1,662 @@
+//! The rays of one tile (`WalkCtx`): entry lists, the step from tet to
+//! tet (edge sides, exit face, face points), segments batched for the
+//! shader, compositing.
+
+use super::*;
+
+pub(crate) struct WalkCtx<'a> {
+    pub(crate) mesh: &'a WalkMesh,
+    pub(crate) view: &'a WalkView,
+    pub(crate) visible: Option<&'a [bool]>,
+    pub(crate) shader: &'a dyn SegmentShader,
+    pub(crate) opts: &'a RasterOptions,
+    pub(crate) want_grad_mag: bool,
+    pub(crate) lit: bool,
+    /// Rays walked at once ([`RasterOptions::walk_interleave`]).
+    pub(crate) lanes: usize,
+    /// Request the records of the next step's candidate tets ([`RasterOptions::walk_prefetch`]).
+    pub(crate) prefetch: bool,
+}
+
+/// A point on a face along one ray: depth, scalar and the barycentric
+/// weights of the face's three vertices (world space).
+#[derive(Clone, Copy)]
+pub(crate) struct FacePoint {
+    pub(crate) depth: f32,
+    pub(crate) scalar: f32,
+    pub(crate) ids: [u32; 3],
+    pub(crate) lam: [f32; 3],
+}
+
+/// Where the ray meets face `ids` given its three edge-function values
+/// `l[k]` (edge opposite vertex k) oriented so that inside is positive
+/// after multiplying by `orient`.
+#[inline(always)]
+pub(crate) fn face_point(verts: &[WalkVertex], ids: [u32; 3], l: [f32; 3], orient: f32, parallel: bool) -> FacePoint {
+    let q = ids.map(|i| verts[i as usize]);
+    // Rounding can make a value slightly negative next to an edge.
+    // (Comparisons rather than `max`, which also handles NaN at a cost.)
+    let l = l.map(|v| {
+        let v = v * orient;
+        if v > 0.0 {
+            v
+        } else {
+            0.0
+        }
+    });
+    // The weights stay unnormalized until one division: depth and scalar
+    // are the weighted sums times 1/Σ (the normalized weights only feed the
+    // gradients, which not every frame reads).
+    let (lam, depth, scalar);
+    if parallel {
+        let sum = l[0] + l[1] + l[2];
+        if sum > 0.0 {
+            let inv = 1.0 / sum;
+            lam = l.map(|v| v * inv);
+            depth = (l[0] * q[0].w + l[1] * q[1].w + l[2] * q[2].w) * inv;
+            scalar = (l[0] * q[0].scalar + l[1] * q[1].scalar + l[2] * q[2].scalar) * inv;
+        } else {
+            lam = [1.0 / 3.0; 3];
+            depth = (q[0].w + q[1].w + q[2].w) * (1.0 / 3.0);
+            scalar = (q[0].scalar + q[1].scalar + q[2].scalar) * (1.0 / 3.0);
+        }
+    } else {
+        let lw = [l[0] * q[0].w, l[1] * q[1].w, l[2] * q[2].w];
+        let sum_w = lw[0] + lw[1] + lw[2];
+        if sum_w > 0.0 {
+            let inv = 1.0 / sum_w;
+            lam = lw.map(|v| v * inv);
+            depth = (l[0] + l[1] + l[2]) * inv;
+            scalar = (lw[0] * q[0].scalar + lw[1] * q[1].scalar + lw[2] * q[2].scalar) * inv;
+        } else {
+            // The centre on a vertex: any point of the face is that vertex.
+            lam = [1.0 / 3.0; 3];
+            depth = 3.0 / (q[0].w + q[1].w + q[2].w);
+            scalar = (q[0].scalar + q[1].scalar + q[2].scalar) * (1.0 / 3.0);
+        }
+    }
+    FacePoint { depth, scalar, ids, lam }
+}
+
+/// Where one ray's walk stands between steps.
+#[derive(Clone, Copy)]
+pub(crate) struct RayState {
+    pub(crate) fx: f32,
+    pub(crate) fy: f32,
+    pub(crate) len_per_depth: f32,
+    /// Its entries left: `entries[next_entry..end]`.
+    pub(crate) next_entry: usize,
+    pub(crate) end: usize,
+    /// The run in progress: tet, entry face, entry point, steps it may
+    /// still take.
+    pub(crate) t: usize,
+    pub(crate) f_in: usize,
+    pub(crate) p_in: FacePoint,
+    pub(crate) steps_left: u32,
+    pub(crate) in_run: bool,
+    pub(crate) acc: [f32; 4],
+    /// Segments to gather before the next shading.
+    pub(crate) cap: usize,
+    pub(crate) crossings: u64,
+}
+
+/// Segments of one ray waiting for the shader.
+pub(crate) struct RayBatch {
+    pub(crate) segs: SegmentBatch,
+    /// Gradient at each segment's midpoint (lighting only).
+    pub(crate) grad_mid: [[f32; 3]; BATCH],
+    pub(crate) rgba: [Rgba32; BATCH],
+}
+
+/// The first batch of a ray holds this many segments, each next one twice
+/// as many up to [`BATCH`]: most rays that turn opaque do so early, and a
+/// ray walks at most one batch past the point where it did.
+pub(crate) const FIRST_BATCH: usize = 16;
+
+/// What a view's walk asks of its geometry: the projected form (f32 pixel
+/// positions, [`edge`]) or, where the near plane cuts the mesh, the
+/// homogeneous one ([`hom`]). Both give the signs and values of the same
+/// edge functions, so one walk serves both.
+pub(crate) trait RayGeometry: Sync {
+    /// Segments are clipped at [`RayGeometry::near_depth`] and rays may
+    /// start in the eye's tet.
+    const NEAR_CLIP: bool;
+    fn side(&self, iu: u32, iv: u32, fx: f32, fy: f32, c: &mut EdgeCounters) -> (f32, bool);
+    fn value(&self, iu: u32, iv: u32, fx: f32, fy: f32) -> f32;
+    fn sides_from(&self, tet: [u32; 4], skip: usize, fx: f32, fy: f32, c: &mut EdgeCounters) -> ([f32; 4], u32);
+    fn face_point(&self, ids: [u32; 3], l: [f32; 3], orient: f32) -> FacePoint;
+    /// The centres a front face may cover.
+    fn face_rect(&self, ids: [u32; 3]) -> Option<[u32; 4]>;
+    fn near_depth(&self) -> f32;
+    /// The eye's tet (walk order) and its vertices, when rays start there.
+    fn eye_tet(&self) -> Option<(u32, [u32; 4])>;
+}
+
+pub(crate) struct Projected<'a> {
+    pub(crate) verts: &'a [WalkVertex],
+    pub(crate) pos: Projector<'a>,
+    pub(crate) k_view: f32,
+    pub(crate) parallel: bool,
+    pub(crate) size: [u32; 2],
+}
+
+impl RayGeometry for Projected<'_> {
+    const NEAR_CLIP: bool = false;
+    #[inline(always)]
+    fn side(&self, iu: u32, iv: u32, fx: f32, fy: f32, c: &mut EdgeCounters) -> (f32, bool) {
+        edge::side(self.verts, &self.pos, iu, iv, fx, fy, self.k_view, c)
+    }
+    #[inline(always)]
+    fn value(&self, iu: u32, iv: u32, fx: f32, fy: f32) -> f32 {
+        edge::directed_value(self.verts, iu, iv, fx, fy)
+    }
+    #[inline(always)]
+    fn sides_from(&self, tet: [u32; 4], skip: usize, fx: f32, fy: f32, c: &mut EdgeCounters) -> ([f32; 4], u32) {
+        edge::sides_from(self.verts, &self.pos, tet, skip, fx, fy, self.k_view, c)
+    }
+    #[inline(always)]
+    fn face_point(&self, ids: [u32; 3], l: [f32; 3], orient: f32) -> FacePoint {
+        face_point(self.verts, ids, l, orient, self.parallel)
+    }
+    fn face_rect(&self, ids: [u32; 3]) -> Option<[u32; 4]> {
+        pixel_rect(&ids.map(|i| self.pos.px(i)), self.size[0], self.size[1])
+    }
+    fn near_depth(&self) -> f32 {
+        f32::NEG_INFINITY
+    }
+    fn eye_tet(&self) -> Option<(u32, [u32; 4])> {
+        None
+    }
+}
+
+pub(crate) struct Homogeneous<'a> {
+    pub(crate) verts: &'a [HomVertex],
+    pub(crate) near_depth: f32,
+    /// The eye's tet when it is visible.
+    pub(crate) eye: Option<(u32, [u32; 4])>,
+    pub(crate) size: [u32; 2],
+}
+
+impl RayGeometry for Homogeneous<'_> {
+    const NEAR_CLIP: bool = true;
+    #[inline(always)]
+    fn side(&self, iu: u32, iv: u32, fx: f32, fy: f32, c: &mut EdgeCounters) -> (f32, bool) {
+        hom::side(self.verts, iu, iv, fx, fy, c)
+    }
+    #[inline(always)]
+    fn value(&self, iu: u32, iv: u32, fx: f32, fy: f32) -> f32 {
+        hom::directed_value(self.verts, iu, iv, fx, fy)
+    }
+    #[inline(always)]
+    fn sides_from(&self, tet: [u32; 4], skip: usize, fx: f32, fy: f32, c: &mut EdgeCounters) -> ([f32; 4], u32) {
+        hom::sides_from(self.verts, tet, skip, fx, fy, c)
+    }
+    #[inline(always)]
+    fn face_point(&self, ids: [u32; 3], l: [f32; 3], orient: f32) -> FacePoint {
+        // The edge values are the barycentric weights up to one factor
+        // (`hom` module docs); depth and scalar are affine in them.
+        let q = ids.map(|i| self.verts[i as usize]);
+        let l = l.map(|v| if v * orient > 0.0 { v * orient } else { 0.0 });
+        let sum = l[0] + l[1] + l[2];
+        let lam = if sum > 0.0 { l.map(|v| v / sum) } else { [1.0 / 3.0; 3] };
+        FacePoint {
+            depth: lam[0] * q[0].w_depth + lam[1] * q[1].w_depth + lam[2] * q[2].w_depth,
+            scalar: lam[0] * q[0].scalar + lam[1] * q[1].scalar + lam[2] * q[2].scalar,
+            ids,
+            lam,
+        }
+    }
+    fn face_rect(&self, ids: [u32; 3]) -> Option<[u32; 4]> {
+        hom::face_rect(ids.map(|i| self.verts[i as usize]), self.size[0], self.size[1])
+    }
+    fn near_depth(&self) -> f32 {
+        self.near_depth
+    }
+    fn eye_tet(&self) -> Option<(u32, [u32; 4])> {
+        self.eye
+    }
+}
+
+impl WalkCtx<'_> {
+    // One call a tile; kept out of line so profiles can count a frame's
+    // walk (the callgrind scripts toggle on it).
+    #[inline(never)]
+    pub(crate) fn tile(&self, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+        let view = self.view;
+        let size = [view.frame.width, view.frame.height];
+        if view.near_clipped {
+            let eye = view
+                .eye_tet
+                .filter(|&t| self.visible.is_none_or(|vis| vis[t as usize]))
+                .map(|t| (t, self.mesh.tets[t as usize].verts));
+            let g = Homogeneous { verts: &view.hom, near_depth: view.frame.near_depth as f32, eye, size };
+            self.tile_full(&g, ti)
+        } else {
+            let g = Projected {
+                verts: &view.verts,
+                pos: Projector { frame: &view.frame, pos_rel: &self.mesh.pos_rel },
+                k_view: view.k_view,
+                parallel: view.frame.parallel,
+                size,
+            };
+            self.tile_full(&g, ti)
+        }
+    }
+
+    /// [`Self::tile_with`], compiled without the per-vertex gradient reads
+    /// where the frame needs none (neither lighting nor a bivariate method):
+    /// the exit points' weights and vertex ids are then never kept.
+    pub(crate) fn tile_full<G: RayGeometry>(&self, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+        if self.lit || self.want_grad_mag {
+            self.tile_with::<G, true>(g, ti)
+        } else {
+            self.tile_with::<G, false>(g, ti)
+        }
+    }
+
+    pub(crate) fn tile_with<G: RayGeometry, const GRADS: bool>(&self, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+        let view = self.view;
+        let (w, h) = (view.frame.width, view.frame.height);
+        let tile = view.tile;
+        let (i, j) = ((ti % view.tiles_x) as u32, (ti / view.tiles_x) as u32);
+        let rect = [i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1];
+        let stride = (rect[2] - rect[0] + 1) as usize;
+        let mut acc = vec![[0.0f32; 4]; stride * (rect[3] - rect[1] + 1) as usize];
+        let mut st = WalkStats::default();
+        let mut counters = EdgeCounters::default();
+        let entries = self.entries(g, ti, rect, stride, &mut counters, &mut st);
+        // The rays of the tile: (pixel, first entry, end).
+        let mut rays: Vec<(u32, usize, usize)> = Vec::new();
+        let mut k = 0;
+        while k < entries.len() {
+            let pix = entries[k].0;
+            let mut end = k + 1;
+            while end < entries.len() && entries[end].0 == pix {
+                end += 1;
+            }
+            rays.push((pix, k, end));
+            k = end;
+        }
+        // Several rays in flight, one step each in turn: each walk is a
+        // chain of dependent loads, and independent chains let the core
+        // overlap their cache misses (meshes far larger than the caches).
+        let lanes = self.lanes;
+        let new_batch = || {
+            Box::new(RayBatch { segs: SegmentBatch::default(), grad_mid: [[0.0; 3]; BATCH], rgba: [[0.0; 4]; BATCH] })
+        };
+        let mut batches: Vec<Box<RayBatch>> = (0..lanes).map(|_| new_batch()).collect();
+        let mut flight: Vec<Option<(u32, RayState)>> = vec![None; lanes];
+        let mut next = 0;
+        let mut active = 0;
+        if lanes == 1 {
+            // One ray at a time (the default): its state stays a local.
+            let batch = &mut batches[0];
+            for &(pix, first, end) in &rays {
+                let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
+                batch.segs.len = 0;
+                st.rays += 1;
+                let mut ray = self.start_ray(px, py, first, end);
+                while !self.step::<G, GRADS>(g, &mut ray, &entries, batch, &mut st, &mut counters) {}
+                acc[pix as usize] = ray.acc;
+            }
+            next = rays.len();
+        }
+        while next < rays.len() || active > 0 {
+            for (lane, slot) in flight.iter_mut().enumerate() {
+                if slot.is_none() && next < rays.len() {
+                    let (pix, first, end) = rays[next];
+                    next += 1;
+                    let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
+                    batches[lane].segs.len = 0;
+                    st.rays += 1;
+                    *slot = Some((pix, self.start_ray(px, py, first, end)));
+                    active += 1;
+                }
+                if let Some((pix, ray)) = slot {
+                    if self.step::<G, GRADS>(g, ray, &entries, &mut batches[lane], &mut st, &mut counters) {
+                        acc[*pix as usize] = ray.acc;
+                        *slot = None;
+                        active -= 1;
+                    }
+                }
+            }
+        }
+        st.exact_tests = counters.exact;
+        (acc, st)
+    }
+
+    /// The tile's entries: (pixel index in the tile, depth, tet·4 + face),
+    /// sorted by pixel, then depth. Near-clipped views with the eye in a
+    /// visible tet add, for every pixel, the face of that tet its ray meets
+    /// behind the eye (a missing one, impossible with exact signs, is
+    /// counted with the step bound).
+    pub(crate) fn entries<G: RayGeometry>(
+        &self,
+        g: &G,
+        ti: usize,
+        rect: [u32; 4],
+        stride: usize,
+        counters: &mut EdgeCounters,
+        st: &mut WalkStats,
+    ) -> Vec<(u32, f32, u32)> {
+        let view = self.view;
+        let tets = &self.mesh.tets;
+        let faces = &view.bin_faces[view.bin_start[ti] as usize..view.bin_start[ti + 1] as usize];
+        let orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
+        let mut out = Vec::new();
+        for &packed in faces {
+            let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
+            let fv = FACE_OUTWARD[f];
+            let tv = tets[t].verts;
+            let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
+            let Some(r) = g.face_rect(ids) else {
+                continue;
+            };
+            let (x0, y0, x1, y1) = (r[0].max(rect[0]), r[1].max(rect[1]), r[2].min(rect[2]), r[3].min(rect[3]));
+            if x0 > x1 || y0 > y1 {
+                continue;
+            }
+            for py in y0..=y1 {
+                let fy = py as f32 + 0.5;
+                for px in x0..=x1 {
+                    let fx = px as f32 + 0.5;
+                    let e0 = g.side(ids[1], ids[2], fx, fy, counters);
+                    if e0.1 != FRONT_IS_LEFT {
+                        continue;
+                    }
+                    let e1 = g.side(ids[2], ids[0], fx, fy, counters);
+                    if e1.1 != FRONT_IS_LEFT {
+                        continue;
+                    }
+                    let e2 = g.side(ids[0], ids[1], fx, fy, counters);
+                    if e2.1 != FRONT_IS_LEFT {
+                        continue;
+                    }
+                    let fp = g.face_point(ids, [e0.0, e1.0, e2.0], orient);
+                    let pix = (py - rect[1]) as usize * stride + (px - rect[0]) as usize;
+                    out.push((pix as u32, fp.depth, packed));
+                }
+            }
+        }
+        if let Some((t0, tet)) = g.eye_tet() {
+            for py in rect[1]..=rect[3] {
+                for px in rect[0]..=rect[2] {
+                    let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
+                    let pix = (py - rect[1]) as usize * stride + (px - rect[0]) as usize;
+                    // The face the line meets behind the eye: the one whose
+                    // three edges all say front (`hom` module docs).
+                    let behind = FACE_OUTWARD.iter().enumerate().find_map(|(f, fv)| {
+                        let ids = [tet[fv[0]], tet[fv[1]], tet[fv[2]]];
+                        let mut l = [0.0f32; 3];
+                        for (k, lk) in l.iter_mut().enumerate() {
+                            let (e, left) = g.side(ids[(k + 1) % 3], ids[(k + 2) % 3], fx, fy, counters);
+                            if left != FRONT_IS_LEFT {
+                                return None;
+                            }
+                            *lk = e;
+                        }
+                        Some((f, ids, l))
+                    });
+                    match behind {
+                        Some((f, ids, l)) => {
+                            let fp = g.face_point(ids, l, orient);
+                            out.push((pix as u32, fp.depth, t0 * 4 + f as u32));
+                        }
+                        None => st.step_limit += 1,
+                    }
+                }
+            }
+        }
+        out.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
+        out
+    }
+
+    /// Starts the ray through pixel (px, py), whose entries are
+    /// `entries[first..end]`.
+    pub(crate) fn start_ray(&self, px: u32, py: u32, first: usize, end: usize) -> RayState {
+        let (fx, fy) = (px as f32 + 0.5, py as f32 + 0.5);
+        RayState {
+            fx,
+            fy,
+            len_per_depth: self.view.frame.len_per_depth(fx as f64, fy as f64) as f32,
+            next_entry: first,
+            end,
+            t: 0,
+            f_in: 0,
+            p_in: FacePoint { depth: 0.0, scalar: 0.0, ids: [0; 3], lam: [0.0; 3] },
+            steps_left: 0,
+            in_run: false,
+            acc: [0.0; 4],
+            cap: FIRST_BATCH,
+            crossings: 0,
+        }
+    }
+
+    /// Advances one ray by one tet (or by starting its next run); true when
+    /// the ray is done (its entries walked, or opaque), its colour in
+    /// `ray.acc`. The steps of one ray are the same operations in the same
+    /// order however rays are interleaved, so the image does not depend on
+    /// the interleaving.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn step<G: RayGeometry, const GRADS: bool>(
+        &self,
+        g: &G,
+        ray: &mut RayState,
+        entries: &[(u32, f32, u32)],
+        batch: &mut RayBatch,
+        st: &mut WalkStats,
+        counters: &mut EdgeCounters,
+    ) -> bool {
+        let tets = &self.mesh.tets[..];
+        let (fx, fy) = (ray.fx, ray.fy);
+        let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
+        let back_orient = -front_orient;
+        if !ray.in_run {
+            if ray.next_entry == ray.end {
+                return self.finish(ray, batch, st);
+            }
+            let packed = entries[ray.next_entry].2;
+            ray.next_entry += 1;
+            st.runs += 1;
+            (ray.t, ray.f_in) = ((packed / 4) as usize, (packed % 4) as usize);
+            let fv = FACE_OUTWARD[ray.f_in];
+            let tv = tets[ray.t].verts;
+            let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
+            let l = [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
+            ray.p_in = g.face_point(ids, l, front_orient);
+            ray.steps_left = self.view.max_steps;
+            ray.in_run = true;
+        }
+        let (t, f_in) = (ray.t, ray.f_in);
+        if ray.steps_left == 0 {
+            st.step_limit += 1;
+            ray.in_run = false;
+            return false;
+        }
+        ray.steps_left -= 1;
+        let rec = &tets[t];
+        if self.prefetch {
+            // The three neighbours the ray may step into: their records are
+            // requested while this step's edge tests run (`prefetch`). The
+            // fourth, the tet the ray came from, is in the cache already: asking
+            // for it too costs less than a branch.
+            for &n in &rec.links {
+                prefetch::prefetch(tets, (n / 4) as usize);
+            }
+        }
+        let tet = rec.verts;
+        let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
+        // One table read: with the candidates' records already requested
+        // (above), a branch per candidate no longer lets loads start sooner.
+        let exit = EXIT_BY_SIDES[f_in & 3][(bits & 0xf) as usize];
+        if exit == NO_EXIT {
+            // Cannot happen with exact signs (module docs); counted with the
+            // step bound rather than trusted.
+            st.step_limit += 1;
+            ray.in_run = false;
+            return false;
+        }
+        let (f_out, x, y) = ((exit & 3) as usize, (exit >> 2 & 3) as usize, (exit >> 4 & 3) as usize);
+        ray.crossings += 1;
+        let link = rec.links[f_out & 3];
+        // The exit face as (v, x, y), a rotation of its outward order: the
+        // edge values opposite v, x and y.
+        let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
+        let l = [g.value(tx, ty, fx, fy), -val[y], val[x]];
+        let p_out = g.face_point([v, tx, ty], l, back_orient);
+        let p_in = ray.p_in;
+        let len = (p_out.depth - p_in.depth) * ray.len_per_depth;
+        let near = g.near_depth();
+        let pushed = if G::NEAR_CLIP && p_in.depth < near {
+            // Before the near plane: dropped, or cut there.
+            let keep = p_out.depth > near;
+            if keep {
+                let t_front = (near - p_in.depth) / (p_out.depth - p_in.depth);
+                self.push_clipped::<GRADS>(batch, &p_in, &p_out, (p_out.depth - near) * ray.len_per_depth, t_front);
+            }
+            keep
+        } else if len > 0.0 {
+            self.push::<GRADS>(batch, &p_in, &p_out, len);
+            true
+        } else {
+            false
+        };
+        if pushed && batch.segs.len >= ray.cap {
+            ray.cap = (ray.cap * 2).min(BATCH);
+            if self.flush(batch, &mut ray.acc, fx, fy, st) {
+                st.terminated += 1;
+                st.crossings += ray.crossings;
+                return true;
+            }
+        }
+        // Out of the mesh, or into a culled tet: the run ends (the ray's
+        // next entry, if any, is where it meets visible tets again).
+        if link >= LINK_BROKEN || self.visible.is_some_and(|vis| !vis[(link / 4) as usize]) {
+            if link == LINK_BROKEN {
+                st.non_manifold += 1;
+            }
+            ray.in_run = false;
+            return false;
+        }
+        if GRADS {
+            ray.p_in = p_out;
+        } else {
+            // Only depth and scalar are read (`push`): the weights and ids
+            // are not worth a store.
+            (ray.p_in.depth, ray.p_in.scalar) = (p_out.depth, p_out.scalar);
+        }
+        ray.t = (link / 4) as usize;
+        ray.f_in = (link % 4) as usize;
+        false
+    }
+
+    /// Shades what is left of the ray's batch; always true (done).
+    pub(crate) fn finish(&self, ray: &mut RayState, batch: &mut RayBatch, st: &mut WalkStats) -> bool {
+        st.crossings += ray.crossings;
+        if batch.segs.len > 0 && self.flush(batch, &mut ray.acc, ray.fx, ray.fy, st) {
+            st.terminated += 1;
+        }
+        true
+    }
+
+    /// [`Self::push`] for a segment cut by the near plane: its front values
+    /// are those at `t_front` of the way from `a` to `b` (every field is
+    /// linear along the ray inside the tet).
+    pub(crate) fn push_clipped<const GRADS: bool>(
+        &self,
+        batch: &mut RayBatch,
+        a: &FacePoint,
+        b: &FacePoint,
+        len: f32,
+        t_front: f32,
+    ) {
+        let k = batch.segs.len;
+        self.push::<GRADS>(batch, a, b, len);
+        let mix = |fa: f32, fb: f32| fa + t_front * (fb - fa);
+        batch.segs.s_front[k] = mix(a.scalar, b.scalar);
+        if GRADS && self.want_grad_mag {
+            batch.segs.grad_front[k] = mix(batch.segs.grad_front[k], batch.segs.grad_back[k]);
+        }
+        if GRADS && self.lit {
+            // push() left the mean of the two ends; the cut segment's
+            // midpoint is t_front/2 further towards b.
+            let g = self.mesh.grads.as_deref().expect("checked in lit");
+            let at = |p: &FacePoint, c: usize| {
+                p.lam[0] * g[p.ids[0] as usize][c]
+                    + p.lam[1] * g[p.ids[1] as usize][c]
+                    + p.lam[2] * g[p.ids[2] as usize][c]
+            };
+            batch.grad_mid[k] = std::array::from_fn(|c| {
+                let (ga, gb) = (at(a, c), at(b, c));
+                0.5 * (mix(ga, gb) + gb)
+            });
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn push<const GRADS: bool>(&self, batch: &mut RayBatch, a: &FacePoint, b: &FacePoint, len: f32) {
+        let k = batch.segs.len;
+        batch.segs.s_front[k] = a.scalar;
+        batch.segs.s_back[k] = b.scalar;
+        batch.segs.len_world[k] = len;
+        if !GRADS {
+            // The batch was made by this tile's walk with zero gradients
+            // (`tile_with`), and nothing here writes them.
+        } else if self.want_grad_mag {
+            let g = self.mesh.grad_mag.as_deref().expect("checked in want_grad_mag");
+            let at = |p: &FacePoint| {
+                p.lam[0] * g[p.ids[0] as usize] + p.lam[1] * g[p.ids[1] as usize] + p.lam[2] * g[p.ids[2] as usize]
+            };
+            batch.segs.grad_front[k] = at(a);
+            batch.segs.grad_back[k] = at(b);
+        } else {
+            batch.segs.grad_front[k] = 0.0;
+            batch.segs.grad_back[k] = 0.0;
+        }
+        if GRADS && self.lit {
+            let g = self.mesh.grads.as_deref().expect("checked in lit");
+            let mut mid = [0.0f32; 3];
+            for p in [a, b] {
+                for (c, m) in mid.iter_mut().enumerate() {
+                    *m += 0.5
+                        * (p.lam[0] * g[p.ids[0] as usize][c]
+                            + p.lam[1] * g[p.ids[1] as usize][c]
+                            + p.lam[2] * g[p.ids[2] as usize][c]);
+                }
+            }
+            batch.grad_mid[k] = mid;
+        }
+        batch.segs.len = k + 1;
+    }
+
+    /// Shades the batch and composites it under `acc` in order; true once
+    /// the pixel is opaque (the rest of the batch is dropped).
+    pub(crate) fn flush(&self, batch: &mut RayBatch, acc: &mut [f32; 4], fx: f32, fy: f32, st: &mut WalkStats) -> bool {
+        let n = batch.segs.len;
+        if acc[3] >= self.opts.opaque_alpha {
+            batch.segs.len = 0;
+            return true;
+        }
+        self.shader.shade_batch(&batch.segs, &mut batch.rgba);
+        batch.segs.len = 0;
+        let view_dir = self.lit.then(|| self.view.frame.view_dir(fx as f64, fy as f64));
+        for k in 0..n {
+            let mut c = batch.rgba[k];
+            if let Some(vd) = view_dir {
+                let g = batch.grad_mid[k];
+                c = self.opts.shading.apply(c, DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64), vd);
+            }
+            let t = 1.0 - acc[3];
+            acc[0] += t * c[0];
+            acc[1] += t * c[1];
+            acc[2] += t * c[2];
+            acc[3] += t * c[3];
+            st.fragments += 1;
+            if acc[3] >= self.opts.opaque_alpha {
+                return true;
+            }
+        }
+        false
+    }
+}

@@ -1,0 +1,291 @@
+//! A view for the walker (`WalkView`): every vertex projected once, the
+//! near plane's homogeneous form, front boundary faces binned into tiles.
+
+use super::*;
+
+/// One view for the walker: every vertex projected once, and the
+/// front-facing boundary faces binned into tiles.
+#[derive(Debug, Clone)]
+pub struct WalkView {
+    pub(crate) frame: Frame,
+    pub(crate) verts: Vec<WalkVertex>,
+    /// The near plane cuts the mesh: the view is walked in homogeneous
+    /// coordinates (`hom`; `verts` is empty).
+    pub(crate) near_clipped: bool,
+    pub(crate) hom: Vec<HomVertex>,
+    /// Near-clipped views: the tet holding the eye (walk order).
+    pub(crate) eye_tet: Option<u32>,
+    /// Bounds |x| and |y| of every projected vertex and pixel centre.
+    pub(crate) k_view: f32,
+    pub(crate) tile: u32,
+    pub(crate) tiles_x: usize,
+    pub(crate) tiles_y: usize,
+    /// Entry faces facing the eye, per tile (CSR: `bin_start[i]..bin_start[i + 1]`).
+    pub(crate) bin_start: Vec<u32>,
+    pub(crate) bin_faces: Vec<u32>,
+    pub(crate) front_faces: usize,
+    pub(crate) max_steps: u32,
+    pub(crate) unsupported: Option<String>,
+}
+
+impl WalkView {
+    /// Projects the scene's vertices for `camera` and bins its front
+    /// boundary faces into tiles of `tile` pixels.
+    pub fn new(scene: &Scene, mesh: &WalkMesh, camera: &Camera, tile: u32) -> WalkView {
+        Self::recycle(None, scene, mesh, camera, tile, &mesh.boundary)
+    }
+
+    /// [`WalkView::new`] reusing the buffers of an earlier view (a camera
+    /// moving every frame would otherwise fault in fresh pages for every
+    /// vertex array each frame).
+    /// `entry_faces` are the faces rays may enter by
+    /// ([`WalkMesh::entry_faces`]).
+    pub fn recycle(
+        old: Option<WalkView>,
+        scene: &Scene,
+        mesh: &WalkMesh,
+        camera: &Camera,
+        tile: u32,
+        entry_faces: &[u32],
+    ) -> WalkView {
+        let (mut old_verts, mut old_hom) = old.map_or((Vec::new(), Vec::new()), |v| (v.verts, v.hom));
+        let frame = Frame::new(camera, scene.centre_in_world());
+        let tile = tile.clamp(4, 1024);
+        let (w, h) = (frame.width, frame.height);
+        let (tiles_x, tiles_y) = (w.div_ceil(tile) as usize, h.div_ceil(tile) as usize);
+        let max_steps = (scene.num_tets() as u64 + 16).min(1 << 22) as u32;
+        let p_max = w.max(h) as f32 + 1.0;
+        let mut view = WalkView {
+            frame,
+            verts: Vec::new(),
+            near_clipped: false,
+            hom: Vec::new(),
+            eye_tet: None,
+            k_view: p_max,
+            tile,
+            tiles_x,
+            tiles_y,
+            bin_start: vec![0; tiles_x * tiles_y + 1],
+            bin_faces: Vec::new(),
+            front_faces: 0,
+            max_steps,
+            unsupported: None,
+        };
+        if scene.num_tets() > MAX_WALK_TETS {
+            view.unsupported =
+                Some(format!("{} tets: the walker's links address at most {MAX_WALK_TETS}", scene.num_tets()));
+            return view;
+        }
+        // One pass over the vertices in walk order: pixel position, w and
+        // the scalar. A vertex nearer than the near plane (perspective)
+        // switches the view to homogeneous coordinates; one projecting to
+        // no finite pixel marks it.
+        let parallel = frame.parallel;
+        let near = frame.near_depth;
+        if !parallel
+            && mesh.pos_rel.par_iter().any(|&p| frame.to_cam(p)[2].partial_cmp(&near).is_none_or(|o| o.is_lt()))
+        {
+            old_hom.resize(mesh.pos_rel.len(), HomVertex::default());
+            old_hom.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
+                |((out, &p), &scalar)| {
+                    let c = frame.to_cam(p);
+                    // x_px = (x_cam / depth − bx) / ax, times the depth.
+                    *out = HomVertex {
+                        x_hom: ((c[0] - frame.bx * c[2]) / frame.ax) as f32,
+                        y_hom: ((c[1] - frame.by * c[2]) / frame.ay) as f32,
+                        w_depth: c[2] as f32,
+                        scalar,
+                    };
+                },
+            );
+            view.hom = old_hom;
+            view.near_clipped = true;
+            if let Some(i) = view.hom.par_iter().position_first(|v| !(v.x_hom.abs() < 1e30 && v.y_hom.abs() < 1e30)) {
+                view.unsupported =
+                    Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));
+                return view;
+            }
+            // The eye's tet: the first (walk order) whose four faces all
+            // face away from it, decided on the walk's own coordinates.
+            let located: Vec<(usize, Option<bool>)> = mesh
+                .tets
+                .par_iter()
+                .enumerate()
+                .map(|(t, rec)| (t, hom::holds_eye(&view.hom, rec.verts)))
+                .filter(|(_, h)| *h != Some(false))
+                .collect();
+            if let Some((t, _)) = located.iter().find(|(_, h)| h.is_none()) {
+                view.unsupported = Some(format!(
+                    "the eye lies on the plane of a face of tet {} (no tet holds it strictly)",
+                    mesh.scene_tet[*t]
+                ));
+                return view;
+            }
+            view.eye_tet = located.first().map(|&(t, _)| t as u32);
+            view.bin_front_faces(mesh, entry_faces);
+            return view;
+        }
+        old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
+        old_verts.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
+            |((out, &p), &scalar)| {
+                let c = frame.to_cam(p);
+                let q = frame.cam_to_px(c);
+                let w = if parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 };
+                *out = WalkVertex { x_px: q[0] as f32, y_px: q[1] as f32, w, scalar };
+            },
+        );
+        view.verts = old_verts;
+        let unrepresentable = |v: &WalkVertex| !(v.x_px.abs() < 1e30 && v.y_px.abs() < 1e30);
+        if let Some(i) = view.verts.par_iter().position_first(unrepresentable) {
+            view.unsupported =
+                Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));
+            return view;
+        }
+        view.k_view = view.verts.par_iter().map(|v| v.x_px.abs().max(v.y_px.abs())).reduce(|| p_max, f32::max);
+        view.bin_front_faces(mesh, entry_faces);
+        view
+    }
+
+    /// Bins a new set of entry faces (a new cull mask), keeping the projection.
+    pub fn rebin(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
+        // (`unsupported` views have no binning to redo.)
+        if self.unsupported.is_none() {
+            self.front_faces = 0;
+            self.bin_start.iter_mut().for_each(|s| *s = 0);
+            self.bin_front_faces(mesh, entry_faces);
+        }
+    }
+
+    /// Why the walker cannot render this view (then projected tetrahedra do).
+    pub fn unsupported(&self) -> Option<&str> {
+        self.unsupported.as_deref()
+    }
+
+    /// Tile side the faces were binned for.
+    pub fn tile(&self) -> u32 {
+        self.tile
+    }
+
+    /// Most tets one run may cross before it is cut (counted).
+    pub fn max_steps(&self) -> u32 {
+        self.max_steps
+    }
+
+    /// Entry faces facing the eye.
+    pub fn front_faces(&self) -> usize {
+        self.front_faces
+    }
+
+    /// Whether the near plane cuts the mesh (walked in homogeneous
+    /// coordinates, segments clipped at the near depth).
+    pub fn near_clipped(&self) -> bool {
+        self.near_clipped
+    }
+
+    /// Near-clipped views: the tet holding the eye, as the scene numbers it.
+    pub fn eye_tet(&self, mesh: &WalkMesh) -> Option<u32> {
+        self.eye_tet.map(|t| mesh.scene_tet[t as usize])
+    }
+
+    /// Bytes held by this view.
+    pub fn memory_bytes(&self) -> usize {
+        (self.verts.len() + self.hom.len()) * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
+    }
+
+    pub(crate) fn bin_front_faces(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
+        let tets = &mesh.tets;
+        let (w, h) = (self.frame.width, self.frame.height);
+        let tile = self.tile;
+        let pos = Projector { frame: &self.frame, pos_rel: &mesh.pos_rel };
+        // Per front face, its tile rectangle; back faces and faces that
+        // cover no pixel centre get none. A face is an entry when its
+        // projection's exact orientation is the front one: the walk lives
+        // in the projected arrangement, so this is the test it agrees with
+        // (a face exactly edge-on covers no centre under the perturbation).
+        let rects: Vec<Option<[u32; 4]>> = entry_faces
+            .par_iter()
+            .map(|&packed| {
+                let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
+                let fv = FACE_OUTWARD[f];
+                if self.near_clipped {
+                    let q = [0, 1, 2].map(|k| self.hom[tets[t].verts[fv[k]] as usize]);
+                    if hom::face_orientation(&q[0], &q[1], &q[2]) != Some(true) {
+                        return None;
+                    }
+                    return hom::face_rect(q, w, h)
+                        .map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile]);
+                }
+                let p = [0, 1, 2].map(|k| pos.px(tets[t].verts[fv[k]]));
+                let o = orient2d(
+                    Coord { x: p[0][0], y: p[0][1] },
+                    Coord { x: p[1][0], y: p[1][1] },
+                    Coord { x: p[2][0], y: p[2][1] },
+                );
+                if o == 0.0 || (o > 0.0) != FRONT_IS_LEFT {
+                    return None;
+                }
+                pixel_rect(&p, w, h).map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile])
+            })
+            .collect();
+        let mut count = vec![0u32; self.tiles_x * self.tiles_y];
+        for r in rects.iter().flatten() {
+            self.front_faces += 1;
+            for j in r[1]..=r[3] {
+                for i in r[0]..=r[2] {
+                    count[j as usize * self.tiles_x + i as usize] += 1;
+                }
+            }
+        }
+        let mut start = 0u32;
+        for (i, c) in count.iter().enumerate() {
+            self.bin_start[i] = start;
+            start += c;
+        }
+        self.bin_start[count.len()] = start;
+        let mut fill: Vec<u32> = self.bin_start[..count.len()].to_vec();
+        self.bin_faces = vec![0; start as usize];
+        for (r, &packed) in rects.iter().zip(entry_faces) {
+            let Some(r) = r else { continue };
+            for j in r[1]..=r[3] {
+                for i in r[0]..=r[2] {
+                    let k = j as usize * self.tiles_x + i as usize;
+                    self.bin_faces[fill[k] as usize] = packed;
+                    fill[k] += 1;
+                }
+            }
+        }
+    }
+}
+
+/// The f64 pixel positions the view's f32 ones were rounded from,
+/// recomputed on demand (the exact predicate needs them rarely).
+pub(crate) struct Projector<'a> {
+    pub(crate) frame: &'a Frame,
+    pub(crate) pos_rel: &'a [[f64; 3]],
+}
+
+impl PixelPositions for Projector<'_> {
+    #[inline]
+    fn px(&self, vertex: u32) -> [f64; 2] {
+        self.frame.cam_to_px(self.frame.to_cam(self.pos_rel[vertex as usize]))
+    }
+}
+
+/// Inclusive pixel rectangle of the centres a triangle's bounding box can
+/// hold, clipped to the image; `None` when empty.
+pub(crate) fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
+    let (x_lo, x_hi) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
+    let (y_lo, y_hi) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
+    centre_rect(x_lo, x_hi, y_lo, y_hi, w, h)
+}
+
+/// Inclusive pixel rectangle of the centres in [x_lo, x_hi] × [y_lo, y_hi],
+/// clipped to the image; `None` when empty.
+pub(crate) fn centre_rect(x_lo: f64, x_hi: f64, y_lo: f64, y_hi: f64, w: u32, h: u32) -> Option<[u32; 4]> {
+    // Centres at i + 0.5 inside [lo, hi].
+    let x0 = (x_lo - 0.5).ceil().max(0.0);
+    let y0 = (y_lo - 0.5).ceil().max(0.0);
+    let x1 = (x_hi - 0.5).floor().min(w as f64 - 1.0);
+    let y1 = (y_hi - 0.5).floor().min(h as f64 - 1.0);
+    (x0 <= x1 && y0 <= y1).then_some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
+}

@@ -32,7 +32,9 @@ use std::time::Instant;
 
 use tet_bundle::{Bundle, BundleMeta, TimeSteps};
 use tet_delaunay::{triangulate_cloud, CloudMode, DelaunayOptions};
+use tet_io::series::SeriesStep;
 use tet_io::ReadOptions;
+use tet_mesh::SourceMesh;
 use tet_mesh::{build_adjacency, tetrahedralize_merged, ConvertOptions, NanPolicy, SplitMode, Step};
 
 /// What to convert and how (the options of `tetprep convert`).
@@ -135,14 +137,13 @@ pub enum ConvertError {
 
 /// Converts `input` as `req` says; `progress` hears each stage as it starts.
 pub fn convert(input: &Path, req: &ConvertRequest, progress: &mut dyn FnMut(Stage)) -> Result<Converted, ConvertError> {
-    let mut timings: Vec<(&'static str, f64)> = Vec::new();
     progress(Stage::Reading);
     let t = Instant::now();
     // A time series: the first step is converted as any input, the others
     // are mapped onto its mesh.
     let series = tet_io::series::series_steps(input, &req.read, req.all_steps)
         .map_err(|source| ConvertError::Steps { path: input.into(), source })?;
-    let mut source = match &series {
+    let source = match &series {
         Some(steps) => {
             let first = &steps[0];
             tet_io::read_file(&first.path, &ReadOptions { time_step: first.time_step, ..req.read.clone() })
@@ -150,8 +151,33 @@ pub fn convert(input: &Path, req: &ConvertRequest, progress: &mut dyn FnMut(Stag
         }
         None => tet_io::read_file(input, &req.read).map_err(ConvertError::Read)?,
     };
-    timings.push(("read", t.elapsed().as_secs_f64()));
+    let timings = vec![("read", t.elapsed().as_secs_f64())];
+    build(source, series.as_deref(), input, req, timings, progress)
+}
 
+/// Converts a mesh already in memory (arrays handed over by the Python
+/// package, a reader's output) as [`convert`] converts a file's: point
+/// clouds tetrahedralized, cells split and validated, adjacency and
+/// statistics. `label` names it in errors and in the bundle's source path.
+pub fn convert_source(
+    source: SourceMesh,
+    label: &str,
+    req: &ConvertRequest,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<Converted, ConvertError> {
+    build(source, None, Path::new(label), req, Vec::new(), progress)
+}
+
+/// Everything after reading: the source (a series' first step, with the
+/// list of steps) to the bundle.
+fn build(
+    mut source: SourceMesh,
+    series: Option<&[SeriesStep]>,
+    input: &Path,
+    req: &ConvertRequest,
+    mut timings: Vec<(&'static str, f64)>,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<Converted, ConvertError> {
     // A point cloud (points, no cells) is tetrahedralized first; from then
     // on it is a mesh like any other.
     let mut cloud = if source.num_cells() == 0 && !source.points.is_empty() {
@@ -224,7 +250,7 @@ pub fn convert(input: &Path, req: &ConvertRequest, progress: &mut dyn FnMut(Stag
     timings.push(("adjacency_stats", t.elapsed().as_secs_f64()));
 
     // The other steps' scalars, mapped onto this mesh.
-    let steps = match &series {
+    let steps = match series {
         Some(list) => {
             let t = Instant::now();
             let mapper = tet_mesh::StepMapper::new(&source, &mesh, &report)

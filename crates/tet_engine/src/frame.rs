@@ -120,8 +120,8 @@ impl CpuFrameRenderer {
     /// geometry stays, what depends on the scalar is redone (see
     /// [`Renderer::set_scalar`]).
     pub fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), EngineError> {
+        // The culler stays (it reads the scene's scalar when the mask is redone).
         self.renderer.as_mut().expect("a renderer").set_scalar(scalar)?;
-        self.cull = None;
         Ok(())
     }
 

@@ -17,7 +17,7 @@ use tet_gpu::{
     FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer,
     GpuScene, GpuShader, GpuTable3d, RasterPath, ToneResult, GPU_METHODS,
 };
-use tet_preint::{BakeOptions, Build3d, Method, Table3dParams, TableDomain, TableError};
+use tet_preint::{BakeOptions, Build3d, Method, Table3dParams};
 use tet_render::project::ViewGeometry;
 use tet_render::{visibility_order, Camera, Display, Scene};
 
@@ -62,8 +62,6 @@ pub struct GpuFrameRenderer {
     /// `None` only while gradients are being added (as `gpu_scene`).
     scene: Option<Scene>,
     gpu_scene: Option<GpuScene>,
-    /// The bundle's table domain (for tables baked on the device).
-    domain: Result<TableDomain, TableError>,
     renderer: GpuRenderer,
     options: GpuFrameOptions,
     /// The shader of the look with this key.
@@ -105,7 +103,6 @@ impl GpuFrameRenderer {
             ctx,
             scene: Some(scene),
             gpu_scene: Some(gpu_scene),
-            domain: TableDomain::from_bundle(bundle),
             renderer,
             options,
             shader: None,
@@ -166,7 +163,7 @@ impl GpuFrameRenderer {
         let (shader, seconds) = match &look.baked {
             Some(baked) => (GpuShader::from_baked(&self.ctx, baked).map_err(gpu_error)?, (0.0, 0.0)),
             None if look.method == Method::Table3d => {
-                let domain = self.domain.clone().map_err(EngineError::Domain)?;
+                let domain = look.domain.ok_or(EngineError::NotBaked { method: look.method })?;
                 count_table_bake();
                 // The slice recurrence on the device (the CPU default is the
                 // adaptive build): same axis and resolution, entries within ~1e-5.

@@ -48,6 +48,9 @@ pub struct Look {
     pub lut_path: Option<PathBuf>,
     /// Seconds spent baking or loading the tables.
     pub shader_seconds: f64,
+    /// The (Sf, Sb, l) domain a renderer bakes over, for a look it bakes
+    /// itself ([`Look::baked_by_renderer`]).
+    pub domain: Option<TableDomain>,
     key: u64,
 }
 
@@ -84,11 +87,12 @@ impl Look {
         Look::new(tf, Method::Exact, Some(baked), None, 0.0)
     }
 
-    /// `tf` drawn by `method` with tables the renderer bakes itself (the
-    /// GPU renderer's on-device table3d bake); CPU renderers refuse it
-    /// ([`EngineError::NotBaked`]).
-    pub fn baked_by_renderer(tf: TransferFunction, method: Method) -> Look {
-        Look::new(tf, method, None, None, 0.0)
+    /// `tf` drawn by `method` with tables the renderer bakes itself over
+    /// `bundle`'s domain (the GPU renderer's on-device table3d bake); CPU
+    /// renderers refuse it ([`EngineError::NotBaked`]).
+    pub fn baked_by_renderer(bundle: &Bundle, tf: TransferFunction, method: Method) -> Result<Look, EngineError> {
+        let domain = TableDomain::from_bundle(bundle).map_err(EngineError::Domain)?;
+        Ok(Look { domain: Some(domain), ..Look::new(tf, method, None, None, 0.0) })
     }
 
     fn new(
@@ -98,7 +102,7 @@ impl Look {
         lut_path: Option<PathBuf>,
         shader_seconds: f64,
     ) -> Look {
-        Look { tf, method, baked: baked.map(Arc::new), lut_path, shader_seconds, key: next_key() }
+        Look { tf, method, baked: baked.map(Arc::new), lut_path, shader_seconds, domain: None, key: next_key() }
     }
 
     /// Identifies this look and its clones: renderers keep what they derived

@@ -146,7 +146,7 @@ fn one_tf_policy_with_clear_errors() {
 fn a_look_baked_by_the_gpu_is_refused_on_the_cpu() {
     let bundle = grid_bundle(4, false);
     let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::Given(peaks()), ..TfRequest::default() }).unwrap().tf;
-    let look = Look::baked_by_renderer(tf, Method::Table3d);
+    let look = Look::baked_by_renderer(&bundle, tf, Method::Table3d).unwrap();
     let mut cpu = CpuFrameRenderer::new(&bundle).unwrap();
     let view = ViewSpec::framing([0.0; 3], [3.0; 3], [16, 16]);
     let e = cpu.render(&look, &FrameRequest::new(view), &|_, _| {}).unwrap_err();

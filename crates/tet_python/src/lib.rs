@@ -297,35 +297,35 @@ fn from_arrays(
     let points: Vec<[f64; 3]> = p.outer_iter().map(|r| [r[0], r[1], r[2]]).collect();
     let conn: Vec<u32> = t.iter().map(|&v| v as u32).collect();
     let values: Vec<f64> = s.iter().copied().collect();
+    let field = tet_mesh::Field::new("scalar", 1, values);
+    let mut cells = tet_mesh::Cells::new();
+    for t in conn.chunks_exact(4) {
+        cells.push(tet_mesh::CellType::Tetra, t);
+    }
+    let source = tet_mesh::SourceMesh {
+        format: "numpy arrays".into(),
+        points,
+        blocks: vec![tet_mesh::Block::Unstructured(cells)],
+        point_fields: if location == "point" { vec![field.clone()] } else { vec![] },
+        cell_fields: if location == "cell" { vec![field] } else { vec![] },
+        ..Default::default()
+    };
+    bundle_of(py, source, Some("scalar".into()))
+}
+
+/// `source` converted as `tetprep convert` converts a file
+/// ([`tet_convert::convert_source`]), `scalar` chosen by `--scalar`'s
+/// rules; the GIL released.
+fn bundle_of(py: Python<'_>, source: tet_mesh::SourceMesh, scalar: Option<String>) -> PyResult<PyBundle> {
+    let label = source.format.clone();
+    let request = tet_convert::ConvertRequest {
+        convert: tet_mesh::ConvertOptions { scalar, ..Default::default() },
+        ..Default::default()
+    };
     let bundle = py
-        .allow_threads(|| -> anyhow::Result<Bundle> {
-            let field = tet_mesh::Field::new("scalar", 1, values);
-            let mut cells = tet_mesh::Cells::new();
-            for t in conn.chunks_exact(4) {
-                cells.push(tet_mesh::CellType::Tetra, t);
-            }
-            let source = tet_mesh::SourceMesh {
-                format: "numpy arrays".into(),
-                points,
-                blocks: vec![tet_mesh::Block::Unstructured(cells)],
-                point_fields: if location == "point" { vec![field.clone()] } else { vec![] },
-                cell_fields: if location == "cell" { vec![field] } else { vec![] },
-                ..Default::default()
-            };
-            let opts = tet_mesh::ConvertOptions { scalar: Some("scalar".into()), ..Default::default() };
-            let (mesh, report) = tet_mesh::tetrahedralize(&source, &opts, &mut |_| {})?;
-            let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets)?;
-            let meta = tet_bundle::BundleMeta {
-                source_format: "numpy arrays".into(),
-                source_points: n as u64,
-                source_cells: m as u64,
-                split_tets: report.split_tets as u64,
-                findings: report.findings.iter().map(|f| f.to_string()).collect(),
-                ..Default::default()
-            };
-            Ok(Bundle::new(mesh, adjacency, meta))
-        })
-        .map_err(py_err)?;
+        .allow_threads(|| tet_convert::convert_source(source, &label, &request, &mut |_| {}))
+        .map_err(|e| py_err(e.into()))?
+        .bundle;
     Ok(PyBundle { bundle })
 }
 
@@ -449,6 +449,10 @@ fn from_cells(
             if flat > 0 {
                 notes.push(format!("skipped {flat} cells without volume (vertices, lines, polygons)"));
             }
+            if kept.is_empty() {
+                // Not a point cloud to tetrahedralize: the cells had no volume.
+                return Err(arg_err("cell_types", format!("no volume cells among the {k} cells")));
+            }
             let all = kept.len() == k;
             (vec![tet_mesh::Block::Unstructured(cells)], (!all).then_some(kept))
         }
@@ -470,24 +474,7 @@ fn from_cells(
         notes,
         ..Default::default()
     };
-    let bundle = py
-        .allow_threads(|| -> anyhow::Result<Bundle> {
-            let opts = tet_mesh::ConvertOptions { scalar, ..Default::default() };
-            let (mesh, report) = tet_mesh::tetrahedralize(&source, &opts, &mut |_| {})?;
-            let adjacency = tet_mesh::build_adjacency(&mesh.points, &mesh.tets)?;
-            let meta = tet_bundle::BundleMeta {
-                source_format: source.format.clone(),
-                source_points: report.source_points as u64,
-                source_cells: report.source_cells as u64,
-                split_tets: report.split_tets as u64,
-                split: if dims.is_some() { "5" } else { "6" }.into(),
-                findings: report.findings.iter().map(|f| f.to_string()).collect(),
-                ..Default::default()
-            };
-            Ok(Bundle::new(mesh, adjacency, meta))
-        })
-        .map_err(py_err)?;
-    Ok(PyBundle { bundle })
+    bundle_of(py, source, scalar)
 }
 
 /// The view of `tetview render`: a VTK-fields view JSON, or the default

@@ -11,7 +11,7 @@
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 use std::time::Instant;
-use tet_cli::{fail, usage, ExitKind, KindExt};
+use tet_cli::{usage, ExitKind, KindExt};
 use tet_engine::{
     CpuFrameRenderer, EngineError, Frame, FrameRenderer, FrameRequest, FrameStats, GpuFrameOptions, GpuFrameRenderer,
     Look,
@@ -96,8 +96,9 @@ impl Animator {
 /// Where frame `i` of `n` is: its azimuth offset and its time.
 fn frame_at(i: u32, n: u32, orbit: f64, times: Option<(f64, f64)>) -> (f64, Option<f64>) {
     let azimuth = orbit * i as f64 / n as f64;
-    let time = times.map(|(t0, t1)| if n > 1 { t0 + (t1 - t0) * i as f64 / (n - 1) as f64 } else { t0 });
-    (azimuth, time.map(|t| t.min(times.map_or(t, |r| r.1))))
+    // The last frame at t1 itself, whatever the rounding.
+    let time = times.map(|(t0, t1)| if n > 1 { (t0 + (t1 - t0) * i as f64 / (n - 1) as f64).min(t1) } else { t0 });
+    (azimuth, time)
 }
 
 pub fn run(args: &AnimateArgs) -> Result<()> {
@@ -167,12 +168,8 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
         )));
     }
     let mut animator = if args.gpu {
-        let r = GpuFrameRenderer::new(&bundle, scene, GpuFrameOptions::default()).map_err(|e| match &e {
-            EngineError::Gpu { kind: tet_engine::GpuFailure::NoDevice, .. } => {
-                fail(ExitKind::NoGpu, format!("--gpu: {e}; run without --gpu to render on the CPU"))
-            }
-            _ => e.into(),
-        })?;
+        let r =
+            GpuFrameRenderer::new(&bundle, scene, GpuFrameOptions::default()).map_err(crate::gpu::on_cpu_instead)?;
         Animator::Gpu(Box::new(r))
     } else {
         Animator::Cpu(Box::new(CpuFrameRenderer::from_scene(scene)))

@@ -42,7 +42,7 @@ pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
 
 /// A missing device (exit code 7) or a request beyond the GPU renderer
 /// (exit code 2) says how to go on without `--gpu`.
-fn on_cpu_instead(e: EngineError) -> anyhow::Error {
+pub fn on_cpu_instead(e: EngineError) -> anyhow::Error {
     match &e {
         EngineError::Gpu { kind: GpuFailure::NoDevice, .. } => {
             fail(ExitKind::NoGpu, format!("--gpu: {e}; run without --gpu to render on the CPU"))
@@ -77,7 +77,7 @@ pub fn render(
     let mut renderer = GpuFrameRenderer::new(bundle, scene, GpuFrameOptions { raster }).map_err(on_cpu_instead)?;
     let upload_seconds = t.elapsed().as_secs_f64() - renderer.device_seconds;
     let look = if args.gpu_bake {
-        Look::baked_by_renderer(tf.clone(), method)
+        Look::baked_by_renderer(bundle, tf.clone(), method)?
     } else {
         match lut {
             Some((lut, path)) => Look::from_lut_file(lut, path)?,

@@ -49,8 +49,12 @@ pub struct CloudReport {
 /// Replaces the (empty) cell list of a point-cloud `source` with tets over
 /// its points. Duplicates within `merge_tolerance_rel` × the bounding-box
 /// diagonal are left out of the triangulation exactly as
-/// `tet_mesh::tetrahedralize` will merge them (same function, same
-/// tolerance), so the later merge collapses no tet. Points with a
+/// `tet_mesh::tetrahedralize` would merge them (the representatives of
+/// `merge_duplicate_points`, same tolerance), so the later merge collapses
+/// no tet. The Delaunay mode triangulates first, merging identical points
+/// only, and merges within the tolerance first (then triangulates again)
+/// only when an edge of the result is short enough for two points to be
+/// that close (`near_pair_possible`): the usual cloud is merged once. Points with a
 /// non-finite coordinate are an error naming the point, unless
 /// `skip_non_finite`.
 pub fn triangulate_cloud(
@@ -72,14 +76,9 @@ pub fn triangulate_cloud(
         skipped = source.points.iter().filter(|p| !finite(p)).count();
     }
     let tolerance = merge_tolerance_rel * bbox_diagonal(&source.points);
-    let rep = merge_duplicate_points(&source.points, tolerance);
-    // Distinct finite points, by source index.
-    let distinct: Vec<u32> = (0..source.points.len() as u32)
-        .filter(|&i| rep[i as usize] == i && finite(&source.points[i as usize]))
-        .collect();
     let mut report = CloudReport {
         mode,
-        distinct_points: distinct.len(),
+        distinct_points: 0,
         skipped_non_finite: skipped,
         tets: 0,
         removed_cells: 0,
@@ -89,27 +88,82 @@ pub fn triangulate_cloud(
         neighbors: None,
         merged_into: Vec::new(),
     };
-    let tets: Vec<[u32; 4]> = match mode {
-        CloudMode::Delaunay => {
-            let pts: Vec<[f64; 3]> = distinct.iter().map(|&i| source.points[i as usize]).collect();
-            let d = tetrahedralize_points(&pts, opts).map_err(|e| match e {
-                DelaunayError::NonFinite { index, coords } => {
-                    DelaunayError::NonFinite { index: distinct[index] as usize, coords }
+    // Delaunay of the whole cloud first, merging only identical points
+    // (the triangulation's own merge), when that is provably the same as
+    // merging within the tolerance first: see `near_pair_possible`.
+    let first_try = match mode {
+        CloudMode::Delaunay if opts.max_circumradius.is_none() => {
+            let finite_ids: Option<Vec<u32>> = (skipped > 0)
+                .then(|| (0..source.points.len() as u32).filter(|&i| finite(&source.points[i as usize])).collect());
+            let owned: Vec<[f64; 3]>;
+            let pts: &[[f64; 3]] = match &finite_ids {
+                None => &source.points,
+                Some(ids) => {
+                    owned = ids.iter().map(|&i| source.points[i as usize]).collect();
+                    &owned
                 }
-                other => other,
+            };
+            let d = tetrahedralize_points(pts, opts).map_err(|e| match (e, &finite_ids) {
+                (DelaunayError::NonFinite { index, coords }, Some(ids)) => {
+                    DelaunayError::NonFinite { index: ids[index] as usize, coords }
+                }
+                (other, _) => other,
             })?;
+            if near_pair_possible(pts, &d.tets, tolerance) {
+                None
+            } else {
+                Some((d, finite_ids))
+            }
+        }
+        _ => None,
+    };
+    let (tets, rep): (Vec<[u32; 4]>, Vec<u32>) = match first_try {
+        Some((d, finite_ids)) => {
+            report.distinct_points = d.merged_into.len() - d.duplicates;
             report.removed_cells = d.removed_cells;
             report.fills_convex_hull = d.fills_convex_hull();
-            let tets = d.tets.iter().map(|t| t.map(|v| distinct[v as usize])).collect();
             report.neighbors = Some(d.neighbors);
-            tets
+            match finite_ids {
+                None => (d.tets, d.merged_into),
+                Some(ids) => {
+                    let mut rep: Vec<u32> = (0..source.points.len() as u32).collect();
+                    for (k, &i) in ids.iter().enumerate() {
+                        rep[i as usize] = ids[d.merged_into[k] as usize];
+                    }
+                    (d.tets.iter().map(|t| t.map(|v| ids[v as usize])).collect(), rep)
+                }
+            }
         }
-        CloudMode::Layered => {
-            let (layers, ids) = layers_from_columns(&source.points, &distinct)?;
-            report.layers = layers.len();
-            report.columns = layers[0].len();
-            let l = tetrahedralize_layers(&layers)?;
-            l.tets.iter().map(|t| t.map(|v| ids[v as usize])).collect()
+        None => {
+            let rep = merge_duplicate_points(&source.points, tolerance);
+            // Distinct finite points, by source index.
+            let distinct: Vec<u32> = (0..source.points.len() as u32)
+                .filter(|&i| rep[i as usize] == i && finite(&source.points[i as usize]))
+                .collect();
+            report.distinct_points = distinct.len();
+            let tets = match mode {
+                CloudMode::Delaunay => {
+                    let pts: Vec<[f64; 3]> = distinct.iter().map(|&i| source.points[i as usize]).collect();
+                    let d = tetrahedralize_points(&pts, opts).map_err(|e| match e {
+                        DelaunayError::NonFinite { index, coords } => {
+                            DelaunayError::NonFinite { index: distinct[index] as usize, coords }
+                        }
+                        other => other,
+                    })?;
+                    report.removed_cells = d.removed_cells;
+                    report.fills_convex_hull = d.fills_convex_hull();
+                    report.neighbors = Some(d.neighbors);
+                    d.tets.iter().map(|t| t.map(|v| distinct[v as usize])).collect()
+                }
+                CloudMode::Layered => {
+                    let (layers, ids) = layers_from_columns(&source.points, &distinct)?;
+                    report.layers = layers.len();
+                    report.columns = layers[0].len();
+                    let l = tetrahedralize_layers(&layers)?;
+                    l.tets.iter().map(|t| t.map(|v| ids[v as usize])).collect()
+                }
+            };
+            (tets, rep)
         }
     };
     report.tets = tets.len();
@@ -132,6 +186,34 @@ pub fn triangulate_cloud(
 /// column order of first appearance) with the source index of each
 /// flattened point `k * columns + c`.
 /// Layers of points, and the source index of each flattened point.
+/// Whether two distinct points of a triangulated cloud may lie within
+/// `tolerance` of each other on every axis (the test of
+/// `merge_duplicate_points`). Such a pair is at most √3·tolerance apart,
+/// and a point's nearest other point is joined to it by an edge of every
+/// Delaunay tetrahedralization (the ball on that segment as diameter holds
+/// no other point, not even on its boundary). So when no edge of `tets` is
+/// that short, merging within the tolerance first would have merged only
+/// identical points — what [`tetrahedralize_points`] did itself. The
+/// margin covers the rounding of the squared lengths; a false alarm only
+/// costs the merge-first path.
+fn near_pair_possible(pts: &[[f64; 3]], tets: &[[u32; 4]], tolerance: f64) -> bool {
+    use rayon::prelude::*;
+    // Not positive or not finite: `merge_duplicate_points` merges only
+    // identical points.
+    if !(tolerance > 0.0 && tolerance.is_finite()) {
+        return false;
+    }
+    let reach2 = 3.0 * tolerance * tolerance * (1.0 + 1e-6);
+    const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+    tets.par_iter().with_min_len(1 << 14).any(|t| {
+        EDGES.iter().any(|&(a, b)| {
+            let (p, q) = (&pts[t[a] as usize], &pts[t[b] as usize]);
+            let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2);
+            d2 <= reach2
+        })
+    })
+}
+
 type LayersWithIds = (Vec<Vec<[f64; 3]>>, Vec<u32>);
 
 fn layers_from_columns(points: &[[f64; 3]], distinct: &[u32]) -> Result<LayersWithIds, DelaunayError> {
@@ -246,5 +328,66 @@ mod tests {
         assert!(matches!(e, DelaunayError::NonFinite { index: 4, .. }));
         let r = triangulate_cloud(&mut src, CloudMode::Delaunay, &DelaunayOptions::default(), 0.0, true).unwrap();
         assert_eq!((r.skipped_non_finite, r.tets), (1, 1));
+    }
+
+    /// Random points with exact copies, near copies (within the merge
+    /// tolerance on every axis, not identical) and non-finite points.
+    fn noisy_cloud(seed: u64, near: bool) -> Vec<[f64; 3]> {
+        let mut rng = crate::SplitMix64(seed);
+        let mut pts: Vec<[f64; 3]> = (0..400).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()]).collect();
+        for k in 0..40 {
+            let p = pts[k * 7];
+            pts.push(p); // an exact copy, later in the list
+            if near && k % 4 == 0 {
+                // Within 1e-10 × the diagonal on every axis.
+                pts.push([p[0] + 3e-11, p[1] - 2e-11, p[2] + 1e-11]);
+            }
+        }
+        pts.insert(17, [f64::NAN, 0.5, 0.5]);
+        pts.push([0.5, f64::INFINITY, 0.5]);
+        pts
+    }
+
+    /// The conversion's view of a cloud: each point's representative and
+    /// the tets in source ids.
+    fn triangulated(pts: Vec<[f64; 3]>, opts: &DelaunayOptions) -> (CloudReport, Vec<[u32; 4]>) {
+        let mut src = cloud(pts);
+        let r = triangulate_cloud(&mut src, CloudMode::Delaunay, opts, 1e-10, true).unwrap();
+        let Block::Unstructured(cells) = &src.blocks[0] else { panic!() };
+        let tets = (0..cells.len()).map(|c| <[u32; 4]>::try_from(cells.nodes(c)).unwrap()).collect();
+        (r, tets)
+    }
+
+    /// Triangulating first and merging only identical points (the fast
+    /// path) gives what merging within the tolerance first gives whenever
+    /// no two points are that close; near copies take the merge-first path.
+    #[test]
+    fn merge_within_tolerance_is_kept_with_or_without_near_copies() {
+        for near in [false, true] {
+            let pts = noisy_cloud(7, near);
+            let n = pts.len();
+            let diag = bbox_diagonal(&pts);
+            let expected = merge_duplicate_points(&pts, 1e-10 * diag);
+            let (r, tets) = triangulated(pts.clone(), &DelaunayOptions::default());
+            assert_eq!(r.merged_into, expected, "near copies: {near}");
+            let finite = pts.iter().filter(|p| p.iter().all(|c| c.is_finite())).count();
+            let merged = expected.iter().enumerate().filter(|&(i, &m)| m as usize != i).count();
+            assert_eq!((r.skipped_non_finite, r.distinct_points), (2, finite - merged));
+            // Only finite representatives are used, each tet positive.
+            assert!(tets.iter().flatten().all(|&v| (v as usize) < n && expected[v as usize] == v));
+            assert!(tets.iter().flatten().all(|&v| pts[v as usize].iter().all(|c| c.is_finite())));
+            let p = |v: u32| &pts[v as usize];
+            assert!(tets.iter().all(|t| crate::predicates::orient(p(t[0]), p(t[1]), p(t[2]), p(t[3])) > 0.0));
+            // The hull is filled: the tets' volume is the convex hull's,
+            // the same whichever path ran (compare with peeling off
+            // nothing, which always merges first).
+            let (r2, tets2) = triangulated(pts.clone(), &DelaunayOptions { max_circumradius: Some(1e9) });
+            assert_eq!((r2.merged_into, r2.distinct_points), (r.merged_into.clone(), r.distinct_points));
+            let vol = |ts: &[[u32; 4]]| -> f64 {
+                ts.iter().map(|t| tet_mesh::predicates::signed_tet_volume(p(t[0]), p(t[1]), p(t[2]), p(t[3]))).sum()
+            };
+            assert!((vol(&tets) - vol(&tets2)).abs() < 1e-12, "near copies: {near}");
+            assert_eq!(tets.len(), tets2.len());
+        }
     }
 }

@@ -141,23 +141,27 @@ pub fn adjacency_from_neighbors(points: &[[f64; 3]], tets: &[[u32; 4]], neighbor
     if neighbors.len() != tets.len() || tets.len() > (u32::MAX / 4) as usize {
         return None;
     }
-    let face = |t: &[u32; 4], f: usize| {
-        let mut v = [t[(f + 1) % 4], t[(f + 2) % 4], t[(f + 3) % 4]];
-        v.sort_unstable();
-        v
-    };
+    // Each pair of neighbours names the other, and shares the face: the
+    // three vertices of t's face stand in u's other three slots (t's four
+    // vertices distinct, so they fill those slots exactly). No sort: the
+    // cost is the two records of u, read once a face.
     let consistent = (0..tets.len()).into_par_iter().all(|t| {
-        (0..4).all(|f| {
-            let u = neighbors[t][f];
-            if u == NO_NEIGHBOR {
-                return true;
-            }
-            let Some(back) = neighbors.get(u as usize) else { return false };
-            match (0..4).find(|&g| back[g] == t as u32) {
-                Some(g) => u as usize != t && face(&tets[t], f) == face(&tets[u as usize], g),
-                None => false,
-            }
-        })
+        let tv = &tets[t];
+        let distinct = (0..4).all(|i| (i + 1..4).all(|j| tv[i] != tv[j]));
+        distinct
+            && (0..4).all(|f| {
+                let u = neighbors[t][f];
+                if u == NO_NEIGHBOR {
+                    return true;
+                }
+                let (Some(back), Some(uv)) = (neighbors.get(u as usize), tets.get(u as usize)) else {
+                    return false;
+                };
+                match (0..4).find(|&g| back[g] == t as u32) {
+                    Some(g) => u as usize != t && (1..4).all(|k| (0..4).any(|j| j != g && uv[j] == tv[(f + k) % 4])),
+                    None => false,
+                }
+            })
     });
     if !consistent {
         return None;
@@ -275,6 +279,10 @@ mod from_neighbors_tests {
         let mut swapped = tets.clone();
         swapped[4].swap(2, 3);
         assert!(adjacency_from_neighbors(&points, &swapped, built.neighbors.clone()).is_none());
+        // A tet naming one vertex twice shares no face with anything.
+        let mut repeated = tets.clone();
+        repeated[0][2] = repeated[0][1];
+        assert!(adjacency_from_neighbors(&points, &repeated, built.neighbors.clone()).is_none());
         let mut out_of_range = built.neighbors;
         out_of_range[0][0] = 99;
         assert!(adjacency_from_neighbors(&points, &tets, out_of_range).is_none());

@@ -310,12 +310,19 @@ pub fn tetrahedralize_merged(
             }
         })
         .collect();
-    let mut tets = Vec::with_capacity(split.tets.len());
-    let mut tet_cell = Vec::with_capacity(split.tets.len());
     let (mut flipped, mut flat, mut nonfinite) = (0usize, 0usize, 0usize);
     let (mut flipped_cells, mut last_flipped_cell) = (0usize, u32::MAX);
     let mut first_flat_cell = None;
-    for ((t, &c), v) in split.tets.iter().zip(&split.source_cell).zip(&verdicts) {
+    let split_tets = split.tets.len();
+    // Every tet kept as it is (the usual case): the split's lists are the
+    // result, not copied.
+    let all_kept = verdicts.par_iter().all(|v| *v == Verdict::Keep);
+    let (mut tets, mut tet_cell, kept_lists) = if all_kept {
+        (split.tets, split.source_cell, None)
+    } else {
+        (Vec::with_capacity(split_tets), Vec::with_capacity(split_tets), Some((split.tets, split.source_cell)))
+    };
+    for ((t, &c), v) in kept_lists.iter().flat_map(|(t, c)| t.iter().zip(c.iter())).zip(&verdicts) {
         match v {
             Verdict::Keep => tets.push(*t),
             Verdict::Flipped => {
@@ -339,6 +346,7 @@ pub fn tetrahedralize_merged(
         tet_cell.push(c);
     }
     drop(verdicts);
+    drop(kept_lists);
     if nonfinite > 0 {
         let first_source_point = (0..source.points.len()).find(|&i| bad_point(i));
         report.findings.push(Finding::DroppedNonFinite { tets: nonfinite, first_source_point });
@@ -353,10 +361,9 @@ pub fn tetrahedralize_merged(
     }
     if tets.is_empty() {
         return Err(MeshError::Empty {
-            reason: format!("{} tets from splitting: {flat} flat, {nonfinite} non-finite", split.tets.len()),
+            reason: format!("{split_tets} tets from splitting: {flat} flat, {nonfinite} non-finite"),
         });
     }
-    drop(split);
 
     // 4. Per-point scalar: point data as is; cell data by volume-weighted
     //    averaging over the kept tets (the tets of a cell sum to its volume).

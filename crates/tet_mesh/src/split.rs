@@ -171,23 +171,52 @@ pub fn split_blocks(
     for block in blocks {
         match block {
             Block::Unstructured(cells) => {
-                let mut buf = [0u32; 8];
-                for c in 0..cells.len() {
-                    let nodes = cells.nodes(c);
-                    if let Some(s) = skip_point {
-                        if nodes.iter().any(|&n| s[n as usize]) {
-                            skipped += 1;
-                            continue;
+                // Chunks of cells split in parallel, concatenated in order:
+                // the same tets in the same order as one pass.
+                let split_range = |range: std::ops::Range<usize>| {
+                    let mut tets = Vec::with_capacity(range.len());
+                    let mut src = Vec::with_capacity(range.len());
+                    let mut skipped = 0usize;
+                    let mut buf = [0u32; 8];
+                    for c in range {
+                        let nodes = cells.nodes(c);
+                        if let Some(s) = skip_point {
+                            if nodes.iter().any(|&n| s[n as usize]) {
+                                skipped += 1;
+                                continue;
+                            }
                         }
+                        for (b, &n) in buf.iter_mut().zip(nodes) {
+                            *b = point_id[n as usize];
+                        }
+                        let cell = (cell_base + c) as u32;
+                        split_cell(cells.types[c], &buf[..nodes.len()], &mut |t| {
+                            tets.push(t);
+                            src.push(cell);
+                        });
                     }
-                    for (b, &n) in buf.iter_mut().zip(nodes) {
-                        *b = point_id[n as usize];
+                    (tets, src, skipped)
+                };
+                const CHUNK: usize = 1 << 16;
+                let n = cells.len();
+                if n <= CHUNK {
+                    let (t, s, sk) = split_range(0..n);
+                    out.tets.extend_from_slice(&t);
+                    out.source_cell.extend_from_slice(&s);
+                    skipped += sk;
+                } else {
+                    let parts: Vec<(Vec<[u32; 4]>, Vec<u32>, usize)> = (0..n.div_ceil(CHUNK))
+                        .into_par_iter()
+                        .map(|k| split_range(k * CHUNK..((k + 1) * CHUNK).min(n)))
+                        .collect();
+                    let total: usize = parts.iter().map(|p| p.0.len()).sum();
+                    out.tets.reserve(total);
+                    out.source_cell.reserve(total);
+                    for (t, s, sk) in parts {
+                        out.tets.extend_from_slice(&t);
+                        out.source_cell.extend_from_slice(&s);
+                        skipped += sk;
                     }
-                    let src = (cell_base + c) as u32;
-                    split_cell(cells.types[c], &buf[..nodes.len()], &mut |t| {
-                        out.tets.push(t);
-                        out.source_cell.push(src);
-                    });
                 }
             }
             &Block::Structured { dims, first_point } => {

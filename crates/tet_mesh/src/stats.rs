@@ -3,6 +3,8 @@
 use crate::predicates::{dist2, signed_tet_volume};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::cmp::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 
 /// Minimum, median and maximum of a per-cell quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
@@ -76,6 +78,11 @@ fn median_of_bin(mut in_bin: Vec<f64>, n: usize, below: u64) -> f64 {
     *median
 }
 
+/// Inputs from this many groups try [`Spread::bracketed`] first, with this
+/// many groups sampled.
+const SAMPLED_MIN: usize = 1 << 15;
+const SAMPLE_GROUPS: usize = 1 << 14;
+
 /// Few, large chunks: each fold allocates its 2 MiB histograms.
 fn fold_chunk(n_groups: usize) -> usize {
     n_groups.div_ceil(rayon::current_num_threads() * 2).max(1 << 14)
@@ -94,14 +101,163 @@ impl Spread {
     /// [`Spread::of_groups`] of two quantities computed together (one
     /// evaluation of `group` a pass, which matters when it gathers from
     /// memory), and the sum of the first.
+    ///
+    /// Large inputs first try one pass: a fixed sample of groups brackets
+    /// each median between two sample values, and the pass counts the
+    /// values below the bracket and collects those inside it, which holds
+    /// the median unless the sample was unlucky (then the two histogram
+    /// passes run). Either way the median is exact.
     pub fn of_two_groups<const K: usize, const L: usize>(
         n_groups: usize,
         group: impl Fn(usize) -> ([f64; K], [f64; L]) + Sync,
     ) -> (Spread, Spread, f64) {
-        let (n_a, n_b) = (n_groups * K, n_groups * L);
         if n_groups == 0 {
             return (Spread::default(), Spread::default(), 0.0);
         }
+        if n_groups >= SAMPLED_MIN {
+            if let Some(r) = Spread::bracketed(n_groups, &group, SAMPLE_GROUPS) {
+                return r;
+            }
+        }
+        Spread::by_histograms(n_groups, &group)
+    }
+
+    /// The one-pass form of [`Spread::of_two_groups`] with `sample` groups
+    /// sampled; `None` when a median falls outside its bracket.
+    fn bracketed<const K: usize, const L: usize>(
+        n_groups: usize,
+        group: &(impl Fn(usize) -> ([f64; K], [f64; L]) + Sync),
+        sample: usize,
+    ) -> Option<(Spread, Spread, f64)> {
+        let (n_a, n_b) = (n_groups * K, n_groups * L);
+        // Evenly spaced groups from a fixed offset: deterministic, and
+        // spread over the whole input (meshes are ordered in space).
+        let sample = sample.min(n_groups);
+        let step = n_groups as f64 / sample as f64;
+        let (mut sa, mut sb): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+        for k in 0..sample {
+            let (va, vb) = group(((k as f64 + 0.5) * step) as usize);
+            sa.extend(va);
+            sb.extend(vb);
+        }
+        // The bracket: sample ranks 5 standard deviations of the sample
+        // median's rank either side of it.
+        let bracket = |mut v: Vec<f64>| -> (f64, f64) {
+            if v.is_empty() {
+                return (0.0, 0.0);
+            }
+            v.sort_unstable_by(f64::total_cmp);
+            let m = v.len();
+            let half = (5.0 * (m as f64).sqrt() * 0.5).ceil() as usize + 1;
+            (v[(m / 2).saturating_sub(half)], v[(m / 2 + half).min(m - 1)])
+        };
+        let ((lo_a, hi_a), (lo_b, hi_b)) = (bracket(sa), bracket(sb));
+        // Values equal to a bracket end are counted, not kept (a grid's
+        // edge lengths take a few values); those strictly inside are kept,
+        // within a budget shared by all folds: ties inside the bracket, or
+        // a sample far from the data, send the input to the histograms.
+        let budget = AtomicUsize::new((n_a + n_b) / 16 + 1024);
+        struct Pass {
+            min: [f64; 2],
+            max: [f64; 2],
+            sum: f64,
+            below: [u64; 2],
+            at_lo: [u64; 2],
+            at_hi: [u64; 2],
+            inside: [Vec<f64>; 2],
+            over: bool,
+        }
+        let new = || Pass {
+            min: [f64::INFINITY; 2],
+            max: [f64::NEG_INFINITY; 2],
+            sum: 0.0,
+            below: [0; 2],
+            at_lo: [0; 2],
+            at_hi: [0; 2],
+            inside: [Vec::new(), Vec::new()],
+            over: false,
+        };
+        let take = |p: &mut Pass, q: usize, v: f64, lo: f64, hi: f64| {
+            p.min[q] = p.min[q].min(v);
+            p.max[q] = p.max[q].max(v);
+            match (v.total_cmp(&lo), v.total_cmp(&hi)) {
+                (Ordering::Less, _) => p.below[q] += 1,
+                (Ordering::Equal, _) => p.at_lo[q] += 1,
+                (_, Ordering::Equal) => p.at_hi[q] += 1,
+                (_, Ordering::Less) => {
+                    if p.over || budget.fetch_update(Relaxed, Relaxed, |b| b.checked_sub(1)).is_err() {
+                        p.over = true;
+                    } else {
+                        p.inside[q].push(v);
+                    }
+                }
+                _ => {}
+            }
+        };
+        let pass = (0..n_groups)
+            .into_par_iter()
+            .with_min_len(1 << 14)
+            .fold(new, |mut p, g| {
+                let (va, vb) = group(g);
+                for v in va {
+                    take(&mut p, 0, v, lo_a, hi_a);
+                    p.sum += v;
+                }
+                for v in vb {
+                    take(&mut p, 1, v, lo_b, hi_b);
+                }
+                p
+            })
+            .reduce(new, |mut x, y| {
+                for q in 0..2 {
+                    x.min[q] = x.min[q].min(y.min[q]);
+                    x.max[q] = x.max[q].max(y.max[q]);
+                    x.below[q] += y.below[q];
+                    x.at_lo[q] += y.at_lo[q];
+                    x.at_hi[q] += y.at_hi[q];
+                    x.inside[q].extend_from_slice(&y.inside[q]);
+                }
+                x.sum += y.sum;
+                x.over |= y.over;
+                x
+            });
+        if pass.over {
+            return None;
+        }
+        let mut pass = pass;
+        let [mut in_a, mut in_b] = std::mem::take(&mut pass.inside);
+        // The element of rank ⌊n/2⌋ in total order, when the bracket holds it.
+        let median = |q: usize, lo: f64, hi: f64, n: usize, inside: &mut Vec<f64>| -> Option<f64> {
+            let mut rank = ((n / 2) as u64).checked_sub(pass.below[q])?;
+            if rank < pass.at_lo[q] {
+                return Some(lo);
+            }
+            rank -= pass.at_lo[q];
+            if rank < inside.len() as u64 {
+                let (_, m, _) = inside.select_nth_unstable_by(rank as usize, f64::total_cmp);
+                return Some(*m);
+            }
+            rank -= inside.len() as u64;
+            (rank < pass.at_hi[q]).then_some(hi)
+        };
+        let a = Spread { min: pass.min[0], median: median(0, lo_a, hi_a, n_a, &mut in_a)?, max: pass.max[0] };
+        let b = if L > 0 {
+            Spread { min: pass.min[1], median: median(1, lo_b, hi_b, n_b, &mut in_b)?, max: pass.max[1] }
+        } else {
+            Spread::default()
+        };
+        let sum = pass.sum;
+        Some((a, b, sum))
+    }
+
+    /// The two-pass form of [`Spread::of_two_groups`]: min, max and a
+    /// histogram over the values' bit patterns, then the values of the
+    /// median's bin.
+    fn by_histograms<const K: usize, const L: usize>(
+        n_groups: usize,
+        group: &(impl Fn(usize) -> ([f64; K], [f64; L]) + Sync),
+    ) -> (Spread, Spread, f64) {
+        let (n_a, n_b) = (n_groups * K, n_groups * L);
         let (acc_a, acc_b, sum) = (0..n_groups)
             .into_par_iter()
             .with_min_len(fold_chunk(n_groups))
@@ -234,6 +390,50 @@ mod tests {
         assert_eq!(b, Spread::of_groups(50_001, g));
         let direct: f64 = (0..50_001).map(f).sum();
         assert!((sum - direct).abs() <= 1e-9 * direct.abs().max(1.0), "{sum} {direct}");
+    }
+
+    /// The one-pass bracket gives the exact median or declines, for
+    /// smooth, skewed, sorted, tied and few-valued data, whatever the
+    /// sample size; the histogram passes agree.
+    #[test]
+    fn bracketed_median_is_exact_or_declines() {
+        let n = 70_001;
+        type Values = Box<dyn Fn(usize) -> f64 + Sync>;
+        let data: Vec<(&str, Values)> = vec![
+            ("hashed", Box::new(|i| ((i * 7919) % 100_003) as f64 - 5e4)),
+            ("cubed", Box::new(|i| (((i * 104_729) % 70_001) as f64).powi(3))),
+            ("sorted", Box::new(|i| i as f64 * 1e-3)),
+            ("four values", Box::new(|i| [1.0, 2.0f64.sqrt(), 3.0f64.sqrt(), 2.0][(i * 31) % 4])),
+            ("one value", Box::new(|_| 0.25)),
+            ("mostly one value", Box::new(|i| if i % 97 == 0 { i as f64 } else { -0.0 })),
+        ];
+        for (name, f) in &data {
+            let group = |i: usize| ([f(i)], [f(i) * 2.0, -f(n - 1 - i)]);
+            let truth = |k: usize| {
+                let mut v: Vec<f64> =
+                    (0..n).flat_map(|i| if k == 0 { vec![group(i).0[0]] } else { group(i).1.to_vec() }).collect();
+                v.sort_by(f64::total_cmp);
+                (v[0], v[v.len() / 2], v[v.len() - 1])
+            };
+            let (ta, tb) = (truth(0), truth(1));
+            let hist = Spread::by_histograms(n, &group);
+            assert_eq!((hist.0.min, hist.0.median, hist.0.max), ta, "{name}");
+            assert_eq!((hist.1.min, hist.1.median, hist.1.max), tb, "{name}");
+            let mut declined = 0;
+            for sample in [1, 2, 7, 100, 1 << 14] {
+                match Spread::bracketed(n, &group, sample) {
+                    Some((a, b, sum)) => {
+                        assert_eq!((a, b), (hist.0, hist.1), "{name}, sample {sample}");
+                        assert!((sum - hist.2).abs() <= 1e-9 * hist.2.abs().max(1.0), "{name}");
+                    }
+                    None => declined += 1,
+                }
+            }
+            // The full sample finds every median here.
+            assert!(declined < 5, "{name}");
+            let all = Spread::of_two_groups(n, group);
+            assert_eq!((all.0, all.1), (hist.0, hist.1), "{name}");
+        }
     }
 
     #[test]

@@ -256,11 +256,25 @@ fn build(
             let mapper = tet_mesh::StepMapper::new(&source, &mesh, &report)
                 .map_err(|source| ConvertError::Mesh { path: input.into(), source })?;
             let mut scalars = vec![mesh.scalar.clone()];
+            // An Exodus file's steps read only their variables, from the
+            // file's bytes held once; other steps are files of their own.
+            let exodus = tet_io::series::ExodusSteps::open(list, &req.read)
+                .map_err(|source| ConvertError::ReadStep { index: 0, label: list[0].label.clone(), source })?;
             for (k, step) in list.iter().enumerate().skip(1) {
                 progress(Stage::TimeStep { index: k + 1, count: list.len(), label: step.label.clone() });
-                let s = tet_io::read_file(&step.path, &ReadOptions { time_step: step.time_step, ..req.read.clone() })
-                    .map_err(|source| ConvertError::ReadStep { index: k, label: step.label.clone(), source })?;
-                scalars.push(mapper.scalar(&s, &mesh).map_err(|source| ConvertError::Step {
+                let read_error = |source| ConvertError::ReadStep { index: k, label: step.label.clone(), source };
+                let mapped = match &exodus {
+                    Some(e) => mapper.scalar_of_fields(&e.fields(step).map_err(read_error)?, &mesh),
+                    None => {
+                        let s = tet_io::read_file(
+                            &step.path,
+                            &ReadOptions { time_step: step.time_step, ..req.read.clone() },
+                        )
+                        .map_err(read_error)?;
+                        mapper.scalar(&s, &mesh)
+                    }
+                };
+                scalars.push(mapped.map_err(|source| ConvertError::Step {
                     index: k,
                     label: step.label.clone(),
                     source,

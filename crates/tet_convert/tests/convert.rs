@@ -32,3 +32,30 @@ fn requests_that_do_not_fit_the_input_are_refused() {
     let e = convert(&data("no/such.vtu"), &ConvertRequest::default(), &mut |_| {}).unwrap_err();
     assert!(matches!(e, ConvertError::Read(_)), "{e}");
 }
+
+/// An Exodus file's later steps, read as their variables alone, map to
+/// what reading each step whole and mapping it gives, bit for bit: for a
+/// nodal variable, the element block id (a cell field) and a coordinate.
+#[test]
+fn exodus_steps_read_once_equal_steps_read_whole() {
+    let path = data("exodus/small.exo");
+    for scalar in ["T", "P", "block_id", "z"] {
+        let convert_opts = tet_mesh::ConvertOptions { scalar: Some(scalar.into()), ..Default::default() };
+        let req = ConvertRequest { all_steps: true, convert: convert_opts.clone(), ..Default::default() };
+        let done = convert(&path, &req, &mut |_| {}).unwrap();
+        let st = done.bundle.steps.as_ref().expect("two steps");
+        assert_eq!(st.len(), 2, "{scalar}");
+        // Each step read whole and mapped onto the first step's mesh.
+        let read = |k: usize| {
+            tet_io::read_file(&path, &tet_io::ReadOptions { time_step: Some(k), ..Default::default() }).unwrap()
+        };
+        let first = read(0);
+        let (mesh, report) = tet_mesh::tetrahedralize(&first, &convert_opts, &mut |_| {}).unwrap();
+        let mapper = tet_mesh::StepMapper::new(&first, &mesh, &report).unwrap();
+        for k in 0..2 {
+            let whole = mapper.scalar(&read(k), &mesh).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(st.scalar(k)), bits(&whole), "{scalar}, step {k}");
+        }
+    }
+}

@@ -65,12 +65,186 @@ fn need<'f>(f: &'f NetCdf<'_>, name: &str) -> Result<&'f Variable, FormatError> 
 
 /// The time of each step (`time_whole`; empty when the file has no steps).
 pub fn times(bytes: &[u8]) -> Result<Vec<f64>, FormatError> {
-    let f = NetCdf::parse(bytes)?;
+    times_of(&NetCdf::parse(bytes)?)
+}
+
+fn times_of(f: &NetCdf<'_>) -> Result<Vec<f64>, FormatError> {
     let steps = f.num_records;
     match f.var("time_whole") {
         Some(t) if steps > 0 => (0..steps).map(|r| f.read(t, Some(r)).map(|v| v[0])).collect(),
         _ => Ok(Vec::new()),
     }
+}
+
+/// A volume block that is read: its index (0-based, `connect{index+1}`),
+/// cell type, nodes per element, and where its cells start among all.
+struct BlockLayout {
+    index: usize,
+    cell_type: CellType,
+    nodes_per_elem: usize,
+    first: usize,
+    count: usize,
+}
+
+/// Which blocks become cells, from the variables' shapes and attributes
+/// alone (the connectivity is not read): what the mesh and every time
+/// step's element variables are laid out by.
+struct Layout {
+    blocks: Vec<BlockLayout>,
+    block_ids: Vec<f64>,
+    num_cells: usize,
+    skipped: Vec<String>,
+}
+
+impl Layout {
+    fn of(f: &NetCdf<'_>) -> Result<Layout, FormatError> {
+        let num_blocks = f.dim_len("num_el_blk").unwrap_or(0);
+        let block_ids = match f.var("eb_prop1") {
+            Some(v) => f.read(v, None)?,
+            None => (1..=num_blocks).map(|i| i as f64).collect(),
+        };
+        // The blocks that have connectivity, from the variables' names (a
+        // null block has none): the header's block count alone never
+        // drives a loop.
+        let mut with_connect: Vec<usize> = f
+            .vars
+            .iter()
+            .filter_map(|v| v.name.strip_prefix("connect")?.parse::<usize>().ok())
+            .filter(|&i| (1..=num_blocks).contains(&i))
+            .map(|i| i - 1)
+            .collect();
+        with_connect.sort_unstable();
+        with_connect.dedup();
+        let mut layout = Layout { blocks: Vec::new(), block_ids, num_cells: 0, skipped: Vec::new() };
+        for b in with_connect {
+            let name = format!("connect{}", b + 1);
+            let Some(connect) = f.var(&name) else {
+                continue;
+            };
+            let shape = f.shape(connect);
+            let elem_type = connect.text_attr("elem_type").unwrap_or("").to_string();
+            let [n_elems, per] = shape[..] else {
+                return Err(whole(format!("'{name}' has shape {shape:?}, expected 2-D")));
+            };
+            let Some(ct) = cell_type(&elem_type, per) else {
+                let plural = if n_elems == 1 { "" } else { "s" };
+                layout.skipped.push(format!("block {} ({elem_type}, {n_elems} element{plural})", layout.block_id(b)));
+                continue;
+            };
+            layout.blocks.push(BlockLayout {
+                index: b,
+                cell_type: ct,
+                nodes_per_elem: per,
+                first: layout.num_cells,
+                count: n_elems,
+            });
+            layout.num_cells += n_elems;
+        }
+        Ok(layout)
+    }
+
+    fn block_id(&self, b: usize) -> f64 {
+        self.block_ids.get(b).copied().unwrap_or((b + 1) as f64)
+    }
+}
+
+/// The fields of one time step: nodal variables as point fields, `block_id`
+/// and the element variables as cell fields, and notes.
+#[derive(Debug, Clone, Default)]
+pub struct StepFields {
+    pub point_fields: Vec<Field>,
+    pub cell_fields: Vec<Field>,
+    pub notes: Vec<String>,
+}
+
+/// The fields of time step `step` (0-based) of an Exodus II file held in
+/// memory, as [`read`] gives them for that step, without reading the
+/// coordinates or the connectivity: a time series maps each later step onto
+/// the mesh read once.
+pub fn read_step_fields(bytes: &[u8], step: usize) -> Result<StepFields, FormatError> {
+    let f = NetCdf::parse(bytes)?;
+    let steps = f.num_records;
+    if step >= steps.max(1) {
+        return Err(whole(format!("time step {step} asked for; the file has {steps} (0..{})", steps.max(1) - 1)));
+    }
+    let num_nodes = f.dim_len("num_nodes").unwrap_or(0);
+    step_fields(&f, &Layout::of(&f)?, num_nodes, step)
+}
+
+/// The fields of `step`, laid out by `layout` (see [`StepFields`]).
+fn step_fields(f: &NetCdf<'_>, layout: &Layout, num_nodes: usize, step: usize) -> Result<StepFields, FormatError> {
+    let num_cells = layout.num_cells;
+    let mut out = StepFields::default();
+    out.cell_fields.push(Field::new(
+        "block_id",
+        1,
+        layout.blocks.iter().flat_map(|b| std::iter::repeat_n(layout.block_id(b.index), b.count)).collect(),
+    ));
+    if f.num_records == 0 {
+        return Ok(out);
+    }
+    let names = match f.var("name_nod_var") {
+        Some(v) => f.read_strings(v)?,
+        None => Vec::new(),
+    };
+    // The older combined array (variable × node at each step), read once.
+    let combined = match f.var("vals_nod_var") {
+        Some(v) => Some(f.read(v, Some(step))?),
+        None => None,
+    };
+    for (j, n) in names.iter().enumerate() {
+        let values = if let Some(v) = f.var(&format!("vals_nod_var{}", j + 1)) {
+            f.read(v, Some(step))?
+        } else if let Some(all) = &combined {
+            all.get(j * num_nodes..(j + 1) * num_nodes).map(<[f64]>::to_vec).unwrap_or_default()
+        } else {
+            return Err(whole(format!("nodal variable '{n}' has no values")));
+        };
+        if values.len() != num_nodes {
+            return Err(whole(format!("nodal variable '{n}' has {} values for {num_nodes} nodes", values.len())));
+        }
+        out.point_fields.push(Field::new(field_name(n, j), 1, values));
+    }
+    let enames = match f.var("name_elem_var") {
+        Some(v) => f.read_strings(v)?,
+        None => Vec::new(),
+    };
+    let truth = match f.var("elem_var_tab") {
+        Some(v) => Some(f.read(v, None)?),
+        None => None,
+    };
+    let mut partial = Vec::new();
+    for (j, n) in enames.iter().enumerate() {
+        let mut values = vec![f64::NAN; num_cells];
+        let mut complete = true;
+        for blk in &layout.blocks {
+            let (b, first, count) = (blk.index, blk.first, blk.count);
+            let on = truth.as_ref().is_none_or(|t| t.get(b * enames.len() + j).is_some_and(|&x| x != 0.0));
+            let var = f.var(&format!("vals_elem_var{}eb{}", j + 1, b + 1));
+            match (on, var) {
+                (true, Some(v)) => {
+                    let vals = f.read(v, Some(step))?;
+                    if vals.len() != count {
+                        return Err(whole(format!(
+                            "element variable '{n}' has {} values in block {} of {count} elements",
+                            vals.len(),
+                            b + 1
+                        )));
+                    }
+                    values[first..first + count].copy_from_slice(&vals);
+                }
+                _ => complete = false,
+            }
+        }
+        if !complete {
+            partial.push(n.clone());
+        }
+        out.cell_fields.push(Field::new(field_name(n, j), 1, values));
+    }
+    if !partial.is_empty() {
+        out.notes.push(format!("element variables missing in some blocks (NaN there): {}", partial.join(", ")));
+    }
+    Ok(out)
 }
 
 /// Reads an Exodus II file held in memory.
@@ -106,145 +280,40 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
             }
         }
     }
-    let num_blocks = f.dim_len("num_el_blk").unwrap_or(0);
-    let block_ids = match f.var("eb_prop1") {
-        Some(v) => f.read(v, None)?,
-        None => (1..=num_blocks).map(|i| i as f64).collect(),
-    };
+    let layout = Layout::of(&f)?;
     let mut cells = Cells::new();
-    let mut block_of_cell: Vec<u32> = Vec::new();
-    // Per block read: (block index, first cell, cells).
-    let mut read_blocks: Vec<(usize, usize, usize)> = Vec::new();
-    let (mut reduced, mut skipped) = (0usize, Vec::new());
-    // The blocks that have connectivity, from the variables' names (a null
-    // block has none): the header's block count alone never drives a loop.
-    let mut with_connect: Vec<usize> = f
-        .vars
-        .iter()
-        .filter_map(|v| v.name.strip_prefix("connect")?.parse::<usize>().ok())
-        .filter(|&i| (1..=num_blocks).contains(&i))
-        .map(|i| i - 1)
-        .collect();
-    with_connect.sort_unstable();
-    with_connect.dedup();
-    for b in with_connect {
-        let name = format!("connect{}", b + 1);
-        let Some(connect) = f.var(&name) else {
-            // A null block (eb_status 0) has no connectivity.
-            continue;
-        };
-        let shape = f.shape(connect);
-        let elem_type = connect.text_attr("elem_type").unwrap_or("").to_string();
-        let [n_elems, per] = shape[..] else {
-            return Err(FormatError::new(Location::Whole, format!("'{name}' has shape {shape:?}, expected 2-D")));
-        };
-        let Some(ct) = cell_type(&elem_type, per) else {
-            let id = block_ids.get(b).copied().unwrap_or((b + 1) as f64);
-            let plural = if n_elems == 1 { "" } else { "s" };
-            skipped.push(format!("block {id} ({elem_type}, {n_elems} element{plural})"));
-            continue;
-        };
-        let ids = f.read(connect, None)?;
-        let first = cells.len();
+    for blk in &layout.blocks {
+        let ids = f.read(need(&f, &format!("connect{}", blk.index + 1))?, None)?;
         let mut node = [0u32; 8];
-        for e in 0..n_elems {
-            for (k, slot) in node.iter_mut().take(ct.num_nodes()).enumerate() {
-                let id = ids[e * per + k];
+        for e in 0..blk.count {
+            for (k, slot) in node.iter_mut().take(blk.cell_type.num_nodes()).enumerate() {
+                let id = ids[e * blk.nodes_per_elem + k];
                 if !(id >= 1.0 && id <= num_nodes as f64 && id.fract() == 0.0) {
                     return Err(whole(format!(
                         "element {} of block {} names node {id}; nodes are 1..={num_nodes}",
                         e + 1,
-                        block_ids.get(b).copied().unwrap_or((b + 1) as f64)
+                        layout.block_id(blk.index)
                     )));
                 }
                 *slot = id as u32 - 1;
             }
-            cells.push(ct, &node[..ct.num_nodes()]);
+            cells.push(blk.cell_type, &node[..blk.cell_type.num_nodes()]);
         }
-        if per > ct.num_nodes() {
-            reduced += n_elems;
-        }
-        block_of_cell.extend(std::iter::repeat_n(b as u32, n_elems));
-        read_blocks.push((b, first, n_elems));
     }
-    let num_cells = cells.len();
+    let reduced: usize =
+        layout.blocks.iter().filter(|b| b.nodes_per_elem > b.cell_type.num_nodes()).map(|b| b.count).sum();
     let mut mesh = SourceMesh { format: "Exodus II".to_string(), points, ..Default::default() };
-    mesh.cell_fields.push(Field::new(
-        "block_id",
-        1,
-        block_of_cell.iter().map(|&b| block_ids.get(b as usize).copied().unwrap_or((b + 1) as f64)).collect(),
-    ));
-    // Results at one time step.
     let steps = f.num_records;
-    let times = match f.var("time_whole") {
-        Some(t) if steps > 0 => (0..steps).map(|r| f.read(t, Some(r)).map(|v| v[0])).collect::<Result<Vec<_>, _>>()?,
-        _ => Vec::new(),
-    };
     let step = opts.time_step.unwrap_or(0);
     if opts.time_step.is_some() && step >= steps.max(1) {
         return Err(whole(format!("time step {step} asked for; the file has {steps} (0..{})", steps.max(1) - 1)));
     }
+    let fields = step_fields(&f, &layout, num_nodes, step)?;
+    mesh.point_fields = fields.point_fields;
+    mesh.cell_fields = fields.cell_fields;
+    mesh.notes = fields.notes;
     if steps > 0 {
-        let names = match f.var("name_nod_var") {
-            Some(v) => f.read_strings(v)?,
-            None => Vec::new(),
-        };
-        // The older combined array (variable × node at each step), read once.
-        let combined = match f.var("vals_nod_var") {
-            Some(v) => Some(f.read(v, Some(step))?),
-            None => None,
-        };
-        for (j, n) in names.iter().enumerate() {
-            let values = if let Some(v) = f.var(&format!("vals_nod_var{}", j + 1)) {
-                f.read(v, Some(step))?
-            } else if let Some(all) = &combined {
-                all.get(j * num_nodes..(j + 1) * num_nodes).map(<[f64]>::to_vec).unwrap_or_default()
-            } else {
-                return Err(whole(format!("nodal variable '{n}' has no values")));
-            };
-            if values.len() != num_nodes {
-                return Err(whole(format!("nodal variable '{n}' has {} values for {num_nodes} nodes", values.len())));
-            }
-            mesh.point_fields.push(Field::new(field_name(n, j), 1, values));
-        }
-        let enames = match f.var("name_elem_var") {
-            Some(v) => f.read_strings(v)?,
-            None => Vec::new(),
-        };
-        let truth = match f.var("elem_var_tab") {
-            Some(v) => Some(f.read(v, None)?),
-            None => None,
-        };
-        let mut partial = Vec::new();
-        for (j, n) in enames.iter().enumerate() {
-            let mut values = vec![f64::NAN; num_cells];
-            let mut complete = true;
-            for &(b, first, count) in &read_blocks {
-                let on = truth.as_ref().is_none_or(|t| t.get(b * enames.len() + j).is_some_and(|&x| x != 0.0));
-                let var = f.var(&format!("vals_elem_var{}eb{}", j + 1, b + 1));
-                match (on, var) {
-                    (true, Some(v)) => {
-                        let vals = f.read(v, Some(step))?;
-                        if vals.len() != count {
-                            return Err(whole(format!(
-                                "element variable '{n}' has {} values in block {} of {count} elements",
-                                vals.len(),
-                                b + 1
-                            )));
-                        }
-                        values[first..first + count].copy_from_slice(&vals);
-                    }
-                    _ => complete = false,
-                }
-            }
-            if !complete {
-                partial.push(n.clone());
-            }
-            mesh.cell_fields.push(Field::new(field_name(n, j), 1, values));
-        }
-        if !partial.is_empty() {
-            mesh.notes.push(format!("element variables missing in some blocks (NaN there): {}", partial.join(", ")));
-        }
+        let times = times_of(&f)?;
         let t = times.get(step).copied().unwrap_or(f64::NAN);
         mesh.notes.push(match times.as_slice() {
             [first, .., last] => format!(
@@ -256,8 +325,8 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     if reduced > 0 {
         mesh.notes.push(format!("reduced {reduced} higher-order elements to their corner nodes"));
     }
-    if !skipped.is_empty() {
-        mesh.notes.push(format!("skipped element blocks that are not volume cells: {}", skipped.join(", ")));
+    if !layout.skipped.is_empty() {
+        mesh.notes.push(format!("skipped element blocks that are not volume cells: {}", layout.skipped.join(", ")));
     }
     mesh.blocks.push(Block::Unstructured(cells));
     mesh.check().map_err(whole)?;
@@ -385,6 +454,30 @@ mod tests {
         let bytes = file().write(false);
         for cut in (0..bytes.len()).step_by(7) {
             let _ = read(&bytes[..cut], &ExodusOptions::default());
+        }
+    }
+
+    /// A step's fields alone are what the whole read gives for that step;
+    /// a step beyond the file and truncated bytes are errors.
+    #[test]
+    fn step_fields_equal_the_whole_read() {
+        for offset64 in [false, true] {
+            let bytes = file().write(offset64);
+            for step in 0..2 {
+                let m = read(&bytes, &ExodusOptions { time_step: Some(step) }).unwrap();
+                let f = read_step_fields(&bytes, step).unwrap();
+                // Bit for bit (NaN where a block lacks an element variable).
+                let bits = |fs: &[Field]| -> Vec<(String, Vec<u64>)> {
+                    fs.iter().map(|f| (f.name.clone(), f.values.iter().map(|v| v.to_bits()).collect())).collect()
+                };
+                assert_eq!(bits(&f.point_fields), bits(&m.point_fields), "step {step}");
+                assert_eq!(bits(&f.cell_fields), bits(&m.cell_fields), "step {step}");
+            }
+            let e = read_step_fields(&bytes, 2).unwrap_err();
+            assert!(e.message.contains("time step 2 asked for; the file has 2"), "{e}");
+            for cut in (0..bytes.len()).step_by(5) {
+                let _ = read_step_fields(&bytes[..cut], 1);
+            }
         }
     }
 }

@@ -10,6 +10,9 @@
 //! * An Exodus II file's time steps (`time_whole`) and an OpenFOAM case's
 //!   time directories, when asked for ([`series_steps`] with `all_steps`).
 //!
+//! [`ExodusSteps`] reads the later steps of an Exodus file as their
+//! variables alone, from the file's bytes held once.
+//!
 //! Steps come back sorted by time; two steps at one time, a non-finite
 //! time, a listed file that does not exist or an empty list are errors
 //! naming the index file and the entry.
@@ -29,6 +32,55 @@ pub struct SeriesStep {
     pub time_step: Option<usize>,
     /// What to call the step in reports (`isabel_03.vti`, `disk.ex2 step 4`).
     pub label: String,
+}
+
+/// The later steps of a series that is the time steps of one Exodus file,
+/// read from the file's bytes held once: each step reads only its
+/// variables (`exodus::read_step_fields`), not the coordinates and the
+/// connectivity again, so `--all-steps` costs one read of the mesh and one
+/// of each step's values.
+pub struct ExodusSteps {
+    path: PathBuf,
+    bytes: Vec<u8>,
+}
+
+impl ExodusSteps {
+    /// For `steps` that are all time steps of one Exodus file (as
+    /// [`series_steps`] lists them); `None` for any other series, whose
+    /// steps are then read whole.
+    pub fn open(steps: &[SeriesStep], opts: &ReadOptions) -> Result<Option<ExodusSteps>, ReadError> {
+        let Some(first) = steps.first() else {
+            return Ok(None);
+        };
+        if steps.iter().any(|s| s.time_step.is_none() || s.path != first.path) || first.path.is_dir() {
+            return Ok(None);
+        }
+        let bytes = crate::read_all(&first.path)?;
+        let format = match opts.format {
+            Some(f) => Some(f),
+            None => crate::detect_format(&first.path, &bytes[..bytes.len().min(4096)], opts),
+        };
+        Ok((format == Some(Format::Exodus)).then(|| ExodusSteps { path: first.path.clone(), bytes }))
+    }
+
+    /// `step`'s fields (point and cell fields, notes), with no points and
+    /// no cells: the mesh is the first step's, read once.
+    pub fn fields(&self, step: &SeriesStep) -> Result<tet_mesh::SourceMesh, ReadError> {
+        let k = step.time_step.unwrap_or(0);
+        let f = crate::exodus::read_step_fields(&self.bytes, k).map_err(|e| ReadError::Malformed {
+            format: Format::Exodus,
+            message: e.message,
+            at: e.at,
+            path: self.path.clone(),
+        })?;
+        Ok(tet_mesh::SourceMesh {
+            format: "Exodus II".into(),
+            point_fields: f.point_fields,
+            cell_fields: f.cell_fields,
+            notes: f.notes,
+            ..Default::default()
+        })
+    }
 }
 
 /// Whether `path` names a series index by its extension (`.pvd`, `.series`).

@@ -85,10 +85,51 @@ impl StepMapper {
                 mesh.points[i], step.points[src as usize]
             )));
         }
+        self.map(step, mesh)
+    }
+
+    /// The scalar of a later step of the same file or case as the first
+    /// (an Exodus file's time steps), given as its fields alone (`step` has
+    /// no points and no cells): its mesh is the first step's by the file's
+    /// own structure, so it is not compared again. A scalar selected by
+    /// coordinate (`x`, `y`, `z`) is the first step's.
+    pub fn scalar_of_fields(&self, step: &SourceMesh, mesh: &TetMesh) -> Result<Vec<f64>, MeshError> {
+        let axis = match self.scalar_name.to_ascii_lowercase().as_str() {
+            "x" => Some(0),
+            "y" => Some(1),
+            "z" => Some(2),
+            _ => None,
+        };
+        if let Some(a) = axis {
+            // No field of that name: the scalar is the coordinate, which
+            // the step (without points) does not repeat.
+            if select_scalar(step, Some(&self.scalar_name)).is_ok_and(|s| s.values.is_empty() && self.source_points > 0)
+            {
+                return Ok(mesh.points.iter().map(|p| p[a]).collect());
+            }
+        }
+        self.map(step, mesh)
+    }
+
+    /// `step`'s scalar by the first step's rule (after the mesh checks).
+    fn map(&self, step: &SourceMesh, mesh: &TetMesh) -> Result<Vec<f64>, MeshError> {
+        let differs = |what: String| MeshError::StepMeshDiffers { what };
         if self.location == ScalarLocation::Constant {
             return Ok(vec![0.0; mesh.points.len()]);
         }
         let selected = select_scalar(step, Some(&self.scalar_name))?;
+        let expected = match self.location {
+            ScalarLocation::Point => self.source_points,
+            _ => self.blocks.iter().map(Block::num_cells).sum::<usize>(),
+        };
+        if selected.values.len() != expected {
+            return Err(differs(format!(
+                "scalar '{}' has {} values, the first step's mesh has {expected} {}",
+                self.scalar_name,
+                selected.values.len(),
+                if self.location == ScalarLocation::Point { "points" } else { "cells" }
+            )));
+        }
         if selected.location != self.location {
             return Err(differs(format!(
                 "scalar '{}' is a {} field here and a {} field in the first step",

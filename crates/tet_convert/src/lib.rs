@@ -250,45 +250,46 @@ fn build(
     timings.push(("adjacency_stats", t.elapsed().as_secs_f64()));
 
     // The other steps' scalars, mapped onto this mesh.
-    let steps = match series {
-        Some(list) => {
-            let t = Instant::now();
-            let mapper = tet_mesh::StepMapper::new(&source, &mesh, &report)
-                .map_err(|source| ConvertError::Mesh { path: input.into(), source })?;
-            let mut scalars = vec![mesh.scalar.clone()];
-            // An Exodus file's steps read only their variables, from the
-            // file's bytes held once; other steps are files of their own.
-            let exodus = tet_io::series::ExodusSteps::open(list, &req.read)
-                .map_err(|source| ConvertError::ReadStep { index: 0, label: list[0].label.clone(), source })?;
-            for (k, step) in list.iter().enumerate().skip(1) {
-                progress(Stage::TimeStep { index: k + 1, count: list.len(), label: step.label.clone() });
-                let read_error = |source| ConvertError::ReadStep { index: k, label: step.label.clone(), source };
-                let mapped = match &exodus {
-                    Some(e) => mapper.scalar_of_fields(&e.fields(step).map_err(read_error)?, &mesh),
-                    None => {
-                        let s = tet_io::read_file(
-                            &step.path,
-                            &ReadOptions { time_step: step.time_step, ..req.read.clone() },
-                        )
-                        .map_err(read_error)?;
-                        mapper.scalar(&s, &mesh)
-                    }
-                };
-                scalars.push(mapped.map_err(|source| ConvertError::Step {
-                    index: k,
-                    label: step.label.clone(),
-                    source,
-                })?);
+    let steps =
+        match series {
+            Some(list) => {
+                let t = Instant::now();
+                let mapper = tet_mesh::StepMapper::new(&source, &mesh, &report)
+                    .map_err(|source| ConvertError::Mesh { path: input.into(), source })?;
+                let mut scalars = vec![mesh.scalar.clone()];
+                // An Exodus file's or OpenFOAM case's steps read only their
+                // fields, the mesh once; other steps are files of their own.
+                let later = tet_io::series::StepFields::open(list, &req.read)
+                    .map_err(|source| ConvertError::ReadStep { index: 0, label: list[0].label.clone(), source })?;
+                for (k, step) in list.iter().enumerate().skip(1) {
+                    progress(Stage::TimeStep { index: k + 1, count: list.len(), label: step.label.clone() });
+                    let read_error = |source| ConvertError::ReadStep { index: k, label: step.label.clone(), source };
+                    let mapped = match &later {
+                        Some(e) => mapper.scalar_of_fields(&e.fields(step).map_err(read_error)?, &mesh),
+                        None => {
+                            let s = tet_io::read_file(
+                                &step.path,
+                                &ReadOptions { time_step: step.time_step, ..req.read.clone() },
+                            )
+                            .map_err(read_error)?;
+                            mapper.scalar(&s, &mesh)
+                        }
+                    };
+                    scalars.push(mapped.map_err(|source| ConvertError::Step {
+                        index: k,
+                        label: step.label.clone(),
+                        source,
+                    })?);
+                }
+                let times = list.iter().map(|s| s.time).collect();
+                let labels = list.iter().map(|s| s.label.clone()).collect();
+                let steps = TimeSteps::new(times, scalars, labels)
+                    .map_err(|what| ConvertError::BadSteps { path: input.into(), what })?;
+                timings.push(("time_steps", t.elapsed().as_secs_f64()));
+                Some(steps)
             }
-            let times = list.iter().map(|s| s.time).collect();
-            let labels = list.iter().map(|s| s.label.clone()).collect();
-            let steps = TimeSteps::new(times, scalars, labels)
-                .map_err(|what| ConvertError::BadSteps { path: input.into(), what })?;
-            timings.push(("time_steps", t.elapsed().as_secs_f64()));
-            Some(steps)
-        }
-        None => None,
-    };
+            None => None,
+        };
 
     let mut findings: Vec<String> = Vec::new();
     if let Some(st) = &steps {

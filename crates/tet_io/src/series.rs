@@ -10,8 +10,8 @@
 //! * An Exodus II file's time steps (`time_whole`) and an OpenFOAM case's
 //!   time directories, when asked for ([`series_steps`] with `all_steps`).
 //!
-//! [`ExodusSteps`] reads the later steps of an Exodus file as their
-//! variables alone, from the file's bytes held once.
+//! [`StepFields`] reads the later steps of an Exodus file or OpenFOAM case
+//! as their fields alone, the mesh read once.
 //!
 //! Steps come back sorted by time; two steps at one time, a non-finite
 //! time, a listed file that does not exist or an empty list are errors
@@ -34,52 +34,76 @@ pub struct SeriesStep {
     pub label: String,
 }
 
-/// The later steps of a series that is the time steps of one Exodus file,
-/// read from the file's bytes held once: each step reads only its
-/// variables (`exodus::read_step_fields`), not the coordinates and the
-/// connectivity again, so `--all-steps` costs one read of the mesh and one
-/// of each step's values.
-pub struct ExodusSteps {
+/// The later steps of a series that is the time steps of one Exodus file
+/// or OpenFOAM case, read as their fields alone: an Exodus step reads only
+/// its variables from the file's bytes held once
+/// (`exodus::read_step_fields`), an OpenFOAM step only its time
+/// directory's fields, laid out on the cells built once
+/// (`openfoam::CaseSteps`). So `--all-steps` reads the mesh once, not once
+/// a step.
+pub struct StepFields {
     path: PathBuf,
-    bytes: Vec<u8>,
+    source: StepSource,
 }
 
-impl ExodusSteps {
-    /// For `steps` that are all time steps of one Exodus file (as
-    /// [`series_steps`] lists them); `None` for any other series, whose
-    /// steps are then read whole.
-    pub fn open(steps: &[SeriesStep], opts: &ReadOptions) -> Result<Option<ExodusSteps>, ReadError> {
+enum StepSource {
+    Exodus(Vec<u8>),
+    OpenFoam(crate::openfoam::CaseSteps),
+}
+
+impl StepFields {
+    /// For `steps` that are all time steps of one Exodus file or OpenFOAM
+    /// case (as [`series_steps`] lists them); `None` for any other series,
+    /// whose steps are then read whole.
+    pub fn open(steps: &[SeriesStep], opts: &ReadOptions) -> Result<Option<StepFields>, ReadError> {
         let Some(first) = steps.first() else {
             return Ok(None);
         };
-        if steps.iter().any(|s| s.time_step.is_none() || s.path != first.path) || first.path.is_dir() {
+        if steps.iter().any(|s| s.time_step.is_none() || s.path != first.path) {
             return Ok(None);
         }
-        let bytes = crate::read_all(&first.path)?;
+        let path = first.path.clone();
         let format = match opts.format {
-            Some(f) => Some(f),
-            None => crate::detect_format(&first.path, &bytes[..bytes.len().min(4096)], opts),
+            Some(f) => f,
+            None if path.is_dir() => Format::OpenFoam,
+            None => {
+                let bytes = crate::read_all(&path)?;
+                if crate::detect_format(&path, &bytes[..bytes.len().min(4096)], opts) != Some(Format::Exodus) {
+                    return Ok(None);
+                }
+                return Ok(Some(StepFields { path, source: StepSource::Exodus(bytes) }));
+            }
         };
-        Ok((format == Some(Format::Exodus)).then(|| ExodusSteps { path: first.path.clone(), bytes }))
+        let source = match format {
+            Format::Exodus => StepSource::Exodus(crate::read_all(&path)?),
+            Format::OpenFoam => StepSource::OpenFoam(crate::openfoam::CaseSteps::open(&path)?),
+            _ => return Ok(None),
+        };
+        Ok(Some(StepFields { path, source }))
     }
 
     /// `step`'s fields (point and cell fields, notes), with no points and
     /// no cells: the mesh is the first step's, read once.
     pub fn fields(&self, step: &SeriesStep) -> Result<tet_mesh::SourceMesh, ReadError> {
         let k = step.time_step.unwrap_or(0);
-        let f = crate::exodus::read_step_fields(&self.bytes, k).map_err(|e| ReadError::Malformed {
-            format: Format::Exodus,
-            message: e.message,
-            at: e.at,
-            path: self.path.clone(),
-        })?;
-        Ok(tet_mesh::SourceMesh {
-            format: "Exodus II".into(),
-            point_fields: f.point_fields,
-            cell_fields: f.cell_fields,
-            notes: f.notes,
-            ..Default::default()
-        })
+        match &self.source {
+            StepSource::Exodus(bytes) => {
+                let f = crate::exodus::read_step_fields(bytes, k).map_err(|e| ReadError::Malformed {
+                    format: Format::Exodus,
+                    message: e.message,
+                    at: e.at,
+                    path: self.path.clone(),
+                })?;
+                Ok(tet_mesh::SourceMesh {
+                    format: "Exodus II".into(),
+                    point_fields: f.point_fields,
+                    cell_fields: f.cell_fields,
+                    notes: f.notes,
+                    ..Default::default()
+                })
+            }
+            StepSource::OpenFoam(case) => case.fields(k),
+        }
     }
 }
 

@@ -509,8 +509,17 @@ fn a_decomposed_case_merges_its_processors() {
         let (vol, area, convex, _) = tet_facts(&m);
         assert!(close(vol, 2.0) && close(area, 10.0) && convex, "{with_addressing}: {vol} {area}");
 
+        // A time step's fields alone, on the cells built once, are the
+        // whole read's (the polyhedron's tets carry its value).
+        let steps = tet_io::openfoam::CaseSteps::open(&case).unwrap();
+        assert_eq!(steps.times().len(), 1);
+        assert_eq!(steps.fields(0).unwrap().cell_fields, m.cell_fields);
+        assert!(steps.fields(1).unwrap_err().to_string().contains("time step 1 does not exist"));
+
         // A processor without the time directory is an error naming it.
         std::fs::remove_dir_all(case.join("processor1/0")).unwrap();
+        let e = steps.fields(0).unwrap_err().to_string();
+        assert!(e.contains("time directory 0 is missing") && e.contains("processor1"), "{e}");
         let e = read_at(&case, None).unwrap_err();
         let msg = e.to_string();
         assert!(msg.contains("time directory 0 is missing") && msg.contains("processor1"), "{msg}");

@@ -89,9 +89,10 @@ impl StepMapper {
     }
 
     /// The scalar of a later step of the same file or case as the first
-    /// (an Exodus file's time steps), given as its fields alone (`step` has
-    /// no points and no cells): its mesh is the first step's by the file's
-    /// own structure, so it is not compared again. A scalar selected by
+    /// (an Exodus file's time steps, an OpenFOAM case's times), given as
+    /// its fields alone (`step` has no points and no cells): its mesh is
+    /// the first step's by the file's own structure, so it is not compared
+    /// again. A scalar selected by
     /// coordinate (`x`, `y`, `z`) is the first step's.
     pub fn scalar_of_fields(&self, step: &SourceMesh, mesh: &TetMesh) -> Result<Vec<f64>, MeshError> {
         let axis = match self.scalar_name.to_ascii_lowercase().as_str() {

@@ -421,6 +421,124 @@ fn read_fields(
     Ok(out)
 }
 
+/// The cell fields of time directory `tname` of every domain (the case, or
+/// each processor in order), concatenated in the domains' cell order:
+/// scalars before vectors, each by name; fields of other classes skipped
+/// with a note.
+fn read_time_fields(
+    domain_dirs: &[PathBuf],
+    domain_cells: &[usize],
+    tname: &str,
+    notes: &mut Vec<String>,
+) -> Result<Vec<Field>, ReadError> {
+    let first = domain_dirs[0].join(tname);
+    let names = field_names(&first)?;
+    let mut skipped = Vec::new();
+    let mut per_domain: Vec<Vec<Option<Field>>> = Vec::new();
+    for (k, (dir, &cells)) in domain_dirs.iter().zip(domain_cells).enumerate() {
+        let tdir = dir.join(tname);
+        if !tdir.is_dir() {
+            return Err(whole(&tdir, format!("the time directory {tname} is missing from this processor")));
+        }
+        let mut sk = Vec::new();
+        per_domain.push(read_fields(&tdir, &names, cells, &mut sk)?);
+        if k == 0 {
+            skipped = sk;
+        }
+    }
+    if !skipped.is_empty() {
+        notes.push(format!("skipped fields that are not volScalarField/volVectorField: {}", skipped.join(", ")));
+    }
+    // Scalars before vectors (the first field is the default scalar), each by name.
+    let mut order: Vec<usize> =
+        (0..names.len()).filter(|&i| per_domain.first().is_some_and(|d| d[i].is_some())).collect();
+    order.sort_by_key(|&i| (per_domain[0][i].as_ref().map_or(0, |f| f.num_components), i));
+    let mut fields: Vec<Field> = Vec::new();
+    for &i in &order {
+        let first = per_domain[0][i].as_ref().expect("kept");
+        let mut values = Vec::new();
+        for (dom, dir) in per_domain.iter().zip(domain_dirs) {
+            match &dom[i] {
+                Some(f) if f.num_components == first.num_components => values.extend_from_slice(&f.values),
+                _ => {
+                    return Err(whole(
+                        &dir.join(tname).join(&names[i]),
+                        format!("the field '{}' is not the same kind of field as in the first processor", names[i]),
+                    ))
+                }
+            }
+        }
+        fields.push(Field::new(first.name.clone(), first.num_components, values));
+    }
+    Ok(fields)
+}
+
+/// The time steps of an OpenFOAM case, for a time series: the mesh is read
+/// and its cells built once, here; each step then reads only its time
+/// directory's fields and lays them out on those cells, as [`read_case`]
+/// does for the time it reads.
+pub struct CaseSteps {
+    domain_dirs: Vec<PathBuf>,
+    domain_cells: Vec<usize>,
+    /// The OpenFOAM cell each output cell comes from (in the domains' cell
+    /// order).
+    source_cell: Vec<u32>,
+    times: Vec<(f64, String)>,
+}
+
+impl CaseSteps {
+    /// Reads the mesh of the case `input` is in (as [`read_case`] finds it).
+    pub fn open(input: &Path) -> Result<CaseSteps, ReadError> {
+        let case = case_dir(input).ok_or_else(|| whole(input, "not inside an OpenFOAM case"))?;
+        let has_top = ["points", "points.gz"].iter().any(|p| case.join("constant/polyMesh").join(p).is_file());
+        let domain_dirs: Vec<PathBuf> = if has_top { vec![case.clone()] } else { processor_dirs(&case) };
+        if domain_dirs.is_empty() {
+            return Err(whole(&case, "this OpenFOAM case has no mesh"));
+        }
+        let times = time_dirs(&domain_dirs[0])?;
+        let decomposed = domain_dirs.len() > 1 || !has_top;
+        let mut domains = Vec::with_capacity(domain_dirs.len());
+        for d in &domain_dirs {
+            domains.push(read_domain(d, decomposed)?);
+        }
+        let domain_cells: Vec<usize> = domains.iter().map(|d| d.num_cells).collect();
+        let built = if domains.len() == 1 && !decomposed {
+            let d = domains.pop().expect("one domain");
+            cells::build(&d.mesh, d.num_cells)
+        } else {
+            let (m, n) = merge_domains(&mut domains, &mut Vec::new());
+            cells::build(&m, n)
+        }
+        .map_err(|e| whole(&case, e.message))?;
+        Ok(CaseSteps { domain_dirs, domain_cells, source_cell: built.source_cell, times })
+    }
+
+    /// The case's times (value, directory name), sorted: step k is the k-th.
+    pub fn times(&self) -> &[(f64, String)] {
+        &self.times
+    }
+
+    /// Step `step`'s cell fields on the mesh's cells, with no points and
+    /// no cells (the mesh is [`read_case`]'s for any of the case's times).
+    pub fn fields(&self, step: usize) -> Result<SourceMesh, ReadError> {
+        let (_, tname) = self.times.get(step).ok_or_else(|| {
+            whole(&self.domain_dirs[0], format!("time step {step} does not exist: the case has {}", self.times.len()))
+        })?;
+        let mut notes = Vec::new();
+        let fields = read_time_fields(&self.domain_dirs, &self.domain_cells, tname, &mut notes)?;
+        let mut mesh = SourceMesh { format: "OpenFOAM".into(), notes, ..Default::default() };
+        for f in fields {
+            let k = f.num_components;
+            let mut values = Vec::with_capacity(self.source_cell.len() * k);
+            for &c in &self.source_cell {
+                values.extend_from_slice(&f.values[c as usize * k..(c as usize + 1) * k]);
+            }
+            mesh.cell_fields.push(Field::new(f.name, k, values));
+        }
+        Ok(mesh)
+    }
+}
+
 /// Merges decomposed domains into one mesh: global point ids through
 /// `pointProcAddressing` when every domain has it, else by identical
 /// coordinates; faces, owners and neighbours offset per domain.
@@ -540,53 +658,16 @@ pub fn read_case(input: &Path, opts: &FoamOptions) -> Result<SourceMesh, ReadErr
     for d in &domain_dirs {
         domains.push(read_domain(d, decomposed)?);
     }
-    // Field names from the first domain's time directory.
-    let mut skipped = Vec::new();
-    let mut names: Vec<String> = Vec::new();
-    let mut per_domain: Vec<Vec<Option<Field>>> = Vec::new();
-    if let Some((_, tname)) = chosen {
-        let first = domain_dirs[0].join(tname);
-        names = field_names(&first)?;
-        if first.join("polyMesh").is_dir() {
-            notes.push(format!("time {tname} has its own polyMesh (a moving mesh); constant/polyMesh is read"));
-        }
-        for (k, (dir, dom)) in domain_dirs.iter().zip(&domains).enumerate() {
-            let tdir = dir.join(tname);
-            if !tdir.is_dir() {
-                return Err(whole(&tdir, format!("the time directory {tname} is missing from this processor")));
+    let domain_cells: Vec<usize> = domains.iter().map(|d| d.num_cells).collect();
+    let fields = match chosen {
+        Some((_, tname)) => {
+            if domain_dirs[0].join(tname).join("polyMesh").is_dir() {
+                notes.push(format!("time {tname} has its own polyMesh (a moving mesh); constant/polyMesh is read"));
             }
-            let mut sk = Vec::new();
-            per_domain.push(read_fields(&tdir, &names, dom.num_cells, &mut sk)?);
-            if k == 0 {
-                skipped = sk;
-            }
+            read_time_fields(&domain_dirs, &domain_cells, tname, &mut notes)?
         }
-    }
-    if !skipped.is_empty() {
-        notes.push(format!("skipped fields that are not volScalarField/volVectorField: {}", skipped.join(", ")));
-    }
-    // Scalars before vectors (the first field is the default scalar), each by name.
-    let mut order: Vec<usize> =
-        (0..names.len()).filter(|&i| per_domain.first().is_some_and(|d| d[i].is_some())).collect();
-    order.sort_by_key(|&i| (per_domain[0][i].as_ref().map_or(0, |f| f.num_components), i));
-    let mut fields: Vec<Field> = Vec::new();
-    for &i in &order {
-        let first = per_domain[0][i].as_ref().expect("kept");
-        let mut values = Vec::new();
-        for (dom, dir) in per_domain.iter().zip(&domain_dirs) {
-            match &dom[i] {
-                Some(f) if f.num_components == first.num_components => values.extend_from_slice(&f.values),
-                _ => {
-                    return Err(whole(
-                        &dir.join(chosen.map_or("", |t| t.1.as_str())).join(&names[i]),
-                        format!("the field '{}' is not the same kind of field as in the first processor", names[i]),
-                    ))
-                }
-            }
-        }
-        fields.push(Field::new(first.name.clone(), first.num_components, values));
-    }
-
+        None => Vec::new(),
+    };
     let binary = domains.iter().any(|d| d.binary);
     let mut mesh = if domains.len() == 1 && !decomposed {
         let Domain { mesh, num_cells, files, .. } = domains.pop().expect("one domain");

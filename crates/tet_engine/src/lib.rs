@@ -54,6 +54,7 @@
 //! ```
 #![forbid(unsafe_code)]
 
+mod certify;
 mod frame;
 #[cfg(feature = "gpu")]
 mod gpu;
@@ -63,6 +64,7 @@ mod tf;
 #[cfg(feature = "gpu")]
 pub use gpu::{GpuFrameOptions, GpuFrameRenderer, GpuFrameStats};
 
+pub use certify::Certifier;
 pub use frame::{
     CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer, GRADIENTS_NOTE,
 };
@@ -116,6 +118,13 @@ pub enum EngineError {
         "method {method}: this look's tables are baked by the GPU renderer; bake them for the CPU with Look::bake"
     )]
     NotBaked { method: tet_preint::Method },
+    /// A look given to a [`Certifier`] that is not a table3d with its
+    /// tables baked.
+    #[error("method {method}: only a baked table3d look can be certified")]
+    NotCertifiable { method: tet_preint::Method },
+    /// A certified bake's thread stopped without a result.
+    #[error("the certified table3d bake stopped before it finished")]
+    CertifyStopped,
     /// The GPU renderer (cargo feature `gpu`) failed; `kind` says whether
     /// the device is missing, the request is beyond it, or it failed.
     #[error("{source}")]

@@ -122,28 +122,28 @@ impl Look {
         let t = Instant::now();
         let method = self.method;
         let bake_err = |source| EngineError::Bake { method, source };
-        let in_place = method == Method::Table3d && options.certify.max_error.is_none();
-        if let (true, Some(baked)) = (in_place, self.baked) {
-            let baked = Arc::try_unwrap(baked).unwrap_or_else(|shared| (*shared).clone());
-            if let Baked::Table3d(held) = baked {
-                let plain = held.certificate().is_none()
+        let in_place = method == Method::Table3d
+            && options.certify.max_error.is_none()
+            && matches!(self.baked.as_deref(), Some(Baked::Table3d(held))
+                if held.certificate().is_none()
                     && !held.splits_at_tf_nodes()
                     && held.exact_intervals().is_empty()
                     && *held.params() == options.table3d
-                    && held.domain() == domain;
-                if plain {
-                    // The table's TF and the new one as the bake takes them
-                    // (data units, checked as a fresh bake checks them).
-                    let old_tf = tet_preint::tf_for_domain(&self.tf, domain).map_err(bake_err)?;
-                    let new_tf = tet_preint::tf_for_bake(method, &tf, domain).map_err(bake_err)?;
-                    let mut table = held.into_table();
-                    count_table_bake();
-                    let stats = table.rebake(&old_tf, &new_tf).map_err(bake_err)?;
-                    let baked = Baked::Table3d(CertifiedTable3d::plain(table));
-                    let look = Look::new(tf, method, Some(baked), None, t.elapsed().as_secs_f64());
-                    return Ok(Look { rebake: Some(stats), ..look });
-                }
-            }
+                    && held.domain() == domain);
+        if let (true, Some(baked)) = (in_place, self.baked) {
+            // The table's TF and the new one as the bake takes them (data
+            // units, checked as a fresh bake checks them).
+            let old_tf = tet_preint::tf_for_domain(&self.tf, domain).map_err(bake_err)?;
+            let new_tf = tet_preint::tf_for_bake(method, &tf, domain).map_err(bake_err)?;
+            let Baked::Table3d(held) = Arc::try_unwrap(baked).unwrap_or_else(|shared| (*shared).clone()) else {
+                unreachable!("checked to be a table3d above")
+            };
+            let mut table = held.into_table();
+            count_table_bake();
+            let stats = table.rebake(&old_tf, &new_tf).map_err(bake_err)?;
+            let baked = Baked::Table3d(CertifiedTable3d::plain(table));
+            let look = Look::new(tf, method, Some(baked), None, t.elapsed().as_secs_f64());
+            return Ok(Look { rebake: Some(stats), ..look });
         }
         Look::bake_with(domain, method, tf, options, &[])
     }

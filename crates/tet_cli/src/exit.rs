@@ -199,7 +199,9 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             // A .tetl whose stored TF or method is unusable: the file's fault.
             E::LutTf { .. } | E::LutMethod { .. } => Some(Input),
             // A front end handed a renderer a look it cannot draw: our bug.
-            E::NotBaked { .. } => Some(Internal),
+            E::NotBaked { .. } | E::NotCertifiable { .. } => Some(Internal),
+            // A certified bake's thread that died (a panic): our bug.
+            E::CertifyStopped => Some(Internal),
             E::Gpu { kind, .. } => match kind {
                 tet_engine::GpuFailure::NoDevice => Some(NoGpu),
                 tet_engine::GpuFailure::Unsupported => Some(Usage),
@@ -454,6 +456,8 @@ mod tests {
             (gpu(tet_engine::GpuFailure::Unsupported), ExitKind::Usage),
             (gpu(tet_engine::GpuFailure::Failed), ExitKind::Internal),
             (tet_engine::EngineError::NotBaked { method: tet_preint::Method::Table3d }.into(), ExitKind::Internal),
+            (tet_engine::EngineError::NotCertifiable { method: tet_preint::Method::Poly2 }.into(), ExitKind::Internal),
+            (tet_engine::EngineError::CertifyStopped.into(), ExitKind::Internal),
             (io(std::io::ErrorKind::PermissionDenied).into(), ExitKind::Output),
             (anyhow::anyhow!("something odd"), ExitKind::Internal),
         ];

@@ -4,6 +4,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use tet_bundle::Bundle;
+use tet_preint::TransferFunction;
 use tet_render::{
     Camera, CpuRenderer, Image, RasterOptions, ReferenceOptions, ReferenceRenderer, ReferenceStats, RenderStats,
     Renderer, Scene, Shading, SortMethod, TfCuller, ViewSpec,
@@ -94,10 +95,12 @@ pub trait FrameRenderer {
 pub struct CpuFrameRenderer {
     /// `None` only while gradients are being added.
     renderer: Option<Renderer>,
-    /// The key of the look last set ([`Look::key`]: the same look keeps the
-    /// cull mask).
+    /// The key of the look whose shader is set ([`Look::key`]).
     look: Option<u64>,
-    cull: Option<bool>,
+    /// What the culler was set for: [`FrameRequest::cull`] and the TF it
+    /// reads (the mask stays while the TF does: a new method, resolution or
+    /// table of the same TF re-culls nothing).
+    cull: Option<(bool, TransferFunction)>,
 }
 
 impl CpuFrameRenderer {
@@ -123,6 +126,22 @@ impl CpuFrameRenderer {
         // The culler stays (it reads the scene's scalar when the mask is redone).
         self.renderer.as_mut().expect("a renderer").set_scalar(scalar)?;
         Ok(())
+    }
+
+    /// Drops the renderer's reference to the last look's tables, so that
+    /// [`Look::rebake`] can re-bake them in place; the next frame sets its
+    /// look again (the cull mask and the view's work stay).
+    pub fn release_look(&mut self) {
+        self.renderer.as_mut().expect("a renderer").clear_shader();
+        self.look = None;
+    }
+
+    /// Forgets the camera: the next frame redoes its view's work (the
+    /// walker's projection; PT's view geometry, order and per-tet setup)
+    /// even for the same view, as a camera move does — what `tetview bench`
+    /// times. The look's cull mask stays.
+    pub fn forget_view(&mut self) {
+        self.renderer.as_mut().expect("a renderer").forget_view();
     }
 
     /// Adds per-vertex gradients to the scene if it has none; true when it
@@ -169,9 +188,9 @@ impl FrameRenderer for CpuFrameRenderer {
             r.set_shader(shader);
             self.look = Some(look.key());
         }
-        if !same_shader || self.cull != Some(req.cull) {
+        if self.cull.as_ref().is_none_or(|(on, tf)| *on != req.cull || (req.cull && *tf != look.tf)) {
             r.set_culler(req.cull.then(|| Arc::new(TfCuller::new(&look.tf)) as Arc<dyn tet_render::CellCuller>));
-            self.cull = Some(req.cull);
+            self.cull = Some((req.cull, look.tf.clone()));
         }
         let mut raster = RasterOptions { shading: req.shading, ..Default::default() };
         if !req.early_termination {

@@ -6,9 +6,9 @@
 //! tet_render exactly as the CPU renderer computes them (every tet ordered;
 //! the GPU compacts the culled ones out), then culling, classification,
 //! rasterization and compositing run on the device and the linear image is
-//! read back. What depends only on the look (its tables uploaded, or baked
-//! on the device; the cull's TF) is kept while the look's key stays the
-//! same.
+//! read back. The order is kept while the view and the sort method stay;
+//! the look's tables (uploaded, or baked on the device) while its key
+//! stays; the cull's data while the TF stays.
 
 use std::time::Instant;
 
@@ -17,9 +17,9 @@ use tet_gpu::{
     FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer,
     GpuScene, GpuShader, GpuTable3d, RasterPath, ToneResult, GPU_METHODS,
 };
-use tet_preint::{BakeOptions, Build3d, Method, Table3dParams};
+use tet_preint::{BakeOptions, Build3d, Method, Table3dParams, TransferFunction};
 use tet_render::project::ViewGeometry;
-use tet_render::{visibility_order, Camera, Display, Scene};
+use tet_render::{visibility_order, Camera, Display, Scene, SortMethod, ViewSpec, VisibilityOrder};
 
 use crate::{count_table_bake, EngineError, Frame, FrameRenderer, FrameRequest, FrameStats, GpuFailure, Look};
 
@@ -35,12 +35,18 @@ pub struct GpuFrameStats {
     pub sort_method: &'static str,
     pub cycles_broken: usize,
     pub tets_total: usize,
+    /// The view's geometry and order were computed this frame (a new view
+    /// or sort method); 0 seconds for both when they were kept.
+    pub recomputed_order: bool,
     pub view_seconds: f64,
     pub sort_seconds: f64,
     /// Tables baked on the device this frame (0 otherwise; a CPU bake is
     /// the look's [`Look::shader_seconds`]).
     pub device_bake_seconds: f64,
     pub device_bake_setup_seconds: f64,
+    /// The cull's TF data was built this frame (a new TF, time step or
+    /// gradients).
+    pub recomputed_cull: bool,
     /// Building the cull's TF data this frame.
     pub cull_setup_seconds: f64,
     /// Tables uploaded or baked and the cull built this frame (0 when the
@@ -66,8 +72,10 @@ pub struct GpuFrameRenderer {
     options: GpuFrameOptions,
     /// The shader of the look with this key.
     shader: Option<(u64, GpuShader)>,
-    /// The cull of the look with this key.
-    cull: Option<(u64, GpuCull)>,
+    /// The cull of this TF.
+    cull: Option<(TransferFunction, GpuCull)>,
+    /// The visibility order of this view and sort method.
+    order: Option<(ViewSpec, SortMethod, VisibilityOrder)>,
     /// The last frame (its HDR texture, for [`GpuFrameRenderer::tonemap_last`]).
     last: Option<GpuFrame>,
     /// Seconds to open the device.
@@ -107,6 +115,7 @@ impl GpuFrameRenderer {
             options,
             shader: None,
             cull: None,
+            order: None,
             last: None,
             device_seconds,
         })
@@ -132,10 +141,21 @@ impl GpuFrameRenderer {
         self.ctx.describe()
     }
 
+    /// Whether the adapter is a software rasterizer (lavapipe), where the
+    /// CPU renderers are usually faster.
+    pub fn is_software(&self) -> bool {
+        self.ctx.is_software()
+    }
+
+    /// Whether the GPU has `method` (every method but `exact`).
+    pub fn supports_method(method: Method) -> bool {
+        GPU_METHODS.contains(&method)
+    }
+
     /// Whether the GPU draws `method` with `req`'s shading; `Err` says why
     /// not (checked before any device work by front ends that want to).
     pub fn supports(method: Method, req: &FrameRequest) -> Result<(), String> {
-        if !GPU_METHODS.contains(&method) {
+        if !GpuFrameRenderer::supports_method(method) {
             let ids: Vec<&str> = GPU_METHODS.iter().map(|m| m.id()).collect();
             return Err(format!("method {method} is not on the GPU yet (GPU methods: {})", ids.join(", ")));
         }
@@ -206,32 +226,42 @@ impl FrameRenderer for GpuFrameRenderer {
             self.cull = None;
         }
         let camera = Camera::new(&req.view)?;
-        let t = Instant::now();
         let scene = self.scene.as_ref().expect("a scene");
-        let geometry = ViewGeometry::new(scene, &camera);
-        let view_seconds = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let order = visibility_order(scene, &geometry, req.sort, None);
         let tets_total = scene.num_tets();
-        let sort_seconds = t.elapsed().as_secs_f64();
+        let recomputed_order = self.order.as_ref().is_none_or(|(v, s, _)| *v != req.view || *s != req.sort);
+        let (mut view_seconds, mut sort_seconds) = (0.0, 0.0);
+        if recomputed_order {
+            // The order depends on the geometry alone (no cull mask): a new
+            // scalar or TF keeps it.
+            self.order = None;
+            let t = Instant::now();
+            let geometry = ViewGeometry::new(scene, &camera);
+            view_seconds = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let order = visibility_order(scene, &geometry, req.sort, None);
+            sort_seconds = t.elapsed().as_secs_f64();
+            self.order = Some((req.view.clone(), req.sort, order));
+        }
 
         let t = Instant::now();
         let (device_bake_seconds, device_bake_setup_seconds) = self.ensure_shader(look)?;
         let t_cull = Instant::now();
+        let recomputed_cull = req.cull && self.cull.as_ref().is_none_or(|(tf, _)| *tf != look.tf);
         if !req.cull {
             self.cull = None;
-        } else if self.cull.as_ref().is_none_or(|(k, _)| *k != look.key()) {
+        } else if recomputed_cull {
             self.cull = None;
             let cull = GpuCull::new(&self.ctx, self.gpu_scene(), &look.tf).map_err(|e| match e {
                 GpuError::Unsupported(w) => unsupported(format!("culling: {w}; draw without culling")),
                 e => gpu_error(e),
             })?;
-            self.cull = Some((look.key(), cull));
+            self.cull = Some((look.tf.clone(), cull));
         }
         let cull_setup_seconds = t_cull.elapsed().as_secs_f64();
         let setup_seconds = t.elapsed().as_secs_f64();
 
         let shader = &self.shader.as_ref().expect("ensured above").1;
+        let order = &self.order.as_ref().expect("set above").2;
         let opts = FrameOptions { raster: self.options.raster, cull: self.cull.as_ref().map(|c| &c.1) };
         // The previous frame's texture is reused by this one.
         self.last = None;
@@ -252,10 +282,12 @@ impl FrameRenderer for GpuFrameRenderer {
             sort_method: order.method.id(),
             cycles_broken: order.cycles_broken,
             tets_total,
+            recomputed_order,
             view_seconds,
             sort_seconds,
             device_bake_seconds,
             device_bake_setup_seconds,
+            recomputed_cull,
             cull_setup_seconds,
             setup_seconds,
         };

@@ -1,6 +1,8 @@
-//! One render engine for every front end: `tetview render` and
-//! `reference`, the examples, and (to come) the viewer and the Python
-//! package ask it for frames instead of each wiring bundle + TF → image.
+//! One render engine for every front end: `tetview render`, `reference`,
+//! `bench` and `animate`, the interactive viewer (tet_viewer's `Engine` is
+//! a client: it picks looks and renderers, this crate draws), the Python
+//! package and the examples ask it for frames instead of each wiring
+//! bundle + TF → image.
 //!
 //! * [`TfRequest`] → [`resolve_tf`] → [`ResolvedTf`]: the one transfer
 //!   function policy — a file (formats/tf.md JSON or a ParaView preset), a
@@ -10,8 +12,15 @@
 //!   scalar range.
 //! * [`Look`]: a TF, its method and the shader that draws it — baked now
 //!   over the bundle's (Sf, Sb, l) domain ([`Look::bake`]) or read from a
-//!   `.tetl` ([`Look::from_lut`]). [`tables_baked`] counts this process's
-//!   bakes, so a front end that bakes one table twice shows it.
+//!   `.tetl` ([`Look::from_lut`]), or at resolutions of the front end's
+//!   choosing ([`Look::bake_with`]). A TF edit re-bakes the look
+//!   ([`Look::rebake`]: a plain table3d in place, only the pairs the edit
+//!   reaches). [`tables_baked`] counts this process's bakes, so a front
+//!   end that bakes one table twice shows it.
+//! * [`Certifier`]: the certified bake of a plain table3d look on a thread
+//!   (one at a time, only the newest look queued), handed back as a look
+//!   for the front end to swap in — an interactive front end draws the
+//!   plain table at once and the certified one when it is done.
 //! * [`FrameRequest`] (view, shading, culling, the CPU algorithm, early
 //!   termination) and the [`FrameRenderer`] trait: [`CpuFrameRenderer`]
 //!   (the face-adjacency walker or projected tetrahedra, keeping
@@ -25,7 +34,7 @@
 //!
 //! ```
 //! use tet_bundle::{Bundle, BundleMeta};
-//! use tet_engine::{resolve_tf, CpuFrameRenderer, FrameRenderer, FrameRequest, Look, TfRequest, TfSource};
+//! use tet_engine::{resolve_tf, Certifier, CpuFrameRenderer, FrameRenderer, FrameRequest, Look, TfRequest, TfSource};
 //! use tet_preint::{Method, TransferFunction};
 //!
 //! // One tet with a linear scalar.
@@ -45,15 +54,34 @@
 //! let resolved = resolve_tf(&bundle, &TfRequest { source: TfSource::Given(tf), ..TfRequest::default() })?;
 //! assert!(!resolved.tf.normalized());
 //!
-//! let look = Look::bake(&bundle, Method::Exact, resolved.tf)?;
+//! let look = Look::bake(&bundle, Method::Exact, resolved.tf.clone())?;
 //! let mut renderer = CpuFrameRenderer::new(&bundle)?;
 //! let view = tet_render::ViewSpec::framing([0.0; 3], [1.0; 3], [32, 32]);
-//! let frame = renderer.render(&look, &FrameRequest::new(view), &|_, _| {})?;
+//! let frame = renderer.render(&look, &FrameRequest::new(view.clone()), &|_, _| {})?;
 //! assert!(frame.image.pixels().iter().any(|p| p[3] > 0.0));
+//!
+//! // An interactive front end: a plain table3d now, its certified bake on
+//! // a thread, an edited TF re-baked in place.
+//! let domain = tet_preint::TableDomain::from_bundle(&bundle)?;
+//! let mut options = tet_preint::BakeOptions::default();
+//! options.table3d.n_s = 16;
+//! options.table3d.n_l = 32;
+//! options.certify = tet_preint::CertifyOptions::off();
+//! let plain = Look::bake_with(&domain, Method::Table3d, resolved.tf.clone(), &options, &[])?;
+//! let mut certifier = Certifier::new(&bundle, domain, tet_preint::CertifyOptions::default())?;
+//! certifier.certify(&plain)?;
+//! certifier.wait();
+//! let certified = certifier.certified(plain.key()).expect("done").map_err(|e| e.to_string())?;
+//! renderer.render(certified, &FrameRequest::new(view), &|_, _| {})?;
+//! let edited = TransferFunction::from_json(r#"{"color": [[0, 1, 0, 0], [3, 0, 0, 1]],
+//!     "opacity": [[0, 0.5], [3, 1]], "unit_distance": 1}"#)?;
+//! let plain = plain.rebake(&domain, edited, &options)?;
+//! assert!(plain.rebake.is_some());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 #![forbid(unsafe_code)]
 
+mod certify;
 mod frame;
 #[cfg(feature = "gpu")]
 mod gpu;
@@ -63,6 +91,7 @@ mod tf;
 #[cfg(feature = "gpu")]
 pub use gpu::{GpuFrameOptions, GpuFrameRenderer, GpuFrameStats};
 
+pub use certify::Certifier;
 pub use frame::{
     CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer, GRADIENTS_NOTE,
 };
@@ -116,6 +145,13 @@ pub enum EngineError {
         "method {method}: this look's tables are baked by the GPU renderer; bake them for the CPU with Look::bake"
     )]
     NotBaked { method: tet_preint::Method },
+    /// A look given to a [`Certifier`] that is not a table3d with its
+    /// tables baked.
+    #[error("method {method}: only a baked table3d look can be certified")]
+    NotCertifiable { method: tet_preint::Method },
+    /// A certified bake's thread stopped without a result.
+    #[error("the certified table3d bake stopped before it finished")]
+    CertifyStopped,
     /// The GPU renderer (cargo feature `gpu`) failed; `kind` says whether
     /// the device is missing, the request is beyond it, or it failed.
     #[error("{source}")]

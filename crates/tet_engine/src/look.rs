@@ -6,7 +6,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use tet_bundle::Bundle;
-use tet_preint::{BakeOptions, Baked, LutFile, Method, SegmentShader, TableDomain, TransferFunction};
+use tet_preint::{
+    BakeOptions, Baked, CertifiedTable3d, LutFile, Method, RebakeStats, SegmentShader, TableDomain, TransferFunction,
+};
 
 use crate::EngineError;
 
@@ -51,6 +53,9 @@ pub struct Look {
     /// The (Sf, Sb, l) domain a renderer bakes over, for a look it bakes
     /// itself ([`Look::baked_by_renderer`]).
     pub domain: Option<TableDomain>,
+    /// Set for a look re-baked in place from an earlier one
+    /// ([`Look::rebake`]): the table's pairs and how many were baked again.
+    pub rebake: Option<RebakeStats>,
     key: u64,
 }
 
@@ -72,12 +77,75 @@ impl Look {
     pub fn bake(bundle: &Bundle, method: Method, tf: TransferFunction) -> Result<Look, EngineError> {
         let t = Instant::now();
         let domain = TableDomain::from_bundle(bundle).map_err(EngineError::Domain)?;
+        let look = Look::bake_with(&domain, method, tf, &BakeOptions::default(), &[])?;
+        Ok(Look { shader_seconds: t.elapsed().as_secs_f64(), ..look })
+    }
+
+    /// Bakes `method`'s tables for `tf` over `domain` with `options`' resolutions
+    /// and table3d certification (`CertifyOptions::off()`: the table at its
+    /// given resolution, plain lookups — what [`Look::rebake`] can update);
+    /// `cells` are segments through the bundle's cells that the
+    /// certification measures besides its own sets
+    /// ([`tet_preint::certify::cell_triples`]; may be empty).
+    pub fn bake_with(
+        domain: &TableDomain,
+        method: Method,
+        tf: TransferFunction,
+        options: &BakeOptions,
+        cells: &[[f32; 3]],
+    ) -> Result<Look, EngineError> {
+        let t = Instant::now();
         if method.is_tabulated() {
             count_table_bake();
         }
-        let baked = Baked::build(method, &tf, &domain, &BakeOptions::default())
+        let baked = Baked::build_with_cells(method, &tf, domain, options, cells)
             .map_err(|source| EngineError::Bake { method, source })?;
         Ok(Look::new(tf, method, Some(baked), None, t.elapsed().as_secs_f64()))
+    }
+
+    /// This look's method baked for `tf` (an edit of this look's TF) over
+    /// `domain` with `options`. A plain table3d (baked by [`Look::bake_with`]
+    /// with certification off, at `options`' resolution, over `domain`) is
+    /// re-baked in place, computing again only the (Sf, Sb) pairs the edit
+    /// reaches ([`tet_preint::Table3d::rebake`]: the same bits as a fresh
+    /// bake; the new look's `rebake` field says how many pairs); every other
+    /// look is baked afresh. In place needs the tables to be this look's
+    /// alone: while a renderer still holds them (see
+    /// [`crate::CpuFrameRenderer::release_look`]) the re-bake works on a
+    /// copy. The new look has a new [`Look::key`].
+    pub fn rebake(
+        self,
+        domain: &TableDomain,
+        tf: TransferFunction,
+        options: &BakeOptions,
+    ) -> Result<Look, EngineError> {
+        let t = Instant::now();
+        let method = self.method;
+        let bake_err = |source| EngineError::Bake { method, source };
+        let in_place = method == Method::Table3d
+            && options.certify.max_error.is_none()
+            && matches!(self.baked.as_deref(), Some(Baked::Table3d(held))
+                if held.certificate().is_none()
+                    && !held.splits_at_tf_nodes()
+                    && held.exact_intervals().is_empty()
+                    && *held.params() == options.table3d
+                    && held.domain() == domain);
+        if let (true, Some(baked)) = (in_place, self.baked) {
+            // The table's TF and the new one as the bake takes them (data
+            // units, checked as a fresh bake checks them).
+            let old_tf = tet_preint::tf_for_domain(&self.tf, domain).map_err(bake_err)?;
+            let new_tf = tet_preint::tf_for_bake(method, &tf, domain).map_err(bake_err)?;
+            let Baked::Table3d(held) = Arc::try_unwrap(baked).unwrap_or_else(|shared| (*shared).clone()) else {
+                unreachable!("checked to be a table3d above")
+            };
+            let mut table = held.into_table();
+            count_table_bake();
+            let stats = table.rebake(&old_tf, &new_tf).map_err(bake_err)?;
+            let baked = Baked::Table3d(CertifiedTable3d::plain(table));
+            let look = Look::new(tf, method, Some(baked), None, t.elapsed().as_secs_f64());
+            return Ok(Look { rebake: Some(stats), ..look });
+        }
+        Look::bake_with(domain, method, tf, options, &[])
     }
 
     /// The exact integrator of `tf` (no table): what the reference draws,
@@ -95,14 +163,23 @@ impl Look {
         Ok(Look { domain: Some(domain), ..Look::new(tf, method, None, None, 0.0) })
     }
 
-    fn new(
+    pub(crate) fn new(
         tf: TransferFunction,
         method: Method,
         baked: Option<Baked>,
         lut_path: Option<PathBuf>,
         shader_seconds: f64,
     ) -> Look {
-        Look { tf, method, baked: baked.map(Arc::new), lut_path, shader_seconds, domain: None, key: next_key() }
+        Look {
+            tf,
+            method,
+            baked: baked.map(Arc::new),
+            lut_path,
+            shader_seconds,
+            domain: None,
+            rebake: None,
+            key: next_key(),
+        }
     }
 
     /// Identifies this look and its clones: renderers keep what they derived

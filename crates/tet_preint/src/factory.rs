@@ -83,6 +83,28 @@ pub fn tf_for_domain(tf: &TransferFunction, domain: &TableDomain) -> Result<Tran
     }
 }
 
+/// `tf` as every bake of `method` over `domain` takes it: in data units
+/// ([`tf_for_domain`]), checked against what the method can hold (2D
+/// widgets only for the bivariate methods; table entries within f32). What
+/// [`Baked::build`] runs first, for callers that update a table themselves
+/// (e.g. [`Table3d::rebake`]).
+pub fn tf_for_bake(
+    method: Method,
+    tf: &TransferFunction,
+    domain: &TableDomain,
+) -> Result<TransferFunction, TableError> {
+    let tf = tf_for_domain(tf, domain)?;
+    check_f32_colour(method, &tf, domain)?;
+    if !method.is_bivariate() && !tf.widgets().is_empty() {
+        return Err(TableError::Invalid(format!(
+            "the transfer function has {} 2D widget(s), which method '{method}' cannot integrate (it reads \
+             only the 1D part); use biv-exact (closed forms) or biv-approx (F/B table)",
+            tf.widgets().len()
+        )));
+    }
+    Ok(tf)
+}
+
 /// Bakes `method` for `tf` over `domain` and boxes it as a shader.
 ///
 /// ```
@@ -170,15 +192,7 @@ impl Baked {
         opts: &BakeOptions,
         cells: &[[f32; 3]],
     ) -> Result<Baked, TableError> {
-        let tf = tf_for_domain(tf, domain)?;
-        check_f32_colour(method, &tf, domain)?;
-        if !method.is_bivariate() && !tf.widgets().is_empty() {
-            return Err(TableError::Invalid(format!(
-                "the transfer function has {} 2D widget(s), which method '{method}' cannot integrate (it reads \
-                 only the 1D part); use biv-exact (closed forms) or biv-approx (F/B table)",
-                tf.widgets().len()
-            )));
-        }
+        let tf = tf_for_bake(method, tf, domain)?;
         Ok(match method {
             Method::Exact => Baked::Exact(ExactShader::new(tf)),
             Method::PtLinear => Baked::PtLinear(PtLinearShader::new(tf)),

@@ -114,7 +114,7 @@ pub use colormap::Colormap;
 pub use domain::{ScalarQuantiles, TableDomain, TableError, QUANTILES};
 pub use error::{table_error, uniform_triples};
 pub use exact::{integrate_segment, integrate_segment_with, Rgba};
-pub use factory::{make_shader, tf_for_domain, Baked};
+pub use factory::{make_shader, tf_for_bake, tf_for_domain, Baked};
 pub use load::{load_tf, load_tf_with, parse_tf, LoadOptions};
 pub use lut_file::{
     bake, load_shader, BakeOptions, FbFileParams, LutError, LutFile, LutHeader, PolyFileParams, SectionInfo,

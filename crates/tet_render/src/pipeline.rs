@@ -263,6 +263,17 @@ impl Renderer {
         Ok(())
     }
 
+    /// Forgets the camera: the next frame's view (even the same one) redoes
+    /// the view geometry, the order and the walker's projection, as after a
+    /// camera move — what benchmarks of a camera move time. The per-scene
+    /// stages and the cull mask stay.
+    pub fn forget_view(&mut self) {
+        self.camera = None;
+        self.view = None;
+        self.order = None;
+        self.walk_view_stale = true;
+    }
+
     /// Sets the method's shader (what turns a segment into colour).
     pub fn set_shader(&mut self, shader: Arc<dyn SegmentShader>) {
         self.shader = Some(shader);

@@ -1,37 +1,38 @@
 //! The viewer's renderer, without a window: a request (view, TF, method,
 //! display) in, an 8-bit image and statistics out, recomputing only what
-//! changed since the last request.
+//! changed since the last request. A client of tet_engine: the frames are
+//! [`CpuFrameRenderer`]'s or [`GpuFrameRenderer`]'s, drawn with
+//! [`Look`]s; this module decides which look and which renderer.
 //!
-//! * CPU: tet_render's staged [`Renderer`] — a new view re-sorts only; a
-//!   new TF revision, method or table resolution re-bakes the shader and
-//!   re-culls. table3d keeps its table and the TF it was baked from, so a
-//!   TF edit re-bakes only the pairs it reaches ([`Table3d::rebake`]).
-//!   That plain table is drawn at once; the certified bake of the same TF
-//!   ([`tet_preint::certify::bake`]: the bake measures its own error and
-//!   refines until it holds 1e-3, for any TF) runs on a thread beside the
-//!   frames and replaces it when done ([`Engine::poll_certification`]; the
-//!   frame's [`TableAccuracy`] says which one is on screen). One bake runs
-//!   at a time: while a TF is dragged, only the newest revision is queued.
-//! * GPU (tet_gpu, every method of [`tet_gpu::GPU_METHODS`] — all but
-//!   `exact` — when an adapter exists): the GPU radix sort
-//!   of centroid depths, recomputed only when the camera moves (tet_gpu
-//!   caches it), filtered by the CPU cull mask of the current TF; shader
-//!   rebuilt on a TF change (baked on the CPU with the CPU path's options,
-//!   table3d re-baked in place as there, then uploaded); the bivariate
-//!   methods' per-vertex |∇s| uploaded once, when one is first chosen.
+//! * Looks: a new TF revision, method or table resolution bakes a new one
+//!   (the CPU path's options for both renderers); a camera move keeps it.
+//!   table3d keeps its plain table, so a TF edit re-bakes only the pairs
+//!   it reaches ([`Look::rebake`]). That plain table is drawn at once; the
+//!   certified bake of the same TF ([`Certifier`]: the bake measures its
+//!   own error and refines until it holds 1e-3, for any TF) runs on a
+//!   thread beside the frames and replaces it when done
+//!   ([`Engine::poll_certification`]; the frame's [`TableAccuracy`] says
+//!   which one is on screen). One bake runs at a time: while a TF is
+//!   dragged, only the newest revision is queued.
+//! * CPU ([`CpuFrameRenderer`]): a new view redoes the view's work only; a
+//!   new TF re-culls; a new method or table of the same TF re-culls
+//!   nothing.
+//! * GPU ([`GpuFrameRenderer`], every method of
+//!   [`GpuFrameRenderer::supports_method`] — all but `exact` — when an
+//!   adapter exists): the CPU's visibility order, recomputed only when the
+//!   camera moves; culling on the device, redone for a new TF; the look's
+//!   tables uploaded when the look changes; the bivariate methods'
+//!   per-vertex |∇s| uploaded once, when one is first chosen. Its table3d
+//!   is the plain table (the GPU's lookup neither splits at TF nodes nor
+//!   integrates exactly).
 
 use crate::ViewerError;
-use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
-use tet_gpu::{GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
-use tet_preint::{
-    BakeOptions, Baked, CertifiedTable3d, CertifyOptions, Method, SegmentShader, Table3d, Table3dParams, TableDomain,
-    TableError, TransferFunction,
-};
-use tet_render::cull::{cull, CullMask};
-use tet_render::{Camera, Display, Image, Renderer, Scene, TfCuller, ViewSpec};
+use tet_engine::{Certifier, CpuFrameRenderer, FrameRenderer, FrameStats as EngineStats, GpuFrameRenderer, Look};
+use tet_preint::{BakeOptions, CertifyOptions, Method, Table3dParams, TableDomain, TransferFunction};
+use tet_render::{Display, Image, Scene, ViewSpec};
 
 /// Everything a frame depends on.
 #[derive(Clone)]
@@ -44,7 +45,7 @@ pub struct FrameRequest {
     pub method: Method,
     /// table3d: samples along Sf and Sb (along l twice as many).
     pub table_n_s: usize,
-    /// Use tet_gpu when it can render `method`.
+    /// Use the GPU when it can render `method`.
     pub prefer_gpu: bool,
     pub display: Display,
     /// A time-series bundle's time (`None`: the scalar as loaded, the
@@ -81,6 +82,8 @@ pub struct FrameStats {
     pub tets_total: usize,
     pub tets_culled: usize,
     pub tets_drawn: usize,
+    /// The frame's look is not the last frame's of its renderer: baked for
+    /// a new TF, method or resolution, or the certified table swapped in.
     pub rebaked: bool,
     pub recomputed_cull: bool,
     /// The view's work was redone (a camera move; PT's radix order after a TF edit).
@@ -151,62 +154,47 @@ pub struct Frame {
     pub stats: FrameStats,
 }
 
-/// The methods the GPU path renders (tet_gpu's [`tet_gpu::GPU_METHODS`]).
+/// The methods the GPU path renders ([`GpuFrameRenderer::supports_method`]).
 pub fn gpu_supports(method: Method) -> bool {
-    tet_gpu::GPU_METHODS.contains(&method)
+    GpuFrameRenderer::supports_method(method)
 }
 
-struct Gpu {
-    ctx: GpuContext,
-    scene: GpuScene,
-    /// Whether `scene` carries the per-vertex |∇s| (bivariate methods).
-    gradients: bool,
-    renderer: GpuRenderer,
-    /// The shader of (tf revision, method, table n_s).
-    shader: Option<((u64, Method, usize), GpuShader)>,
-    /// Centroid order of the view it was sorted for.
-    order: Option<(ViewSpec, Vec<u32>)>,
+/// The bake options of the viewer's looks at table resolution `n_s` (table3d
+/// `n_s` × `n_s` × 2`n_s`, plain: its certified bake runs beside the frames;
+/// atlas2d from a table of that resolution; the other methods' defaults).
+pub fn bake_options(n_s: usize) -> BakeOptions {
+    let defaults = BakeOptions::default();
+    BakeOptions {
+        table3d: Table3dParams { n_s, n_l: 2 * n_s, ..defaults.table3d },
+        certify: CertifyOptions::off(),
+        ..defaults
+    }
 }
 
-/// The table3d of the last frames and the TF (data units) it was baked
-/// from: the next TF edit re-bakes it in place.
-struct HeldTable {
-    tf: TransferFunction,
-    table: Arc<Table3d>,
-}
-
-/// (TF revision, table n_s): what a certified bake is for.
-type CertKey = (u64, usize);
-
-/// The certified bakes: one on a thread at a time, the newest request
-/// queued behind it, the last result kept.
-#[derive(Default)]
-struct Certifier {
-    running: Option<(CertKey, Receiver<Result<CertifiedTable3d, TableError>>)>,
-    /// Wanted after the running one (the newest frame's).
-    queued: Option<(CertKey, TransferFunction, Table3dParams)>,
-    done: Option<(CertKey, Result<Arc<CertifiedTable3d>, String>)>,
-}
+/// (TF revision, method, table n_s): what a plain look is baked for.
+type LookKey = (u64, Method, usize);
 
 /// The staged renderer behind the window.
 pub struct Engine {
-    cpu: Renderer,
-    domain: TableDomain,
-    gpu: Option<Gpu>,
+    cpu: CpuFrameRenderer,
+    /// The CPU algorithm of CPU frames.
+    cpu_kind: tet_render::CpuRenderer,
+    gpu: Option<GpuFrameRenderer>,
     /// Why there is no GPU path (shown in the status line).
     gpu_note: String,
-    /// (TF revision, method, table n_s, whether the certified table3d).
-    cpu_key: Option<(u64, Method, usize, bool)>,
-    /// CPU cull mask of a TF revision (the GPU path's filter).
-    mask: Option<(u64, CullMask)>,
+    domain: TableDomain,
+    /// The plain table3d look of the last table3d request, re-baked for the
+    /// next TF edit.
+    table: Option<(LookKey, Look)>,
+    /// The look of the last request of another method.
+    other: Option<(LookKey, Look)>,
+    /// The keys of the looks the CPU and the GPU drew last.
+    cpu_drawn: Option<u64>,
+    gpu_drawn: Option<u64>,
     last_bake_seconds: f64,
-    table: Option<HeldTable>,
     certifier: Certifier,
-    /// The certified table's key of the last CPU table3d frame.
-    cert_wanted: Option<CertKey>,
-    /// Segments through the bundle's cells, measured by every certified
-    /// bake besides its own sets ([`tet_preint::certify::cell_triples`]).
-    cells: Arc<Vec<[f32; 3]>>,
+    /// The plain look's key of the last CPU table3d frame.
+    cert_wanted: Option<u64>,
     /// A time series' steps, and the time the scene's scalar is at.
     steps: Option<tet_bundle::TimeSteps>,
     time: Option<f64>,
@@ -215,16 +203,16 @@ pub struct Engine {
 }
 
 impl Engine {
-    /// Loads the scene; with `try_gpu`, opens a headless tet_gpu context
-    /// (its failure is not an error: the CPU renders, and
-    /// [`Engine::gpu_note`] says why).
+    /// Loads the scene; with `try_gpu`, opens a headless GPU renderer (its
+    /// failure is not an error: the CPU renders, and [`Engine::gpu_note`]
+    /// says why).
     pub fn new(bundle: &Bundle, try_gpu: bool) -> Result<Engine, ViewerError> {
         let scene = Scene::from_bundle(bundle)?;
         let domain = TableDomain::from_bundle(bundle)?;
         let (gpu, gpu_note) = if try_gpu {
-            match open_gpu(bundle) {
+            match GpuFrameRenderer::new(bundle, scene.clone(), Default::default()) {
                 Ok(g) => {
-                    let note = g.ctx.describe();
+                    let note = g.describe();
                     (Some(g), note)
                 }
                 Err(e) => (None, format!("no GPU: {e}")),
@@ -232,20 +220,20 @@ impl Engine {
         } else {
             (None, "GPU off (--cpu)".to_string())
         };
-        let opts = CertifyOptions::default();
-        let cells = Arc::new(tet_preint::certify::cell_triples(bundle, &domain, opts.samples, opts.seed));
+        let certifier = Certifier::new(bundle, domain, CertifyOptions::default())?;
         Ok(Engine {
-            cpu: Renderer::new(scene),
-            domain,
+            cpu: CpuFrameRenderer::from_scene(scene),
+            cpu_kind: tet_render::CpuRenderer::default(),
             gpu,
             gpu_note,
-            cpu_key: None,
-            mask: None,
-            last_bake_seconds: 0.0,
+            domain,
             table: None,
-            certifier: Certifier::default(),
+            other: None,
+            cpu_drawn: None,
+            gpu_drawn: None,
+            last_bake_seconds: 0.0,
+            certifier,
             cert_wanted: None,
-            cells,
             steps: bundle.steps.clone(),
             time: None,
             scalar_range: bundle.scalar_range().into(),
@@ -263,15 +251,15 @@ impl Engine {
     /// The CPU algorithm (the ray walker by default; projected tetrahedra
     /// draw as the GPU does).
     pub fn set_cpu_renderer(&mut self, kind: tet_render::CpuRenderer) {
-        self.cpu.set_renderer(kind);
+        self.cpu_kind = kind;
     }
     /// Whether the GPU is a software adapter (lavapipe): on such a machine
     /// tet_render's CPU renderer is much faster, so the window starts on it.
     pub fn gpu_is_software(&self) -> bool {
-        self.gpu.as_ref().is_some_and(|g| g.ctx.is_software())
+        self.gpu.as_ref().is_some_and(GpuFrameRenderer::is_software)
     }
     pub fn scene(&self) -> &Scene {
-        self.cpu.scene()
+        self.cpu.renderer().scene()
     }
     pub fn domain(&self) -> &TableDomain {
         &self.domain
@@ -287,8 +275,8 @@ impl Engine {
     }
 
     /// Moves the scene's scalar to `time` (a time series; `None` keeps it):
-    /// the CPU renderer keeps its per-scene walker links, the GPU its mesh;
-    /// what the scalar feeds (culls, gradients) is redone.
+    /// the CPU renderer keeps its per-scene walker links, the GPU its mesh
+    /// and order; what the scalar feeds (culls, gradients) is redone.
     fn apply_time(&mut self, time: Option<f64>) -> Result<(), ViewerError> {
         let (Some(t), Some(steps)) = (time, &self.steps) else { return Ok(()) };
         if self.time == Some(t) {
@@ -296,11 +284,9 @@ impl Engine {
         }
         let scalar = steps.scalar_at(t).map_err(|e| ViewerError::Input(e.to_string()))?;
         if let Some(g) = &mut self.gpu {
-            g.scene.set_scalar(&g.ctx, &scalar)?;
-            g.gradients = false;
+            g.set_scalar(scalar.clone())?;
         }
         self.cpu.set_scalar(scalar)?;
-        self.mask = None;
         self.time = Some(t);
         Ok(())
     }
@@ -322,43 +308,36 @@ impl Engine {
         self.render_cpu(req, backend)
     }
 
-    fn bake_options(n_s: usize) -> BakeOptions {
-        let mut o = BakeOptions::default();
-        o.table3d = Table3dParams { n_s, n_l: 2 * n_s, ..o.table3d };
-        o
-    }
-
-    /// The table3d for `tf` at `n_s`: the held table re-baked for the TF
-    /// edit since it was baked (only the pairs the edit reaches, the same
-    /// bits as a fresh bake), or a fresh bake.
-    fn table3d(&mut self, tf: &TransferFunction, n_s: usize) -> Result<Arc<Table3d>, ViewerError> {
-        let err = |e: tet_preint::TableError| ViewerError::Method(format!("table3d: {e}"));
-        let tf = tet_preint::tf_for_domain(tf, &self.domain).map_err(err)?;
-        let params = Self::bake_options(n_s).table3d;
-        if let Some(mut held) = self.table.take().filter(|h| *h.table.params() == params) {
-            // In place when nothing else holds the table (the CPU path drops
-            // the renderer's reference first), else on a copy.
-            Arc::make_mut(&mut held.table).rebake(&held.tf, &tf).map_err(err)?;
-            held.tf = tf;
-            let table = held.table.clone();
-            self.table = Some(held);
-            return Ok(table);
+    /// The plain look of `req` (its TF, method and table resolution) and
+    /// the seconds baking it took this frame (0 when it was kept). A new TF
+    /// revision re-bakes the held table3d in place (the CPU renderer lets
+    /// go of it first).
+    fn plain_look(&mut self, req: &FrameRequest) -> Result<(Look, f64), ViewerError> {
+        let key = (req.tf_revision, req.method, req.table_n_s);
+        let held = if req.method == Method::Table3d { &mut self.table } else { &mut self.other };
+        if let Some((k, look)) = held.as_ref() {
+            if *k == key {
+                return Ok((look.clone(), 0.0));
+            }
         }
-        let table = Arc::new(Table3d::build(&tf, &self.domain, &params).map_err(err)?);
-        self.table = Some(HeldTable { tf, table: table.clone() });
-        Ok(table)
-    }
-
-    /// The 2D methods need per-vertex gradients: computed once, on first use.
-    fn ensure_cpu_gradients(&mut self) -> Result<(), ViewerError> {
-        if self.cpu.scene().gradients().is_none() {
-            let scene = self.cpu.scene().clone().ensure_gradients()?;
-            let kind = self.cpu.renderer();
-            self.cpu = Renderer::new(scene);
-            self.cpu.set_renderer(kind);
-            self.cpu_key = None;
-        }
-        Ok(())
+        let t = Instant::now();
+        let options = bake_options(req.table_n_s);
+        let tf = TransferFunction::clone(&req.tf);
+        let look = match held.take() {
+            Some((_, prev)) if req.method == Method::Table3d => {
+                // The CPU renderer's reference goes, so the table is re-baked
+                // in place; it gets the new look before it draws again.
+                self.cpu.release_look();
+                self.cpu_drawn = None;
+                prev.rebake(&self.domain, tf, &options)?
+            }
+            _ => Look::bake_with(&self.domain, req.method, tf, &options, &[])?,
+        };
+        let bake_seconds = t.elapsed().as_secs_f64();
+        self.last_bake_seconds = bake_seconds;
+        let held = if req.method == Method::Table3d { &mut self.table } else { &mut self.other };
+        *held = Some((key, look.clone()));
+        Ok((look, bake_seconds))
     }
 
     /// Takes a finished certified bake and starts the queued one; true
@@ -366,122 +345,60 @@ impl Engine {
     /// re-rendering that frame's request shows it (the window's worker
     /// calls this while it waits for requests).
     pub fn poll_certification(&mut self) -> bool {
-        let c = &mut self.certifier;
-        let Some((key, rx)) = &c.running else { return false };
-        let res = match rx.try_recv() {
-            Ok(r) => r.map(Arc::new).map_err(|e| e.to_string()),
-            Err(TryRecvError::Empty) => return false,
-            Err(TryRecvError::Disconnected) => Err("the certified bake stopped".to_string()),
-        };
-        let key = *key;
-        c.running = None;
-        c.done = Some((key, res));
-        if let Some((k, tf, params)) = c.queued.take() {
-            if k != key {
-                self.start_certification(k, tf, params);
-            }
-        }
-        self.cert_wanted == Some(key)
-    }
-
-    /// Runs the certified bake of `tf` (data units) at `params` on a
-    /// thread, or queues it behind the one running.
-    fn start_certification(&mut self, key: CertKey, tf: TransferFunction, params: Table3dParams) {
-        let c = &mut self.certifier;
-        if c.running.as_ref().is_some_and(|r| r.0 == key) || c.done.as_ref().is_some_and(|d| d.0 == key) {
-            return;
-        }
-        if c.running.is_some() {
-            c.queued = Some((key, tf, params));
-            return;
-        }
-        let (tx, rx) = std::sync::mpsc::channel();
-        let (domain, cells) = (self.domain, self.cells.clone());
-        std::thread::spawn(move || {
-            let res = tet_preint::certify::bake(&tf, &domain, &params, &CertifyOptions::default(), &cells);
-            // The engine may be gone (window closed): nothing to tell.
-            let _ = tx.send(res);
-        });
-        c.running = Some((key, rx));
+        self.certifier.poll().is_some_and(|k| self.cert_wanted == Some(k))
     }
 
     /// Blocks until no certified bake runs or waits (tests; scripted runs
     /// poll instead).
     pub fn wait_for_certification(&mut self) {
-        while self.certifier.running.is_some() {
-            if !self.poll_certification() {
-                std::thread::sleep(std::time::Duration::from_millis(5));
-            }
-        }
+        self.certifier.wait();
+    }
+
+    /// The frame request of tet_engine for `req`: the viewer's CPU
+    /// algorithm, tet_engine's defaults otherwise (unlit, culled, early
+    /// termination).
+    fn engine_request(&self, req: &FrameRequest) -> tet_engine::FrameRequest {
+        tet_engine::FrameRequest { cpu: self.cpu_kind, ..tet_engine::FrameRequest::new(req.view.clone()) }
     }
 
     fn render_cpu(&mut self, req: &FrameRequest, backend: String) -> Result<Frame, ViewerError> {
         let start = Instant::now();
-        self.poll_certification();
+        self.certifier.poll();
+        let (plain, bake_seconds) = self.plain_look(req)?;
         let table3d = req.method == Method::Table3d && req.tf.widgets().is_empty();
-        let cert_key = (req.tf_revision, req.table_n_s);
-        // The certified table of this TF and resolution, when it is done,
-        // and what the frame says of its table.
-        let (certified, accuracy) = match &self.certifier.done {
-            _ if !table3d => (None, TableAccuracy::NotApplicable),
-            Some((k, Ok(t))) if *k == cert_key => {
-                let accuracy = match t.certificate() {
-                    Some(c) => {
-                        TableAccuracy::Measured { certified: c.certified, max_error: c.max_error, target: c.target }
-                    }
-                    None => TableAccuracy::Failed("the bake measured nothing".into()),
-                };
-                (Some(t.clone()), accuracy)
+        // The certified table of this look, when its bake is done, and what
+        // the frame says of its table.
+        let (look, accuracy) = if table3d {
+            self.certifier.certify(&plain)?;
+            self.cert_wanted = Some(plain.key());
+            match self.certifier.certified(plain.key()) {
+                Some(Ok(certified)) => {
+                    let accuracy = match certified.baked.as_deref() {
+                        Some(tet_preint::Baked::Table3d(t)) => match t.certificate() {
+                            Some(c) => TableAccuracy::Measured {
+                                certified: c.certified,
+                                max_error: c.max_error,
+                                target: c.target,
+                            },
+                            None => TableAccuracy::Failed("the bake measured nothing".into()),
+                        },
+                        _ => TableAccuracy::Failed("the certified bake gave no table".into()),
+                    };
+                    (certified.clone(), accuracy)
+                }
+                Some(Err(e)) => (plain, TableAccuracy::Failed(e.to_string())),
+                None => (plain, TableAccuracy::Certifying),
             }
-            Some((k, Err(e))) if *k == cert_key => (None, TableAccuracy::Failed(e.clone())),
-            _ => (None, TableAccuracy::Certifying),
+        } else {
+            self.cert_wanted = None;
+            (plain, TableAccuracy::NotApplicable)
         };
-        // The key says which table is drawn: plain (false) or certified.
-        let key = (req.tf_revision, req.method, req.table_n_s, certified.is_some());
-        let mut bake_seconds = 0.0;
-        if req.method.is_bivariate() {
-            self.ensure_cpu_gradients()?;
-        }
-        let rebaked = self.cpu_key != Some(key);
-        if rebaked {
-            let prev_key = self.cpu_key;
-            let t = Instant::now();
-            // Swapping in the certified table bakes nothing: the bake
-            // figures stay those of the last bake.
-            let swap = certified.is_some();
-            let shader: Arc<dyn SegmentShader> = if let Some(c) = certified {
-                c
-            } else if table3d {
-                // Let go of the renderer's reference, so the held table can
-                // be re-baked in place (a failed bake forgets the key, so
-                // the renderer gets a shader before it draws again).
-                self.cpu.clear_shader();
-                self.cpu_key = None;
-                let table = self.table3d(&req.tf, req.table_n_s)?;
-                let held = self.table.as_ref().expect("set by table3d");
-                self.start_certification(cert_key, held.tf.clone(), *table.params());
-                table
-            } else {
-                tet_preint::make_shader(req.method, &req.tf, &self.domain, &Self::bake_options(req.table_n_s))
-                    .map_err(|e| ViewerError::Method(format!("{}: {e}", req.method)))?
-                    .into()
-            };
-            if !swap {
-                bake_seconds = t.elapsed().as_secs_f64();
-                self.last_bake_seconds = bake_seconds;
-            }
-            self.cpu.set_shader(shader);
-            // A new TF re-culls; a new method, resolution or the certified
-            // table alone does not.
-            if prev_key.map(|k| k.0) != Some(req.tf_revision) {
-                self.cpu.set_culler(Some(Arc::new(TfCuller::new(&req.tf))));
-            }
-            self.cpu_key = Some(key);
-        }
-        self.cert_wanted = table3d.then_some(cert_key);
-        self.cpu.set_view(&req.view)?;
-        let (image, st) = self.cpu.render(&|_, _| {})?;
-        let rgba8 = image.to_rgba8(&req.display);
+        let rebaked = self.cpu_drawn != Some(look.key());
+        let engine_req = self.engine_request(req);
+        let frame = self.cpu.render(&look, &engine_req, &|_, _| {})?;
+        self.cpu_drawn = Some(look.key());
+        let EngineStats::Cpu(st) = frame.stats else { unreachable!("the CPU renderer reports CPU statistics") };
+        let rgba8 = frame.image.to_rgba8(&req.display);
         let stats = FrameStats {
             // Which CPU algorithm drew it: the walker, or PT (also when the
             // walker handed the view over: the eye inside the mesh).
@@ -500,88 +417,31 @@ impl Engine {
             size: req.view.size,
             accuracy,
         };
-        Ok(Frame { rgba8, image, view: req.view.clone(), stats })
+        Ok(Frame { rgba8, image: frame.image, view: req.view.clone(), stats })
     }
 
     fn render_gpu(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
         let start = Instant::now();
-        if req.method.is_bivariate() && !self.gpu.as_ref().expect("checked by render").gradients {
-            // |∇s| per vertex, computed on the CPU scene once (as the CPU
-            // path does) and uploaded.
-            self.ensure_cpu_gradients()?;
-            let g = self.cpu.scene().gradient_magnitudes().expect("gradients ensured above").to_vec();
-            let Gpu { ctx, scene, renderer, shader, order, .. } = self.gpu.take().expect("checked by render");
-            let scene = scene.with_gradient_magnitudes(&ctx, &g)?;
-            self.gpu = Some(Gpu { ctx, scene, gradients: true, renderer, shader, order });
-        }
-        let recomputed_cull = self.mask.as_ref().map(|m| m.0) != Some(req.tf_revision);
-        if recomputed_cull {
-            self.mask = Some((req.tf_revision, cull(self.cpu.scene(), &TfCuller::new(&req.tf))));
-        }
-        let key = (req.tf_revision, req.method, req.table_n_s);
-        let mut bake_seconds = 0.0;
-        let rebaked = self.gpu.as_ref().expect("checked by render").shader.as_ref().map(|s| s.0) != Some(key);
-        if rebaked {
-            let t = Instant::now();
-            let tf =
-                tet_preint::tf_for_domain(&req.tf, &self.domain).map_err(|e| ViewerError::Method(e.to_string()))?;
-            let shader = match req.method {
-                Method::Table3d if req.tf.widgets().is_empty() => {
-                    // Re-baked in place like the CPU path's, then uploaded.
-                    let table = self.table3d(&req.tf, req.table_n_s)?;
-                    GpuShader::table3d(&self.gpu.as_ref().expect("checked by render").ctx, &table)?
-                }
-                Method::PtLinear => GpuShader::pt_linear(&self.gpu.as_ref().expect("checked by render").ctx, &tf)?,
-                // The CPU path's bake (same options), uploaded.
-                m => {
-                    let baked = Baked::build(m, &req.tf, &self.domain, &Self::bake_options(req.table_n_s))
-                        .map_err(|e| ViewerError::Method(format!("{m}: {e}")))?;
-                    GpuShader::from_baked(&self.gpu.as_ref().expect("checked by render").ctx, &baked)?
-                }
-            };
-            bake_seconds = t.elapsed().as_secs_f64();
-            self.last_bake_seconds = bake_seconds;
-            self.gpu.as_mut().expect("checked by render").shader = Some((key, shader));
-        }
-        let scene = self.cpu.scene();
-        let mask = &self.mask.as_ref().expect("set above").1;
+        let (look, bake_seconds) = self.plain_look(req)?;
+        let rebaked = self.gpu_drawn != Some(look.key());
+        let engine_req = self.engine_request(req);
         let gpu = self.gpu.as_mut().expect("checked by render");
-        let camera = Camera::new(&req.view)?;
-        let t = Instant::now();
-        let resorted = gpu.order.as_ref().is_none_or(|o| o.0 != req.view);
-        if resorted {
-            let order = gpu.renderer.gpu_centroid_order(&gpu.ctx, &gpu.scene, &camera)?;
-            gpu.order = Some((req.view.clone(), order));
-        }
-        let sort_seconds = t.elapsed().as_secs_f64();
-        let order = &gpu.order.as_ref().expect("set above").1;
-        let tets: Vec<u32> = if mask.culled > 0 {
-            order.iter().copied().filter(|&t| mask.visible[t as usize]).collect()
-        } else {
-            order.clone()
-        };
-        let shader = &gpu.shader.as_ref().expect("set above").1;
-        let frame = gpu.renderer.render_with(
-            &gpu.ctx,
-            &gpu.scene,
-            &camera,
-            GpuOrder::Given(&tets),
-            shader,
-            RasterPath::Compute,
-        )?;
-        let tone = gpu.renderer.tonemap(&gpu.ctx, &frame, &req.display)?;
+        let frame = gpu.render(&look, &engine_req, &|_, _| {})?;
+        self.gpu_drawn = Some(look.key());
+        let tone = gpu.tonemap_last(&req.display)?;
+        let EngineStats::Gpu(st) = frame.stats else { unreachable!("the GPU renderer reports GPU statistics") };
         let stats = FrameStats {
             backend: format!("GPU: {}", self.gpu_note),
             frame_seconds: start.elapsed().as_secs_f64(),
             bake_seconds,
             last_bake_seconds: self.last_bake_seconds,
-            sort_seconds,
-            tets_total: scene.num_tets(),
-            tets_culled: mask.culled,
-            tets_drawn: tets.len(),
+            sort_seconds: st.view_seconds + st.sort_seconds,
+            tets_total: st.tets_total,
+            tets_culled: st.render.tets_culled,
+            tets_drawn: st.render.tets_drawn,
             rebaked,
-            recomputed_cull,
-            resorted,
+            recomputed_cull: st.recomputed_cull,
+            resorted: st.recomputed_order,
             size: req.view.size,
             accuracy: if req.method == Method::Table3d {
                 TableAccuracy::GpuPlain
@@ -593,18 +453,11 @@ impl Engine {
     }
 }
 
-fn open_gpu(bundle: &Bundle) -> Result<Gpu, tet_gpu::GpuError> {
-    let ctx = GpuContext::new_headless()?;
-    let m = &bundle.mesh;
-    let scene = GpuScene::new(&ctx, &m.points, &m.tets, &m.scalar)?;
-    let renderer = GpuRenderer::new(&ctx)?;
-    Ok(Gpu { ctx, scene, gradients: false, renderer, shader: None, order: None })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::tf_model::TfModel;
+    use tet_render::Camera;
 
     fn request(engine: &Engine, model: &TfModel, method: Method, prefer_gpu: bool) -> FrameRequest {
         let (lo, hi) = engine.scene().bounds();
@@ -658,6 +511,50 @@ mod tests {
         let f = engine.render(&req).unwrap();
         assert!(f.stats.rebaked && !f.stats.recomputed_cull && !f.stats.resorted);
         assert!(f.stats.backend.starts_with("CPU"));
+    }
+
+    fn bits(img: &Image) -> Vec<[u32; 4]> {
+        img.pixels().iter().map(|p| p.map(f32::to_bits)).collect()
+    }
+
+    /// The viewer's CPU frames are tet_engine's: for the same bundle, TF,
+    /// method and view, [`tet_engine::CpuFrameRenderer`] with a look baked
+    /// by tet_engine (the viewer's bake options; for table3d the plain
+    /// table, then the certified one of [`tet_engine::Certifier`]) draws the
+    /// same image, bit for bit, on the walker and on PT.
+    #[test]
+    fn cpu_frames_are_tet_engine_frames() {
+        use tet_engine::{Certifier, CpuFrameRenderer, FrameRenderer, Look};
+        let bundle = sample_bundle();
+        let domain = TableDomain::from_bundle(&bundle).unwrap();
+        let mut certifier = Certifier::new(&bundle, domain, CertifyOptions::default()).unwrap();
+        for kind in [tet_render::CpuRenderer::Walk, tet_render::CpuRenderer::Pt] {
+            let mut engine = Engine::new(&bundle, false).unwrap();
+            engine.set_cpu_renderer(kind);
+            let model = TfModel::ramp(engine.scene().scalar_range(), 0.5);
+            let mut direct = CpuFrameRenderer::new(&bundle).unwrap();
+            for method in [Method::PtLinear, Method::Table3d] {
+                let req = request(&engine, &model, method, false);
+                let tf = TransferFunction::clone(&req.tf);
+                let look = Look::bake_with(&domain, method, tf, &bake_options(req.table_n_s), &[]).unwrap();
+                let direct_req =
+                    tet_engine::FrameRequest { cpu: kind, ..tet_engine::FrameRequest::new(req.view.clone()) };
+                let want = direct.render(&look, &direct_req, &|_, _| {}).unwrap().image;
+                let got = engine.render(&req).unwrap();
+                assert!(bits(&got.image) == bits(&want), "{kind} {method}");
+                assert_eq!(got.rgba8, want.to_rgba8(&req.display), "{kind} {method}");
+                if method == Method::Table3d {
+                    engine.wait_for_certification();
+                    let got = engine.render(&req).unwrap();
+                    assert!(matches!(got.stats.accuracy, TableAccuracy::Measured { .. }), "{:?}", got.stats);
+                    certifier.certify(&look).unwrap();
+                    certifier.wait();
+                    let certified = certifier.certified(look.key()).unwrap().unwrap();
+                    let want = direct.render(certified, &direct_req, &|_, _| {}).unwrap().image;
+                    assert!(bits(&got.image) == bits(&want), "{kind} certified");
+                }
+            }
+        }
     }
 
     /// A TF edit re-bakes the held table3d in place: the frame is the one a

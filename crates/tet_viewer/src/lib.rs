@@ -1,7 +1,6 @@
 //! The interactive viewer behind `tetview view`: an eframe window (OpenGL
 //! through glow, so wgpu stays in tet_gpu) showing frames rendered by
-//! tet_render's staged CPU renderer or by tet_gpu, with a transfer-function
-//! editor.
+//! tet_engine's CPU or GPU renderer, with a transfer-function editor.
 //!
 //! * [`run`] with [`ViewerOptions`]: opens the window (or, with
 //!   `frames`, renders that many frames, saves a screenshot of the window
@@ -50,8 +49,9 @@ pub enum ViewerError {
     Bundle(#[from] tet_bundle::BundleError),
     #[error(transparent)]
     Render(#[from] tet_render::RenderError),
-    #[error("GPU: {0}")]
-    Gpu(#[from] tet_gpu::GpuError),
+    /// The render engine's (a bake, a frame, the GPU renderer).
+    #[error(transparent)]
+    Engine(#[from] tet_engine::EngineError),
     #[error(transparent)]
     Tf(#[from] tet_preint::TfError),
     /// The bundle's data spans no table domain (no scalar span, no cell

@@ -5,7 +5,8 @@
 //! (and cached as `.npy` under `--cache`, keyed by a hash of the bundle's
 //! bytes, the view, the TF file and the size, so re-runs skip it). Every
 //! method is then baked (timed) and rendered by each CPU renderer
-//! (`--renderers`: the ray walker and projected tetrahedra) `--repeat` times
+//! (`--renderers`: the ray walker and projected tetrahedra, through
+//! tet_engine's [`CpuFrameRenderer`]) `--repeat` times
 //! from a fresh camera, so each frame redoes the view (the walker's vertex
 //! projection and entry faces; PT's view geometry, visibility sort and
 //! per-tet setup) — what a camera move costs; the cull mask (a TF change) is
@@ -22,14 +23,13 @@
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_engine::{FrameRenderer, FrameRequest, FrameStats, Look, ReferenceFrameRenderer};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look, ReferenceFrameRenderer};
 use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::{Method, TransferFunction};
-use tet_render::{diff, CpuRenderer, Image, Renderer, Scene, SortMethod, TfCuller, ViewSpec};
+use tet_render::{diff, CpuRenderer, Image, RenderStats, Scene, SortMethod, ViewSpec};
 
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
@@ -262,31 +262,33 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             references.push(img);
         }
 
-        let mut r = Renderer::new(scene);
-        r.set_sort(args.sort);
-        r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
+        // The engine's CPU renderer: the culled cells are the TF's, so the
+        // cull mask is computed once and kept across methods.
+        let mut r = CpuFrameRenderer::from_scene(scene);
         let first = rows.len();
         let mut culled = 0.0;
         let mut sort_used = String::new();
         for &m in &methods {
             let t = Instant::now();
-            let shader = tet_engine::Look::bake(&bundle, m, tf.clone())?.shader()?;
+            let look = Look::bake(&bundle, m, tf.clone())?;
             let bake_s = t.elapsed().as_secs_f64();
-            r.set_shader(shader);
             for &kind in &args.renderers {
-                r.set_renderer(kind);
                 let mut samples = vec![];
                 for (v, reference) in views.iter().zip(&references) {
-                    // A different camera in between makes every frame redo the
-                    // view, as a camera move does.
-                    let mut other = v.clone();
-                    other.position[0] += 1.0;
-                    let mut best: Option<(Image, tet_render::RenderStats, f64)> = None;
+                    let req = FrameRequest { cpu: kind, sort: args.sort, ..FrameRequest::new(v.clone()) };
+                    let frame = |r: &mut CpuFrameRenderer| -> Result<(Image, RenderStats)> {
+                        let f = r.render(&look, &req, &|_, _| {})?;
+                        let FrameStats::Cpu(st) = f.stats else {
+                            unreachable!("the CPU renderer reports CPU statistics")
+                        };
+                        Ok((f.image, st))
+                    };
+                    let mut best: Option<(Image, RenderStats, f64)> = None;
                     for _ in 0..args.repeat {
-                        r.set_view(&other)?;
-                        r.set_view(v)?;
+                        // Every frame redoes the view, as a camera move does.
+                        r.forget_view();
                         let c0 = process_cpu_seconds();
-                        let (img, st) = r.render(&|_, _| {})?;
+                        let (img, st) = frame(&mut r)?;
                         let cpu = process_cpu_seconds() - c0;
                         if best.as_ref().is_none_or(|b| st.total_seconds < b.1.total_seconds) {
                             best = Some((img, st, cpu));
@@ -294,8 +296,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     }
                     // Then unchanged: best of `repeat` frames from the kept state.
                     let same_view_s = (0..args.repeat)
-                        .map(|_| r.render(&|_, _| {}).map(|(_, st)| st.total_seconds))
-                        .collect::<Result<Vec<_>, _>>()?
+                        .map(|_| frame(&mut r).map(|(_, st)| st.total_seconds))
+                        .collect::<Result<Vec<_>>>()?
                         .into_iter()
                         .fold(f64::INFINITY, f64::min);
                     let (img, st, cpu) = best.expect("repeat ≥ 1");

@@ -104,10 +104,14 @@ fn viewer_kind(e: &ViewerError) -> ExitKind {
         ViewerError::Input(_) => ExitKind::Usage,
         // Reading --tf or --view.
         ViewerError::Io { .. } => ExitKind::Input,
-        // The window starts on the CPU where the GPU fails, so a GPU error
-        // that still ends the run, no window (no display), or a scripted run
-        // without its screenshot is unexpected.
-        ViewerError::Gpu(_) | ViewerError::Window(_) | ViewerError::Scripted(_) => ExitKind::Internal,
+        // The engine's own meanings (a bake: 5; a GPU failure that still
+        // ends the run), else the lower crate's error it wraps.
+        ViewerError::Engine(e) => {
+            classify(e).or_else(|| std::error::Error::source(e).and_then(classify)).unwrap_or(ExitKind::Internal)
+        }
+        // No window (no display) or a scripted run without its screenshot
+        // is unexpected.
+        ViewerError::Window(_) | ViewerError::Scripted(_) => ExitKind::Internal,
     }
 }
 

@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use tetkit::bundle::{Bundle, BundleMeta};
 use tetkit::io::{read_file, ReadOptions};
+use tetkit::mesh::split::structured_hex;
 use tetkit::mesh::{
     build_adjacency, check_adjacency, check_tet_mesh, mesh_stats, tetrahedralize, Block, ConvertOptions, Finding,
     SourceMesh, SplitMode,
@@ -23,16 +24,7 @@ fn bluntfin() -> SourceMesh {
 /// Exact volume of a trilinear hexahedron (VTK order): det J is at most
 /// quadratic per axis, so 2×2×2 Gauss points integrate it exactly.
 fn trilinear_hex_volume(p: &[[f64; 3]; 8]) -> f64 {
-    let corners = [
-        [0., 0., 0.],
-        [1., 0., 0.],
-        [1., 1., 0.],
-        [0., 1., 0.],
-        [0., 0., 1.],
-        [1., 0., 1.],
-        [1., 1., 1.],
-        [0., 1., 1.],
-    ];
+    let corners = tetkit::mesh::split::UNIT_HEX;
     let g = [0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt()];
     let mut vol = 0.0;
     for &u in &g {
@@ -65,21 +57,11 @@ fn trilinear_hex_volume(p: &[[f64; 3]; 8]) -> f64 {
 
 fn hex_volume_total(src: &SourceMesh) -> f64 {
     let Block::Structured { dims, first_point } = src.blocks[0] else { panic!("structured") };
-    let id = |i: usize, j: usize, k: usize| first_point + i + dims[0] * (j + dims[1] * k);
     let mut total = 0.0;
     for k in 0..dims[2] - 1 {
         for j in 0..dims[1] - 1 {
             for i in 0..dims[0] - 1 {
-                let n = [
-                    id(i, j, k),
-                    id(i + 1, j, k),
-                    id(i + 1, j + 1, k),
-                    id(i, j + 1, k),
-                    id(i, j, k + 1),
-                    id(i + 1, j, k + 1),
-                    id(i + 1, j + 1, k + 1),
-                    id(i, j + 1, k + 1),
-                ];
+                let n = structured_hex(dims, first_point, i, j, k);
                 total += trilinear_hex_volume(&n.map(|x| src.points[x])).abs();
             }
         }

@@ -4,22 +4,14 @@
 //! library's brute-force invariant checker; errors must be the documented
 //! ones (degenerate input, non-finite or too large coordinates).
 #![no_main]
+mod common;
+
 use libfuzzer_sys::fuzz_target;
 use tet_delaunay::{check_delaunay, tetrahedralize_points, DelaunayError, DelaunayOptions};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&mode, rest)) = data.split_first() else { return };
-    let pts: Vec<[f64; 3]> = if mode & 1 == 0 {
-        rest.chunks_exact(3).take(64).map(|c| [c[0], c[1], c[2]].map(|b| (b % 5) as f64)).collect()
-    } else {
-        rest.chunks_exact(24)
-            .take(32)
-            .map(|c| {
-                let f = |k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().unwrap());
-                [f(0), f(1), f(2)]
-            })
-            .collect()
-    };
+    let pts = common::points(mode, rest, 64, 32);
     let opts = DelaunayOptions { max_circumradius: (mode & 2 != 0).then_some(1.5) };
     match tetrahedralize_points(&pts, &opts) {
         Ok(d) => check_delaunay(&pts, &d, true).expect("Delaunay invariants"),

@@ -6,47 +6,30 @@
 //! reference ray caster must give finite pixels with α in [0, 1], or a
 //! documented error — never a panic.
 #![no_main]
+mod common;
+
 use libfuzzer_sys::fuzz_target;
 use std::sync::Arc;
 use tet_delaunay::{tetrahedralize_points, DelaunayOptions};
-use tet_preint::{ExactShader, PtLinearShader, SegmentShader, TransferFunction};
+use tet_preint::{ExactShader, PtLinearShader, SegmentShader};
 use tet_render::{Camera, RasterOptions, ReferenceOptions, Renderer, Scene, ViewSpec};
 
 fuzz_target!(|data: &[u8]| {
     let Some((head, rest)) = data.split_first_chunk::<6>() else { return };
     let [mode, az, el, zoom, sbyte, _] = *head;
-    let pts: Vec<[f64; 3]> = if mode & 1 == 0 {
-        rest.chunks_exact(3).take(48).map(|c| [c[0], c[1], c[2]].map(|b| (b % 5) as f64)).collect()
-    } else {
-        rest.chunks_exact(24)
-            .take(24)
-            .map(|c| {
-                let f = |k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().unwrap());
-                [f(0), f(1), f(2)]
-            })
-            .collect()
-    };
+    let pts = common::points(mode, rest, 48, 24);
     let Ok(d) = tetrahedralize_points(&pts, &DelaunayOptions::default()) else { return };
     if d.tets.is_empty() {
         return;
     }
-    let scalar: Vec<f64> = (0..pts.len()).map(|i| ((i as u32 * 7 + sbyte as u32) % 11) as f64 / 10.0).collect();
+    let scalar = common::scalars(pts.len(), sbyte);
     let Ok(scene) = Scene::new(&pts, d.tets.clone(), scalar.clone()) else { return };
     let (lo, hi) = scene.bounds();
     let mut view = ViewSpec::framing(lo, hi, [12, 10]);
     view.parallel = mode & 2 != 0;
     // Zoom up to 64×: the eye can end up inside the mesh.
     let view = view.orbit(az as f64 * 360.0 / 256.0, el as f64 * 178.0 / 256.0 - 89.0, 1.0 + zoom as f64 / 4.0);
-    let tf = TransferFunction::from_json(
-        r#"{"color": [[0, 1, 0, 0], [0.5, 0, 1, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5], [0.6, 4], [1, 1]], "unit_distance": 1}"#,
-    )
-    .unwrap();
-    let check = |img: &tet_render::Image, what: &str| {
-        for p in img.pixels() {
-            assert!(p.iter().all(|v| v.is_finite()), "{what}: {p:?}");
-            assert!(p[3] >= 0.0 && p[3] <= 1.0 + 1e-5, "{what}: {p:?}");
-        }
-    };
+    let tf = common::tf();
     let mut r = Renderer::new(scene);
     // This target is projected tetrahedra's (the walker has its own, walk.rs).
     r.set_renderer(tet_render::CpuRenderer::Pt);
@@ -60,7 +43,7 @@ fuzz_target!(|data: &[u8]| {
         for fast_path in [true, false] {
             r.set_raster_options(RasterOptions { fast_path, ..Default::default() });
             if let Ok((img, _)) = r.render(&|_, _| {}) {
-                check(&img, if fast_path { "fast path" } else { "per-tile path" });
+                common::check_pixels(&img, if fast_path { "fast path" } else { "per-tile path" });
             }
         }
     }
@@ -77,6 +60,6 @@ fuzz_target!(|data: &[u8]| {
     if let Ok((img, _)) =
         tet_render::render_reference(&mesh, &adjacency, &camera, &tf, &ReferenceOptions::default(), &|_, _| {})
     {
-        check(&img, "reference");
+        common::check_pixels(&img, "reference");
     }
 });

@@ -10,31 +10,23 @@
 //! perturbation and PT by f64 rounding, so they may differ by one whole ray
 //! there (fuzz finding, pinned in crates/tet_render/tests/walk.rs).
 #![no_main]
+mod common;
+
 use libfuzzer_sys::fuzz_target;
 use std::sync::Arc;
 use tet_delaunay::{tetrahedralize_points, DelaunayOptions};
-use tet_preint::{ExactShader, SegmentShader, TransferFunction};
+use tet_preint::{ExactShader, SegmentShader};
 use tet_render::{CpuRenderer, RasterOptions, Renderer, Scene, ViewSpec};
 
 fuzz_target!(|data: &[u8]| {
     let Some((head, rest)) = data.split_first_chunk::<6>() else { return };
     let [mode, az, el, zoom, sbyte, size] = *head;
-    let pts: Vec<[f64; 3]> = if mode & 1 == 0 {
-        rest.chunks_exact(3).take(64).map(|c| [c[0], c[1], c[2]].map(|b| (b % 5) as f64)).collect()
-    } else {
-        rest.chunks_exact(24)
-            .take(24)
-            .map(|c| {
-                let f = |k: usize| f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().unwrap());
-                [f(0), f(1), f(2)]
-            })
-            .collect()
-    };
+    let pts = common::points(mode, rest, 64, 24);
     let Ok(d) = tetrahedralize_points(&pts, &DelaunayOptions::default()) else { return };
     if d.tets.is_empty() {
         return;
     }
-    let scalar: Vec<f64> = (0..pts.len()).map(|i| ((i as u32 * 7 + sbyte as u32) % 11) as f64 / 10.0).collect();
+    let scalar = common::scalars(pts.len(), sbyte);
     let Ok(scene) = Scene::new(&pts, d.tets.clone(), scalar) else { return };
     let (lo, hi) = scene.bounds();
     let side = 8 + (size % 24) as u32;
@@ -47,10 +39,7 @@ fuzz_target!(|data: &[u8]| {
         (az as f64 * 360.0 / 256.0, el as f64 * 178.0 / 256.0 - 89.0)
     };
     let view = view.orbit(az, el, 1.0 + zoom as f64 / 4.0);
-    let tf = TransferFunction::from_json(
-        r#"{"color": [[0, 1, 0, 0], [0.5, 0, 1, 0], [1, 0, 0, 1]], "opacity": [[0, 0.5], [0.6, 4], [1, 1]], "unit_distance": 1}"#,
-    )
-    .unwrap();
+    let tf = common::tf();
     let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf));
     for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
         let mut r = Renderer::new(scene.clone());
@@ -63,9 +52,6 @@ fuzz_target!(|data: &[u8]| {
         r.set_raster_options(RasterOptions { opaque_alpha: 2.0, ..Default::default() });
         let Ok((img, st)) = r.render(&|_, _| {}) else { return };
         assert_eq!(st.walk_non_manifold + st.walk_step_limit, 0, "walk failures on a valid mesh: {st:?}");
-        for p in img.pixels() {
-            assert!(p.iter().all(|v| v.is_finite()), "{kind}: {p:?}");
-            assert!(p[3] >= 0.0 && p[3] <= 1.0 + 1e-5, "{kind}: {p:?}");
-        }
+        common::check_pixels(&img, &kind.to_string());
     }
 });

@@ -65,7 +65,7 @@ fn fraction_matches_monte_carlo_sampling() {
     let ts = [0.5, 1.05, 2.0, 3.5];
     let mut counts = [0usize; 4];
     for _ in 0..n {
-        let mut u = [rng.next(), rng.next(), rng.next()];
+        let mut u = [rng.next_f64(), rng.next_f64(), rng.next_f64()];
         u.sort_by(f64::total_cmp);
         let w = [u[0], u[1] - u[0], u[2] - u[1], 1.0 - u[2]];
         let x: f64 = (0..4).map(|k| w[k] * vals[k]).sum();

@@ -159,6 +159,18 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     ExitKind::of(e).code()
 }
 
+/// A program's exit: success, or `e` described on stderr after `program`'s
+/// name and its [`exit_code`] — what every tetkit program's `main` returns.
+pub fn exit_status(program: &str, result: anyhow::Result<()>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{program}: {}", describe(&e));
+            std::process::ExitCode::from(exit_code(&e))
+        }
+    }
+}
+
 /// The chain of `e` joined by ": ", leaving out a cause whose text an outer
 /// message already holds (library errors often quote their source). What
 /// the programs print after their name.

@@ -45,4 +45,4 @@ mod exit;
 pub use args::{
     parse_counts3, parse_direction, parse_range, parse_rgb, parse_size, parse_window_size, parse_xyz, WINDOW_SIDE,
 };
-pub use exit::{classify, describe, exit_code, fail, usage, ExitKind, KindExt, Tagged, EXIT_CODES_HELP};
+pub use exit::{classify, describe, exit_code, exit_status, fail, usage, ExitKind, KindExt, Tagged, EXIT_CODES_HELP};

@@ -159,14 +159,7 @@ mod tests {
 
     #[test]
     fn accepts_a_delaunay_result_and_names_broken_invariants() {
-        let mut pts = Vec::new();
-        for k in 0..3 {
-            for j in 0..3 {
-                for i in 0..3 {
-                    pts.push([i as f64, j as f64, k as f64]);
-                }
-            }
-        }
+        let mut pts = tet_mesh::split::structured_points([3; 3], |p| p.map(|x| x as f64));
         pts.push([2.0, 2.0, 2.0]);
         let d = tetrahedralize_points(&pts, &DelaunayOptions::default()).unwrap();
         assert_eq!(check_delaunay(&pts, &d, true), Ok(()));

@@ -261,14 +261,7 @@ mod tests {
 
     #[test]
     fn duplicates_are_left_out_and_tets_refer_to_source_ids() {
-        let mut pts = Vec::new();
-        for k in 0..3 {
-            for j in 0..3 {
-                for i in 0..3 {
-                    pts.push([i as f64, j as f64, k as f64]);
-                }
-            }
-        }
+        let mut pts = tet_mesh::split::structured_points([3; 3], |p| p.map(|x| x as f64));
         pts.push([2.0, 2.0, 2.0]); // duplicate of point 26
         let mut src = cloud(pts);
         let r = triangulate_cloud(&mut src, CloudMode::Delaunay, &DelaunayOptions::default(), 1e-10, false).unwrap();

@@ -915,14 +915,7 @@ pub(crate) mod tests {
 
     #[test]
     fn lattice_and_random_sets_satisfy_the_perturbed_empty_sphere_property() {
-        let mut pts = Vec::new();
-        for k in 0..5 {
-            for j in 0..5 {
-                for i in 0..5 {
-                    pts.push([i as f64, j as f64, k as f64]);
-                }
-            }
-        }
+        let pts = tet_mesh::split::structured_points([5; 3], |p| p.map(|x| x as f64));
         check(&build(&pts), true);
         let mut rng = SplitMix64(5);
         let pts: Vec<[f64; 3]> = (0..300).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()]).collect();

@@ -19,60 +19,9 @@ use tet_preint::{BakeOptions, Baked, TableDomain, TransferFunction};
 use tet_render::project::ViewGeometry;
 use tet_render::{visibility_order, Camera, Renderer, Scene, SortMethod, TfCuller, ViewSpec};
 
-type Mesh = (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<f64>);
-
-fn grid(n: usize) -> Mesh {
-    let m = n + 1;
-    let mut points = Vec::with_capacity(m * m * m);
-    let mut scalar = Vec::with_capacity(m * m * m);
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
-                let p = [i as f64 / n as f64, j as f64 / n as f64, k as f64 / n as f64];
-                let r2 = (p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2);
-                scalar.push((0.5 + 0.45 * (6.0 * r2).cos() * (3.0 * p[0] + 1.0).sin()).clamp(0.0, 1.0));
-                points.push(p);
-            }
-        }
-    }
-    let id = |i: usize, j: usize, k: usize| (i + m * (j + m * k)) as u32;
-    let mut tets = Vec::with_capacity(5 * n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let h = [
-                    id(i, j, k),
-                    id(i + 1, j, k),
-                    id(i + 1, j + 1, k),
-                    id(i, j + 1, k),
-                    id(i, j, k + 1),
-                    id(i + 1, j, k + 1),
-                    id(i + 1, j + 1, k + 1),
-                    id(i, j + 1, k + 1),
-                ];
-                tet_mesh::split::split_hexahedron_five(&h, (i + j + k) % 2 == 1, &mut |t| tets.push(t));
-            }
-        }
-    }
-    (points, tets, scalar)
-}
-
-/// (largest per-tet scalar range, largest edge length).
-fn cell_limits((points, tets, scalar): &Mesh) -> (f64, f64) {
-    let (mut ds, mut len) = (0.0f64, 0.0f64);
-    for t in tets {
-        let s = t.map(|v| scalar[v as usize]);
-        let (mn, mx) = s.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
-        ds = ds.max(mx - mn);
-        for i in 0..4 {
-            for j in i + 1..4 {
-                let (a, b) = (points[t[i] as usize], points[t[j] as usize]);
-                len = len.max(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt());
-            }
-        }
-    }
-    (ds, len)
-}
+// The test meshes (structured grid, smooth scalar) the GPU tests render.
+#[path = "../tests/common/mod.rs"]
+mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -84,8 +33,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let ctx = GpuContext::new_headless()?;
     println!("adapter: {}", ctx.describe());
-    let mesh = grid(cells);
-    let (points, tets, scalar) = &mesh;
+    let mesh = common::grid(cells);
+    let (points, tets, scalar) = (&mesh.points, &mesh.tets, &mesh.scalar);
     println!(
         "mesh: {cells}³ cells × 5 = {} tets, {} points; image {size}², {} rasterizer",
         tets.len(),
@@ -97,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
             "opacity": [[0, 0], [0.3, 0], [0.45, 6], [0.55, 2], [0.7, 0], [1, 0]], "unit_distance": 0.1}"#,
     )?;
-    let (max_ds, len) = cell_limits(&mesh);
+    let (max_ds, len) = mesh.cell_limits();
     let domain = TableDomain::new(0.0, 1.0, max_ds, len)?;
     let opts = BakeOptions::default();
 

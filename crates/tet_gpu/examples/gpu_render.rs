@@ -15,41 +15,9 @@ use tet_gpu::{centroid_order, GpuContext, GpuOrder, GpuRenderer, GpuScene, GpuSh
 use tet_preint::{Table3d, Table3dParams, TableDomain, TransferFunction};
 use tet_render::{Camera, Display, ViewSpec};
 
-fn grid(n: usize) -> (Vec<[f64; 3]>, Vec<[u32; 4]>, Vec<f64>) {
-    let m = n + 1;
-    let mut points = Vec::with_capacity(m * m * m);
-    let mut scalar = Vec::with_capacity(m * m * m);
-    for k in 0..m {
-        for j in 0..m {
-            for i in 0..m {
-                let p = [i as f64 / n as f64, j as f64 / n as f64, k as f64 / n as f64];
-                let r2 = (p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2);
-                scalar.push((0.5 + 0.45 * (6.0 * r2).cos() * (3.0 * p[0] + 1.0).sin()).clamp(0.0, 1.0));
-                points.push(p);
-            }
-        }
-    }
-    let id = |i: usize, j: usize, k: usize| (i + m * (j + m * k)) as u32;
-    let mut tets = Vec::with_capacity(5 * n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let h = [
-                    id(i, j, k),
-                    id(i + 1, j, k),
-                    id(i + 1, j + 1, k),
-                    id(i, j + 1, k),
-                    id(i, j, k + 1),
-                    id(i + 1, j, k + 1),
-                    id(i + 1, j + 1, k + 1),
-                    id(i, j + 1, k + 1),
-                ];
-                tet_mesh::split::split_hexahedron_five(&h, (i + j + k) % 2 == 1, &mut |t| tets.push(t));
-            }
-        }
-    }
-    (points, tets, scalar)
-}
+// The test meshes (structured grid, smooth scalar) the GPU tests render.
+#[path = "../tests/common/mod.rs"]
+mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -69,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         lim.max_texture_dimension_3d
     );
     let t = Instant::now();
-    let (points, tets, scalar) = grid(cells);
+    let common::Mesh { points, tets, scalar } = common::grid(cells);
     println!(
         "mesh: {cells}³ cells × 5 = {} tets, {} points (built in {:.3} s)",
         tets.len(),

@@ -10,11 +10,13 @@
 //! after every piece, for the precision study.
 
 use crate::gpu_types::{BakeParams, BAKE_WG, METHOD_TABLE3D};
-use crate::render::{check_table_dims, storage_entry, tf_node_rows, GpuShader, TableGrid};
-use crate::{map_read, shader_source_plain, GpuContext, GpuError, BAKE_WGSL};
+use crate::render::{
+    bind_all, bind_group, bind_view, buffer_init, check_table_dims, storage_entries, storage_texture_entry,
+    tf_node_rows, GpuShader, TableGrid,
+};
+use crate::{shader_source_plain, GpuContext, GpuError, BAKE_WGSL};
 use std::time::Instant;
 use tet_preint::{Build3d, Emission, Precision, Table3d, Table3dParams, TableDomain, TransferFunction};
-use wgpu::util::DeviceExt;
 
 /// The CPU build's split thresholds (`BEND_INDEPENDENT`, `BEND_DENSITY` in
 /// tet_preint's table3d.rs): how far ln T may bend over one piece (its
@@ -142,32 +144,18 @@ impl GpuTable3d {
                 view_formats: &[],
             });
             let cs = wgpu::ShaderStages::COMPUTE;
-            let (layout, pipeline) = crate::render::compute_pipeline(
-                dev,
-                "bake",
-                &[
-                    crate::render::uniform_entry(0, cs),
-                    storage_entry(1, cs, true),
-                    storage_entry(2, cs, true),
-                    storage_entry(3, cs, true),
-                    storage_entry(4, cs, true),
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 5,
-                        visibility: cs,
-                        ty: wgpu::BindingType::StorageTexture {
-                            access: wgpu::StorageTextureAccess::WriteOnly,
-                            format: wgpu::TextureFormat::Rgba32Float,
-                            view_dimension: wgpu::TextureViewDimension::D3,
-                        },
-                        count: None,
-                    },
-                ],
-                shader_source_plain(BAKE_WGSL),
-                "bake",
-            );
-            let buf = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
-                dev.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-            };
+            // Parameters, TF rows, grid, rows and breaks read; the table written.
+            let mut entries = vec![crate::render::uniform_entry(0, cs)];
+            entries.extend(storage_entries(1, cs, &[true; 4]));
+            entries.push(storage_texture_entry(
+                5,
+                cs,
+                wgpu::TextureFormat::Rgba32Float,
+                wgpu::TextureViewDimension::D3,
+            ));
+            let source = shader_source_plain(BAKE_WGSL);
+            let (layout, pipeline) = crate::render::compute_pipeline(dev, "bake", &entries, source, "bake");
+            let buf = |label: &str, contents: &[u8], usage| buffer_init(dev, label, contents, usage);
             let storage = wgpu::BufferUsages::STORAGE;
             let params_buf = buf("bake params", bytemuck::bytes_of(&bp), wgpu::BufferUsages::UNIFORM);
             let tf_buf = buf("bake tf", bytemuck::cast_slice(&tf_node_rows(tf)), storage);
@@ -175,18 +163,9 @@ impl GpuTable3d {
             let rows_buf = buf("bake rows", bytemuck::cast_slice(&rows), storage);
             let breaks_buf = buf("bake breaks", bytemuck::cast_slice(&breaks), storage);
             let view = texture.create_view(&Default::default());
-            let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("bake"),
-                layout: &layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: tf_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: grid_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: rows_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: breaks_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&view) },
-                ],
-            });
+            let mut entries = bind_all(0, &[&params_buf, &tf_buf, &grid_buf, &rows_buf, &breaks_buf]);
+            entries.push(bind_view(5, &view));
+            let group = bind_group(dev, "bake", &layout, &entries);
             (texture, pipeline, group)
         })?;
         // Pipelines compile lazily on some drivers: finish setup first.
@@ -239,49 +218,7 @@ impl GpuTable3d {
     /// (zeros outside the band). For tests and measurements; rendering
     /// samples the texture where it is.
     pub fn read_back(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
-        let (n_s, n_l) = (self.params.n_s as u32, self.params.n_l as u32);
-        let row = n_l as u64 * 16;
-        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64;
-        let padded = row.div_ceil(align) * align;
-        let size = padded * n_s as u64 * n_s as u64;
-        crate::render::check_size("table3d read-back", size, ctx.device.limits().max_buffer_size)?;
-        let buf = ctx.checked(|| {
-            let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("table3d read-back"),
-                size,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
-            enc.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &self.texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: Default::default(),
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buf,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(padded as u32),
-                        rows_per_image: Some(n_s),
-                    },
-                },
-                wgpu::Extent3d { width: n_l, height: n_s, depth_or_array_layers: n_s },
-            );
-            ctx.queue.submit([enc.finish()]);
-            buf
-        })?;
-        let bytes = map_read(ctx, &buf)?;
-        let mut out = Vec::with_capacity(n_s as usize * n_s as usize * n_l as usize);
-        for line in bytes.chunks_exact(padded as usize) {
-            out.extend(line[..row as usize].chunks_exact(16).map(|px| {
-                let f = |i: usize| f32::from_le_bytes([px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]]);
-                [f(0), f(1), f(2), f(3)]
-            }));
-        }
-        Ok(out)
+        crate::render::read_rgba32f(ctx, &self.texture, "table3d read-back")
     }
 }
 

@@ -11,12 +11,14 @@
 //! them), so the decision is the CPU culler's f64 decision exactly.
 
 use crate::gpu_types::{CullParams, CULL_WG};
-use crate::render::{storage_entry, uniform_dyn_entry, GpuScene};
+use crate::render::{
+    bind_all, bind_group, buffer_init, dispatch, shader_module, storage_entries, uniform_dyn_entry, BoundModule,
+    GpuScene,
+};
 use crate::workspace::{split_groups, Params};
 use crate::{shader_source_plain, GpuContext, GpuError, CULL_WGSL};
 use tet_preint::TransferFunction;
 use tet_render::TfCuller;
-use wgpu::util::DeviceExt;
 
 /// The invisible scalar intervals of one transfer function for one scene,
 /// on the GPU: pass it in [`crate::FrameOptions::cull`].
@@ -76,13 +78,8 @@ impl GpuCull {
         if rows.is_empty() {
             rows.push([0, 0]);
         }
-        let init = |label: &str, contents: &[u8]| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-        };
+        let init =
+            |label: &str, contents: &[u8]| buffer_init(&ctx.device, label, contents, wgpu::BufferUsages::STORAGE);
         let (intervals, widgets) = ctx.checked(|| {
             (init("cull intervals", bytemuck::cast_slice(&rows)), init("cull widgets", bytemuck::cast_slice(&rects)))
         })?;
@@ -103,7 +100,7 @@ impl GpuCull {
 }
 
 pub(crate) struct CullPipelines {
-    layout: wgpu::BindGroupLayout,
+    bound: BoundModule,
     flags: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
 }
@@ -122,40 +119,17 @@ impl CullPipelines {
     pub(crate) fn new(ctx: &GpuContext) -> CullPipelines {
         let dev = &ctx.device;
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cull"),
-            entries: &[
-                uniform_dyn_entry(0, cs),
-                storage_entry(1, cs, true),
-                storage_entry(2, cs, true),
-                storage_entry(3, cs, true),
-                storage_entry(4, cs, true),
-                storage_entry(5, cs, false),
-                storage_entry(6, cs, false),
-                storage_entry(7, cs, true),
-                storage_entry(8, cs, true),
-            ],
-        });
-        let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cull.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shader_source_plain(CULL_WGSL).into()),
-        });
-        let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("cull"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let make = |entry: &str| {
-            dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        CullPipelines { flags: make("cull_flags"), scatter: make("cull_scatter"), layout }
+        let module = shader_module(dev, "cull.wgsl", shader_source_plain(CULL_WGSL));
+        let mut entries = vec![uniform_dyn_entry(0, cs)];
+        // Tets, ranks, intervals and the order in are read; flags and the
+        // order out written; |∇s| ranks and widgets read.
+        entries.extend(storage_entries(1, cs, &[true, true, true, true, false, false, true, true]));
+        let bound = BoundModule::new(dev, "cull", &entries, module);
+        CullPipelines {
+            flags: bound.compute(dev, "cull_flags", &[]),
+            scatter: bound.compute(dev, "cull_scatter", &[]),
+            bound,
+        }
     }
 
     /// Encodes flags, their prefix sum and the scatter of `n` slots; the
@@ -183,34 +157,16 @@ impl CullPipelines {
             _pad1: 0,
             _pad2: 0,
         })?;
-        let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("cull"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: prm.binding(CULL_PARAMS_SIZE) },
-                wgpu::BindGroupEntry { binding: 1, resource: scene.tet_buf().as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: scene.ranks().as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: cull.intervals.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: bufs.order_in.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: bufs.flags.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: bufs.order_out.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 7, resource: scene.g_ranks().as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 8, resource: cull.widgets.as_entire_binding() },
-            ],
-        });
-        {
-            let mut pass = enc
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cull_flags"), timestamp_writes: None });
-            pass.set_pipeline(&self.flags);
-            pass.set_bind_group(0, &bg, &[o]);
-            pass.dispatch_workgroups(gx, gy, 1);
-        }
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: prm.binding(CULL_PARAMS_SIZE) }];
+        entries.extend(bind_all(
+            1,
+            &[scene.tet_buf(), scene.ranks(), &cull.intervals, bufs.order_in, bufs.flags, bufs.order_out],
+        ));
+        entries.extend(bind_all(7, &[scene.g_ranks(), &cull.widgets]));
+        let bg = bind_group(&ctx.device, "cull", &self.bound.layout, &entries);
+        dispatch(enc, "cull_flags", &self.flags, &bg, &[o], (gx, gy));
         sort.encode_scan(ctx, enc, prm, bufs.flags, n, bufs.sums)?;
-        let mut pass = enc
-            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cull_scatter"), timestamp_writes: None });
-        pass.set_pipeline(&self.scatter);
-        pass.set_bind_group(0, &bg, &[o]);
-        pass.dispatch_workgroups(gx, gy, 1);
+        dispatch(enc, "cull_scatter", &self.scatter, &bg, &[o], (gx, gy));
         Ok(())
     }
 }

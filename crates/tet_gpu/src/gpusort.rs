@@ -2,14 +2,16 @@
 //! centroid-depth order and the compute rasterizer's tile binning.
 
 use crate::gpu_types::{SortParams, RADIX_BITS, RADIX_BLOCK, SCAN_BLOCK};
-use crate::render::{storage_entry, uniform_dyn_entry};
+use crate::render::{
+    bind, bind_all, bind_group, dispatch, shader_module, storage_entry, uniform_dyn_entry, BoundModule,
+};
 use crate::workspace::{split_groups, Grow, Params};
 use crate::{shader_source_plain, GpuContext, GpuError, SORT_WGSL};
 
 pub(crate) struct SortPipelines {
-    scan_layout: wgpu::BindGroupLayout,
-    radix_layout: wgpu::BindGroupLayout,
-    depth_layout: wgpu::BindGroupLayout,
+    scan: BoundModule,
+    radix: BoundModule,
+    depth: BoundModule,
     scan_blocks: wgpu::ComputePipeline,
     scan_sums: wgpu::ComputePipeline,
     scan_add: wgpu::ComputePipeline,
@@ -28,61 +30,26 @@ impl SortPipelines {
     pub(crate) fn new(ctx: &GpuContext) -> SortPipelines {
         let dev = &ctx.device;
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
-            dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
+        let module = shader_module(dev, "sort.wgsl", shader_source_plain(SORT_WGSL));
+        // Each layout: the parameters at 0, then storage buffers (binding, read-only).
+        let bound = |label, storage: &[(u32, bool)]| {
+            let mut entries = vec![uniform_dyn_entry(0, cs)];
+            entries.extend(storage.iter().map(|&(b, ro)| storage_entry(b, cs, ro)));
+            BoundModule::new(dev, label, &entries, module.clone())
         };
-        let scan_layout =
-            layout("scan", &[uniform_dyn_entry(0, cs), storage_entry(1, cs, false), storage_entry(2, cs, false)]);
-        let radix_layout = layout(
-            "radix",
-            &[
-                uniform_dyn_entry(0, cs),
-                storage_entry(3, cs, true),
-                storage_entry(4, cs, true),
-                storage_entry(5, cs, false),
-                storage_entry(6, cs, false),
-                storage_entry(7, cs, false),
-            ],
-        );
-        let depth_layout = layout(
-            "depth keys",
-            &[
-                uniform_dyn_entry(0, cs),
-                storage_entry(5, cs, false),
-                storage_entry(6, cs, false),
-                storage_entry(8, cs, true),
-                storage_entry(9, cs, true),
-            ],
-        );
-        let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("sort.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shader_source_plain(SORT_WGSL).into()),
-        });
-        let make = |layout: &wgpu::BindGroupLayout, entry: &str| {
-            let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(entry),
-                bind_group_layouts: &[Some(layout)],
-                immediate_size: 0,
-            });
-            dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let scan = bound("scan", &[(1, false), (2, false)]);
+        let radix = bound("radix", &[(3, true), (4, true), (5, false), (6, false), (7, false)]);
+        let depth = bound("depth keys", &[(5, false), (6, false), (8, true), (9, true)]);
         SortPipelines {
-            scan_blocks: make(&scan_layout, "scan_blocks"),
-            scan_sums: make(&scan_layout, "scan_sums"),
-            scan_add: make(&scan_layout, "scan_add"),
-            rs_hist: make(&radix_layout, "rs_hist"),
-            rs_scatter: make(&radix_layout, "rs_scatter"),
-            depth_keys: make(&depth_layout, "depth_keys"),
-            scan_layout,
-            radix_layout,
-            depth_layout,
+            scan_blocks: scan.compute(dev, "scan_blocks", &[]),
+            scan_sums: scan.compute(dev, "scan_sums", &[]),
+            scan_add: scan.compute(dev, "scan_add", &[]),
+            rs_hist: radix.compute(dev, "rs_hist", &[]),
+            rs_scatter: radix.compute(dev, "rs_scatter", &[]),
+            depth_keys: depth.compute(dev, "depth_keys", &[]),
+            scan,
+            radix,
+            depth,
         }
     }
 
@@ -100,15 +67,12 @@ impl SortPipelines {
         let blocks = n.div_ceil(SCAN_BLOCK).max(1);
         let (gx, gy) = split_groups(blocks);
         let o = prm.push(&params(n, 0, blocks, gx))?;
-        let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("scan"),
-            layout: &self.scan_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: prm.binding(SORT_PARAMS_SIZE) },
-                wgpu::BindGroupEntry { binding: 1, resource: data.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: sums.as_entire_binding() },
-            ],
-        });
+        let entries = [
+            wgpu::BindGroupEntry { binding: 0, resource: prm.binding(SORT_PARAMS_SIZE) },
+            bind(1, data),
+            bind(2, sums),
+        ];
+        let bg = bind_group(&ctx.device, "scan", &self.scan.layout, &entries);
         let mut pass =
             enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("scan"), timestamp_writes: None });
         pass.set_bind_group(0, &bg, &[o]);
@@ -150,33 +114,12 @@ impl SortPipelines {
         for p in 0..passes {
             let o = prm.push(&params(n, p * RADIX_BITS, blocks, gx))?;
             let dst = 1 - src;
-            let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("radix"),
-                layout: &self.radix_layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: prm.binding(SORT_PARAMS_SIZE) },
-                    wgpu::BindGroupEntry { binding: 3, resource: keys[src].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: vals[src].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: keys[dst].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 6, resource: vals[dst].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: hist.as_entire_binding() },
-                ],
-            });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("rs_hist"),
-                    timestamp_writes: None,
-                });
-                pass.set_bind_group(0, &bg, &[o]);
-                pass.set_pipeline(&self.rs_hist);
-                pass.dispatch_workgroups(gx, gy, 1);
-            }
+            let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: prm.binding(SORT_PARAMS_SIZE) }];
+            entries.extend(bind_all(3, &[keys[src], vals[src], keys[dst], vals[dst], hist]));
+            let bg = bind_group(&ctx.device, "radix", &self.radix.layout, &entries);
+            dispatch(enc, "rs_hist", &self.rs_hist, &bg, &[o], (gx, gy));
             self.encode_scan(ctx, enc, prm, hist, 16 * blocks, sums)?;
-            let mut pass = enc
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("rs_scatter"), timestamp_writes: None });
-            pass.set_bind_group(0, &bg, &[o]);
-            pass.set_pipeline(&self.rs_scatter);
-            pass.dispatch_workgroups(gx, gy, 1);
+            dispatch(enc, "rs_scatter", &self.rs_scatter, &bg, &[o], (gx, gy));
             src = dst;
         }
         Ok(src)
@@ -206,22 +149,11 @@ impl SortPipelines {
         p.eye_rel = eye_rel;
         p.forward = forward;
         let o = prm.push(&p)?;
-        let bg = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("depth keys"),
-            layout: &self.depth_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: prm.binding(SORT_PARAMS_SIZE) },
-                wgpu::BindGroupEntry { binding: 5, resource: keys.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: vals.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 8, resource: positions.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 9, resource: tets.as_entire_binding() },
-            ],
-        });
-        let mut pass =
-            enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("depth_keys"), timestamp_writes: None });
-        pass.set_bind_group(0, &bg, &[o]);
-        pass.set_pipeline(&self.depth_keys);
-        pass.dispatch_workgroups(gx, gy, 1);
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: prm.binding(SORT_PARAMS_SIZE) }];
+        entries.extend(bind_all(5, &[keys, vals]));
+        entries.extend(bind_all(8, &[positions, tets]));
+        let bg = bind_group(&ctx.device, "depth keys", &self.depth.layout, &entries);
+        dispatch(enc, "depth_keys", &self.depth_keys, &bg, &[o], (gx, gy));
         Ok(())
     }
 }

@@ -288,44 +288,8 @@ fn shader_source_plain(body: &str) -> String {
 
 /// Reads an Rgba32Float texture back into an [`Image`].
 pub(crate) fn read_texture(ctx: &GpuContext, tex: &wgpu::Texture) -> Result<Image, GpuError> {
-    let (w, h) = (tex.width(), tex.height());
-    let row = w as u64 * 16;
-    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64;
-    let buf = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: padded * h as u64,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    enc.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo {
-            texture: tex,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: Default::default(),
-        },
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buf,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded as u32),
-                rows_per_image: Some(h),
-            },
-        },
-        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-    );
-    ctx.queue.submit([enc.finish()]);
-    let bytes = map_read(ctx, &buf)?;
-    let mut pixels = Vec::with_capacity(w as usize * h as usize);
-    for r in 0..h as usize {
-        let line = &bytes[r * padded as usize..r * padded as usize + row as usize];
-        pixels.extend(line.chunks_exact(16).map(|px| {
-            let f = |i: usize| f32::from_le_bytes([px[4 * i], px[4 * i + 1], px[4 * i + 2], px[4 * i + 3]]);
-            [f(0), f(1), f(2), f(3)]
-        }));
-    }
-    Image::from_pixels(w, h, pixels).map_err(|e| GpuError::Readback(e.to_string()))
+    let pixels = render::read_rgba32f(ctx, tex, "readback")?;
+    Image::from_pixels(tex.width(), tex.height(), pixels).map_err(|e| GpuError::Readback(e.to_string()))
 }
 
 /// Maps a MAP_READ buffer after the queue's work and copies it out.

@@ -15,13 +15,13 @@ use crate::gpu_types::{
     METHOD_TABLE3D, NO_BAND, PROBE_WG,
 };
 use crate::render::{
-    placeholder_3d, storage_entry, texture_entry, uint_texture_entry, uniform_entry, GpuShader, TableGrid,
+    bind, bind_all, bind_group, bind_view, buffer, buffer_init, dispatch, placeholder_3d, storage_entry, texture_entry,
+    uint_texture_entry, uniform_entry, upload_texture, GpuShader, TableGrid, READ_BACK,
 };
 use crate::{map_read, shader_source_fragment, GpuContext, GpuError, PROBE_WGSL};
 use tet_preint::{
     Atlas2d, Baked, BivApprox, BivExact, Emission, Method, PartialShader, PolyTable, Segment, Shape, TransferFunction,
 };
-use wgpu::util::DeviceExt;
 
 /// The methods [`GpuShader::from_baked`] accepts, in `Method::ALL`'s order.
 pub const GPU_METHODS: [Method; 9] = [
@@ -75,31 +75,8 @@ fn texture_2d_array(ctx: &GpuContext, size: [u32; 3], texels: &[[f32; 4]]) -> Re
             limit: lim.max_texture_array_layers as u64,
         });
     }
-    ctx.checked(|| {
-        let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] };
-        let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("table2d"),
-            size: extent,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        ctx.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &tex,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: Default::default(),
-            },
-            bytemuck::cast_slice(texels),
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size[0] * 16), rows_per_image: Some(size[1]) },
-            extent,
-        );
-        tex
-    })
+    let (dim, format) = (wgpu::TextureDimension::D2, wgpu::TextureFormat::Rgba32Float);
+    upload_texture(ctx, "table2d", dim, format, size, bytemuck::cast_slice(texels))
 }
 
 /// Poly's α table as an R16Uint 1D texture: the 16-bit samples themselves.
@@ -108,31 +85,8 @@ fn alpha_texture(ctx: &GpuContext, data: &[u16]) -> Result<wgpu::Texture, GpuErr
     if data.len() as u64 > max as u64 {
         return Err(GpuError::TooLarge { what: "α table entries", bytes: data.len() as u64, limit: max as u64 });
     }
-    ctx.checked(|| {
-        let extent = wgpu::Extent3d { width: data.len() as u32, height: 1, depth_or_array_layers: 1 };
-        let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("alpha table"),
-            size: extent,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D1,
-            format: wgpu::TextureFormat::R16Uint,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        ctx.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &tex,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: Default::default(),
-            },
-            bytemuck::cast_slice(data),
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(data.len() as u32 * 2), rows_per_image: None },
-            extent,
-        );
-        tex
-    })
+    let (dim, format) = (wgpu::TextureDimension::D1, wgpu::TextureFormat::R16Uint);
+    upload_texture(ctx, "alpha table", dim, format, [data.len() as u32, 1, 1], bytemuck::cast_slice(data))
 }
 
 impl GpuShader {
@@ -397,59 +351,21 @@ impl GpuShader {
                 "probe",
                 &constants,
             );
-            let uni = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("probe frame"),
-                contents: bytemuck::bytes_of(&fr),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            let inp = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("probe in"),
-                contents: bytemuck::cast_slice(&input),
-                usage: wgpu::BufferUsages::STORAGE,
-            });
-            let gshades = dev.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("probe gshades"),
-                size: 32,
-                usage: wgpu::BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            });
-            let out = dev.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("probe out"),
-                size: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let readback = dev.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("probe read-back"),
-                size: bytes,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
+            let uni = buffer_init(dev, "probe frame", bytemuck::bytes_of(&fr), wgpu::BufferUsages::UNIFORM);
+            let inp = buffer_init(dev, "probe in", bytemuck::cast_slice(&input), wgpu::BufferUsages::STORAGE);
+            let gshades = buffer(dev, "probe gshades", 32, wgpu::BufferUsages::STORAGE);
+            let out = buffer(dev, "probe out", bytes, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
+            let readback = buffer(dev, "probe read-back", bytes, READ_BACK);
             let view = self.table.create_view(&Default::default());
             let (t2, a) = self.views_2d();
-            let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("probe"),
-                layout: &layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: uni.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: self.tf_nodes.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&view) },
-                    wgpu::BindGroupEntry { binding: 12, resource: inp.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 13, resource: out.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 14, resource: wgpu::BindingResource::TextureView(&t2) },
-                    wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(&a) },
-                    wgpu::BindGroupEntry { binding: 16, resource: self.shade_buf.as_entire_binding() },
-                    // No slots: the probe's segments carry their gradient magnitudes.
-                    wgpu::BindGroupEntry { binding: 18, resource: gshades.as_entire_binding() },
-                ],
-            });
+            let mut entries = vec![bind(0, &uni), bind(7, &self.tf_nodes), bind_view(8, &view)];
+            entries.extend(bind_all(12, &[&inp, &out]));
+            entries.extend([bind_view(14, &t2), bind_view(15, &a), bind(16, &self.shade_buf)]);
+            // No slots: the probe's segments carry their gradient magnitudes.
+            entries.push(bind(18, &gshades));
+            let group = bind_group(dev, "probe", &layout, &entries);
             let mut enc = dev.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &group, &[]);
-                pass.dispatch_workgroups((segs.len() as u32).div_ceil(PROBE_WG), 1, 1);
-            }
+            dispatch(&mut enc, "probe", &pipeline, &group, &[], ((segs.len() as u32).div_ceil(PROBE_WG), 1));
             enc.copy_buffer_to_buffer(&out, 0, &readback, 0, bytes);
             ctx.queue.submit([enc.finish()]);
             readback

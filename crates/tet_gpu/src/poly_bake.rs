@@ -5,12 +5,11 @@
 
 use crate::bake::GpuBakeStats;
 use crate::gpu_types::PolyBakeParams;
-use crate::render::storage_entry;
+use crate::render::{bind_all, bind_group, buffer, buffer_init, dispatch, storage_entries, READ_BACK};
 use crate::{map_read, shader_source_plain, GpuContext, GpuError, POLY_BAKE_WGSL};
 use std::time::Instant;
 use tet_preint::poly::{band_for, inverse_vandermonde};
 use tet_preint::{AlphaTable, Emission, PolyParams, PolyTable, TransferFunction};
-use wgpu::util::DeviceExt;
 
 /// Bakes `PolyTable::build(tf, p)`'s tables on the GPU (f32 throughout,
 /// where the CPU integrates in f64) and reads them back into a
@@ -78,29 +77,16 @@ pub fn bake_poly(
     let dev = &ctx.device;
     let (pipeline, group, rho_buf, coef_buf, rho_read, coef_read) = ctx.checked(|| {
         let cs = wgpu::ShaderStages::COMPUTE;
-        let (layout, pipeline) = crate::render::compute_pipeline(
-            dev,
-            "poly bake",
-            &[
-                crate::render::uniform_entry(0, cs),
-                storage_entry(1, cs, true),
-                storage_entry(2, cs, true),
-                storage_entry(3, cs, true),
-                storage_entry(4, cs, false),
-                storage_entry(5, cs, false),
-            ],
-            shader_source_plain(POLY_BAKE_WGSL),
-            "poly_bake",
-        );
-        let init = |label: &str, contents: &[u8], usage| {
-            dev.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-        };
-        let empty = |label: &str, size: u64, usage| {
-            dev.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
-        };
+        // Parameters, nodes, the inverse Vandermonde matrix and grid read; ρ and coefficients written.
+        let mut entries = vec![crate::render::uniform_entry(0, cs)];
+        entries.extend(storage_entries(1, cs, &[true, true, true, false, false]));
+        let source = shader_source_plain(POLY_BAKE_WGSL);
+        let (layout, pipeline) = crate::render::compute_pipeline(dev, "poly bake", &entries, source, "poly_bake");
+        let init = |label: &str, contents: &[u8], usage| buffer_init(dev, label, contents, usage);
+        let empty = |label: &str, size: u64, usage| buffer(dev, label, size, usage);
         let st = wgpu::BufferUsages::STORAGE;
         let out = st | wgpu::BufferUsages::COPY_SRC;
-        let read = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ;
+        let read = READ_BACK;
         let uni = init("poly params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
         let nodes_buf = init("poly nodes", bytemuck::cast_slice(&nodes), st);
         let vinv_buf = init("poly vinv", bytemuck::cast_slice(&vinv), st);
@@ -109,18 +95,8 @@ pub fn bake_poly(
         let coef_buf = empty("poly coef", coef_bytes, out);
         let rho_read = empty("poly rho read-back", rho_bytes, read);
         let coef_read = empty("poly coef read-back", coef_bytes, read);
-        let group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("poly bake"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: uni.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: nodes_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: vinv_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: grid_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: rho_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: coef_buf.as_entire_binding() },
-            ],
-        });
+        let buffers = [&uni, &nodes_buf, &vinv_buf, &grid_buf, &rho_buf, &coef_buf];
+        let group = bind_group(dev, "poly bake", &layout, &bind_all(0, &buffers));
         (pipeline, group, rho_buf, coef_buf, rho_read, coef_read)
     })?;
     ctx.wait()?;
@@ -128,12 +104,7 @@ pub fn bake_poly(
     let t_bake = Instant::now();
     ctx.checked(|| {
         let mut enc = dev.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups((row_len as u32).div_ceil(64), res as u32, 1);
-        }
+        dispatch(&mut enc, "poly bake", &pipeline, &group, &[], ((row_len as u32).div_ceil(64), res as u32));
         ctx.queue.submit([enc.finish()]);
     })?;
     ctx.wait()?;

@@ -5,7 +5,11 @@
 //! `Reinhard::fit` / `apply` and `Image::to_rgba8`.
 
 use crate::gpu_types::{ToneFit, ToneParams, TONE_WG};
-use crate::render::{storage_entry, texture_entry, uniform_entry, GpuFrame, GpuRenderer, HDR_FORMAT};
+use crate::render::{
+    bind, bind_all, bind_group, bind_view, buffer, buffer_init, shader_module, storage_entries, texture_entry,
+    uniform_entry, BoundModule, GpuFrame, GpuRenderer, HDR_FORMAT, READ_BACK,
+};
+use crate::workspace::split_groups;
 use crate::{map_read, GpuContext, GpuError, TONEMAP_WGSL};
 use std::time::Instant;
 use tet_render::{Display, Image, ToneMap};
@@ -15,7 +19,7 @@ use wgpu::util::DeviceExt;
 const PER_THREAD: u32 = 4;
 
 pub(crate) struct TonePipelines {
-    layout: wgpu::BindGroupLayout,
+    bound: BoundModule,
     reduce: wgpu::ComputePipeline,
     fit: wgpu::ComputePipeline,
     map: wgpu::ComputePipeline,
@@ -25,36 +29,12 @@ impl TonePipelines {
     pub(crate) fn new(ctx: &GpuContext) -> TonePipelines {
         let dev = &ctx.device;
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("tonemap"),
-            entries: &[
-                uniform_entry(0, cs),
-                texture_entry(1, cs, wgpu::TextureViewDimension::D2),
-                storage_entry(2, cs, false),
-                storage_entry(3, cs, false),
-                storage_entry(4, cs, false),
-            ],
-        });
-        let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tonemap.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(TONEMAP_WGSL.into()),
-        });
-        let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("tonemap"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let make = |entry: &str| {
-            dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        TonePipelines { reduce: make("reduce"), fit: make("fit"), map: make("map"), layout }
+        let mut entries = vec![uniform_entry(0, cs), texture_entry(1, cs, wgpu::TextureViewDimension::D2)];
+        entries.extend(storage_entries(2, cs, &[false; 3]));
+        let module = shader_module(dev, "tonemap.wgsl", TONEMAP_WGSL.to_string());
+        let bound = BoundModule::new(dev, "tonemap", &entries, module);
+        let make = |entry| bound.compute(dev, entry, &[]);
+        TonePipelines { reduce: make("reduce"), fit: make("fit"), map: make("map"), bound }
     }
 }
 
@@ -66,11 +46,6 @@ pub struct ToneResult {
     /// `None` for `ToneMap::None`.
     pub reinhard: Option<[f32; 3]>,
     pub seconds: f64,
-}
-
-fn split_groups(groups: u32) -> (u32, u32) {
-    let gx = groups.clamp(1, 65535);
-    (gx, groups.div_ceil(gx).max(1))
 }
 
 impl GpuRenderer {
@@ -133,46 +108,21 @@ impl GpuRenderer {
         };
         let dev = &ctx.device;
         let (out, fit_read, out_read) = ctx.checked(|| {
-            let storage = |label, size| {
-                dev.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                })
-            };
+            let storage =
+                |label, size| buffer(dev, label, size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC);
             // Two vec4<f32> per reduce workgroup (covered pixels, all pixels).
             let partials = storage("partials", n_partials as u64 * 32);
             let fit = storage("fit", std::mem::size_of::<ToneFit>() as u64);
             let out = storage("rgba8", n * 4);
-            let read = |label, size| {
-                dev.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size,
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                    mapped_at_creation: false,
-                })
-            };
-            let fit_read = read("fit read", std::mem::size_of::<ToneFit>() as u64);
-            let out_read = read("rgba8 read", n * 4);
+            let fit_read = buffer(dev, "fit read", std::mem::size_of::<ToneFit>() as u64, READ_BACK);
+            let out_read = buffer(dev, "rgba8 read", n * 4, READ_BACK);
             let view = hdr.create_view(&Default::default());
             let group = |groups_x: u32| {
-                let uni = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("tone params"),
-                    contents: bytemuck::bytes_of(&params(groups_x)),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
-                dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("tonemap"),
-                    layout: &self.tone.layout,
-                    entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: uni.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
-                        wgpu::BindGroupEntry { binding: 2, resource: partials.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 3, resource: fit.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 4, resource: out.as_entire_binding() },
-                    ],
-                })
+                let uni =
+                    buffer_init(dev, "tone params", bytemuck::bytes_of(&params(groups_x)), wgpu::BufferUsages::UNIFORM);
+                let mut entries = vec![bind(0, &uni), bind_view(1, &view)];
+                entries.extend(bind_all(2, &[&partials, &fit, &out]));
+                bind_group(dev, "tonemap", &self.tone.bound.layout, &entries)
             };
             let (bg_reduce, bg_map) = (group(rx), group(mx));
             let mut enc = dev.create_command_encoder(&Default::default());

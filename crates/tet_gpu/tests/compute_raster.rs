@@ -5,36 +5,18 @@
 
 mod common;
 
-use common::{gpu, grid, Mesh};
+use common::{gpu, grid, report, table_on_axis, tf, Mesh};
 use std::sync::Arc;
 use tet_gpu::{centroid_order, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
-use tet_preint::{PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
-use tet_render::{diff, Camera, DiffStats, Image, ViewSpec};
-
-fn tf() -> TransferFunction {
-    TransferFunction::from_json(
-        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
-            "opacity": [[0, 0.5], [0.4, 4], [0.6, 1], [1, 8]], "unit_distance": 1}"#,
-    )
-    .unwrap()
-}
+use tet_preint::{PtLinearShader, ScalarAxis, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_render::{Camera, DiffStats, Image, ViewSpec};
 
 fn table_for(mesh: &Mesh) -> Table3d {
-    let (max_ds, len) = mesh.cell_limits();
-    let domain = TableDomain::new(0.0, 1.0, max_ds, len).unwrap();
-    Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, ..Default::default() }).unwrap()
+    table_on_axis(mesh, ScalarAxis::Uniform)
 }
 
 fn check(what: &str, a: &Image, b: &Image) -> DiffStats {
-    let d = diff(a, b).unwrap();
-    eprintln!(
-        "{what}: mean {:.4}/255, max {:.4}/255 at {:?}; {} covered pixels",
-        d.mean_abs * 255.0,
-        d.max_abs * 255.0,
-        d.max_at,
-        b.pixels().iter().filter(|p| p[3] > 0.0).count()
-    );
-    assert!(b.pixels().iter().any(|p| p[3] > 0.0), "{what}: empty reference");
+    let d = report(what, a, b);
     assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{what}: {d:?}");
     d
 }
@@ -52,13 +34,8 @@ fn views(mesh: &Mesh) -> Vec<(&'static str, ViewSpec)> {
         (
             "inside",
             ViewSpec {
-                position: [0.5, 0.45, 0.52],
-                focal_point: [0.5, 0.45, -1.0],
-                view_up: [0.0, 1.0, 0.0],
                 view_angle: 60.0,
-                parallel: false,
-                parallel_scale: 1.0,
-                size: [64, 64],
+                ..ViewSpec::looking_at([0.5, 0.45, 0.52], [0.5, 0.45, -1.0], [0.0, 1.0, 0.0], [64, 64])
             },
         ),
     ]
@@ -203,13 +180,9 @@ fn long_tile_lists_composite_every_tet() {
     let table =
         Arc::new(Table3d::build(&faint, &domain, &Table3dParams { n_s: 64, n_l: 64, ..Default::default() }).unwrap());
     let spec = ViewSpec {
-        position: [0.5, 0.5, 5.0],
-        focal_point: [0.5, 0.5, 0.5],
-        view_up: [0.0, 1.0, 0.0],
-        view_angle: 30.0,
         parallel: true,
         parallel_scale: 0.6,
-        size: [16, 16],
+        ..ViewSpec::looking_at([0.5, 0.5, 5.0], [0.5, 0.5, 0.5], [0.0, 1.0, 0.0], [16, 16])
     };
     let cam = Camera::new(&spec).unwrap();
     let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{gpu, grid, Mesh};
+use common::{gpu, grid, report, tf, Mesh};
 use std::sync::Arc;
 use tet_gpu::{FrameOptions, GpuContext, GpuCull, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{
@@ -15,15 +15,7 @@ use tet_preint::{
     TransferFunction,
 };
 use tet_render::cull::cull;
-use tet_render::{diff, Camera, DiffStats, Image, TfCuller, ViewSpec};
-
-fn tf() -> TransferFunction {
-    TransferFunction::from_json(
-        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
-            "opacity": [[0, 0.5], [0.4, 4], [0.6, 1], [1, 8]], "unit_distance": 1}"#,
-    )
-    .unwrap()
-}
+use tet_render::{diff, Camera, TfCuller, ViewSpec};
 
 /// A 1D part plus 2D widgets over (s, |∇s|) (the grid's |∇s| is about 0–4):
 /// a Gaussian, a clipped box and clipped triangle bands.
@@ -103,19 +95,6 @@ fn two_orbits(lo: [f64; 3], hi: [f64; 3]) -> [(&'static str, ViewSpec); 2] {
         ("az 30 el 20", ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0)),
         ("az -120 el -35", ViewSpec::framing(lo, hi, [80, 72]).orbit(-120.0, -35.0, 1.3)),
     ]
-}
-
-fn report(what: &str, gpu: &Image, cpu: &Image) -> DiffStats {
-    let d = diff(gpu, cpu).unwrap();
-    let covered = cpu.pixels().iter().filter(|p| p[3] > 0.0).count();
-    eprintln!(
-        "{what}: mean |Δ| {:.4}/255, max |Δ| {:.4}/255 at {:?}; {covered} covered pixels",
-        d.mean_abs * 255.0,
-        d.max_abs * 255.0,
-        d.max_at
-    );
-    assert!(covered > 0, "{what}: the reference image is empty");
-    d
 }
 
 /// Per segment: the GPU's per-fragment function (GpuShader::probe) against
@@ -227,13 +206,8 @@ fn methods_shade_clipped_tets() {
     let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let spec = ViewSpec {
-        position: [0.5, 0.45, 0.52],
-        focal_point: [0.5, 0.45, -1.0],
-        view_up: [0.0, 1.0, 0.0],
         view_angle: 60.0,
-        parallel: false,
-        parallel_scale: 1.0,
-        size: [64, 64],
+        ..ViewSpec::looking_at([0.5, 0.45, 0.52], [0.5, 0.45, -1.0], [0.0, 1.0, 0.0], [64, 64])
     };
     let cam = Camera::new(&spec).unwrap();
     for method in [Method::Poly2, Method::Partial, Method::Atlas2d] {

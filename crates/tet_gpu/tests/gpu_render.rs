@@ -5,18 +5,10 @@
 
 mod common;
 
-use common::{gpu, grid, single_tet, Mesh};
+use common::{gpu, grid, report, single_tet, table_on_axis, tf, Mesh};
 use tet_gpu::{centroid_order, GpuRenderer, GpuScene, GpuShader};
-use tet_preint::{PtLinearShader, ScalarAxis, Table3d, Table3dParams, TableDomain, TransferFunction};
-use tet_render::{diff, Camera, Display, Image, ToneMap, ViewSpec};
-
-fn tf() -> TransferFunction {
-    TransferFunction::from_json(
-        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
-            "opacity": [[0, 0.5], [0.4, 4], [0.6, 1], [1, 8]], "unit_distance": 1}"#,
-    )
-    .unwrap()
-}
+use tet_preint::{PtLinearShader, ScalarAxis, Table3d};
+use tet_render::{Camera, Display, Image, ToneMap, ViewSpec};
 
 /// The table the CPU renders with by default: a grid sample on every TF
 /// control point (`ScalarAxis::TfNodes`, a non-uniform axis here).
@@ -24,34 +16,9 @@ fn table_for(mesh: &Mesh) -> Table3d {
     table_on_axis(mesh, ScalarAxis::TfNodes)
 }
 
-fn table_on_axis(mesh: &Mesh, s_axis: ScalarAxis) -> Table3d {
-    let (max_ds, len) = mesh.cell_limits();
-    let domain = TableDomain::new(0.0, 1.0, max_ds, len).unwrap();
-    let t = Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, s_axis, ..Default::default() }).unwrap();
-    assert_eq!(t.is_uniform_axis(), s_axis == ScalarAxis::Uniform);
-    t
-}
-
 fn view(mesh: &Mesh, size: [u32; 2], az: f64, el: f64) -> Camera {
     let (lo, hi) = mesh.bounds();
     Camera::new(&ViewSpec::framing(lo, hi, size).orbit(az, el, 1.0)).unwrap()
-}
-
-fn report(what: &str, gpu: &Image, cpu: &Image) -> tet_render::DiffStats {
-    let d = diff(gpu, cpu).unwrap();
-    let covered = cpu.pixels().iter().filter(|p| p[3] > 0.0).count();
-    eprintln!(
-        "{what}: mean |Δ| = {:.3e} ({:.3}/255), max |Δ| = {:.3e} ({:.3}/255) at {:?}, rmse {:.3e}; {} covered pixels",
-        d.mean_abs,
-        d.mean_abs * 255.0,
-        d.max_abs,
-        d.max_abs * 255.0,
-        d.max_at,
-        d.rmse,
-        covered
-    );
-    assert!(covered > 0, "{what}: the reference image is empty");
-    d
 }
 
 #[test]
@@ -80,16 +47,7 @@ fn single_tet_table3d_and_pt_linear_match_the_cpu() {
     };
     let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
     let pt = GpuShader::pt_linear(&ctx, &tf()).unwrap();
-    let cam = Camera::new(&ViewSpec {
-        position: [0.3, 0.3, 4.0],
-        focal_point: [0.3, 0.3, 0.4],
-        view_up: [0.0, 1.0, 0.0],
-        view_angle: 30.0,
-        parallel: false,
-        parallel_scale: 1.0,
-        size: [65, 49],
-    })
-    .unwrap();
+    let cam = Camera::new(&ViewSpec::looking_at([0.3, 0.3, 4.0], [0.3, 0.3, 0.4], [0.0, 1.0, 0.0], [65, 49])).unwrap();
     let img = renderer.render(&ctx, &scene, &cam, &[0], &pt).unwrap().image;
     let exact = mesh.reference(&cam, &PtLinearShader::new(tf()));
     let (g, c) = (img.pixel(32, 24), exact.pixel(32, 24));
@@ -143,13 +101,8 @@ fn parallel_projection_and_clipped_tets_render() {
     // Camera inside the mesh: every tet around the eye crosses the near
     // plane and must be clipped, not dropped.
     let spec = ViewSpec {
-        position: [0.5, 0.45, 0.52],
-        focal_point: [0.5, 0.45, -1.0],
-        view_up: [0.0, 1.0, 0.0],
         view_angle: 60.0,
-        parallel: false,
-        parallel_scale: 1.0,
-        size: [64, 64],
+        ..ViewSpec::looking_at([0.5, 0.45, 0.52], [0.5, 0.45, -1.0], [0.0, 1.0, 0.0], [64, 64])
     };
     let cam = Camera::new(&spec).unwrap();
     let frame = renderer.render(&ctx, &scene, &cam, &mesh.mpvo_order(&cam), &shader).unwrap();

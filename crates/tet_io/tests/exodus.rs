@@ -4,7 +4,8 @@
 //! dimensions, the first element's connectivity, the first point, and the
 //! min/max/mean of each nodal variable at the one stored time step.
 
-use std::io::Read;
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use tet_io::exodus::{self, ExodusOptions};
@@ -14,10 +15,7 @@ use tet_mesh::{tetrahedralize, Block, CellType, ConvertOptions};
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/exodus/");
 
 fn disk() -> Vec<u8> {
-    let gz = std::fs::read(Path::new(DIR).join("disk_out_ref.ex2.gz")).unwrap();
-    let mut out = Vec::new();
-    flate2::read::GzDecoder::new(&gz[..]).read_to_end(&mut out).unwrap();
-    out
+    common::gunzip(&Path::new(DIR).join("disk_out_ref.ex2.gz"))
 }
 
 fn disk_on_disk(dir: &Path, name: &str) -> PathBuf {

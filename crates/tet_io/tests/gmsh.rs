@@ -1,6 +1,9 @@
 //! Gmsh reader on meshes written by Gmsh 4.8.4 (see tests/data/gmsh/LICENSE.md).
 //! Expected counts are Gmsh's own (its VTK export of each file).
 
+mod common;
+
+use common::Lcg;
 use std::collections::BTreeMap;
 
 use tet_io::gmsh;
@@ -195,15 +198,6 @@ fn higher_orders() {
     let m = read("mixed_o3_41_bin.msh");
     assert_eq!((m.points.len(), counts(&m)), (3573, (189, 48, 54, 16)));
     assert!(has_note(&m, "reduced 307 higher-order") && has_note(&m, "skipped 278 lower"), "{:?}", m.notes);
-}
-
-/// Fixed-seed LCG so the damage is the same on every run.
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        self.0 >> 33
-    }
 }
 
 #[test]

@@ -209,15 +209,8 @@ fn hex_faces(h: [u32; 8]) -> Vec<Vec<u32>> {
 /// faces pentagons) against two half-height hexahedra on x ∈ [1, 2]: the
 /// classic hanging-node refinement. Volume 2, box [0,2]×[0,1]×[0,1].
 fn hanging_node() -> Poly {
-    let points = vec![
-        [0., 0., 0.],
-        [1., 0., 0.],
-        [1., 1., 0.],
-        [0., 1., 0.],
-        [0., 0., 1.],
-        [1., 0., 1.],
-        [1., 1., 1.],
-        [0., 1., 1.],
+    let mut points = tet_mesh::split::UNIT_HEX.to_vec();
+    points.extend([
         [1., 0.5, 0.],
         [1., 0.5, 1.],
         [2., 0., 0.],
@@ -226,7 +219,7 @@ fn hanging_node() -> Poly {
         [2., 0., 1.],
         [2., 0.5, 1.],
         [2., 1., 1.],
-    ];
+    ]);
     let big = vec![
         vec![0, 4, 7, 3],
         vec![0, 1, 5, 4],

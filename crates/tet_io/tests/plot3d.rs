@@ -3,6 +3,9 @@
 //! same files, plus the layout variants the real files lack (re-encoded at
 //! test time from Blunt Fin sub-blocks).
 
+mod common;
+
+use common::Lcg;
 use tet_io::cursor::Endian;
 use tet_io::plot3d::{read, Plot3dOptions};
 use tet_mesh::{Block, Field, SourceMesh};
@@ -404,15 +407,6 @@ fn unsupported_and_hostile_headers() {
     }
 }
 
-/// A tiny fixed-seed LCG so the corruption positions are reproducible.
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self, bound: usize) -> usize {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((self.0 >> 33) as usize) % bound.max(1)
-    }
-}
-
 #[test]
 fn corrupted_real_files_never_panic() {
     let mut rng = Lcg(0x9e3779b97f4a7c15);
@@ -421,19 +415,19 @@ fn corrupted_real_files_never_panic() {
         let xyz = load(xyz_name);
         let q = load(q_name);
         for _ in 0..200 {
-            let cut = rng.next(xyz.len());
+            let cut = rng.below(xyz.len());
             let _ = read(&xyz[..cut], Some(&q), &opts);
-            let cut = rng.next(q.len());
+            let cut = rng.below(q.len());
             let _ = read(&xyz, Some(&q[..cut]), &opts);
         }
         for _ in 0..200 {
             // Flips in the header area are the interesting ones; mix both.
             let mut bad = xyz.clone();
-            let at = if rng.next(2) == 0 { rng.next(64) } else { rng.next(bad.len()) };
-            bad[at] ^= 1 << rng.next(8);
+            let at = if rng.below(2) == 0 { rng.below(64) } else { rng.below(bad.len()) };
+            bad[at] ^= 1 << rng.below(8);
             let _ = read(&bad, Some(&q), &opts);
             let mut bad_q = q.clone();
-            let at = if rng.next(2) == 0 { rng.next(64) } else { rng.next(bad_q.len()) };
+            let at = if rng.below(2) == 0 { rng.below(64) } else { rng.below(bad_q.len()) };
             bad_q[at] ^= 0xff;
             let _ = read(&xyz, Some(&bad_q), &opts);
         }
@@ -446,13 +440,13 @@ fn corrupted_real_files_never_panic() {
         let (xyz, q) = encode(&grids, enc);
         let opts = Plot3dOptions { planes, ..Default::default() };
         for _ in 0..200 {
-            let _ = read(&xyz[..rng.next(xyz.len())], Some(&q), &opts);
+            let _ = read(&xyz[..rng.below(xyz.len())], Some(&q), &opts);
             let mut bad = xyz.clone();
-            let at = rng.next(bad.len());
+            let at = rng.below(bad.len());
             bad[at] ^= 0x80;
             let _ = read(&bad, Some(&q), &opts);
             let mut bad_q = q.clone();
-            let at = rng.next(bad_q.len());
+            let at = rng.below(bad_q.len());
             bad_q[at] ^= 0x40;
             let _ = read(&xyz, Some(&bad_q), &opts);
         }

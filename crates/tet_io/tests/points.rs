@@ -5,6 +5,9 @@
 //! `struct` module on the raw bytes (see tests/data/points/LICENSE.md for the
 //! files' provenance).
 
+mod common;
+
+use common::Lcg;
 use std::fmt::Write as _;
 use std::io::Cursor;
 use std::path::Path;
@@ -28,14 +31,6 @@ fn range(v: &[f64]) -> (f64, f64) {
 
 fn column(m: &SourceMesh, k: usize) -> Vec<f64> {
     m.points.iter().map(|p| p[k]).collect()
-}
-
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        self.0 >> 33
-    }
 }
 
 /// Reads every truncation of `bytes` at 200 random lengths and 200 copies

@@ -2,7 +2,8 @@
 //! and on the real SU2 cylinder solution (tests/data/vtu), written out as an
 //! SU2 mesh plus a CSV restart in SU2's layout and read back.
 
-use std::io::Read;
+mod common;
+
 use std::path::Path;
 
 use tet_io::{detect_format, read_file, su2, Format, ReadError, ReadOptions};
@@ -11,10 +12,7 @@ use tet_mesh::{tetrahedralize, Block, CellType, ConvertOptions, SourceMesh};
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/");
 
 fn brick() -> Vec<u8> {
-    let gz = std::fs::read(Path::new(DIR).join("su2/mesh_brick_prism_ffd.su2.gz")).unwrap();
-    let mut out = Vec::new();
-    flate2::read::GzDecoder::new(&gz[..]).read_to_end(&mut out).unwrap();
-    out
+    common::gunzip(&Path::new(DIR).join("su2/mesh_brick_prism_ffd.su2.gz"))
 }
 
 fn volume(m: &SourceMesh, scalar: &str) -> f64 {

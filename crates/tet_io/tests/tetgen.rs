@@ -1,6 +1,9 @@
 //! TetGen reader on meshes written by TetGen 1.5.0 (see tests/data/tetgen/LICENSE.md).
 //! Expected counts are the headers TetGen wrote and its console report.
 
+mod common;
+
+use common::Lcg;
 use std::path::Path;
 
 use tet_io::tetgen;
@@ -86,14 +89,6 @@ fn zero_based_second_order_with_point_attributes() {
     // The 216 input points keep their attribute x + y + z (to the 6 decimals written).
     for (p, &s) in m.points.iter().zip(&sum.values).take(216) {
         assert!((p[0] + p[1] + p[2] - s).abs() < 2e-6, "{p:?} {s}");
-    }
-}
-
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        self.0 >> 33
     }
 }
 

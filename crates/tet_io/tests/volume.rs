@@ -2,6 +2,9 @@
 //! volume, written in every variant by Teem's `unu` (see
 //! tests/data/volume/LICENSE.md for the commands).
 
+mod common;
+
+use common::Lcg;
 use tet_io::cursor::{Endian, ScalarType};
 use tet_io::raw::{self, parse_scalar_type, RawSpec};
 use tet_io::{nrrd, FormatError, Location};
@@ -219,14 +222,6 @@ fn nrrd_hostile_headers() {
     assert!(matches!(e.at, Location::Line(_)));
 }
 
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self, bound: usize) -> usize {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((self.0 >> 33) as usize) % bound.max(1)
-    }
-}
-
 #[test]
 fn corrupted_volumes_never_panic() {
     let mut rng = Lcg(42);
@@ -241,11 +236,11 @@ fn corrupted_volumes_never_panic() {
     ] {
         let bytes = load(name);
         for _ in 0..200 {
-            let _ = nrrd::read(&bytes[..rng.next(bytes.len())], &mut from_dir);
+            let _ = nrrd::read(&bytes[..rng.below(bytes.len())], &mut from_dir);
             let mut bad = bytes.clone();
             // Half the flips land in the header, where they matter most.
-            let at = if rng.next(2) == 0 { rng.next(bad.len().min(300)) } else { rng.next(bad.len()) };
-            bad[at] ^= 1 << rng.next(8);
+            let at = if rng.below(2) == 0 { rng.below(bad.len().min(300)) } else { rng.below(bad.len()) };
+            bad[at] ^= 1 << rng.below(8);
             let _ = nrrd::read(&bad, &mut from_dir);
         }
     }
@@ -253,15 +248,15 @@ fn corrupted_volumes_never_panic() {
     let header = load("iron16_gz_detached.nhdr");
     for _ in 0..200 {
         let mut bad = data.clone();
-        let at = rng.next(bad.len());
+        let at = rng.below(bad.len());
         bad[at] ^= 0x10;
-        let cut = rng.next(data.len());
+        let cut = rng.below(data.len());
         let _ = nrrd::read(&header, &mut |_| Ok(bad.clone()));
         let _ = nrrd::read(&header, &mut |_| Ok(data[..cut].to_vec()));
     }
     let raw_bytes = load("iron16.raw");
     for _ in 0..200 {
-        let cut = rng.next(raw_bytes.len() + 1);
+        let cut = rng.below(raw_bytes.len() + 1);
         let _ = raw::read(&raw_bytes[..cut], &iron_spec());
     }
     let hostile = RawSpec { dims: [usize::MAX, usize::MAX, 2], ..iron_spec() };

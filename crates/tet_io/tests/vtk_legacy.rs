@@ -2,6 +2,9 @@
 //! there). Expected counts, ids and ranges are what VTK 9.7's
 //! `vtkDataSetReader` reports for the same files.
 
+mod common;
+
+use common::Lcg;
 use tet_io::vtk_legacy::read;
 use tet_mesh::{Block, CellType, Field, SourceMesh};
 
@@ -297,16 +300,6 @@ const SAMPLES: [&str; 17] = [
     "sphere.polydata.vtk",
 ];
 
-/// Fixed-seed LCG (Knuth's MMIX constants).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self, bound: usize) -> usize {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((self.0 >> 33) as usize) % bound.max(1)
-    }
-}
-
 #[test]
 fn truncated_and_corrupted_files_never_panic() {
     let mut rng = Lcg(0x5eed);
@@ -315,23 +308,23 @@ fn truncated_and_corrupted_files_never_panic() {
         // Big files get fewer cuts so the test stays quick.
         let rounds = if bytes.len() > 100_000 { 40 } else { 200 };
         for _ in 0..rounds {
-            let cut = rng.next(bytes.len());
+            let cut = rng.below(bytes.len());
             let _ = read(&bytes[..cut]);
         }
         let mut copy = bytes.clone();
         for _ in 0..rounds {
-            let at = rng.next(copy.len());
+            let at = rng.below(copy.len());
             let old = copy[at];
-            copy[at] = rng.next(256) as u8;
+            copy[at] = rng.below(256) as u8;
             let _ = read(&copy);
             copy[at] = old;
         }
         // Corruption concentrated in the headers, where counts live.
         let head = bytes.len().min(600);
         for _ in 0..rounds {
-            let at = rng.next(head);
+            let at = rng.below(head);
             let old = copy[at];
-            copy[at] = b"0123456789-9 \n"[rng.next(14)];
+            copy[at] = b"0123456789-9 \n"[rng.below(14)];
             let _ = read(&copy);
             copy[at] = old;
         }

@@ -1,6 +1,9 @@
 //! Integration tests of the VTK XML reader and VTU writer on real files (see
 //! tests/data/vtu/LICENSE.md for where each comes from).
 
+mod common;
+
+use common::Lcg;
 use std::path::{Path, PathBuf};
 
 use tet_io::vtk_xml::{read, read_pvtu, write_vtu, write_vtu_with, WriteOptions};
@@ -354,20 +357,6 @@ fn writer_roundtrips_a_real_mesh() {
     let back = read(&std::fs::read(&p).unwrap()).unwrap();
     assert_eq!(back.points, m.points);
     assert_eq!(back.point_fields, m.point_fields);
-}
-
-/// A fixed-seed LCG: the robustness tests need no rand crate.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        self.0 >> 33
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
 }
 
 #[test]

@@ -248,16 +248,7 @@ mod from_neighbors_tests {
     /// tet whose vertices were swapped after the links were made, is refused.
     #[test]
     fn agrees_with_the_build_and_refuses_bad_links() {
-        let points = [
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0., 1., 0.],
-            [0., 0., 1.],
-            [1., 0., 1.],
-            [1., 1., 1.],
-            [0., 1., 1.],
-        ];
+        let points = crate::split::UNIT_HEX;
         let mut tets = vec![[0, 1, 3, 4], [1, 2, 3, 6], [1, 6, 4, 5], [3, 4, 6, 7], [1, 3, 4, 6]];
         for t in &mut tets {
             let p = |i: u32| &points[i as usize];
@@ -320,22 +311,10 @@ pub fn check_adjacency(tets: &[[u32; 4]], adj: &Adjacency) -> Result<(), String>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::split::split_hexahedron;
+    use crate::split::{split_hexahedron, UNIT_HEX};
 
     fn cube_mesh(offset: f64) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
-        let p = vec![
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0., 1., 0.],
-            [0., 0., 1.],
-            [1., 0., 1.],
-            [1., 1., 1.],
-            [0., 1., 1.],
-        ]
-        .into_iter()
-        .map(|q: [f64; 3]| [q[0] + offset, q[1] + offset, q[2] + offset])
-        .collect::<Vec<_>>();
+        let p: Vec<[f64; 3]> = UNIT_HEX.iter().map(|q| [q[0] + offset, q[1] + offset, q[2] + offset]).collect();
         let mut tets = vec![];
         split_hexahedron(&[0, 1, 2, 3, 4, 5, 6, 7], &mut |t| tets.push(t));
         // Orient positively.
@@ -366,18 +345,8 @@ mod tests {
         let cubes = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]];
         let mut id = std::collections::HashMap::new();
         for c in cubes {
-            let corners = [
-                [0., 0., 0.],
-                [1., 0., 0.],
-                [1., 1., 0.],
-                [0., 1., 0.],
-                [0., 0., 1.],
-                [1., 0., 1.],
-                [1., 1., 1.],
-                [0., 1., 1.],
-            ];
             let mut h = [0u32; 8];
-            for (k, q) in corners.iter().enumerate() {
+            for (k, q) in UNIT_HEX.iter().enumerate() {
                 let pos = [c[0] + q[0], c[1] + q[1], c[2] + q[2]];
                 let key = pos.map(|x| (x * 2.0) as i64);
                 h[k] = *id.entry(key).or_insert_with(|| {

@@ -53,7 +53,7 @@ pub use convert::{
 };
 pub use error::MeshError;
 pub use polyhedron::PolyhedronSplitter;
-pub use rng::SplitMix64;
+pub use rng::{SplitMix64, XorShift64};
 pub use series::StepMapper;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
 pub use split::SplitMode;

@@ -188,28 +188,12 @@ mod tests {
     use super::*;
     use crate::predicates::signed_tet_volume;
     use crate::source::Field;
+    use crate::split::{HEX_FACES, UNIT_HEX};
 
     /// Unit cube corners 0..8 (VTK hexahedron order), its six faces outward.
     fn cube() -> (Vec<[f64; 3]>, Vec<Vec<u32>>) {
-        let p = vec![
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0., 1., 0.],
-            [0., 0., 1.],
-            [1., 0., 1.],
-            [1., 1., 1.],
-            [0., 1., 1.],
-        ];
-        let f = vec![
-            vec![0, 3, 2, 1],
-            vec![4, 5, 6, 7],
-            vec![0, 1, 5, 4],
-            vec![1, 2, 6, 5],
-            vec![2, 3, 7, 6],
-            vec![3, 0, 4, 7],
-        ];
-        (p, f)
+        let f = HEX_FACES.iter().map(|f| f.iter().map(|&v| v as u32).collect()).collect();
+        (UNIT_HEX.to_vec(), f)
     }
 
     #[test]

@@ -43,9 +43,14 @@ pub struct SplitCells {
 // from its apex). Splitting a quad keeps its turning sense, so a cone from
 // the apex over outward triangles gives positively oriented tets: only cells
 // whose node order is mirrored need re-orientation later.
-const HEX_FACES: [[usize; 4]; 6] = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+pub(crate) const HEX_FACES: [[usize; 4]; 6] =
+    [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
 const WEDGE_QUADS: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
 const WEDGE_TRIS: [[usize; 3]; 2] = [[0, 2, 1], [3, 4, 5]];
+/// The unit cube's corners in VTK hexahedron order: corner `c` of a cell
+/// that [`structured_hex`] numbers sits at `(i, j, k) + UNIT_HEX[c]`.
+pub const UNIT_HEX: [[f64; 3]; 8] =
+    [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0., 1., 1.]];
 /// VTK voxel node i sits at hexahedron node VOXEL_TO_HEX[i]'s place.
 const VOXEL_AS_HEX: [usize; 8] = [0, 1, 3, 2, 4, 5, 7, 6];
 
@@ -135,9 +140,11 @@ pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32;
     }
 }
 
-/// Node ids (VTK hexahedron order) of structured cell (i, j, k).
+/// Node ids (VTK hexahedron order, corners as [`UNIT_HEX`]) of cell
+/// (i, j, k) of a structured block of `dims` points per axis whose points
+/// are numbered i fastest, then j, then k, from `first_point`.
 #[inline]
-fn structured_hex(dims: [usize; 3], first_point: usize, i: usize, j: usize, k: usize) -> [usize; 8] {
+pub fn structured_hex(dims: [usize; 3], first_point: usize, i: usize, j: usize, k: usize) -> [usize; 8] {
     let id = |i: usize, j: usize, k: usize| first_point + i + dims[0] * (j + dims[1] * k);
     [
         id(i, j, k),
@@ -149,6 +156,32 @@ fn structured_hex(dims: [usize; 3], first_point: usize, i: usize, j: usize, k: u
         id(i + 1, j + 1, k + 1),
         id(i, j + 1, k + 1),
     ]
+}
+
+/// The points of a structured block of `dims` points per axis in the
+/// block's numbering (i fastest, then j, then k): `at([i, j, k])` for each.
+pub fn structured_points(dims: [usize; 3], mut at: impl FnMut([usize; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {
+    let mut points = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                points.push(at([i, j, k]));
+            }
+        }
+    }
+    points
+}
+
+/// The tets of a structured grid of `cells[0] × cells[1] × cells[2]` cells
+/// whose `(cells[0] + 1) × (cells[1] + 1) × (cells[2] + 1)` points are
+/// numbered i fastest from 0, split as `mode` splits a
+/// [`Block::Structured`], cell by cell in the same order: what
+/// [`split_blocks`] gives for that one block with every point its own id.
+/// The point count must fit in `u32`, as every mesh's ids.
+pub fn structured_grid_tets(cells: [usize; 3], mode: SplitMode) -> Vec<[u32; 4]> {
+    let dims = cells.map(|c| c + 1);
+    let ids: Vec<u32> = (0..(dims[0] * dims[1] * dims[2]) as u32).collect();
+    split_blocks(&[Block::Structured { dims, first_point: 0 }], mode, &ids, None).0.tets
 }
 
 /// Splits every block into tets.
@@ -271,20 +304,6 @@ mod tests {
     use super::*;
     use crate::predicates::signed_tet_volume;
 
-    fn cube_points() -> Vec<[f64; 3]> {
-        // VTK hexahedron order for the unit cube.
-        vec![
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0., 1., 0.],
-            [0., 0., 1.],
-            [1., 0., 1.],
-            [1., 1., 1.],
-            [0., 1., 1.],
-        ]
-    }
-
     /// Sum of signed volumes, asserting each tet is positive: cells in VTK
     /// orientation must split into positive tets.
     fn total_abs_volume(p: &[[f64; 3]], tets: &[[u32; 4]]) -> f64 {
@@ -299,7 +318,7 @@ mod tests {
 
     #[test]
     fn every_hex_labelling_gives_six_tets_filling_the_cube() {
-        let p = cube_points();
+        let p = UNIT_HEX;
         // All 8 choices of which corner holds the smallest id, plus shuffled ids.
         let perms: [[u32; 8]; 4] =
             [[0, 1, 2, 3, 4, 5, 6, 7], [7, 6, 5, 4, 3, 2, 1, 0], [3, 0, 6, 1, 7, 2, 5, 4], [5, 7, 0, 2, 6, 1, 4, 3]];
@@ -318,13 +337,40 @@ mod tests {
 
     #[test]
     fn five_split_fills_the_cube_for_both_parities() {
-        let p = cube_points();
+        let p = UNIT_HEX;
         let ids = [0, 1, 2, 3, 4, 5, 6, 7];
         for odd in [false, true] {
             let mut tets = vec![];
             split_hexahedron_five(&ids, odd, &mut |t| tets.push(t));
             assert_eq!(tets.len(), 5);
             assert!((total_abs_volume(&p, &tets) - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn structured_hex_places_corners_as_unit_hex() {
+        let dims = [3, 4, 5];
+        let (i, j, k) = (1, 2, 3);
+        let nodes = structured_hex(dims, 7, i, j, k);
+        for (c, n) in UNIT_HEX.iter().zip(nodes) {
+            let at = [i + c[0] as usize, j + c[1] as usize, k + c[2] as usize];
+            assert_eq!(n, 7 + at[0] + dims[0] * (at[1] + dims[1] * at[2]));
+        }
+    }
+
+    #[test]
+    fn structured_grid_tets_fill_the_grid_in_cell_order() {
+        let cells = [3, 2, 2];
+        let m = cells.map(|c| c + 1);
+        let points = structured_points(m, |p| p.map(|x| x as f64));
+        assert_eq!(points[1 + m[0] * (2 + m[1] * 2)], [1.0, 2.0, 2.0]);
+        for (mode, per_cell) in [(SplitMode::Five, 5), (SplitMode::Six, 6)] {
+            let tets = structured_grid_tets(cells, mode);
+            assert_eq!(tets.len(), per_cell * 12, "{mode:?}");
+            assert!((total_abs_volume(&points, &tets) - 12.0).abs() < 1e-12, "{mode:?}");
+            // The first cell's tets come first, from its own corners.
+            let first = structured_hex(m, 0, 0, 0, 0).map(|n| n as u32);
+            assert!(tets[..per_cell].iter().flatten().all(|v| first.contains(v)), "{mode:?}");
         }
     }
 

@@ -4,6 +4,7 @@
 //! pass the invariant checkers.
 use proptest::prelude::*;
 use tet_mesh::predicates::signed_tet_volume;
+use tet_mesh::split::{structured_hex, structured_points, UNIT_HEX};
 use tet_mesh::{
     build_adjacency, check_adjacency, check_tet_mesh, tetrahedralize, Block, CellType, Cells, ConvertOptions,
     SourceMesh, SplitMode,
@@ -14,6 +15,15 @@ enum Kind {
     Hex,
     Voxel,
     SixPyramids,
+}
+
+/// Grid point (i, j, k) at (i, j, k) moved by `jitter`'s entries, cycled
+/// through in grid order.
+fn jittered_grid(dims: [usize; 3], jitter: &[f64]) -> Vec<[f64; 3]> {
+    structured_points(dims, |ijk| {
+        let g = ijk[0] + dims[0] * (ijk[1] + dims[1] * ijk[2]);
+        [0, 1, 2].map(|a| ijk[a] as f64 + jitter[(g * 3 + a) % jitter.len()])
+    })
 }
 
 fn mesh(dims: [usize; 3], kinds: &[Kind], perm_seed: u64, jitter: &[f64]) -> SourceMesh {
@@ -28,32 +38,17 @@ fn mesh(dims: [usize; 3], kinds: &[Kind], perm_seed: u64, jitter: &[f64]) -> Sou
         s ^= s << 17;
         perm.swap(i, (s % (i as u64 + 1)) as usize);
     }
+    let grid = [nx + 1, ny + 1, nz + 1];
     let mut points = vec![[0.0; 3]; np];
-    for k in 0..=nz {
-        for j in 0..=ny {
-            for i in 0..=nx {
-                let g = i + (nx + 1) * (j + (ny + 1) * k);
-                let jit = |a: usize| jitter[(g * 3 + a) % jitter.len()];
-                points[perm[g] as usize] = [i as f64 + jit(0), j as f64 + jit(1), k as f64 + jit(2)];
-            }
-        }
+    for (g, p) in jittered_grid(grid, jitter).into_iter().enumerate() {
+        points[perm[g] as usize] = p;
     }
-    let id = |i: usize, j: usize, k: usize| perm[i + (nx + 1) * (j + (ny + 1) * k)];
     let mut cells = Cells::new();
     let mut c = 0;
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
-                let h = [
-                    id(i, j, k),
-                    id(i + 1, j, k),
-                    id(i + 1, j + 1, k),
-                    id(i, j + 1, k),
-                    id(i, j, k + 1),
-                    id(i + 1, j, k + 1),
-                    id(i + 1, j + 1, k + 1),
-                    id(i, j + 1, k + 1),
-                ];
+                let h = structured_hex(grid, 0, i, j, k).map(|g| perm[g]);
                 match kinds[c % kinds.len()] {
                     Kind::Hex => cells.push(CellType::Hexahedron, &h),
                     Kind::Voxel => cells.push(CellType::Voxel, &[h[0], h[1], h[3], h[2], h[4], h[5], h[7], h[6]]),
@@ -112,16 +107,7 @@ proptest! {
 
     #[test]
     fn structured_splits_conform(dims in [2usize..6, 2usize..6, 2usize..6], jitter in prop::collection::vec(-0.2f64..0.2, 5..30), six in any::<bool>()) {
-        let mut points = Vec::new();
-        for k in 0..dims[2] {
-            for j in 0..dims[1] {
-                for i in 0..dims[0] {
-                    let g = points.len();
-                    let jit = |a: usize| jitter[(g * 3 + a) % jitter.len()];
-                    points.push([i as f64 + jit(0), j as f64 + jit(1), k as f64 + jit(2)]);
-                }
-            }
-        }
+        let points = jittered_grid(dims, &jitter);
         let src = SourceMesh { points, blocks: vec![Block::Structured { dims, first_point: 0 }], ..Default::default() };
         let split = if six { SplitMode::Six } else { SplitMode::Five };
         let (m, report) = tetrahedralize(&src, &ConvertOptions { split, ..Default::default() }, &mut |_| {}).unwrap();
@@ -138,17 +124,8 @@ proptest! {
 #[test]
 fn inverted_cells_are_reoriented_and_flat_ones_dropped() {
     // A hexahedron listed upside down (top quad first) and a flat tet.
-    let points = vec![
-        [0., 0., 0.],
-        [1., 0., 0.],
-        [1., 1., 0.],
-        [0., 1., 0.],
-        [0., 0., 1.],
-        [1., 0., 1.],
-        [1., 1., 1.],
-        [0., 1., 1.],
-        [0.5, 0.5, 0.0],
-    ];
+    let mut points = UNIT_HEX.to_vec();
+    points.push([0.5, 0.5, 0.0]);
     let mut cells = Cells::new();
     cells.push(CellType::Hexahedron, &[4, 5, 6, 7, 0, 1, 2, 3]);
     cells.push(CellType::Tetra, &[0, 1, 2, 8]);
@@ -167,14 +144,7 @@ fn inverted_cells_are_reoriented_and_flat_ones_dropped() {
 fn large_coordinate_offsets_keep_exact_orientation() {
     // A 4×4×4 grid at 1e6 with cells of 1e-3: f32 would collapse it, f64 with
     // exact predicates must keep every tet.
-    let mut points = Vec::new();
-    for k in 0..4 {
-        for j in 0..4 {
-            for i in 0..4 {
-                points.push([1e6 + i as f64 * 1e-3, 1e6 + j as f64 * 1e-3, 1e6 + k as f64 * 1e-3]);
-            }
-        }
-    }
+    let points = structured_points([4; 3], |ijk| ijk.map(|x| 1e6 + x as f64 * 1e-3));
     let src = SourceMesh {
         points,
         blocks: vec![Block::Structured { dims: [4, 4, 4], first_point: 0 }],
@@ -189,20 +159,8 @@ fn large_coordinate_offsets_keep_exact_orientation() {
 #[test]
 fn cell_scalar_is_volume_weighted_onto_points() {
     // Two unit-height slabs of 1×1 cross-section: volumes 1 and 3, values 1 and 5.
-    let points = vec![
-        [0., 0., 0.],
-        [1., 0., 0.],
-        [1., 1., 0.],
-        [0., 1., 0.],
-        [0., 0., 1.],
-        [1., 0., 1.],
-        [1., 1., 1.],
-        [0., 1., 1.],
-        [0., 0., 4.],
-        [1., 0., 4.],
-        [1., 1., 4.],
-        [0., 1., 4.],
-    ];
+    let mut points = UNIT_HEX.to_vec();
+    points.extend([[0., 0., 4.], [1., 0., 4.], [1., 1., 4.], [0., 1., 4.]]);
     let mut cells = Cells::new();
     cells.push(CellType::Hexahedron, &[0, 1, 2, 3, 4, 5, 6, 7]);
     cells.push(CellType::Hexahedron, &[4, 5, 6, 7, 8, 9, 10, 11]);
@@ -226,14 +184,7 @@ fn cell_scalar_is_volume_weighted_onto_points() {
 
 #[test]
 fn iblanked_points_drop_the_cells_touching_them() {
-    let mut points = Vec::new();
-    for k in 0..4 {
-        for j in 0..4 {
-            for i in 0..4 {
-                points.push([i as f64, j as f64, k as f64]);
-            }
-        }
-    }
+    let points = structured_points([4; 3], |ijk| ijk.map(|x| x as f64));
     let mut blanked = vec![false; 64];
     blanked[1 + 4 + 16] = true; // interior point (1,1,1): its 8 cells go
     let src = SourceMesh {
@@ -254,14 +205,7 @@ fn iblanked_points_drop_the_cells_touching_them() {
 
 #[test]
 fn no_field_gives_a_constant_zero_and_coordinates_are_selectable() {
-    let mut points = Vec::new();
-    for k in 0..2 {
-        for j in 0..2 {
-            for i in 0..2 {
-                points.push([i as f64, j as f64 * 2.0, k as f64 * 3.0]);
-            }
-        }
-    }
+    let points = structured_points([2; 3], |[i, j, k]| [i as f64, j as f64 * 2.0, k as f64 * 3.0]);
     let src = SourceMesh {
         points,
         blocks: vec![Block::Structured { dims: [2, 2, 2], first_point: 0 }],

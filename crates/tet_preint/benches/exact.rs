@@ -6,11 +6,7 @@ use tet_preint::{integrate_segment_with, TransferFunction};
 fn bench(c: &mut Criterion) {
     let tf = TransferFunction::from_json(include_str!("../tests/data/vtk/tf_ramp.json")).unwrap();
     // Fixed LCG so every run integrates the same triples.
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut next = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = tet_preint::lcg_unit(0x2545_f491_4f6c_dd1d);
     let triples: Vec<[f64; 3]> = (0..4096).map(|_| [next() * 1.2 - 0.1, next() * 1.2 - 0.1, next() * 2.0]).collect();
     let mut g = c.benchmark_group("exact");
     g.throughput(Throughput::Elements(triples.len() as u64));

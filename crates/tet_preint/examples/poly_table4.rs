@@ -23,11 +23,7 @@ fn main() {
         "method", "res", "bake_ms", "rms_C", "max_C", "rms_a", "max_a"
     );
     // Fixed LCG so every run draws the same triples.
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut next = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = tet_preint::lcg_unit(0x2545_f491_4f6c_dd1d);
     let triples: Vec<[f32; 3]> =
         (0..200_000).map(|_| [next() as f32, next() as f32, (next() * l_max) as f32]).collect();
     let mut scratch = Vec::new();

@@ -418,11 +418,7 @@ pub fn split_nodes(tf: &TransferFunction, domain: &TableDomain) -> Vec<f32> {
 
 /// The deterministic generator of [`crate::uniform_triples`] (LCG, top 53 bits).
 fn unit_rng(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed ^ 0x9e37_79b9_7f4a_7c15;
-    move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    }
+    crate::lcg_unit(seed ^ 0x9e37_79b9_7f4a_7c15)
 }
 
 /// About `count` segments near the TF's control points inside the domain

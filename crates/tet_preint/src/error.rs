@@ -35,15 +35,22 @@ pub fn table_error(shader: &dyn SegmentShader, tf: &TransferFunction, triples: &
     ((sum / (4 * triples.len()) as f64).sqrt(), max)
 }
 
+/// A fixed-seed LCG (Knuth's MMIX constants) drawing uniform f64 in
+/// [0, 1) from the top 53 bits of its state: repeatable draws for error
+/// measurements, tests and benchmarks without a rand crate.
+pub fn lcg_unit(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// `count` triples uniform over `domain`'s band (Sf uniform over the scalar
 /// range, Sb within max_ds of it, l uniform over [0, l_max]) from a fixed
 /// 64-bit `seed`, for repeatable error measurements.
 pub fn uniform_triples(domain: &TableDomain, count: usize, seed: u64) -> Vec<[f32; 3]> {
-    let mut state = seed ^ 0x9e37_79b9_7f4a_7c15;
-    let mut next = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = lcg_unit(seed ^ 0x9e37_79b9_7f4a_7c15);
     (0..count)
         .map(|_| {
             let sf = domain.s_lo + next() * domain.scalar_span();

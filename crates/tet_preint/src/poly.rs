@@ -837,11 +837,7 @@ mod tests {
     #[test]
     fn entry_kernel_matches_exact() {
         let base = TransferFunction::from_json(include_str!("../tests/data/vtk/tf_ramp.json")).unwrap();
-        let mut state = 12345u64;
-        let mut next = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::lcg_unit(12345);
         for emission in [Emission::Density, Emission::Independent] {
             let tf = base.clone().with_emission(emission);
             for _ in 0..2000 {

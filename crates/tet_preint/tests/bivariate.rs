@@ -27,13 +27,7 @@ fn only(i: usize) -> TransferFunction {
         .unwrap()
 }
 
-fn lcg(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed;
-    move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use tet_preint::lcg_unit as lcg;
 
 fn random_seg(next: &mut impl FnMut() -> f64) -> Seg2 {
     Seg2 { sf: next() * 1.2 - 0.1, sb: next() * 1.2 - 0.1, gf: next() * 2.5, gb: next() * 2.5, len: next() * 2.0 }

@@ -18,13 +18,7 @@ fn gap() -> TransferFunction {
     .unwrap()
 }
 
-fn lcg(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed;
-    move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use tet_preint::lcg_unit as lcg;
 
 /// (rms, max) of |C| and |α| errors against exact over random in-range triples.
 fn errors(table: &PolyTable, tf: &TransferFunction, l_max: f64, n: usize) -> (f64, f64, f64) {

@@ -10,33 +10,16 @@
 //! tone mapping. Before the certify-and-refine bake the sharp TF missed
 //! 1/255 (crates/tetlut/results/certified.md).
 use glam::DVec3;
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tet_io::{read_file, ReadOptions};
 use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions};
 use tet_preint::{make_shader, tf_for_domain, BakeOptions, Method, SegmentShader, TableDomain, TransferFunction};
 use tet_render::{Camera, ReferenceOptions, ReferenceRenderer, Renderer, Scene, ViewSpec};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn heldout(name: &str) -> TransferFunction {
-    let p = root().join("crates/tet_preint/tests/data/heldout").join(name);
-    TransferFunction::from_json(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
-
-/// (linear max |difference|, pixels with a channel off by more than 1/255).
-fn diff(a: &tet_render::Image, b: &tet_render::Image) -> (f64, usize) {
-    let mut max = 0.0f64;
-    let mut over = 0;
-    for (p, q) in a.pixels().iter().zip(b.pixels()) {
-        let d = (0..4).map(|c| (f64::from(p[c]) - f64::from(q[c])).abs()).fold(0.0, f64::max);
-        max = max.max(d);
-        over += usize::from(d > 1.0 / 255.0);
-    }
-    (max, over)
-}
+// The held-out TFs and the comparison, as tests/heldout_image.rs.
+#[path = "../tests/common/heldout.rs"]
+mod heldout_data;
+use heldout_data::{diff, heldout, root};
 
 fn main() {
     let size: u32 = std::env::args().nth(1).map_or(256, |s| s.parse().unwrap());

@@ -78,6 +78,21 @@ impl ViewSpec {
         serde_json::to_string_pretty(self).expect("a ViewSpec always serializes")
     }
 
+    /// A perspective view from `position` towards `focal_point` with VTK's
+    /// default view angle (30°) and parallel scale (1): set `view_angle`,
+    /// or `parallel` and `parallel_scale`, on the result for other views.
+    pub fn looking_at(position: [f64; 3], focal_point: [f64; 3], view_up: [f64; 3], size: [u32; 2]) -> ViewSpec {
+        ViewSpec {
+            position,
+            focal_point,
+            view_up,
+            view_angle: default_view_angle(),
+            parallel: false,
+            parallel_scale: default_parallel_scale(),
+            size,
+        }
+    }
+
     /// VTK's `ResetCamera` for the given bounds: looking down −z at the
     /// centre from a distance where the bounding sphere fits the vertical
     /// view angle; `view_up` = +y; parallel scale = the sphere's radius.

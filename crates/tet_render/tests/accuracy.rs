@@ -54,7 +54,7 @@ fn random_tets_match_the_exact_integral_per_pixel() {
     let mut rng = Rng(0x5eed_0001);
     for case in 0..12 {
         let p = positive(std::array::from_fn(|_| std::array::from_fn(|_| rng.range(-1.0, 1.0))));
-        let s = std::array::from_fn(|_| rng.next());
+        let s = std::array::from_fn(|_| rng.next_f64());
         let mut view =
             ViewSpec::framing([-1.0; 3], [1.0; 3], [40, 32]).orbit(rng.range(0.0, 360.0), rng.range(-60.0, 60.0), 1.0);
         view.parallel = case % 2 == 1;
@@ -93,26 +93,16 @@ fn tets_crossing_the_near_plane_are_clipped_not_dropped() {
     for (k, dir) in [[0.0, 0.0, -1.0], [0.3, 0.2, 1.0], [1.0, -0.4, 0.1]].into_iter().enumerate() {
         let eye = [-0.5, -0.5, -0.4];
         let view = ViewSpec {
-            position: eye,
-            focal_point: [eye[0] + dir[0], eye[1] + dir[1], eye[2] + dir[2]],
-            view_up: [0.0, 1.0, 0.3],
             view_angle: 60.0,
-            parallel: false,
-            parallel_scale: 1.0,
-            size: [32, 24],
+            ..ViewSpec::looking_at(eye, [eye[0] + dir[0], eye[1] + dir[1], eye[2] + dir[2]], [0.0, 1.0, 0.3], [32, 24])
         };
         let covered = single_tet_case(p, [0.0, 1.0, 0.4, 0.8], &view, &tf, 2e-5);
         assert_eq!(covered, 32 * 24, "case {k}: the whole image sees the inside of the tet");
     }
     // Eye outside, near plane cutting through the tet's corner.
     let view = ViewSpec {
-        position: [-1.0 - 1e-7, -0.2, 0.0],
-        focal_point: [1.0, -0.2, 0.0],
-        view_up: [0.0, 0.0, 1.0],
         view_angle: 90.0,
-        parallel: false,
-        parallel_scale: 1.0,
-        size: [32, 32],
+        ..ViewSpec::looking_at([-1.0 - 1e-7, -0.2, 0.0], [1.0, -0.2, 0.0], [0.0, 0.0, 1.0], [32, 32])
     };
     single_tet_case(p, [0.0, 1.0, 0.4, 0.8], &view, &tf, 2e-5);
 }
@@ -180,13 +170,14 @@ fn pixel_centres_exactly_on_shared_edges_are_counted_once() {
     // x, y = k/4 and on the cells' face diagonals (all binary fractions).
     let b = 1.0 / 32.0;
     let view = ViewSpec {
-        position: [0.5 + b / 2.0, 0.5 + b / 2.0, 5.0],
-        focal_point: [0.5 + b / 2.0, 0.5 + b / 2.0, 0.5],
-        view_up: [0.0, 1.0, 0.0],
-        view_angle: 30.0,
         parallel: true,
         parallel_scale: 20.0 * b,
-        size: [40, 40],
+        ..ViewSpec::looking_at(
+            [0.5 + b / 2.0, 0.5 + b / 2.0, 5.0],
+            [0.5 + b / 2.0, 0.5 + b / 2.0, 0.5],
+            [0.0, 1.0, 0.0],
+            [40, 40],
+        )
     };
     // Pixel i's centre is at x = 0.5 + (i − 19)/32: the box edges x = 0, 1
     // are at i = 3 and 35 (rays grazing the boundary are ambiguous: skipped).
@@ -198,13 +189,8 @@ fn pixel_centres_exactly_on_shared_edges_are_counted_once() {
 #[test]
 fn camera_inside_the_mesh_sees_every_pixel() {
     let view = ViewSpec {
-        position: [0.41, 0.52, 0.47],
-        focal_point: [0.9, 0.7, 0.2],
-        view_up: [0.0, 0.0, 1.0],
         view_angle: 70.0,
-        parallel: false,
-        parallel_scale: 1.0,
-        size: [48, 40],
+        ..ViewSpec::looking_at([0.41, 0.52, 0.47], [0.9, 0.7, 0.2], [0.0, 0.0, 1.0], [48, 40])
     };
     constant_tf_mesh(&view, 4, 0.25, 2e-5, |_, _| false);
 }

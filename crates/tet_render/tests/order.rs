@@ -13,7 +13,7 @@ use tet_render::{visibility_order, Camera, Scene, SortMethod, ViewSpec};
 
 fn delaunay_scene(n: usize, seed: u64) -> Scene {
     let mut rng = Rng(seed);
-    let pts: Vec<[f64; 3]> = (0..n).map(|_| [rng.next(), rng.next(), rng.next()]).collect();
+    let pts: Vec<[f64; 3]> = (0..n).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()]).collect();
     let d = tetrahedralize_points(&pts, &DelaunayOptions::default()).unwrap();
     let s: Vec<f64> = pts.iter().map(|p| p[0]).collect();
     Scene::new(&pts, d.tets, s).unwrap()
@@ -134,13 +134,8 @@ fn mpvonc_orders_separate_blocks_by_depth() {
     let scene = Scene::new(&pts, tets, s).unwrap();
     assert!(!scene.is_convex());
     let view = ViewSpec {
-        position: [0.6, 0.6, 4.0],
-        focal_point: [0.6, 0.6, -1.0],
-        view_up: [0.0, 1.0, 0.0],
         view_angle: 40.0,
-        parallel: false,
-        parallel_scale: 1.0,
-        size: [48, 48],
+        ..ViewSpec::looking_at([0.6, 0.6, 4.0], [0.6, 0.6, -1.0], [0.0, 1.0, 0.0], [48, 48])
     };
     let camera = Camera::new(&view).unwrap();
     let geo = ViewGeometry::new(&scene, &camera);

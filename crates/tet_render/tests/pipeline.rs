@@ -247,13 +247,8 @@ fn fast_path_is_bit_identical_to_the_per_tile_path() {
         Arc::new(tet_preint::Table3d::build(&tf, &domain, &tet_preint::Table3dParams::tf_nodes()).unwrap());
     let exact: Arc<dyn tet_preint::SegmentShader> = Arc::new(ExactShader::new(tf.clone()));
     let inside = ViewSpec {
-        position: [0.41, 0.52, 0.47],
-        focal_point: [0.9, 0.7, 0.2],
-        view_up: [0.0, 0.0, 1.0],
         view_angle: 70.0,
-        parallel: false,
-        parallel_scale: 1.0,
-        size: [48, 40],
+        ..ViewSpec::looking_at([0.41, 0.52, 0.47], [0.9, 0.7, 0.2], [0.0, 0.0, 1.0], [48, 40])
     };
     let mut parallel = view();
     parallel.parallel = true;

@@ -349,13 +349,9 @@ fn parallel_rays_along_grid_edges() {
         let adj = adjacency(&mesh);
         let r = ReferenceRenderer::new(&mesh, &adj).unwrap();
         let spec = ViewSpec {
-            position: [0.0, 0.0, 20.0],
-            focal_point: [0.0; 3],
-            view_up: [0.0, 1.0, 0.0],
-            view_angle: 30.0,
             parallel: true,
             parallel_scale: 4.0,
-            size: [4, 4],
+            ..ViewSpec::looking_at([0.0, 0.0, 20.0], [0.0; 3], [0.0, 1.0, 0.0], [4, 4])
         };
         let cam = Camera::new(&spec).unwrap();
         let (img, stats) = r.render(&cam, &tf, &ReferenceOptions::default(), &|_, _| {}).unwrap();
@@ -421,15 +417,7 @@ fn camera_inside_the_mesh_starts_at_the_near_plane() {
     for (pos, focal) in
         [([1.1, 1.3, 1.7], [2.0, 1.0, 0.5]), ([2.9, 0.2, 0.4], [0.0, 3.0, 3.0]), ([1.5; 3], [1.5, 0.0, 1.4])]
     {
-        let spec = ViewSpec {
-            position: pos,
-            focal_point: focal,
-            view_up: [0.0, 0.0, 1.0],
-            view_angle: 70.0,
-            parallel: false,
-            parallel_scale: 1.0,
-            size: [24, 18],
-        };
+        let spec = ViewSpec { view_angle: 70.0, ..ViewSpec::looking_at(pos, focal, [0.0, 0.0, 1.0], [24, 18]) };
         let hits = check_view(&r, &spec, &tf, 1e-10, &|o, u, ts| {
             let pieces = clip_box(o, u, lo, hi).map(|(a, b)| vec![(a.max(ts), b)]).unwrap_or_default();
             analytic(&tf, &fv, o, u, pieces)

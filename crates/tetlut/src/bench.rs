@@ -279,11 +279,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         ));
     }
     let g_max = grads.as_ref().map_or(0.0, |g| g.iter().copied().fold(0.0, f64::max));
-    let mut state = 0x51u64;
-    let mut next = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = tet_preint::lcg_unit(0x51);
     let uniform: Vec<Segment> = uniform_triples(&domain, samples, 0x7e72)
         .into_iter()
         .map(|t| Segment {

@@ -16,11 +16,5 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    match common::run(common::Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("tetlut: {}", tet_cli::describe(&e));
-            ExitCode::from(tet_cli::exit_code(&e))
-        }
-    }
+    tet_cli::exit_status("tetlut", common::run(common::Cli::parse()))
 }

@@ -381,39 +381,10 @@ fn exit_codes_are_the_shared_ones() {
     assert!(help.contains("Exit codes") && help.contains("6  the method cannot bake"), "{help}");
 }
 
-const TF_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../tet_preint/tests/data/tf");
-
-/// The first stderr line for each TF file of `tet_preint/tests/data/tf`
-/// (and a missing one), without the program's name, and its exit code.
-/// crates/tetview/tests/cli.rs checks `tetview render` against the same
-/// table: one loader (`tet_preint::load_tf`), one message, one code.
-fn tf_failures() -> Vec<(String, i32, String)> {
-    let p = |name: &str| format!("{TF_DATA}/{name}");
-    vec![
-        (
-            p("bad_unsorted.json"),
-            2,
-            format!(
-                "opacity[1]: x = 0.2 is below the previous control point's 0.5 (points must increase): {}",
-                p("bad_unsorted.json")
-            ),
-        ),
-        (
-            p("bad_syntax.json"),
-            2,
-            format!("transfer function JSON: expected `,` or `]` at line 3 column 22: {}", p("bad_syntax.json")),
-        ),
-        (
-            p("absent.json"),
-            3,
-            format!(
-                "cannot read transfer function: {}: {}",
-                std::fs::read(p("absent.json")).unwrap_err(),
-                p("absent.json")
-            ),
-        ),
-    ]
-}
+// The TF files' expected failures, the same table tetview's CLI test uses.
+#[path = "../../tet_preint/tests/data/tf/failures.rs"]
+mod tf_files;
+use tf_files::{tf_failures, TF_DATA};
 
 #[test]
 fn tf_files_fail_as_in_tetview_and_a_paraview_preset_bakes() {

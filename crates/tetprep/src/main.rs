@@ -10,11 +10,5 @@ mod info;
 mod plot;
 
 fn main() -> ExitCode {
-    match cli::run(cli::Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("tetprep: {}", tet_cli::describe(&e));
-            ExitCode::from(tet_cli::exit_code(&e))
-        }
-    }
+    tet_cli::exit_status("tetprep", cli::run(cli::Cli::parse()))
 }

@@ -17,11 +17,5 @@ mod tf_choice;
 mod view;
 
 fn main() -> ExitCode {
-    match cli::run(cli::Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("tetview: {}", tet_cli::describe(&e));
-            ExitCode::from(tet_cli::exit_code(&e))
-        }
-    }
+    tet_cli::exit_status("tetview", cli::run(cli::Cli::parse()))
 }

@@ -12,16 +12,7 @@ fn bundle(dir: &Path) -> std::path::PathBuf {
 /// kind: `delaunay` marks a point cloud).
 fn bundle_with(dir: &Path, name: &str, scalar: fn([f64; 3]) -> f64, split: &str) -> std::path::PathBuf {
     // A cube of 5 tets with a linear scalar.
-    let points = vec![
-        [0., 0., 0.],
-        [1., 0., 0.],
-        [1., 1., 0.],
-        [0., 1., 0.],
-        [0., 0., 1.],
-        [1., 0., 1.],
-        [1., 1., 1.],
-        [0., 1., 1.],
-    ];
+    let points = tet_mesh::split::UNIT_HEX.to_vec();
     let tets = vec![[0, 1, 3, 4], [1, 2, 3, 6], [1, 6, 4, 5], [3, 4, 6, 7], [1, 3, 4, 6]];
     let tets = tets
         .into_iter()
@@ -764,39 +755,12 @@ fn exit_codes_are_the_shared_ones() {
     assert!(help.contains("Exit codes") && help.contains("7  no usable GPU adapter"), "{help}");
 }
 
-const TF_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../tet_preint/tests/data/tf");
-const SAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/samples");
+// The TF files' expected failures, the same table tetlut's CLI test uses.
+#[path = "../../tet_preint/tests/data/tf/failures.rs"]
+mod tf_files;
+use tf_files::{tf_failures, TF_DATA};
 
-/// The first stderr line for each TF file of `tet_preint/tests/data/tf`
-/// (and a missing one), without the program's name, and its exit code: the
-/// same table as crates/tetlut/tests/cli.rs checks `tetlut bake` against.
-fn tf_failures() -> Vec<(String, i32, String)> {
-    let p = |name: &str| format!("{TF_DATA}/{name}");
-    vec![
-        (
-            p("bad_unsorted.json"),
-            2,
-            format!(
-                "opacity[1]: x = 0.2 is below the previous control point's 0.5 (points must increase): {}",
-                p("bad_unsorted.json")
-            ),
-        ),
-        (
-            p("bad_syntax.json"),
-            2,
-            format!("transfer function JSON: expected `,` or `]` at line 3 column 22: {}", p("bad_syntax.json")),
-        ),
-        (
-            p("absent.json"),
-            3,
-            format!(
-                "cannot read transfer function: {}: {}",
-                std::fs::read(p("absent.json")).unwrap_err(),
-                p("absent.json")
-            ),
-        ),
-    ]
-}
+const SAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/samples");
 
 #[test]
 fn tf_files_fail_as_in_tetlut_and_a_paraview_preset_renders() {

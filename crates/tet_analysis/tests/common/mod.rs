@@ -5,16 +5,7 @@ use tet_mesh::predicates::{tet_orientation, TetOrientation};
 use tet_mesh::{tetrahedralize, Block, ConvertOptions, Field, SourceMesh, SplitMode, TetMesh};
 
 /// Deterministic xorshift in [0, 1).
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+pub use tet_mesh::XorShift64 as Rng;
 
 /// An n³-point grid on [0,1]³ (5-tet split), interior points jittered by
 /// `jitter` × spacing, offset by `offset`, with scalar `f` of the
@@ -30,7 +21,7 @@ pub fn grid(n: usize, jitter: f64, offset: f64, f: impl Fn([f64; 3]) -> f64) -> 
                 let interior = [i, j, k].iter().all(|&c| c > 0 && c < n - 1);
                 if interior && jitter > 0.0 {
                     for c in p.iter_mut() {
-                        *c += (rng.next() - 0.5) * jitter * h;
+                        *c += (rng.next_f64() - 0.5) * jitter * h;
                     }
                 }
                 local.push(p);

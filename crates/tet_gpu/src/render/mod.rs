@@ -26,7 +26,6 @@ use std::time::Instant;
 use tet_preint::{Method, Reconstruction, Table3d, TableDomain, TransferFunction};
 use tet_render::ViewSpec;
 use tet_render::{Camera, Image};
-use wgpu::util::DeviceExt;
 
 /// The HDR target format (needs FLOAT32_BLENDABLE).
 pub(crate) const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
@@ -36,8 +35,9 @@ mod scene;
 mod shader;
 
 pub(crate) use pipeline::{
-    compute_pipeline, compute_pipeline_with, storage_entry, texture_entry, uint_texture_entry, uniform_dyn_entry,
-    uniform_entry,
+    bind, bind_all, bind_group, bind_view, buffer, buffer_init, compute_pipeline, compute_pipeline_with, dispatch,
+    read_rgba32f, shader_module, storage_entries, storage_entry, storage_texture_entry, texture_entry,
+    uint_texture_entry, uniform_dyn_entry, uniform_entry, upload_texture, BoundModule, READ_BACK,
 };
 pub(crate) use scene::check_size;
 pub use scene::{centroid_order, GpuScene};
@@ -245,11 +245,9 @@ enum ShadePipeline {
 /// Pipelines of the classify, raster (graphics and compute), sort and
 /// tone-mapping passes, and the buffers they reuse across frames.
 pub struct GpuRenderer {
-    classify_layout: wgpu::BindGroupLayout,
+    classify_module: BoundModule,
     classify: wgpu::ComputePipeline,
-    raster_layout: wgpu::BindGroupLayout,
-    raster_module: wgpu::ShaderModule,
-    raster_pl: wgpu::PipelineLayout,
+    raster: BoundModule,
     /// The pipelines that shade fragments, per method (fragment.wgsl's
     /// `SHADE_METHOD` override) and rasterizer, each built at its first frame.
     per_method: Mutex<HashMap<(u32, ShadePass), ShadePipeline>>,
@@ -269,42 +267,19 @@ impl GpuRenderer {
             let dev = &ctx.device;
             let cs = wgpu::ShaderStages::COMPUTE;
             let (vs, fs) = (wgpu::ShaderStages::VERTEX, wgpu::ShaderStages::FRAGMENT);
-            let classify_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("classify"),
-                entries: &[
-                    uniform_dyn_entry(0, cs),
-                    storage_entry(1, cs, true),
-                    storage_entry(2, cs, true),
-                    storage_entry(3, cs, true),
-                    storage_entry(4, cs, true),
-                    storage_entry(5, cs, false),
-                    storage_entry(6, cs, false),
-                    storage_entry(7, cs, true),
-                    storage_entry(17, cs, true),
-                    storage_entry(18, cs, false),
-                ],
-            });
-            let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("classify.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(shader_source(CLASSIFY_WGSL).into()),
-            });
-            let layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("classify"),
-                bind_group_layouts: &[Some(&classify_layout)],
-                immediate_size: 0,
-            });
-            let classify = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("classify"),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some("classify"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+            let mut entries = vec![uniform_dyn_entry(0, cs)];
+            // Positions, tets, scalars and the order read; geometries and
+            // shades written; TF rows read.
+            entries.extend(storage_entries(1, cs, &[true, true, true, true, false, false, true]));
+            entries.extend([storage_entry(17, cs, true), storage_entry(18, cs, false)]);
+            let module = shader_module(dev, "classify.wgsl", shader_source(CLASSIFY_WGSL));
+            let classify_module = BoundModule::new(dev, "classify", &entries, module);
+            let classify = classify_module.compute(dev, "classify", &[]);
 
-            let raster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("raster"),
-                entries: &[
+            let raster = BoundModule::new(
+                dev,
+                "raster",
+                &[
                     uniform_dyn_entry(0, vs | fs),
                     storage_entry(5, vs, true),
                     storage_entry(6, fs, true),
@@ -315,23 +290,13 @@ impl GpuRenderer {
                     uniform_entry(16, fs),
                     storage_entry(18, fs, true),
                 ],
-            });
-            let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("raster.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(shader_source_fragment(RASTER_WGSL).into()),
-            });
-            let layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("raster"),
-                bind_group_layouts: &[Some(&raster_layout)],
-                immediate_size: 0,
-            });
+                shader_module(dev, "raster.wgsl", shader_source_fragment(RASTER_WGSL)),
+            );
             let tone = crate::tonemap::TonePipelines::new(ctx);
             GpuRenderer {
-                classify_layout,
+                classify_module,
                 classify,
-                raster_layout,
-                raster_module: module,
-                raster_pl: layout,
+                raster,
                 per_method: Mutex::new(HashMap::new()),
                 bin: BinPipelines::new(ctx),
                 sort: SortPipelines::new(ctx),
@@ -350,12 +315,12 @@ impl GpuRenderer {
             return Ok(p.clone());
         }
         let constants = [("SHADE_METHOD", method as f64)];
-        let options = wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() };
         let dev = &ctx.device;
         let pipeline = ctx.checked(|| {
             if pass == ShadePass::Composite {
-                return ShadePipeline::Composite(self.bin.composite_for(ctx, &options));
+                return ShadePipeline::Composite(self.bin.composite_for(ctx, &constants));
             }
+            let options = wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() };
             // Front to back "under": dst += (1 − dst.α)·src, for colour and α.
             let under = wgpu::BlendComponent {
                 src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
@@ -364,9 +329,9 @@ impl GpuRenderer {
             };
             let raster = dev.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("raster"),
-                layout: Some(&self.raster_pl),
+                layout: Some(&self.raster.pipeline_layout),
                 vertex: wgpu::VertexState {
-                    module: &self.raster_module,
+                    module: &self.raster.module,
                     entry_point: Some("vs"),
                     compilation_options: options.clone(),
                     buffers: &[],
@@ -375,7 +340,7 @@ impl GpuRenderer {
                 depth_stencil: None,
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
-                    module: &self.raster_module,
+                    module: &self.raster.module,
                     entry_point: Some("fs"),
                     compilation_options: options.clone(),
                     targets: &[Some(wgpu::ColorTargetState {
@@ -724,10 +689,11 @@ impl GpuRenderer {
             let t = Instant::now();
             ctx.checked(|| -> Result<(), GpuError> {
                 let fo = ws.params.push(&uniforms)?;
-                let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("classify"),
-                    layout: &self.classify_layout,
-                    entries: &[
+                let bg = bind_group(
+                    dev,
+                    "classify",
+                    &self.classify_module.layout,
+                    &[
                         wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) },
                         bind(1, &scene.positions),
                         bind(2, &scene.tet_buf),
@@ -746,14 +712,9 @@ impl GpuRenderer {
                         bind(17, scene.gmags.as_ref().unwrap_or(&scene.scalars)),
                         bind(18, ws.gshades.get()),
                     ],
-                });
+                );
                 let mut enc = dev.create_command_encoder(&Default::default());
-                {
-                    let mut pass = enc.begin_compute_pass(&Default::default());
-                    pass.set_pipeline(&self.classify);
-                    pass.set_bind_group(0, &bg, &[fo]);
-                    pass.dispatch_workgroups(gx, gy, 1);
-                }
+                dispatch(&mut enc, "classify", &self.classify, &bg, &[fo], (gx, gy));
                 ws.params.flush(ctx);
                 ctx.queue.submit([enc.finish()]);
                 Ok(())
@@ -781,30 +742,16 @@ impl GpuRenderer {
                 let t = Instant::now();
                 ctx.checked(|| -> Result<(), GpuError> {
                     let fo = ws.params.push(&uniforms)?;
-                    let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some("raster"),
-                        layout: &self.raster_layout,
-                        entries: &[
-                            wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) },
-                            bind(5, ws.geoms.get()),
-                            bind(6, ws.shades.get()),
-                            bind(7, &shader.tf_nodes),
-                            wgpu::BindGroupEntry {
-                                binding: 8,
-                                resource: wgpu::BindingResource::TextureView(&table_view),
-                            },
-                            wgpu::BindGroupEntry {
-                                binding: 14,
-                                resource: wgpu::BindingResource::TextureView(&table2d_view),
-                            },
-                            wgpu::BindGroupEntry {
-                                binding: 15,
-                                resource: wgpu::BindingResource::TextureView(&alpha_view),
-                            },
-                            bind(16, &shader.shade_buf),
-                            bind(18, ws.gshades.get()),
-                        ],
-                    });
+                    let mut entries =
+                        vec![wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) }];
+                    entries.extend(bind_all(5, &[ws.geoms.get(), ws.shades.get(), &shader.tf_nodes]));
+                    entries.extend([
+                        bind_view(8, &table_view),
+                        bind_view(14, &table2d_view),
+                        bind_view(15, &alpha_view),
+                    ]);
+                    entries.extend([bind(16, &shader.shade_buf), bind(18, ws.gshades.get())]);
+                    let bg = bind_group(dev, "raster", &self.raster.layout, &entries);
                     let mut enc = dev.create_command_encoder(&Default::default());
                     {
                         let load =
@@ -883,13 +830,7 @@ impl GpuRenderer {
             let fo = ws.params.push(env.uniforms)?;
             let bo = ws.params.push(&bin_params(0, m, 0, 0, m))?;
             let bg = self.bin_group(ctx, ws, env, 0)?;
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.bin.count);
-                pass.set_bind_group(0, &bg, &[fo, bo]);
-                let (gx, gy) = groups(m);
-                pass.dispatch_workgroups(gx, gy, 1);
-            }
+            dispatch(&mut enc, "bin_count", &self.bin.count, &bg, &[fo, bo], groups(m));
             self.sort.encode_scan(ctx, &mut enc, &mut ws.params, ws.counts.get(), m, ws.sums.get())?;
             enc.copy_buffer_to_buffer(ws.sums.get(), blocks as u64 * 4, ws.readback.get(), 0, 4);
             ws.params.flush(ctx);
@@ -951,13 +892,7 @@ impl GpuRenderer {
                     let fo = ws.params.push(env.uniforms)?;
                     let bo = ws.params.push(&bin_params(lo, hi, base, n_pairs, hi - lo))?;
                     let bg = self.bin_group(ctx, ws, env, 0)?;
-                    {
-                        let mut pass = enc.begin_compute_pass(&Default::default());
-                        pass.set_pipeline(&self.bin.fill);
-                        pass.set_bind_group(0, &bg, &[fo, bo]);
-                        let (gx, gy) = groups(hi - lo);
-                        pass.dispatch_workgroups(gx, gy, 1);
-                    }
+                    dispatch(&mut enc, "bin_fill", &self.bin.fill, &bg, &[fo, bo], groups(hi - lo));
                     let keys = [ws.pair_keys[0].get(), ws.pair_keys[1].get()];
                     let vals = [ws.pair_vals[0].get(), ws.pair_vals[1].get()];
                     sorted = self.sort.encode_radix(
@@ -973,11 +908,7 @@ impl GpuRenderer {
                     )?;
                     let bo = ws.params.push(&bin_params(lo, hi, base, n_pairs, n_pairs))?;
                     let bg = self.bin_group(ctx, ws, env, sorted)?;
-                    let mut pass = enc.begin_compute_pass(&Default::default());
-                    pass.set_pipeline(&self.bin.ranges);
-                    pass.set_bind_group(0, &bg, &[fo, bo]);
-                    let (gx, gy) = groups(n_pairs);
-                    pass.dispatch_workgroups(gx, gy, 1);
+                    dispatch(&mut enc, "tile_ranges", &self.bin.ranges, &bg, &[fo, bo], groups(n_pairs));
                 }
                 ws.params.flush(ctx);
                 ctx.queue.submit([enc.finish()]);
@@ -1018,28 +949,18 @@ impl GpuRenderer {
         env: &BinEnv<'_>,
         pairs: usize,
     ) -> Result<wgpu::BindGroup, GpuError> {
-        Ok(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("bin"),
-            layout: &self.bin.layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) },
-                wgpu::BindGroupEntry { binding: 1, resource: ws.params.binding(BIN_PARAMS_SIZE) },
-                bind(2, ws.geoms.get()),
-                bind(3, ws.counts.get()),
-                bind(4, ws.pair_keys[pairs].get()),
-                bind(5, ws.pair_vals[pairs].get()),
-                bind(6, ws.shades.get()),
-                bind(7, &env.shader.tf_nodes),
-                wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(env.table_view) },
-                bind(9, ws.ranges.get()),
-                bind(10, ws.accum.get()),
-                wgpu::BindGroupEntry { binding: 11, resource: wgpu::BindingResource::TextureView(env.hdr_view) },
-                wgpu::BindGroupEntry { binding: 14, resource: wgpu::BindingResource::TextureView(env.table2d_view) },
-                wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(env.alpha_view) },
-                bind(16, &env.shader.shade_buf),
-                bind(18, ws.gshades.get()),
-            ],
-        }))
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: ws.params.binding(FRAME_SIZE) },
+            wgpu::BindGroupEntry { binding: 1, resource: ws.params.binding(BIN_PARAMS_SIZE) },
+        ];
+        let (keys, vals) = (ws.pair_keys[pairs].get(), ws.pair_vals[pairs].get());
+        entries
+            .extend(bind_all(2, &[ws.geoms.get(), ws.counts.get(), keys, vals, ws.shades.get(), &env.shader.tf_nodes]));
+        entries.push(bind_view(8, env.table_view));
+        entries.extend(bind_all(9, &[ws.ranges.get(), ws.accum.get()]));
+        entries.extend([bind_view(11, env.hdr_view), bind_view(14, env.table2d_view), bind_view(15, env.alpha_view)]);
+        entries.extend([bind(16, &env.shader.shade_buf), bind(18, ws.gshades.get())]);
+        Ok(bind_group(&ctx.device, "bin", &self.bin.bound.layout, &entries))
     }
 }
 
@@ -1059,10 +980,6 @@ struct BinEnv<'a> {
     first: bool,
     pixels_bytes: u64,
     limit: u64,
-}
-
-fn bind(binding: u32, buf: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry { binding, resource: buf.as_entire_binding() }
 }
 
 /// The camera in the scene's frame, as tet_render's `project::Frame`.

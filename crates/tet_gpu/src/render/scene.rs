@@ -74,14 +74,7 @@ impl GpuScene {
         let pos4: Vec<[f32; 4]> = pos_rel.iter().map(|p| [p[0], p[1], p[2], 0.0]).collect();
         let s32: Vec<f32> = scalar.iter().map(|&s| s as f32).collect();
         let (distinct, ranks) = distinct_and_ranks(scalar);
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let init = |label: &str, contents: &[u8]| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: storage,
-            })
-        };
+        let init = |label: &str, contents: &[u8]| buffer_init(&ctx.device, label, contents, SCENE_USAGE);
         let (positions, tet_buf, scalars, ranks) = ctx.checked(|| {
             (
                 init("positions", bytemuck::cast_slice(&pos4)),
@@ -119,13 +112,7 @@ impl GpuScene {
         }
         let g32: Vec<f32> = g.iter().map(|&v| v as f32).collect();
         let (distinct, ranks) = distinct_and_ranks(g);
-        let init = |label: &str, contents: &[u8]| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            })
-        };
+        let init = |label: &str, contents: &[u8]| buffer_init(&ctx.device, label, contents, SCENE_USAGE);
         let (gmags, g_ranks) = ctx.checked(|| {
             (
                 init("gradient magnitudes", bytemuck::cast_slice(&g32)),
@@ -211,6 +198,9 @@ fn distinct_and_ranks(values: &[f64]) -> (Vec<f64>, Vec<u32>) {
     let ranks = values.par_iter().map(|s| distinct.partition_point(|d| d < s) as u32).collect();
     (distinct, ranks)
 }
+
+/// Usage of the scene's buffers.
+const SCENE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
 
 pub(crate) fn check_size(what: &'static str, bytes: u64, limit: u64) -> Result<(), GpuError> {
     if bytes > limit {

@@ -159,20 +159,11 @@ impl GpuShader {
         }
         let limit = ctx.device.limits().max_storage_buffer_binding_size;
         check_size("transfer function rows (16 bytes each)", nodes.len() as u64 * 16, limit)?;
-        let shade_buf = ctx.checked(|| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("shade params"),
-                contents: bytemuck::bytes_of(&tables.params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-        })?;
-        let tf_nodes = ctx.checked(|| {
-            ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("tf nodes"),
-                contents: bytemuck::cast_slice(&nodes),
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-        })?;
+        let dev = &ctx.device;
+        let params = bytemuck::bytes_of(&tables.params);
+        let shade_buf = ctx.checked(|| buffer_init(dev, "shade params", params, wgpu::BufferUsages::UNIFORM))?;
+        let rows = bytemuck::cast_slice(&nodes);
+        let tf_nodes = ctx.checked(|| buffer_init(dev, "tf nodes", rows, wgpu::BufferUsages::STORAGE))?;
         Ok(GpuShader {
             method,
             id,
@@ -254,29 +245,6 @@ pub(crate) fn placeholder_3d(ctx: &GpuContext) -> Result<wgpu::Texture, GpuError
 }
 
 pub(crate) fn table_texture(ctx: &GpuContext, size: [u32; 3], texels: &[[f32; 4]]) -> Result<wgpu::Texture, GpuError> {
-    ctx.checked(|| {
-        let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] };
-        let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("table3d"),
-            size: extent,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::Rgba32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        ctx.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &tex,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: Default::default(),
-            },
-            bytemuck::cast_slice(texels),
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size[0] * 16), rows_per_image: Some(size[1]) },
-            extent,
-        );
-        tex
-    })
+    let (dim, format) = (wgpu::TextureDimension::D3, wgpu::TextureFormat::Rgba32Float);
+    upload_texture(ctx, "table3d", dim, format, size, bytemuck::cast_slice(texels))
 }

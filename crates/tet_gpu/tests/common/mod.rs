@@ -4,8 +4,10 @@
 
 use glam::DVec3;
 use tet_gpu::GpuContext;
-use tet_preint::{Segment, SegmentShader};
-use tet_render::{Camera, Image};
+use tet_mesh::split::{structured_grid_tets, structured_points};
+use tet_mesh::SplitMode;
+use tet_preint::{ScalarAxis, Segment, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_render::{diff, Camera, DiffStats, Image};
 
 /// The GPU, or `None` with a printed reason; with `TETKIT_REQUIRE_GPU=1` a
 /// missing adapter fails the test instead (`make test-gpu`).
@@ -23,6 +25,43 @@ pub fn gpu() -> Option<GpuContext> {
             None
         }
     }
+}
+
+/// The transfer function the image tests render with.
+pub fn tf() -> TransferFunction {
+    TransferFunction::from_json(
+        r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
+            "opacity": [[0, 0.5], [0.4, 4], [0.6, 1], [1, 8]], "unit_distance": 1}"#,
+    )
+    .unwrap()
+}
+
+/// A 64 × 64 table of [`tf`] over `mesh`'s cells, on scalar axis `s_axis`.
+pub fn table_on_axis(mesh: &Mesh, s_axis: ScalarAxis) -> Table3d {
+    let (max_ds, len) = mesh.cell_limits();
+    let domain = TableDomain::new(0.0, 1.0, max_ds, len).unwrap();
+    let t = Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, s_axis, ..Default::default() }).unwrap();
+    assert_eq!(t.is_uniform_axis(), s_axis == ScalarAxis::Uniform);
+    t
+}
+
+/// Prints how far a GPU image is from the CPU one (and how many pixels the
+/// CPU one covers, which must be some).
+pub fn report(what: &str, gpu: &Image, cpu: &Image) -> DiffStats {
+    let d = diff(gpu, cpu).unwrap();
+    let covered = cpu.pixels().iter().filter(|p| p[3] > 0.0).count();
+    eprintln!(
+        "{what}: mean |Δ| = {:.3e} ({:.3}/255), max |Δ| = {:.3e} ({:.3}/255) at {:?}, rmse {:.3e}; {} covered pixels",
+        d.mean_abs,
+        d.mean_abs * 255.0,
+        d.max_abs,
+        d.max_abs * 255.0,
+        d.max_at,
+        d.rmse,
+        covered
+    );
+    assert!(covered > 0, "{what}: the reference image is empty");
+    d
 }
 
 pub struct Mesh {
@@ -49,39 +88,17 @@ pub fn grid(n: usize) -> Mesh {
 /// As [`grid`] with `n[0] × n[1] × n[2]` cells over [0, 1]³.
 #[allow(dead_code)] // not every test binary uses it
 pub fn grid_cells(n: [usize; 3]) -> Mesh {
-    let m = n.map(|c| c + 1);
-    let mut points = Vec::with_capacity(m[0] * m[1] * m[2]);
-    let mut scalar = Vec::with_capacity(points.capacity());
-    for k in 0..m[2] {
-        for j in 0..m[1] {
-            for i in 0..m[0] {
-                let p = [i as f64 / n[0] as f64, j as f64 / n[1] as f64, k as f64 / n[2] as f64];
-                let r2 = (p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2);
-                scalar.push((0.5 + 0.45 * (6.0 * r2).cos() * (3.0 * p[0] + 1.0).sin()).clamp(0.0, 1.0));
-                points.push(p);
-            }
-        }
-    }
-    let id = |i: usize, j: usize, k: usize| (i + m[0] * (j + m[1] * k)) as u32;
-    let mut tets = Vec::with_capacity(5 * n[0] * n[1] * n[2]);
-    for k in 0..n[2] {
-        for j in 0..n[1] {
-            for i in 0..n[0] {
-                let h = [
-                    id(i, j, k),
-                    id(i + 1, j, k),
-                    id(i + 1, j + 1, k),
-                    id(i, j + 1, k),
-                    id(i, j, k + 1),
-                    id(i + 1, j, k + 1),
-                    id(i + 1, j + 1, k + 1),
-                    id(i, j + 1, k + 1),
-                ];
-                tet_mesh::split::split_hexahedron_five(&h, (i + j + k) % 2 == 1, &mut |t| tets.push(t));
-            }
-        }
-    }
-    Mesh { points, tets, scalar }
+    let points = structured_points(n.map(|c| c + 1), |[i, j, k]| {
+        [i as f64 / n[0] as f64, j as f64 / n[1] as f64, k as f64 / n[2] as f64]
+    });
+    let scalar = points
+        .iter()
+        .map(|p| {
+            let r2 = (p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2);
+            (0.5 + 0.45 * (6.0 * r2).cos() * (3.0 * p[0] + 1.0).sin()).clamp(0.0, 1.0)
+        })
+        .collect();
+    Mesh { points, tets: structured_grid_tets(n, SplitMode::Five), scalar }
 }
 
 impl Mesh {

@@ -386,20 +386,9 @@ mod tests {
         for tag in 1..=9 {
             size(&mut out, tag);
         }
-        let xyz = [
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0., 1., 0.],
-            [0., 0., 1.],
-            [1., 0., 1.],
-            [1., 1., 1.],
-            [0., 1., 1.],
-            [0.5, 0.5, 2.],
-        ];
-        for p in xyz {
+        for p in tet_mesh::split::UNIT_HEX.iter().chain([&[0.5, 0.5, 2.]]) {
             for c in p {
-                real(&mut out, c);
+                real(&mut out, *c);
             }
         }
         out.extend_from_slice(b"\n$EndNodes\n$Elements\n");

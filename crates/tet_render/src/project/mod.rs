@@ -413,19 +413,8 @@ mod tests {
         assert!(h1.inside(2.5, 1.5) != h2.inside(2.5, 1.5));
     }
 
-    /// A small xorshift generator (fixed seeds).
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next()
-        }
-    }
+    // A small xorshift generator (fixed seeds).
+    use tet_mesh::XorShift64 as Rng;
 
     /// Compares the span path (row spans, f32 lanes) with the per-pixel f64
     /// path on one tet: identical coverage; lengths within 1e-5 of the
@@ -589,7 +578,7 @@ mod tests {
         for i in 0..20_000 {
             let pick = |rng: &mut Rng, k: usize| {
                 if (i + k).is_multiple_of(3) {
-                    specials[(rng.next() * specials.len() as f64) as usize % specials.len()]
+                    specials[(rng.next_f64() * specials.len() as f64) as usize % specials.len()]
                 } else {
                     rng.range(-20.0, 120.0)
                 }

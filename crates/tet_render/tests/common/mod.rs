@@ -7,19 +7,8 @@ use tet_mesh::{tetrahedralize, Block, ConvertOptions, Field, SourceMesh};
 use tet_preint::{integrate_segment, TransferFunction};
 use tet_render::{Camera, Image, Renderer, Scene, ViewSpec};
 
-/// A small xorshift generator (fixed seeds, no dependency).
-pub struct Rng(pub u64);
-impl Rng {
-    pub fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-}
+/// A small xorshift generator (fixed seeds).
+pub use tet_mesh::XorShift64 as Rng;
 
 /// An `n³`-cell grid over [0,1]³ (+ `offset`), 5-split into tets, interior
 /// points jittered by up to `jitter` cells, scalar `s(p)` of the un-offset

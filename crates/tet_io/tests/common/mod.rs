@@ -1,0 +1,31 @@
+//! What the reader tests share: a fixed-seed generator for the damage the
+//! robustness tests do, and gzip-compressed test files.
+#![allow(dead_code)] // not every test binary uses all of it
+
+use std::io::Read;
+use std::path::Path;
+
+/// A fixed-seed LCG (Knuth's MMIX constants): the robustness tests need no
+/// rand crate, and their damage is the same on every run.
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// The next 31 bits.
+    pub fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 >> 33
+    }
+
+    /// [`Lcg::next`] reduced below `n` (0 for `n` = 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+/// The decompressed bytes of the gzip file at `path`.
+pub fn gunzip(path: &Path) -> Vec<u8> {
+    let gz = std::fs::read(path).unwrap();
+    let mut out = Vec::new();
+    flate2::read::GzDecoder::new(&gz[..]).read_to_end(&mut out).unwrap();
+    out
+}

@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build install ci test test-gpu python-test python-deps gpu-driver viewer-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
+.PHONY: all build install ci test test-gpu python-test python-deps gpu-driver viewer-deps video-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -24,7 +24,7 @@ install:
 ## Without a session's XDG_RUNTIME_DIR, libwayland (probed by the Vulkan and
 ## OpenGL stacks the GPU and window tests load) prints "XDG_RUNTIME_DIR is
 ## invalid or not set" on every start: the tests then get a private empty one.
-test: gpu-driver viewer-deps
+test: gpu-driver viewer-deps video-deps
 	@d=; if [ ! -d "$$XDG_RUNTIME_DIR" ]; then d=$$(mktemp -d); export XDG_RUNTIME_DIR=$$d; fi; \
 	trap '[ -z "$$d" ] || rm -rf "$$d"' EXIT; \
 	echo "$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc"; \
@@ -90,6 +90,18 @@ viewer-deps:
 			$$SUDO apt-get install -y xvfb libgl1-mesa-dri libegl1 || { $$SUDO apt-get update && $$SUDO apt-get install -y xvfb libgl1-mesa-dri libegl1; } \
 			|| echo "note: installing xvfb failed; the viewer's window test will skip"; \
 		else echo "note: no Xvfb, and it cannot be installed here (needs apt-get and root or sudo); the viewer's window test will skip"; fi; \
+	fi
+
+## ffmpeg for `tetview animate -o x.mp4` (videos are encoded by ffmpeg when it is installed),
+## installed with apt-get when missing; without it the video test checks tetview's side with a
+## stand-in ffmpeg and says so.
+video-deps:
+	@if ! command -v ffmpeg >/dev/null 2>&1; then \
+		if command -v apt-get >/dev/null 2>&1 && { [ "$$(id -u)" = 0 ] || sudo -n true 2>/dev/null; }; then \
+			SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+			$$SUDO apt-get install -y --no-install-recommends ffmpeg || { $$SUDO apt-get update && $$SUDO apt-get install -y --no-install-recommends ffmpeg; } \
+			|| echo "note: installing ffmpeg failed; the video test will use a stand-in only"; \
+		else echo "note: no ffmpeg, and it cannot be installed here (needs apt-get and root or sudo); the video test will use a stand-in only"; fi; \
 	fi
 
 ## The main job on a bundled real dataset: NASA Blunt Fin (PLOT3D) → bundle with gradients and

@@ -319,7 +319,7 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             R::View(_) => Usage,
             R::ImageSize { .. } | R::SizeMismatch { .. } | R::InvalidMesh { .. } | R::Scene(_) => Rejected,
             // Image files are mostly written; `tetview diff` tags its reads.
-            R::Png(_) | R::Npy { .. } | R::Io { .. } => Output,
+            R::Png(_) | R::Gif(_) | R::Npy { .. } | R::Io { .. } => Output,
             R::NormalizedTransferFunction | R::NotReady(_) => Internal,
         });
     }

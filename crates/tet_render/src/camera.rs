@@ -9,7 +9,7 @@
 //! in front), which is what visibility ordering and near-plane clipping use.
 
 use crate::RenderError;
-use glam::DVec3;
+use glam::{DMat3, DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
 /// Largest image side accepted; far beyond any display, small enough that
@@ -197,6 +197,102 @@ impl ViewSpec {
             }
         }
         out
+    }
+}
+
+/// A camera path through key views (`tetview animate --key-views`): the
+/// view at any fraction of the way from the first key to the last, moving
+/// through each key in turn, equal time per pair of keys.
+///
+/// Between two keys the focal point moves on a straight line, the camera
+/// turns (view direction and up as one rotation, the shortest way) with
+/// the eye behind the focal point, the eye's distance changes geometrically
+/// (so a zoom in and a zoom out take equal time), and the view angle
+/// (perspective) or parallel scale (parallel; geometric, as the distance)
+/// changes with them. Every key is reached exactly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyPath {
+    keys: Vec<ViewSpec>,
+}
+
+impl KeyPath {
+    /// Checks the keys: at least one, each a valid [`Camera`], all of one
+    /// projection (perspective or parallel) and one image size; the error
+    /// names the key (0-based) that breaks the rule.
+    pub fn new(keys: Vec<ViewSpec>) -> Result<KeyPath, RenderError> {
+        let Some(first) = keys.first() else {
+            return Err(RenderError::View("a camera path needs at least one key view".into()));
+        };
+        for (k, v) in keys.iter().enumerate() {
+            Camera::new(v).map_err(|e| RenderError::View(format!("key view {k}: {e}")))?;
+            if v.parallel != first.parallel {
+                return Err(RenderError::View(format!(
+                    "key view {k} is {} but key view 0 is {}: a path keeps one projection",
+                    if v.parallel { "parallel" } else { "perspective" },
+                    if first.parallel { "parallel" } else { "perspective" }
+                )));
+            }
+            if v.size != first.size {
+                return Err(RenderError::View(format!(
+                    "key view {k} is {}x{} but key view 0 is {}x{}: give every key one size (or --size)",
+                    v.size[0], v.size[1], first.size[0], first.size[1]
+                )));
+            }
+        }
+        Ok(KeyPath { keys })
+    }
+
+    pub fn keys(&self) -> &[ViewSpec] {
+        &self.keys
+    }
+
+    /// The view at fraction `u` of the path (clamped to [0, 1]; 0 is the
+    /// first key, 1 the last).
+    pub fn at(&self, u: f64) -> ViewSpec {
+        let segments = self.keys.len() - 1;
+        if segments == 0 || u.is_nan() || u <= 0.0 {
+            return self.keys[0].clone();
+        }
+        if u >= 1.0 {
+            return self.keys[segments].clone();
+        }
+        let x = u * segments as f64;
+        let k = (x.floor() as usize).min(segments - 1);
+        between(&self.keys[k], &self.keys[k + 1], x - k as f64)
+    }
+}
+
+/// The view fraction `t` ∈ [0, 1) of the way from `a` to `b` ([`KeyPath`]):
+/// the camera's orientation (view direction and up together) turns by the
+/// spherical interpolation of the two keys' rotations — the shortest turn,
+/// so eyes on opposite sides of the focal point orbit about the shared
+/// view-up — and the eye sits behind the moving focal point along the
+/// turned view direction.
+fn between(a: &ViewSpec, b: &ViewSpec, t: f64) -> ViewSpec {
+    if t <= 0.0 {
+        return a.clone();
+    }
+    let lerp = |x: f64, y: f64| x + (y - x) * t;
+    let geo = |x: f64, y: f64| if x > 0.0 && y > 0.0 { x * (y / x).powf(t) } else { lerp(x, y) };
+    // Valid keys (KeyPath::new: Camera::new) have the eye off the focal
+    // point and an up not along the view direction.
+    let orientation = |v: &ViewSpec| {
+        let back = (DVec3::from(v.position) - DVec3::from(v.focal_point)).normalize();
+        let right = DVec3::from(v.view_up).cross(back).normalize();
+        DQuat::from_mat3(&DMat3::from_cols(right, back.cross(right), back))
+    };
+    let turn = orientation(a).slerp(orientation(b), t);
+    let dist = |v: &ViewSpec| DVec3::from(v.position).distance(DVec3::from(v.focal_point));
+    let focal = DVec3::from(a.focal_point).lerp(DVec3::from(b.focal_point), t);
+    let position = focal + (turn * DVec3::Z) * geo(dist(a), dist(b));
+    ViewSpec {
+        position: position.into(),
+        focal_point: focal.into(),
+        view_up: (turn * DVec3::Y).normalize().into(),
+        view_angle: lerp(a.view_angle, b.view_angle),
+        parallel: a.parallel,
+        parallel_scale: geo(a.parallel_scale, b.parallel_scale),
+        size: a.size,
     }
 }
 
@@ -479,5 +575,60 @@ mod tests {
         let v = ViewSpec::from_json(j).unwrap();
         assert_eq!(v.view_angle, 30.0);
         assert_eq!(ViewSpec::from_json(&v.to_json()).unwrap(), v);
+    }
+
+    #[test]
+    fn a_key_path_reaches_every_key_and_moves_smoothly_between() {
+        let a = ViewSpec::looking_at([0.0, 0.0, 10.0], [0.0; 3], Y_UP, [16, 12]);
+        // Half an orbit about +y, twice as far, looking at a moved point,
+        // with a narrower angle.
+        let mut b = ViewSpec::looking_at([1.0, 0.0, -20.0], [1.0, 0.0, 0.0], Y_UP, [16, 12]);
+        b.view_angle = 20.0;
+        let c = a.orbit(0.0, 60.0, 1.0);
+        let path = KeyPath::new(vec![a.clone(), b.clone(), c.clone()]).unwrap();
+        assert_eq!(path.at(0.0), a);
+        assert_eq!(path.at(0.5), b);
+        assert_eq!(path.at(1.0), c);
+        assert_eq!(path.at(-1.0), a);
+        assert_eq!(path.at(2.0), c);
+        let mut last = DVec3::from(a.position);
+        for i in 1..200 {
+            let v = path.at(i as f64 / 200.0);
+            Camera::new(&v).expect("every view on the path is valid");
+            let (pos, focal, up) = (DVec3::from(v.position), DVec3::from(v.focal_point), DVec3::from(v.view_up));
+            assert!(
+                (up.length() - 1.0).abs() < 1e-12 && up.dot((focal - pos).normalize()).abs() < 1e-12,
+                "{i}: {up} {pos} {focal}"
+            );
+            // Small steps: no jumps anywhere on the path.
+            assert!(pos.distance(last) < 1.0, "step {i}: {pos} after {last}");
+            last = pos;
+        }
+        // Opposite eyes orbit about the up (the eye stays at y = 0), the
+        // distance changes geometrically and the angle linearly.
+        let mid = path.at(0.25);
+        let off = DVec3::from(mid.position) - DVec3::from(mid.focal_point);
+        assert!(off.y.abs() < 1e-9, "{off}");
+        assert!((off.length() - 200f64.sqrt()).abs() < 1e-9);
+        assert!((mid.view_angle - 25.0).abs() < 1e-12);
+        assert_eq!(mid.focal_point, [0.5, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn key_paths_reject_mixed_projections_sizes_and_bad_keys() {
+        let a = ViewSpec::looking_at([0.0, 0.0, 10.0], [0.0; 3], Y_UP, [16, 12]);
+        assert!(KeyPath::new(vec![]).is_err());
+        let mut p = a.clone();
+        p.parallel = true;
+        assert!(KeyPath::new(vec![a.clone(), p]).unwrap_err().to_string().contains("key view 1 is parallel"));
+        let mut s = a.clone();
+        s.size = [8, 8];
+        assert!(KeyPath::new(vec![a.clone(), s]).unwrap_err().to_string().contains("16x12"));
+        let mut bad = a.clone();
+        bad.position = bad.focal_point;
+        assert!(KeyPath::new(vec![a.clone(), bad]).unwrap_err().to_string().contains("key view 1"));
+        // One key: every frame is that view.
+        let one = KeyPath::new(vec![a.clone()]).unwrap();
+        assert_eq!(one.at(0.7), a);
     }
 }

@@ -426,6 +426,45 @@ pub fn write_apng_rgba8(path: &Path, width: u32, height: u32, frames: &[Vec<u8>]
     write_atomic(path, &bytes)
 }
 
+/// Writes `frames` (RGBA8 rows, `width`×`height` each, as
+/// [`write_apng_rgba8`] takes them) as a looping animated GIF at `fps`
+/// frames per second. GIF holds 256 colours a frame: each frame gets its own
+/// palette (NeuQuant quantization, the `gif` crate's
+/// `Frame::from_rgba_speed`), so smooth gradients band slightly where the
+/// APNG keeps every colour. Delays are whole hundredths of a second, at
+/// least two (browsers slow shorter ones down to a tenth).
+pub fn write_gif_rgba8(path: &Path, width: u32, height: u32, frames: &[Vec<u8>], fps: f64) -> Result<(), RenderError> {
+    let gif_err = |e: gif::EncodingError| RenderError::Gif(e.to_string());
+    if frames.is_empty() {
+        return Err(RenderError::Gif("an animation of 0 frames".into()));
+    }
+    if !(fps.is_finite() && fps > 0.0) {
+        return Err(RenderError::Gif(format!("{fps} frames per second")));
+    }
+    let (Ok(w), Ok(h)) = (u16::try_from(width), u16::try_from(height)) else {
+        return Err(RenderError::Gif(format!("{width}x{height}: GIF images are at most 65535 pixels a side")));
+    };
+    let pixels = width as usize * height as usize;
+    let delay_cs = (100.0 / fps).round().clamp(2.0, 65535.0) as u16;
+    let mut bytes = Vec::new();
+    {
+        let mut enc = gif::Encoder::new(&mut bytes, w, h, &[]).map_err(gif_err)?;
+        enc.set_repeat(gif::Repeat::Infinite).map_err(gif_err)?;
+        for (i, f) in frames.iter().enumerate() {
+            if f.len() != pixels * 4 {
+                let e = RenderError::ImageSize { expected: [width, height], pixels: f.len() / 4 };
+                return Err(RenderError::Gif(format!("frame {i}: {e}")));
+            }
+            let mut rgba = f.clone();
+            // Speed 10: NeuQuant's default sampling (1 is slowest and best).
+            let mut frame = gif::Frame::from_rgba_speed(w, h, &mut rgba, 10);
+            frame.delay = delay_cs;
+            enc.write_frame(&frame).map_err(gif_err)?;
+        }
+    }
+    write_atomic(path, &bytes)
+}
+
 /// Writes through a temporary file in the same directory and renames, so a
 /// failed write never leaves a half-written image under the final name.
 /// tet_container's writer, shared by every output of every program, gives

@@ -63,7 +63,7 @@ pub mod shading;
 pub mod sort;
 pub mod walk;
 
-pub use camera::{Camera, ViewSpec};
+pub use camera::{Camera, KeyPath, ViewSpec};
 pub use cull::{CellCuller, CullMask, TfCuller};
 pub use image::{diff, DiffStats, Display, Image, PictureMetrics, ToneMap};
 pub use pipeline::{CpuRenderer, RenderStats, Renderer};
@@ -87,6 +87,8 @@ pub enum RenderError {
     SizeMismatch { a: [u32; 2], b: [u32; 2] },
     #[error("PNG encoding: {0}")]
     Png(String),
+    #[error("GIF encoding: {0}")]
+    Gif(String),
     #[error(".npy: {why}: {path}")]
     Npy { why: String, path: PathBuf },
     #[error("{source}: {path}")]

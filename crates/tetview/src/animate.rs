@@ -1,5 +1,6 @@
-//! `tetview animate`: a camera orbit and/or a time series as an animated
-//! PNG (and numbered PNG frames), drawn by the engine.
+//! `tetview animate`: a camera orbit or a path through key views, and/or a
+//! time series, as an animated PNG or GIF, or a video through `ffmpeg`
+//! (and numbered PNG frames), drawn by the engine.
 //!
 //! One look serves every frame: a time-series bundle's table is baked over
 //! the scalar's domain at every time (`TableDomain::from_bundle`), so time
@@ -8,18 +9,21 @@
 //! view. Reinhard's operator is fitted once to every frame together, so the
 //! exposure does not flicker.
 
-use anyhow::{Context, Result};
-use std::path::PathBuf;
+use anyhow::{anyhow, Context, Result};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
 use std::time::Instant;
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_engine::{
     CpuFrameRenderer, EngineError, Frame, FrameRenderer, FrameRequest, FrameStats, GpuFrameOptions, GpuFrameRenderer,
     Look,
 };
-use tet_render::image::{write_apng_rgba8, Reinhard};
-use tet_render::{Image, Scene, ToneMap};
+use tet_render::image::{write_apng_rgba8, write_gif_rgba8, Reinhard};
+use tet_render::{Image, KeyPath, Scene, ToneMap, ViewSpec};
 
-/// Render an orbit and/or a time series to an animated PNG.
+/// Render an orbit or a key-view path and/or a time series to an animated
+/// PNG or GIF, or a video (through ffmpeg).
 #[derive(Debug, clap::Args)]
 pub struct AnimateArgs {
     /// The bundle (.tetb); a time-series bundle (`tetprep convert` of a
@@ -38,15 +42,25 @@ pub struct AnimateArgs {
     /// Default: 360 for a bundle without time steps, 0 for a time series.
     #[arg(long, allow_hyphen_values = true)]
     pub orbit: Option<f64>,
+    /// Key views instead of an orbit: view JSON files (as `render --view`),
+    /// comma-separated; the camera moves through them in turn, equal time
+    /// between each two (focal point on a line, eye turning about it,
+    /// distance and zoom changing geometrically). --size resizes them all.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with_all = ["orbit", "view", "azimuth", "elevation", "zoom", "view_up", "parallel"]
+    )]
+    pub key_views: Vec<PathBuf>,
     /// Times T0,T1 of the first and last frame (a time-series bundle;
     /// default: its first and last step), linear in between.
     #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub time_range: Option<(f64, f64)>,
     /// Number of frames (default: one a time step for a time series, 36
-    /// for an orbit).
+    /// for an orbit, 12 between each two key views).
     #[arg(long)]
     pub frames: Option<u32>,
-    /// Frames per second of the animated PNG.
+    /// Frames per second of the animation.
     #[arg(long, default_value_t = 12.0)]
     pub fps: f64,
     /// CPU algorithm (as `render --renderer`).
@@ -58,9 +72,15 @@ pub struct AnimateArgs {
     /// Draw every tet (turn off culling of invisible cells).
     #[arg(long)]
     pub no_cull: bool,
-    /// The animated PNG (APNG; viewers without APNG show the first frame).
+    /// The animation, its kind by extension: .png or .apng (animated PNG,
+    /// every colour kept; viewers without APNG show the first frame), .gif
+    /// (256 colours a frame), or .mp4, .webm, .mkv, .mov (a video encoded
+    /// by ffmpeg, which must be installed; see --ffmpeg).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// The ffmpeg program a video output is encoded with.
+    #[arg(long, default_value = "ffmpeg")]
+    pub ffmpeg: PathBuf,
     /// Also write every frame as DIR/frame_0000.png, … (DIR is created).
     #[arg(long)]
     pub frames_dir: Option<PathBuf>,
@@ -91,6 +111,124 @@ impl Animator {
             Animator::Gpu(r) => r.set_scalar(scalar),
         }
     }
+}
+
+/// What `--output` is written as, by its extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Container {
+    Apng,
+    Gif,
+    /// A video container ffmpeg picks the encoder for.
+    Video,
+}
+
+impl Container {
+    fn of(path: &Path) -> Result<Container> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("png" | "apng") => Ok(Container::Apng),
+            Some("gif") => Ok(Container::Gif),
+            Some("mp4" | "webm" | "mkv" | "mov") => Ok(Container::Video),
+            _ => Err(usage(format!(
+                "-o {}: the extension says what to write: .png or .apng (animated PNG), .gif, \
+                 or .mp4, .webm, .mkv, .mov (video through ffmpeg)",
+                path.display()
+            ))),
+        }
+    }
+    fn id(self) -> &'static str {
+        match self {
+            Container::Apng => "apng",
+            Container::Gif => "gif",
+            Container::Video => "video",
+        }
+    }
+}
+
+/// Fails unless `ffmpeg` runs (`-version`), before any frame is drawn.
+fn check_ffmpeg(ffmpeg: &Path, output: &Path) -> Result<()> {
+    let status = Command::new(ffmpeg).arg("-version").stdout(Stdio::null()).stderr(Stdio::null()).status();
+    match status {
+        Ok(s) if s.success() => Ok(()),
+        Ok(s) => {
+            Err(anyhow!("`{} -version` failed ({s}): {} needs a working ffmpeg", ffmpeg.display(), output.display()))
+                .kind(ExitKind::Output)
+        }
+        Err(e) => Err(anyhow!(
+            "{} is a video, encoded by ffmpeg, and `{}` cannot be run ({e}): install ffmpeg, point --ffmpeg at it, \
+             or write .png (animated PNG) or .gif",
+            output.display(),
+            ffmpeg.display()
+        ))
+        .kind(ExitKind::Output),
+    }
+}
+
+/// Encodes RGBA8 frames into the video `output` with ffmpeg (raw frames on
+/// its standard input; yuv420p, odd sizes padded by a pixel, so any player
+/// shows it), through a temporary file beside it renamed into place: a
+/// failed encode leaves no half-written video.
+fn write_video(ffmpeg: &Path, output: &Path, size: [u32; 2], fps: f64, frames: &[Vec<u8>]) -> Result<()> {
+    let dir = match output.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    // ffmpeg picks the container by the extension: the temporary file keeps it.
+    let ext = output.extension().and_then(|e| e.to_str()).unwrap_or("mp4");
+    let mut builder = tempfile::Builder::new();
+    let suffix = format!(".{ext}");
+    builder.prefix(".tetvid-").suffix(&suffix);
+    // The video is an ordinary output: the mode `File::create` gives (as
+    // every other tetkit output, tet_container::write_atomic), not the
+    // temporary file's private 0600.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let tmp = builder
+        .tempfile_in(dir)
+        .with_context(|| format!("creating a temporary file beside {}", output.display()))
+        .kind(ExitKind::Output)?;
+    let mut child = Command::new(ffmpeg)
+        .args(["-hide_banner", "-loglevel", "error", "-nostdin", "-y", "-f", "rawvideo", "-pix_fmt", "rgba"])
+        .args(["-s", &format!("{}x{}", size[0], size[1]), "-framerate", &format!("{fps}"), "-i", "pipe:0"])
+        .args(["-an", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"])
+        .arg(tmp.path())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .with_context(|| format!("starting {}", ffmpeg.display()))
+        .kind(ExitKind::Output)?;
+    // Its messages are read beside the frames, so a chatty ffmpeg cannot
+    // block on a full pipe while we block on its input.
+    let mut stderr = child.stderr.take().expect("piped");
+    let messages = std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = stderr.read_to_string(&mut text);
+        text
+    });
+    let mut stdin = child.stdin.take().expect("piped");
+    let fed: std::io::Result<()> = frames.iter().try_for_each(|f| stdin.write_all(f));
+    drop(stdin);
+    let status = child.wait().with_context(|| format!("waiting for {}", ffmpeg.display())).kind(ExitKind::Output)?;
+    let text = messages.join().unwrap_or_default();
+    if !status.success() || fed.is_err() {
+        let tail: Vec<&str> = text.lines().rev().take(6).collect::<Vec<_>>().into_iter().rev().collect();
+        return Err(anyhow!(
+            "ffmpeg could not encode {} ({status}{}): {}",
+            output.display(),
+            fed.err().map_or(String::new(), |e| format!(", frames not taken: {e}")),
+            if tail.is_empty() { "no message".to_string() } else { tail.join(" / ") }
+        ))
+        .kind(ExitKind::Output);
+    }
+    tmp.persist(output)
+        .map_err(|e| e.error)
+        .with_context(|| format!("renaming the encoded video into place as {}", output.display()))
+        .kind(ExitKind::Output)?;
+    Ok(())
 }
 
 /// Where frame `i` of `n` is: its azimuth offset and its time.
@@ -126,12 +264,15 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
         }
         (None, None) => None,
     };
-    let orbit = args.orbit.unwrap_or(if times.is_some() { 0.0 } else { 360.0 });
+    let container = Container::of(&args.output)?;
+    let keyed = !args.key_views.is_empty();
+    let orbit = args.orbit.unwrap_or(if times.is_some() || keyed { 0.0 } else { 360.0 });
     if !orbit.is_finite() {
         return Err(usage(format!("--orbit {orbit}: need a finite angle")));
     }
     let n = args.frames.unwrap_or(match &steps {
         Some(st) if args.time_range.is_none() => st.len() as u32,
+        _ if keyed => 12 * (args.key_views.len() as u32 - 1).max(1),
         _ => 36,
     });
     if n == 0 || n > 100_000 {
@@ -140,14 +281,21 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
     if !(args.fps.is_finite() && args.fps > 0.0) {
         return Err(usage(format!("--fps {}: need a positive rate", args.fps)));
     }
-    if times.is_none() && orbit == 0.0 && n > 1 {
-        eprintln!("warning: no time steps and --orbit 0: every frame is the same picture");
+    if times.is_none() && orbit == 0.0 && args.key_views.len() < 2 && n > 1 {
+        eprintln!("warning: no time steps, no orbit and no second key view: every frame is the same picture");
+    }
+    if container == Container::Video {
+        check_ffmpeg(&args.ffmpeg, &args.output)?;
     }
 
     let chosen = args.look.resolve(&bundle)?;
     let method = chosen.method;
     let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
-    let base = args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
+    let path = if keyed { Some(key_path(&args.key_views, args.camera.size)?) } else { None };
+    let base = match &path {
+        Some(p) => p.at(0.0),
+        None => args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?,
+    };
     let request = |view| FrameRequest { cpu: args.renderer, cull: !args.no_cull, ..FrameRequest::new(view) };
     if args.gpu {
         if let Err(why) = GpuFrameRenderer::supports(method, &request(base.clone())) {
@@ -199,7 +347,11 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
             }
         }
         let t = Instant::now();
-        let view = if azimuth == 0.0 { base.clone() } else { base.orbit(azimuth, 0.0, 1.0) };
+        let view = match &path {
+            Some(p) => p.at(if n > 1 { i as f64 / (n - 1) as f64 } else { 0.0 }),
+            None if azimuth == 0.0 => base.clone(),
+            None => base.orbit(azimuth, 0.0, 1.0),
+        };
         let frame = animator.render(&look, &request(view))?;
         render_seconds += t.elapsed().as_secs_f64();
         if let FrameStats::Cpu(s) = &frame.stats {
@@ -229,7 +381,12 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
             rgba8.push(px);
         }
     }
-    write_apng_rgba8(&args.output, base.size[0], base.size[1], &rgba8, args.fps)?;
+    let [w, h] = base.size;
+    match container {
+        Container::Apng => write_apng_rgba8(&args.output, w, h, &rgba8, args.fps)?,
+        Container::Gif => write_gif_rgba8(&args.output, w, h, &rgba8, args.fps)?,
+        Container::Video => write_video(&args.ffmpeg, &args.output, base.size, args.fps, &rgba8)?,
+    }
     let total = start.elapsed().as_secs_f64();
     if args.json {
         let v = serde_json::json!({
@@ -237,6 +394,8 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
             "size": base.size,
             "fps": args.fps,
             "orbit_degrees": orbit,
+            "key_views": args.key_views.len(),
+            "container": container.id(),
             "time_range": times.map(|(a, b)| [a, b]),
             "method": method.id(),
             "renderer": if args.gpu { "gpu" } else { args.renderer.id() },
@@ -250,17 +409,34 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         eprintln!(
-            "{n} frames {}x{} ({method}, {}{}{}) in {total:.2} s ({:.3} s a frame) → {}",
+            "{n} frames {}x{} ({method}, {}{}{}{}) in {total:.2} s ({:.3} s a frame) → {}",
             base.size[0],
             base.size[1],
             if args.gpu { "gpu" } else { args.renderer.id() },
             if orbit != 0.0 { format!(", orbit {orbit}°") } else { String::new() },
+            if keyed { format!(", {} key views", args.key_views.len()) } else { String::new() },
             times.map_or(String::new(), |(a, b)| format!(", t = {a} to {b}")),
             render_seconds / n as f64,
             args.output.display()
         );
     }
     Ok(())
+}
+
+/// The path through the key view files; `size` (--size) resizes every key.
+fn key_path(files: &[PathBuf], size: Option<[u32; 2]>) -> Result<KeyPath> {
+    let mut keys = Vec::with_capacity(files.len());
+    for p in files {
+        let text = std::fs::read_to_string(p)
+            .with_context(|| format!("reading view {}", p.display()))
+            .kind(ExitKind::Input)?;
+        let mut v = ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?;
+        if let Some(s) = size {
+            v.size = s;
+        }
+        keys.push(v);
+    }
+    KeyPath::new(keys).map_err(|e| usage(format!("--key-views: {e}")))
 }
 
 fn write_frame(args: &AnimateArgs, i: u32, size: &[u32; 2], px: &[u8]) -> Result<()> {

@@ -323,3 +323,156 @@ fn animate_draws_each_time_as_render_does() {
         assert!(err.contains(want), "{extra:?}: {err}");
     }
 }
+
+/// The frames of a GIF, decoded to RGBA8, and their delays (hundredths of a second).
+fn gif_frames(path: &Path) -> Vec<(Vec<u8>, u16)> {
+    let mut opts = gif::DecodeOptions::new();
+    opts.set_color_output(gif::ColorOutput::RGBA);
+    let mut d = opts.read_info(std::fs::File::open(path).unwrap()).unwrap();
+    let mut out = vec![];
+    while let Some(f) = d.read_next_frame().unwrap() {
+        out.push((f.buffer.to_vec(), f.delay));
+    }
+    out
+}
+
+/// `animate --key-views`: the camera passes through every key (the first and
+/// last frames are `render --view` of the first and last key, pixel for
+/// pixel), frames between move smoothly; GIF output holds every frame at
+/// the asked rate; keys that disagree, an unknown extension and a key path
+/// with an orbit are usage errors.
+#[test]
+fn animate_moves_through_key_views_into_a_gif() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bf, tf) = (bluntfin(dir.path()), peaks_tf(dir.path()));
+    let (bs, ts) = (bf.to_str().unwrap(), tf.to_str().unwrap());
+    let meta = Bundle::read(&bf).unwrap().meta;
+    let framing = ViewSpec::framing(meta.stats.bounds_min, meta.stats.bounds_max, [48, 40]);
+    let keys: Vec<PathBuf> = [(30.0, 10.0, 1.0), (120.0, 40.0, 1.6), (200.0, -20.0, 0.8)]
+        .iter()
+        .enumerate()
+        .map(|(k, &(azimuth, elevation, zoom))| {
+            let p = dir.path().join(format!("key{k}.json"));
+            std::fs::write(&p, framing.orbit(azimuth, elevation, zoom).to_json()).unwrap();
+            p
+        })
+        .collect();
+    let key_list = keys.iter().map(|p| p.to_str().unwrap()).collect::<Vec<_>>().join(",");
+    let (gif_path, frames) = (dir.path().join("path.gif"), dir.path().join("frames"));
+    let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+        .args(["animate", bs, "--tf", ts, "--key-views", &key_list, "--frames", "5", "--fps", "20"])
+        .args(["--tonemap", "none", "--json", "-o", gif_path.to_str().unwrap(), "--frames-dir"])
+        .arg(&frames)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((v["frames"].as_u64(), v["key_views"].as_u64()), (Some(5), Some(3)), "{v}");
+    assert_eq!(v["container"], "gif");
+    let gif = gif_frames(&gif_path);
+    assert_eq!(gif.len(), 5);
+    assert!(gif.iter().all(|(px, delay)| px.len() == 48 * 40 * 4 && *delay == 5));
+    // Frames 0, 2 and 4 are the keys.
+    for (frame, key) in [(0, 0), (2, 1), (4, 2)] {
+        let png = dir.path().join(format!("key{key}.png"));
+        tetview(
+            &["render", bs, "--tf", ts, "--tonemap", "none", "--view", keys[key].to_str().unwrap()]
+                .into_iter()
+                .chain(["-o", png.to_str().unwrap()])
+                .collect::<Vec<_>>(),
+        );
+        let got = png_pixels(&frames.join(format!("frame_{frame:04}.png"))).0;
+        assert_eq!(got, png_pixels(&png).0, "frame {frame} against render --view key {key}");
+        // The GIF's 256 colours stay close to the frame's own.
+        let worst = gif[frame].0.iter().zip(&got).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+        assert!(worst <= 48, "frame {frame}: GIF colour off by {worst}");
+    }
+    // Frames between keys are neither key.
+    assert_ne!(png_pixels(&frames.join("frame_0001.png")).0, png_pixels(&frames.join("frame_0000.png")).0);
+
+    let mut parallel: ViewSpec = ViewSpec::from_json(&std::fs::read_to_string(&keys[1]).unwrap()).unwrap();
+    parallel.parallel = true;
+    let pk = dir.path().join("parallel.json");
+    std::fs::write(&pk, parallel.to_json()).unwrap();
+    let mixed = format!("{},{}", keys[0].display(), pk.display());
+    for (extra, out_name, want) in [
+        (vec!["--key-views", mixed.as_str()], "m.gif", "key view 1 is parallel"),
+        (vec!["--key-views", key_list.as_str()], "m.bmp", "the extension says what to write"),
+        (vec!["--key-views", key_list.as_str(), "--orbit", "90"], "m.gif", "cannot be used with"),
+    ] {
+        let o = dir.path().join(out_name);
+        let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+            .args(["animate", bs, "--tf", ts, "-o", o.to_str().unwrap()])
+            .args(&extra)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(err.contains(want), "{extra:?}: {err}");
+        assert!(!o.exists());
+    }
+}
+
+/// A video output goes through ffmpeg: raw RGBA frames on its input, the
+/// file renamed into place when it succeeds; no ffmpeg, or one that fails,
+/// is an output error (exit 5) naming the way out, and leaves no file.
+/// A stand-in ffmpeg (a shell script counting the bytes it is given) checks
+/// our side everywhere; a real one, where installed, encodes a playable file.
+#[cfg(unix)]
+#[test]
+fn animate_encodes_video_through_ffmpeg_or_says_why_not() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let (bf, tf) = (bluntfin(dir.path()), peaks_tf(dir.path()));
+    let (bs, ts) = (bf.to_str().unwrap(), tf.to_str().unwrap());
+    let script = |name: &str, body: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, format!("#!/bin/sh\nif [ \"$1\" = -version ]; then exit 0; fi\n{body}\n")).unwrap();
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o755)).unwrap();
+        p
+    };
+    // The last argument is the file to write.
+    let counting = script("ffmpeg-count", r#"for a; do out="$a"; done; wc -c | tr -d ' ' > "$out""#);
+    let failing = script("ffmpeg-fail", "cat > /dev/null; echo 'Unknown encoder' >&2; exit 1");
+    let videos = dir.path().join("videos");
+    std::fs::create_dir(&videos).unwrap();
+    let run = |ffmpeg: &str, out_name: &str| {
+        let o = videos.join(out_name);
+        let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
+            .args(["animate", bs, "--tf", ts, "--frames", "3", "--size", "33x20", "--ffmpeg", ffmpeg])
+            .args(["-o", o.to_str().unwrap()])
+            .output()
+            .unwrap();
+        (o, out)
+    };
+    let (o, out) = run(counting.to_str().unwrap(), "orbit.mp4");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(std::fs::read_to_string(&o).unwrap().trim(), (33 * 20 * 4 * 3).to_string());
+    // An ordinary output's mode, not the temporary file's 0600.
+    let probe = dir.path().join("probe");
+    std::fs::File::create(&probe).unwrap();
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode(&o), mode(&probe));
+
+    for (ffmpeg, name, want) in [
+        (dir.path().join("no-such-ffmpeg"), "a.webm", "install ffmpeg, point --ffmpeg at it"),
+        (failing, "b.mp4", "Unknown encoder"),
+    ] {
+        let (o, out) = run(ffmpeg.to_str().unwrap(), name);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(5), "{err}");
+        assert!(err.contains(want), "{err}");
+        assert!(!o.exists());
+    }
+    let left: Vec<_> = std::fs::read_dir(&videos).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, [std::ffi::OsString::from("orbit.mp4")], "temporary files left behind");
+
+    if Command::new("ffmpeg").arg("-version").output().is_ok_and(|o| o.status.success()) {
+        let (o, out) = run("ffmpeg", "real.mp4");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let bytes = std::fs::read(&o).unwrap();
+        assert_eq!(&bytes[4..8], b"ftyp", "an MP4 starts with its ftyp box");
+    } else {
+        eprintln!("note: no ffmpeg on PATH; the video path was checked with a stand-in only");
+    }
+}

@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use tet_bundle::{Bundle, BundleMeta, TimeSteps};
-use tet_delaunay::{triangulate_cloud, CloudMode, DelaunayOptions};
+use tet_delaunay::{tetrahedralize_cloud, CloudMode, DelaunayOptions};
 use tet_io::series::SeriesStep;
 use tet_io::ReadOptions;
 use tet_mesh::SourceMesh;
@@ -180,20 +180,25 @@ fn build(
 ) -> Result<Converted, ConvertError> {
     // A point cloud (points, no cells) is tetrahedralized first; from then
     // on it is a mesh like any other.
-    let mut cloud = if source.num_cells() == 0 && !source.points.is_empty() {
+    // Its tets go to the conversion as they are: no cell list to build and
+    // split again.
+    let (mut cloud, cloud_tets) = if source.num_cells() == 0 && !source.points.is_empty() {
         progress(Stage::TetrahedralizingPoints);
         let t = Instant::now();
         let dopts = DelaunayOptions { max_circumradius: req.max_circumradius };
         let drop_nan = req.convert.nan == NanPolicy::Drop;
-        let r = triangulate_cloud(&mut source, req.cloud_mode, &dopts, req.convert.merge_tolerance_rel, drop_nan)
-            .map_err(|source| ConvertError::Cloud { path: input.into(), source })?;
+        let (tets, r) =
+            tetrahedralize_cloud(&source, req.cloud_mode, &dopts, req.convert.merge_tolerance_rel, drop_nan)
+                .map_err(|source| ConvertError::Cloud { path: input.into(), source })?;
+        // Cell fields of a point cloud would not match the new cells.
+        source.cell_fields.clear();
         timings.push(("tetrahedralize_points", t.elapsed().as_secs_f64()));
-        Some(r)
+        (Some(r), Some(tets))
     } else {
         if req.max_circumradius.is_some() || req.cloud_mode == CloudMode::Layered {
             return Err(ConvertError::CloudOptions { path: input.into() });
         }
-        None
+        (None, None)
     };
     if cloud.is_some() && series.is_some() {
         return Err(ConvertError::CloudSeries { path: input.into() });
@@ -203,7 +208,7 @@ fn build(
     let mut step_times: Vec<(&'static str, f64)> = Vec::new();
     // A cloud's points were merged before its triangulation: not again.
     let merged_into = cloud.as_mut().map(|c| std::mem::take(&mut c.merged_into));
-    let (mesh, report) = tetrahedralize_merged(&source, &req.convert, merged_into, &mut |s| {
+    let mut on_step = |s| {
         let key = match s {
             Step::Merge => "merge",
             Step::Split => "split",
@@ -212,8 +217,12 @@ fn build(
         step_times.push((step_start.1, step_start.0.elapsed().as_secs_f64()));
         step_start = (Instant::now(), key);
         progress(Stage::Mesh(s))
-    })
-    .map_err(|source| ConvertError::Mesh { path: input.into(), source })?;
+    };
+    let converted = match cloud_tets {
+        Some(tets) => tet_mesh::tetrahedralize_tets(&source, &req.convert, merged_into, tets, &mut on_step),
+        None => tetrahedralize_merged(&source, &req.convert, merged_into, &mut on_step),
+    };
+    let (mesh, report) = converted.map_err(|source| ConvertError::Mesh { path: input.into(), source })?;
     step_times.push((step_start.1, step_start.0.elapsed().as_secs_f64()));
     timings.extend(step_times);
 

@@ -64,6 +64,34 @@ pub fn triangulate_cloud(
     merge_tolerance_rel: f64,
     skip_non_finite: bool,
 ) -> Result<CloudReport, DelaunayError> {
+    let (tets, report) = tetrahedralize_cloud(source, mode, opts, merge_tolerance_rel, skip_non_finite)?;
+    source.blocks = vec![Block::Unstructured(tet_cells(&tets))];
+    // Cell fields of a point cloud would not match the new cells.
+    source.cell_fields.clear();
+    Ok(report)
+}
+
+/// One tetra cell a tet, built in parallel.
+fn tet_cells(tets: &[[u32; 4]]) -> Cells {
+    use rayon::prelude::*;
+    Cells {
+        types: vec![CellType::Tetra; tets.len()],
+        offsets: (0..=tets.len()).into_par_iter().map(|i| 4 * i).collect(),
+        connectivity: tets.par_iter().flat_map_iter(|t| t.iter().copied()).collect(),
+    }
+}
+
+/// [`triangulate_cloud`] without the cell list: the tets over
+/// `source.points` (source ids) and the report, for a conversion that takes
+/// them as they are (`tet_mesh::tetrahedralize_tets`). `source` is not
+/// changed.
+pub fn tetrahedralize_cloud(
+    source: &SourceMesh,
+    mode: CloudMode,
+    opts: &DelaunayOptions,
+    merge_tolerance_rel: f64,
+    skip_non_finite: bool,
+) -> Result<(Vec<[u32; 4]>, CloudReport), DelaunayError> {
     if source.points.is_empty() {
         return Err(DelaunayError::NoPoints);
     }
@@ -167,18 +195,8 @@ pub fn triangulate_cloud(
         }
     };
     report.tets = tets.len();
-    let mut cells = Cells::new();
-    cells.types.reserve(tets.len());
-    cells.offsets.reserve(tets.len());
-    cells.connectivity.reserve(tets.len() * 4);
-    for t in &tets {
-        cells.push(CellType::Tetra, t);
-    }
-    source.blocks = vec![Block::Unstructured(cells)];
-    // Cell fields of a point cloud would not match the new cells.
-    source.cell_fields.clear();
     report.merged_into = rep;
-    Ok(report)
+    Ok((tets, report))
 }
 
 /// Groups points into xy columns (exact x and y), sorts each by z, and

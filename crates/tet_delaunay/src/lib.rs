@@ -8,6 +8,8 @@
 //!   boreholes, atmospheric columns): triangulates layer 0 in xy and joins
 //!   consecutive layers with prisms split into conforming tets, giving a
 //!   [`Layered`].
+//! - [`tetrahedralize_cloud`] — the same tets without the cell list, for a
+//!   conversion that takes tets as they are.
 //! - [`triangulate_cloud`] — a point cloud read from a file (a `SourceMesh`
 //!   without cells) given tet cells by either mode ([`CloudMode`]), ready for
 //!   the ordinary conversion.
@@ -62,7 +64,7 @@ mod sort;
 mod triangulation;
 
 pub use check::{check_delaunay, DelaunayViolation};
-pub use cloud::{triangulate_cloud, CloudMode, CloudReport};
+pub use cloud::{tetrahedralize_cloud, triangulate_cloud, CloudMode, CloudReport};
 pub use error::DelaunayError;
 pub use layers::{tetrahedralize_layers, Layered};
 pub use sort::SplitMix64;
@@ -70,8 +72,6 @@ pub use sort::SplitMix64;
 use predicates::orient;
 use triangulation::Triangulation;
 
-/// Inputs at least this large sort on a second thread.
-const PARALLEL_MIN: usize = 20_000;
 /// BRIO rounds at least this large are inserted in parallel.
 const PARALLEL_ROUND_MIN: usize = 50_000;
 
@@ -157,17 +157,10 @@ pub fn tetrahedralize_points(points: &[[f64; 3]], opts: &DelaunayOptions) -> Res
     if let Some(index) = points.iter().position(|p| p.iter().any(|c| c.abs() > MAX_COORDINATE)) {
         return Err(DelaunayError::CoordinateTooLarge { index, coords: points[index], limit: MAX_COORDINATE });
     }
-    // The duplicate merge and the Hilbert keys are independent: on large
-    // inputs they run on two threads.
-    let (merged_into, keys) = if points.len() >= PARALLEL_MIN {
-        std::thread::scope(|s| {
-            let keys = s.spawn(|| sort::hilbert_keys(points));
-            let merged = tet_mesh::merge::merge_duplicate_points(points, 0.0);
-            (merged, keys.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-        })
-    } else {
-        (tet_mesh::merge::merge_duplicate_points(points, 0.0), sort::hilbert_keys(points))
-    };
+    // Copies of a point share its Hilbert key: one parallel sort by key
+    // finds them.
+    let keys = sort::hilbert_keys(points);
+    let merged_into = sort::exact_duplicates(points, &keys);
     let unique: Vec<u32> = merged_into.iter().enumerate().filter(|&(i, &r)| r as usize == i).map(|(_, &r)| r).collect();
     let duplicates = points.len() - unique.len();
     let (order, round_ends) = sort::brio_order_keyed(&keys, unique, 0x7E7D_E1A0);

@@ -6,6 +6,7 @@
 //! first); Hilbert order within a round keeps consecutive points close, so
 //! the walk from the last inserted tet is short and memory stays warm.
 
+use rayon::prelude::*;
 pub use tet_mesh::SplitMix64;
 
 /// Grid resolution per axis: 2^48 cells is far finer than any point
@@ -60,12 +61,38 @@ pub fn hilbert_keys(points: &[[f64; 3]]) -> Vec<u64> {
     let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
     let scale = if extent > 0.0 { ((1u32 << BITS) - 1) as f64 / extent } else { 0.0 };
     points
-        .iter()
+        .par_iter()
+        .with_min_len(1 << 13)
         .map(|p| {
             let g = |a: usize| (((p[a] - lo[a]) * scale) as u32).min((1 << BITS) - 1);
             hilbert_key([g(0), g(1), g(2)])
         })
         .collect()
+}
+
+/// Maps every point to the first (smallest-index) point with the same
+/// coordinates, or to itself: what `tet_mesh::merge::merge_duplicate_points`
+/// gives with tolerance 0 (−0.0 equal to +0.0; coordinates must be finite),
+/// by a parallel sort instead of one thread's hash table. Identical points
+/// share a Hilbert key (`keys`, [`hilbert_keys`]), so ordering by key, then
+/// coordinates, then index puts each group of copies together, smallest
+/// index first; points that share a grid cell without being equal only
+/// cost a comparison of coordinates.
+pub fn exact_duplicates(points: &[[f64; 3]], keys: &[u64]) -> Vec<u32> {
+    let folded = |i: u32| points[i as usize].map(|c| (c + 0.0).to_bits());
+    let mut order: Vec<(u64, u32)> = keys.par_iter().enumerate().map(|(i, &k)| (k, i as u32)).collect();
+    order.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then_with(|| folded(a.1).cmp(&folded(b.1))).then(a.1.cmp(&b.1)));
+    let mut rep: Vec<u32> = (0..points.len() as u32).collect();
+    let mut first = 0;
+    for k in 1..order.len() {
+        let (a, b) = (order[first], order[k]);
+        if a.0 == b.0 && folded(a.1) == folded(b.1) {
+            rep[b.1 as usize] = a.1;
+        } else {
+            first = k;
+        }
+    }
+    rep
 }
 
 /// Returns `ids` reordered for insertion: shuffled (seeded), cut into rounds
@@ -129,6 +156,29 @@ mod tests {
         for w in cells.windows(2) {
             let d: u32 = (0..3).map(|a| w[0].1[a].abs_diff(w[1].1[a])).sum();
             assert_eq!(d, 1, "{:?} -> {:?}", w[0], w[1]);
+        }
+    }
+
+    /// The sort finds the copies the hash table finds: bit-identical
+    /// points (−0.0 as +0.0) in a cloud with many copies, many points in
+    /// one grid cell that are not copies, and a far outlier squeezing the
+    /// rest into few cells.
+    #[test]
+    fn exact_duplicates_equal_the_hash_merge() {
+        let mut rng = SplitMix64(3);
+        let mut pts: Vec<[f64; 3]> = (0..20_000).map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()]).collect();
+        for k in 0..3000 {
+            let src = pts[(rng.next_u64() % pts.len() as u64) as usize];
+            pts.push(if k % 7 == 0 { src.map(|c| if c == 0.0 { -0.0 } else { c }) } else { src });
+        }
+        pts.push([0.0, 0.5, 0.5]);
+        pts.push([-0.0, 0.5, 0.5]);
+        let mut clustered: Vec<[f64; 3]> =
+            (0..5000).map(|i| [1e-9 * (i % 50) as f64, 1e-9 * (i / 50 % 7) as f64, 0.0]).collect();
+        clustered.push([1e6, 1e6, 1e6]);
+        for p in [pts, clustered] {
+            let keys = hilbert_keys(&p);
+            assert_eq!(exact_duplicates(&p, &keys), tet_mesh::merge::merge_duplicate_points(&p, 0.0));
         }
     }
 

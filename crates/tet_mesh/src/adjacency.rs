@@ -143,26 +143,56 @@ pub fn adjacency_from_neighbors(points: &[[f64; 3]], tets: &[[u32; 4]], neighbor
     }
     // Each pair of neighbours names the other, and shares the face: the
     // three vertices of t's face stand in u's other three slots (t's four
-    // vertices distinct, so they fill those slots exactly). No sort: the
-    // cost is the two records of u, read once a face.
-    let consistent = (0..tets.len()).into_par_iter().all(|t| {
-        let tv = &tets[t];
-        let distinct = (0..4).all(|i| (i + 1..4).all(|j| tv[i] != tv[j]));
-        distinct
-            && (0..4).all(|f| {
+    // vertices distinct, so they fill those slots exactly). No sort, and
+    // each pair is read from one side: a link t → u with t < u is checked
+    // (u names t back through the same face), one with t > u is only
+    // counted. The checked links name distinct back links (two faces of t
+    // have different vertices; a slot of u names one tet), all among the
+    // counted ones, so equal counts leave no counted link unchecked.
+    let (consistent, up, down) = (0..tets.len())
+        .into_par_iter()
+        .map(|t| {
+            let tv = &tets[t];
+            let mut ok = (0..4).all(|i| (i + 1..4).all(|j| tv[i] != tv[j]));
+            let (mut up, mut down) = (0u64, 0u64);
+            for f in 0..4 {
                 let u = neighbors[t][f];
                 if u == NO_NEIGHBOR {
-                    return true;
+                    continue;
                 }
-                let (Some(back), Some(uv)) = (neighbors.get(u as usize), tets.get(u as usize)) else {
-                    return false;
-                };
-                match (0..4).find(|&g| back[g] == t as u32) {
-                    Some(g) => u as usize != t && (1..4).all(|k| (0..4).any(|j| j != g && uv[j] == tv[(f + k) % 4])),
-                    None => false,
+                if (u as usize) < t {
+                    down += 1;
+                    continue;
                 }
-            })
-    });
+                up += 1;
+                // Without branches on what u's records hold, so that their
+                // reads (cache misses: neighbours lie anywhere in memory)
+                // overlap. A u out of range reads tet 0 and fails.
+                let in_range = (u as usize) < tets.len();
+                let ui = if in_range { u as usize } else { 0 };
+                let (back, uv) = (neighbors[ui], tets[ui]);
+                let me = t as u32;
+                let names_me = (0..4).fold(0u32, |m, g| m | ((back[g] == me) as u32) << g);
+                let g = (names_me.trailing_zeros() & 3) as usize;
+                let face = [tv[(f + 1) % 4], tv[(f + 2) % 4], tv[(f + 3) % 4]];
+                let in_u = |x: u32| (uv[0] == x) | (uv[1] == x) | (uv[2] == x) | (uv[3] == x);
+                // The face's vertices in u, and u's vertex across the face
+                // (slot g) none of them: they fill u's other three slots
+                // (a u with a repeated vertex fails its own distinctness).
+                ok &= in_range
+                    & (names_me != 0)
+                    & (u as usize != t)
+                    & in_u(face[0])
+                    & in_u(face[1])
+                    & in_u(face[2])
+                    & (uv[g] != face[0])
+                    & (uv[g] != face[1])
+                    & (uv[g] != face[2]);
+            }
+            (ok, up, down)
+        })
+        .reduce(|| (true, 0, 0), |a, b| (a.0 && b.0, a.1 + b.1, a.2 + b.2));
+    let consistent = consistent && up == down;
     if !consistent {
         return None;
     }
@@ -277,6 +307,46 @@ mod from_neighbors_tests {
         let mut out_of_range = built.neighbors;
         out_of_range[0][0] = 99;
         assert!(adjacency_from_neighbors(&points, &tets, out_of_range).is_none());
+    }
+
+    /// Links checked from one side (the smaller tet) and counted from the
+    /// other: no corruption slips through. Random rewiring of a 5-split
+    /// grid — a link to another tet, two slots swapped, a symmetric pair
+    /// joined through faces they do not share, a link dropped — is refused
+    /// unless every link left is a true one (a face dropped on both sides
+    /// reads as boundary, which the source is trusted on).
+    #[test]
+    fn one_sided_check_refuses_every_corruption() {
+        let n = [5usize; 3];
+        let points = crate::split::structured_points(n, |p| p.map(|x| x as f64));
+        let tets = crate::split::structured_grid_tets(n.map(|k| k - 1), crate::SplitMode::Five);
+        let built = build_adjacency(&points, &tets).unwrap();
+        let m = tets.len() as u64;
+        let mut rng = crate::SplitMix64(5);
+        let mut pick = |k: u64| (rng.next_u64() % k) as usize;
+        for round in 0..3000 {
+            let mut nb = built.neighbors.clone();
+            let (t1, f1, t2, f2) = (pick(m), pick(4), pick(m), pick(4));
+            match round % 4 {
+                0 => nb[t1][f1] = t2 as u32,
+                1 => {
+                    let a = nb[t1][f1];
+                    nb[t1][f1] = nb[t2][f2];
+                    nb[t2][f2] = a;
+                }
+                2 => {
+                    nb[t1][f1] = t2 as u32;
+                    nb[t2][f2] = t1 as u32;
+                }
+                _ => nb[t1][f1] = NO_NEIGHBOR,
+            }
+            let truthful =
+                nb.iter().zip(&built.neighbors).all(|(a, b)| (0..4).all(|f| a[f] == NO_NEIGHBOR || a[f] == b[f]));
+            let both_sides = (0..tets.len())
+                .all(|t| (0..4).all(|f| nb[t][f] == NO_NEIGHBOR || nb[nb[t][f] as usize].contains(&(t as u32))));
+            let got = adjacency_from_neighbors(&points, &tets, nb.clone());
+            assert_eq!(got.is_some(), truthful && both_sides, "round {round}: {t1}.{f1} / {t2}.{f2}");
+        }
     }
 }
 

@@ -11,6 +11,7 @@ use crate::source::{Field, SourceMesh};
 use crate::split::{split_blocks, SplitMode};
 use rayon::prelude::*;
 use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
 /// What to do with non-finite scalars or coordinates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -190,15 +191,41 @@ pub fn tetrahedralize_merged(
     merged_into: Option<Vec<u32>>,
     progress: &mut dyn FnMut(Step),
 ) -> Result<(TetMesh, ConversionReport), MeshError> {
+    tetrahedralize_with(source, opts, merged_into, None, progress)
+}
+
+/// [`tetrahedralize_merged`] for tets an earlier step made over
+/// `source.points` (a point cloud's triangulation): `tets` are taken as the
+/// split of a source with one tet cell each, in their order (cell `i` is
+/// tet `i`), without building that cell list and splitting it again;
+/// `source`'s own cells are ignored. Then validated, given their scalar and
+/// compacted as any split. A vertex id out of range is an error.
+pub fn tetrahedralize_tets(
+    source: &SourceMesh,
+    opts: &ConvertOptions,
+    merged_into: Option<Vec<u32>>,
+    tets: Vec<[u32; 4]>,
+    progress: &mut dyn FnMut(Step),
+) -> Result<(TetMesh, ConversionReport), MeshError> {
+    tetrahedralize_with(source, opts, merged_into, Some(tets), progress)
+}
+
+fn tetrahedralize_with(
+    source: &SourceMesh,
+    opts: &ConvertOptions,
+    merged_into: Option<Vec<u32>>,
+    given: Option<Vec<[u32; 4]>>,
+    progress: &mut dyn FnMut(Step),
+) -> Result<(TetMesh, ConversionReport), MeshError> {
     source.check().map_err(MeshError::BadSource)?;
-    if source.num_cells() == 0 {
+    let source_cells = given.as_ref().map_or(source.num_cells(), Vec::len);
+    if source_cells == 0 {
         return Err(MeshError::NoCells { points: source.points.len() });
     }
     if source.points.len() >= u32::MAX as usize {
         return Err(MeshError::TooLarge { what: "points", count: source.points.len(), limit: u32::MAX as usize - 1 });
     }
-    let mut report =
-        ConversionReport { source_points: source.points.len(), source_cells: source.num_cells(), ..Default::default() };
+    let mut report = ConversionReport { source_points: source.points.len(), source_cells, ..Default::default() };
     report.findings.extend(source.notes.iter().cloned().map(Finding::ReaderNote));
     let scalar = select_scalar(source, opts.scalar.as_deref())?;
     if scalar.location == ScalarLocation::Constant {
@@ -238,7 +265,28 @@ pub fn tetrahedralize_merged(
     // 2. Split cells on merged ids (so the min-id rule conforms across
     //    duplicates) and drop IBLANKed cells.
     progress(Step::Split);
-    let (split, blanked) = split_blocks(&source.blocks, opts.split, &rep, source.point_blanked.as_deref());
+    let (split, blanked) = match given {
+        None => split_blocks(&source.blocks, opts.split, &rep, source.point_blanked.as_deref()),
+        Some(tets) => {
+            let n_points = source.points.len();
+            if let Some(t) = tets.par_iter().position_any(|t| t.iter().any(|&v| v as usize >= n_points)) {
+                return Err(MeshError::BadSource(format!(
+                    "tet {t} names vertex {} of {n_points} points",
+                    tets[t].iter().copied().max().unwrap_or(0)
+                )));
+            }
+            // Merged copies are renamed to their representative, as the
+            // split does (a triangulation uses representatives already).
+            let tets = if rep.iter().enumerate().all(|(i, &r)| r as usize == i) {
+                tets
+            } else {
+                tets.par_iter().map(|t| t.map(|v| rep[v as usize])).collect()
+            };
+            let source_cell = (0..tets.len() as u32).into_par_iter().collect();
+            let blanked = 0;
+            (crate::split::SplitCells { tets, source_cell }, blanked)
+        }
+    };
     report.split_tets = split.tets.len();
 
     // Non-finite input is an error (naming the source index) unless
@@ -388,29 +436,36 @@ pub fn tetrahedralize_merged(
         }
     };
 
-    // 5. Compact: keep only used points, in source order.
-    let mut new_index = vec![u32::MAX; n_src];
-    for t in &tets {
+    // 5. Compact: keep only used points, in source order. The marks are
+    //    set from all threads (the same value, so the order of the stores
+    //    does not matter); where every point is used (a Delaunay cloud
+    //    without copies) the numbering is the identity and the tets stay.
+    let used: Vec<AtomicBool> = (0..n_src).map(|_| AtomicBool::new(false)).collect();
+    tets.par_iter().with_min_len(1 << 14).for_each(|t| {
         for &v in t {
-            new_index[v as usize] = 0;
+            used[v as usize].store(true, Relaxed);
         }
-    }
+    });
+    let mut new_index = vec![u32::MAX; n_src];
     let mut kept: Vec<usize> = Vec::new();
     for (i, slot) in new_index.iter_mut().enumerate() {
-        if *slot == 0 {
+        if used[i].load(Relaxed) {
             *slot = kept.len() as u32;
             kept.push(i);
         }
     }
+    drop(used);
     let unused = n_src - kept.len() - merged;
     if unused > 0 {
         report.findings.push(Finding::RemovedUnusedPoints { count: unused });
     }
-    tets.par_iter_mut().for_each(|t| {
-        for v in t.iter_mut() {
-            *v = new_index[*v as usize];
-        }
-    });
+    if kept.len() < n_src {
+        tets.par_iter_mut().for_each(|t| {
+            for v in t.iter_mut() {
+                *v = new_index[*v as usize];
+            }
+        });
+    }
     let points: Vec<[f64; 3]> = kept.iter().map(|&i| source.points[i]).collect();
     let scalar_values: Vec<f64> = kept.iter().map(|&i| point_scalar[i]).collect();
     let point_fields = if opts.keep_point_fields {

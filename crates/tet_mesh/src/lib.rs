@@ -48,8 +48,8 @@ pub mod stats;
 
 pub use adjacency::{adjacency_from_neighbors, build_adjacency, check_adjacency, Adjacency, FACE_OUTWARD, NO_NEIGHBOR};
 pub use convert::{
-    check_tet_mesh, tetrahedralize, tetrahedralize_merged, ConversionReport, ConvertOptions, Finding, NanPolicy, Step,
-    TetMesh,
+    check_tet_mesh, tetrahedralize, tetrahedralize_merged, tetrahedralize_tets, ConversionReport, ConvertOptions,
+    Finding, NanPolicy, Step, TetMesh,
 };
 pub use error::MeshError;
 pub use polyhedron::PolyhedronSplitter;

@@ -83,9 +83,26 @@ fn median_of_bin(mut in_bin: Vec<f64>, n: usize, below: u64) -> f64 {
 const SAMPLED_MIN: usize = 1 << 15;
 const SAMPLE_GROUPS: usize = 1 << 14;
 
-/// Few, large chunks: each fold allocates its 2 MiB histograms.
-fn fold_chunk(n_groups: usize) -> usize {
-    n_groups.div_ceil(rayon::current_num_threads() * 2).max(1 << 14)
+/// Few, large folds: each allocates its 2 MiB histograms.
+fn fold_min_chunks(n_chunks: usize) -> usize {
+    n_chunks.div_ceil(rayon::current_num_threads() * 2).max(1)
+}
+
+/// Groups a pass takes in one piece. The piece sums are added in piece
+/// order, so the sum is the same number whatever the thread count or how
+/// the work was split between threads (rayon's folds split as threads
+/// steal work, and a sum added up in fold order differed between runs).
+const SUM_CHUNK: usize = 1 << 14;
+
+/// The groups of piece `c`.
+fn piece(c: usize, n_groups: usize) -> std::ops::Range<usize> {
+    c * SUM_CHUNK..((c + 1) * SUM_CHUNK).min(n_groups)
+}
+
+/// Piece sums `(piece, sum)` in any order, added in piece order.
+fn sum_in_piece_order(mut parts: Vec<(usize, f64)>) -> f64 {
+    parts.sort_unstable_by_key(|p| p.0);
+    parts.iter().fold(0.0, |acc, p| acc + p.1)
 }
 
 impl Spread {
@@ -156,25 +173,36 @@ impl Spread {
         // edge lengths take a few values); those strictly inside are kept,
         // within a budget shared by all folds: ties inside the bracket, or
         // a sample far from the data, send the input to the histograms.
-        let budget = AtomicUsize::new((n_a + n_b) / 16 + 1024);
+        // Folds claim room from the budget in blocks, not a value at a
+        // time (one shared counter per kept value made the threads take
+        // turns on its cache line); room a fold claimed and did not use is
+        // lost (at most a block a piece, half the budget in all), which can
+        // only send an input to the histograms early.
+        let n_chunks = n_groups.div_ceil(SUM_CHUNK);
+        let total_budget = (n_a + n_b) / 16 + 1024;
+        let budget = AtomicUsize::new(total_budget);
+        let claim = (total_budget / (2 * n_chunks)).clamp(1, 1 << 12);
         struct Pass {
             min: [f64; 2],
             max: [f64; 2],
-            sum: f64,
+            sums: Vec<(usize, f64)>,
             below: [u64; 2],
             at_lo: [u64; 2],
             at_hi: [u64; 2],
             inside: [Vec<f64>; 2],
+            /// Room claimed from the budget and not yet used.
+            room: usize,
             over: bool,
         }
         let new = || Pass {
             min: [f64::INFINITY; 2],
             max: [f64::NEG_INFINITY; 2],
-            sum: 0.0,
+            sums: Vec::new(),
             below: [0; 2],
             at_lo: [0; 2],
             at_hi: [0; 2],
             inside: [Vec::new(), Vec::new()],
+            room: 0,
             over: false,
         };
         let take = |p: &mut Pass, q: usize, v: f64, lo: f64, hi: f64| {
@@ -185,27 +213,35 @@ impl Spread {
                 (Ordering::Equal, _) => p.at_lo[q] += 1,
                 (_, Ordering::Equal) => p.at_hi[q] += 1,
                 (_, Ordering::Less) => {
-                    if p.over || budget.fetch_update(Relaxed, Relaxed, |b| b.checked_sub(1)).is_err() {
-                        p.over = true;
-                    } else {
+                    if p.room == 0 && !p.over {
+                        match budget.fetch_update(Relaxed, Relaxed, |b| (b > 0).then(|| b - b.min(claim))) {
+                            Ok(b) => p.room = b.min(claim),
+                            Err(_) => p.over = true,
+                        }
+                    }
+                    if !p.over {
+                        p.room -= 1;
                         p.inside[q].push(v);
                     }
                 }
                 _ => {}
             }
         };
-        let pass = (0..n_groups)
+        let pass = (0..n_chunks)
             .into_par_iter()
-            .with_min_len(1 << 14)
-            .fold(new, |mut p, g| {
-                let (va, vb) = group(g);
-                for v in va {
-                    take(&mut p, 0, v, lo_a, hi_a);
-                    p.sum += v;
+            .fold(new, |mut p, c| {
+                let mut sum = 0.0;
+                for g in piece(c, n_groups) {
+                    let (va, vb) = group(g);
+                    for v in va {
+                        take(&mut p, 0, v, lo_a, hi_a);
+                        sum += v;
+                    }
+                    for v in vb {
+                        take(&mut p, 1, v, lo_b, hi_b);
+                    }
                 }
-                for v in vb {
-                    take(&mut p, 1, v, lo_b, hi_b);
-                }
+                p.sums.push((c, sum));
                 p
             })
             .reduce(new, |mut x, y| {
@@ -217,7 +253,7 @@ impl Spread {
                     x.at_hi[q] += y.at_hi[q];
                     x.inside[q].extend_from_slice(&y.inside[q]);
                 }
-                x.sum += y.sum;
+                x.sums.extend_from_slice(&y.sums);
                 x.over |= y.over;
                 x
             });
@@ -246,7 +282,7 @@ impl Spread {
         } else {
             Spread::default()
         };
-        let sum = pass.sum;
+        let sum = sum_in_piece_order(std::mem::take(&mut pass.sums));
         Some((a, b, sum))
     }
 
@@ -258,25 +294,34 @@ impl Spread {
         group: &(impl Fn(usize) -> ([f64; K], [f64; L]) + Sync),
     ) -> (Spread, Spread, f64) {
         let (n_a, n_b) = (n_groups * K, n_groups * L);
-        let (acc_a, acc_b, sum) = (0..n_groups)
+        let n_chunks = n_groups.div_ceil(SUM_CHUNK);
+        let (acc_a, acc_b, sums) = (0..n_chunks)
             .into_par_iter()
-            .with_min_len(fold_chunk(n_groups))
+            .with_min_len(fold_min_chunks(n_chunks))
             .fold(
-                || (Acc::new(), Acc::new(), 0.0),
-                |(mut a, mut b, mut sum), g| {
-                    let (va, vb) = group(g);
-                    for v in va {
-                        a.add(v);
-                        sum += v;
+                || (Acc::new(), Acc::new(), Vec::new()),
+                |(mut a, mut b, mut sums), c| {
+                    let mut sum = 0.0;
+                    for g in piece(c, n_groups) {
+                        let (va, vb) = group(g);
+                        for v in va {
+                            a.add(v);
+                            sum += v;
+                        }
+                        for v in vb {
+                            b.add(v);
+                        }
                     }
-                    for v in vb {
-                        b.add(v);
-                    }
-                    (a, b, sum)
+                    sums.push((c, sum));
+                    (a, b, sums)
                 },
             )
-            .reduce_with(|x, y| (x.0.merge(y.0), x.1.merge(y.1), x.2 + y.2))
+            .reduce_with(|mut x, y| {
+                x.2.extend_from_slice(&y.2);
+                (x.0.merge(y.0), x.1.merge(y.1), x.2)
+            })
             .expect("n_groups > 0");
+        let sum = sum_in_piece_order(sums);
         let (bin_a, below_a) = acc_a.median_bin(n_a);
         let (bin_b, below_b) = acc_b.median_bin(n_b);
         let in_bin = |v: f64, bin: u64| order_key(v) >> KEY_SHIFT == bin;
@@ -343,12 +388,16 @@ pub fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 /// Computes [`MeshStats`]; volumes and lengths in the mesh's units.
 pub fn mesh_stats(points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> MeshStats {
     let (lo, hi) = bounds(points);
-    // Volume and the six edge lengths of each tet from one gather of its
-    // vertices, twice (histograms, then the medians' bins).
-    let (tet_volume, edge_length, total_volume) = Spread::of_two_groups(tets.len(), |t| {
+    // Volume and the six squared edge lengths of each tet from one gather
+    // of its vertices. The square root is monotone and correctly rounded,
+    // so the order statistics of the lengths are the roots of those of the
+    // squares, bit for bit: six roots a tet saved for three.
+    let (tet_volume, edge_length2, total_volume) = Spread::of_two_groups(tets.len(), |t| {
         let p = tets[t].map(|v| &points[v as usize]);
-        ([signed_tet_volume(p[0], p[1], p[2], p[3])], EDGES.map(|(a, b)| dist2(p[a], p[b]).sqrt()))
+        ([signed_tet_volume(p[0], p[1], p[2], p[3])], EDGES.map(|(a, b)| dist2(p[a], p[b])))
     });
+    let edge_length =
+        Spread { min: edge_length2.min.sqrt(), median: edge_length2.median.sqrt(), max: edge_length2.max.sqrt() };
     MeshStats {
         bounds_min: lo,
         bounds_max: hi,
@@ -444,5 +493,41 @@ mod tests {
         assert!((s.max_cell_diameter - 2f64.sqrt()).abs() < 1e-15);
         assert_eq!(s.edge_length.min, 1.0);
         assert_eq!((s.scalar_min, s.scalar_max), (1.0, 4.0));
+    }
+
+    /// A jittered 5-split grid big enough for the one-pass bracket: the
+    /// edge statistics equal those of the sorted lengths bit for bit (the
+    /// roots of the squares' order statistics), and every figure, the
+    /// volume sum included, is the same in pools of 1, 2 and 3 threads.
+    #[test]
+    fn mesh_stats_are_exact_and_do_not_depend_on_the_thread_count() {
+        let n = [26usize; 3];
+        let mut rng = crate::SplitMix64(11);
+        let points = crate::split::structured_points(n, |p| p.map(|x| x as f64 + 0.3 * rng.next_f64()));
+        let mesh = crate::split::structured_grid_tets(n.map(|k| k - 1), crate::SplitMode::Five);
+        assert!(mesh.len() >= SAMPLED_MIN, "{} tets take the histogram path only", mesh.len());
+        let scalar: Vec<f64> = points.iter().map(|p| p[0] * p[1]).collect();
+        let in_pool = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| mesh_stats(&points, &mesh, &scalar))
+        };
+        let one = in_pool(1);
+        assert_eq!(one, in_pool(2));
+        assert_eq!(one, in_pool(3));
+        let mut lengths: Vec<f64> = mesh
+            .iter()
+            .flat_map(|t| EDGES.map(|(a, b)| dist2(&points[t[a] as usize], &points[t[b] as usize]).sqrt()))
+            .collect();
+        lengths.sort_by(f64::total_cmp);
+        let m = lengths.len();
+        assert_eq!(one.edge_length, Spread { min: lengths[0], median: lengths[m / 2], max: lengths[m - 1] });
+        assert_eq!(one.max_cell_diameter, lengths[m - 1]);
+        // The one-pass and histogram forms agree, the sum included.
+        let group = |t: usize| {
+            let p = mesh[t].map(|v| &points[v as usize]);
+            ([signed_tet_volume(p[0], p[1], p[2], p[3])], EDGES.map(|(a, b)| dist2(p[a], p[b])))
+        };
+        let hist = Spread::by_histograms(mesh.len(), &group);
+        assert_eq!(Spread::bracketed(mesh.len(), &group, SAMPLE_GROUPS), Some(hist));
     }
 }

@@ -25,16 +25,8 @@ use std::path::Path;
 use std::sync::Arc;
 use tet_bundle::Bundle;
 use tet_preint::{load_shader, LutFile};
+use tet_render::pipeline::process_cpu_seconds;
 use tet_render::{RasterOptions, Renderer, Scene, TfCuller, ViewSpec};
-
-/// User + system CPU seconds of this process, all threads (Linux; 0 elsewhere).
-fn process_cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
-    (ticks(11) + ticks(12)) / 100.0
-}
 
 /// A shader whose every segment is the same faint grey: no lookup cost.
 struct FreeShader(tet_preint::Method);

@@ -144,6 +144,19 @@ impl RenderStats {
     }
 }
 
+/// User + system CPU seconds of this process, all threads, from
+/// `/proc/self/stat` (Linux; 0 elsewhere): set against wall time, how many
+/// cores a frame kept busy.
+pub fn process_cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    // Fields after the parenthesised command name; utime and stime are the
+    // 14th and 15th, in clock ticks (100 a second).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
+}
+
 /// A scene with its cached per-view and per-TF state.
 pub struct Renderer {
     scene: Scene,

@@ -37,6 +37,21 @@ fn max_diff(a: tet_preint::Rgba, b: tet_preint::Rgba) -> f64 {
     (0..4).map(|k| (a.to_array()[k] - b.to_array()[k]).abs()).fold(0.0, f64::max)
 }
 
+/// The largest channel error of `with` and of `without` (biv-exact on `tf`
+/// with and without its tables) against the adaptive reference, over 400
+/// random segments from `seed`.
+fn errors_with_and_without(tf: &TransferFunction, with: &BivExact, without: &BivExact, seed: u64) -> (f64, f64) {
+    let mut next = lcg(seed);
+    let (mut e_with, mut e_without) = (0.0f64, 0.0f64);
+    for _ in 0..400 {
+        let seg = random_seg(&mut next);
+        let r = reference_segment(tf, &seg, 1e-12);
+        e_with = e_with.max(max_diff(with.integrate(&seg), r));
+        e_without = e_without.max(max_diff(without.integrate(&seg), r));
+    }
+    (e_with, e_without)
+}
+
 #[test]
 fn json_round_trip_and_old_files_stay_valid() {
     let tf = full();
@@ -319,14 +334,7 @@ fn gauss_erf_table_matches_quadrature_and_reference() {
     let with = BivExact::new(tf.clone());
     assert!(with.gauss_table().is_some());
     let without = BivExact::with_gauss_table(tf.clone(), None);
-    let mut next = lcg(7);
-    let (mut e_with, mut e_without) = (0.0f64, 0.0f64);
-    for _ in 0..400 {
-        let seg = random_seg(&mut next);
-        let r = reference_segment(&tf, &seg, 1e-12);
-        e_with = e_with.max(max_diff(with.integrate(&seg), r));
-        e_without = e_without.max(max_diff(without.integrate(&seg), r));
-    }
+    let (e_with, e_without) = errors_with_and_without(&tf, &with, &without, 7);
     println!("biv-exact vs reference, Gaussian emission-only: table {e_with:.2e}, quadrature {e_without:.2e}");
     assert!(e_with < 3e-7 && e_without < 1e-12, "{e_with:e} {e_without:e}");
 }
@@ -369,14 +377,7 @@ fn band_tables_match_quadrature_and_reference() {
             BandKind::Sine => with.tables().sine.is_some(),
         });
         let without = BivExact::with_tables(tf.clone(), BivTables::default());
-        let mut next = lcg(8);
-        let (mut e_with, mut e_without) = (0.0f64, 0.0f64);
-        for _ in 0..400 {
-            let seg = random_seg(&mut next);
-            let r = reference_segment(&tf, &seg, 1e-12);
-            e_with = e_with.max(max_diff(with.integrate(&seg), r));
-            e_without = e_without.max(max_diff(without.integrate(&seg), r));
-        }
+        let (e_with, e_without) = errors_with_and_without(&tf, &with, &without, 8);
         println!("biv-exact vs reference, {kind:?} emission-only: table {e_with:.2e}, quadrature {e_without:.2e}");
         assert!(e_with < seg_bound && e_without < 1e-10, "{kind:?} {e_with:e} {e_without:e}");
     }

@@ -1,26 +1,16 @@
 //! Property tests: for random transfer functions, table3d's nodes and the
 //! partial method stay within tolerance of `exact`; lookups never give NaN.
+mod common;
+
+use common::arb_tf_nodes;
 use proptest::prelude::*;
 use std::sync::Arc;
 use tet_preint::table3d::{Build3d, Table3dParams};
 use tet_preint::*;
 
 fn arb_tf() -> impl Strategy<Value = TransferFunction> {
-    (
-        prop::collection::vec((0.0f64..1.0, 0.0f64..8.0), 1..6),
-        prop::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0), 1..5),
-        prop::bool::ANY,
-    )
-        .prop_map(|(mut op, mut col, independent)| {
-            op.sort_by(|a, b| a.0.total_cmp(&b.0));
-            op.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
-            col.sort_by(|a, b| a.0.total_cmp(&b.0));
-            col.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
-            let opacity = op.into_iter().map(|(x, a)| OpacityNode { x, a }).collect();
-            let color = col.into_iter().map(|(x, r, g, b)| ColorNode { x, rgb: [r, g, b] }).collect();
-            let e = if independent { Emission::Independent } else { Emission::Density };
-            TransferFunction::new(color, opacity, 1.0, e, false).unwrap()
-        })
+    arb_tf_nodes(8.0, 1..6, 1..5)
+        .prop_map(|(color, opacity, e)| TransferFunction::new(color, opacity, 1.0, e, false).unwrap())
 }
 
 proptest! {

@@ -568,6 +568,24 @@ impl PolyTable {
         }
     }
 
+    /// This table's dimensions, range, emission and colour bound with other
+    /// ρ̂, coefficients and α table, checked as [`PolyTable::from_parts`]
+    /// checks them (e.g. the same values rounded to another precision).
+    pub fn with_values(&self, rho: Vec<f32>, coef: Vec<f32>, alpha: AlphaTable) -> Result<Self, PolyError> {
+        PolyTable::from_parts(
+            self.degree(),
+            self.res(),
+            self.band(),
+            self.s_range(),
+            self.l_max(),
+            self.emission(),
+            self.max_color(),
+            rho,
+            coef,
+            alpha,
+        )
+    }
+
     /// Rebuilds a table from stored parts (see the type's storage layout);
     /// checks every length against the dimensions and every value for NaN.
     #[allow(clippy::too_many_arguments)]

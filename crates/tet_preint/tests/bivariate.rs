@@ -37,6 +37,12 @@ fn max_diff(a: tet_preint::Rgba, b: tet_preint::Rgba) -> f64 {
     (0..4).map(|k| (a.to_array()[k] - b.to_array()[k]).abs()).fold(0.0, f64::max)
 }
 
+/// tf_ramp.json (no widgets) under density, then independent emission.
+fn ramp_under_both_emissions() -> [TransferFunction; 2] {
+    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
+    [Emission::Density, Emission::Independent].map(|e| tf.clone().with_emission(e))
+}
+
 /// The largest channel error of `with` and of `without` (biv-exact on `tf`
 /// with and without its tables) against the adaptive reference, over 400
 /// random segments from `seed`.
@@ -109,10 +115,8 @@ fn json_errors_name_the_widget_and_field() {
 
 #[test]
 fn no_widgets_is_the_1d_exact_integrator() {
-    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
     let mut next = lcg(1);
-    for emission in [Emission::Density, Emission::Independent] {
-        let tf = tf.clone().with_emission(emission);
+    for tf in ramp_under_both_emissions() {
         let biv = BivExact::new(tf.clone());
         for _ in 0..500 {
             let seg = random_seg(&mut next);
@@ -124,14 +128,12 @@ fn no_widgets_is_the_1d_exact_integrator() {
 
 #[test]
 fn reference_agrees_with_exact_in_1d() {
-    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
     let mut next = lcg(2);
-    for emission in [Emission::Density, Emission::Independent] {
-        let tf = tf.clone().with_emission(emission);
+    for tf in ramp_under_both_emissions() {
         for _ in 0..200 {
             let seg = random_seg(&mut next);
             let d = max_diff(reference_segment(&tf, &seg, 1e-12), integrate_segment(&tf, seg.sf, seg.sb, seg.len));
-            assert!(d < 1e-10, "{emission:?} {seg:?}: {d}");
+            assert!(d < 1e-10, "{:?} {seg:?}: {d}", tf.emission());
         }
     }
 }

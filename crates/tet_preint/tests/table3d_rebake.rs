@@ -3,7 +3,6 @@
 //! when the scalar axis stays.
 mod common;
 
-use common::arb_tf_nodes;
 use proptest::prelude::*;
 use tet_preint::table3d::{Build3d, FullRebake, ScalarAxis, Table3dParams};
 use tet_preint::*;
@@ -161,9 +160,9 @@ fn moved_added_removed_nodes_and_global_changes() {
     assert_eq!(t.storage(), Table3d::build(&value_edit, &domain(), &p).unwrap().storage());
 }
 
+/// The property tests' TFs: opacity up to 6, unit distance 0.7.
 fn arb_tf() -> impl Strategy<Value = TransferFunction> {
-    arb_tf_nodes(6.0, 1..7, 1..6)
-        .prop_map(|(color, opacity, e)| TransferFunction::new(color, opacity, 0.7, e, false).unwrap())
+    common::arb_tf(6.0, 1..7, 1..6, 0.7)
 }
 
 proptest! {

@@ -159,13 +159,11 @@ fn bench(c: &mut Criterion) {
                 .min_by(|a, b| a.0.total_seconds.total_cmp(&b.0.total_seconds))
                 .unwrap();
             eprintln!(
-                "{name} {method}: warm best of 3 {:.3} s (bin {:.3}, raster {:.3}), {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+                "{name} {method}: warm best of 3 {:.3} s (bin {:.3}, raster {:.3}), {}",
                 best.total_seconds,
                 best.project_seconds,
                 best.raster_seconds,
-                best.tets_per_second() / 1e6,
-                cpu,
-                cpu * 1e9 / best.fragments.max(1) as f64
+                best.throughput_summary(cpu)
             );
             // Warm frames: the view is unchanged, so only binning and raster run.
             g.bench_function(BenchmarkId::new(format!("{method}_cached_order"), name), |b| {

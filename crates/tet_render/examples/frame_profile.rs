@@ -105,7 +105,7 @@ fn main() {
         }
         let cpu = process_cpu_seconds() - c0;
         println!(
-            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {}",
             st.renderer,
             st.total_seconds,
             st.view_seconds,
@@ -122,9 +122,7 @@ fn main() {
             st.walk_terminated,
             st.walk_exact_tests,
             st.setups,
-            st.tets_per_second() / 1e6,
-            cpu,
-            cpu * 1e9 / st.fragments.max(1) as f64
+            st.throughput_summary(cpu)
         );
         if f == 0 {
             println!(

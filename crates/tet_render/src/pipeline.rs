@@ -142,6 +142,19 @@ impl RenderStats {
             0.0
         }
     }
+
+    /// "T M tets/s, cpu C s = N ns/fragment", as the frame profiles print
+    /// it: throughput, and `cpu_seconds` of process CPU time spent on the
+    /// frame ([`process_cpu_seconds`] before and after) in all and per
+    /// fragment.
+    pub fn throughput_summary(&self, cpu_seconds: f64) -> String {
+        format!(
+            "{:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            self.tets_per_second() / 1e6,
+            cpu_seconds,
+            cpu_seconds * 1e9 / self.fragments.max(1) as f64
+        )
+    }
 }
 
 /// User + system CPU seconds of this process, all threads, from

@@ -32,14 +32,21 @@ fn sample_bundle() -> Bundle {
     Bundle::new(mesh, adj, meta)
 }
 
+/// `b` written to `name` in a fresh directory and read back: the
+/// directory (kept while it is held), the file and what it reads as.
+fn written_and_read_back(b: &Bundle, name: &str) -> (tempfile::TempDir, std::path::PathBuf, Bundle) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    b.write(&path).unwrap();
+    let back = Bundle::read(&path).unwrap();
+    (dir, path, back)
+}
+
 #[test]
 fn write_then_read_gives_the_same_bundle() {
     let b = sample_bundle();
     assert_eq!(b.mesh.tets.len(), 8 * 5);
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("s.tetb");
-    b.write(&path).unwrap();
-    let back = Bundle::read(&path).unwrap();
+    let (dir, _path, back) = written_and_read_back(&b, "s.tetb");
     assert_eq!(back, b);
     // Atomic write leaves no temporary files behind.
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
@@ -124,10 +131,7 @@ fn analyzed_bundle() -> Bundle {
 #[test]
 fn analysis_sections_round_trip_and_are_optional() {
     let b = analyzed_bundle();
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("a.tetb");
-    b.write(&path).unwrap();
-    let back = Bundle::read(&path).unwrap();
+    let (_dir, path, back) = written_and_read_back(&b, "a.tetb");
     assert_eq!(back, b);
     let a = back.analysis.as_ref().unwrap();
     assert_eq!(a.gradients.as_ref().unwrap().per_point.len(), b.mesh.points.len());
@@ -176,10 +180,7 @@ fn series_bundle() -> Bundle {
 #[test]
 fn time_steps_round_trip_and_interpolate() {
     let b = series_bundle();
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("t.tetb");
-    b.write(&path).unwrap();
-    let back = Bundle::read(&path).unwrap();
+    let (_dir, _path, back) = written_and_read_back(&b, "t.tetb");
     assert_eq!(back, b);
     let st = back.steps.as_ref().unwrap();
     assert_eq!((st.len(), st.times(), st.source(2)), (3, &[0.5, 1.0, 3.0][..], "c.vtu"));

@@ -7,7 +7,10 @@
 
 mod common;
 
-use common::{assert_close_images, cpu_image_and_order, cpu_pt_renderer, gpu, gpu_with_scene, grid, tf, Mesh};
+use common::{
+    assert_close_images, cpu_image_and_order, cpu_pt_renderer, gpu, gpu_and_cpu_pt_images, gpu_with_scene, grid, tf,
+    Mesh,
+};
 use std::sync::Arc;
 use tet_gpu::{FrameOptions, GpuContext, GpuCull, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{
@@ -174,9 +177,8 @@ fn methods_match_the_cpu_pt_renderer() {
         let cam = Camera::new(&spec).unwrap();
         cpu.set_view(&spec).unwrap();
         for (name, gpu_shader, cpu_shader) in &shaders {
-            cpu.set_shader(cpu_shader.clone());
-            let (want, order) = cpu_image_and_order(&mut cpu);
-            let got = renderer.render(&ctx, &scene, &cam, &order, gpu_shader).unwrap().image;
+            let (got, want, order) =
+                gpu_and_cpu_pt_images(&ctx, &renderer, &scene, &cam, &mut cpu, (gpu_shader, cpu_shader));
             assert_close_images(&format!("grid 6³×5 {name} vs CPU PT, {view}"), &got, &want);
             if name == "poly2" {
                 // The graphics rasterizer runs the same fragment function.

@@ -6,7 +6,7 @@
 mod common;
 
 use common::{
-    assert_close_images, cpu_image_and_order, cpu_pt_renderer, gpu, gpu_with_scene, grid, report, single_tet,
+    assert_close_images, cpu_pt_renderer, gpu, gpu_and_cpu_pt_images, gpu_with_scene, grid, report, single_tet,
     table_on_axis, tf, Mesh,
 };
 use tet_gpu::{centroid_order, GpuContext, GpuRenderer, GpuScene, GpuShader};
@@ -205,9 +205,8 @@ fn grid_matches_the_cpu_pt_renderer() {
         let cam = Camera::new(&spec).unwrap();
         cpu.set_view(&spec).unwrap();
         for (name, gpu_shader, cpu_shader) in &shaders {
-            cpu.set_shader(cpu_shader.clone());
-            let (want, order) = cpu_image_and_order(&mut cpu);
-            let got = renderer.render(&ctx, &scene, &cam, &order, gpu_shader).unwrap().image;
+            let (got, want, _) =
+                gpu_and_cpu_pt_images(&ctx, &renderer, &scene, &cam, &mut cpu, (gpu_shader, cpu_shader));
             assert_close_images(&format!("grid 8³×5 {name} vs CPU PT az {az} el {el}"), &got, &want);
         }
     }

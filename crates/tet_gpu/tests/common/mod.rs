@@ -3,7 +3,8 @@
 #![allow(dead_code)]
 
 use glam::DVec3;
-use tet_gpu::{GpuContext, GpuRenderer, GpuScene};
+use std::sync::Arc;
+use tet_gpu::{GpuContext, GpuRenderer, GpuScene, GpuShader};
 use tet_mesh::split::{structured_grid_tets, structured_points};
 use tet_mesh::SplitMode;
 use tet_preint::{ScalarAxis, Segment, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
@@ -50,6 +51,29 @@ pub fn cpu_image_and_order(cpu: &mut tet_render::Renderer) -> (Image, Vec<u32>) 
     let (image, _) = cpu.render(&|_, _| {}).unwrap();
     let order = cpu.order().unwrap().tets.clone();
     (image, order)
+}
+
+/// The GPU image of `scene` drawn with `shaders.0` in the order in which
+/// the CPU PT renderer `cpu` (at its current view) draws with `shaders.1`,
+/// that CPU image, and the order.
+pub fn gpu_and_cpu_pt_images(
+    ctx: &GpuContext,
+    renderer: &GpuRenderer,
+    scene: &GpuScene,
+    cam: &Camera,
+    cpu: &mut tet_render::Renderer,
+    shaders: (&GpuShader, &Arc<dyn SegmentShader>),
+) -> (Image, Image, Vec<u32>) {
+    cpu.set_shader(shaders.1.clone());
+    let (want, order) = cpu_image_and_order(cpu);
+    let got = renderer.render(ctx, scene, cam, &order, shaders.0).unwrap().image;
+    (got, want, order)
+}
+
+/// Positional argument `i` of an example's `args`, parsed, or `default`
+/// where it is absent.
+pub fn arg_or<T: std::str::FromStr>(args: &[String], i: usize, default: T) -> Result<T, T::Err> {
+    Ok(args.get(i).map(|s| s.parse()).transpose()?.unwrap_or(default))
 }
 
 /// The transfer function the image tests render with.
@@ -146,15 +170,7 @@ impl Mesh {
     }
 
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.points {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo, hi)
+        tet_mesh::stats::bounds(&self.points)
     }
 
     /// (largest per-tet scalar range, largest edge length).

@@ -223,6 +223,14 @@ impl TfModel {
         self.revision += 1;
     }
 
+    /// A new revision when `changed`; returns `changed`.
+    fn bump_if(&mut self, changed: bool) -> bool {
+        if changed {
+            self.bump();
+        }
+        changed
+    }
+
     /// Adds an opacity node (x clamped into the range, `a` to ≥ 0); returns
     /// its index, or `None` next to an existing node.
     pub fn add_opacity(&mut self, x: f64, a: f64) -> Option<usize> {
@@ -251,10 +259,7 @@ impl TfModel {
     /// Removes opacity node `i` unless it is the last one; whether it did.
     pub fn remove_opacity(&mut self, i: usize) -> bool {
         let removed = remove_unless_last(&mut self.opacity, i);
-        if removed {
-            self.bump();
-        }
-        removed
+        self.bump_if(removed)
     }
 
     /// Adds a colour node at `x` with the colour the TF has there now.
@@ -294,10 +299,7 @@ impl TfModel {
     /// Removes colour node `i` unless it is the last one.
     pub fn remove_color(&mut self, i: usize) -> bool {
         let removed = remove_unless_last(&mut self.color, i);
-        if removed {
-            self.bump();
-        }
-        removed
+        self.bump_if(removed)
     }
 
     /// Sets the distance over which opacity `a` is an optical depth of `a`.

@@ -25,9 +25,7 @@ mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let cells: usize = common::arg_or(&args, 1, 30)?;
-    let size: u32 = common::arg_or(&args, 2, 256)?;
-    let frames: usize = common::arg_or(&args, 3, 3usize)?.max(2);
+    let (cells, size, frames) = common::cells_size_frames(&args, (30, 256, 3), 2)?;
     let raster: RasterPath = common::arg_or(&args, 4, Default::default())?;
     let rows: Option<Vec<String>> = args.get(5).map(|s| s.split(',').map(str::to_string).collect());
 

@@ -21,9 +21,7 @@ mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let cells: usize = common::arg_or(&args, 1, 20)?;
-    let size: u32 = common::arg_or(&args, 2, 512)?;
-    let frames: usize = common::arg_or(&args, 3, 3usize)?.max(1);
+    let (cells, size, frames) = common::cells_size_frames(&args, (20, 512, 3), 1)?;
     let out = args.get(4);
 
     let t = Instant::now();

@@ -76,6 +76,20 @@ pub fn arg_or<T: std::str::FromStr>(args: &[String], i: usize, default: T) -> Re
     Ok(args.get(i).map(|s| s.parse()).transpose()?.unwrap_or(default))
 }
 
+/// An example's first three arguments, CELLS SIZE FRAMES (grid cells a
+/// side, image size, frames of at least `min_frames`), each defaulting to
+/// `defaults`'.
+pub fn cells_size_frames(
+    args: &[String],
+    defaults: (usize, u32, usize),
+    min_frames: usize,
+) -> Result<(usize, u32, usize), Box<dyn std::error::Error>> {
+    let cells = arg_or(args, 1, defaults.0)?;
+    let size = arg_or(args, 2, defaults.1)?;
+    let frames = arg_or(args, 3, defaults.2)?.max(min_frames);
+    Ok((cells, size, frames))
+}
+
 /// The transfer function the image tests render with.
 pub fn tf() -> TransferFunction {
     TransferFunction::from_json(

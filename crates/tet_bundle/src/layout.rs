@@ -81,3 +81,8 @@ pub(crate) fn le_to_u32s(b: &[u8], group: usize) -> Result<Vec<u32>, String> {
     }
     Ok(b.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
 }
+
+/// Little-endian u32 records of four (a tet's vertices, its neighbours).
+pub(crate) fn le_to_u32_quads(b: &[u8]) -> Result<Vec<[u32; 4]>, String> {
+    Ok(le_to_u32s(b, 4)?.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect())
+}

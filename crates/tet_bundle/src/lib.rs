@@ -366,17 +366,10 @@ impl Bundle {
             .chunks_exact(3)
             .map(|c| [c[0], c[1], c[2]])
             .collect();
-        let tets: Vec<[u32; 4]> = layout::le_to_u32s(get("TETS")?, 4)
-            .map_err(|e| damaged(format!("TETS: {e}")))?
-            .chunks_exact(4)
-            .map(|c| [c[0], c[1], c[2], c[3]])
-            .collect();
+        let tets: Vec<[u32; 4]> = layout::le_to_u32_quads(get("TETS")?).map_err(|e| damaged(format!("TETS: {e}")))?;
         let scalar = layout::le_to_f64s(get("SCALAR")?, 1).map_err(|e| damaged(format!("SCALAR: {e}")))?;
-        let neighbors: Vec<[u32; 4]> = layout::le_to_u32s(get("NEIGHBOR")?, 4)
-            .map_err(|e| damaged(format!("NEIGHBOR: {e}")))?
-            .chunks_exact(4)
-            .map(|c| [c[0], c[1], c[2], c[3]])
-            .collect();
+        let neighbors: Vec<[u32; 4]> =
+            layout::le_to_u32_quads(get("NEIGHBOR")?).map_err(|e| damaged(format!("NEIGHBOR: {e}")))?;
         let boundary_faces = layout::le_to_u32s(get("BOUNDARY")?, 1).map_err(|e| damaged(format!("BOUNDARY: {e}")))?;
 
         let np = points.len();

@@ -32,15 +32,23 @@ fn sample_bundle() -> Bundle {
     Bundle::new(mesh, adj, meta)
 }
 
+/// Writes `b` to `name` in a fresh directory and asserts that it reads back
+/// equal: the directory (kept while it is held), the file and what it
+/// read as.
+fn assert_round_trips(b: &Bundle, name: &str) -> (tempfile::TempDir, std::path::PathBuf, Bundle) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    b.write(&path).unwrap();
+    let back = Bundle::read(&path).unwrap();
+    assert_eq!(&back, b);
+    (dir, path, back)
+}
+
 #[test]
 fn write_then_read_gives_the_same_bundle() {
     let b = sample_bundle();
     assert_eq!(b.mesh.tets.len(), 8 * 5);
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("s.tetb");
-    b.write(&path).unwrap();
-    let back = Bundle::read(&path).unwrap();
-    assert_eq!(back, b);
+    let (dir, _, _) = assert_round_trips(&b, "s.tetb");
     // Atomic write leaves no temporary files behind.
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 1, "{names:?}");
@@ -71,13 +79,19 @@ fn rejects_wrong_magic_newer_version_and_bad_checksum() {
     assert!(e.to_string().contains("x.tetb"));
 }
 
+/// Every `step`-th prefix of a bundle's `bytes` is refused (an error, not
+/// a panic).
+fn assert_truncations_are_errors(bytes: &[u8], p: &Path, step: usize) {
+    for len in (0..bytes.len()).step_by(step) {
+        assert!(Bundle::from_bytes(&bytes[..len], p).is_err(), "truncated at {len} was accepted");
+    }
+}
+
 #[test]
 fn every_truncation_and_byte_flip_is_an_error_not_a_panic() {
     let bytes = sample_bundle().to_bytes();
     let p = Path::new("t.tetb");
-    for len in (0..bytes.len()).step_by(7) {
-        assert!(Bundle::from_bytes(&bytes[..len], p).is_err(), "truncated at {len} was accepted");
-    }
+    assert_truncations_are_errors(&bytes, p, 7);
     let good = Bundle::from_bytes(&bytes, p).unwrap();
     let mut seed = 0x2545_f491_4f6c_dd1du64;
     for _ in 0..2000 {
@@ -124,11 +138,7 @@ fn analyzed_bundle() -> Bundle {
 #[test]
 fn analysis_sections_round_trip_and_are_optional() {
     let b = analyzed_bundle();
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("a.tetb");
-    b.write(&path).unwrap();
-    let back = Bundle::read(&path).unwrap();
-    assert_eq!(back, b);
+    let (_dir, path, back) = assert_round_trips(&b, "a.tetb");
     let a = back.analysis.as_ref().unwrap();
     assert_eq!(a.gradients.as_ref().unwrap().per_point.len(), b.mesh.points.len());
     let names: Vec<String> = Bundle::sections(&b.to_bytes(), &path).unwrap().into_iter().map(|s| s.name).collect();
@@ -151,9 +161,7 @@ fn analysis_sections_round_trip_and_are_optional() {
 fn damaged_analysis_sections_are_errors() {
     let bytes = analyzed_bundle().to_bytes();
     let p = Path::new("a.tetb");
-    for len in (0..bytes.len()).step_by(13) {
-        assert!(Bundle::from_bytes(&bytes[..len], p).is_err(), "truncated at {len} was accepted");
-    }
+    assert_truncations_are_errors(&bytes, p, 13);
 }
 
 /// Three steps of a scalar on the sample's mesh.
@@ -176,11 +184,7 @@ fn series_bundle() -> Bundle {
 #[test]
 fn time_steps_round_trip_and_interpolate() {
     let b = series_bundle();
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("t.tetb");
-    b.write(&path).unwrap();
-    let back = Bundle::read(&path).unwrap();
-    assert_eq!(back, b);
+    let (_dir, _, back) = assert_round_trips(&b, "t.tetb");
     let st = back.steps.as_ref().unwrap();
     assert_eq!((st.len(), st.times(), st.source(2)), (3, &[0.5, 1.0, 3.0][..], "c.vtu"));
 

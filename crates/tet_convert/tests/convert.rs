@@ -33,30 +33,35 @@ fn requests_that_do_not_fit_the_input_are_refused() {
     assert!(matches!(e, ConvertError::Read(_)), "{e}");
 }
 
+/// Converts `path` with every time step on `scalar`: `count` steps, each
+/// equal, bit for bit, to the file's step read whole and mapped onto the
+/// first step's mesh; `unit` ("step", "time") names them in failures.
+fn assert_steps_equal_whole_reads(path: &Path, scalar: &str, count: usize, unit: &str) {
+    let convert_opts = tet_mesh::ConvertOptions { scalar: Some(scalar.into()), ..Default::default() };
+    let req = ConvertRequest { all_steps: true, convert: convert_opts.clone(), ..Default::default() };
+    let done = convert(path, &req, &mut |_| {}).unwrap();
+    let st = done.bundle.steps.as_ref().unwrap_or_else(|| panic!("{scalar}: {count} {unit}s"));
+    assert_eq!(st.len(), count, "{scalar}");
+    // Each step read whole and mapped onto the first step's mesh.
+    let read =
+        |k: usize| tet_io::read_file(path, &tet_io::ReadOptions { time_step: Some(k), ..Default::default() }).unwrap();
+    let first = read(0);
+    let (mesh, report) = tet_mesh::tetrahedralize(&first, &convert_opts, &mut |_| {}).unwrap();
+    let mapper = tet_mesh::StepMapper::new(&first, &mesh, &report).unwrap();
+    for k in 0..count {
+        let whole = mapper.scalar(&read(k), &mesh).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(st.scalar(k)), bits(&whole), "{scalar}, {unit} {k}");
+    }
+}
+
 /// An Exodus file's later steps, read as their variables alone, map to
 /// what reading each step whole and mapping it gives, bit for bit: for a
 /// nodal variable, the element block id (a cell field) and a coordinate.
 #[test]
 fn exodus_steps_read_once_equal_steps_read_whole() {
-    let path = data("exodus/small.exo");
     for scalar in ["T", "P", "block_id", "z"] {
-        let convert_opts = tet_mesh::ConvertOptions { scalar: Some(scalar.into()), ..Default::default() };
-        let req = ConvertRequest { all_steps: true, convert: convert_opts.clone(), ..Default::default() };
-        let done = convert(&path, &req, &mut |_| {}).unwrap();
-        let st = done.bundle.steps.as_ref().expect("two steps");
-        assert_eq!(st.len(), 2, "{scalar}");
-        // Each step read whole and mapped onto the first step's mesh.
-        let read = |k: usize| {
-            tet_io::read_file(&path, &tet_io::ReadOptions { time_step: Some(k), ..Default::default() }).unwrap()
-        };
-        let first = read(0);
-        let (mesh, report) = tet_mesh::tetrahedralize(&first, &convert_opts, &mut |_| {}).unwrap();
-        let mapper = tet_mesh::StepMapper::new(&first, &mesh, &report).unwrap();
-        for k in 0..2 {
-            let whole = mapper.scalar(&read(k), &mesh).unwrap();
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(st.scalar(k)), bits(&whole), "{scalar}, step {k}");
-        }
+        assert_steps_equal_whole_reads(&data("exodus/small.exo"), scalar, 2, "step");
     }
 }
 
@@ -64,23 +69,7 @@ fn exodus_steps_read_once_equal_steps_read_whole() {
 /// built once, map to what reading each time whole gives, bit for bit.
 #[test]
 fn openfoam_times_read_once_equal_times_read_whole() {
-    let path = data("openfoam/cavity");
     for scalar in ["p", "U:mag", "x"] {
-        let convert_opts = tet_mesh::ConvertOptions { scalar: Some(scalar.into()), ..Default::default() };
-        let req = ConvertRequest { all_steps: true, convert: convert_opts.clone(), ..Default::default() };
-        let done = convert(&path, &req, &mut |_| {}).unwrap();
-        let st = done.bundle.steps.as_ref().expect("six times");
-        assert_eq!(st.len(), 6, "{scalar}");
-        let read = |k: usize| {
-            tet_io::read_file(&path, &tet_io::ReadOptions { time_step: Some(k), ..Default::default() }).unwrap()
-        };
-        let first = read(0);
-        let (mesh, report) = tet_mesh::tetrahedralize(&first, &convert_opts, &mut |_| {}).unwrap();
-        let mapper = tet_mesh::StepMapper::new(&first, &mesh, &report).unwrap();
-        for k in 0..6 {
-            let whole = mapper.scalar(&read(k), &mesh).unwrap();
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(st.scalar(k)), bits(&whole), "{scalar}, time {k}");
-        }
+        assert_steps_equal_whole_reads(&data("openfoam/cavity"), scalar, 6, "time");
     }
 }

@@ -13,6 +13,13 @@ fn cube5() -> Bundle {
     Bundle::read(std::path::Path::new(path)).unwrap()
 }
 
+/// [`cube5`] and its table domain.
+fn cube5_with_domain() -> (Bundle, TableDomain) {
+    let bundle = cube5();
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    (bundle, domain)
+}
+
 /// A TF in the bundle's data units: a colour ramp, opacity nodes at
 /// every quarter of the range, the one at the first quarter `alpha` (an
 /// edit of it reaches the pairs that meet the range's first half).
@@ -37,6 +44,11 @@ fn plain_options() -> BakeOptions {
     }
 }
 
+/// `method` baked with [`plain_options`] for [`tf`]`(bundle, alpha)`.
+fn plain_look(bundle: &Bundle, domain: &TableDomain, method: Method, alpha: f64) -> Look {
+    Look::bake_with(domain, method, tf(bundle, alpha), &plain_options(), &[]).unwrap()
+}
+
 fn table_bits(look: &Look) -> Vec<u32> {
     let Some(Baked::Table3d(t)) = look.baked.as_deref() else { panic!("a table3d look") };
     t.storage().to_f32().into_iter().map(f32::to_bits).collect()
@@ -50,10 +62,9 @@ fn bits(img: &Image) -> Vec<[u32; 4]> {
 /// bit for bit, under a new key; the look before it is consumed.
 #[test]
 fn a_table3d_rebaked_for_an_edit_is_the_fresh_bake() {
-    let bundle = cube5();
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let (bundle, domain) = cube5_with_domain();
     let opts = plain_options();
-    let first = Look::bake_with(&domain, Method::Table3d, tf(&bundle, 1.0), &opts, &[]).unwrap();
+    let first = plain_look(&bundle, &domain, Method::Table3d, 1.0);
     let first_key = first.key();
     assert!(first.rebake.is_none());
     let edited = first.rebake(&domain, tf(&bundle, 3.0), &opts).unwrap();
@@ -61,7 +72,7 @@ fn a_table3d_rebaked_for_an_edit_is_the_fresh_bake() {
     assert!(stats.full.is_none() && stats.pairs_rebaked < stats.pairs, "{stats:?}");
     assert_ne!(edited.key(), first_key);
     assert_eq!(edited.tf, tf(&bundle, 3.0));
-    let fresh = Look::bake_with(&domain, Method::Table3d, tf(&bundle, 3.0), &opts, &[]).unwrap();
+    let fresh = plain_look(&bundle, &domain, Method::Table3d, 3.0);
     assert!(table_bits(&edited) == table_bits(&fresh));
 
     // Still holding the tables elsewhere (a clone) re-bakes a copy: the
@@ -70,7 +81,7 @@ fn a_table3d_rebaked_for_an_edit_is_the_fresh_bake() {
     let held = edited.clone();
     let again = edited.rebake(&domain, tf(&bundle, 0.5), &opts).unwrap();
     assert!(table_bits(&held) == before);
-    let fresh = Look::bake_with(&domain, Method::Table3d, tf(&bundle, 0.5), &opts, &[]).unwrap();
+    let fresh = plain_look(&bundle, &domain, Method::Table3d, 0.5);
     assert!(table_bits(&again) == table_bits(&fresh));
 }
 
@@ -78,16 +89,15 @@ fn a_table3d_rebaked_for_an_edit_is_the_fresh_bake() {
 /// as a fresh bake refuses it.
 #[test]
 fn other_looks_rebake_afresh_and_bad_tfs_are_refused() {
-    let bundle = cube5();
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let (bundle, domain) = cube5_with_domain();
     let opts = plain_options();
-    let linear = Look::bake_with(&domain, Method::PtLinear, tf(&bundle, 1.0), &opts, &[]).unwrap();
+    let linear = plain_look(&bundle, &domain, Method::PtLinear, 1.0);
     let linear = linear.rebake(&domain, tf(&bundle, 2.0), &opts).unwrap();
     assert!(linear.rebake.is_none() && linear.method == Method::PtLinear);
     assert_eq!(linear.tf, tf(&bundle, 2.0));
 
     // A new resolution: a fresh table at that resolution.
-    let table = Look::bake_with(&domain, Method::Table3d, tf(&bundle, 1.0), &opts, &[]).unwrap();
+    let table = plain_look(&bundle, &domain, Method::Table3d, 1.0);
     let mut finer = plain_options();
     finer.table3d.n_s = 24;
     let table = table.rebake(&domain, tf(&bundle, 2.0), &finer).unwrap();
@@ -111,8 +121,7 @@ fn other_looks_rebake_afresh_and_bad_tfs_are_refused() {
 /// draws a certified table of its TF.
 #[test]
 fn the_certifier_bakes_the_newest_look() {
-    let bundle = cube5();
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let (bundle, domain) = cube5_with_domain();
     let opts = plain_options();
     let looks: Vec<Look> = [1.0, 2.0, 3.0]
         .into_iter()
@@ -148,8 +157,7 @@ fn the_certifier_bakes_the_newest_look() {
 
 #[test]
 fn the_certifier_refuses_what_it_cannot_certify() {
-    let bundle = cube5();
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let (bundle, domain) = cube5_with_domain();
     let Err(e) = Certifier::new(&bundle, domain, CertifyOptions::off()) else { panic!("a certifier needs a target") };
     assert!(e.to_string().contains("target"), "{e}");
     let mut certifier = Certifier::new(&bundle, domain, CertifyOptions::default()).unwrap();
@@ -166,8 +174,7 @@ fn the_certifier_refuses_what_it_cannot_certify() {
 /// fresh renderer's.
 #[test]
 fn the_cull_mask_stays_while_the_tf_does() {
-    let bundle = cube5();
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let (bundle, domain) = cube5_with_domain();
     let opts = plain_options();
     let mut r = CpuFrameRenderer::new(&bundle).unwrap();
     let (lo, hi) = r.renderer().scene().bounds();
@@ -179,9 +186,9 @@ fn the_cull_mask_stays_while_the_tf_does() {
         let FrameStats::Cpu(st) = frame.stats else { panic!("CPU statistics") };
         st.recomputed_cull
     };
-    let table = Look::bake_with(&domain, Method::Table3d, tf(&bundle, 1.0), &opts, &[]).unwrap();
+    let table = plain_look(&bundle, &domain, Method::Table3d, 1.0);
     assert!(step(&table));
-    let linear = Look::bake_with(&domain, Method::PtLinear, tf(&bundle, 1.0), &opts, &[]).unwrap();
+    let linear = plain_look(&bundle, &domain, Method::PtLinear, 1.0);
     assert!(!step(&linear));
     assert!(!step(&table));
     let edited = table.rebake(&domain, tf(&bundle, 0.0), &opts).unwrap();

@@ -25,10 +25,8 @@ mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let cells: usize = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(30);
-    let size: u32 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(256);
-    let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(3).max(2);
-    let raster: RasterPath = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or_default();
+    let (cells, size, frames) = common::cells_size_frames(&args, (30, 256, 3), 2)?;
+    let raster: RasterPath = common::arg_or(&args, 4, Default::default())?;
     let rows: Option<Vec<String>> = args.get(5).map(|s| s.split(',').map(str::to_string).collect());
 
     let ctx = GpuContext::new_headless()?;

@@ -21,9 +21,7 @@ mod common;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let cells: usize = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(20);
-    let size: u32 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(512);
-    let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(3).max(1);
+    let (cells, size, frames) = common::cells_size_frames(&args, (20, 512, 3), 1)?;
     let out = args.get(4);
 
     let t = Instant::now();

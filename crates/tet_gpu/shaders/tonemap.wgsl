@@ -63,7 +63,15 @@ fn luminance(c: vec3<f32>) -> f32 {
     return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b;
 }
 
-fn tree(lid: u32) {
+// Stores this invocation's partial sums and maxima (covered pixels, then
+// all pixels) and reduces the workgroup's into index 0 of w_*; every
+// invocation of the workgroup calls it (it holds barriers).
+fn workgroup_reduce(lid: u32, sum: f32, mx: f32, cnt: f32, sum_all: f32, mx_all: f32) {
+    w_sum[lid] = sum;
+    w_max[lid] = mx;
+    w_cnt[lid] = cnt;
+    w_sum_all[lid] = sum_all;
+    w_max_all[lid] = mx_all;
     for (var stride = WG / 2u; stride > 0u; stride = stride / 2u) {
         workgroupBarrier();
         if lid < stride {
@@ -102,12 +110,7 @@ fn reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index
             }
         }
     }
-    w_sum[lid] = sum;
-    w_max[lid] = mx;
-    w_cnt[lid] = cnt;
-    w_sum_all[lid] = sum_all;
-    w_max_all[lid] = mx_all;
-    tree(lid);
+    workgroup_reduce(lid, sum, mx, cnt, sum_all, mx_all);
     if lid == 0u && group < tp.n_partials {
         partials[2u * group] = vec4<f32>(w_sum[0], w_max[0], w_cnt[0], 0.0);
         partials[2u * group + 1u] = vec4<f32>(w_sum_all[0], w_max_all[0], 0.0, 0.0);
@@ -130,12 +133,7 @@ fn fit(@builtin(local_invocation_index) lid: u32) {
         sum_all += a.x;
         mx_all = max(mx_all, a.y);
     }
-    w_sum[lid] = sum;
-    w_max[lid] = mx;
-    w_cnt[lid] = cnt;
-    w_sum_all[lid] = sum_all;
-    w_max_all[lid] = mx_all;
-    tree(lid);
+    workgroup_reduce(lid, sum, mx, cnt, sum_all, mx_all);
     if lid == 0u {
         var s = w_sum[0];
         var m = w_max[0];

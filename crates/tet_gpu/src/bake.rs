@@ -168,23 +168,12 @@ impl GpuTable3d {
             let group = bind_group(dev, "bake", &layout, &entries);
             (texture, pipeline, group)
         })?;
-        // Pipelines compile lazily on some drivers: finish setup first.
-        ctx.wait()?;
-        let setup_seconds = t_setup.elapsed().as_secs_f64();
-
-        let t_bake = Instant::now();
-        ctx.checked(|| {
-            let mut enc = dev.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &group, &[]);
-                pass.dispatch_workgroups((n_l as u32).div_ceil(BAKE_WG), row_width, n_s as u32);
-            }
-            ctx.queue.submit([enc.finish()]);
+        let (setup_seconds, bake_seconds) = time_setup_and_bake(ctx, t_setup, |enc| {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups((n_l as u32).div_ceil(BAKE_WG), row_width, n_s as u32);
         })?;
-        ctx.wait()?;
-        let bake_seconds = t_bake.elapsed().as_secs_f64();
         Ok(GpuTable3d {
             texture,
             domain: *domain,
@@ -277,4 +266,25 @@ impl GpuShader {
         };
         GpuShader::with_table(ctx, METHOD_TABLE3D, None, table.texture.clone(), grid)
     }
+}
+
+/// Waits for the setup begun at `setup_start` to finish (pipelines compile
+/// lazily on some drivers, so it is timed apart), then submits the passes
+/// `record` encodes and waits for them: (setup seconds, bake seconds), as
+/// [`GpuBakeStats`] reports them.
+pub(crate) fn time_setup_and_bake(
+    ctx: &GpuContext,
+    setup_start: Instant,
+    record: impl FnOnce(&mut wgpu::CommandEncoder),
+) -> Result<(f64, f64), GpuError> {
+    ctx.wait()?;
+    let setup_seconds = setup_start.elapsed().as_secs_f64();
+    let bake_start = Instant::now();
+    ctx.checked(|| {
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        record(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+    })?;
+    ctx.wait()?;
+    Ok((setup_seconds, bake_start.elapsed().as_secs_f64()))
 }

@@ -3,7 +3,7 @@
 //! `PolyTable`, which the CPU shades with and `GpuShader::poly` uploads
 //! for the GPU renderer.
 
-use crate::bake::GpuBakeStats;
+use crate::bake::{time_setup_and_bake, GpuBakeStats};
 use crate::gpu_types::PolyBakeParams;
 use crate::render::{bind_all, bind_group, buffer, buffer_init, dispatch, storage_entries, READ_BACK};
 use crate::{map_read, shader_source_plain, GpuContext, GpuError, POLY_BAKE_WGSL};
@@ -99,16 +99,9 @@ pub fn bake_poly(
         let group = bind_group(dev, "poly bake", &layout, &bind_all(0, &buffers));
         (pipeline, group, rho_buf, coef_buf, rho_read, coef_read)
     })?;
-    ctx.wait()?;
-    let setup_seconds = t_setup.elapsed().as_secs_f64();
-    let t_bake = Instant::now();
-    ctx.checked(|| {
-        let mut enc = dev.create_command_encoder(&Default::default());
-        dispatch(&mut enc, "poly bake", &pipeline, &group, &[], ((row_len as u32).div_ceil(64), res as u32));
-        ctx.queue.submit([enc.finish()]);
+    let (setup_seconds, bake_seconds) = time_setup_and_bake(ctx, t_setup, |enc| {
+        dispatch(enc, "poly bake", &pipeline, &group, &[], ((row_len as u32).div_ceil(64), res as u32));
     })?;
-    ctx.wait()?;
-    let bake_seconds = t_bake.elapsed().as_secs_f64();
     ctx.checked(|| {
         let mut enc = dev.create_command_encoder(&Default::default());
         enc.copy_buffer_to_buffer(&rho_buf, 0, &rho_read, 0, rho_bytes);

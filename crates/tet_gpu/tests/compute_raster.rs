@@ -5,20 +5,16 @@
 
 mod common;
 
-use common::{gpu, grid, report, table_on_axis, tf, Mesh};
+use common::{
+    assert_close_images, cpu_image_and_order, cpu_pt_renderer, gpu_with_scene, grid, table_on_axis, tf, Mesh,
+};
 use std::sync::Arc;
-use tet_gpu::{centroid_order, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
+use tet_gpu::{centroid_order, GpuOrder, GpuShader, RasterPath};
 use tet_preint::{PtLinearShader, ScalarAxis, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
-use tet_render::{Camera, DiffStats, Image, ViewSpec};
+use tet_render::{Camera, ViewSpec};
 
 fn table_for(mesh: &Mesh) -> Table3d {
     table_on_axis(mesh, ScalarAxis::Uniform)
-}
-
-fn check(what: &str, a: &Image, b: &Image) -> DiffStats {
-    let d = report(what, a, b);
-    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{what}: {d:?}");
-    d
 }
 
 /// Views: two orbits, parallel projection, and a camera inside the mesh
@@ -43,15 +39,10 @@ fn views(mesh: &Mesh) -> Vec<(&'static str, ViewSpec)> {
 
 #[test]
 fn compute_raster_matches_graphics_and_the_cpu() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(8);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
     let table = Arc::new(table_for(&mesh));
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let mut cpu = cpu_pt_renderer(mesh.cpu_scene());
     let shaders: [(GpuShader, Arc<dyn SegmentShader>); 2] = [
         (GpuShader::table3d(&ctx, &table).unwrap(), table.clone()),
         (GpuShader::pt_linear(&ctx, &tf()).unwrap(), Arc::new(PtLinearShader::new(tf()))),
@@ -61,8 +52,7 @@ fn compute_raster_matches_graphics_and_the_cpu() {
         cpu.set_view(&spec).unwrap();
         for (gpu_shader, cpu_shader) in &shaders {
             cpu.set_shader(cpu_shader.clone());
-            let (want, _) = cpu.render(&|_, _| {}).unwrap();
-            let order = cpu.order().unwrap().tets.clone();
+            let (want, order) = cpu_image_and_order(&mut cpu);
             let m = gpu_shader.method_id();
             let comp = renderer
                 .render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), gpu_shader, RasterPath::Compute)
@@ -72,9 +62,9 @@ fn compute_raster_matches_graphics_and_the_cpu() {
             let gfx = renderer
                 .render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), gpu_shader, RasterPath::Graphics)
                 .unwrap();
-            check(&format!("{m} {name}: compute vs CPU"), &comp.image, &want);
-            check(&format!("{m} {name}: graphics vs CPU"), &gfx.image, &want);
-            check(&format!("{m} {name}: compute vs graphics"), &comp.image, &gfx.image);
+            assert_close_images(&format!("{m} {name}: compute vs CPU"), &comp.image, &want);
+            assert_close_images(&format!("{m} {name}: graphics vs CPU"), &gfx.image, &want);
+            assert_close_images(&format!("{m} {name}: compute vs graphics"), &comp.image, &gfx.image);
         }
     }
 }
@@ -83,10 +73,8 @@ fn compute_raster_matches_graphics_and_the_cpu() {
 /// one chunk; buffers are reused from the second frame on.
 #[test]
 fn chunked_frames_match_and_buffers_persist() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(6);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
     let shader = GpuShader::table3d(&ctx, &table_for(&mesh)).unwrap();
     let (lo, hi) = mesh.bounds();
     let cam = Camera::new(&ViewSpec::framing(lo, hi, [96, 80]).orbit(40.0, 25.0, 1.0)).unwrap();
@@ -103,7 +91,7 @@ fn chunked_frames_match_and_buffers_persist() {
         let chunked = renderer.render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, path).unwrap();
         eprintln!("{path:?}: {} tets in {} chunks, {} pairs", order.len(), chunked.stats.chunks, chunked.stats.pairs);
         assert_eq!(chunked.stats.chunks, order.len().div_ceil(256));
-        check(&format!("{path:?} chunked vs whole"), &chunked.image, &whole.image);
+        assert_close_images(&format!("{path:?} chunked vs whole"), &chunked.image, &whole.image);
     }
     renderer.set_chunk_limits(None, None);
 }
@@ -113,10 +101,8 @@ fn chunked_frames_match_and_buffers_persist() {
 /// equals the image of the CPU centroid order.
 #[test]
 fn gpu_centroid_sort_orders_by_depth_and_is_cached() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(7);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
     let shader = GpuShader::pt_linear(&ctx, &tf()).unwrap();
     let (lo, hi) = mesh.bounds();
     for (az, el) in [(30.0, 20.0), (-100.0, 60.0)] {
@@ -146,14 +132,14 @@ fn gpu_centroid_sort_orders_by_depth_and_is_cached() {
             renderer.render_with(&ctx, &scene, &cam, GpuOrder::GpuCentroid, &shader, RasterPath::Compute).unwrap();
         assert!(!first.stats.sorted_on_gpu, "gpu_centroid_order already sorted for this camera");
         let cpu_img = renderer.render(&ctx, &scene, &cam, &cpu_order, &shader).unwrap().image;
-        check(&format!("GPU vs CPU centroid order az {az}"), &first.image, &cpu_img);
+        assert_close_images(&format!("GPU vs CPU centroid order az {az}"), &first.image, &cpu_img);
     }
     let cam = Camera::new(&ViewSpec::framing(lo, hi, [80, 64]).orbit(5.0, 5.0, 1.0)).unwrap();
     let moved = renderer.render_with(&ctx, &scene, &cam, GpuOrder::GpuCentroid, &shader, RasterPath::Compute).unwrap();
     assert!(moved.stats.sorted_on_gpu);
     let still = renderer.render_with(&ctx, &scene, &cam, GpuOrder::GpuCentroid, &shader, RasterPath::Graphics).unwrap();
     assert!(!still.stats.sorted_on_gpu);
-    check("GPU centroid order, compute vs graphics", &moved.image, &still.image);
+    assert_close_images("GPU centroid order, compute vs graphics", &moved.image, &still.image);
 }
 
 /// Regression: a tile whose list holds more tets than llvmpipe's loop
@@ -166,10 +152,8 @@ fn gpu_centroid_sort_orders_by_depth_and_is_cached() {
 /// tile, with a faint TF so that no pixel turns opaque and stops early.
 #[test]
 fn long_tile_lists_composite_every_tet() {
-    let Some(ctx) = gpu() else { return };
     let mesh = common::grid_cells([2, 2, 2000]);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
     let faint = TransferFunction::from_json(
         r#"{"color": [[0, 0.1, 0.2, 1], [0.5, 1, 0.8, 0.1], [1, 1, 0.1, 0.1]],
             "opacity": [[0, 0.2], [1, 0.5]], "unit_distance": 1}"#,
@@ -185,19 +169,15 @@ fn long_tile_lists_composite_every_tet() {
         ..ViewSpec::looking_at([0.5, 0.5, 5.0], [0.5, 0.5, 0.5], [0.0, 1.0, 0.0], [16, 16])
     };
     let cam = Camera::new(&spec).unwrap();
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let mut cpu = cpu_pt_renderer(mesh.cpu_scene());
     cpu.set_view(&spec).unwrap();
     cpu.set_shader(table.clone());
-    let (want, _) = cpu.render(&|_, _| {}).unwrap();
-    let order = cpu.order().unwrap().tets.clone();
+    let (want, order) = cpu_image_and_order(&mut cpu);
     let shader = GpuShader::table3d(&ctx, &table).unwrap();
     let comp = renderer.render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, RasterPath::Compute).unwrap();
     eprintln!("{:?}", comp.stats);
     assert_eq!(comp.stats.raster_path, RasterPath::Compute);
     assert!(comp.stats.pairs >= 40_000, "every tet in the one tile's list: {:?}", comp.stats);
     assert!(want.pixels().iter().all(|p| p[3] < 0.9), "no pixel near opaque");
-    check("40k tets in one 16² tile: compute vs CPU", &comp.image, &want);
+    assert_close_images("40k tets in one 16² tile: compute vs CPU", &comp.image, &want);
 }

@@ -8,8 +8,8 @@
 
 mod common;
 
-use common::{gpu, grid, Mesh};
-use tet_gpu::{GpuAccumulation, GpuRenderer, GpuScene, GpuShader, GpuTable3d};
+use common::{cpu_image_and_order, cpu_pt_renderer, gpu, grid, Mesh};
+use tet_gpu::{GpuAccumulation, GpuRenderer, GpuShader, GpuTable3d};
 use tet_preint::{
     integrate_segment, uniform_triples, Emission, Reconstruction, ScalarAxis, Table3d, Table3dParams, TableDomain,
     TransferFunction,
@@ -192,19 +192,15 @@ fn gpu_baked_table_renders_as_the_cpu_table() {
     let cpu_table = std::sync::Arc::new(Table3d::build(&tf(), &domain, &p).unwrap());
     let baked = GpuTable3d::bake(&ctx, &tf(), &domain, &p, GpuAccumulation::F32).unwrap();
     let shader = GpuShader::table3d_baked(&ctx, &baked).unwrap();
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let scene = mesh.gpu_scene(&ctx);
     let renderer = GpuRenderer::new(&ctx).unwrap();
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let mut cpu = cpu_pt_renderer(mesh.cpu_scene());
     cpu.set_shader(cpu_table);
     for (az, el) in [(30.0, 20.0), (-130.0, -40.0)] {
         let (lo, hi) = mesh.bounds();
         let spec = ViewSpec::framing(lo, hi, [96, 80]).orbit(az, el, 1.0);
         cpu.set_view(&spec).unwrap();
-        let (want, _) = cpu.render(&|_, _| {}).unwrap();
-        let order = cpu.order().unwrap().tets.clone();
+        let (want, order) = cpu_image_and_order(&mut cpu);
         let got = renderer.render(&ctx, &scene, &Camera::new(&spec).unwrap(), &order, &shader).unwrap().image;
         let d = diff(&got, &want).unwrap();
         eprintln!(

@@ -7,7 +7,10 @@
 
 mod common;
 
-use common::{gpu, grid, report, tf, Mesh};
+use common::{
+    assert_close_images, cpu_image_and_order, cpu_pt_renderer, gpu, gpu_and_cpu_pt_images, gpu_with_scene, grid, tf,
+    Mesh,
+};
 use std::sync::Arc;
 use tet_gpu::{FrameOptions, GpuContext, GpuCull, GpuOrder, GpuRenderer, GpuScene, GpuShader, RasterPath};
 use tet_preint::{
@@ -155,14 +158,9 @@ fn probe_matches_the_cpu_shaders() {
 /// tetrahedra with the same table and the same (MPVO) order.
 #[test]
 fn methods_match_the_cpu_pt_renderer() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(6);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let mut cpu = cpu_pt_renderer(mesh.cpu_scene());
     let shaders: Vec<(String, GpuShader, Arc<dyn SegmentShader>)> = methods(&mesh)
         .into_iter()
         .map(|(name, baked)| {
@@ -179,20 +177,16 @@ fn methods_match_the_cpu_pt_renderer() {
         let cam = Camera::new(&spec).unwrap();
         cpu.set_view(&spec).unwrap();
         for (name, gpu_shader, cpu_shader) in &shaders {
-            cpu.set_shader(cpu_shader.clone());
-            let (want, _) = cpu.render(&|_, _| {}).unwrap();
-            let order = cpu.order().unwrap().tets.clone();
-            let got = renderer.render(&ctx, &scene, &cam, &order, gpu_shader).unwrap().image;
-            let d = report(&format!("grid 6³×5 {name} vs CPU PT, {view}"), &got, &want);
-            assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{name} {view}: {d:?}");
+            let (got, want, order) =
+                gpu_and_cpu_pt_images(&ctx, &renderer, &scene, &cam, &mut cpu, (gpu_shader, cpu_shader));
+            assert_close_images(&format!("grid 6³×5 {name} vs CPU PT, {view}"), &got, &want);
             if name == "poly2" {
                 // The graphics rasterizer runs the same fragment function.
                 let g = renderer
                     .render_with(&ctx, &scene, &cam, GpuOrder::Given(&order), gpu_shader, RasterPath::Graphics)
                     .unwrap()
                     .image;
-                let d = report(&format!("grid 6³×5 {name} graphics raster vs CPU PT, {view}"), &g, &want);
-                assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{name} {view}: {d:?}");
+                assert_close_images(&format!("grid 6³×5 {name} graphics raster vs CPU PT, {view}"), &g, &want);
             }
         }
     }
@@ -201,10 +195,8 @@ fn methods_match_the_cpu_pt_renderer() {
 /// A camera inside the mesh: clipped tets shade per fragment with every method.
 #[test]
 fn methods_shade_clipped_tets() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(4);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
     let spec = ViewSpec {
         view_angle: 60.0,
         ..ViewSpec::looking_at([0.5, 0.45, 0.52], [0.5, 0.45, -1.0], [0.0, 1.0, 0.0], [64, 64])
@@ -214,9 +206,11 @@ fn methods_shade_clipped_tets() {
         let baked = bake(method, &tf(), &mesh);
         let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
         let frame = renderer.render(&ctx, &scene, &cam, &mesh.mpvo_order(&cam), &shader).unwrap();
-        let d =
-            report(&format!("grid 4³×5 {method}, camera inside"), &frame.image, &mesh.reference(&cam, baked.shader()));
-        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{method}: {d:?}");
+        assert_close_images(
+            &format!("grid 4³×5 {method}, camera inside"),
+            &frame.image,
+            &mesh.reference(&cam, baked.shader()),
+        );
         assert!(frame.image.pixel(32, 32)[3] > 0.0);
     }
 }
@@ -230,9 +224,9 @@ fn gpu_culling_matches_the_cpu_culler() {
     let Some(ctx) = gpu() else { return };
     let mesh = grid(8);
     let tf = tf_with_gaps();
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let scene = mesh.gpu_scene(&ctx);
     let renderer = GpuRenderer::new(&ctx).unwrap();
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let cpu_scene = mesh.cpu_scene();
     let mask = cull(&cpu_scene, &TfCuller::new(&tf));
     eprintln!("CPU TfCuller: {} of {} tets culled", mask.culled, mesh.tets.len());
     assert!(mask.culled > mesh.tets.len() / 10 && mask.culled < mesh.tets.len());
@@ -244,9 +238,7 @@ fn gpu_culling_matches_the_cpu_culler() {
     let cam = Camera::new(&spec).unwrap();
     let order = mesh.mpvo_order(&cam);
     let culled_order: Vec<u32> = order.iter().copied().filter(|&t| mask.visible[t as usize]).collect();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let mut cpu = cpu_pt_renderer(cpu_scene);
     cpu.set_view(&spec).unwrap();
     cpu.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     for method in [Method::Partial, Method::Table3d] {
@@ -269,13 +261,11 @@ fn gpu_culling_matches_the_cpu_culler() {
         let d = diff(&frame.image, &filtered).unwrap();
         assert_eq!(d.max_abs, 0.0, "{method}: GPU compaction vs CPU-filtered order: {d:?}");
         let unculled = renderer.render(&ctx, &scene, &cam, &order, &shader).unwrap().image;
-        let d = report(&format!("{method}: GPU culled vs unculled"), &frame.image, &unculled);
-        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+        assert_close_images(&format!("{method}: GPU culled vs unculled"), &frame.image, &unculled);
         cpu.set_shader(Arc::from(baked.into_shader()));
         let (want, st) = cpu.render(&|_, _| {}).unwrap();
         assert_eq!(st.tets_culled, mask.culled);
-        let d = report(&format!("{method}: GPU culled vs CPU PT culled"), &frame.image, &want);
-        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+        assert_close_images(&format!("{method}: GPU culled vs CPU PT culled"), &frame.image, &want);
     }
 
     // The GPU centroid order compacted, and chunks of 256 slots.
@@ -291,8 +281,7 @@ fn gpu_culling_matches_the_cpu_culler() {
     let sorted_visible: Vec<u32> = sorted.into_iter().filter(|&t| mask.visible[t as usize]).collect();
     let want = renderer.render(&ctx, &scene, &cam, &sorted_visible, &shader).unwrap().image;
     assert_eq!(diff(&frame.image, &want).unwrap().max_abs, 0.0);
-    let d = report("partial GPU centroid order: culled vs unculled", &frame.image, &plain);
-    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    assert_close_images("partial GPU centroid order: culled vs unculled", &frame.image, &plain);
     renderer.set_chunk_limits(Some(256), None);
     let chunked = renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, &opts).unwrap();
     assert!(chunked.stats.chunks > 1);
@@ -323,13 +312,9 @@ fn gpu_culling_matches_the_cpu_culler() {
 /// gradient magnitudes, and those magnitudes: what the bivariate image
 /// tests compare.
 fn bivariate_scenes(ctx: &GpuContext, mesh: &Mesh) -> (tet_render::Scene, GpuScene, Vec<f64>) {
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone())
-        .unwrap()
-        .ensure_gradients()
-        .unwrap();
+    let cpu_scene = mesh.cpu_scene().ensure_gradients().unwrap();
     let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
-    let scene =
-        GpuScene::new(ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap().with_gradient_magnitudes(ctx, &gm).unwrap();
+    let scene = mesh.gpu_scene(ctx).with_gradient_magnitudes(ctx, &gm).unwrap();
     (cpu_scene, scene, gm)
 }
 
@@ -344,9 +329,7 @@ fn biv_approx_matches_the_cpu() {
     let g_max = gm.iter().copied().fold(0.0f64, f64::max);
     eprintln!("|∇s| up to {g_max:.3}");
     let renderer = GpuRenderer::new(&ctx).unwrap();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let mut cpu = cpu_pt_renderer(cpu_scene);
     let len = domain(&mesh).len_max_world as f32;
     let mut rng = tet_mesh::SplitMix64(0xb1f);
     let segs: Vec<Segment> = (0..20_000)
@@ -386,23 +369,18 @@ fn biv_approx_matches_the_cpu() {
         for (view, spec) in two_orbits(lo, hi) {
             let cam = Camera::new(&spec).unwrap();
             cpu.set_view(&spec).unwrap();
-            let (want, _) = cpu.render(&|_, _| {}).unwrap();
-            let order = cpu.order().unwrap().tets.clone();
+            let (want, order) = cpu_image_and_order(&mut cpu);
             let got = renderer.render(&ctx, &scene, &cam, &order, &shader).unwrap().image;
-            let d = report(&format!("grid 6³×5 biv-approx {emission} vs CPU PT, {view}"), &got, &want);
-            assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{emission} {view}: {d:?}");
+            assert_close_images(&format!("grid 6³×5 biv-approx {emission} vs CPU PT, {view}"), &got, &want);
         }
     }
     // Without gradient magnitudes on the scene: an input error.
-    let bare = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let bare = mesh.gpu_scene(&ctx);
     let shader = GpuShader::from_baked(&ctx, &bake(Method::BivApprox, &tf_with_widgets("density"), &mesh)).unwrap();
     let cam = Camera::new(&ViewSpec::framing(lo, hi, [16, 16])).unwrap();
     let err = renderer.render(&ctx, &bare, &cam, &[0], &shader).err().unwrap();
     assert!(err.to_string().contains("gradient magnitudes"), "{err}");
-    assert!(GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
-        .unwrap()
-        .with_gradient_magnitudes(&ctx, &gm[1..])
-        .is_err());
+    assert!(mesh.gpu_scene(&ctx).with_gradient_magnitudes(&ctx, &gm[1..]).is_err());
 }
 
 /// Culling with 2D widgets (TfCuller's bivariate test): the same culled
@@ -425,18 +403,15 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
             ]}"#,
     )
     .unwrap();
-    let bare_cpu = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let bare_cpu = mesh.cpu_scene();
     let cpu_scene = bare_cpu.clone().ensure_gradients().unwrap();
     let gm = cpu_scene.gradient_magnitudes().unwrap().to_vec();
     let culler = TfCuller::new(&tf);
     let (with_g, without_g) = (cull(&cpu_scene, &culler), cull(&bare_cpu, &culler));
     eprintln!("CPU TfCuller with widgets: {} culled with |∇s|, {} without", with_g.culled, without_g.culled);
     assert!(with_g.culled > without_g.culled && without_g.culled > 0);
-    let bare = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar)
-        .unwrap()
-        .with_gradient_magnitudes(&ctx, &gm)
-        .unwrap();
+    let bare = mesh.gpu_scene(&ctx);
+    let scene = mesh.gpu_scene(&ctx).with_gradient_magnitudes(&ctx, &gm).unwrap();
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let (lo, hi) = mesh.bounds();
     let spec = ViewSpec::framing(lo, hi, [96, 80]).orbit(50.0, 30.0, 1.0);
@@ -456,9 +431,7 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
         let want = renderer.render(&ctx, sc, &cam, &kept, sh).unwrap().image;
         assert_eq!(diff(&frame.image, &want).unwrap().max_abs, 0.0, "{what}");
     }
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let mut cpu = cpu_pt_renderer(cpu_scene);
     cpu.set_view(&spec).unwrap();
     cpu.set_culler(Some(Arc::new(TfCuller::new(&tf))));
     cpu.set_shader(Arc::from(baked.into_shader()));
@@ -467,8 +440,7 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
     let gcull = GpuCull::new(&ctx, &scene, &tf).unwrap();
     let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
     let got = renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, &opts).unwrap().image;
-    let d = report("biv-approx with widgets, culled on the GPU vs CPU PT culled", &got, &want);
-    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    assert_close_images("biv-approx with widgets, culled on the GPU vs CPU PT culled", &got, &want);
 }
 
 /// The 2D transfer functions biv-exact is checked with (s ∈ [0, 1], |∇s|
@@ -623,9 +595,7 @@ fn biv_exact_matches_the_cpu() {
 
     let (cpu_scene, scene, _) = bivariate_scenes(&ctx, &mesh);
     let renderer = GpuRenderer::new(&ctx).unwrap();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let mut cpu = cpu_pt_renderer(cpu_scene);
     let (lo, hi) = mesh.bounds();
     for emission in ["density", "independent"] {
         for (name, tf) in biv_exact_tfs(emission).into_iter().filter(|(n, _)| ["overlapping", "dense"].contains(n)) {
@@ -635,8 +605,7 @@ fn biv_exact_matches_the_cpu() {
             for (view, spec) in two_orbits(lo, hi) {
                 let cam = Camera::new(&spec).unwrap();
                 cpu.set_view(&spec).unwrap();
-                let (want, _) = cpu.render(&|_, _| {}).unwrap();
-                let order = cpu.order().unwrap().tets.clone();
+                let (want, order) = cpu_image_and_order(&mut cpu);
                 let start = std::time::Instant::now();
                 let frame = renderer.render(&ctx, &scene, &cam, &order, &shader).unwrap();
                 // llvmpipe's loop-iteration limit sends biv-exact to the
@@ -647,13 +616,12 @@ fn biv_exact_matches_the_cpu() {
                 let got = frame.image;
                 let what = format!("grid 6³×5 biv-exact {name} {emission} vs CPU PT, {view}");
                 eprintln!("{what}: GPU frame {:.2} s", start.elapsed().as_secs_f64());
-                let d = report(&what, &got, &want);
-                assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{name} {emission} {view}: {d:?}");
+                assert_close_images(&what, &got, &want);
             }
         }
     }
     // Without gradient magnitudes on the scene: an input error, as biv-approx.
-    let bare = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let bare = mesh.gpu_scene(&ctx);
     let shader = GpuShader::from_baked(&ctx, &bake(Method::BivExact, &biv_exact_tfs("density")[0].1, &mesh)).unwrap();
     let cam = Camera::new(&ViewSpec::framing(lo, hi, [16, 16])).unwrap();
     let err = renderer.render(&ctx, &bare, &cam, &[0], &shader).err().unwrap();
@@ -728,8 +696,8 @@ fn biv_exact_work_is_bounded() {
 fn unsupported_inputs_are_errors() {
     let Some(ctx) = gpu() else { return };
     let mesh = grid(2);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let other = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let scene = mesh.gpu_scene(&ctx);
+    let other = mesh.gpu_scene(&ctx);
     let renderer = GpuRenderer::new(&ctx).unwrap();
     // Exact is not on the GPU.
     let err = GpuShader::from_baked(&ctx, &bake(Method::Exact, &tf(), &mesh)).err().unwrap();

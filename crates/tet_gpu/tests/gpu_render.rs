@@ -5,8 +5,11 @@
 
 mod common;
 
-use common::{gpu, grid, report, single_tet, table_on_axis, tf, Mesh};
-use tet_gpu::{centroid_order, GpuRenderer, GpuScene, GpuShader};
+use common::{
+    assert_close_images, cpu_pt_renderer, gpu, gpu_and_cpu_pt_images, gpu_with_scene, grid, report, single_tet,
+    table_on_axis, tf, Mesh,
+};
+use tet_gpu::{centroid_order, GpuContext, GpuRenderer, GpuScene, GpuShader};
 use tet_preint::{PtLinearShader, ScalarAxis, Table3d};
 use tet_render::{Camera, Display, Image, ToneMap, ViewSpec};
 
@@ -16,6 +19,13 @@ fn table_for(mesh: &Mesh) -> Table3d {
     table_on_axis(mesh, ScalarAxis::TfNodes)
 }
 
+/// [`table_for`] `mesh`, and its GPU shader.
+fn table3d_for(ctx: &GpuContext, mesh: &Mesh) -> (Table3d, GpuShader) {
+    let table = table_for(mesh);
+    let shader = GpuShader::table3d(ctx, &table).unwrap();
+    (table, shader)
+}
+
 fn view(mesh: &Mesh, size: [u32; 2], az: f64, el: f64) -> Camera {
     let (lo, hi) = mesh.bounds();
     Camera::new(&ViewSpec::framing(lo, hi, size).orbit(az, el, 1.0)).unwrap()
@@ -23,18 +33,14 @@ fn view(mesh: &Mesh, size: [u32; 2], az: f64, el: f64) -> Camera {
 
 #[test]
 fn single_tet_table3d_and_pt_linear_match_the_cpu() {
-    let Some(ctx) = gpu() else { return };
     let mesh = single_tet();
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
-    let table = table_for(&mesh);
-    let t3 = GpuShader::table3d(&ctx, &table).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let (table, t3) = table3d_for(&ctx, &mesh);
     for (az, el) in [(0.0, 0.0), (40.0, 25.0), (-110.0, -60.0)] {
         let cam = view(&mesh, [96, 80], az, el);
         let frame = renderer.render(&ctx, &scene, &cam, &[0], &t3).unwrap();
         let cpu = mesh.reference(&cam, &table);
-        let d = report(&format!("single tet table3d az {az} el {el}"), &frame.image, &cpu);
-        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+        assert_close_images(&format!("single tet table3d az {az} el {el}"), &frame.image, &cpu);
     }
     // pt-linear shades the thick point once and interpolates: where the
     // thick vertex projects onto a pixel centre, that pixel must equal the
@@ -45,7 +51,7 @@ fn single_tet_table3d_and_pt_linear_match_the_cpu() {
         tets: vec![[0, 1, 2, 3]],
         scalar: vec![0.2, 0.7, 0.9, 0.45],
     };
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let scene = mesh.gpu_scene(&ctx);
     let pt = GpuShader::pt_linear(&ctx, &tf()).unwrap();
     let cam = Camera::new(&ViewSpec::looking_at([0.3, 0.3, 4.0], [0.3, 0.3, 0.4], [0.0, 1.0, 0.0], [65, 49])).unwrap();
     let img = renderer.render(&ctx, &scene, &cam, &[0], &pt).unwrap().image;
@@ -62,19 +68,15 @@ fn single_tet_table3d_and_pt_linear_match_the_cpu() {
 
 #[test]
 fn grid_table3d_matches_exact_rays() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(6);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
-    let table = table_for(&mesh);
-    let shader = GpuShader::table3d(&ctx, &table).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let (table, shader) = table3d_for(&ctx, &mesh);
     for (az, el) in [(30.0, 20.0), (-75.0, 50.0)] {
         let cam = view(&mesh, [128, 112], az, el);
         let cpu = mesh.reference(&cam, &table);
         let exact_order = mesh.mpvo_order(&cam);
         let frame = renderer.render(&ctx, &scene, &cam, &exact_order, &shader).unwrap();
-        let d = report(&format!("grid 6³×5 table3d MPVO order az {az} el {el}"), &frame.image, &cpu);
-        assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+        assert_close_images(&format!("grid 6³×5 table3d MPVO order az {az} el {el}"), &frame.image, &cpu);
         // The centroid order is approximate: reported, loosely bounded.
         let approx = renderer.render(&ctx, &scene, &cam, &centroid_order(&scene, &cam), &shader).unwrap();
         let d = report(&format!("grid 6³×5 table3d centroid order az {az} el {el}"), &approx.image, &cpu);
@@ -84,19 +86,15 @@ fn grid_table3d_matches_exact_rays() {
 
 #[test]
 fn parallel_projection_and_clipped_tets_render() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(4);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
-    let table = table_for(&mesh);
-    let shader = GpuShader::table3d(&ctx, &table).unwrap();
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let (table, shader) = table3d_for(&ctx, &mesh);
     let (lo, hi) = mesh.bounds();
     let mut spec = ViewSpec::framing(lo, hi, [80, 64]).orbit(20.0, 30.0, 1.0);
     spec.parallel = true;
     let cam = Camera::new(&spec).unwrap();
     let frame = renderer.render(&ctx, &scene, &cam, &mesh.mpvo_order(&cam), &shader).unwrap();
-    let d = report("grid 4³×5 table3d parallel", &frame.image, &mesh.reference(&cam, &table));
-    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    assert_close_images("grid 4³×5 table3d parallel", &frame.image, &mesh.reference(&cam, &table));
 
     // Camera inside the mesh: every tet around the eye crosses the near
     // plane and must be clipped, not dropped.
@@ -106,9 +104,11 @@ fn parallel_projection_and_clipped_tets_render() {
     };
     let cam = Camera::new(&spec).unwrap();
     let frame = renderer.render(&ctx, &scene, &cam, &mesh.mpvo_order(&cam), &shader).unwrap();
-    let d =
-        report("grid 4³×5 table3d, camera inside (near-plane clipping)", &frame.image, &mesh.reference(&cam, &table));
-    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+    assert_close_images(
+        "grid 4³×5 table3d, camera inside (near-plane clipping)",
+        &frame.image,
+        &mesh.reference(&cam, &table),
+    );
     assert!(frame.image.pixel(32, 32)[3] > 0.0);
 }
 
@@ -170,7 +170,7 @@ fn bad_input_is_an_error_not_a_panic() {
     let err = GpuScene::new(&ctx, &mesh.points, &[[0, 1, 2, 9]], &mesh.scalar).err().unwrap();
     assert!(err.to_string().contains("tet 0 refers to point 9"), "{err}");
     assert!(GpuScene::new(&ctx, &mesh.points, &mesh.tets, &[0.0]).is_err());
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
+    let scene = mesh.gpu_scene(&ctx);
     let renderer = GpuRenderer::new(&ctx).unwrap();
     let shader = GpuShader::pt_linear(&ctx, &tf()).unwrap();
     let cam = view(&mesh, [8, 8], 0.0, 0.0);
@@ -186,14 +186,9 @@ fn bad_input_is_an_error_not_a_panic() {
 /// interpolated thick point.
 #[test]
 fn grid_matches_the_cpu_pt_renderer() {
-    let Some(ctx) = gpu() else { return };
     let mesh = grid(8);
-    let scene = GpuScene::new(&ctx, &mesh.points, &mesh.tets, &mesh.scalar).unwrap();
-    let renderer = GpuRenderer::new(&ctx).unwrap();
-    let cpu_scene = tet_render::Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
-    let mut cpu = tet_render::Renderer::new(cpu_scene);
-    // The GPU draws projected tetrahedra: its reference is the CPU PT path.
-    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let mut cpu = cpu_pt_renderer(mesh.cpu_scene());
     let mut shaders: Vec<(String, GpuShader, std::sync::Arc<dyn tet_preint::SegmentShader>)> = Vec::new();
     for axis in [ScalarAxis::TfNodes, ScalarAxis::Uniform] {
         let table = std::sync::Arc::new(table_on_axis(&mesh, axis));
@@ -210,12 +205,9 @@ fn grid_matches_the_cpu_pt_renderer() {
         let cam = Camera::new(&spec).unwrap();
         cpu.set_view(&spec).unwrap();
         for (name, gpu_shader, cpu_shader) in &shaders {
-            cpu.set_shader(cpu_shader.clone());
-            let (want, _) = cpu.render(&|_, _| {}).unwrap();
-            let order = cpu.order().unwrap().tets.clone();
-            let got = renderer.render(&ctx, &scene, &cam, &order, gpu_shader).unwrap().image;
-            let d = report(&format!("grid 8³×5 {name} vs CPU PT az {az} el {el}"), &got, &want);
-            assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{d:?}");
+            let (got, want, _) =
+                gpu_and_cpu_pt_images(&ctx, &renderer, &scene, &cam, &mut cpu, (gpu_shader, cpu_shader));
+            assert_close_images(&format!("grid 8³×5 {name} vs CPU PT az {az} el {el}"), &got, &want);
         }
     }
 }

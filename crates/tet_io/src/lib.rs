@@ -454,6 +454,28 @@ fn read_all(path: &Path) -> Result<Vec<u8>, ReadError> {
     std::fs::read(path).map_err(|source| ReadError::Io { source, path: path.to_path_buf() })
 }
 
+/// A reader of a file's bytes that loads the companion files named inside
+/// it through the callback (by the name as written).
+type CompanionReader = fn(&[u8], &mut dyn FnMut(&str) -> std::io::Result<Vec<u8>>) -> Result<SourceMesh, FormatError>;
+
+/// Runs `read` on `bytes`, the contents of `path`, with companion names
+/// resolved against `path`'s directory: its result, and the last companion
+/// it loaded (an error marked as in a companion names that file).
+fn read_with_companions(
+    path: &Path,
+    bytes: &[u8],
+    read: CompanionReader,
+) -> (Result<SourceMesh, FormatError>, Option<PathBuf>) {
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut companion: Option<PathBuf> = None;
+    let result = read(bytes, &mut |name: &str| {
+        let p = dir.join(name);
+        companion = Some(p.clone());
+        std::fs::read(p)
+    });
+    (result, companion)
+}
+
 /// Reads any supported input file (with its companions) into a [`SourceMesh`].
 pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadError> {
     let format = match opts.format {
@@ -511,31 +533,16 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<SourceMesh, ReadErro
             let bytes = read_all(path)?;
             raw::read(&bytes, spec).map_err(|e| malformed(e, path, None))
         }
-        Format::Nrrd => {
+        Format::Nrrd | Format::Gltf => {
             let bytes = read_all(path)?;
-            let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-            let mut detached: Option<PathBuf> = None;
-            let result = nrrd::read(&bytes, &mut |name: &str| {
-                let p = dir.join(name);
-                detached = Some(p.clone());
-                std::fs::read(p)
-            });
-            result.map_err(|e| malformed(e, path, detached.as_deref()))
+            // NRRD's detached data file, glTF's external buffers.
+            let read: CompanionReader = if format == Format::Nrrd { nrrd::read } else { gltf::read };
+            let (result, companion) = read_with_companions(path, &bytes, read);
+            result.map_err(|e| malformed(e, path, companion.as_deref()))
         }
         Format::Csv => {
             let bytes = read_all(path)?;
             csv::read(&bytes, opts.columns.as_deref()).map_err(|e| malformed(e, path, None))
-        }
-        Format::Gltf => {
-            let bytes = read_all(path)?;
-            let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-            let mut external: Option<PathBuf> = None;
-            let result = gltf::read(&bytes, &mut |uri: &str| {
-                let p = dir.join(uri);
-                external = Some(p.clone());
-                std::fs::read(p)
-            });
-            result.map_err(|e| malformed(e, path, external.as_deref()))
         }
         Format::Exodus => {
             let bytes = read_all(path)?;

@@ -196,22 +196,22 @@ pub fn read(xyz: &[u8], q: Option<&[u8]>, opts: &Plot3dOptions) -> Result<Source
 
 /// Reads a leading record marker and checks it against the record length.
 fn open_record(cur: &mut ByteCursor, layout: &Layout, len: usize, what: &str) -> Result<(), FormatError> {
-    if layout.record_markers {
-        let at = cur.location();
-        let m = cur.u32(layout.endian, &format!("record marker before {what}"))?;
-        if m as usize != len {
-            return Err(FormatError::new(at, format!("record marker before {what} says {m} bytes, expected {len}")));
-        }
-    }
-    Ok(())
+    record_marker(cur, layout, len, &format!("before {what}"))
 }
 
+/// Reads a trailing record marker and checks it against the record length.
 fn close_record(cur: &mut ByteCursor, layout: &Layout, len: usize, what: &str) -> Result<(), FormatError> {
+    record_marker(cur, layout, len, &format!("after {what}"))
+}
+
+/// Where the layout has record markers, reads one (`where_` says which:
+/// "before grid count") and checks that it says `len` bytes.
+fn record_marker(cur: &mut ByteCursor, layout: &Layout, len: usize, where_: &str) -> Result<(), FormatError> {
     if layout.record_markers {
         let at = cur.location();
-        let m = cur.u32(layout.endian, &format!("record marker after {what}"))?;
+        let m = cur.u32(layout.endian, &format!("record marker {where_}"))?;
         if m as usize != len {
-            return Err(FormatError::new(at, format!("record marker after {what} says {m} bytes, expected {len}")));
+            return Err(FormatError::new(at, format!("record marker {where_} says {m} bytes, expected {len}")));
         }
     }
     Ok(())

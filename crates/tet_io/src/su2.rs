@@ -58,6 +58,22 @@ impl<'a> Lines<'a> {
         }
         None
     }
+
+    /// Item `k` (from 0) of the `n` that the section `key` (with its
+    /// keyword line) announces ("elements", "points"): the next data line,
+    /// or an error at the keyword line when the file ends first.
+    fn next_item(
+        &mut self,
+        key: (&str, usize),
+        n: usize,
+        k: usize,
+        what: &str,
+    ) -> Result<(usize, &'a str), FormatError> {
+        let (name, key_line) = key;
+        self.next_data().ok_or_else(|| {
+            FormatError::new(Location::Line(key_line), format!("{name}= {n} but the file ends after {k} {what}"))
+        })
+    }
 }
 
 /// `KEY= value…` → (KEY, rest), for a line that holds a keyword.
@@ -135,12 +151,7 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
                 let zone = zones.last_mut().expect("one zone");
                 zone.cells.reserve(n.min(bytes.len() / 16));
                 for k in 0..n {
-                    let (ln, data) = lines.next_data().ok_or_else(|| {
-                        FormatError::new(
-                            Location::Line(line_no),
-                            format!("NELEM= {n} but the file ends after {k} elements"),
-                        )
-                    })?;
+                    let (ln, data) = lines.next_item(("NELEM", line_no), n, k, "elements")?;
                     let mut tok = data.split_ascii_whitespace();
                     let ty_tok = tok.next().unwrap_or("");
                     let ty: u32 = ty_tok.parse().map_err(|_| {
@@ -175,12 +186,7 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
                 seen_poin = true;
                 points.reserve(n.min(bytes.len() / 8));
                 for k in 0..n {
-                    let (ln, data) = lines.next_data().ok_or_else(|| {
-                        FormatError::new(
-                            Location::Line(line_no),
-                            format!("NPOIN= {n} but the file ends after {k} points"),
-                        )
-                    })?;
+                    let (ln, data) = lines.next_item(("NPOIN", line_no), n, k, "points")?;
                     let mut p = [0.0f64; 3];
                     let mut tok = data.split_ascii_whitespace();
                     for (c, v) in p.iter_mut().enumerate() {

@@ -202,18 +202,23 @@ impl Writer {
     }
 }
 
+/// The point ranges of a grid of `dims` (`points` in all) written as one
+/// record each: every k-plane in the planes layout, else all the points.
+fn record_spans(dims: [usize; 3], points: usize, planes: bool) -> Vec<std::ops::Range<usize>> {
+    let plane = dims[0] * dims[1];
+    if planes {
+        (0..dims[2]).map(|k| k * plane..(k + 1) * plane).collect()
+    } else {
+        std::iter::once(0..points).collect()
+    }
+}
+
 /// Writes the grid file and the Q file of `grids` in layout `enc`.
 fn encode(grids: &[Grid], enc: Enc) -> (Vec<u8>, Vec<u8>) {
     let mut w = Writer { enc, out: Vec::new() };
     w.header(grids);
     for g in grids {
-        let plane = g.dims[0] * g.dims[1];
-        let spans: Vec<std::ops::Range<usize>> = if enc.planes {
-            (0..g.dims[2]).map(|k| k * plane..(k + 1) * plane).collect()
-        } else {
-            std::iter::once(0..g.xyz[0].len()).collect()
-        };
-        for span in spans {
+        for span in record_spans(g.dims, g.xyz[0].len(), enc.planes) {
             let mut p = Vec::new();
             for c in &g.xyz {
                 c[span.clone()].iter().for_each(|&v| w.float(&mut p, v));
@@ -230,13 +235,7 @@ fn encode(grids: &[Grid], enc: Enc) -> (Vec<u8>, Vec<u8>) {
         let mut p = Vec::new();
         g.conditions.iter().for_each(|&v| w.float(&mut p, v));
         w.record(p);
-        let plane = g.dims[0] * g.dims[1];
-        let spans: Vec<std::ops::Range<usize>> = if enc.planes {
-            (0..g.dims[2]).map(|k| k * plane..(k + 1) * plane).collect()
-        } else {
-            std::iter::once(0..g.q[0].len()).collect()
-        };
-        for span in spans {
+        for span in record_spans(g.dims, g.q[0].len(), enc.planes) {
             let mut p = Vec::new();
             for var in &g.q {
                 var[span.clone()].iter().for_each(|&v| w.float(&mut p, v));

@@ -21,13 +21,8 @@ fn volume(m: &SourceMesh, scalar: &str) -> f64 {
     t.tets
         .iter()
         .map(|v| {
-            tet_mesh::predicates::signed_tet_volume(
-                &t.points[v[0] as usize],
-                &t.points[v[1] as usize],
-                &t.points[v[2] as usize],
-                &t.points[v[3] as usize],
-            )
-            .abs()
+            let p = v.map(|i| &t.points[i as usize]);
+            tet_mesh::predicates::signed_tet_volume(p[0], p[1], p[2], p[3]).abs()
         })
         .sum()
 }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::Lcg;
+use common::{assert_structured, Lcg};
 use tet_io::vtk_legacy::read;
 use tet_mesh::{Block, CellType, Field, SourceMesh};
 
@@ -66,17 +66,24 @@ fn connectivity_sum(m: &SourceMesh) -> u64 {
     unstructured(m).connectivity.iter().map(|&p| u64::from(p)).sum()
 }
 
+/// What VTK reports of an unstructured grid: the point and cell counts,
+/// the first and the last cell's nodes and the sum of every connectivity
+/// entry.
+fn assert_unstructured(m: &SourceMesh, points: usize, cells: usize, first_and_last: [&[u32]; 2], sum: u64) {
+    assert_eq!(m.points.len(), points);
+    let grid = unstructured(m);
+    assert_eq!(grid.len(), cells);
+    assert_eq!(grid.nodes(0), first_and_last[0]);
+    assert_eq!(grid.nodes(cells - 1), first_and_last[1]);
+    assert_eq!(connectivity_sum(m), sum);
+}
+
 #[test]
 fn tetra_mesh_ascii() {
     let m = load("tetraMesh.vtk");
     assert_eq!(m.format, "legacy VTK (ASCII)");
-    assert_eq!(m.points.len(), 55);
-    let cells = unstructured(&m);
-    assert_eq!(cells.len(), 160);
-    assert!(cells.types.iter().all(|&t| t == CellType::Tetra));
-    assert_eq!(cells.nodes(0), &[54, 32, 26, 7]);
-    assert_eq!(cells.nodes(159), &[18, 14, 15, 13]);
-    assert_eq!(connectivity_sum(&m), 18388);
+    assert_unstructured(&m, 55, 160, [&[54, 32, 26, 7], &[18, 14, 15, 13]], 18388);
+    assert!(unstructured(&m).types.iter().all(|&t| t == CellType::Tetra));
     assert_point(&m, 0, [9.780320167541504, -1.8030699491500854, 0.9875400066375732]);
     // The file has an empty CELL_DATA section and int scalars with a named
     // lookup table.
@@ -106,12 +113,7 @@ fn tetra_mesh_rewritten_as_5_1_binary_matches() {
 fn cylinder_linear_binary_field_data() {
     let m = load("CylinderLinear.vtk");
     assert_eq!(m.format, "legacy VTK (BINARY)");
-    assert_eq!(m.points.len(), 465);
-    let cells = unstructured(&m);
-    assert_eq!(cells.len(), 1522);
-    assert_eq!(cells.nodes(0), &[223, 106, 24, 149]);
-    assert_eq!(cells.nodes(1521), &[105, 230, 28, 150]);
-    assert_eq!(connectivity_sum(&m), 1764088);
+    assert_unstructured(&m, 465, 1522, [&[223, 106, 24, 149], &[105, 230, 28, 150]], 1764088);
     assert_point(&m, 1, [-0.01, 0.0, 0.1]);
     let v = field(&m.point_fields, "velocity");
     assert_eq!(v.num_components, 3);
@@ -126,13 +128,14 @@ fn cylinder_linear_binary_field_data() {
 #[test]
 fn hexa_ascii() {
     let m = load("hexa.vtk");
-    assert_eq!(m.points.len(), 12167);
-    let cells = unstructured(&m);
-    assert_eq!(cells.len(), 10648);
-    assert!(cells.types.iter().all(|&t| t == CellType::Hexahedron));
-    assert_eq!(cells.nodes(0), &[0, 1, 24, 23, 529, 530, 553, 552]);
-    assert_eq!(cells.nodes(10647), &[11613, 11614, 11637, 11636, 12142, 12143, 12166, 12165]);
-    assert_eq!(connectivity_sum(&m), 518174272);
+    assert_unstructured(
+        &m,
+        12167,
+        10648,
+        [&[0, 1, 24, 23, 529, 530, 553, 552], &[11613, 11614, 11637, 11636, 12142, 12143, 12166, 12165]],
+        518174272,
+    );
+    assert!(unstructured(&m).types.iter().all(|&t| t == CellType::Hexahedron));
     assert_point(&m, 12167 / 2, [0.47826099395751953; 3]);
     let s = field(&m.point_fields, "scalars");
     assert_range(s, 0, 0.7530649900436401, 17.320507049560547);
@@ -143,12 +146,7 @@ fn hexa_ascii() {
 fn post_big_endian_binary() {
     let m = load("post.vtk");
     assert_eq!(m.format, "legacy VTK (BINARY)");
-    assert_eq!(m.points.len(), 2288);
-    let cells = unstructured(&m);
-    assert_eq!(cells.len(), 8750);
-    assert_eq!(cells.nodes(0), &[12, 1, 287, 0]);
-    assert_eq!(cells.nodes(8749), &[2000, 2287, 2286, 2275]);
-    assert_eq!(connectivity_sum(&m), 40022500);
+    assert_unstructured(&m, 2288, 8750, [&[12, 1, 287, 0], &[2000, 2287, 2286, 2275]], 40022500);
     assert_eq!(m.points[0], [0.5, 0.0, 0.0]);
     assert_eq!(m.points[2287], [2.862497091293335, 0.0, 1.1255464553833008]);
     // The dataset-level FIELD (Properties) is skipped; POINT_DATA's FIELD
@@ -163,9 +161,7 @@ fn post_big_endian_binary() {
 #[test]
 fn office_structured_grid_binary() {
     let m = load("office.binary.vtk");
-    assert_eq!(m.blocks, vec![Block::Structured { dims: [21, 20, 20], first_point: 0 }]);
-    assert_eq!(m.points.len(), 8400);
-    assert_eq!(m.num_cells(), 7220);
+    assert_structured(&m, [21, 20, 20], 8400, 7220);
     assert_eq!(m.points[1], [0.05000000074505806, 0.009999998845160007, 0.009999998845160007]);
     assert_eq!(m.points[8399], [4.5, 4.5, 2.5]);
     let s = field(&m.point_fields, "scalars");
@@ -190,9 +186,7 @@ fn office_subgrid_ascii_structured_grid() {
 #[test]
 fn iron_protein_structured_points_aspect_ratio() {
     let m = load("ironProt.vtk");
-    assert_eq!(m.blocks, vec![Block::Structured { dims: [68, 68, 68], first_point: 0 }]);
-    assert_eq!(m.points.len(), 314432);
-    assert_eq!(m.num_cells(), 300763);
+    assert_structured(&m, [68, 68, 68], 314432, 300763);
     assert_eq!(m.points[1], [1.0, 0.0, 0.0]);
     assert_eq!(m.points[314432 / 2], [0.0, 0.0, 34.0]);
     assert_eq!(m.points[314431], [67.0, 67.0, 67.0]);

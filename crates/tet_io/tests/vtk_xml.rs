@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::Lcg;
+use common::{assert_counts, assert_structured, Lcg};
 use std::path::{Path, PathBuf};
 
 use tet_io::vtk_xml::{read, read_pvtu, write_vtu, write_vtu_with, WriteOptions};
@@ -113,8 +113,7 @@ fn check_declared_ranges(file: &[u8], m: &SourceMesh) {
 fn su2_cylinder_zlib_appended_base64() {
     let file = bytes("cylinder3D_solution.vtu");
     let m = read(&file).unwrap();
-    assert_eq!(m.points.len(), 5_696);
-    assert_eq!(m.num_cells(), 27_591);
+    assert_counts(&m, 5_696, 27_591);
     let cells = unstructured(&m);
     assert!(cells.types.iter().all(|&t| t == CellType::Tetra));
     let names: Vec<&str> = m.point_fields.iter().map(|f| f.name.as_str()).collect();
@@ -137,8 +136,7 @@ fn su2_cylinder_zlib_appended_base64() {
 fn can_appended_raw_uint64_hexahedra() {
     let file = bytes("can.vtu");
     let m = read(&file).unwrap();
-    assert_eq!(m.points.len(), 6_724);
-    assert_eq!(m.num_cells(), 4_800);
+    assert_counts(&m, 6_724, 4_800);
     assert!(unstructured(&m).types.iter().all(|&t| t == CellType::Hexahedron));
     for name in ["DISPL", "VEL", "ACCL"] {
         assert_eq!(field(&m.point_fields, name).num_components, 3);
@@ -267,9 +265,7 @@ fn pvtu_errors_name_the_piece() {
 fn structured_grid_vts() {
     let file = bytes("office_sub.vts");
     let m = read(&file).unwrap();
-    assert_eq!(m.points.len(), 480);
-    assert_eq!(m.blocks, vec![Block::Structured { dims: [10, 8, 6], first_point: 0 }]);
-    assert_eq!(m.num_cells(), 315);
+    assert_structured(&m, [10, 8, 6], 480, 315);
     assert!(m.points[0].iter().all(|&v| close(v, 0.01, 1e-6)), "{:?}", m.points[0]);
     assert!(m.points[479].iter().zip([2.1, 1.6, 0.4]).all(|(&v, w)| close(v, w, 1e-6)), "{:?}", m.points[479]);
     assert!(close(point_sum(&m), 709.8800003044307, 1e-9));
@@ -283,9 +279,7 @@ fn structured_grid_vts() {
 fn image_data_vti_with_origin_spacing_and_direction() {
     let file = bytes("iron_sub.vti");
     let m = read(&file).unwrap();
-    assert_eq!(m.points.len(), 960);
-    assert_eq!(m.blocks, vec![Block::Structured { dims: [12, 10, 8], first_point: 0 }]);
-    assert_eq!(m.num_cells(), 693);
+    assert_structured(&m, [12, 10, 8], 960, 693);
     // Extent starts at (20, 22, 24): origin + spacing × index.
     assert_eq!(m.points[0], [11.5, 3.5, 48.25]);
     assert_eq!(m.points[1], [12.0, 3.5, 48.25]);

@@ -191,6 +191,18 @@ pub struct SourceMesh {
 }
 
 impl SourceMesh {
+    /// One structured block of `dims` points (`points` in VTK order, i
+    /// fastest) with one point field, the scalar `name`: what a structured
+    /// grid with one value per point becomes.
+    pub fn structured(dims: [usize; 3], points: Vec<[f64; 3]>, name: &str, values: Vec<f64>) -> SourceMesh {
+        SourceMesh {
+            points,
+            blocks: vec![Block::Structured { dims, first_point: 0 }],
+            point_fields: vec![Field::new(name, 1, values)],
+            ..Default::default()
+        }
+    }
+
     /// Total number of volume cells over all blocks.
     pub fn num_cells(&self) -> usize {
         self.blocks.iter().map(Block::num_cells).sum()
@@ -232,27 +244,11 @@ impl SourceMesh {
             }
         }
         for f in &self.point_fields {
-            if f.num_components == 0 || f.values.len() != n * f.num_components {
-                return Err(format!(
-                    "point field '{}' has {} values, expected {} points × {} components",
-                    f.name,
-                    f.values.len(),
-                    n,
-                    f.num_components
-                ));
-            }
+            check_field_length(f, "point", n)?;
         }
         let nc = self.num_cells();
         for f in &self.cell_fields {
-            if f.num_components == 0 || f.values.len() != nc * f.num_components {
-                return Err(format!(
-                    "cell field '{}' has {} values, expected {} cells × {} components",
-                    f.name,
-                    f.values.len(),
-                    nc,
-                    f.num_components
-                ));
-            }
+            check_field_length(f, "cell", nc)?;
         }
         if let Some(bl) = &self.point_blanked {
             if bl.len() != n {
@@ -261,6 +257,20 @@ impl SourceMesh {
         }
         Ok(())
     }
+}
+
+/// Checks that field `f` has at least one component and one tuple per
+/// element: `count` of them, `kind` ("point", "cell") naming them.
+fn check_field_length(f: &Field, kind: &str, count: usize) -> Result<(), String> {
+    if f.num_components == 0 || f.values.len() != count * f.num_components {
+        return Err(format!(
+            "{kind} field '{}' has {} values, expected {count} {kind}s × {} components",
+            f.name,
+            f.values.len(),
+            f.num_components
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -316,6 +316,15 @@ mod tests {
             .sum()
     }
 
+    /// Points indexed by id: corner c of `corners` at index `ids[c]`.
+    fn placed_at_ids(corners: &[[f64; 3]], ids: &[u32]) -> Vec<[f64; 3]> {
+        let mut pts = vec![[0.0; 3]; corners.len()];
+        for (corner, &id) in corners.iter().zip(ids) {
+            pts[id as usize] = *corner;
+        }
+        pts
+    }
+
     #[test]
     fn every_hex_labelling_gives_six_tets_filling_the_cube() {
         let p = UNIT_HEX;
@@ -323,11 +332,7 @@ mod tests {
         let perms: [[u32; 8]; 4] =
             [[0, 1, 2, 3, 4, 5, 6, 7], [7, 6, 5, 4, 3, 2, 1, 0], [3, 0, 6, 1, 7, 2, 5, 4], [5, 7, 0, 2, 6, 1, 4, 3]];
         for ids in perms {
-            // Points indexed by id: place cube corner c at index ids[c].
-            let mut pts = vec![[0.0; 3]; 8];
-            for c in 0..8 {
-                pts[ids[c] as usize] = p[c];
-            }
+            let pts = placed_at_ids(&p, &ids);
             let mut tets = vec![];
             split_hexahedron(&ids, &mut |t| tets.push(t));
             assert_eq!(tets.len(), 6);
@@ -378,10 +383,7 @@ mod tests {
     fn wedge_and_pyramid_fill_their_volume() {
         let p = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [0., 1., 1.]];
         for ids in [[0u32, 1, 2, 3, 4, 5], [5, 4, 3, 2, 1, 0], [2, 4, 0, 5, 1, 3]] {
-            let mut pts = vec![[0.0; 3]; 6];
-            for c in 0..6 {
-                pts[ids[c] as usize] = p[c];
-            }
+            let pts = placed_at_ids(&p, &ids);
             let mut tets = vec![];
             split_wedge(&ids, &mut |t| tets.push(t));
             assert_eq!(tets.len(), 3);

@@ -7,35 +7,19 @@
 //! a scalar range of 1e-2 around 100.
 //!
 //!     cargo run --release -p tet_preint --example certify_heldout [TF names…]
+#[path = "../tests/common/bluntfin.rs"]
+mod bluntfin;
+
 use std::path::Path;
 use std::time::Instant;
 use tet_preint::certify::{self, CertifiedTable3d, CertifyOptions};
-use tet_preint::{tf_for_domain, BakeOptions, ScalarQuantiles, Table3d, TableDomain, TransferFunction};
+use tet_preint::{tf_for_domain, BakeOptions, Table3d, TableDomain, TransferFunction};
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let data = root.join("../../tests/data/plot3d");
-    let opts = tet_io::ReadOptions { q_path: Some(data.join("bluntfinq.bin")), ..Default::default() };
-    let src = tet_io::read_file(&data.join("bluntfinxyz.bin"), &opts).unwrap();
-    let conv = tet_mesh::ConvertOptions { scalar: Some("density".into()), ..Default::default() };
-    let (mesh, _) = tet_mesh::tetrahedralize(&src, &conv, &mut |_| {}).unwrap();
-    let max_ds = mesh
-        .tets
-        .iter()
-        .map(|t| {
-            let v = t.map(|i| mesh.scalar[i as usize]);
-            v.iter().copied().fold(f64::NEG_INFINITY, f64::max) - v.iter().copied().fold(f64::INFINITY, f64::min)
-        })
-        .fold(0.0, f64::max);
-    let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
-    let mut bf = TableDomain::new(stats.scalar_min, stats.scalar_max, max_ds, stats.max_cell_diameter).unwrap();
-    bf.s_quantiles = ScalarQuantiles::of(&mesh.scalar);
-    let cells = |n: usize, seed: u64| -> Vec<[f32; 3]> {
-        tet_analysis::sample_cell_segments(&mesh.points, &mesh.tets, &mesh.scalar, None, n, seed)
-            .into_iter()
-            .map(|s| [s.s_front as f32, s.s_back as f32, s.len_world as f32])
-            .collect()
-    };
+    let mesh = bluntfin::mesh();
+    let bf = bluntfin::domain(&mesh);
+    let cells = |n: usize, seed: u64| bluntfin::cell_triples(&mesh, n, seed);
     let bake_cells = cells(16_384, 0xce11);
     let check_cells = cells(100_000, 0x7e71);
     let near = TableDomain::new(100.0, 100.01, 0.01, bf.len_max_world).unwrap();

@@ -405,7 +405,7 @@ pub fn node_span(tf: &TransferFunction) -> (f64, f64) {
 mod tests {
     use super::*;
     use tet_bundle::BundleMeta;
-    use tet_mesh::{build_adjacency, mesh_stats, tetrahedralize, Block, ConvertOptions, Field, SourceMesh};
+    use tet_mesh::{build_adjacency, mesh_stats, tetrahedralize, ConvertOptions, SourceMesh};
 
     /// An n³ grid of the unit cube, split into tets as tetprep splits it, scalar `f`.
     fn grid(n: usize, f: impl Fn([f64; 3]) -> f64) -> Bundle {
@@ -418,12 +418,7 @@ mod tests {
             }
         }
         let values = points.iter().map(|&p| f(p)).collect();
-        let src = SourceMesh {
-            points,
-            blocks: vec![Block::Structured { dims: [n + 1; 3], first_point: 0 }],
-            point_fields: vec![Field::new("s", 1, values)],
-            ..Default::default()
-        };
+        let src = SourceMesh::structured([n + 1; 3], points, "s", values);
         let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
         let (mesh, _) = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
         let stats = mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);

@@ -333,19 +333,8 @@ fn quantize_poly(t: PolyTable, precision: Precision) -> Result<PolyTable, TableE
     let stride = 3 * (t.degree() + 1);
     let rho = quantize(t.rho(), 1, precision);
     let coef = quantize(t.coef(), stride, precision);
-    PolyTable::from_parts(
-        t.degree(),
-        t.res(),
-        t.band(),
-        t.s_range(),
-        t.l_max(),
-        t.emission(),
-        t.max_color(),
-        rho,
-        coef,
-        t.alpha_table().clone(),
-    )
-    .map_err(|e| TableError::Invalid(format!("{precision} rounding: {e}")))
+    t.with_values(rho, coef, t.alpha_table().clone())
+        .map_err(|e| TableError::Invalid(format!("{precision} rounding: {e}")))
 }
 
 /// The F/B table rounded through `precision`.

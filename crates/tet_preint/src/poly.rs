@@ -32,6 +32,7 @@
 
 use rayon::prelude::*;
 
+use crate::bivariate::GL6_NODES;
 use crate::method::{Method, Rgba32, Segment, SegmentBatch, SegmentShader, BATCH};
 use crate::simd::{no_nan, vmax, vmin};
 use crate::tf::{Emission, TransferFunction};
@@ -271,16 +272,6 @@ impl Nodes {
 /// One point of a segment's piecewise-linear profile: scalar, ρ, κ.
 pub(crate) type Knot = (f64, f64, [f64; 3]);
 
-/// Gauss–Legendre, 6 points on [0, 1]: nodes and weights.
-const GL6: [(f64, f64); 6] = [
-    (0.5 * (1.0 - 0.932_469_514_203_152), 0.5 * 0.171_324_492_379_170_4),
-    (0.5 * (1.0 - 0.661_209_386_466_264_5), 0.5 * 0.360_761_573_048_138_6),
-    (0.5 * (1.0 - 0.238_619_186_083_196_9), 0.5 * 0.467_913_934_572_691),
-    (0.5 * (1.0 + 0.238_619_186_083_196_9), 0.5 * 0.467_913_934_572_691),
-    (0.5 * (1.0 + 0.661_209_386_466_264_5), 0.5 * 0.360_761_573_048_138_6),
-    (0.5 * (1.0 + 0.932_469_514_203_152), 0.5 * 0.171_324_492_379_170_4),
-];
-
 /// Largest exponent change per Gauss–Legendre panel: with 6 nodes the
 /// relative error on exp(−E) is then about 1e-12.
 const PANEL_DEPTH: f64 = 1.5;
@@ -359,7 +350,7 @@ pub(crate) fn integrate_entry(knots: &[Knot], l_max: f64, n: usize, emission: Em
                 }
                 break;
             }
-            for &(xn, wn) in &GL6 {
+            for &(xn, wn) in &GL6_NODES {
                 let x = x0 + h * xn;
                 let e = (a + 0.5 * b * x) * x * inv_n;
                 // exp is cheaper than exp_m1; 1 − e1 loses relative precision
@@ -575,6 +566,24 @@ impl PolyTable {
             inv_ds: (res - 1) as f32 / (s_hi - s_lo),
             inv_l_max: 1.0 / l_max,
         }
+    }
+
+    /// This table's dimensions, range, emission and colour bound with other
+    /// ρ̂, coefficients and α table, checked as [`PolyTable::from_parts`]
+    /// checks them (e.g. the same values rounded to another precision).
+    pub fn with_values(&self, rho: Vec<f32>, coef: Vec<f32>, alpha: AlphaTable) -> Result<Self, PolyError> {
+        PolyTable::from_parts(
+            self.degree(),
+            self.res(),
+            self.band(),
+            self.s_range(),
+            self.l_max(),
+            self.emission(),
+            self.max_color(),
+            rho,
+            coef,
+            alpha,
+        )
     }
 
     /// Rebuilds a table from stored parts (see the type's storage layout);

@@ -37,6 +37,27 @@ fn max_diff(a: tet_preint::Rgba, b: tet_preint::Rgba) -> f64 {
     (0..4).map(|k| (a.to_array()[k] - b.to_array()[k]).abs()).fold(0.0, f64::max)
 }
 
+/// tf_ramp.json (no widgets) under density, then independent emission.
+fn ramp_under_both_emissions() -> [TransferFunction; 2] {
+    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
+    [Emission::Density, Emission::Independent].map(|e| tf.clone().with_emission(e))
+}
+
+/// The largest channel error of `with` and of `without` (biv-exact on `tf`
+/// with and without its tables) against the adaptive reference, over 400
+/// random segments from `seed`.
+fn errors_with_and_without(tf: &TransferFunction, with: &BivExact, without: &BivExact, seed: u64) -> (f64, f64) {
+    let mut next = lcg(seed);
+    let (mut e_with, mut e_without) = (0.0f64, 0.0f64);
+    for _ in 0..400 {
+        let seg = random_seg(&mut next);
+        let r = reference_segment(tf, &seg, 1e-12);
+        e_with = e_with.max(max_diff(with.integrate(&seg), r));
+        e_without = e_without.max(max_diff(without.integrate(&seg), r));
+    }
+    (e_with, e_without)
+}
+
 #[test]
 fn json_round_trip_and_old_files_stay_valid() {
     let tf = full();
@@ -94,10 +115,8 @@ fn json_errors_name_the_widget_and_field() {
 
 #[test]
 fn no_widgets_is_the_1d_exact_integrator() {
-    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
     let mut next = lcg(1);
-    for emission in [Emission::Density, Emission::Independent] {
-        let tf = tf.clone().with_emission(emission);
+    for tf in ramp_under_both_emissions() {
         let biv = BivExact::new(tf.clone());
         for _ in 0..500 {
             let seg = random_seg(&mut next);
@@ -109,14 +128,12 @@ fn no_widgets_is_the_1d_exact_integrator() {
 
 #[test]
 fn reference_agrees_with_exact_in_1d() {
-    let tf = TransferFunction::from_json(include_str!("data/vtk/tf_ramp.json")).unwrap();
     let mut next = lcg(2);
-    for emission in [Emission::Density, Emission::Independent] {
-        let tf = tf.clone().with_emission(emission);
+    for tf in ramp_under_both_emissions() {
         for _ in 0..200 {
             let seg = random_seg(&mut next);
             let d = max_diff(reference_segment(&tf, &seg, 1e-12), integrate_segment(&tf, seg.sf, seg.sb, seg.len));
-            assert!(d < 1e-10, "{emission:?} {seg:?}: {d}");
+            assert!(d < 1e-10, "{:?} {seg:?}: {d}", tf.emission());
         }
     }
 }
@@ -319,14 +336,7 @@ fn gauss_erf_table_matches_quadrature_and_reference() {
     let with = BivExact::new(tf.clone());
     assert!(with.gauss_table().is_some());
     let without = BivExact::with_gauss_table(tf.clone(), None);
-    let mut next = lcg(7);
-    let (mut e_with, mut e_without) = (0.0f64, 0.0f64);
-    for _ in 0..400 {
-        let seg = random_seg(&mut next);
-        let r = reference_segment(&tf, &seg, 1e-12);
-        e_with = e_with.max(max_diff(with.integrate(&seg), r));
-        e_without = e_without.max(max_diff(without.integrate(&seg), r));
-    }
+    let (e_with, e_without) = errors_with_and_without(&tf, &with, &without, 7);
     println!("biv-exact vs reference, Gaussian emission-only: table {e_with:.2e}, quadrature {e_without:.2e}");
     assert!(e_with < 3e-7 && e_without < 1e-12, "{e_with:e} {e_without:e}");
 }
@@ -369,14 +379,7 @@ fn band_tables_match_quadrature_and_reference() {
             BandKind::Sine => with.tables().sine.is_some(),
         });
         let without = BivExact::with_tables(tf.clone(), BivTables::default());
-        let mut next = lcg(8);
-        let (mut e_with, mut e_without) = (0.0f64, 0.0f64);
-        for _ in 0..400 {
-            let seg = random_seg(&mut next);
-            let r = reference_segment(&tf, &seg, 1e-12);
-            e_with = e_with.max(max_diff(with.integrate(&seg), r));
-            e_without = e_without.max(max_diff(without.integrate(&seg), r));
-        }
+        let (e_with, e_without) = errors_with_and_without(&tf, &with, &without, 8);
         println!("biv-exact vs reference, {kind:?} emission-only: table {e_with:.2e}, quadrature {e_without:.2e}");
         assert!(e_with < seg_bound && e_without < 1e-10, "{kind:?} {e_with:e} {e_without:e}");
     }

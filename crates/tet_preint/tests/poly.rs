@@ -148,33 +148,11 @@ fn parts_round_trip_and_bad_parts() {
     )
     .unwrap();
     assert_eq!(back, t);
-    let short = PolyTable::from_parts(
-        4,
-        50,
-        t.band(),
-        t.s_range(),
-        1.0,
-        Emission::Density,
-        t.max_color(),
-        t.rho()[1..].to_vec(),
-        t.coef().to_vec(),
-        alpha.clone(),
-    );
+    let short = t.with_values(t.rho()[1..].to_vec(), t.coef().to_vec(), alpha.clone());
     assert!(matches!(short, Err(PolyError::Length { what: "rho", .. })));
     let mut coef = t.coef().to_vec();
     coef[7] = f32::NAN;
-    let nan = PolyTable::from_parts(
-        4,
-        50,
-        t.band(),
-        t.s_range(),
-        1.0,
-        Emission::Density,
-        t.max_color(),
-        t.rho().to_vec(),
-        coef,
-        alpha,
-    );
+    let nan = t.with_values(t.rho().to_vec(), coef, alpha);
     assert_eq!(nan.unwrap_err(), PolyError::NonFinite { what: "coef", index: 7 });
     assert!(AlphaTable::from_parts(0.0, vec![0, 1]).is_err());
 }

@@ -1,6 +1,8 @@
 //! `Table3d::rebake`: after a TF edit, the re-baked table equals a full bake
 //! of the new TF bit for bit, recomputing only the pairs the edit can reach
 //! when the scalar axis stays.
+mod common;
+
 use proptest::prelude::*;
 use tet_preint::table3d::{Build3d, FullRebake, ScalarAxis, Table3dParams};
 use tet_preint::*;
@@ -158,21 +160,9 @@ fn moved_added_removed_nodes_and_global_changes() {
     assert_eq!(t.storage(), Table3d::build(&value_edit, &domain(), &p).unwrap().storage());
 }
 
+/// The property tests' TFs: opacity up to 6, unit distance 0.7.
 fn arb_tf() -> impl Strategy<Value = TransferFunction> {
-    (
-        prop::collection::vec((0.0f64..1.0, 0.0f64..6.0), 1..7),
-        prop::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0), 1..6),
-        prop::bool::ANY,
-    )
-        .prop_map(|(mut op, mut col, independent)| {
-            op.sort_by(|a, b| a.0.total_cmp(&b.0));
-            op.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
-            col.sort_by(|a, b| a.0.total_cmp(&b.0));
-            col.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
-            let e = if independent { Emission::Independent } else { Emission::Density };
-            let col: Vec<(f64, [f64; 3])> = col.into_iter().map(|(x, r, g, b)| (x, [r, g, b])).collect();
-            tf(&col, &op, e)
-        })
+    common::arb_tf(6.0, 1..7, 1..6, 0.7)
 }
 
 proptest! {

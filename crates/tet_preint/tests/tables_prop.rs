@@ -1,26 +1,31 @@
 //! Property tests: for random transfer functions, table3d's nodes and the
 //! partial method stay within tolerance of `exact`; lookups never give NaN.
+mod common;
+
 use proptest::prelude::*;
 use std::sync::Arc;
 use tet_preint::table3d::{Build3d, Table3dParams};
 use tet_preint::*;
 
+/// The property tests' TFs: opacity up to 8, unit distance 1.
 fn arb_tf() -> impl Strategy<Value = TransferFunction> {
-    (
-        prop::collection::vec((0.0f64..1.0, 0.0f64..8.0), 1..6),
-        prop::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0), 1..5),
-        prop::bool::ANY,
-    )
-        .prop_map(|(mut op, mut col, independent)| {
-            op.sort_by(|a, b| a.0.total_cmp(&b.0));
-            op.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
-            col.sort_by(|a, b| a.0.total_cmp(&b.0));
-            col.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
-            let opacity = op.into_iter().map(|(x, a)| OpacityNode { x, a }).collect();
-            let color = col.into_iter().map(|(x, r, g, b)| ColorNode { x, rgb: [r, g, b] }).collect();
-            let e = if independent { Emission::Independent } else { Emission::Density };
-            TransferFunction::new(color, opacity, 1.0, e, false).unwrap()
-        })
+    common::arb_tf(8.0, 1..6, 1..5, 1.0)
+}
+
+/// A slice-recurrence table (oversampling 6) of `tf` over `d`, (n_s, n_l)
+/// = `size`, on `s_axis`, and the scalar of each of its grid indices.
+fn recurrence_table(
+    tf: &TransferFunction,
+    d: &TableDomain,
+    size: (usize, usize),
+    s_axis: ScalarAxis,
+) -> (Table3d, Vec<f64>) {
+    let (n_s, n_l) = size;
+    let p =
+        Table3dParams { n_s, n_l, build: Build3d::SliceRecurrence { oversampling: 6.0 }, s_axis, ..Default::default() };
+    let t = Table3d::build(tf, d, &p).unwrap();
+    let grid = (0..n_s).map(|a| t.scalar_at(a)).collect();
+    (t, grid)
 }
 
 proptest! {
@@ -77,15 +82,7 @@ proptest! {
         segs in prop::collection::vec((-0.3f32..1.3, -0.3f32..1.3, -0.5f32..2.5), 1..64),
     ) {
         let d = TableDomain::new(0.0, 1.0, 0.3, 2.0).unwrap();
-        let p = Table3dParams {
-            n_s: 24,
-            n_l: 12,
-            build: Build3d::SliceRecurrence { oversampling: 6.0 },
-            s_axis: ScalarAxis::TfNodes,
-            ..Default::default()
-        };
-        let t = Table3d::build(&tf, &d, &p).unwrap();
-        let grid: Vec<f64> = (0..24).map(|a| t.scalar_at(a)).collect();
+        let (t, grid) = recurrence_table(&tf, &d, (24, 12), ScalarAxis::TfNodes);
         prop_assert!(grid.windows(2).all(|w| w[0] < w[1]) && grid[0] == 0.0 && grid[23] == 1.0);
         let nodes = tf.opacity_nodes().iter().map(|o| o.x).chain(tf.color_nodes().iter().map(|c| c.x));
         for x in nodes.filter(|&x| x > 1e-6 && x < 1.0 - 1e-6) {
@@ -127,15 +124,7 @@ proptest! {
         let scalars: Vec<f64> = (0..=1000).map(|i| (i as f64 / 1000.0).powf(power)).collect();
         let mut d = TableDomain::new(0.0, 1.0, 1.0, 2.0).unwrap();
         d.s_quantiles = ScalarQuantiles::of(&scalars);
-        let p = Table3dParams {
-            n_s: 32,
-            n_l: 16,
-            build: Build3d::SliceRecurrence { oversampling: 6.0 },
-            s_axis: ScalarAxis::Data,
-            ..Default::default()
-        };
-        let t = Table3d::build(&tf, &d, &p).unwrap();
-        let grid: Vec<f64> = (0..32).map(|a| t.scalar_at(a)).collect();
+        let (t, grid) = recurrence_table(&tf, &d, (32, 16), ScalarAxis::Data);
         prop_assert!(grid.windows(2).all(|w| w[0] < w[1]) && grid[0] == 0.0 && grid[31] == 1.0);
         prop_assert!(!t.is_uniform_axis());
         let nodes = tf.opacity_nodes().iter().map(|o| o.x).chain(tf.color_nodes().iter().map(|c| c.x));

@@ -32,14 +32,7 @@ fn bench(c: &mut Criterion) {
         false,
     )
     .unwrap();
-    let mut bmin = [f64::INFINITY; 3];
-    let mut bmax = [f64::NEG_INFINITY; 3];
-    for p in &mesh.points {
-        for a in 0..3 {
-            bmin[a] = bmin[a].min(p[a]);
-            bmax[a] = bmax[a].max(p[a]);
-        }
-    }
+    let (bmin, bmax) = tet_mesh::stats::bounds(&mesh.points);
     let cam = Camera::new(&ViewSpec::framing(bmin, bmax, [128, 128]).orbit(40.0, 25.0, 1.5)).unwrap();
     let mut group = c.benchmark_group("reference_bluntfin_128");
     group.sample_size(10);

@@ -12,11 +12,12 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use std::path::Path;
 use std::sync::Arc;
 use tet_io::{read_file, ReadOptions};
-use tet_mesh::{tetrahedralize, Block, ConvertOptions, Field, SourceMesh};
+use tet_mesh::{tetrahedralize, ConvertOptions, SourceMesh};
 use tet_preint::{
     ExactShader, PolyParams, PolyTable, PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain,
     TransferFunction,
 };
+use tet_render::pipeline::process_cpu_seconds;
 use tet_render::project::ViewGeometry;
 use tet_render::{visibility_order, Camera, Renderer, Scene, SortMethod, TfCuller, ViewSpec};
 
@@ -42,12 +43,7 @@ fn grid(n: usize) -> Scene {
             }
         }
     }
-    let src = SourceMesh {
-        points,
-        blocks: vec![Block::Structured { dims: [n + 1; 3], first_point: 0 }],
-        point_fields: vec![Field::new("s", 1, s)],
-        ..Default::default()
-    };
+    let src = SourceMesh::structured([n + 1; 3], points, "s", s);
     let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
     let (m, _) = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
     Scene::new(&m.points, m.tets, m.scalar).unwrap()
@@ -104,16 +100,6 @@ fn shaders(scene: &Scene, tf: &TransferFunction, with_exact: bool) -> Vec<(&'sta
         v.push(("exact", Arc::new(ExactShader::new(tf.clone()))));
     }
     v
-}
-
-/// User + system CPU seconds of this process, all threads (Linux; 0 elsewhere).
-fn process_cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
-    // Fields after the parenthesised command name; utime and stime are the 14th and 15th.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
-    (ticks(11) + ticks(12)) / 100.0
 }
 
 fn view(scene: &Scene) -> ViewSpec {
@@ -173,13 +159,11 @@ fn bench(c: &mut Criterion) {
                 .min_by(|a, b| a.0.total_seconds.total_cmp(&b.0.total_seconds))
                 .unwrap();
             eprintln!(
-                "{name} {method}: warm best of 3 {:.3} s (bin {:.3}, raster {:.3}), {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+                "{name} {method}: warm best of 3 {:.3} s (bin {:.3}, raster {:.3}), {}",
                 best.total_seconds,
                 best.project_seconds,
                 best.raster_seconds,
-                best.tets_per_second() / 1e6,
-                cpu,
-                cpu * 1e9 / best.fragments.max(1) as f64
+                best.throughput_summary(cpu)
             );
             // Warm frames: the view is unchanged, so only binning and raster run.
             g.bench_function(BenchmarkId::new(format!("{method}_cached_order"), name), |b| {

@@ -25,16 +25,8 @@ use std::path::Path;
 use std::sync::Arc;
 use tet_bundle::Bundle;
 use tet_preint::{load_shader, LutFile};
+use tet_render::pipeline::process_cpu_seconds;
 use tet_render::{RasterOptions, Renderer, Scene, TfCuller, ViewSpec};
-
-/// User + system CPU seconds of this process, all threads (Linux; 0 elsewhere).
-fn process_cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
-    (ticks(11) + ticks(12)) / 100.0
-}
 
 /// A shader whose every segment is the same faint grey: no lookup cost.
 struct FreeShader(tet_preint::Method);
@@ -113,7 +105,7 @@ fn main() {
         }
         let cpu = process_cpu_seconds() - c0;
         println!(
-            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {}",
             st.renderer,
             st.total_seconds,
             st.view_seconds,
@@ -130,9 +122,7 @@ fn main() {
             st.walk_terminated,
             st.walk_exact_tests,
             st.setups,
-            st.tets_per_second() / 1e6,
-            cpu,
-            cpu * 1e9 / st.fragments.max(1) as f64
+            st.throughput_summary(cpu)
         );
         if f == 0 {
             println!(

@@ -9,17 +9,16 @@
 //! the f64 reference ray caster, at 96², linear max over R, G, B, A with no
 //! tone mapping. Before the certify-and-refine bake the sharp TF missed
 //! 1/255 (crates/tetlut/results/certified.md).
-use glam::DVec3;
 use std::sync::Arc;
 use tet_io::{read_file, ReadOptions};
-use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions};
-use tet_preint::{make_shader, tf_for_domain, BakeOptions, Method, SegmentShader, TableDomain, TransferFunction};
-use tet_render::{Camera, ReferenceOptions, ReferenceRenderer, Renderer, Scene, ViewSpec};
+use tet_mesh::{tetrahedralize, ConvertOptions};
+use tet_preint::{make_shader, tf_for_domain, BakeOptions, Method, SegmentShader, TransferFunction};
+use tet_render::{Camera, ReferenceOptions, ReferenceRenderer};
 
 // The held-out TFs and the comparison, as tests/heldout_image.rs.
 #[path = "../tests/common/heldout.rs"]
 mod heldout_data;
-use heldout_data::{diff, heldout, root};
+use heldout_data::{diff, framed, heldout, renderer_at, root};
 
 fn main() {
     let size: u32 = std::env::args().nth(1).map_or(256, |s| s.parse().unwrap());
@@ -28,21 +27,10 @@ fn main() {
     let src = read_file(&data.join("bluntfinxyz.bin"), &opts).unwrap();
     let conv = ConvertOptions { scalar: Some("density".into()), ..Default::default() };
     let (mesh, _) = tetrahedralize(&src, &conv, &mut |_| {}).unwrap();
-    let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
-    // The bundle's domain, as tetview render computes it.
-    let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
-    let bundle = tet_bundle::Bundle::with_stats(mesh.clone(), adj.clone(), Default::default(), stats);
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
-    let (lo, hi) =
-        mesh.points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| {
-            (a.min(DVec3::from(*p)), b.max(DVec3::from(*p)))
-        });
-    let view = ViewSpec::framing(lo.into(), hi.into(), [size, size]).orbit(40.0, 25.0, 1.2);
+    let (adj, domain, view) = framed(&mesh, size, 40.0, 25.0);
     let cam = Camera::new(&view).unwrap();
     let reference = ReferenceRenderer::new(&mesh, &adj).unwrap();
-    let scene = Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
-    let mut r = Renderer::new(scene);
-    r.set_view(&view).unwrap();
+    let mut r = renderer_at(&mesh, &view);
     println!("| TF | before: linear max, px > 1/255, frame ms | after: linear max, px > 1/255, frame ms | bake ms before / after |");
     println!("|---|---|---|---|");
     let sample = root().join("formats/samples/tf_normalized.json");

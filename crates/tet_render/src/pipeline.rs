@@ -142,6 +142,32 @@ impl RenderStats {
             0.0
         }
     }
+
+    /// "T M tets/s, cpu C s = N ns/fragment", as the frame profiles print
+    /// it: throughput, and `cpu_seconds` of process CPU time spent on the
+    /// frame ([`process_cpu_seconds`] before and after) in all and per
+    /// fragment.
+    pub fn throughput_summary(&self, cpu_seconds: f64) -> String {
+        format!(
+            "{:.2} M tets/s, cpu {:.2} s = {:.1} ns/fragment",
+            self.tets_per_second() / 1e6,
+            cpu_seconds,
+            cpu_seconds * 1e9 / self.fragments.max(1) as f64
+        )
+    }
+}
+
+/// User + system CPU seconds of this process, all threads, from
+/// `/proc/self/stat` (Linux; 0 elsewhere): set against wall time, how many
+/// cores a frame kept busy.
+pub fn process_cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    // Fields after the parenthesised command name; utime and stime are the
+    // 14th and 15th, in clock ticks (100 a second).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
 }
 
 /// A scene with its cached per-view and per-TF state.

@@ -6,35 +6,23 @@
 //! NASA Blunt Fin and the Combustor (curvilinear CFD) and ironProt (a
 //! scanned-style volume). Before the certify-and-refine bake the sharp TF
 //! missed 1/255 on Blunt Fin (crates/tetlut/results/certified.md).
-use glam::DVec3;
 use std::sync::Arc;
 use tet_io::{read_file, ReadOptions};
-use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions};
-use tet_preint::{make_shader, tf_for_domain, BakeOptions, Method, SegmentShader, TableDomain};
-use tet_render::{Camera, ReferenceOptions, ReferenceRenderer, Renderer, Scene, ViewSpec};
+use tet_mesh::{tetrahedralize, ConvertOptions};
+use tet_preint::{make_shader, tf_for_domain, BakeOptions, Method, SegmentShader};
+use tet_render::{Camera, ReferenceOptions, ReferenceRenderer};
 
 #[path = "common/heldout.rs"]
 mod heldout_data;
-use heldout_data::{diff, heldout, root};
+use heldout_data::{diff, framed, heldout, renderer_at, root};
 
 /// Every held-out TF through the default table3d bake on `mesh`, seen from
 /// (azimuth, elevation) at `size`², meets 1/255 against the reference.
 fn check_heldout(what: &str, mesh: &tet_mesh::TetMesh, size: u32, azimuth: f64, elevation: f64) {
-    let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
-    // The bundle's domain, as tetview render computes it.
-    let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
-    let bundle = tet_bundle::Bundle::with_stats(mesh.clone(), adj.clone(), Default::default(), stats);
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
-    let (lo, hi) =
-        mesh.points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| {
-            (a.min(DVec3::from(*p)), b.max(DVec3::from(*p)))
-        });
-    let view = ViewSpec::framing(lo.into(), hi.into(), [size, size]).orbit(azimuth, elevation, 1.2);
+    let (adj, domain, view) = framed(mesh, size, azimuth, elevation);
     let cam = Camera::new(&view).unwrap();
     let reference = ReferenceRenderer::new(mesh, &adj).unwrap();
-    let scene = Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
-    let mut r = Renderer::new(scene);
-    r.set_view(&view).unwrap();
+    let mut r = renderer_at(mesh, &view);
     for name in ["tf_sharp8.json", "tf_peaks12.json", "tf_steps.json", "tf_plateaus.json"] {
         let tf = tf_for_domain(&heldout(name), &domain).unwrap();
         let (want, _) = reference.render(&cam, &tf, &ReferenceOptions::default(), &|_, _| {}).unwrap();

@@ -299,14 +299,11 @@ fn rays_through_edges_and_vertices_are_neither_lost_nor_doubled() {
                         // surface: inside or outside is a matter of
                         // perturbation, both answers are right.
                         let grazing = (0..3).any(|k| d[k] == 0.0 && (o[k] == lo[k] || o[k] == hi[k]));
-                        let res = r.trace_line(
-                            o,
-                            o + d,
-                            f64::NEG_INFINITY,
-                            &tf_c,
-                            &ReferenceOptions::default(),
-                            &mut scratch,
-                        );
+                        // The whole line through o and o + d under `tf`.
+                        let mut trace = |tf: &TransferFunction| {
+                            r.trace_line(o, o + d, f64::NEG_INFINITY, tf, &ReferenceOptions::default(), &mut scratch)
+                        };
+                        let res = trace(&tf_c);
                         assert_eq!(res.stats.walk_failures, 0, "{o} {d}");
                         let want = 1.0 - (-rho * (t1 - t0)).exp();
                         if grazing {
@@ -318,14 +315,7 @@ fn rays_through_edges_and_vertices_are_neither_lost_nor_doubled() {
                             continue;
                         }
                         assert!((res.rgba[3] - want).abs() < 1e-12, "{split:?} {o} {d}: α {} want {want}", res.rgba[3]);
-                        let got = r.trace_line(
-                            o,
-                            o + d,
-                            f64::NEG_INFINITY,
-                            &tf_r,
-                            &ReferenceOptions::default(),
-                            &mut scratch,
-                        );
+                        let got = trace(&tf_r);
                         let want = analytic(&tf_r, &fv, o, u, vec![(t0, t1)]);
                         assert_close(got.rgba, want, 1e-10, &format!("{split:?} line {o} + t {d}"));
                         checked += 1;

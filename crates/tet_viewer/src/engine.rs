@@ -473,6 +473,20 @@ mod tests {
         }
     }
 
+    /// An engine on the GPU path, or `None` with the reason printed where
+    /// it has none (the test skips; with TETKIT_REQUIRE_GPU=1 it fails).
+    fn gpu_engine(bundle: &Bundle) -> Option<Engine> {
+        let engine = Engine::new(bundle, true).unwrap();
+        if !engine.has_gpu() {
+            if tet_gpu::gpu_required() {
+                panic!("TETKIT_REQUIRE_GPU=1 but {}", engine.gpu_note());
+            }
+            println!("skipped: {}", engine.gpu_note());
+            return None;
+        }
+        Some(engine)
+    }
+
     fn sample_bundle() -> Bundle {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/samples/cube5.tetb");
         Bundle::read(std::path::Path::new(path)).unwrap()
@@ -643,14 +657,7 @@ mod tests {
     #[test]
     fn gpu_stages_and_fallback() {
         let bundle = sample_bundle();
-        let mut engine = Engine::new(&bundle, true).unwrap();
-        if !engine.has_gpu() {
-            if tet_gpu::gpu_required() {
-                panic!("TETKIT_REQUIRE_GPU=1 but {}", engine.gpu_note());
-            }
-            println!("skipped: {}", engine.gpu_note());
-            return;
-        }
+        let Some(mut engine) = gpu_engine(&bundle) else { return };
         let s = engine.scene().scalar_range();
         let mut model = TfModel::ramp(s, 0.5);
         let mut req = request(&engine, &model, Method::Table3d, true);
@@ -688,14 +695,7 @@ mod tests {
     #[test]
     fn every_gpu_method_matches_the_cpu_engine() {
         let bundle = sample_bundle();
-        let mut gpu = Engine::new(&bundle, true).unwrap();
-        if !gpu.has_gpu() {
-            if tet_gpu::gpu_required() {
-                panic!("TETKIT_REQUIRE_GPU=1 but {}", gpu.gpu_note());
-            }
-            println!("skipped: {}", gpu.gpu_note());
-            return;
-        }
+        let Some(mut gpu) = gpu_engine(&bundle) else { return };
         let mut cpu = Engine::new(&bundle, false).unwrap();
         // The GPU draws projected tetrahedra; so does its reference.
         cpu.set_cpu_renderer(tet_render::CpuRenderer::Pt);

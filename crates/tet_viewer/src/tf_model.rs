@@ -223,6 +223,14 @@ impl TfModel {
         self.revision += 1;
     }
 
+    /// A new revision when `changed`; returns `changed`.
+    fn bump_if(&mut self, changed: bool) -> bool {
+        if changed {
+            self.bump();
+        }
+        changed
+    }
+
     /// Adds an opacity node (x clamped into the range, `a` to ≥ 0); returns
     /// its index, or `None` next to an existing node.
     pub fn add_opacity(&mut self, x: f64, a: f64) -> Option<usize> {
@@ -250,12 +258,8 @@ impl TfModel {
 
     /// Removes opacity node `i` unless it is the last one; whether it did.
     pub fn remove_opacity(&mut self, i: usize) -> bool {
-        if i >= self.opacity.len() || self.opacity.len() <= 1 {
-            return false;
-        }
-        self.opacity.remove(i);
-        self.bump();
-        true
+        let removed = remove_unless_last(&mut self.opacity, i);
+        self.bump_if(removed)
     }
 
     /// Adds a colour node at `x` with the colour the TF has there now.
@@ -294,12 +298,8 @@ impl TfModel {
 
     /// Removes colour node `i` unless it is the last one.
     pub fn remove_color(&mut self, i: usize) -> bool {
-        if i >= self.color.len() || self.color.len() <= 1 {
-            return false;
-        }
-        self.color.remove(i);
-        self.bump();
-        true
+        let removed = remove_unless_last(&mut self.color, i);
+        self.bump_if(removed)
     }
 
     /// Sets the distance over which opacity `a` is an optical depth of `a`.
@@ -572,6 +572,16 @@ fn clean_clip(clip: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
         let b = if b.is_nan() { f64::MAX } else { b.clamp(-f64::MAX, f64::MAX) };
         [a.min(b), a.max(b)]
     })
+}
+
+/// Removes `nodes[i]` unless `i` is out of range or it is the last node
+/// (a TF keeps one of each); whether it did.
+fn remove_unless_last<T>(nodes: &mut Vec<T>, i: usize) -> bool {
+    if i >= nodes.len() || nodes.len() <= 1 {
+        return false;
+    }
+    nodes.remove(i);
+    true
 }
 
 fn clean_nonneg(v: f64, fallback: f64) -> f64 {

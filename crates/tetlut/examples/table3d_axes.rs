@@ -9,16 +9,15 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 use tet_preint::table3d::{ScalarAxis, Table3d, Table3dParams};
-use tet_preint::{integrate_segment_with, SegmentShader, TableDomain, TransferFunction};
+use tet_preint::{integrate_segment_with, SegmentShader};
+
+mod common;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let bundle = tet_bundle::Bundle::read(std::path::Path::new(&args[1])).expect("bundle");
-    let tf = TransferFunction::from_json(&std::fs::read_to_string(&args[2]).expect("tf")).expect("tf json");
+    let (bundle, domain, tf) = common::bundle_domain_tf(&args);
     let count: usize = args.get(3).map_or(200_000, |s| s.parse().expect("count"));
-    let domain = TableDomain::from_bundle(&bundle).expect("domain");
     println!("quantiles {:?}", domain.s_quantiles);
-    let tf = tet_preint::tf_for_domain(&tf, &domain).expect("tf for domain");
     println!(
         "domain s [{:.6e}, {:.6e}] span {:.6e}, max_ds {:.6e}, len_max {:.6e}",
         domain.s_lo,

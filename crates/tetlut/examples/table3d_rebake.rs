@@ -7,7 +7,9 @@
 //! `cargo run --release -p tetlut --example table3d_rebake -- B.tetb tf.json [repeats]`
 use std::time::Instant;
 use tet_preint::table3d::Build3d;
-use tet_preint::{BakeOptions, ColorNode, OpacityNode, Table3d, Table3dParams, TableDomain, TransferFunction};
+use tet_preint::{BakeOptions, ColorNode, OpacityNode, Table3d, Table3dParams, TransferFunction};
+
+mod common;
 
 fn best_of<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
     let mut best = f64::INFINITY;
@@ -27,11 +29,8 @@ fn with_nodes(tf: &TransferFunction, color: Vec<ColorNode>, opacity: Vec<Opacity
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let bundle = tet_bundle::Bundle::read(std::path::Path::new(&args[1])).expect("bundle");
-    let tf = TransferFunction::from_json(&std::fs::read_to_string(&args[2]).expect("tf")).expect("tf json");
+    let (_bundle, domain, tf) = common::bundle_domain_tf(&args);
     let repeats: usize = args.get(3).map_or(5, |s| s.parse().expect("repeats"));
-    let domain = TableDomain::from_bundle(&bundle).expect("domain");
-    let tf = tet_preint::tf_for_domain(&tf, &domain).expect("tf for domain");
     let p = BakeOptions::default().table3d;
     println!("{} threads, best of {repeats}", rayon::current_num_threads());
 

@@ -14,29 +14,17 @@
 use std::time::Instant;
 
 use rayon::prelude::*;
-use tet_preint::table3d::{ScalarAxis, Table3d, Table3dParams};
+use tet_preint::table3d::{tf_nodes_in, ScalarAxis, Table3d, Table3dParams};
 use tet_preint::{integrate_segment_with, Segment, SegmentShader, TableDomain, TransferFunction};
 
-fn nodes_in(tf: &TransferFunction, d: &TableDomain) -> Vec<f64> {
-    let eps = 1e-9 * d.scalar_span();
-    let mut v: Vec<f64> = tf
-        .color_nodes()
-        .iter()
-        .map(|c| c.x)
-        .chain(tf.opacity_nodes().iter().map(|o| o.x))
-        .filter(|&x| x > d.s_lo + eps && x < d.s_hi - eps)
-        .collect();
-    v.sort_by(f64::total_cmp);
-    v.dedup_by(|a, b| (*a - *b).abs() <= eps);
-    v
-}
+mod common;
 
 /// Prototype: the data axis's measure with the step near every node capped.
 fn graded_knots(tf: &TransferFunction, d: &TableDomain, n_s: usize, c: f64, p: f64) -> Vec<(f64, usize)> {
     let (lo, hi) = (d.s_lo, d.s_hi);
     let span = d.scalar_span();
     let u = span / (n_s - 1) as f64;
-    let nodes = nodes_in(tf, d);
+    let nodes = tf_nodes_in(tf, d);
     let q = d.s_quantiles.expect("bundle domain has quantiles").0;
     // Data density per unit scalar (√ of the quantile bins' density), normalized.
     let fine = 64 * n_s;
@@ -67,16 +55,7 @@ fn graded_knots(tf: &TransferFunction, d: &TableDomain, n_s: usize, c: f64, p: f
             })
             .sum()
     };
-    let (mut a, mut b) = (0.0, steps);
-    for _ in 0..60 {
-        let m = 0.5 * (a + b);
-        if integral(m) < steps {
-            a = m;
-        } else {
-            b = m;
-        }
-    }
-    let lam = 0.5 * (a + b);
+    let lam = bisect(integral, steps, (0.0, steps), 60);
     let mut cum = vec![0.0f64; xs.len()];
     for i in 1..xs.len() {
         let m = 0.5 * (xs[i - 1] + xs[i]);
@@ -113,37 +92,40 @@ fn graded_knots(tf: &TransferFunction, d: &TableDomain, n_s: usize, c: f64, p: f
         grid.push(w[0]);
         for j in 1..cnt {
             let target = g0 + (g1 - g0) * j as f64 / cnt as f64;
-            let (mut a, mut b) = (w[0], w[1]);
-            for _ in 0..80 {
-                let m = 0.5 * (a + b);
-                if gg(m) < target {
-                    a = m;
-                } else {
-                    b = m;
-                }
-            }
-            grid.push(0.5 * (a + b));
+            grid.push(bisect(gg, target, (w[0], w[1]), 80));
         }
     }
     grid.push(hi);
     grid.into_iter().enumerate().map(|(i, s)| (s, i)).collect()
 }
 
+/// Where the increasing `f` reaches `target` within `bracket`: the
+/// midpoint of the bracket after `halvings` bisection steps.
+fn bisect(f: impl Fn(f64) -> f64, target: f64, bracket: (f64, f64), halvings: usize) -> f64 {
+    let (mut a, mut b) = bracket;
+    for _ in 0..halvings {
+        let m = 0.5 * (a + b);
+        if f(m) < target {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    0.5 * (a + b)
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let bundle = tet_bundle::Bundle::read(std::path::Path::new(&args[1])).expect("bundle");
-    let tf = TransferFunction::from_json(&std::fs::read_to_string(&args[2]).expect("tf")).expect("tf json");
+    let (bundle, domain, tf) = common::bundle_domain_tf(&args);
     let count: usize = args.get(3).map_or(1_000_000, |s| s.parse().expect("count"));
     let axes = args.get(4).map_or("tf-nodes,data", |s| s.as_str());
-    let domain = TableDomain::from_bundle(&bundle).expect("domain");
-    let tf = tet_preint::tf_for_domain(&tf, &domain).expect("tf for domain");
     println!(
         "domain s [{:.6e}, {:.6e}], max_ds {:.6e}, len_max {:.6e}; nodes {:?}",
         domain.s_lo,
         domain.s_hi,
         domain.max_ds,
         domain.len_max_world,
-        nodes_in(&tf, &domain)
+        tf_nodes_in(&tf, &domain)
     );
     let m = &bundle.mesh;
     let cells: Vec<Segment> = tet_analysis::sample_cell_segments(&m.points, &m.tets, &m.scalar, None, count, 0x7e71)
@@ -167,7 +149,7 @@ fn main() {
             .collect()
     };
     let sets = [("cells", refs(&cells), &cells), ("uniform", refs(&uniform), &uniform)];
-    let nodes = nodes_in(&tf, &domain);
+    let nodes = tf_nodes_in(&tf, &domain);
     for name in axes.split(',') {
         let base = Table3dParams::data();
         let t0 = Instant::now();

@@ -34,6 +34,12 @@ fn fails(out: &Output, code: i32, needle: &str) {
     assert!(err.contains(needle), "expected {needle:?} in: {err}");
 }
 
+/// What the bake tests pass: an output `x.tetl` in `dir`, the sample TF
+/// (tf_mild.json) and the sample bundle (cube5.tetb).
+fn bake_paths(dir: &Path) -> (String, String, String) {
+    (dir.join("x.tetl").to_string_lossy().into_owned(), sample("tf_mild.json"), sample("cube5.tetb"))
+}
+
 fn rows(text: &str) -> Vec<Vec<f64>> {
     text.lines().map(|l| l.split_whitespace().map(|x| x.parse().unwrap()).collect()).collect()
 }
@@ -187,9 +193,7 @@ fn bake_reports_the_band_saving_and_handles_untabulated_methods() {
 #[test]
 fn bake_errors_have_clear_messages_and_exit_codes() {
     let dir = tempfile::tempdir().unwrap();
-    let o = dir.path().join("x.tetl").to_string_lossy().into_owned();
-    let tf = sample("tf_mild.json");
-    let bundle = sample("cube5.tetb");
+    let (o, tf, bundle) = bake_paths(dir.path());
     // Missing bundle, bad TF, unknown method, usage.
     fails(
         &tetlut(&["bake", "--bundle", "/nonexistent/b.tetb", "--tf", &tf, "--method", "table3d", "-o", &o], ""),
@@ -351,9 +355,7 @@ fn bench_quick_writes_table_json_and_plot() {
 #[test]
 fn exit_codes_are_the_shared_ones() {
     let dir = tempfile::tempdir().unwrap();
-    let o = dir.path().join("x.tetl").to_string_lossy().into_owned();
-    let tf = sample("tf_mild.json");
-    let bundle = sample("cube5.tetb");
+    let (o, tf, bundle) = bake_paths(dir.path());
     let bake = |bundle: &str, tf: &str, out: &str| {
         tetlut(&["bake", "--bundle", bundle, "--tf", tf, "--method", "poly1", "--res", "8", "-o", out], "")
     };

@@ -7,6 +7,11 @@ fn data(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(p)
 }
 
+/// `p` as a command-line argument (the tests' paths are UTF-8).
+fn path_arg(p: &Path) -> &str {
+    p.to_str().expect("a UTF-8 path")
+}
+
 fn tetprep(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_tetprep")).args(args).output().expect("tetprep runs")
 }
@@ -26,13 +31,13 @@ fn bluntfin_convert_info_export() {
     let out = dir.path().join("bf.tetb");
     let o = tetprep(&[
         "convert",
-        data("plot3d/bluntfinxyz.bin").to_str().unwrap(),
+        path_arg(&data("plot3d/bluntfinxyz.bin")),
         "--q",
-        data("plot3d/bluntfinq.bin").to_str().unwrap(),
+        path_arg(&data("plot3d/bluntfinq.bin")),
         "--scalar",
         "density",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
         "--json",
     ]);
     let v = json(&o);
@@ -40,7 +45,7 @@ fn bluntfin_convert_info_export() {
     assert_eq!(v["source"]["cells"], 37_479);
     assert!(v["timings_s"]["total"].as_f64().unwrap() > 0.0);
 
-    let info = json(&tetprep(&["info", out.to_str().unwrap(), "--json"]));
+    let info = json(&tetprep(&["info", path_arg(&out), "--json"]));
     for key in
         ["points", "tets", "total_volume", "min_tet_volume", "bounds", "boundary_faces", "convex", "max_cell_diameter"]
     {
@@ -51,12 +56,12 @@ fn bluntfin_convert_info_export() {
     assert_eq!(info["convex"], false);
     assert_eq!(info["points"], 40_960 - 39);
 
-    let text = tetprep(&["info", out.to_str().unwrap()]);
+    let text = tetprep(&["info", path_arg(&out)]);
     assert!(text.status.success());
     assert!(String::from_utf8_lossy(&text.stdout).contains("merged 39 duplicate points"));
 
     let vtu = dir.path().join("bf.vtu");
-    let e = tetprep(&["export", out.to_str().unwrap(), "-o", vtu.to_str().unwrap()]);
+    let e = tetprep(&["export", path_arg(&out), "-o", path_arg(&vtu)]);
     assert!(e.status.success(), "{}", stderr(&e));
     let back = tet_io::read_file(&vtu, &Default::default()).unwrap();
     assert_eq!(back.num_cells() as u64, info["tets"].as_u64().unwrap());
@@ -68,8 +73,7 @@ fn bluntfin_convert_info_export() {
 fn wrong_scalar_lists_the_fields_and_exits_2() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.tetb");
-    let o =
-        tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&data("vtk/post.vtk")), "--scalar", "Nope", "-o", path_arg(&out)]);
     // A --scalar the file lacks is a bad flag value (usage, exit 2).
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let e = stderr(&o);
@@ -81,7 +85,7 @@ fn wrong_scalar_lists_the_fields_and_exits_2() {
 fn missing_and_garbage_inputs_exit_3_naming_the_path() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.tetb");
-    let o = tetprep(&["convert", "/nonexistent/mesh.vtu", "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", "/nonexistent/mesh.vtu", "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(3));
     assert!(stderr(&o).contains("/nonexistent/mesh.vtu"));
 
@@ -91,13 +95,13 @@ fn missing_and_garbage_inputs_exit_3_naming_the_path() {
         b"# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 99999999999 float\n\x01\x02",
     )
     .unwrap();
-    let o = tetprep(&["convert", garbage.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&garbage), "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("garbage.vtk"));
 
     let unknown = dir.path().join("data.unknown");
     std::fs::write(&unknown, b"hello").unwrap();
-    let o = tetprep(&["convert", unknown.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&unknown), "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(3));
     assert!(stderr(&o).contains("--format"));
 }
@@ -107,8 +111,7 @@ fn a_failed_conversion_keeps_the_previous_output() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("keep.tetb");
     std::fs::write(&out, b"previous").unwrap();
-    let o =
-        tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--scalar", "Nope", "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&data("vtk/post.vtk")), "--scalar", "Nope", "-o", path_arg(&out)]);
     assert!(!o.status.success());
     assert_eq!(std::fs::read(&out).unwrap(), b"previous");
 }
@@ -126,7 +129,7 @@ fn non_manifold_input_names_tets_and_source_cells() {
     )
     .unwrap();
     let out = dir.path().join("fan.tetb");
-    let o = tetprep(&["convert", vtk.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&vtk), "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(4));
     let e = stderr(&o);
     assert!(e.contains("shared by 3 tets") && e.contains("input cells 0, 1, 2"), "{e}");
@@ -144,10 +147,10 @@ fn nan_scalar_is_an_error_unless_dropped() {
     )
     .unwrap();
     let out = dir.path().join("nan.tetb");
-    let o = tetprep(&["convert", vtk.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&vtk), "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(4));
     assert!(stderr(&o).contains("vertex 4"), "{}", stderr(&o));
-    let o = tetprep(&["convert", vtk.to_str().unwrap(), "--nan", "drop", "-o", out.to_str().unwrap(), "--json"]);
+    let o = tetprep(&["convert", path_arg(&vtk), "--nan", "drop", "-o", path_arg(&out), "--json"]);
     let v = json(&o);
     assert_eq!(v["tets"], 1);
     assert_eq!(v["points"], 4);
@@ -156,10 +159,10 @@ fn nan_scalar_is_an_error_unless_dropped() {
 #[test]
 fn sample_bundle_info() {
     let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/cube5.tetb");
-    let v = json(&tetprep(&["info", sample.to_str().unwrap(), "--json"]));
+    let v = json(&tetprep(&["info", path_arg(&sample), "--json"]));
     assert_eq!(v["tets"], 5);
     assert_eq!(v["convex"], true);
-    let o = tetprep(&["info", data("vtk/post.vtk").to_str().unwrap()]);
+    let o = tetprep(&["info", path_arg(&data("vtk/post.vtk"))]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("not a tetkit bundle"));
 }
@@ -171,7 +174,7 @@ fn raw_volume_from_the_command_line() {
     let raw = data("volume/iron16.raw");
     let v = json(&tetprep(&[
         "convert",
-        raw.to_str().unwrap(),
+        path_arg(&raw),
         "--format",
         "raw",
         "--dims",
@@ -183,20 +186,20 @@ fn raw_volume_from_the_command_line() {
         "--spacing",
         "1,1,2",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
         "--json",
     ]));
     assert_eq!(v["tets"], 15 * 15 * 15 * 5);
     assert_eq!(v["bounds"]["max"][2], 30.0);
     // Missing layout options are a clear error, not a guess: an option the
     // input needs is a usage error (exit 2).
-    let o = tetprep(&["convert", raw.to_str().unwrap(), "--format", "raw", "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&raw), "--format", "raw", "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--dims"), "{}", stderr(&o));
     // A file shorter than the declared dims says by how much.
     let o = tetprep(&[
         "convert",
-        raw.to_str().unwrap(),
+        path_arg(&raw),
         "--format",
         "raw",
         "--dims",
@@ -204,14 +207,14 @@ fn raw_volume_from_the_command_line() {
         "--type",
         "u8",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
     ]);
     assert_eq!(o.status.code(), Some(3));
     assert!(stderr(&o).contains("iron16.raw"), "{}", stderr(&o));
     // Non-finite spacing or origin, and zero dims, are refused on the command
     // line (exit 2); a negative origin is a number, not a flag.
     let raw_with = |extra: &[&str]| {
-        let base = ["convert", raw.to_str().unwrap(), "--format", "raw", "--type", "u8", "-o", out.to_str().unwrap()];
+        let base = ["convert", path_arg(&raw), "--format", "raw", "--type", "u8", "-o", path_arg(&out)];
         tetprep(&[&base[..], extra].concat())
     };
     for (bad, says) in [
@@ -233,16 +236,16 @@ fn six_split_and_coordinate_scalar() {
     let out = dir.path().join("bf6.tetb");
     let v = json(&tetprep(&[
         "convert",
-        data("plot3d/bluntfinxyz.bin").to_str().unwrap(),
+        path_arg(&data("plot3d/bluntfinxyz.bin")),
         "--q",
-        data("plot3d/bluntfinq.bin").to_str().unwrap(),
+        path_arg(&data("plot3d/bluntfinq.bin")),
         "--split",
         "6",
         "--scalar",
         "x",
         "--scalar-only",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
         "--json",
     ]));
     assert_eq!(v["split_tets"], 224_874);
@@ -257,9 +260,9 @@ fn bluntfin_gradients_histogram_hist_png_and_analyze() {
     let (xyz, q) = (data("plot3d/bluntfinxyz.bin"), data("plot3d/bluntfinq.bin"));
     let v = json(&tetprep(&[
         "convert",
-        xyz.to_str().unwrap(),
+        path_arg(&xyz),
         "--q",
-        q.to_str().unwrap(),
+        path_arg(&q),
         "--scalar",
         "density",
         "--gradients",
@@ -267,11 +270,11 @@ fn bluntfin_gradients_histogram_hist_png_and_analyze() {
         "--bins",
         "64,32",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
         "--json",
     ]));
     assert!(v["timings_s"]["analysis"].as_f64().unwrap() > 0.0);
-    let info = json(&tetprep(&["info", out.to_str().unwrap(), "--json"]));
+    let info = json(&tetprep(&["info", path_arg(&out), "--json"]));
     assert_eq!(info["gradients"], "lsq");
     assert_eq!(info["histogram"]["scalar_bins"], 64);
     let range = info["max_cell_scalar_range"].as_f64().unwrap();
@@ -285,11 +288,11 @@ fn bluntfin_gradients_histogram_hist_png_and_analyze() {
     let csv = dir.path().join("h.csv");
     let o = tetprep(&[
         "hist",
-        out.to_str().unwrap(),
+        path_arg(&out),
         "-o",
-        png.to_str().unwrap(),
+        path_arg(&png),
         "--csv",
-        csv.to_str().unwrap(),
+        path_arg(&csv),
         "--units",
         "kg/m^3",
         "--length-units",
@@ -312,42 +315,26 @@ fn bluntfin_gradients_histogram_hist_png_and_analyze() {
     assert!((mass + outside - total).abs() < 1e-9 * total, "{mass} + {outside} vs {total}");
 
     let vtu = dir.path().join("bf.vtu");
-    assert!(tetprep(&["export", out.to_str().unwrap(), "-o", vtu.to_str().unwrap()]).status.success());
+    assert!(tetprep(&["export", path_arg(&out), "-o", path_arg(&vtu)]).status.success());
     let back = tet_io::read_file(&vtu, &Default::default()).unwrap();
     assert!(back.point_fields.iter().any(|f| f.name == "density_gradient" && f.num_components == 3));
     assert!(back.point_fields.iter().any(|f| f.name == "density_gradient_magnitude"));
 
     // A plain bundle gains the analysis later, in place; limits are shown before.
     let plain = dir.path().join("plain.tetb");
-    let o = tetprep(&[
-        "convert",
-        xyz.to_str().unwrap(),
-        "--q",
-        q.to_str().unwrap(),
-        "--scalar",
-        "density",
-        "-q",
-        "-o",
-        plain.to_str().unwrap(),
-    ]);
+    let o =
+        tetprep(&["convert", path_arg(&xyz), "--q", path_arg(&q), "--scalar", "density", "-q", "-o", path_arg(&plain)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let before = json(&tetprep(&["info", plain.to_str().unwrap(), "--json"]));
+    let before = json(&tetprep(&["info", path_arg(&plain), "--json"]));
     assert_eq!(before["analysis_stored"], false);
     assert_eq!(before["frequency_limit"], info["frequency_limit"]);
-    let a = json(&tetprep(&[
-        "analyze",
-        plain.to_str().unwrap(),
-        "--gradients",
-        "--gradient-method",
-        "tet-average",
-        "--json",
-    ]));
+    let a = json(&tetprep(&["analyze", path_arg(&plain), "--gradients", "--gradient-method", "tet-average", "--json"]));
     assert_eq!(a["gradients"], "tet-average");
-    let after = json(&tetprep(&["info", plain.to_str().unwrap(), "--json"]));
+    let after = json(&tetprep(&["info", path_arg(&plain), "--json"]));
     assert_eq!(after["analysis_stored"], true);
     assert!(after["histogram"].is_null());
 
-    let bad = tetprep(&["hist", out.to_str().unwrap(), "-o", png.to_str().unwrap(), "--bins", "0,5"]);
+    let bad = tetprep(&["hist", path_arg(&out), "-o", path_arg(&png), "--bins", "0,5"]);
     assert_eq!(bad.status.code(), Some(2));
 }
 
@@ -357,11 +344,11 @@ fn point_clouds_are_tetrahedralized() {
     let out = dir.path().join("stars.tetb");
     let v = json(&tetprep(&[
         "convert",
-        data("points/stars_lum_ci.ply").to_str().unwrap(),
+        path_arg(&data("points/stars_lum_ci.ply")),
         "--scalar",
         "lum",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
         "--json",
     ]));
     // One star is listed twice: merged and reported; the Delaunay mesh fills
@@ -381,13 +368,13 @@ fn point_clouds_are_tetrahedralized() {
     let out = dir.path().join("autzen.tetb");
     let v = json(&tetprep(&[
         "convert",
-        data("points/autzen_trim.las").to_str().unwrap(),
+        path_arg(&data("points/autzen_trim.las")),
         "--scalar",
         "intensity",
         "--max-circumradius",
         "20",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
         "--json",
     ]));
     assert_eq!(v["delaunay"], false, "peeled: no longer the convex hull");
@@ -410,15 +397,13 @@ fn layered_csv_points_become_prisms() {
     }
     std::fs::write(&csv, text).unwrap();
     let out = dir.path().join("strata.tetb");
-    let v =
-        json(&tetprep(&["convert", csv.to_str().unwrap(), "--mode", "layered", "-o", out.to_str().unwrap(), "--json"]));
+    let v = json(&tetprep(&["convert", path_arg(&csv), "--mode", "layered", "-o", path_arg(&out), "--json"]));
     // 5×4 quads → 40 triangles per layer gap, 3 gaps, 3 tets per prism.
     assert_eq!(v["tets"], 40 * 3 * 3);
     assert_eq!(v["split"], "layered");
     assert!((v["total_volume"].as_f64().unwrap() - 10.0 * 3.0 * 10.0 * 12.0).abs() < 1e-9);
     // --mode layered on a mesh with cells is a usage error, not a silent no-op.
-    let o =
-        tetprep(&["convert", data("vtk/post.vtk").to_str().unwrap(), "--mode", "layered", "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&data("vtk/post.vtk")), "--mode", "layered", "-o", path_arg(&out)]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("point clouds"), "{}", stderr(&o));
 }
@@ -445,20 +430,20 @@ fn unsupported_formats_say_what_they_are() {
     ] {
         let p = dir.path().join(name);
         std::fs::write(&p, bytes).unwrap();
-        let o = tetprep(&["convert", p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        let o = tetprep(&["convert", path_arg(&p), "-o", path_arg(&out)]);
         assert_eq!(o.status.code(), Some(3), "{name}: {}", stderr(&o));
         let e = stderr(&o);
         assert!(e.contains(what) && !e.contains("pass --format"), "{e}");
         assert_eq!(e.contains("does not read yet"), !read, "{e}");
         assert!(e.contains(name), "{e}");
     }
-    let o = tetprep(&["convert", case.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&case), "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(3));
     let e = stderr(&o);
     assert!(e.contains("OpenFOAM") && e.contains("has no mesh") && !e.contains("does not read yet"), "{e}");
-    assert!(e.contains(case.to_str().unwrap()), "{e}");
+    assert!(e.contains(path_arg(&case)), "{e}");
     let cavity = data("openfoam/cavity");
-    let v = json(&tetprep(&["convert", cavity.to_str().unwrap(), "-o", out.to_str().unwrap(), "--json"]));
+    let v = json(&tetprep(&["convert", path_arg(&cavity), "-o", path_arg(&out), "--json"]));
     assert_eq!(v["tets"], 400 * 6);
     assert!((v["total_volume"].as_f64().unwrap() - 1e-4).abs() < 1e-15, "{v}");
 }
@@ -475,7 +460,7 @@ CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nPOINT_DATA 4\nSCALARS p float 1\nLOOKUP_
     )
     .unwrap();
     let out = dir.path().join("flat.tetb");
-    let o = tetprep(&["convert", vtk.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&vtk), "-o", path_arg(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("warning: the scalar 'p' is constant (2.5)"), "{text}");
@@ -495,12 +480,12 @@ fn outputs_get_the_mode_file_create_gives() {
     let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../formats/samples/cube5.tetb");
     std::fs::copy(&sample, &b).unwrap();
     std::fs::set_permissions(&b, std::fs::Permissions::from_mode(0o600)).unwrap();
-    let o = tetprep(&["analyze", b.to_str().unwrap(), "--gradients", "--histogram"]);
+    let o = tetprep(&["analyze", path_arg(&b), "--gradients", "--histogram"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let vtu = dir.path().join("s.vtu");
     let png = dir.path().join("h.png");
-    assert!(tetprep(&["export", b.to_str().unwrap(), "-o", vtu.to_str().unwrap()]).status.success());
-    assert!(tetprep(&["hist", b.to_str().unwrap(), "-o", png.to_str().unwrap()]).status.success());
+    assert!(tetprep(&["export", path_arg(&b), "-o", path_arg(&vtu)]).status.success());
+    assert!(tetprep(&["hist", path_arg(&b), "-o", path_arg(&png)]).status.success());
     for p in [&b, &vtu, &png] {
         assert_eq!(mode(p), mode(&plain), "{}", p.display());
     }
@@ -517,47 +502,40 @@ fn exit_codes_are_the_shared_ones() {
     let cut = dir.path().join("cut.tetb");
     let bytes = std::fs::read(&sample).unwrap();
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
-    for args in [vec!["info", cut.to_str().unwrap()], vec!["export", cut.to_str().unwrap(), "-o", "x.vtu"]] {
+    for args in [vec!["info", path_arg(&cut)], vec!["export", path_arg(&cut), "-o", "x.vtu"]] {
         let o = tetprep(&args);
         assert_eq!(o.status.code(), Some(3), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains("cut.tetb"), "{}", stderr(&o));
     }
-    let o = tetprep(&["info", dir.path().join("missing.tetb").to_str().unwrap()]);
+    let o = tetprep(&["info", path_arg(&dir.path().join("missing.tetb"))]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     // 5: outputs in a directory that does not exist (reading worked).
     let nowhere = dir.path().join("no/such/dir");
-    let o = tetprep(&["convert", post.to_str().unwrap(), "-o", nowhere.join("x.tetb").to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&post), "-o", path_arg(&nowhere.join("x.tetb"))]);
     assert_eq!(o.status.code(), Some(5), "{}", stderr(&o));
     assert!(stderr(&o).contains("no/such/dir"), "{}", stderr(&o));
     for args in [
-        vec!["export", sample.to_str().unwrap(), "-o", nowhere.join("x.vtu").to_str().unwrap()],
-        vec!["hist", sample.to_str().unwrap(), "-o", nowhere.join("h.png").to_str().unwrap()],
-        vec!["analyze", sample.to_str().unwrap(), "-o", nowhere.join("a.tetb").to_str().unwrap()],
+        vec!["export", path_arg(&sample), "-o", path_arg(&nowhere.join("x.vtu"))],
+        vec!["hist", path_arg(&sample), "-o", path_arg(&nowhere.join("h.png"))],
+        vec!["analyze", path_arg(&sample), "-o", path_arg(&nowhere.join("a.tetb"))],
     ] {
         let o = tetprep(&args);
         assert_eq!(o.status.code(), Some(5), "{args:?}: {}", stderr(&o));
     }
     let ok_png = dir.path().join("h.png");
-    let o = tetprep(&[
-        "hist",
-        sample.to_str().unwrap(),
-        "-o",
-        ok_png.to_str().unwrap(),
-        "--csv",
-        nowhere.join("h.csv").to_str().unwrap(),
-    ]);
+    let o = tetprep(&["hist", path_arg(&sample), "-o", path_arg(&ok_png), "--csv", path_arg(&nowhere.join("h.csv"))]);
     assert_eq!(o.status.code(), Some(5), "{}", stderr(&o));
     // 2: bad values (a range that is not LO < HI, a --type that does not exist).
-    let o = tetprep(&["hist", sample.to_str().unwrap(), "-o", ok_png.to_str().unwrap(), "--scalar-range", "1,0"]);
+    let o = tetprep(&["hist", path_arg(&sample), "-o", path_arg(&ok_png), "--scalar-range", "1,0"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let o = tetprep(&["hist", sample.to_str().unwrap(), "-o", ok_png.to_str().unwrap(), "--scalar-range", "-1,2"]);
+    let o = tetprep(&["hist", path_arg(&sample), "-o", path_arg(&ok_png), "--scalar-range", "-1,2"]);
     assert!(o.status.success(), "a negative LO is a value, not a flag: {}", stderr(&o));
     let raw = dir.path().join("v.raw");
     std::fs::write(&raw, [0u8; 8]).unwrap();
     let out = dir.path().join("v.tetb");
     let o = tetprep(&[
         "convert",
-        raw.to_str().unwrap(),
+        path_arg(&raw),
         "--format",
         "raw",
         "--dims",
@@ -565,7 +543,7 @@ fn exit_codes_are_the_shared_ones() {
         "--type",
         "u7",
         "-o",
-        out.to_str().unwrap(),
+        path_arg(&out),
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     // 4: the data cannot become a valid mesh (every cell dropped for NaN).
@@ -577,7 +555,7 @@ fn exit_codes_are_the_shared_ones() {
          POINT_DATA 4\nSCALARS t float 1\nLOOKUP_TABLE default\n0 1 2 nan\n",
     )
     .unwrap();
-    let o = tetprep(&["convert", nan.to_str().unwrap(), "--nan", "drop", "-o", out.to_str().unwrap()]);
+    let o = tetprep(&["convert", path_arg(&nan), "--nan", "drop", "-o", path_arg(&out)]);
     assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
     // --help lists the table.
     let help = String::from_utf8_lossy(&tetprep(&["--help"]).stdout).into_owned();
@@ -594,7 +572,7 @@ fn time_series_become_one_bundle_with_steps() {
     let dir = tempfile::tempdir().unwrap();
     let conv = |input: &Path, extra: &[&str], name: &str| {
         let out = dir.path().join(name);
-        let mut args = vec!["convert", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--json"];
+        let mut args = vec!["convert", path_arg(input), "-o", path_arg(&out), "--json"];
         args.extend(extra);
         (tetprep(&args), out)
     };
@@ -625,7 +603,7 @@ fn time_series_become_one_bundle_with_steps() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(tet_bundle::Bundle::read(&series_out).unwrap().steps, pvd.steps);
 
-    let info = tetprep(&["info", pvd_out.to_str().unwrap()]);
+    let info = tetprep(&["info", path_arg(&pvd_out)]);
     let text = String::from_utf8_lossy(&info.stdout);
     assert!(text.contains("time steps  4, t = 2 to 5"), "{text}");
     assert!(text.contains("isabel_eye_05.vti"), "{text}");

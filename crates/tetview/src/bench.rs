@@ -29,6 +29,7 @@ use tet_cli::{usage, ExitKind, KindExt};
 use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, Look, ReferenceFrameRenderer};
 use tet_plot::{Point, ScatterPlot, Series};
 use tet_preint::{Method, TransferFunction};
+use tet_render::pipeline::process_cpu_seconds;
 use tet_render::{diff, CpuRenderer, Image, RenderStats, Scene, SortMethod, ViewSpec};
 
 #[derive(Debug, clap::Args)]
@@ -159,15 +160,6 @@ impl Row {
     fn max_8bit(&self) -> u8 {
         self.views.iter().map(|s| s.max_8bit).max().unwrap_or(0)
     }
-}
-
-/// User + system CPU seconds of this process, all threads (Linux; 0 elsewhere).
-fn process_cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
-    (ticks(11) + ticks(12)) / 100.0
 }
 
 fn cache_dir(args: &BenchArgs) -> PathBuf {

@@ -47,6 +47,11 @@ fn tf(dir: &Path) -> std::path::PathBuf {
     p
 }
 
+/// `p` as a command-line argument (the tests' paths are UTF-8).
+fn path_arg(p: &Path) -> &str {
+    p.to_str().expect("a UTF-8 path")
+}
+
 fn tetview(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_tetview")).args(args).output().unwrap()
 }
@@ -59,9 +64,9 @@ fn renders_png_npy_and_view_with_json_stats() {
     for method in ["pt-linear", "exact"] {
         let out = tetview(&[
             "render",
-            b.to_str().unwrap(),
+            path_arg(&b),
             "--tf",
-            t.to_str().unwrap(),
+            path_arg(&t),
             "--method",
             method,
             "--size",
@@ -71,11 +76,11 @@ fn renders_png_npy_and_view_with_json_stats() {
             "--elevation",
             "-20",
             "-o",
-            png.to_str().unwrap(),
+            path_arg(&png),
             "--float",
-            npy.to_str().unwrap(),
+            path_arg(&npy),
             "--save-view",
-            view.to_str().unwrap(),
+            path_arg(&view),
             "--json",
         ]);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -95,17 +100,17 @@ fn renders_png_npy_and_view_with_json_stats() {
     let npy2 = dir.path().join("b.npy");
     let out = tetview(&[
         "render",
-        b.to_str().unwrap(),
+        path_arg(&b),
         "--tf",
-        t.to_str().unwrap(),
+        path_arg(&t),
         "--method",
         "exact",
         "--view",
-        view.to_str().unwrap(),
+        path_arg(&view),
         "-o",
-        png.to_str().unwrap(),
+        path_arg(&png),
         "--float",
-        npy2.to_str().unwrap(),
+        path_arg(&npy2),
         "--tonemap",
         "none",
     ]);
@@ -122,8 +127,8 @@ fn default_method_is_table3d_baked_once() {
     let (b, t) = (bundle(dir.path()), tf(dir.path()));
     let png = dir.path().join("a.png");
     let stats = |extra: &[&str]| -> serde_json::Value {
-        let mut a = vec!["render", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--size", "24x24"];
-        a.extend_from_slice(&["-o", png.to_str().unwrap(), "--json"]);
+        let mut a = vec!["render", path_arg(&b), "--tf", path_arg(&t), "--size", "24x24"];
+        a.extend_from_slice(&["-o", path_arg(&png), "--json"]);
         a.extend_from_slice(extra);
         let out = tetview(&a);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -147,18 +152,18 @@ fn every_method_and_baked_tables_render() {
     let render = |extra: &[&str], name: &str| {
         let npy = dir.path().join(format!("{name}.npy"));
         let png = dir.path().join(format!("{name}.png"));
-        let mut args = vec!["render", b.to_str().unwrap(), "--size", "48x40", "-o", png.to_str().unwrap()];
-        args.extend_from_slice(&["--float", npy.to_str().unwrap()]);
+        let mut args = vec!["render", path_arg(&b), "--size", "48x40", "-o", path_arg(&png)];
+        args.extend_from_slice(&["--float", path_arg(&npy)]);
         args.extend_from_slice(extra);
         let out = tetview(&args);
         assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
         tet_render::Image::read_npy(&npy).unwrap()
     };
-    let exact = render(&["--tf", t.to_str().unwrap(), "--method", "exact"], "exact");
+    let exact = render(&["--tf", path_arg(&t), "--method", "exact"], "exact");
     for (method, tol) in
         [("table3d", 2e-2), ("atlas2d", 5e-2), ("poly1", 2e-2), ("poly2", 2e-2), ("poly4", 2e-2), ("partial", 1e-4)]
     {
-        let img = render(&["--tf", t.to_str().unwrap(), "--method", method], method);
+        let img = render(&["--tf", path_arg(&t), "--method", method], method);
         let d = tet_render::diff(&img, &exact).unwrap();
         assert!(d.max_abs < tol, "{method}: max {} (rms {})", d.max_abs, d.rmse);
     }
@@ -171,8 +176,8 @@ fn every_method_and_baked_tables_render() {
     let lut = tet_preint::bake(tet_preint::Method::Table3d, &tf, &domain, &Default::default()).unwrap();
     let lut_path = dir.path().join("t.tetl");
     lut.write(&lut_path).unwrap();
-    let from_lut = render(&["--lut", lut_path.to_str().unwrap()], "lut");
-    let on_the_fly = render(&["--tf", t.to_str().unwrap(), "--method", "table3d"], "fly");
+    let from_lut = render(&["--lut", path_arg(&lut_path)], "lut");
+    let on_the_fly = render(&["--tf", path_arg(&t), "--method", "table3d"], "fly");
     assert!(tet_render::diff(&from_lut, &on_the_fly).unwrap().max_abs < 1e-6);
 }
 
@@ -189,50 +194,23 @@ fn bad_methods_luts_and_input_are_clear_errors() {
         "widgets": [{"type": "box", "center": [1.0, 1.0], "width": [0.5, 1.0], "color": [1, 0, 0], "opacity": 1}]}"#,
     )
     .unwrap();
-    let out = tetview(&[
-        "render",
-        b.to_str().unwrap(),
-        "--tf",
-        wt.to_str().unwrap(),
-        "--method",
-        "pt-linear",
-        "-o",
-        png.to_str().unwrap(),
-    ]);
+    let out = tetview(&["render", path_arg(&b), "--tf", path_arg(&wt), "--method", "pt-linear", "-o", path_arg(&png)]);
     // Exit code 6 (the method cannot bake with this TF), as `tetlut bake`.
     assert_eq!(out.status.code(), Some(6), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("biv-exact"), "{}", String::from_utf8_lossy(&out.stderr));
     // A missing or damaged .tetl is an input error naming the file.
-    let out = tetview(&["render", b.to_str().unwrap(), "--lut", "x.tetl", "-o", png.to_str().unwrap()]);
+    let out = tetview(&["render", path_arg(&b), "--lut", "x.tetl", "-o", path_arg(&png)]);
     assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("x.tetl"));
     let bad = dir.path().join("bad.tetl");
     std::fs::write(&bad, b"\x89TETL\r\n\x1a garbage").unwrap();
-    let out = tetview(&["render", b.to_str().unwrap(), "--lut", bad.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    let out = tetview(&["render", path_arg(&b), "--lut", path_arg(&bad), "-o", path_arg(&png)]);
     assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = tetview(&[
-        "render",
-        b.to_str().unwrap(),
-        "--tf",
-        t.to_str().unwrap(),
-        "--method",
-        "table4d",
-        "-o",
-        png.to_str().unwrap(),
-    ]);
+    let out = tetview(&["render", path_arg(&b), "--tf", path_arg(&t), "--method", "table4d", "-o", path_arg(&png)]);
     assert_eq!(out.status.code(), Some(2));
-    let out = tetview(&["render", "missing.tetb", "--tf", t.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    let out = tetview(&["render", "missing.tetb", "--tf", path_arg(&t), "-o", path_arg(&png)]);
     assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = tetview(&[
-        "render",
-        b.to_str().unwrap(),
-        "--tf",
-        t.to_str().unwrap(),
-        "--size",
-        "0x10",
-        "-o",
-        png.to_str().unwrap(),
-    ]);
+    let out = tetview(&["render", path_arg(&b), "--tf", path_arg(&t), "--size", "0x10", "-o", path_arg(&png)]);
     assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
 }
 
@@ -248,9 +226,9 @@ fn gpu_render_matches_the_cpu_or_skips() {
     let render = |extra: &[&str], npy: &Path| {
         let mut a = vec![
             "render",
-            b.to_str().unwrap(),
+            path_arg(&b),
             "--tf",
-            t.to_str().unwrap(),
+            path_arg(&t),
             "--size",
             "64x48",
             "--azimuth",
@@ -258,9 +236,9 @@ fn gpu_render_matches_the_cpu_or_skips() {
             "--elevation",
             "-20",
             "-o",
-            png.to_str().unwrap(),
+            path_arg(&png),
             "--float",
-            npy.to_str().unwrap(),
+            path_arg(npy),
         ];
         a.extend_from_slice(extra);
         tetview(&a)
@@ -376,7 +354,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
     // clear message; the CPU path is unaffected.
     let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
         .env("WGPU_BACKEND", "gl")
-        .args(["render", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--gpu", "-o", png.to_str().unwrap()])
+        .args(["render", path_arg(&b), "--tf", path_arg(&t), "--gpu", "-o", path_arg(&png)])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(7), "{}", String::from_utf8_lossy(&out.stderr));
@@ -390,9 +368,9 @@ fn bench_prints_a_table_writes_plot_and_json_and_caches_the_reference() {
     let (png, json) = (dir.path().join("pareto.png"), dir.path().join("bench.json"));
     let args = [
         "bench",
-        b.to_str().unwrap(),
+        path_arg(&b),
         "--tf",
-        t.to_str().unwrap(),
+        path_arg(&t),
         "--methods",
         "exact,pt-linear,table3d",
         "--size",
@@ -402,9 +380,9 @@ fn bench_prints_a_table_writes_plot_and_json_and_caches_the_reference() {
         "--repeat",
         "1",
         "-o",
-        png.to_str().unwrap(),
+        path_arg(&png),
         "--json",
-        json.to_str().unwrap(),
+        path_arg(&json),
     ];
     let out = tetview(&args);
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
@@ -429,7 +407,7 @@ fn bench_prints_a_table_writes_plot_and_json_and_caches_the_reference() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success() && stderr.matches(": cached ").count() == 2, "{stderr}");
     // Bad arguments are usage errors.
-    let out = tetview(&["bench", b.to_str().unwrap(), "--tf", t.to_str().unwrap(), "--methods", "nope"]);
+    let out = tetview(&["bench", path_arg(&b), "--tf", path_arg(&t), "--methods", "nope"]);
     assert_eq!(out.status.code(), Some(2));
 }
 
@@ -443,9 +421,9 @@ fn renderer_flag_chooses_walk_or_pt() {
     let run = |extra: &[&str], npy: &Path| {
         let mut a = vec![
             "render",
-            b.to_str().unwrap(),
+            path_arg(&b),
             "--tf",
-            t.to_str().unwrap(),
+            path_arg(&t),
             "--method",
             "exact",
             "--size",
@@ -457,7 +435,7 @@ fn renderer_flag_chooses_walk_or_pt() {
             "-o",
             "/dev/null",
             "--float",
-            npy.to_str().unwrap(),
+            path_arg(npy),
             "--json",
         ];
         a.extend_from_slice(extra);
@@ -493,9 +471,9 @@ fn saved_view(path: &Path) -> tet_render::ViewSpec {
 fn view_up_flag_default_z_up_and_saved_views_round_trip() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (bundle(dir.path()), tf(dir.path()));
-    let f = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let f = |name: &str| path_arg(&dir.path().join(name)).to_string();
     let (png, npy, npy2, view) = (f("a.png"), f("a.npy"), f("b.npy"), f("v.json"));
-    let (b, t) = (b.to_str().unwrap().to_string(), t.to_str().unwrap().to_string());
+    let (b, t) = (path_arg(&b).to_string(), path_arg(&t).to_string());
     let render = |extra: &[&str]| {
         let mut a = vec!["render", &b, "--tf", &t, "--method", "exact", "--size", "32x24", "--tonemap", "none"];
         a.extend_from_slice(extra);
@@ -538,8 +516,7 @@ fn view_up_flag_default_z_up_and_saved_views_round_trip() {
     }
     // A point cloud's default view is z-up, from −y and above.
     let cloud = bundle_with(dir.path(), "cloud.tetb", |p| p[0], "delaunay");
-    let out =
-        tetview(&["render", cloud.to_str().unwrap(), "--tf", &t, "--size", "16x16", "-o", &png, "--save-view", &view]);
+    let out = tetview(&["render", path_arg(&cloud), "--tf", &t, "--size", "16x16", "-o", &png, "--save-view", &view]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v = saved_view(Path::new(&view));
     assert!(v.view_up[2] > 0.8 && v.position[1] < v.focal_point[1] && v.position[2] > v.focal_point[2], "{v:?}");
@@ -558,8 +535,8 @@ fn view_up_flag_default_z_up_and_saved_views_round_trip() {
 fn render_and_reference_share_the_camera_and_display_flags() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (bundle(dir.path()), tf(dir.path()));
-    let f = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let (b, t) = (b.to_str().unwrap().to_string(), t.to_str().unwrap().to_string());
+    let f = |name: &str| path_arg(&dir.path().join(name)).to_string();
+    let (b, t) = (path_arg(&b).to_string(), path_arg(&t).to_string());
     let (png, npy, rv, vv) = (f("a.png"), f("a.npy"), f("r.json"), f("v.json"));
     let camera = ["--azimuth", "-25", "--elevation", "30", "--zoom", "1.5", "--parallel", "--size", "40x24"];
     let out = tetview(&[&["render", &b, "--tf", &t, "-o", &png, "--save-view", &vv][..], &camera].concat());
@@ -589,16 +566,7 @@ fn constant_scalar_warns_with_its_value() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (bundle_with(dir.path(), "flat.tetb", |_| 0.75, ""), tf(dir.path()));
     let png = dir.path().join("a.png");
-    let out = tetview(&[
-        "render",
-        b.to_str().unwrap(),
-        "--tf",
-        t.to_str().unwrap(),
-        "--size",
-        "16x16",
-        "-o",
-        png.to_str().unwrap(),
-    ]);
+    let out = tetview(&["render", path_arg(&b), "--tf", path_arg(&t), "--size", "16x16", "-o", path_arg(&png)]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("warning: the scalar 's' is constant (0.75)"), "{e}");
@@ -618,7 +586,7 @@ fn every_output_gets_the_mode_file_create_gives() {
     let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
     let f = |name: &str| dir.path().join(name);
     let (png, npy, view, rpng, rnpy, dpng) = (f("a.png"), f("a.npy"), f("v.json"), f("r.png"), f("r.npy"), f("d.png"));
-    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let s = |p: &Path| path_arg(p).to_string();
     let runs: Vec<Vec<String>> = vec![
         vec![
             "render".into(),
@@ -669,7 +637,7 @@ fn exit_codes_are_the_shared_ones() {
     let (b, t) = (bundle(dir.path()), tf(dir.path()));
     let png = dir.path().join("a.png");
     let render = |bundle: &Path, tf: &Path, out: &Path| {
-        tetview(&["render", bundle.to_str().unwrap(), "--tf", tf.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        tetview(&["render", path_arg(bundle), "--tf", path_arg(tf), "-o", path_arg(out)])
     };
     // 3: a truncated bundle (as `tetprep info`), a missing bundle or TF file.
     let cut = dir.path().join("cut.tetb");
@@ -689,64 +657,46 @@ fn exit_codes_are_the_shared_ones() {
     let out = render(&b, &typo, &png);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("opacity[1]"), "{}", stderr(&out));
-    let out = tetview(&[
-        "render",
-        b.to_str().unwrap(),
-        "--tf",
-        t.to_str().unwrap(),
-        "--range",
-        "1,0",
-        "-o",
-        png.to_str().unwrap(),
-    ]);
+    let out = tetview(&["render", path_arg(&b), "--tf", path_arg(&t), "--range", "1,0", "-o", path_arg(&png)]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     // 5: an output in a directory that does not exist (PNG, --save-view, reference).
     let out = render(&b, &t, &dir.path().join("no/such/dir/a.png"));
     assert_eq!(out.status.code(), Some(5), "{}", stderr(&out));
     let out = tetview(&[
         "render",
-        b.to_str().unwrap(),
+        path_arg(&b),
         "--tf",
-        t.to_str().unwrap(),
+        path_arg(&t),
         "-o",
-        png.to_str().unwrap(),
+        path_arg(&png),
         "--save-view",
-        dir.path().join("no/such/dir/v.json").to_str().unwrap(),
+        path_arg(&dir.path().join("no/such/dir/v.json")),
     ]);
     assert_eq!(out.status.code(), Some(5), "{}", stderr(&out));
     let out = tetview(&[
         "reference",
-        b.to_str().unwrap(),
+        path_arg(&b),
         "--tf",
-        t.to_str().unwrap(),
+        path_arg(&t),
         "--size",
         "16x16",
         "--float",
-        dir.path().join("no/such/dir/r.npy").to_str().unwrap(),
+        path_arg(&dir.path().join("no/such/dir/r.npy")),
     ]);
     assert_eq!(out.status.code(), Some(5), "{}", stderr(&out));
     // 3 for an unreadable image in `diff`, 4 for two that do not match in size.
     let (small, big) = (dir.path().join("s.npy"), dir.path().join("b.npy"));
     for (p, size) in [(&small, "8x8"), (&big, "9x8")] {
-        let out = tetview(&[
-            "reference",
-            b.to_str().unwrap(),
-            "--tf",
-            t.to_str().unwrap(),
-            "--size",
-            size,
-            "--float",
-            p.to_str().unwrap(),
-        ]);
+        let out = tetview(&["reference", path_arg(&b), "--tf", path_arg(&t), "--size", size, "--float", path_arg(p)]);
         assert!(out.status.success(), "{}", stderr(&out));
     }
-    let out = tetview(&["diff", small.to_str().unwrap(), dir.path().join("none.npy").to_str().unwrap()]);
+    let out = tetview(&["diff", path_arg(&small), path_arg(&dir.path().join("none.npy"))]);
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
-    let out = tetview(&["diff", small.to_str().unwrap(), big.to_str().unwrap()]);
+    let out = tetview(&["diff", path_arg(&small), path_arg(&big)]);
     assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
     // `view`'s flags are checked before any window opens: an unknown
     // --colormap (the flag `render` has too) is a usage error.
-    let out = tetview(&["view", b.to_str().unwrap(), "--colormap", "rainbow"]);
+    let out = tetview(&["view", path_arg(&b), "--colormap", "rainbow"]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("rainbow"), "{}", stderr(&out));
     // --help lists the table.
@@ -769,7 +719,7 @@ fn tf_files_fail_as_in_tetlut_and_a_paraview_preset_renders() {
     let bundle = format!("{SAMPLES}/cube5.tetb");
     let render = |tf: &str, extra: &[&str]| {
         let args = [
-            &["render", &bundle, "--tf", tf, "--method", "pt-linear", "--size", "16x16", "-o", png.to_str().unwrap()][..],
+            &["render", &bundle, "--tf", tf, "--method", "pt-linear", "--size", "16x16", "-o", path_arg(&png)][..],
             extra,
         ];
         tetview(&args.concat())
@@ -783,7 +733,7 @@ fn tf_files_fail_as_in_tetlut_and_a_paraview_preset_renders() {
     // scalar range as tetlut maps it (tet_preint::tf_for_bundle).
     let preset = format!("{TF_DATA}/preset_cool_to_warm.json");
     let saved = dir.path().join("saved.json");
-    let out = render(&preset, &["--save-tf", saved.to_str().unwrap()]);
+    let out = render(&preset, &["--save-tf", path_arg(&saved)]);
     assert!(out.status.success(), "{}", stderr(&out));
     let want = tet_preint::tf_for_bundle(
         &tet_preint::load_tf(Path::new(&preset)).unwrap(),
@@ -800,7 +750,7 @@ fn constant_scalar_without_tf_is_rejected_with_the_one_message() {
     let dir = tempfile::tempdir().unwrap();
     let b = bundle_with(dir.path(), "flat.tetb", |_| 0.75, "");
     let png = dir.path().join("a.png");
-    let out = tetview(&["render", b.to_str().unwrap(), "--size", "16x16", "-o", png.to_str().unwrap()]);
+    let out = tetview(&["render", path_arg(&b), "--size", "16x16", "-o", path_arg(&png)]);
     assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
     assert!(stderr(&out).contains("the scalar is constant (0.75)"), "{}", stderr(&out));
 }

@@ -43,6 +43,11 @@ fn peaks_tf(dir: &Path) -> PathBuf {
     p
 }
 
+/// `p` as a command-line argument (the tests' paths are UTF-8).
+fn path_arg(p: &Path) -> &str {
+    p.to_str().expect("a UTF-8 path")
+}
+
 fn tetview(args: &[&str]) {
     let out = Command::new(env!("CARGO_BIN_EXE_tetview")).args(args).output().unwrap();
     assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
@@ -59,7 +64,7 @@ fn same_bits(a: &Image, b: &Image, what: &str) {
 fn cli_and_library_draw_the_same_frames() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (bluntfin(dir.path()), peaks_tf(dir.path()));
-    let (bs, ts) = (b.to_str().unwrap(), t.to_str().unwrap());
+    let (bs, ts) = (path_arg(&b), path_arg(&t));
     let bundle = Bundle::read(&b).unwrap();
     let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::File(t.clone()), ..TfRequest::default() }).unwrap().tf;
     let look = Look::bake(&bundle, Method::Table3d, tf).unwrap();
@@ -69,8 +74,8 @@ fn cli_and_library_draw_the_same_frames() {
         let (npy, view) = (dir.path().join(format!("{renderer}{light}.npy")), dir.path().join("view.json"));
         let png = dir.path().join("x.png");
         let mut args = vec!["render", bs, "--tf", ts, "--renderer", renderer, "--size", "96x72", "--azimuth", "40"];
-        args.extend(["-o", png.to_str().unwrap(), "--float", npy.to_str().unwrap()]);
-        args.extend(["--save-view", view.to_str().unwrap()]);
+        args.extend(["-o", path_arg(&png), "--float", path_arg(&npy)]);
+        args.extend(["--save-view", path_arg(&view)]);
         if light {
             args.push("--light");
         }
@@ -95,7 +100,7 @@ fn cli_and_library_draw_the_same_frames() {
     tetview(
         &["reference", bs, "--tf", ts, "--size", "64x48", "--elevation", "25"]
             .into_iter()
-            .chain(["--float", npy.to_str().unwrap(), "--save-view", view.to_str().unwrap()])
+            .chain(["--float", path_arg(&npy), "--save-view", path_arg(&view)])
             .collect::<Vec<_>>(),
     );
     let spec = ViewSpec::from_json(&std::fs::read_to_string(&view).unwrap()).unwrap();
@@ -117,7 +122,7 @@ fn gpu_cli_and_library_draw_the_same_frames() {
     }
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (bluntfin(dir.path()), peaks_tf(dir.path()));
-    let (bs, ts) = (b.to_str().unwrap(), t.to_str().unwrap());
+    let (bs, ts) = (path_arg(&b), path_arg(&t));
     let bundle = Bundle::read(&b).unwrap();
     let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::File(t.clone()), ..TfRequest::default() }).unwrap().tf;
     let scene = tet_render::Scene::from_bundle(&bundle).unwrap();
@@ -127,8 +132,8 @@ fn gpu_cli_and_library_draw_the_same_frames() {
         let (npy, view) = (dir.path().join(format!("{method}.npy")), dir.path().join("view.json"));
         let png = dir.path().join("x.png");
         let mut args = vec!["render", bs, "--tf", ts, "--gpu", "--method", method, "--size", "96x72"];
-        args.extend(["--azimuth", "40", "-o", png.to_str().unwrap(), "--float", npy.to_str().unwrap()]);
-        args.extend(["--save-view", view.to_str().unwrap()]);
+        args.extend(["--azimuth", "40", "-o", path_arg(&png), "--float", path_arg(&npy)]);
+        args.extend(["--save-view", path_arg(&view)]);
         tetview(&args);
         let spec = ViewSpec::from_json(&std::fs::read_to_string(&view).unwrap()).unwrap();
         let look = Look::bake(&bundle, method.parse::<Method>().unwrap(), tf.clone()).unwrap();
@@ -181,20 +186,13 @@ fn isabel_series(dir: &Path) -> PathBuf {
 fn time_series_frames_are_the_scalar_at_that_time() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (isabel_series(dir.path()), peaks_tf(dir.path()));
-    let (bs, ts) = (b.to_str().unwrap(), t.to_str().unwrap());
+    let (bs, ts) = (path_arg(&b), path_arg(&t));
     let mut images = vec![];
     for time in ["3", "3.25", "4"] {
         let (npy, view, png) =
             (dir.path().join(format!("{time}.npy")), dir.path().join("v.json"), dir.path().join("x.png"));
         let mut args = vec!["render", bs, "--tf", ts, "--time", time, "--size", "80x64", "--elevation", "50"];
-        args.extend([
-            "-o",
-            png.to_str().unwrap(),
-            "--float",
-            npy.to_str().unwrap(),
-            "--save-view",
-            view.to_str().unwrap(),
-        ]);
+        args.extend(["-o", path_arg(&png), "--float", path_arg(&npy), "--save-view", path_arg(&view)]);
         tetview(&args);
         let mut bundle = Bundle::read(&b).unwrap();
         bundle.set_time(time.parse().unwrap()).unwrap();
@@ -215,8 +213,8 @@ fn time_series_frames_are_the_scalar_at_that_time() {
     let (first, plain) = (dir.path().join("first.npy"), dir.path().join("plain.npy"));
     for (npy, time) in [(&first, Some("2")), (&plain, None)] {
         let png = dir.path().join("y.png");
-        let mut args = vec!["render", bs, "--tf", ts, "--size", "40x32", "-o", png.to_str().unwrap()];
-        args.extend(["--float", npy.to_str().unwrap()]);
+        let mut args = vec!["render", bs, "--tf", ts, "--size", "40x32", "-o", path_arg(&png)];
+        args.extend(["--float", path_arg(npy)]);
         if let Some(t) = time {
             args.extend(["--time", t]);
         }
@@ -227,7 +225,7 @@ fn time_series_frames_are_the_scalar_at_that_time() {
     let png = dir.path().join("x.png");
     for (bundle, time, want) in [(bs, "9", "outside the bundle's steps, 2 to 5"), (bs, "-1", "outside")] {
         let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
-            .args(["render", bundle, "--tf", ts, "--time", time, "-o", png.to_str().unwrap()])
+            .args(["render", bundle, "--tf", ts, "--time", time, "-o", path_arg(&png)])
             .output()
             .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
@@ -236,7 +234,7 @@ fn time_series_frames_are_the_scalar_at_that_time() {
     }
     let plain = bluntfin(dir.path());
     let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
-        .args(["reference", plain.to_str().unwrap(), "--time", "1", "-o", png.to_str().unwrap()])
+        .args(["reference", path_arg(&plain), "--time", "1", "-o", path_arg(&png)])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
@@ -263,11 +261,11 @@ fn png_pixels(path: &Path) -> (Vec<u8>, Option<u32>) {
 fn animate_draws_each_time_as_render_does() {
     let dir = tempfile::tempdir().unwrap();
     let (b, t) = (isabel_series(dir.path()), peaks_tf(dir.path()));
-    let (bs, ts) = (b.to_str().unwrap(), t.to_str().unwrap());
+    let (bs, ts) = (path_arg(&b), path_arg(&t));
     let (apng, frames) = (dir.path().join("a.png"), dir.path().join("frames"));
     let common = ["--tf", ts, "--size", "64x48", "--elevation", "50", "--tonemap", "none"];
     let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
-        .args(["animate", bs, "-o", apng.to_str().unwrap(), "--frames-dir", frames.to_str().unwrap(), "--json"])
+        .args(["animate", bs, "-o", path_arg(&apng), "--frames-dir", path_arg(&frames), "--json"])
         .args(common)
         .output()
         .unwrap();
@@ -280,7 +278,7 @@ fn animate_draws_each_time_as_render_does() {
     assert_eq!(first, png_pixels(&frames.join("frame_0000.png")).0);
     for (i, time) in ["2", "3", "4", "5"].iter().enumerate() {
         let png = dir.path().join(format!("r{time}.png"));
-        let mut args = vec!["render", bs, "--time", time, "-o", png.to_str().unwrap()];
+        let mut args = vec!["render", bs, "--time", time, "-o", path_arg(&png)];
         args.extend(common);
         tetview(&args);
         assert_eq!(
@@ -293,28 +291,17 @@ fn animate_draws_each_time_as_render_does() {
     // An orbit of a bundle without steps (default 360°, 36 frames asked down to 6).
     let bf = bluntfin(dir.path());
     let orbit = dir.path().join("o.png");
-    tetview(&[
-        "animate",
-        bf.to_str().unwrap(),
-        "--tf",
-        ts,
-        "--frames",
-        "6",
-        "--size",
-        "48x40",
-        "-o",
-        orbit.to_str().unwrap(),
-    ]);
+    tetview(&["animate", path_arg(&bf), "--tf", ts, "--frames", "6", "--size", "48x40", "-o", path_arg(&orbit)]);
     assert_eq!(png_pixels(&orbit).1, Some(6));
 
     for (bundle, extra, want) in [
-        (bf.to_str().unwrap(), vec!["--time-range", "0,1"], "no time steps"),
+        (path_arg(&bf), vec!["--time-range", "0,1"], "no time steps"),
         (bs, vec!["--time-range", "1,3"], "outside the bundle's steps"),
         (bs, vec!["--frames", "0"], "--frames 0"),
         (bs, vec!["--fps", "0"], "--fps 0"),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
-            .args(["animate", bundle, "--tf", ts, "-o", orbit.to_str().unwrap()])
+            .args(["animate", bundle, "--tf", ts, "-o", path_arg(&orbit)])
             .args(&extra)
             .output()
             .unwrap();

@@ -3,7 +3,8 @@
 #![allow(dead_code)]
 
 use glam::DVec3;
-use tet_gpu::GpuContext;
+use std::sync::Arc;
+use tet_gpu::{GpuContext, GpuRenderer, GpuScene, GpuShader};
 use tet_mesh::split::{structured_grid_tets, structured_points};
 use tet_mesh::SplitMode;
 use tet_preint::{ScalarAxis, Segment, SegmentShader, Table3d, Table3dParams, TableDomain, TransferFunction};
@@ -25,6 +26,68 @@ pub fn gpu() -> Option<GpuContext> {
             None
         }
     }
+}
+
+/// The GPU ([`gpu`]) with `mesh` uploaded and a renderer: what the image
+/// tests start from; `None` where [`gpu`] skips.
+pub fn gpu_with_scene(mesh: &Mesh) -> Option<(GpuContext, GpuScene, GpuRenderer)> {
+    let ctx = gpu()?;
+    let scene = mesh.gpu_scene(&ctx);
+    let renderer = GpuRenderer::new(&ctx).unwrap();
+    Some((ctx, scene, renderer))
+}
+
+/// tet_render's renderer of `scene` on its projected-tetrahedra path: the
+/// GPU draws projected tetrahedra, so that path is its reference.
+pub fn cpu_pt_renderer(scene: tet_render::Scene) -> tet_render::Renderer {
+    let mut cpu = tet_render::Renderer::new(scene);
+    cpu.set_renderer(tet_render::CpuRenderer::Pt);
+    cpu
+}
+
+/// The CPU image of `cpu`'s current view and shader, and the visibility
+/// order it drew in (for the GPU to draw in the same order).
+pub fn cpu_image_and_order(cpu: &mut tet_render::Renderer) -> (Image, Vec<u32>) {
+    let (image, _) = cpu.render(&|_, _| {}).unwrap();
+    let order = cpu.order().unwrap().tets.clone();
+    (image, order)
+}
+
+/// The GPU image of `scene` drawn with `shaders.0` in the order in which
+/// the CPU PT renderer `cpu` (at its current view) draws with `shaders.1`,
+/// that CPU image, and the order.
+pub fn gpu_and_cpu_pt_images(
+    ctx: &GpuContext,
+    renderer: &GpuRenderer,
+    scene: &GpuScene,
+    cam: &Camera,
+    cpu: &mut tet_render::Renderer,
+    shaders: (&GpuShader, &Arc<dyn SegmentShader>),
+) -> (Image, Image, Vec<u32>) {
+    cpu.set_shader(shaders.1.clone());
+    let (want, order) = cpu_image_and_order(cpu);
+    let got = renderer.render(ctx, scene, cam, &order, shaders.0).unwrap().image;
+    (got, want, order)
+}
+
+/// Positional argument `i` of an example's `args`, parsed, or `default`
+/// where it is absent.
+pub fn arg_or<T: std::str::FromStr>(args: &[String], i: usize, default: T) -> Result<T, T::Err> {
+    Ok(args.get(i).map(|s| s.parse()).transpose()?.unwrap_or(default))
+}
+
+/// An example's first three arguments, CELLS SIZE FRAMES (grid cells a
+/// side, image size, frames of at least `min_frames`), each defaulting to
+/// `defaults`'.
+pub fn cells_size_frames(
+    args: &[String],
+    defaults: (usize, u32, usize),
+    min_frames: usize,
+) -> Result<(usize, u32, usize), Box<dyn std::error::Error>> {
+    let cells = arg_or(args, 1, defaults.0)?;
+    let size = arg_or(args, 2, defaults.1)?;
+    let frames = arg_or(args, 3, defaults.2)?.max(min_frames);
+    Ok((cells, size, frames))
 }
 
 /// The transfer function the image tests render with.
@@ -61,6 +124,14 @@ pub fn report(what: &str, gpu: &Image, cpu: &Image) -> DiffStats {
         covered
     );
     assert!(covered > 0, "{what}: the reference image is empty");
+    d
+}
+
+/// [`report`]s and asserts that two images agree within the image tests'
+/// tolerance: mean |Δ| ≤ 0.5/255 and max |Δ| ≤ 2/255.
+pub fn assert_close_images(what: &str, got: &Image, want: &Image) -> DiffStats {
+    let d = report(what, got, want);
+    assert!(d.mean_abs <= 0.5 / 255.0 && d.max_abs <= 2.0 / 255.0, "{what}: {d:?}");
     d
 }
 
@@ -102,16 +173,18 @@ pub fn grid_cells(n: [usize; 3]) -> Mesh {
 }
 
 impl Mesh {
+    /// This mesh on the GPU (without gradient magnitudes).
+    pub fn gpu_scene(&self, ctx: &GpuContext) -> GpuScene {
+        GpuScene::new(ctx, &self.points, &self.tets, &self.scalar).unwrap()
+    }
+
+    /// This mesh as a tet_render scene.
+    pub fn cpu_scene(&self) -> tet_render::Scene {
+        tet_render::Scene::new(&self.points, self.tets.clone(), self.scalar.clone()).unwrap()
+    }
+
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.points {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo, hi)
+        tet_mesh::stats::bounds(&self.points)
     }
 
     /// (largest per-tet scalar range, largest edge length).

@@ -221,14 +221,7 @@ fn assemble(
             built.splitter.num_face_centres()
         ));
     }
-    for f in fields {
-        let k = f.num_components;
-        let mut values = Vec::with_capacity(built.source_cell.len() * k);
-        for &c in &built.source_cell {
-            values.extend_from_slice(&f.values[c as usize * k..(c as usize + 1) * k]);
-        }
-        mesh.cell_fields.push(Field::new(f.name, k, values));
-    }
+    mesh.cell_fields.extend(fields.into_iter().map(|f| per_output_cell(f, &built.source_cell)));
     built.splitter.finish(&mut mesh).map_err(|e| (Part::Points, FormatError::new(Location::Whole, e)))?;
     mesh.blocks.push(Block::Unstructured(built.cells));
     mesh.check().map_err(|e| (Part::Owner, FormatError::new(Location::Whole, e)))?;
@@ -421,6 +414,18 @@ fn read_fields(
     Ok(out)
 }
 
+/// OpenFOAM cell field `f` carried to the output cells: output cell `i`
+/// takes the values of OpenFOAM cell `source_cell[i]` (a decomposed
+/// polyhedron's tets each carry their cell's values).
+fn per_output_cell(f: Field, source_cell: &[u32]) -> Field {
+    let k = f.num_components;
+    let mut values = Vec::with_capacity(source_cell.len() * k);
+    for &c in source_cell {
+        values.extend_from_slice(&f.values[c as usize * k..(c as usize + 1) * k]);
+    }
+    Field::new(f.name, k, values)
+}
+
 /// The cell fields of time directory `tname` of every domain (the case, or
 /// each processor in order), concatenated in the domains' cell order:
 /// scalars before vectors, each by name; fields of other classes skipped
@@ -527,14 +532,7 @@ impl CaseSteps {
         let mut notes = Vec::new();
         let fields = read_time_fields(&self.domain_dirs, &self.domain_cells, tname, &mut notes)?;
         let mut mesh = SourceMesh { format: "OpenFOAM".into(), notes, ..Default::default() };
-        for f in fields {
-            let k = f.num_components;
-            let mut values = Vec::with_capacity(self.source_cell.len() * k);
-            for &c in &self.source_cell {
-                values.extend_from_slice(&f.values[c as usize * k..(c as usize + 1) * k]);
-            }
-            mesh.cell_fields.push(Field::new(f.name, k, values));
-        }
+        mesh.cell_fields.extend(fields.into_iter().map(|f| per_output_cell(f, &self.source_cell)));
         Ok(mesh)
     }
 }

@@ -1,9 +1,11 @@
 //! What the reader tests share: a fixed-seed generator for the damage the
-//! robustness tests do, and gzip-compressed test files.
+//! robustness tests do, gzip-compressed test files, and checks of the
+//! counts VTK reports.
 #![allow(dead_code)] // not every test binary uses all of it
 
 use std::io::Read;
 use std::path::Path;
+use tet_mesh::{Block, SourceMesh};
 
 /// A fixed-seed LCG (Knuth's MMIX constants): the robustness tests need no
 /// rand crate, and their damage is the same on every run.
@@ -28,4 +30,16 @@ pub fn gunzip(path: &Path) -> Vec<u8> {
     let mut out = Vec::new();
     flate2::read::GzDecoder::new(&gz[..]).read_to_end(&mut out).unwrap();
     out
+}
+
+/// The point and cell counts VTK reports.
+pub fn assert_counts(m: &SourceMesh, points: usize, cells: usize) {
+    assert_eq!(m.points.len(), points);
+    assert_eq!(m.num_cells(), cells);
+}
+
+/// One structured block of `dims` points, with the counts VTK reports.
+pub fn assert_structured(m: &SourceMesh, dims: [usize; 3], points: usize, cells: usize) {
+    assert_eq!(m.blocks, vec![Block::Structured { dims, first_point: 0 }]);
+    assert_counts(m, points, cells);
 }

@@ -130,8 +130,9 @@ fn data_density(domain: &TableDomain) -> impl Fn(f64) -> f64 {
 }
 
 /// The TF's colour and opacity control points strictly inside the domain's
-/// range, sorted, without duplicates.
-fn tf_nodes_in(tf: &TransferFunction, domain: &TableDomain) -> Vec<f64> {
+/// range (by more than 1e-9 of its span), sorted, without duplicates: where
+/// the tf-nodes and data axes place or refine samples.
+pub fn tf_nodes_in(tf: &TransferFunction, domain: &TableDomain) -> Vec<f64> {
     let (lo, hi) = (domain.s_lo, domain.s_hi);
     let eps = 1e-9 * domain.scalar_span();
     let mut nodes: Vec<f64> = tf

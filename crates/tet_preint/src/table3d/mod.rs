@@ -70,7 +70,8 @@ use serde::{Deserialize, Serialize};
 use wide::f32x8;
 
 pub use axis::{
-    node_step_cap, DATA_AXIS_DENSITY_POWER, DATA_AXIS_NODE_BUDGET, DATA_AXIS_NODE_STEP, DATA_AXIS_UNIFORM_SHARE,
+    node_step_cap, tf_nodes_in, DATA_AXIS_DENSITY_POWER, DATA_AXIS_NODE_BUDGET, DATA_AXIS_NODE_STEP,
+    DATA_AXIS_UNIFORM_SHARE,
 };
 pub use build::ExtinctionPrefix;
 pub use rebake::{FullRebake, RebakeStats};

@@ -2,8 +2,11 @@
 //! root, the held-out TFs and the image comparison they judge by.
 #![allow(dead_code)] // the example and the test use different parts
 
+use glam::DVec3;
 use std::path::{Path, PathBuf};
-use tet_preint::TransferFunction;
+use tet_mesh::{build_adjacency, Adjacency, TetMesh};
+use tet_preint::{TableDomain, TransferFunction};
+use tet_render::{Renderer, Scene, ViewSpec};
 
 /// The repository root.
 pub fn root() -> PathBuf {
@@ -26,4 +29,28 @@ pub fn diff(a: &tet_render::Image, b: &tet_render::Image) -> (f64, usize) {
         over += usize::from(d > 1.0 / 255.0);
     }
     (max, over)
+}
+
+/// What the comparison needs of `mesh`: its face adjacency, the bundle's
+/// table domain (as tetview render computes it) and the view framing the
+/// mesh from (`azimuth`, `elevation`) at `size`².
+pub fn framed(mesh: &TetMesh, size: u32, azimuth: f64, elevation: f64) -> (Adjacency, TableDomain, ViewSpec) {
+    let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+    let stats = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar);
+    let bundle = tet_bundle::Bundle::with_stats(mesh.clone(), adj.clone(), Default::default(), stats);
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let (lo, hi) =
+        mesh.points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), p| {
+            (a.min(DVec3::from(*p)), b.max(DVec3::from(*p)))
+        });
+    let view = ViewSpec::framing(lo.into(), hi.into(), [size, size]).orbit(azimuth, elevation, 1.2);
+    (adj, domain, view)
+}
+
+/// The default CPU renderer of `mesh` at `view`.
+pub fn renderer_at(mesh: &TetMesh, view: &ViewSpec) -> Renderer {
+    let scene = Scene::new(&mesh.points, mesh.tets.clone(), mesh.scalar.clone()).unwrap();
+    let mut r = Renderer::new(scene);
+    r.set_view(view).unwrap();
+    r
 }

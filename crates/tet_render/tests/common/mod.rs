@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use std::sync::Arc;
-use tet_mesh::{tetrahedralize, Block, ConvertOptions, Field, SourceMesh};
+use tet_mesh::{tetrahedralize, ConvertOptions, SourceMesh};
 use tet_preint::{integrate_segment, TransferFunction};
 use tet_render::{Camera, Image, Renderer, Scene, ViewSpec};
 
@@ -39,12 +39,7 @@ pub fn grid_mesh(
             }
         }
     }
-    let src = SourceMesh {
-        points,
-        blocks: vec![Block::Structured { dims: [n + 1; 3], first_point: 0 }],
-        point_fields: vec![Field::new("s", 1, values)],
-        ..Default::default()
-    };
+    let src = SourceMesh::structured([n + 1; 3], points, "s", values);
     let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
     let (mesh, _) = tetrahedralize(&src, &opts, &mut |_| {}).expect("grid splits");
     (mesh.points, mesh.tets, mesh.scalar)

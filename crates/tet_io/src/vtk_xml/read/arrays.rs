@@ -30,14 +30,9 @@ impl<'a> Ctx<'a> {
                     .flat_map(|r| self.bytes.get(r.clone()).unwrap_or(&[]).iter().copied())
                     .filter(|b| !b.is_ascii_whitespace())
                     .collect();
-                let decoded = decode_base64(&text).map_err(|m| FormatError::new(loc, format!("{what}: {m}")))?;
                 // Offsets inside decoded base64 are not file offsets: report
                 // the element's line instead.
-                let mut cur = ByteCursor::new(&decoded);
-                let unpacked = self
-                    .unpack(&mut cur, compressor, expected_bytes, &what)
-                    .map_err(|e| FormatError::new(loc, e.message))?;
-                f(Payload::Binary(unpacked.bytes(), loc))
+                self.with_base64_payload(&text, loc, compressor, expected_bytes, &what, f)
             }
             "appended" => {
                 let app = self
@@ -66,12 +61,7 @@ impl<'a> Ctx<'a> {
                     let end = end.min(app.data.len());
                     let chunk = &app.data[offset..end];
                     let text: Vec<u8> = chunk.iter().copied().filter(|b| !b.is_ascii_whitespace()).collect();
-                    let decoded = decode_base64(&text).map_err(|m| FormatError::new(loc, format!("{what}: {m}")))?;
-                    let mut cur = ByteCursor::new(&decoded);
-                    let unpacked = self
-                        .unpack(&mut cur, compressor, expected_bytes, &what)
-                        .map_err(|e| FormatError::new(loc, e.message))?;
-                    f(Payload::Binary(unpacked.bytes(), loc))
+                    self.with_base64_payload(&text, loc, compressor, expected_bytes, &what, f)
                 } else {
                     self.mark(USED_RAW);
                     let mut cur = ByteCursor::with_base(&app.data[offset..], loc_offset(loc));
@@ -89,6 +79,25 @@ impl<'a> Ctx<'a> {
         } else {
             cur.u32(self.endian, what).map(u64::from)
         }
+    }
+
+    /// Runs `f` on base64 `text` (white space removed) decoded and
+    /// unpacked; every error is reported at `loc`, since offsets inside
+    /// decoded base64 are not file offsets.
+    fn with_base64_payload<R>(
+        &self,
+        text: &[u8],
+        loc: Location,
+        compressor: Compressor,
+        expected_bytes: Option<usize>,
+        what: &str,
+        f: impl FnOnce(Payload<'_>) -> Result<R, FormatError>,
+    ) -> Result<R, FormatError> {
+        let decoded = decode_base64(text).map_err(|m| FormatError::new(loc, format!("{what}: {m}")))?;
+        let mut cur = ByteCursor::new(&decoded);
+        let unpacked =
+            self.unpack(&mut cur, compressor, expected_bytes, what).map_err(|e| FormatError::new(loc, e.message))?;
+        f(Payload::Binary(unpacked.bytes(), loc))
     }
 
     /// Reads one array block: `[nbytes]` then the bytes, or the zlib layout

@@ -6,8 +6,8 @@ use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_preint::TransferFunction;
 use tet_render::{
-    Camera, CpuRenderer, Image, RasterOptions, ReferenceOptions, ReferenceRenderer, ReferenceStats, RenderStats,
-    Renderer, Scene, Shading, SortMethod, TfCuller, ViewSpec,
+    Camera, CpuRenderer, Image, LitReference, RasterOptions, ReferenceOptions, ReferenceRenderer, ReferenceStats,
+    RenderStats, Renderer, Scene, Shading, ShadowMode, SortMethod, TfCuller, ViewSpec,
 };
 
 use crate::{EngineError, Look};
@@ -22,8 +22,12 @@ pub const GRADIENTS_NOTE: &str = "the bundle has no gradients: per-vertex gradie
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameRequest {
     pub view: ViewSpec,
-    /// Lighting and silhouettes (the scene gets per-vertex gradients when
-    /// the bundle has none; the reference draws unshaded).
+    /// Lighting, shadows and silhouettes (the scene gets per-vertex
+    /// gradients when the bundle has none). A `gradient_floor` of 0 gets
+    /// the scene's default ([`Shading::gradient_floor_for`]). The CPU
+    /// renderers light from a shadow field they compute when the lights,
+    /// the TF or the scalar change (a camera move reuses it); the
+    /// reference casts exact shadow rays and ignores silhouettes.
     pub shading: Shading,
     /// The CPU algorithm of [`CpuFrameRenderer`].
     pub cpu: CpuRenderer,
@@ -101,6 +105,18 @@ pub struct CpuFrameRenderer {
     /// reads (the mask stays while the TF does: a new method, resolution or
     /// table of the same TF re-culls nothing).
     cull: Option<(bool, TransferFunction)>,
+    /// Seconds the last frame spent computing its shadow field (0 when it
+    /// reused one or has no shadows).
+    pub shadow_seconds: f64,
+}
+
+/// `shading` with the scene's default gradient floor where it has none.
+pub fn shading_for_scene(shading: Shading, scene: &Scene) -> Shading {
+    if shading.gradient_floor > 0.0 {
+        return shading;
+    }
+    let (lo, hi) = scene.bounds();
+    Shading { gradient_floor: Shading::gradient_floor_for(scene.scalar_range(), lo, hi), ..shading }
 }
 
 impl CpuFrameRenderer {
@@ -110,7 +126,7 @@ impl CpuFrameRenderer {
     }
 
     pub fn from_scene(scene: Scene) -> CpuFrameRenderer {
-        CpuFrameRenderer { renderer: Some(Renderer::new(scene)), look: None, cull: None }
+        CpuFrameRenderer { renderer: Some(Renderer::new(scene)), look: None, cull: None, shadow_seconds: 0.0 }
     }
 
     /// The staged renderer (its scene, the walker's memory, the order).
@@ -192,7 +208,22 @@ impl FrameRenderer for CpuFrameRenderer {
             r.set_culler(req.cull.then(|| Arc::new(TfCuller::new(&look.tf)) as Arc<dyn tet_render::CellCuller>));
             self.cull = Some((req.cull, look.tf.clone()));
         }
-        let mut raster = RasterOptions { shading: req.shading, ..Default::default() };
+        self.shadow_seconds = 0.0;
+        if req.shading.wants_shadows() {
+            let stale = r.scene().shadows().is_none_or(|f| {
+                f.key().lights != req.shading.sources
+                    || f.key().tf_json != look.tf.to_json()
+                    || f.key().scalar_range != r.scene().scalar_range()
+            });
+            if stale {
+                let t = Instant::now();
+                let field = r.scene().compute_shadows(&look.tf, &req.shading.sources, &|_, _| {})?;
+                r.set_shadows(Some(Arc::new(field)))?;
+                self.shadow_seconds = t.elapsed().as_secs_f64();
+            }
+        }
+        let shading = shading_for_scene(req.shading, r.scene());
+        let mut raster = RasterOptions { shading, ..Default::default() };
         if !req.early_termination {
             raster.opaque_alpha = f32::INFINITY;
         }
@@ -207,6 +238,12 @@ impl FrameRenderer for CpuFrameRenderer {
 /// compositing. Draws unshaded and uncropped by culling.
 pub struct ReferenceFrameRenderer<'b> {
     renderer: ReferenceRenderer<'b>,
+    bundle: &'b Bundle,
+    /// The bundle as a scene with gradients, made for the first lit frame.
+    scene: Option<Scene>,
+    /// Light from this per-vertex field instead of exact shadow rays
+    /// ([`ReferenceFrameRenderer::use_shadow_field`]).
+    shadow_field: Option<Arc<tet_render::ShadowField>>,
     /// Seconds to build the boundary hierarchy rays enter by.
     pub setup_seconds: f64,
 }
@@ -215,7 +252,35 @@ impl<'b> ReferenceFrameRenderer<'b> {
     pub fn new(bundle: &'b Bundle) -> Result<ReferenceFrameRenderer<'b>, EngineError> {
         let t = Instant::now();
         let renderer = ReferenceRenderer::new(&bundle.mesh, &bundle.adjacency)?;
-        Ok(ReferenceFrameRenderer { renderer, setup_seconds: t.elapsed().as_secs_f64() })
+        Ok(ReferenceFrameRenderer {
+            renderer,
+            bundle,
+            scene: None,
+            shadow_field: None,
+            setup_seconds: t.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The bundle as a scene with per-vertex gradients (computed now when
+    /// the bundle has none).
+    fn scene(&mut self) -> Result<&Scene, EngineError> {
+        if self.scene.is_none() {
+            self.scene = Some(Scene::from_bundle(self.bundle)?.ensure_gradients()?);
+        }
+        Ok(self.scene.as_ref().expect("made above"))
+    }
+
+    /// Shadows from the per-vertex field the CPU renderers use, computed
+    /// now for `tf` and `lights`, instead of exact shadow rays: the
+    /// difference of the two references is the field's own error.
+    pub fn use_shadow_field(
+        &mut self,
+        tf: &TransferFunction,
+        lights: &tet_render::LightSet,
+    ) -> Result<(), EngineError> {
+        let field = self.scene()?.compute_shadows(tf, lights, &|_, _| {})?;
+        self.shadow_field = Some(Arc::new(field));
+        Ok(())
     }
 }
 
@@ -233,9 +298,29 @@ impl FrameRenderer for ReferenceFrameRenderer<'_> {
         let camera = Camera::new(&req.view)?;
         let options = ReferenceOptions { early_termination: req.early_termination, ..Default::default() };
         let t = Instant::now();
-        let (image, stats) = self
-            .renderer
-            .render(&camera, &look.tf, &options, &|done, total| progress(done as usize, total as usize))?;
+        let progress = |done: u32, total: u32| progress(done as usize, total as usize);
+        let (image, stats) = if req.shading.light.is_some() {
+            self.scene()?;
+            let scene = self.scene.as_ref().expect("made above");
+            let gradients = scene.gradients().expect("ensure_gradients");
+            let shading = shading_for_scene(req.shading, scene);
+            let shadows = match &self.shadow_field {
+                Some(f) if req.shading.shadows => {
+                    let f = f.as_ref();
+                    if f.key().lights != req.shading.sources || f.key().tf_json != look.tf.to_json() {
+                        return Err(EngineError::Render(tet_render::RenderError::NotReady(
+                            "the reference's shadow field was made for other lights or another TF",
+                        )));
+                    }
+                    ShadowMode::Field(f)
+                }
+                _ => ShadowMode::Exact,
+            };
+            let lit = LitReference::new(shading, gradients, shadows);
+            self.renderer.render_lit(&camera, &look.tf, &options, &lit, &progress)?
+        } else {
+            self.renderer.render(&camera, &look.tf, &options, &progress)?
+        };
         let render_seconds = t.elapsed().as_secs_f64();
         Ok(Frame { image, stats: FrameStats::Reference { stats, render_seconds }, notes: Vec::new() })
     }

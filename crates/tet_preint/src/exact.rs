@@ -119,6 +119,32 @@ fn piece(emission: Emission, cf: [f64; 3], cb: [f64; 3], tf: f64, tb: f64, d: f6
     (Rgba { color, alpha }, depth)
 }
 
+/// Optical depth ∫ρ of the segment entering at scalar `sf`, leaving at
+/// `sb`, of world length `len`: exact for the piecewise-linear extinction
+/// (the length times ρ's mean over [sf, sb], summed over the linear pieces
+/// between `tf`'s nodes). Transmittance is `exp(−depth)`. `len ≤ 0` gives 0.
+pub fn optical_depth_with(tf: &TransferFunction, sf: f64, sb: f64, len: f64, scratch: &mut Vec<f64>) -> f64 {
+    if len.is_nan() || sf.is_nan() || sb.is_nan() {
+        return f64::NAN;
+    }
+    if len <= 0.0 {
+        return 0.0;
+    }
+    if sf == sb {
+        return len * tf.extinction(sf);
+    }
+    let (lo, hi) = (sf.min(sb), sf.max(sb));
+    scratch.clear();
+    scratch.push(lo);
+    tf.breakpoints_between(lo, hi, scratch);
+    scratch.push(hi);
+    let mut mean_times_width = 0.0;
+    for w in scratch.windows(2) {
+        mean_times_width += 0.5 * (tf.extinction(w[0]) + tf.extinction(w[1])) * (w[1] - w[0]);
+    }
+    len * mean_times_width / (hi - lo)
+}
+
 /// Integrates the segment entering at scalar `sf`, leaving at `sb`, of world
 /// length `len`, exactly for the piecewise-linear `tf` (its x taken as given:
 /// denormalize a normalized TF first). Returns premultiplied (C, α).

@@ -113,7 +113,7 @@ pub use certify::{Certificate, CertifiedTable3d, CertifyOptions};
 pub use colormap::Colormap;
 pub use domain::{ScalarQuantiles, TableDomain, TableError, QUANTILES};
 pub use error::{lcg_unit, table_error, uniform_triples};
-pub use exact::{integrate_segment, integrate_segment_with, Rgba};
+pub use exact::{integrate_segment, integrate_segment_with, optical_depth_with, Rgba};
 pub use factory::{make_shader, tf_for_bake, tf_for_domain, Baked};
 pub use load::{load_tf, load_tf_with, parse_tf, LoadOptions};
 pub use lut_file::{

@@ -492,8 +492,9 @@ impl TransferFunction {
     }
 
     /// Every node x (colour and opacity) strictly between `lo` and `hi`, sorted
-    /// ascending and deduplicated, appended to `out`.
-    pub(crate) fn breakpoints_between(&self, lo: f64, hi: f64, out: &mut Vec<f64>) {
+    /// ascending and deduplicated, appended to `out`: between two of them
+    /// colour and extinction are linear in the scalar.
+    pub fn breakpoints_between(&self, lo: f64, hi: f64, out: &mut Vec<f64>) {
         let start = out.len();
         let c0 = self.color.partition_point(|c| c.x <= lo);
         let o0 = self.opacity.partition_point(|o| o.x <= lo);

@@ -658,7 +658,7 @@ fn render<'py>(
                 let cpu: CpuRenderer =
                     renderer.parse().map_err(|e: String| anyhow::Error::msg(format!("renderer: {e}")))?;
                 let request = FrameRequest {
-                    shading: Shading { light: light.then(Light::default), silhouette: None },
+                    shading: Shading { light: light.then(Light::default), silhouette: None, ..Default::default() },
                     cpu,
                     cull,
                     ..FrameRequest::new(view)

@@ -70,8 +70,14 @@ pub struct ViewSpec {
 }
 
 impl ViewSpec {
+    /// Parses a view file. Its `"lighting"` object, if any, belongs to
+    /// [`crate::shading::Lighting::from_view_json`] and is skipped here.
     pub fn from_json(text: &str) -> Result<ViewSpec, RenderError> {
-        serde_json::from_str(text).map_err(|e| RenderError::View(e.to_string()))
+        let mut v: serde_json::Value = serde_json::from_str(text).map_err(|e| RenderError::View(e.to_string()))?;
+        if let Some(o) = v.as_object_mut() {
+            o.remove("lighting");
+        }
+        serde_json::from_value(v).map_err(|e| RenderError::View(e.to_string()))
     }
 
     pub fn to_json(&self) -> String {

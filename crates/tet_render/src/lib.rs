@@ -60,6 +60,7 @@ pub mod raster;
 pub mod reference;
 pub mod scene;
 pub mod shading;
+pub mod shadow;
 pub mod sort;
 pub mod walk;
 
@@ -68,9 +69,12 @@ pub use cull::{CellCuller, CullMask, TfCuller};
 pub use image::{diff, DiffStats, Display, Image, PictureMetrics, ToneMap};
 pub use pipeline::{CpuRenderer, RenderStats, Renderer};
 pub use raster::{RasterOptions, RasterStats};
-pub use reference::{render_reference, RayResult, RayScratch, ReferenceOptions, ReferenceRenderer, ReferenceStats};
+pub use reference::{
+    render_reference, LitReference, RayResult, RayScratch, ReferenceOptions, ReferenceRenderer, ReferenceStats,
+};
 pub use scene::Scene;
-pub use shading::{Light, Shading};
+pub use shading::{Light, LightSet, LightSource, Lighting, LitPoint, Shading, MAX_LIGHTS};
+pub use shadow::{ShadowField, ShadowKey, ShadowMode};
 pub use sort::{visibility_order, SortMethod, VisibilityOrder};
 pub use walk::{walk_frame, WalkMesh, WalkStats, WalkView};
 

@@ -276,6 +276,16 @@ impl Renderer {
         Ok(())
     }
 
+    /// Attaches (or drops) the shadow field lighting reads (see
+    /// [`crate::shadow`]); nothing else is recomputed.
+    pub fn set_shadows(&mut self, field: Option<Arc<crate::ShadowField>>) -> Result<(), RenderError> {
+        self.scene.set_shadows(field)?;
+        if let Some(m) = &mut self.walk_mesh {
+            m.set_shadows(&self.scene);
+        }
+        Ok(())
+    }
+
     /// Sets the camera; the view geometry and the order become stale unless
     /// the view is identical to the current one.
     pub fn set_view(&mut self, spec: &ViewSpec) -> Result<(), RenderError> {
@@ -447,6 +457,15 @@ impl Renderer {
         let shader = self.shader.clone().ok_or(RenderError::NotReady("no shader set"))?;
         if self.raster.shading.is_active() && self.scene.gradients().is_none() {
             return Err(RenderError::NotReady("lighting and silhouettes need per-vertex gradients"));
+        }
+        if self.raster.shading.wants_shadows() {
+            match self.scene.shadows() {
+                None => return Err(RenderError::NotReady("shadows need a shadow field (Renderer::set_shadows)")),
+                Some(f) if f.key().lights != self.raster.shading.sources => {
+                    return Err(RenderError::NotReady("the shadow field was computed for other lights"))
+                }
+                Some(_) => {}
+            }
         }
         let mut stats = RenderStats { tets_total: self.scene.num_tets(), ..Default::default() };
         if self.kind == CpuRenderer::Walk {

@@ -139,6 +139,8 @@ pub fn rasterize(
         view,
         want_grad_mag: shader.method().is_bivariate(),
         want_normals: opts.shading.is_active(),
+        want_position: opts.shading.needs_position(),
+        shadows: scene.shadows().filter(|_| opts.shading.wants_shadows()).map(|f| f.as_ref()),
         want_thick: shader.method().shades_per_tet(),
         want_span: !shader.method().shades_per_tet(),
     };
@@ -363,6 +365,8 @@ fn rasterize_chunked(
         view,
         want_grad_mag: shader.method().is_bivariate(),
         want_normals: false,
+        want_position: false,
+        shadows: None,
         want_thick: false,
         want_span: true,
     };
@@ -682,6 +686,7 @@ struct Batch {
     /// Pixel position and ζ at the segment midpoint (lighting only).
     at: [[u32; 2]; LIT_BATCH],
     zeta_mid: [f32; LIT_BATCH],
+    zeta_half: [f32; LIT_BATCH],
     rgba: [Rgba32; LIT_BATCH],
     n: usize,
 }
@@ -695,6 +700,7 @@ impl Batch {
             pixel: [0; LIT_BATCH],
             at: [[0; 2]; LIT_BATCH],
             zeta_mid: [0.0; LIT_BATCH],
+            zeta_half: [0.0; LIT_BATCH],
             rgba: [[0.0; 4]; LIT_BATCH],
             n: 0,
         }
@@ -726,9 +732,9 @@ fn flush(ctx: &mut TileCtx, s: &TetSetup, view: &ViewGeometry, shader: &dyn Segm
     if opts.shading.is_active() {
         for k in 0..n {
             let (x, y) = (b.at[k][0] as f64 + 0.5, b.at[k][1] as f64 + 0.5);
-            if let Some(nrm) = s.normal_at(x, y, s.span.z0 + b.zeta_mid[k] as f64) {
-                b.rgba[k] = opts.shading.apply(b.rgba[k], nrm, view.frame.view_dir(x, y));
-            }
+            let (z_mid, z_half) = (s.span.z0 + b.zeta_mid[k] as f64, b.zeta_half[k] as f64);
+            let lit_at = |w: f32| lit_point(s, view, opts, x, y, z_mid + (2.0 * w as f64 - 1.0) * z_half);
+            b.rgba[k] = crate::shading::light_segment(&b.segs[k], b.rgba[k], lit_at, |p| shader.shade(p));
         }
     }
     for k in 0..n {
@@ -762,9 +768,19 @@ fn shade(
     if !opts.shading.is_active() {
         return rgba;
     }
-    match s.normal_at(x, y, 0.5 * (f.z_front + f.z_back)) {
-        Some(n) => opts.shading.apply(rgba, n, view.frame.view_dir(x, y)),
-        None => rgba,
+    let lit_at = |w: f32| lit_point(s, view, opts, x, y, f.z_front + w as f64 * (f.z_back - f.z_front));
+    crate::shading::light_segment(&segment(f), rgba, lit_at, |p| shader.shade(p))
+}
+
+/// The lighting terms at depth `z` of pixel (x, y): the normal, position
+/// and shadows interpolated there (unshaded without normals).
+fn lit_point(s: &TetSetup, view: &ViewGeometry, opts: &RasterOptions, x: f64, y: f64, z: f64) -> crate::LitPoint {
+    match s.normal_at(x, y, z) {
+        Some(n) => {
+            let (pos, shadow) = s.lit_at(x, y, z);
+            opts.shading.lit_point(n, pos, view.frame.view_dir(x, y), |i| shadow[i])
+        }
+        None => crate::LitPoint::NONE,
     }
 }
 
@@ -842,6 +858,7 @@ fn draw_tet(
                     b.pixel[b.n] = (base + l) as u32;
                     b.at[b.n] = [px0 + l as u32, py];
                     b.zeta_mid[b.n] = lanes.zeta_mid[l];
+                    b.zeta_half[b.n] = lanes.zeta_half[l];
                     b.n += 1;
                     if b.n == LIT_BATCH {
                         flush(ctx, s, view, shader, opts);

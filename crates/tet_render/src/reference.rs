@@ -17,7 +17,10 @@
 //! eye, and segments are clipped at the camera's near depth: a camera inside
 //! the mesh therefore needs no point location.
 
+mod lit;
 mod sos;
+
+pub use lit::LitReference;
 
 use crate::boundary::BoundaryBvh;
 use crate::{Camera, Image, RenderError};
@@ -66,7 +69,7 @@ pub struct ReferenceStats {
 }
 
 impl ReferenceStats {
-    fn add(&mut self, o: &ReferenceStats) {
+    pub(crate) fn add(&mut self, o: &ReferenceStats) {
         self.rays += o.rays;
         self.rays_hit += o.rays_hit;
         self.entries += o.entries;
@@ -101,24 +104,96 @@ pub struct ReferenceRenderer<'a> {
 pub struct RayScratch {
     breakpoints: Vec<f64>,
     entries: Vec<Entry>,
+    /// Shadow rays cast from a lit ray.
+    shadow: crate::shadow::ShadowScratch,
 }
 
+/// Where a line enters the mesh through boundary face `packed_face`.
 #[derive(Debug, Clone, Copy)]
-struct Entry {
-    t: f64,
-    scalar: f64,
+pub(crate) struct Entry {
+    at: LinePoint,
     packed_face: u32,
+}
+
+/// A point of the line on a face: its parameter, the scalar there, and the
+/// face's vertices with their (normalized) barycentric weights, so any
+/// per-vertex field can be interpolated there.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LinePoint {
+    pub(crate) t: f64,
+    pub(crate) s: f64,
+    pub(crate) ids: [u32; 3],
+    pub(crate) w: [f64; 3],
+}
+
+impl LinePoint {
+    /// A per-vertex field interpolated at this point.
+    pub(crate) fn interp<const N: usize>(&self, field: &[[f64; N]]) -> [f64; N] {
+        std::array::from_fn(|c| (0..3).map(|k| self.w[k] * field[self.ids[k] as usize][c]).sum())
+    }
+}
+
+/// One ray–tet segment: the points where the line enters and leaves the
+/// tet, and `t_front` (≥ `front.t`) where the segment starts after clipping.
+/// Every per-vertex field is linear along it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LineSegment {
+    pub(crate) front: LinePoint,
+    pub(crate) back: LinePoint,
+    pub(crate) t_front: f64,
+}
+
+impl LineSegment {
+    pub(crate) fn len(&self) -> f64 {
+        self.back.t - self.t_front
+    }
+
+    /// Fraction of the way from `front` to `back` at parameter `t`.
+    pub(crate) fn frac(&self, t: f64) -> f64 {
+        let d = self.back.t - self.front.t;
+        if d > 0.0 {
+            ((t - self.front.t) / d).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The scalar at `t_front`.
+    pub(crate) fn s_front(&self) -> f64 {
+        if self.t_front > self.front.t {
+            self.front.s + (self.back.s - self.front.s) * self.frac(self.t_front)
+        } else {
+            self.front.s
+        }
+    }
 }
 
 /// The line a ray lies on: the exact points `o` and `q` that all decisions
 /// use, and the unit direction along which parameters `t` (world length
 /// from `o`) are measured.
 #[derive(Debug, Clone, Copy)]
-struct Line {
+pub(crate) struct Line {
     o: [f64; 3],
     q: [f64; 3],
-    origin: DVec3,
-    unit: DVec3,
+    pub(crate) origin: DVec3,
+    pub(crate) unit: DVec3,
+}
+
+impl Line {
+    /// The line through two distinct finite points.
+    pub(crate) fn through(origin: DVec3, through: DVec3) -> Option<Line> {
+        let delta = through - origin;
+        let len = delta.length();
+        (len > 0.0 && len.is_finite()).then(|| Line { o: origin.into(), q: through.into(), origin, unit: delta / len })
+    }
+
+    fn q_vec(&self) -> DVec3 {
+        DVec3::from(self.q)
+    }
+
+    pub(crate) fn at(&self, t: f64) -> DVec3 {
+        self.origin + self.unit * t
+    }
 }
 
 impl<'a> ReferenceRenderer<'a> {
@@ -166,6 +241,21 @@ impl<'a> ReferenceRenderer<'a> {
         &self.bvh
     }
 
+    /// The mesh's tets.
+    pub fn tets(&self) -> &[[u32; 4]] {
+        self.tets
+    }
+
+    /// The mesh's points (world).
+    pub fn points(&self) -> &[[f64; 3]] {
+        self.points
+    }
+
+    /// Smallest and largest scalar of the mesh.
+    pub fn scalar_range(&self) -> [f64; 2] {
+        self.scalar.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &s| [a.min(s), b.max(s)])
+    }
+
     /// Renders one image: one ray per pixel centre, rows in parallel. The
     /// result does not depend on the thread count. `tf` must be in the
     /// mesh's scalar units (denormalize a normalized one first).
@@ -180,6 +270,18 @@ impl<'a> ReferenceRenderer<'a> {
         if tf.normalized() {
             return Err(RenderError::NormalizedTransferFunction);
         }
+        self.render_rows(camera, progress, &|x, y, scratch| self.trace_pixel(camera, x, y, tf, options, scratch))
+    }
+
+    /// One ray per pixel centre through `trace(x_px, y_px, scratch)`, rows in
+    /// parallel, assembled in a fixed order (no dependence on the thread
+    /// count).
+    fn render_rows(
+        &self,
+        camera: &Camera,
+        progress: &(dyn Fn(u32, u32) + Sync),
+        trace: &(dyn Fn(f64, f64, &mut RayScratch) -> RayResult + Sync),
+    ) -> Result<(Image, ReferenceStats), RenderError> {
         let (w, h) = (camera.width(), camera.height());
         let done = AtomicU32::new(0);
         let rows: Vec<(Vec<[f32; 4]>, ReferenceStats)> = (0..h)
@@ -188,7 +290,7 @@ impl<'a> ReferenceRenderer<'a> {
                 let mut row = Vec::with_capacity(w as usize);
                 let mut stats = ReferenceStats::default();
                 for i in 0..w {
-                    let r = self.trace_pixel(camera, i as f64 + 0.5, j as f64 + 0.5, tf, options, scratch);
+                    let r = trace(i as f64 + 0.5, j as f64 + 0.5, scratch);
                     row.push(r.rgba.map(|v| v as f32));
                     stats.add(&r.stats);
                 }
@@ -240,15 +342,36 @@ impl<'a> ReferenceRenderer<'a> {
         scratch: &mut RayScratch,
     ) -> RayResult {
         let mut res = RayResult { stats: ReferenceStats { rays: 1, ..Default::default() }, ..Default::default() };
-        let delta = through - origin;
-        let len = delta.length();
-        if !(len > 0.0 && len.is_finite()) {
-            return res;
-        }
-        let line = Line { o: origin.into(), q: through.into(), origin, unit: delta / len };
-        let entries = &mut scratch.entries;
+        let Some(line) = Line::through(origin, through) else { return res };
+        let mut acc = [0.0f64; 4];
+        let breakpoints = &mut scratch.breakpoints;
+        self.walk_line(&line, t_start, &mut scratch.entries, &mut res.stats, &mut |seg| {
+            let c = integrate_segment_with(tf, seg.s_front(), seg.back.s, seg.len(), breakpoints);
+            let tr = 1.0 - acc[3];
+            acc[0] += tr * c.color[0];
+            acc[1] += tr * c.color[1];
+            acc[2] += tr * c.color[2];
+            acc[3] += tr * c.alpha;
+            options.early_termination && acc[3] >= options.alpha_cutoff
+        });
+        res.rgba = acc;
+        res
+    }
+
+    /// Walks the line from every boundary entry along it (in order of the
+    /// entry parameter) and hands `visit` each segment of positive length
+    /// beyond `t_start` (clipped there), front to back; `visit` returns
+    /// true to stop the ray (early termination). Counts go to `stats`.
+    pub(crate) fn walk_line(
+        &self,
+        line: &Line,
+        t_start: f64,
+        entries: &mut Vec<Entry>,
+        stats: &mut ReferenceStats,
+        visit: &mut dyn FnMut(&LineSegment) -> bool,
+    ) {
         entries.clear();
-        self.bvh.for_each_near_line(origin, delta, |tri| {
+        self.bvh.for_each_near_line(line.origin, line.q_vec() - line.origin, |tri| {
             let [p0, p1, p2] = tri.vertices.map(|v| &self.points[v as usize]);
             // Entering through an outward face: the line passes every edge
             // on the positive side.
@@ -268,61 +391,49 @@ impl<'a> ReferenceRenderer<'a> {
             let [i, j, k] = FACE_OUTWARD[(tri.packed_face % 4) as usize];
             let ids = [t[i], t[j], t[k]];
             let w = [v12.max(0.0), v20.max(0.0), v01.max(0.0)];
-            let (t_hit, s_hit) = self.point_on_face(&line, ids, w).unwrap_or_else(|| {
+            let at = self.point_on_face(line, ids, w).unwrap_or_else(|| {
                 // The line lies in the face's plane: the crossing point is
                 // the limit of the perturbed line's, which no float weight
                 // gives; the face centroid is as good as any point of it,
                 // since a walk starting there keeps t monotone from it.
-                self.point_on_face(&line, ids, [1.0; 3]).expect("positive weights")
+                self.point_on_face(line, ids, [1.0; 3]).expect("positive weights")
             });
-            entries.push(Entry { t: t_hit, scalar: s_hit, packed_face: tri.packed_face });
+            entries.push(Entry { at, packed_face: tri.packed_face });
         });
-        entries.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.packed_face.cmp(&b.packed_face)));
-        let mut acc = [0.0f64; 4];
+        entries.sort_by(|a, b| a.at.t.total_cmp(&b.at.t).then(a.packed_face.cmp(&b.packed_face)));
         let mut hit = false;
         let n_tets = self.tets.len() as u64;
         let mut steps_this_ray = 0u64;
         'walks: for e in entries.iter() {
-            res.stats.entries += 1;
+            stats.entries += 1;
             let mut tet = (e.packed_face / 4) as usize;
             let mut f_in = (e.packed_face % 4) as usize;
-            let (mut t_in, mut s_in) = (e.t, e.scalar);
+            let mut p_in = e.at;
             let mut steps = 0u64;
             loop {
                 steps += 1;
                 if steps > n_tets + 1 {
-                    res.stats.walk_failures += 1;
+                    stats.walk_failures += 1;
                     break;
                 }
-                let Some((f_out, t_raw, s_raw)) = self.exit(&line, tet, f_in) else {
-                    res.stats.walk_failures += 1;
+                let Some((f_out, p_raw)) = self.exit(line, tet, f_in) else {
+                    stats.walk_failures += 1;
                     break;
                 };
-                let (t_out, s_out) = match t_raw {
-                    Some(t) if t > t_in => (t, s_raw),
+                let p_out = match p_raw {
+                    Some(p) if p.t > p_in.t => p,
                     // Degenerate (all weights 0) or rounding put the exit
                     // before the entry: a zero-length segment here, the
                     // next tet takes the length.
-                    _ => (t_in, s_in),
+                    _ => p_in,
                 };
-                if t_out > t_start {
+                if p_out.t > t_start {
                     hit = true;
-                    let (t0, s0) = if t_in < t_start {
-                        (t_start, s_in + (s_out - s_in) * ((t_start - t_in) / (t_out - t_in)))
-                    } else {
-                        (t_in, s_in)
-                    };
-                    let l = t_out - t0;
-                    if l > 0.0 {
-                        res.stats.segments += 1;
-                        let c = integrate_segment_with(tf, s0, s_out, l, &mut scratch.breakpoints);
-                        let tr = 1.0 - acc[3];
-                        acc[0] += tr * c.color[0];
-                        acc[1] += tr * c.color[1];
-                        acc[2] += tr * c.color[2];
-                        acc[3] += tr * c.alpha;
-                        if options.early_termination && acc[3] >= options.alpha_cutoff {
-                            res.stats.terminated_early = 1;
+                    let seg = LineSegment { front: p_in, back: p_out, t_front: p_in.t.max(t_start) };
+                    if seg.len() > 0.0 {
+                        stats.segments += 1;
+                        if visit(&seg) {
+                            stats.terminated_early = 1;
                             steps_this_ray += steps;
                             break 'walks;
                         }
@@ -334,29 +445,26 @@ impl<'a> ReferenceRenderer<'a> {
                 }
                 let back = self.neighbors[next as usize].iter().position(|&n| n as usize == tet);
                 let Some(back) = back else {
-                    res.stats.walk_failures += 1;
+                    stats.walk_failures += 1;
                     break;
                 };
                 tet = next as usize;
                 f_in = back;
-                t_in = t_out;
-                s_in = s_out;
+                p_in = p_out;
             }
             steps_this_ray += steps;
         }
-        res.stats.steps = steps_this_ray;
-        res.stats.max_steps_per_ray = steps_this_ray;
-        res.stats.rays_hit = hit as u64;
-        res.rgba = acc;
-        res
+        stats.steps += steps_this_ray;
+        stats.max_steps_per_ray = stats.max_steps_per_ray.max(steps_this_ray);
+        stats.rays_hit = stats.rays_hit.max(hit as u64);
     }
 
     /// Leaving `tet`, entered through face `f_in`: the exit face and, unless
-    /// the line lies in the exit face's plane, the exit parameter; and the
-    /// scalar there. `None` when no face qualifies (impossible for a
-    /// positively oriented tet entered consistently).
+    /// the line lies in the exit face's plane, the exit point. `None` when
+    /// no face qualifies (impossible for a positively oriented tet entered
+    /// consistently).
     #[inline]
-    fn exit(&self, line: &Line, tet: usize, f_in: usize) -> Option<(usize, Option<f64>, f64)> {
+    fn exit(&self, line: &Line, tet: usize, f_in: usize) -> Option<(usize, Option<LinePoint>)> {
         let t = &self.tets[tet];
         let p = |l: usize| &self.points[t[l] as usize];
         // The exit face contains the vertex opposite the entry face (local
@@ -408,30 +516,27 @@ impl<'a> ReferenceRenderer<'a> {
                 *wi = (-val).max(0.0);
             }
             let ids = [t[face[0]], t[face[1]], t[face[2]]];
-            return Some(match self.point_on_face(line, ids, w) {
-                Some((tp, s)) => (f, Some(tp), s),
-                None => (f, None, 0.0),
-            });
+            return Some((f, self.point_on_face(line, ids, w)));
         }
         None
     }
 
-    /// Parameter and scalar of the point with barycentric weights `w` on the
-    /// triangle `ids`; `None` if the weights sum to zero.
+    /// The point with barycentric weights `w` on the triangle `ids`
+    /// (normalized there); `None` if the weights sum to zero.
     #[inline]
-    fn point_on_face(&self, line: &Line, ids: [u32; 3], w: [f64; 3]) -> Option<(f64, f64)> {
+    fn point_on_face(&self, line: &Line, ids: [u32; 3], w: [f64; 3]) -> Option<LinePoint> {
         let sum = w[0] + w[1] + w[2];
         if !(sum > 0.0 && sum.is_finite()) {
             return None;
         }
+        let w = w.map(|x| x / sum);
         let mut pos = DVec3::ZERO;
         let mut s = 0.0;
         for (id, wi) in ids.iter().zip(w) {
             pos += DVec3::from(self.points[*id as usize]) * wi;
             s += self.scalar[*id as usize] * wi;
         }
-        let pos = pos / sum;
-        Some(((pos - line.origin).dot(line.unit), s / sum))
+        Some(LinePoint { t: (pos - line.origin).dot(line.unit), s, ids, w })
     }
 }
 

@@ -4,8 +4,10 @@
 //! adjacency, convexity and, when shading or bivariate methods need them,
 //! per-vertex gradients and their magnitudes.
 
+use crate::shadow::ShadowField;
 use crate::RenderError;
 use glam::DVec3;
+use std::sync::Arc;
 use tet_bundle::Bundle;
 use tet_mesh::{build_adjacency, NO_NEIGHBOR};
 
@@ -25,6 +27,8 @@ pub struct Scene {
     bounds_min: [f64; 3],
     bounds_max: [f64; 3],
     scalar_range: [f64; 2],
+    /// Each light's transmittance per vertex, for shadows.
+    shadows: Option<Arc<ShadowField>>,
 }
 
 impl Scene {
@@ -90,6 +94,7 @@ impl Scene {
             bounds_min: lo,
             bounds_max: hi,
             scalar_range,
+            shadows: None,
         })
     }
 
@@ -121,7 +126,28 @@ impl Scene {
         self.scalar_range = scalar.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], &s| [a.min(s), b.max(s)]);
         self.scalar = scalar;
         self.grad_mag = None;
+        self.shadows = None;
         Ok(self.gradients.take().is_some())
+    }
+
+    /// Attaches (or with `None` drops) the shadow field renderers light
+    /// with; it must have one transmittance per point.
+    pub fn set_shadows(&mut self, field: Option<Arc<ShadowField>>) -> Result<(), RenderError> {
+        if let Some(f) = &field {
+            if f.key().num_points != self.pos_rel.len() {
+                return Err(RenderError::Scene(format!(
+                    "shadow field of {} points for {} points",
+                    f.key().num_points,
+                    self.pos_rel.len()
+                )));
+            }
+        }
+        self.shadows = field;
+        Ok(())
+    }
+
+    pub fn shadows(&self) -> Option<&Arc<ShadowField>> {
+        self.shadows.as_ref()
     }
 
     /// Computes least-squares per-vertex gradients when none are attached.

@@ -1,14 +1,45 @@
-//! Optional per-fragment shading (off by default): Blinn–Phong lighting with
-//! the interpolated per-vertex gradient as the normal, modulating emission,
-//! and silhouette enhancement α·(1 − |ĝ·v|)^p (Song et al. 2009 §6). The light is a
-//! headlight (at the eye), so the half vector is the view vector and the
-//! lighting is two-sided: a gradient's sign does not say which side is out.
+//! Optional shading (off by default): Blinn–Phong lighting with the
+//! interpolated per-vertex gradient as the normal, modulating emission,
+//! several lights (a headlight, directional and point lights, ambient),
+//! each optionally attenuated by the volume's own shadow; and silhouette
+//! enhancement α·(1 − |ĝ·v|)^p (Song et al., "Ray casting of unstructured
+//! meshes…", 2009 §6).
+//!
+//! The model, the same in every renderer and in the reference. At a point
+//! x of a ray with unit normal n̂ (the gradient, normalized), unit vector v̂
+//! towards the eye, and for light i the unit vector l̂ᵢ towards it, its
+//! intensity Iᵢ and the volume's transmittance Vᵢ(x) from x to the light
+//! (1 without shadows):
+//!
+//! ```text
+//! D(x) = ka + Σᵢ Iᵢ Vᵢ kd |n̂·l̂ᵢ|          (multiplies the emitted colour)
+//! S(x) = Σᵢ Iᵢ Vᵢ ks |n̂·ĥᵢ|^p,  ĥᵢ = (l̂ᵢ + v̂)/|l̂ᵢ + v̂|   (white, times extinction)
+//! ```
+//!
+//! so a segment of colour C and opacity α becomes C·D + α·S when D and S
+//! are taken as constant over it (the fast renderers, at the segment's
+//! midpoint), and the reference integrates D and S along the ray with the
+//! TF's emission and extinction. Lighting is two-sided: a gradient's sign
+//! does not say which side is out. With the default single headlight
+//! (l̂ = ĥ = v̂) this is the classic `C·(ka + kd|n̂·v̂|) + ks|n̂·v̂|^p·α`.
+//!
+//! Where the model has no answer the result is finite and documented:
+//! * a zero or non-finite gradient has no direction: D = 1, S = 0 (the
+//!   sample is drawn unshaded, as without lighting);
+//! * a point light at the sample itself has no direction: that light adds
+//!   nothing there;
+//! * a light exactly behind the sample as seen from the eye (l̂ = −v̂) has
+//!   no half vector: no highlight from that light there (the diffuse term
+//!   stays).
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
+use crate::RenderError;
+
 /// Blinn–Phong coefficients; colour becomes C·(ambient + diffuse·|n·l|) +
-/// specular·|n·h|^shininess·α (white highlight, premultiplied).
+/// specular·|n·h|^shininess·α (white highlight, premultiplied), summed over
+/// the lights (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Light {
     pub ambient: f32,
@@ -23,44 +54,431 @@ impl Default for Light {
     }
 }
 
+/// Most lights one scene may have.
+pub const MAX_LIGHTS: usize = 8;
+
+/// A light, positions and directions in world coordinates (as in the view
+/// file). No distance attenuation (VTK's default).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightSource {
+    /// At the eye: l̂ = −(the ray's direction). Casts no shadow (its shadow
+    /// would lie behind what it lights, as seen from the eye).
+    Headlight {
+        #[serde(default = "unit_intensity")]
+        intensity: f64,
+    },
+    /// At infinity, light travelling along `direction` (from the light into
+    /// the scene; any non-zero length).
+    Directional {
+        direction: [f64; 3],
+        #[serde(default = "unit_intensity")]
+        intensity: f64,
+    },
+    /// At `position`, shining in all directions.
+    Point {
+        position: [f64; 3],
+        #[serde(default = "unit_intensity")]
+        intensity: f64,
+    },
+}
+
+fn unit_intensity() -> f64 {
+    1.0
+}
+
+impl LightSource {
+    pub fn intensity(&self) -> f64 {
+        match *self {
+            LightSource::Headlight { intensity }
+            | LightSource::Directional { intensity, .. }
+            | LightSource::Point { intensity, .. } => intensity,
+        }
+    }
+
+    /// Whether the light can cast a shadow (all but the headlight).
+    pub fn casts_shadow(&self) -> bool {
+        !matches!(self, LightSource::Headlight { .. })
+    }
+
+    /// Unit vector from `pos_in_world` towards the light and the distance to
+    /// it (infinite for directional lights); `None` where it has no
+    /// direction (a point light at the point itself). `view_dir` is the
+    /// ray's unit direction (eye towards the sample).
+    pub fn towards(&self, pos_in_world: DVec3, view_dir: DVec3) -> Option<(DVec3, f64)> {
+        match *self {
+            LightSource::Headlight { .. } => Some((-view_dir, f64::INFINITY)),
+            LightSource::Directional { direction, .. } => Some((-DVec3::from(direction).normalize(), f64::INFINITY)),
+            LightSource::Point { position, .. } => {
+                let d = DVec3::from(position) - pos_in_world;
+                let len = d.length();
+                (len > 0.0 && len.is_finite()).then(|| (d / len, len))
+            }
+        }
+    }
+
+    fn validate(&self, index: usize) -> Result<(), RenderError> {
+        let bad = |why: &str| Err(RenderError::View(format!("lighting: light {index}: {why}")));
+        let i = self.intensity();
+        if !(i >= 0.0 && i.is_finite()) {
+            return bad(&format!("intensity {i} is not a finite number ≥ 0"));
+        }
+        match *self {
+            LightSource::Headlight { .. } => Ok(()),
+            LightSource::Directional { direction, .. } => {
+                let d = DVec3::from(direction);
+                if !d.is_finite() || d.length_squared() == 0.0 || !d.normalize().is_finite() {
+                    return bad(&format!("direction {direction:?} is zero or not finite"));
+                }
+                Ok(())
+            }
+            LightSource::Point { position, .. } => {
+                if !DVec3::from(position).is_finite() {
+                    return bad(&format!("position {position:?} is not finite"));
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+/// Up to [`MAX_LIGHTS`] lights (a fixed array, so [`Shading`] stays `Copy`).
+/// The default is one headlight of intensity 1.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "Vec<LightSource>", into = "Vec<LightSource>")]
+pub struct LightSet {
+    n: usize,
+    items: [LightSource; MAX_LIGHTS],
+}
+
+impl Default for LightSet {
+    fn default() -> Self {
+        LightSet::new(&[LightSource::Headlight { intensity: 1.0 }]).expect("one valid light")
+    }
+}
+
+impl LightSet {
+    /// Checks every light (finite positions, non-zero directions, finite
+    /// intensities ≥ 0) and that there are at most [`MAX_LIGHTS`].
+    pub fn new(lights: &[LightSource]) -> Result<LightSet, RenderError> {
+        if lights.len() > MAX_LIGHTS {
+            return Err(RenderError::View(format!("lighting: {} lights, at most {MAX_LIGHTS}", lights.len())));
+        }
+        let mut items = [LightSource::Headlight { intensity: 0.0 }; MAX_LIGHTS];
+        for (i, l) in lights.iter().enumerate() {
+            l.validate(i)?;
+            items[i] = *l;
+        }
+        Ok(LightSet { n: lights.len(), items })
+    }
+
+    pub fn lights(&self) -> &[LightSource] {
+        &self.items[..self.n]
+    }
+
+    /// Whether any light casts a shadow.
+    pub fn any_shadow(&self) -> bool {
+        self.lights().iter().any(LightSource::casts_shadow)
+    }
+}
+
+impl TryFrom<Vec<LightSource>> for LightSet {
+    type Error = RenderError;
+    fn try_from(v: Vec<LightSource>) -> Result<Self, RenderError> {
+        LightSet::new(&v)
+    }
+}
+
+impl From<LightSet> for Vec<LightSource> {
+    fn from(s: LightSet) -> Self {
+        s.lights().to_vec()
+    }
+}
+
 /// What shading to apply; `Shading::default()` applies none.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Shading {
+    /// The material; `None`: no lighting.
     pub light: Option<Light>,
     /// Silhouette exponent p: opacity and colour scaled by (1 − |ĝ·v|)^p.
     pub silhouette: Option<f32>,
+    /// The lights (with `light` set); default one headlight.
+    #[serde(default)]
+    pub sources: LightSet,
+    /// Attenuate each shadow-casting light by the volume's transmittance
+    /// towards it (a shadow field the renderer is given; the reference
+    /// casts exact shadow rays).
+    #[serde(default)]
+    pub shadows: bool,
+    /// Gradient magnitude (scalar units per world length) below which
+    /// shading fades linearly to none: at |g| = 0 the sample is drawn
+    /// unshaded, from |g| ≥ `gradient_floor` fully shaded. Where the
+    /// gradient vanishes (a peak, a plateau) its direction is noise and
+    /// swings within a cell; the fade keeps the lighting continuous there.
+    /// 0 (the default): no fade. [`Shading::gradient_floor_for`] picks one.
+    #[serde(default)]
+    pub gradient_floor: f32,
+}
+
+/// The lighting terms at one point: emitted colour times `diffuse`, plus
+/// white `specular` times extinction (see the module docs); `silhouette`
+/// scales everything.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LitPoint {
+    pub diffuse: f64,
+    pub specular: f64,
+    pub silhouette: f64,
+}
+
+impl LitPoint {
+    /// Unshaded: the sample as without lighting.
+    pub const NONE: LitPoint = LitPoint { diffuse: 1.0, specular: 0.0, silhouette: 1.0 };
+
+    /// Premultiplied `rgba` of a segment lit by these (constant) terms.
+    pub fn apply(&self, rgba: [f32; 4]) -> [f32; 4] {
+        let (d, s, k) = (self.diffuse as f32, self.specular as f32, self.silhouette as f32);
+        [(rgba[0] * d + s * rgba[3]) * k, (rgba[1] * d + s * rgba[3]) * k, (rgba[2] * d + s * rgba[3]) * k, rgba[3] * k]
+    }
 }
 
 impl Shading {
+    /// The default fade for a scene: 2% of the scalar range over the
+    /// bounding-box diagonal (the gradient of a field rising through its
+    /// range 50 times slower than across the whole mesh).
+    pub fn gradient_floor_for(scalar_range: [f64; 2], bounds_min: [f64; 3], bounds_max: [f64; 3]) -> f32 {
+        let diag = DVec3::from(bounds_max).distance(DVec3::from(bounds_min));
+        let floor = 0.02 * (scalar_range[1] - scalar_range[0]) / diag;
+        if floor.is_finite() && floor > 0.0 {
+            floor as f32
+        } else {
+            0.0
+        }
+    }
+
     /// Whether any shading is on (then the scene needs gradients).
     pub fn is_active(&self) -> bool {
         self.light.is_some() || self.silhouette.is_some()
     }
 
-    /// Modulates premultiplied `rgba` for gradient `grad` (any length, world
-    /// frame) seen along unit `view_dir` (eye towards the sample). A zero or
-    /// non-finite gradient has no direction: the sample is left unchanged.
-    pub fn apply(&self, rgba: [f32; 4], grad: DVec3, view_dir: DVec3) -> [f32; 4] {
+    /// Whether lighting needs shadow transmittances (lights on, shadows on,
+    /// and a light that casts one).
+    pub fn wants_shadows(&self) -> bool {
+        self.light.is_some() && self.shadows && self.sources.any_shadow()
+    }
+
+    /// Whether any light needs the sample's position (point lights).
+    pub fn needs_position(&self) -> bool {
+        self.light.is_some() && self.sources.lights().iter().any(|l| matches!(l, LightSource::Point { .. }))
+    }
+
+    /// The lighting terms for gradient `grad` (any length, world frame) at
+    /// `pos_in_world`, seen along unit `view_dir` (eye towards the sample),
+    /// with `shadow(i)` the transmittance towards light i (called only for
+    /// lights that cast shadows, and only with [`Shading::shadows`] on).
+    pub fn lit_point(
+        &self,
+        grad: DVec3,
+        pos_in_world: DVec3,
+        view_dir: DVec3,
+        mut shadow: impl FnMut(usize) -> f64,
+    ) -> LitPoint {
         let len = grad.length();
         if !(len > 0.0 && len.is_finite()) {
-            return rgba;
+            return LitPoint::NONE;
         }
-        let n_dot_v = (grad.dot(view_dir) / len).abs().min(1.0) as f32;
-        let mut out = rgba;
-        if let Some(l) = self.light {
-            let diffuse = l.ambient + l.diffuse * n_dot_v;
-            let spec = l.specular * n_dot_v.powf(l.shininess) * rgba[3];
-            for c in &mut out[..3] {
-                *c = *c * diffuse + spec;
+        let n = grad / len;
+        let weight = if (len as f32) < self.gradient_floor { len / self.gradient_floor as f64 } else { 1.0 };
+        let mut out = LitPoint::NONE;
+        if let Some(m) = self.light {
+            let to_eye = -view_dir;
+            let (mut d, mut s) = (m.ambient as f64, 0.0);
+            for (i, l) in self.sources.lights().iter().enumerate() {
+                let Some((to_light, _)) = l.towards(pos_in_world, view_dir) else { continue };
+                let mut w = l.intensity();
+                if self.shadows && l.casts_shadow() {
+                    w *= shadow(i);
+                }
+                if w == 0.0 {
+                    continue;
+                }
+                d += w * m.diffuse as f64 * n.dot(to_light).abs().min(1.0);
+                let h = to_light + to_eye;
+                let h_len = h.length();
+                // h_len is 0 (or rounding noise) only for a light exactly
+                // behind the sample: no highlight.
+                if h_len > 1e-9 {
+                    s += w * m.specular as f64 * (n.dot(h) / h_len).abs().min(1.0).powf(m.shininess as f64);
+                }
             }
+            out.diffuse = 1.0 + weight * (d - 1.0);
+            out.specular = weight * s;
         }
         if let Some(p) = self.silhouette {
-            let k = (1.0 - n_dot_v).max(0.0).powf(p);
-            for c in &mut out {
-                *c *= k;
-            }
+            let n_dot_v = n.dot(view_dir).abs().min(1.0);
+            out.silhouette = 1.0 + weight * ((1.0 - n_dot_v).max(0.0).powf(p as f64) - 1.0);
         }
         out
+    }
+
+    /// Modulates premultiplied `rgba` for gradient `grad` at `pos_in_world`
+    /// seen along unit `view_dir`, shadows from `shadow` (see
+    /// [`Shading::lit_point`]).
+    pub fn apply(
+        &self,
+        rgba: [f32; 4],
+        grad: DVec3,
+        pos_in_world: DVec3,
+        view_dir: DVec3,
+        shadow: impl FnMut(usize) -> f64,
+    ) -> [f32; 4] {
+        self.lit_point(grad, pos_in_world, view_dir, shadow).apply(rgba)
+    }
+}
+
+/// Lighting error allowed per segment before it is split: the lighting
+/// terms' variation over the segment times its largest premultiplied
+/// component (a first-order bound on the one-point rule's error).
+pub const LIT_SPLIT_TOLERANCE: f64 = 5e-4;
+
+/// Most pieces a lit segment is split into.
+pub const LIT_MAX_PIECES: usize = 32;
+
+/// Lights segment `seg`, shaded `c`, whose lighting terms at fraction w
+/// (0 front, 1 back) are `lit_at(w)`: at its midpoint where the terms vary
+/// little over it, else split into up to [`LIT_MAX_PIECES`] equal pieces
+/// (their number growing with the square root of variation × colour, as
+/// the midpoint rule's error falls with the square of the piece), each
+/// shaded by `shade` and lit at its own midpoint, composited in order. A
+/// highlight or a shadow edge inside one long segment is thus not decided
+/// by a single point. Both CPU renderers call this.
+pub fn light_segment(
+    seg: &tet_preint::Segment,
+    c: [f32; 4],
+    mut lit_at: impl FnMut(f32) -> LitPoint,
+    mut shade: impl FnMut(&tet_preint::Segment) -> [f32; 4],
+) -> [f32; 4] {
+    let mid = lit_at(0.5);
+    let weight = c.iter().fold(0.0f32, |a, &x| a.max(x)) as f64;
+    if weight == 0.0 {
+        return mid.apply(c);
+    }
+    let (front, back) = (lit_at(0.0), lit_at(1.0));
+    let var = |f: fn(&LitPoint) -> f64| (f(&front) - f(&mid)).abs() + (f(&mid) - f(&back)).abs();
+    let variation = var(|p| p.diffuse) + var(|p| p.specular) + var(|p| p.silhouette);
+    let pieces = ((variation * weight / LIT_SPLIT_TOLERANCE).sqrt().ceil() as usize).clamp(1, LIT_MAX_PIECES);
+    if pieces == 1 {
+        return mid.apply(c);
+    }
+    let mut out = [0.0f32; 4];
+    let step = 1.0 / pieces as f32;
+    let lerp = |a: f32, b: f32, w: f32| a + w * (b - a);
+    for j in 0..pieces {
+        let (w0, w1) = (j as f32 * step, (j + 1) as f32 * step);
+        let piece = tet_preint::Segment {
+            s_front: lerp(seg.s_front, seg.s_back, w0),
+            s_back: lerp(seg.s_front, seg.s_back, w1),
+            grad_front: lerp(seg.grad_front, seg.grad_back, w0),
+            grad_back: lerp(seg.grad_front, seg.grad_back, w1),
+            len_world: seg.len_world * step,
+        };
+        let lit = lit_at(0.5 * (w0 + w1)).apply(shade(&piece));
+        let t = 1.0 - out[3];
+        for (o, l) in out.iter_mut().zip(lit) {
+            *o += t * l;
+        }
+    }
+    out
+}
+
+/// The `"lighting"` object of a view file: the material, the lights and
+/// the shadow switch.
+///
+/// ```json
+/// "lighting": {"ambient": 0.2, "diffuse": 0.8, "specular": 0.3, "shininess": 30,
+///              "lights": [{"type": "directional", "direction": [1, -1, -1]},
+///                         {"type": "point", "position": [0, 5, 0], "intensity": 0.5}],
+///              "shadows": true}
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Lighting {
+    #[serde(default = "default_ambient")]
+    pub ambient: f32,
+    #[serde(default = "default_diffuse")]
+    pub diffuse: f32,
+    #[serde(default = "default_specular")]
+    pub specular: f32,
+    #[serde(default = "default_shininess")]
+    pub shininess: f32,
+    #[serde(default)]
+    pub lights: LightSet,
+    #[serde(default)]
+    pub shadows: bool,
+}
+
+fn default_ambient() -> f32 {
+    Light::default().ambient
+}
+fn default_diffuse() -> f32 {
+    Light::default().diffuse
+}
+fn default_specular() -> f32 {
+    Light::default().specular
+}
+fn default_shininess() -> f32 {
+    Light::default().shininess
+}
+
+impl Default for Lighting {
+    fn default() -> Self {
+        let m = Light::default();
+        Lighting {
+            ambient: m.ambient,
+            diffuse: m.diffuse,
+            specular: m.specular,
+            shininess: m.shininess,
+            lights: LightSet::default(),
+            shadows: false,
+        }
+    }
+}
+
+impl Lighting {
+    /// The `"lighting"` object of a view file's JSON text, if it has one.
+    pub fn from_view_json(text: &str) -> Result<Option<Lighting>, RenderError> {
+        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| RenderError::View(e.to_string()))?;
+        let Some(l) = v.get("lighting") else { return Ok(None) };
+        let l: Lighting = serde_json::from_value(l.clone()).map_err(|e| RenderError::View(format!("lighting: {e}")))?;
+        let m = l.material();
+        for (name, x) in [("ambient", m.ambient), ("diffuse", m.diffuse), ("specular", m.specular)] {
+            if !(x >= 0.0 && x.is_finite()) {
+                return Err(RenderError::View(format!("lighting: {name} {x} is not a finite number ≥ 0")));
+            }
+        }
+        if !(m.shininess >= 0.0 && m.shininess.is_finite()) {
+            return Err(RenderError::View(format!("lighting: shininess {} is not a finite number ≥ 0", m.shininess)));
+        }
+        Ok(Some(l))
+    }
+
+    pub fn material(&self) -> Light {
+        Light { ambient: self.ambient, diffuse: self.diffuse, specular: self.specular, shininess: self.shininess }
+    }
+
+    /// Shading with this lighting (and `silhouette`).
+    pub fn shading(&self, silhouette: Option<f32>) -> Shading {
+        Shading {
+            light: Some(self.material()),
+            silhouette,
+            sources: self.lights,
+            shadows: self.shadows,
+            gradient_floor: 0.0,
+        }
+    }
+
+    /// The `"lighting"` value for a view file.
+    pub fn to_json_value(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("lighting always serializes")
     }
 }
 
@@ -68,26 +486,134 @@ impl Shading {
 mod tests {
     use super::*;
 
+    fn no_shadow(_: usize) -> f64 {
+        1.0
+    }
+
+    fn apply(s: &Shading, px: [f32; 4], g: DVec3, v: DVec3) -> [f32; 4] {
+        s.apply(px, g, DVec3::ZERO, v, no_shadow)
+    }
+
     #[test]
     fn off_by_default_and_silhouette_fades_facing_surfaces() {
         let s = Shading::default();
         assert!(!s.is_active());
         let px = [0.2, 0.1, 0.0, 0.5];
-        assert_eq!(s.apply(px, DVec3::Z, DVec3::Z), px);
-        let s = Shading { light: None, silhouette: Some(2.0) };
+        assert_eq!(apply(&s, px, DVec3::Z, DVec3::Z), px);
+        let s = Shading { silhouette: Some(2.0), ..Default::default() };
         // Gradient along the view: face-on, fully faded; across it: kept.
-        assert_eq!(s.apply(px, DVec3::Z, DVec3::Z), [0.0; 4]);
-        assert_eq!(s.apply(px, DVec3::X, DVec3::Z), px);
-        assert_eq!(s.apply(px, DVec3::ZERO, DVec3::Z), px);
+        assert_eq!(apply(&s, px, DVec3::Z, DVec3::Z), [0.0; 4]);
+        assert_eq!(apply(&s, px, DVec3::X, DVec3::Z), px);
+        assert_eq!(apply(&s, px, DVec3::ZERO, DVec3::Z), px);
     }
 
     #[test]
     fn headlight_is_two_sided() {
-        let s = Shading { light: Some(Light::default()), silhouette: None };
-        let a = s.apply([0.5, 0.5, 0.5, 0.5], DVec3::Z, DVec3::Z);
-        let b = s.apply([0.5, 0.5, 0.5, 0.5], -DVec3::Z, DVec3::Z);
+        let s = Shading { light: Some(Light::default()), ..Default::default() };
+        let a = apply(&s, [0.5, 0.5, 0.5, 0.5], DVec3::Z, DVec3::Z);
+        let b = apply(&s, [0.5, 0.5, 0.5, 0.5], -DVec3::Z, DVec3::Z);
         assert_eq!(a, b);
         assert!((a[0] - (0.5 * 1.0 + 0.2 * 0.5)).abs() < 1e-6);
         assert_eq!(a[3], 0.5);
+    }
+
+    #[test]
+    fn directional_and_point_lights_add_and_shadows_scale_them() {
+        let m = Light { ambient: 0.1, diffuse: 0.5, specular: 0.0, shininess: 1.0 };
+        let sources = LightSet::new(&[
+            LightSource::Directional { direction: [0.0, 0.0, -2.0], intensity: 1.0 },
+            LightSource::Point { position: [3.0, 0.0, 0.0], intensity: 2.0 },
+        ])
+        .unwrap();
+        let s = Shading { light: Some(m), sources, shadows: true, ..Default::default() };
+        // Normal +z at the origin: the directional light (from +z) is head
+        // on, the point light (on +x) grazes.
+        let p = s.lit_point(DVec3::Z, DVec3::ZERO, -DVec3::Z, |_| 1.0);
+        assert!((p.diffuse - 0.6).abs() < 1e-6, "{p:?}");
+        let p = s.lit_point(DVec3::X, DVec3::ZERO, -DVec3::Z, |_| 1.0);
+        assert!((p.diffuse - (0.1 + 2.0 * 0.5)).abs() < 1e-6, "{p:?}");
+        // Shadows: light 1 half hidden.
+        let p = s.lit_point(DVec3::X, DVec3::ZERO, -DVec3::Z, |i| if i == 1 { 0.5 } else { 1.0 });
+        assert!((p.diffuse - (0.1 + 0.5)).abs() < 1e-6, "{p:?}");
+        // Without the switch shadows are ignored.
+        let s = Shading { shadows: false, ..s };
+        let p = s.lit_point(DVec3::X, DVec3::ZERO, -DVec3::Z, |_| 0.0);
+        assert!((p.diffuse - 1.1).abs() < 1e-6, "{p:?}");
+    }
+
+    #[test]
+    fn degenerate_lights_give_finite_documented_terms() {
+        let m = Light::default();
+        // A point light at the sample: no direction, adds nothing.
+        let sources = LightSet::new(&[LightSource::Point { position: [1.0, 2.0, 3.0], intensity: 1.0 }]).unwrap();
+        let s = Shading { light: Some(m), sources, ..Default::default() };
+        let p = s.lit_point(DVec3::X, DVec3::new(1.0, 2.0, 3.0), DVec3::Z, no_shadow);
+        assert_eq!(p, LitPoint { diffuse: m.ambient as f64, specular: 0.0, silhouette: 1.0 });
+        // A directional light shining straight at the eye along the view
+        // direction: diffuse yes, no half vector, no highlight.
+        // (The eye looks along +z; the light travels along −z, at the eye.)
+        let sources =
+            LightSet::new(&[LightSource::Directional { direction: [0.0, 0.0, -1.0], intensity: 1.0 }]).unwrap();
+        let s = Shading { light: Some(m), sources, ..Default::default() };
+        let p = s.lit_point(DVec3::Z, DVec3::ZERO, DVec3::Z, no_shadow);
+        assert_eq!(p.specular, 0.0);
+        assert!((p.diffuse - 1.0).abs() < 1e-6);
+        // Zero, tiny and non-finite gradients.
+        for g in [DVec3::ZERO, DVec3::splat(f64::NAN), DVec3::new(f64::INFINITY, 0.0, 0.0)] {
+            assert_eq!(s.lit_point(g, DVec3::ZERO, DVec3::Z, no_shadow), LitPoint::NONE);
+        }
+        let p = s.lit_point(DVec3::new(1e-300, 0.0, 1e-300), DVec3::ZERO, DVec3::Z, no_shadow);
+        assert!(p.diffuse.is_finite() && p.specular.is_finite());
+    }
+
+    #[test]
+    fn shading_fades_out_below_the_gradient_floor() {
+        let s =
+            Shading { light: Some(Light::default()), silhouette: Some(2.0), gradient_floor: 2.0, ..Default::default() };
+        let full = s.lit_point(DVec3::Z * 4.0, DVec3::ZERO, DVec3::Z, no_shadow);
+        let half = s.lit_point(DVec3::Z, DVec3::ZERO, DVec3::Z, no_shadow);
+        assert!(full.diffuse == 1.0 && (full.specular - 0.2).abs() < 1e-6 && full.silhouette == 0.0, "{full:?}");
+        assert!((half.diffuse - 1.0).abs() < 1e-6 && (half.specular - 0.1).abs() < 1e-6, "{half:?}");
+        assert!((half.silhouette - 0.5).abs() < 1e-12, "{half:?}");
+        let tiny = s.lit_point(DVec3::Z * 1e-12, DVec3::ZERO, DVec3::Z, no_shadow);
+        assert!((tiny.diffuse - 1.0).abs() < 1e-9 && tiny.specular < 1e-9 && tiny.silhouette > 1.0 - 1e-9);
+        assert!((Shading::gradient_floor_for([0.0, 2.0], [0.0; 3], [3.0, 4.0, 0.0]) - 0.008).abs() < 1e-9);
+        assert_eq!(Shading::gradient_floor_for([1.0, 1.0], [0.0; 3], [1.0; 3]), 0.0);
+    }
+
+    #[test]
+    fn bad_lights_are_refused_with_the_index() {
+        for (l, needle) in [
+            (LightSource::Directional { direction: [0.0; 3], intensity: 1.0 }, "light 1: direction"),
+            (LightSource::Point { position: [f64::NAN, 0.0, 0.0], intensity: 1.0 }, "light 1: position"),
+            (LightSource::Headlight { intensity: -1.0 }, "light 1: intensity"),
+        ] {
+            let e = LightSet::new(&[LightSource::Headlight { intensity: 1.0 }, l]).unwrap_err().to_string();
+            assert!(e.contains(needle), "{e}");
+        }
+        let many = [LightSource::Headlight { intensity: 1.0 }; MAX_LIGHTS + 1];
+        assert!(LightSet::new(&many).is_err());
+    }
+
+    #[test]
+    fn view_files_carry_lighting() {
+        let text = r#"{"position": [0, 0, 5], "focal_point": [0, 0, 0], "view_up": [0, 1, 0], "size": [8, 8],
+            "lighting": {"ambient": 0.2, "lights": [{"type": "directional", "direction": [1, -1, -1]},
+                         {"type": "point", "position": [0, 5, 0], "intensity": 0.5}], "shadows": true}}"#;
+        let l = Lighting::from_view_json(text).unwrap().unwrap();
+        assert_eq!(l.lights.lights().len(), 2);
+        assert!(l.shadows && l.ambient == 0.2 && l.diffuse == Light::default().diffuse);
+        let back: Lighting = serde_json::from_value(l.to_json_value()).unwrap();
+        assert_eq!(back, l);
+        assert!(crate::ViewSpec::from_json(text).is_ok(), "a view file with lighting is still a view");
+        assert_eq!(Lighting::from_view_json(r#"{"size": [1, 1]}"#).unwrap(), None);
+        for bad in [
+            r#"{"lighting": {"lights": [{"type": "spot", "position": [0, 0, 0]}]}}"#,
+            r#"{"lighting": {"ambient": -1}}"#,
+            r#"{"lighting": {"lights": [{"type": "directional", "direction": [0, 0, 0]}]}}"#,
+            r#"{"lighting": {"shadow": true}}"#,
+        ] {
+            assert!(Lighting::from_view_json(bad).is_err(), "{bad}");
+        }
     }
 }

@@ -214,7 +214,7 @@ fn pt_linear_is_close_to_exact_on_a_fine_smooth_mesh() {
 #[test]
 fn lighting_and_silhouettes_need_gradients_and_stay_finite() {
     let (p, t, s) = grid_mesh(5, 0.2, [0.0; 3], 3, wave);
-    let shading = Shading { light: Some(Default::default()), silhouette: Some(1.5) };
+    let shading = Shading { light: Some(Default::default()), silhouette: Some(1.5), ..Default::default() };
     let mut r = Renderer::new(Scene::new(&p, t.clone(), s.clone()).unwrap());
     r.set_view(&view()).unwrap();
     r.set_shader(Arc::new(ExactShader::new(tf(TF))));
@@ -289,7 +289,7 @@ fn fast_path_is_bit_identical_to_the_per_tile_path() {
 fn a_new_scalar_draws_what_a_fresh_renderer_draws() {
     let (p, t, s0) = grid_mesh(6, 0.3, [0.0; 3], 9, wave);
     let s1: Vec<f64> = p.iter().map(|&q| 1.0 - wave([q[1], q[2], q[0]])).collect();
-    let shading = Shading { light: Some(tet_render::Light::default()), silhouette: None };
+    let shading = Shading { light: Some(tet_render::Light::default()), silhouette: None, ..Default::default() };
     for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
         for (cull, light) in [(false, false), (true, false), (true, true)] {
             let setup = |scalar: &[f64]| {

@@ -208,9 +208,10 @@ fn every_method_culling_and_lighting() {
     }
     let shader: Arc<dyn SegmentShader> =
         make_shader(Method::Table3d, &tf, &domain, &BakeOptions::default()).unwrap().into();
-    for shading in
-        [Shading { light: Some(Light::default()), silhouette: None }, Shading { light: None, silhouette: Some(2.0) }]
-    {
+    for shading in [
+        Shading { light: Some(Light::default()), silhouette: None, ..Default::default() },
+        Shading { light: None, silhouette: Some(2.0), ..Default::default() },
+    ] {
         let opts = RasterOptions { shading, ..Default::default() };
         let (walk, _) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), opts);
         let (pt, _) = render(&scene, CpuRenderer::Pt, &view, shader.clone(), opts);
@@ -527,7 +528,7 @@ fn interleaved_rays_and_prefetch_give_the_same_image() {
     let domain = TableDomain::from_bundle(&bundle).unwrap();
     let outside = ViewSpec::framing([0.0; 3], [1.0; 3], [36, 30]).orbit(35.0, 25.0, 1.1);
     let inside = inside_view([0.41, 0.52, 0.47], [1.0, 0.2, 0.9], [36, 30]);
-    let lit = Shading { light: Some(Light::default()), silhouette: None };
+    let lit = Shading { light: Some(Light::default()), silhouette: None, ..Default::default() };
     for view in [outside, inside] {
         for m in [Method::Table3d, Method::Exact, Method::BivApprox] {
             let shader: Arc<dyn SegmentShader> = make_shader(m, &tf, &domain, &BakeOptions::default()).unwrap().into();

@@ -6,7 +6,7 @@
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 use tet_cli::{ExitKind, KindExt};
-use tet_render::{Display, ToneMap, ViewSpec};
+use tet_render::{Display, LightSet, LightSource, Lighting, ToneMap, ViewSpec};
 
 /// Where the camera is and how large the image.
 #[derive(Debug, Clone, clap::Args)]
@@ -59,6 +59,73 @@ impl CameraArgs {
             }
         }
     }
+}
+
+/// How the volume is lit (`tetview render` and `tetview reference` alike,
+/// so a lit render and its reference light the same way).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct LightingArgs {
+    /// Blinn–Phong lighting with per-vertex gradients as normals (computed
+    /// now when the bundle has none): the view file's "lighting" object
+    /// when it has one (lights in world coordinates), else a headlight.
+    #[arg(long)]
+    pub light: bool,
+    /// Light with one directional light travelling along DX,DY,DZ (world)
+    /// instead of the headlight; implies --light.
+    #[arg(long, value_parser = tet_cli::parse_direction, allow_hyphen_values = true)]
+    pub light_dir: Option<[f64; 3]>,
+    /// Volumetric shadows: every light but the headlight is dimmed by the
+    /// volume's transmittance towards it; implies --light.
+    #[arg(long)]
+    pub shadows: bool,
+}
+
+impl LightingArgs {
+    /// The lighting to render with, or `None` for none: the view file's
+    /// "lighting" (a view file that has one turns lighting on), else
+    /// --light-dir, else the headlight when --light or --shadows is given.
+    pub fn lighting(&self, camera: &CameraArgs) -> Result<Option<Lighting>> {
+        let from_file = match &camera.view {
+            Some(p) => {
+                let text = std::fs::read_to_string(p)
+                    .with_context(|| format!("reading view {}", p.display()))
+                    .kind(ExitKind::Input)?;
+                Lighting::from_view_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?
+            }
+            None => None,
+        };
+        let mut lighting = match (from_file, self.light_dir) {
+            (Some(_), Some(_)) => {
+                return Err(tet_cli::usage("--light-dir: the view file has its own \"lighting\" (edit its lights)"))
+            }
+            (Some(l), None) => l,
+            (None, Some(d)) => {
+                let lights = LightSet::new(&[LightSource::Directional { direction: d, intensity: 1.0 }])
+                    .map_err(|e| tet_cli::usage(format!("--light-dir: {e}")))?;
+                Lighting { lights, ..Default::default() }
+            }
+            (None, None) if self.light || self.shadows => Lighting::default(),
+            (None, None) => return Ok(None),
+        };
+        if self.shadows {
+            lighting.shadows = true;
+        }
+        if lighting.shadows && !lighting.lights.any_shadow() {
+            return Err(tet_cli::usage(
+                "--shadows: the headlight casts no shadow; add a directional or point light (--light-dir, or \"lights\" in the view file)",
+            ));
+        }
+        Ok(Some(lighting))
+    }
+}
+
+/// The view file text `--save-view` writes: the view and, when lit, its lighting.
+pub fn view_json(view: &ViewSpec, lighting: Option<&Lighting>) -> String {
+    let mut v = serde_json::to_value(view).expect("a view serializes");
+    if let Some(l) = lighting {
+        v["lighting"] = l.to_json_value();
+    }
+    serde_json::to_string_pretty(&v).expect("a value serializes")
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -31,8 +31,8 @@ pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
     if !GPU_METHODS.contains(&method) {
         return Err(usage(format!("--gpu: method {method} is not on the GPU yet (GPU methods: {})", gpu_methods())));
     }
-    if args.light || args.silhouette.is_some() {
-        return Err(usage("--gpu: --light and --silhouette are CPU-only for now"));
+    if args.lighting.light || args.lighting.light_dir.is_some() || args.lighting.shadows || args.silhouette.is_some() {
+        return Err(usage("--gpu: lighting, shadows and --silhouette are CPU-only for now"));
     }
     if args.gpu_bake && method != Method::Table3d {
         return Err(usage(format!("--gpu-bake: method {method} has no table to bake (only table3d)")));

@@ -28,6 +28,13 @@ pub struct ReferenceArgs {
     pub time: crate::cli::TimeArgs,
     #[command(flatten)]
     pub camera: crate::camera_args::CameraArgs,
+    #[command(flatten)]
+    pub lighting: crate::camera_args::LightingArgs,
+    /// With --shadows: take shadows from the per-vertex shadow field the
+    /// CPU renderers use instead of exact shadow rays (their difference is
+    /// the field's error).
+    #[arg(long, requires = "shadows")]
+    pub shadow_field: bool,
     /// PNG output (8-bit sRGB after tone mapping, over --background).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -58,15 +65,23 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
 
     let spec = args.camera.resolve(bounds(&mesh.points), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
     let camera = Camera::new(&spec)?;
+    let lighting = args.lighting.lighting(&args.camera)?;
     if let Some(p) = &args.save_view {
-        std::fs::write(p, spec.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
+        std::fs::write(p, crate::camera_args::view_json(&spec, lighting.as_ref()))
+            .with_context(|| format!("writing {}", p.display()))
+            .kind(ExitKind::Output)?;
     }
 
     let mut renderer = ReferenceFrameRenderer::new(&bundle)?;
     let setup_s = renderer.setup_seconds;
     // The reference integrates the TF exactly, whatever a method would do.
     let look = Look::exact(tf);
-    let request = FrameRequest { early_termination: !args.no_early_termination, ..FrameRequest::new(spec.clone()) };
+    let shading = lighting.as_ref().map(|l| l.shading(None)).unwrap_or_default();
+    if args.shadow_field {
+        renderer.use_shadow_field(&look.tf, &shading.sources)?;
+    }
+    let request =
+        FrameRequest { early_termination: !args.no_early_termination, shading, ..FrameRequest::new(spec.clone()) };
     let bar = indicatif::ProgressBar::new(camera.height() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("reference {bar:30} {pos}/{len} rows, {elapsed_precise} (eta {eta})")

@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use std::path::PathBuf;
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats};
-use tet_render::{Light, Scene, Shading, SortMethod};
+use tet_render::{Scene, Shading, SortMethod};
 
 /// Render BUNDLE with a transfer function and method (or a baked table).
 #[derive(Debug, clap::Args)]
@@ -29,10 +29,8 @@ pub struct RenderArgs {
     /// radix (centroid depth, approximate), auto.
     #[arg(long, default_value = "auto")]
     pub sort: SortMethod,
-    /// Blinn–Phong headlight with per-vertex gradients as normals (computed
-    /// now when the bundle has none).
-    #[arg(long)]
-    pub light: bool,
+    #[command(flatten)]
+    pub lighting: crate::camera_args::LightingArgs,
     /// Silhouette enhancement exponent p: α·(1 − |ĝ·v|)^p.
     #[arg(long)]
     pub silhouette: Option<f32>,
@@ -76,7 +74,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let chosen = args.look.resolve(&bundle)?;
     let (tf, method) = (chosen.tf.clone(), chosen.method);
 
-    let shading = Shading { light: args.light.then(Light::default), silhouette: args.silhouette };
+    let lighting = args.lighting.lighting(&args.camera)?;
+    let shading = match &lighting {
+        Some(l) => l.shading(args.silhouette),
+        None => Shading { silhouette: args.silhouette, ..Default::default() },
+    };
     if let Some(p) = args.silhouette {
         if !(p >= 0.0 && p.is_finite()) {
             return Err(usage(format!("--silhouette {p}: need a finite exponent ≥ 0")));
@@ -126,7 +128,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         image.write_npy(p)?;
     }
     if let Some(p) = &args.save_view {
-        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
+        std::fs::write(p, crate::camera_args::view_json(&view, lighting.as_ref()))
+            .with_context(|| format!("writing {}", p.display()))
+            .kind(ExitKind::Output)?;
     }
     if args.json {
         let mut v = serde_json::to_value(&st)?;
@@ -135,6 +139,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         v["tables_baked"] = tet_engine::tables_baked().into();
         v["tets_per_second"] = st.tets_per_second().into();
         v["walk_bytes"] = renderer.renderer().walk_bytes().into();
+        v["shadow_seconds"] = renderer.shadow_seconds.into();
         v["output"] = args.output.display().to_string().into();
         v["size"] = serde_json::json!(view.size);
         println!("{}", serde_json::to_string_pretty(&v)?);

@@ -754,3 +754,58 @@ fn constant_scalar_without_tf_is_rejected_with_the_one_message() {
     assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
     assert!(stderr(&out).contains("the scalar is constant (0.75)"), "{}", stderr(&out));
 }
+
+/// Lights from `--light-dir` or the view file, shadows, the lit reference,
+/// and the bad combinations.
+#[test]
+fn lights_and_shadows_render_against_the_lit_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let f = |name: &str| path_arg(&dir.path().join(name)).to_string();
+    let (b, t) = (path_arg(&b).to_string(), path_arg(&t).to_string());
+    let (lit, dark, reference, vv) = (f("lit.npy"), f("dark.npy"), f("ref.npy"), f("v.json"));
+    let size = ["--size", "24x24", "--azimuth", "30", "--elevation", "20"];
+    let render = |extra: &[&str], npy: &str| {
+        tetview(&[&["render", &b, "--tf", &t, "-o", &f("x.png"), "--float", npy][..], &size, extra].concat())
+    };
+    let out = render(&["--light-dir", "-1,-0.5,-0.8"], &lit);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = render(&["--light-dir", "-1,-0.5,-0.8", "--shadows", "--save-view", &vv], &dark);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&vv).unwrap()).unwrap();
+    assert_eq!(saved["lighting"]["shadows"], true, "{saved}");
+    assert_eq!(saved["lighting"]["lights"][0]["type"], "directional", "{saved}");
+    // The reference lights from the saved view file alone: with exact
+    // shadow rays, and from the renderers' shadow field. On this 5-tet cube
+    // the field (8 vertex values) is far from the exact shadow; the
+    // renderer must match the reference lit from the same field.
+    let field_ref = f("ref_field.npy");
+    let out = tetview(&["reference", &b, "--tf", &t, "--view", &vv, "--float", &reference]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out =
+        tetview(&["reference", &b, "--tf", &t, "--view", &vv, "--float", &field_ref, "--shadows", "--shadow-field"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let read = |p: &str| tet_render::Image::read_npy(Path::new(p)).unwrap();
+    let d = tet_render::diff(&read(&dark), &read(&field_ref)).unwrap();
+    assert!(d.rmse < 5e-3, "shadowed render vs the reference lit from its field: {d:?}");
+    let exact = read(&reference);
+    assert!(exact.pixels().iter().all(|p| p.iter().all(|c| c.is_finite())));
+    let shadow = tet_render::diff(&read(&dark), &read(&lit)).unwrap();
+    assert!(shadow.max_abs > 1e-3, "shadows change the picture: {shadow:?}");
+    // Bad combinations: usage errors (2); a bad lighting object: the view file's error.
+    let with_view = |view: &str, extra: &[&str]| {
+        tetview(&[&["render", &b, "--tf", &t, "-o", &f("x.png"), "--view", view][..], extra].concat())
+    };
+    for bad in [&["--shadows"][..], &["--light-dir", "0,0,0"]] {
+        let out = render(bad, &lit);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}: {}", stderr(&out));
+    }
+    let out = with_view(&vv, &["--light-dir", "0,0,-1"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let broken = f("broken.json");
+    let mut v = saved.clone();
+    v["lighting"]["lights"][0]["type"] = "spot".into();
+    std::fs::write(&broken, v.to_string()).unwrap();
+    let out = with_view(&broken, &[]);
+    assert!(!out.status.success() && stderr(&out).contains("lighting"), "{}", stderr(&out));
+}

@@ -83,7 +83,7 @@ fn cli_and_library_draw_the_same_frames() {
         let spec = ViewSpec::from_json(&std::fs::read_to_string(&view).unwrap()).unwrap();
         let request = FrameRequest {
             cpu: renderer.parse::<CpuRenderer>().unwrap(),
-            shading: Shading { light: light.then(Light::default), silhouette: None },
+            shading: Shading { light: light.then(Light::default), silhouette: None, ..Default::default() },
             ..FrameRequest::new(spec)
         };
         // The same renderer object across requests: its caches must not

@@ -433,6 +433,8 @@ mod tests {
             view: &geo,
             want_grad_mag: false,
             want_normals: false,
+            want_position: false,
+            shadows: None,
             want_thick: true,
             want_span: true,
         };

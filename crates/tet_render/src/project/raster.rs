@@ -14,8 +14,9 @@ pub(crate) struct Lanes {
     pub g_front: [f32; LANES],
     pub g_back: [f32; LANES],
     pub len_world: [f32; LANES],
-    /// ζ at the segment's midpoint (lighting).
+    /// ζ at the segment's midpoint and half the segment's ζ extent (lighting).
     pub zeta_mid: [f32; LANES],
+    pub zeta_half: [f32; LANES],
 }
 
 /// What the setup needs besides the tet: optional per-vertex fields.
@@ -24,6 +25,10 @@ pub(crate) struct SetupInputs<'a> {
     pub view: &'a ViewGeometry,
     pub want_grad_mag: bool,
     pub want_normals: bool,
+    /// Lighting: the world position (point lights) and the shadow field,
+    /// interpolated like the normals.
+    pub want_position: bool,
+    pub shadows: Option<&'a crate::ShadowField>,
     /// The f64 thick-point data `pt-linear` shades once per tet.
     pub want_thick: bool,
     /// The f32 span data per-fragment methods evaluate (always built for clipped tets).
@@ -331,6 +336,21 @@ impl TetSetup {
             }
             _ => None,
         };
+        self.lit_fields.clear();
+        self.n_pos = 0;
+        if inp.want_normals {
+            if inp.want_position {
+                let pos = inp.scene.positions_rel();
+                self.lit_fields.extend((0..3).map(|c| field_of(&tet.map(|v| pos[v as usize][c]))));
+                self.n_pos = 3;
+                self.centre = inp.scene.centre_in_world();
+            }
+            if let Some(f) = inp.shadows {
+                for i in 0..f.num_lights() {
+                    self.lit_fields.push(field_of(&tet.map(|v| f.at(i, v) as f64)));
+                }
+            }
+        }
         let mut len_max: f64 = 0.0;
         for i in 0..4 {
             for j in i + 1..4 {
@@ -531,6 +551,23 @@ impl TetSetup {
     #[inline]
     pub fn normal_at(&self, x: f64, y: f64, z: f64) -> Option<DVec3> {
         self.normal.as_ref().map(|n| DVec3::new(n[0].at(x, y, z), n[1].at(x, y, z), n[2].at(x, y, z)))
+    }
+
+    /// World position (when asked for) and each light's shadow
+    /// transmittance (1 without a field) at depth `z` of the ray through
+    /// (x, y).
+    pub fn lit_at(&self, x: f64, y: f64, z: f64) -> (DVec3, [f64; crate::MAX_LIGHTS]) {
+        let f = &self.lit_fields;
+        let pos = if self.n_pos == 3 {
+            DVec3::new(f[0].at(x, y, z), f[1].at(x, y, z), f[2].at(x, y, z)) + self.centre
+        } else {
+            DVec3::ZERO
+        };
+        let mut shadow = [1.0; crate::MAX_LIGHTS];
+        for (i, fi) in f[self.n_pos..].iter().enumerate().take(crate::MAX_LIGHTS) {
+            shadow[i] = fi.at(x, y, z).clamp(0.0, 1.0);
+        }
+        (pos, shadow)
     }
 
     /// The tent weight of the thick point at pixel (x, y): 1 at the thick

@@ -98,6 +98,11 @@ pub(crate) struct TetSetup {
     pub(crate) s: Field,
     pub(crate) g: Option<Field>,
     pub(crate) normal: Option<[Field; 3]>,
+    /// Lighting: world position (x, y, z relative to `centre`, when
+    /// `n_pos` is 3) then one shadow transmittance per light.
+    pub(crate) lit_fields: Vec<Field>,
+    pub(crate) n_pos: usize,
+    pub(crate) centre: DVec3,
     pub(crate) s_range: [f64; 2],
     pub(crate) g_range: [f64; 2],
     pub(crate) len_max: f64,
@@ -269,6 +274,7 @@ impl SpanEval {
             out.s_front[l] = clamp(s0 + zf[l] * sb, sp.s_range);
             out.s_back[l] = clamp(s0 + zb[l] * sb, sp.s_range);
             out.zeta_mid[l] = if ok { 0.5 * (zf[l] + zb[l]) } else { 0.0 };
+            out.zeta_half[l] = if ok { 0.5 * (zb[l] - zf[l]) } else { 0.0 };
         }
         if sp.has_g {
             for l in 0..LANES {

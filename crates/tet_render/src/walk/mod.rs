@@ -187,6 +187,10 @@ pub struct WalkMesh {
     pub(crate) broken_links: usize,
     pub(crate) grads: Option<Vec<[f32; 3]>>,
     pub(crate) grad_mag: Option<Vec<f32>>,
+    /// The scene's centre (positions are relative to it) and its shadow
+    /// field (scene vertex ids), for lighting.
+    pub(crate) centre_in_world: DVec3,
+    pub(crate) shadows: Option<std::sync::Arc<crate::ShadowField>>,
 }
 
 /// Interleaves the low 21 bits of x, y, z (Morton order).
@@ -280,6 +284,8 @@ impl WalkMesh {
             broken_links,
             grads: scene.gradients().map(|g| scene_vertex.iter().map(|&i| g[i as usize].map(|c| c as f32)).collect()),
             grad_mag: scene.gradient_magnitudes().map(by_vertex),
+            centre_in_world: scene.centre_in_world(),
+            shadows: scene.shadows().cloned(),
             pos_rel: scene_vertex.iter().map(|&v| pos[v as usize]).collect(),
             scalar: by_vertex(scene.scalar()),
             scene_tet,
@@ -295,6 +301,12 @@ impl WalkMesh {
         self.scalar = self.scene_vertex.iter().map(|&i| s[i as usize] as f32).collect();
         self.grads = None;
         self.grad_mag = None;
+        self.shadows = None;
+    }
+
+    /// Takes the scene's shadow field again (lights or TF changed).
+    pub fn set_shadows(&mut self, scene: &Scene) {
+        self.shadows = scene.shadows().cloned();
     }
 
     /// The faces through which rays enter the tets marked `visible` (walk

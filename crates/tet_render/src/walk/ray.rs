@@ -3,6 +3,8 @@
 //! shader, compositing.
 
 use super::*;
+use crate::shading::LitPoint;
+use tet_preint::Segment;
 
 pub(crate) struct WalkCtx<'a> {
     pub(crate) mesh: &'a WalkMesh,
@@ -20,7 +22,7 @@ pub(crate) struct WalkCtx<'a> {
 
 /// A point on a face along one ray: depth, scalar and the barycentric
 /// weights of the face's three vertices (world space).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 pub(crate) struct FacePoint {
     pub(crate) depth: f32,
     pub(crate) scalar: f32,
@@ -100,11 +102,35 @@ pub(crate) struct RayState {
     pub(crate) crossings: u64,
 }
 
+/// A lit segment's face points and the fraction of the way from `a` to `b`
+/// where it starts (0 unless the near plane cut it).
+#[derive(Clone, Copy, Default)]
+pub(crate) struct LitEnds {
+    pub(crate) a: FacePoint,
+    pub(crate) b: FacePoint,
+    pub(crate) u_front: f32,
+}
+
+impl LitEnds {
+    /// A per-vertex field (walk vertex ids) at fraction `w` of the segment
+    /// (0 its front, 1 its back).
+    #[inline]
+    fn at<const N: usize>(&self, w: f32, f: impl Fn(u32) -> [f32; N]) -> [f32; N] {
+        let at = |p: &FacePoint| -> [f32; N] {
+            let v = p.ids.map(&f);
+            std::array::from_fn(|c| p.lam[0] * v[0][c] + p.lam[1] * v[1][c] + p.lam[2] * v[2][c])
+        };
+        let (fa, fb) = (at(&self.a), at(&self.b));
+        let u = self.u_front + w * (1.0 - self.u_front);
+        std::array::from_fn(|c| fa[c] + u * (fb[c] - fa[c]))
+    }
+}
+
 /// Segments of one ray waiting for the shader.
 pub(crate) struct RayBatch {
     pub(crate) segs: SegmentBatch,
-    /// Gradient at each segment's midpoint (lighting only).
-    pub(crate) grad_mid: [[f32; 3]; BATCH],
+    /// Each segment's ends (lighting only): what is lit is the midpoint.
+    pub(crate) lit_ends: [LitEnds; BATCH],
     pub(crate) rgba: [Rgba32; BATCH],
 }
 
@@ -282,7 +308,11 @@ impl WalkCtx<'_> {
         // overlap their cache misses (meshes far larger than the caches).
         let lanes = self.lanes;
         let new_batch = || {
-            Box::new(RayBatch { segs: SegmentBatch::default(), grad_mid: [[0.0; 3]; BATCH], rgba: [[0.0; 4]; BATCH] })
+            Box::new(RayBatch {
+                segs: SegmentBatch::default(),
+                lit_ends: [LitEnds::default(); BATCH],
+                rgba: [[0.0; 4]; BATCH],
+            })
         };
         let mut batches: Vec<Box<RayBatch>> = (0..lanes).map(|_| new_batch()).collect();
         let mut flight: Vec<Option<(u32, RayState)>> = vec![None; lanes];
@@ -579,18 +609,8 @@ impl WalkCtx<'_> {
             batch.segs.grad_front[k] = mix(batch.segs.grad_front[k], batch.segs.grad_back[k]);
         }
         if GRADS && self.lit {
-            // push() left the mean of the two ends; the cut segment's
-            // midpoint is t_front/2 further towards b.
-            let g = self.mesh.grads.as_deref().expect("checked in lit");
-            let at = |p: &FacePoint, c: usize| {
-                p.lam[0] * g[p.ids[0] as usize][c]
-                    + p.lam[1] * g[p.ids[1] as usize][c]
-                    + p.lam[2] * g[p.ids[2] as usize][c]
-            };
-            batch.grad_mid[k] = std::array::from_fn(|c| {
-                let (ga, gb) = (at(a, c), at(b, c));
-                0.5 * (mix(ga, gb) + gb)
-            });
+            // The cut segment's midpoint is halfway from t_front to b.
+            batch.lit_ends[k].u_front = t_front;
         }
     }
 
@@ -615,19 +635,33 @@ impl WalkCtx<'_> {
             batch.segs.grad_back[k] = 0.0;
         }
         if GRADS && self.lit {
-            let g = self.mesh.grads.as_deref().expect("checked in lit");
-            let mut mid = [0.0f32; 3];
-            for p in [a, b] {
-                for (c, m) in mid.iter_mut().enumerate() {
-                    *m += 0.5
-                        * (p.lam[0] * g[p.ids[0] as usize][c]
-                            + p.lam[1] * g[p.ids[1] as usize][c]
-                            + p.lam[2] * g[p.ids[2] as usize][c]);
-                }
-            }
-            batch.grad_mid[k] = mid;
+            batch.lit_ends[k] = LitEnds { a: *a, b: *b, u_front: 0.0 };
         }
         batch.segs.len = k + 1;
+    }
+
+    /// The lighting terms at fraction `w` of a lit segment: the gradient,
+    /// the position (point lights) and the shadow field there.
+    fn lit_at(&self, ends: &LitEnds, w: f32, view_dir: DVec3) -> LitPoint {
+        let m = self.mesh;
+        let sh = &self.opts.shading;
+        let g = ends.at(w, |v| m.grads.as_deref().expect("checked in lit")[v as usize]);
+        let pos = if sh.needs_position() {
+            let p = ends.at(w, |v| m.pos_rel[v as usize].map(|x| x as f32));
+            DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) + m.centre_in_world
+        } else {
+            DVec3::ZERO
+        };
+        let shadow = |i: usize| match m.shadows.as_deref() {
+            Some(f) if f.has_light(i) => ends.at(w, |v| [f.at(i, m.scene_vertex[v as usize])])[0] as f64,
+            _ => 1.0,
+        };
+        sh.lit_point(DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64), pos, view_dir, shadow)
+    }
+
+    /// Lights segment `seg` (shaded `c`): see [`crate::shading::light_segment`].
+    fn light_segment(&self, seg: &Segment, c: Rgba32, ends: &LitEnds, view_dir: DVec3) -> Rgba32 {
+        crate::shading::light_segment(seg, c, |w| self.lit_at(ends, w, view_dir), |p| self.shader.shade(p))
     }
 
     /// Shades the batch and composites it under `acc` in order; true once
@@ -644,8 +678,15 @@ impl WalkCtx<'_> {
         for k in 0..n {
             let mut c = batch.rgba[k];
             if let Some(vd) = view_dir {
-                let g = batch.grad_mid[k];
-                c = self.opts.shading.apply(c, DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64), vd);
+                let segs = &batch.segs;
+                let seg = Segment {
+                    s_front: segs.s_front[k],
+                    s_back: segs.s_back[k],
+                    grad_front: segs.grad_front[k],
+                    grad_back: segs.grad_back[k],
+                    len_world: segs.len_world[k],
+                };
+                c = self.light_segment(&seg, c, &batch.lit_ends[k], vd);
             }
             let t = 1.0 - acc[3];
             acc[0] += t * c[0];

@@ -1,0 +1,238 @@
+//! Lights and volumetric shadows: the lit reference against the unlit one
+//! and against closed forms, the shadow field against analytic
+//! transmittance, both CPU renderers against the lit reference, and bad
+//! input (a light inside the mesh, a light along the view direction, zero
+//! gradients, transmittance underflow).
+
+mod common;
+
+use common::{grid_mesh, tf};
+use std::sync::Arc;
+use tet_mesh::{build_adjacency, Adjacency, TetMesh};
+use tet_preint::{ExactShader, TransferFunction};
+use tet_render::{
+    diff, Camera, CpuRenderer, Image, Light, LightSet, LightSource, LitReference, RasterOptions, ReferenceOptions,
+    ReferenceRenderer, Renderer, Scene, Shading, ShadowMode, ViewSpec,
+};
+
+struct Case {
+    mesh: TetMesh,
+    adj: Adjacency,
+    grads: Vec<[f64; 3]>,
+}
+
+/// A jittered 6³-cell grid with a smooth scalar and its least-squares
+/// gradients.
+fn case(n: usize, s: impl Fn([f64; 3]) -> f64) -> Case {
+    let (points, tets, scalar) = grid_mesh(n, 0.2, [0.0; 3], 7, s);
+    let adj = build_adjacency(&points, &tets).unwrap();
+    let scene = Scene::new(&points, tets.clone(), scalar.clone()).unwrap().ensure_gradients().unwrap();
+    let grads = scene.gradients().unwrap().to_vec();
+    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: Vec::new() };
+    Case { mesh, adj, grads }
+}
+
+fn blob(p: [f64; 3]) -> f64 {
+    let d2 = (p[0] - 0.5).powi(2) + (p[1] - 0.45).powi(2) + (p[2] - 0.55).powi(2);
+    (-d2 / 0.08).exp()
+}
+
+fn smooth_tf() -> TransferFunction {
+    tf(r#"{"color": [[0, 0.2, 0.4, 1], [0.5, 1, 0.8, 0.3], [1, 1, 0.2, 0.1]],
+           "opacity": [[0, 0.0], [0.3, 1.0], [0.7, 3.0], [1, 4.0]], "unit_distance": 1}"#)
+}
+
+fn view(size: u32) -> ViewSpec {
+    let mut v = ViewSpec::looking_at([0.5, 0.5, 4.0], [0.5, 0.5, 0.5], [0.0, 1.0, 0.0], [size, size]);
+    v.view_angle = 22.0;
+    v
+}
+
+fn lights(list: &[LightSource]) -> LightSet {
+    LightSet::new(list).unwrap()
+}
+
+fn sun() -> LightSource {
+    LightSource::Directional { direction: [-0.6, -0.3, -0.75], intensity: 1.0 }
+}
+
+fn shading(sources: LightSet, shadows: bool) -> Shading {
+    // The scenes span [0,1]³ with scalars in [0, 1].
+    let gradient_floor = Shading::gradient_floor_for([0.0, 1.0], [0.0; 3], [1.0; 3]);
+    Shading { light: Some(Light::default()), silhouette: None, sources, shadows, gradient_floor }
+}
+
+fn reference_lit(c: &Case, tf: &TransferFunction, v: &ViewSpec, sh: Shading, mode: ShadowMode) -> Image {
+    let r = ReferenceRenderer::new(&c.mesh, &c.adj).unwrap();
+    let lit = LitReference::new(sh, &c.grads, mode);
+    r.render_lit(&Camera::new(v).unwrap(), tf, &ReferenceOptions::default(), &lit, &|_, _| {}).unwrap().0
+}
+
+fn cpu(c: &Case, tf: &TransferFunction, v: &ViewSpec, sh: Shading, kind: CpuRenderer) -> Image {
+    let scene = Scene::new(&c.mesh.points, c.mesh.tets.clone(), c.mesh.scalar.clone())
+        .unwrap()
+        .with_gradients(c.grads.clone())
+        .unwrap();
+    let field = sh.wants_shadows().then(|| Arc::new(scene.compute_shadows(tf, &sh.sources, &|_, _| {}).unwrap()));
+    let mut r = Renderer::new(scene);
+    r.set_renderer(kind);
+    r.set_shadows(field).unwrap();
+    r.set_view(v).unwrap();
+    r.set_shader(Arc::new(ExactShader::new(tf.clone())));
+    r.set_raster_options(RasterOptions { shading: sh, ..Default::default() });
+    r.render(&|_, _| {}).unwrap().0
+}
+
+#[test]
+fn constant_lighting_integrates_to_the_unlit_reference() {
+    // ka = 1, no diffuse or specular: D ≡ 1, S ≡ 0, and the quadrature must
+    // reproduce the closed-form integral.
+    let c = case(4, blob);
+    let t = smooth_tf();
+    let v = view(12);
+    let flat = Shading {
+        light: Some(Light { ambient: 1.0, diffuse: 0.0, specular: 0.0, shininess: 1.0 }),
+        ..Default::default()
+    };
+    let lit = reference_lit(&c, &t, &v, flat, ShadowMode::Exact);
+    let r = ReferenceRenderer::new(&c.mesh, &c.adj).unwrap();
+    let (plain, _) = r.render(&Camera::new(&v).unwrap(), &t, &ReferenceOptions::default(), &|_, _| {}).unwrap();
+    let d = diff(&lit, &plain).unwrap();
+    assert!(d.max_abs < 1e-6, "{d:?}");
+    assert!(plain.pixels().iter().any(|p| p[3] > 0.1));
+}
+
+#[test]
+fn headlight_reference_matches_both_cpu_renderers() {
+    let c = case(5, blob);
+    let t = smooth_tf();
+    let v = view(24);
+    let sh = shading(LightSet::default(), false);
+    let reference = reference_lit(&c, &t, &v, sh, ShadowMode::Exact);
+    for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
+        let img = cpu(&c, &t, &v, sh, kind);
+        let d = diff(&img, &reference).unwrap();
+        // Lighting at segment midpoints, split where it varies, against the integral.
+        assert!(d.max_abs < 2e-2 && d.rmse < 4e-3, "{kind:?}: {d:?}");
+    }
+}
+
+#[test]
+fn shadow_field_equals_the_closed_form_transmittance() {
+    // Constant extinction ρ = 2 in the unit cube, light straight down:
+    // a vertex at height z sees exp(−2 (1 − z)).
+    let (points, tets, scalar) = grid_mesh(4, 0.0, [0.0; 3], 3, |_| 0.5);
+    let scene = Scene::new(&points, tets, scalar).unwrap();
+    let t = tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 2]], "unit_distance": 1}"#);
+    let down = lights(&[LightSource::Directional { direction: [0.0, 0.0, -1.0], intensity: 1.0 }]);
+    let f = scene.compute_shadows(&t, &down, &|_, _| {}).unwrap();
+    assert_eq!(f.stats().walk_failures, 0);
+    for (v, p) in points.iter().enumerate() {
+        let want = (-2.0 * (1.0 - p[2])).exp();
+        assert!((f.at(0, v as u32) as f64 - want).abs() < 1e-6, "vertex {v} at {p:?}: {} vs {want}", f.at(0, v as u32));
+    }
+    // A point light inside the mesh: walks end at the light.
+    let inside = lights(&[LightSource::Point { position: [0.5, 0.5, 0.5], intensity: 1.0 }]);
+    let f = scene.compute_shadows(&t, &inside, &|_, _| {}).unwrap();
+    for (v, p) in points.iter().enumerate() {
+        let dist = ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2)).sqrt();
+        let want = (-2.0 * dist).exp();
+        assert!((f.at(0, v as u32) as f64 - want).abs() < 1e-6, "vertex {v}: {} vs {want}", f.at(0, v as u32));
+    }
+    // Huge extinction: transmittance underflows to 0, never NaN.
+    let dense = tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1e300]], "unit_distance": 1}"#);
+    let f = scene.compute_shadows(&dense, &down, &|_, _| {}).unwrap();
+    for (v, p) in points.iter().enumerate() {
+        let got = f.at(0, v as u32);
+        assert!(got.is_finite() && (0.0..=1.0).contains(&got));
+        // Even the top face's vertices: the field is the limit from inside.
+        assert_eq!(got, 0.0, "vertex {v} at {p:?}");
+    }
+}
+
+#[test]
+fn shadowed_renderers_match_the_reference_with_their_field_and_with_exact_rays() {
+    let c = case(5, blob);
+    let t = smooth_tf();
+    let v = view(20);
+    let sh = shading(lights(&[sun(), LightSource::Point { position: [1.5, 1.2, 1.4], intensity: 0.5 }]), true);
+    let scene = Scene::new(&c.mesh.points, c.mesh.tets.clone(), c.mesh.scalar.clone()).unwrap();
+    let field = scene.compute_shadows(&t, &sh.sources, &|_, _| {}).unwrap();
+    let with_field = reference_lit(&c, &t, &v, sh, ShadowMode::Field(&field));
+    let exact = reference_lit(&c, &t, &v, sh, ShadowMode::Exact);
+    let unshadowed = reference_lit(&c, &t, &v, Shading { shadows: false, ..sh }, ShadowMode::Exact);
+    // Shadows darken (never brighten), and the field is close to exact rays.
+    let dark = diff(&exact, &unshadowed).unwrap();
+    assert!(dark.max_abs > 0.02, "shadows change the picture: {dark:?}");
+    for (a, b) in exact.pixels().iter().zip(unshadowed.pixels()) {
+        assert!(a[0] <= b[0] + 1e-6 && a[3] == b[3], "{a:?} vs {b:?}");
+    }
+    let field_err = diff(&with_field, &exact).unwrap();
+    // Linear interpolation of an exponential over 5 cells.
+    assert!(field_err.max_abs < 3e-2 && field_err.rmse < 4e-3, "shadow field vs exact rays: {field_err:?}");
+    for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
+        let img = cpu(&c, &t, &v, sh, kind);
+        let d = diff(&img, &with_field).unwrap();
+        assert!(d.max_abs < 2e-2 && d.rmse < 4e-3, "{kind:?} vs the reference with its field: {d:?}");
+    }
+}
+
+#[test]
+fn degenerate_lights_and_gradients_give_finite_images() {
+    let c = case(4, blob);
+    let t = smooth_tf();
+    let v = view(12);
+    // A directional light shining along the view direction (from behind
+    // the eye) and one shining at the eye; a point light inside the mesh
+    // and one exactly at a vertex.
+    let vertex = c.mesh.points[40];
+    let sh = shading(
+        lights(&[
+            LightSource::Directional { direction: [0.0, 0.0, -1.0], intensity: 1.0 },
+            LightSource::Directional { direction: [0.0, 0.0, 1.0], intensity: 1.0 },
+            LightSource::Point { position: [0.5, 0.5, 0.5], intensity: 1.0 },
+            LightSource::Point { position: vertex, intensity: 1.0 },
+        ]),
+        true,
+    );
+    let reference = reference_lit(&c, &t, &v, sh, ShadowMode::Exact);
+    common::assert_finite(&reference);
+    for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
+        let img = cpu(&c, &t, &v, sh, kind);
+        common::assert_finite(&img);
+        assert!(diff(&img, &reference).unwrap().rmse < 1e-2, "{kind:?}");
+    }
+    // Zero gradients: drawn unshaded, i.e. as without lighting.
+    let flat = Case { grads: vec![[0.0; 3]; c.grads.len()], ..case(4, blob) };
+    let lit = reference_lit(&flat, &t, &v, sh, ShadowMode::Exact);
+    let r = ReferenceRenderer::new(&flat.mesh, &flat.adj).unwrap();
+    let (plain, _) = r.render(&Camera::new(&v).unwrap(), &t, &ReferenceOptions::default(), &|_, _| {}).unwrap();
+    assert!(diff(&lit, &plain).unwrap().max_abs < 1e-6);
+    let img = cpu(&flat, &t, &v, sh, CpuRenderer::Walk);
+    assert!(diff(&img, &plain).unwrap().max_abs < 1e-3);
+}
+
+#[test]
+fn shadows_without_a_field_or_for_other_lights_are_refused() {
+    let c = case(3, blob);
+    let t = smooth_tf();
+    let scene = Scene::new(&c.mesh.points, c.mesh.tets.clone(), c.mesh.scalar.clone())
+        .unwrap()
+        .with_gradients(c.grads.clone())
+        .unwrap();
+    let sh = shading(lights(&[sun()]), true);
+    let mut r = Renderer::new(scene.clone());
+    r.set_view(&view(8)).unwrap();
+    r.set_shader(Arc::new(ExactShader::new(t.clone())));
+    r.set_raster_options(RasterOptions { shading: sh, ..Default::default() });
+    assert!(r.render(&|_, _| {}).unwrap_err().to_string().contains("shadow field"));
+    let other =
+        scene.compute_shadows(&t, &lights(&[LightSource::Point { position: [2.0; 3], intensity: 1.0 }]), &|_, _| {});
+    r.set_shadows(Some(Arc::new(other.unwrap()))).unwrap();
+    assert!(r.render(&|_, _| {}).unwrap_err().to_string().contains("other lights"));
+    // A field of another mesh.
+    let small = case(2, blob);
+    let small_scene = Scene::new(&small.mesh.points, small.mesh.tets.clone(), small.mesh.scalar.clone()).unwrap();
+    let f = small_scene.compute_shadows(&t, &sh.sources, &|_, _| {}).unwrap();
+    assert!(r.set_shadows(Some(Arc::new(f))).is_err());
+}

@@ -6,12 +6,18 @@
 //!
 //! `cargo run --release -p tet_engine --example lighting_bench -- B.tetb TF.json SIZE REF_SIZE [results.md]`
 //!
-//! TF.json is normalized (mapped onto the bundle's scalar range); frames
+//! TF.json is in scalar units, or normalized (then mapped onto the
+//! bundle's scalar range); frames
 //! are drawn at SIZE², with the default method (table3d) and the walker;
 //! errors are measured at REF_SIZE² (the exact-shadow reference casts a
 //! shadow ray at every quadrature node: keep it small). The light: one
 //! directional light from the upper left front plus a dim headlight. A
-//! results file gets a markdown row appended.
+//! results file gets a markdown row appended, columns as in
+//! [`HEADER`].
+
+/// The columns of a results row (wall seconds, CPU/wall in brackets;
+/// errors as RMSE / largest 8-bit difference, against the lit reference).
+pub const HEADER: &str = "| bundle | frame / error size | unlit frame | lit frame (no shadows), camera moving | shadow field (CPU/wall of that frame) | shadowed frame, camera moving, and the field's cost then | walker vs reference, unlit | headlight | lit + shadows vs the reference lit from the same field (lighting error) | that reference vs exact shadow rays (the field's error) | walker vs exact (both) | exact-shadow reference time |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 use std::io::Write;
 use std::time::Instant;
@@ -30,7 +36,8 @@ fn main() -> anyhow::Result<()> {
     let bundle = Bundle::read(std::path::Path::new(&args[1]))?;
     let (size, ref_size): (u32, u32) = (args[3].parse()?, args[4].parse()?);
     let s = [bundle.meta.stats.scalar_min, bundle.meta.stats.scalar_max];
-    let tf = TransferFunction::from_json(&std::fs::read_to_string(&args[2])?)?.denormalize(s[0], s[1])?;
+    let tf = TransferFunction::from_json(&std::fs::read_to_string(&args[2])?)?;
+    let tf = if tf.normalized() { tf.denormalize(s[0], s[1])? } else { tf };
     let lights = LightSet::new(&[
         LightSource::Directional { direction: [0.6, -0.5, -0.62], intensity: 0.9 },
         LightSource::Headlight { intensity: 0.3 },
@@ -61,13 +68,14 @@ fn main() -> anyhow::Result<()> {
     let (first_s, first_cpu, field_s) = frame(lit, 34.0, &mut cpu)?;
     let (move_s, move_cpu, move_field) = frame(lit, 36.0, &mut cpu)?;
     let (move2_s, _, _) = frame(lit, 38.0, &mut cpu)?;
+    let no_shadows = tet_render::Shading { shadows: false, ..lit };
+    let (lit_s, lit_cpu, _) = frame(no_shadows, 40.0, &mut cpu)?;
+    let (lit2_s, _, _) = frame(no_shadows, 42.0, &mut cpu)?;
+    row.push(format!("{:.3} s ({:.2})", unlit_s, unlit_cpu / unlit_s));
+    row.push(format!("{:.3}–{:.3} s ({:.2})", lit_s.min(lit2_s), lit_s.max(lit2_s), lit_cpu / lit_s));
+    row.push(format!("{:.3} s ({:.2})", field_s, first_cpu / first_s));
     row.push(format!(
-        "{:.3} s ({:.2} CPU/wall) | {:.3} s, of it field {:.3} s ({:.2} CPU/wall) | {:.3}–{:.3} s ({:.2}), field {:.3} s",
-        unlit_s,
-        unlit_cpu / unlit_s,
-        first_s,
-        field_s,
-        first_cpu / first_s,
+        "{:.3}–{:.3} s ({:.2}), field {:.3} s",
         move_s.min(move2_s),
         move_s.max(move2_s),
         move_cpu / move_s,
@@ -101,7 +109,11 @@ fn main() -> anyhow::Result<()> {
     let line = format!("| {name} ({} tets) | {size}² / {ref_size}² | {} |", bundle.mesh.tets.len(), row.join(" | "));
     println!("{line}");
     if let Some(p) = args.get(5) {
+        let fresh = !std::path::Path::new(p).exists();
         let mut f = std::fs::OpenOptions::new().create(true).append(true).open(p)?;
+        if fresh {
+            writeln!(f, "{HEADER}")?;
+        }
         writeln!(f, "{line}")?;
     }
     Ok(())

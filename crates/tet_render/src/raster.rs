@@ -734,7 +734,7 @@ fn flush(ctx: &mut TileCtx, s: &TetSetup, view: &ViewGeometry, shader: &dyn Segm
             let (x, y) = (b.at[k][0] as f64 + 0.5, b.at[k][1] as f64 + 0.5);
             let (z_mid, z_half) = (s.span.z0 + b.zeta_mid[k] as f64, b.zeta_half[k] as f64);
             let lit_at = |w: f32| lit_point(s, view, opts, x, y, z_mid + (2.0 * w as f64 - 1.0) * z_half);
-            b.rgba[k] = crate::shading::light_segment(&b.segs[k], b.rgba[k], lit_at, |p| shader.shade(p));
+            b.rgba[k] = crate::shading::light_segment(&b.segs[k], b.rgba[k], None, lit_at, |p| shader.shade(p)).0;
         }
     }
     for k in 0..n {
@@ -769,7 +769,7 @@ fn shade(
         return rgba;
     }
     let lit_at = |w: f32| lit_point(s, view, opts, x, y, f.z_front + w as f64 * (f.z_back - f.z_front));
-    crate::shading::light_segment(&segment(f), rgba, lit_at, |p| shader.shade(p))
+    crate::shading::light_segment(&segment(f), rgba, None, lit_at, |p| shader.shade(p)).0
 }
 
 /// The lighting terms at depth `z` of pixel (x, y): the normal, position

@@ -96,6 +96,7 @@ pub struct ReferenceRenderer<'a> {
     tets: &'a [[u32; 4]],
     scalar: &'a [f64],
     neighbors: &'a [[u32; 4]],
+    convex: bool,
     bvh: BoundaryBvh,
 }
 
@@ -106,6 +107,17 @@ pub struct RayScratch {
     entries: Vec<Entry>,
     /// Shadow rays cast from a lit ray.
     shadow: crate::shadow::ShadowScratch,
+}
+
+/// How a walk through the adjacency ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum WalkEnd {
+    /// The line left the mesh at this parameter.
+    Left(f64),
+    /// The visitor stopped the ray.
+    Stopped,
+    /// No exit face or no way back through the adjacency (counted).
+    Failed,
 }
 
 /// Where a line enters the mesh through boundary face `packed_face`.
@@ -233,12 +245,18 @@ impl<'a> ReferenceRenderer<'a> {
             tets: &mesh.tets,
             scalar: &mesh.scalar,
             neighbors: &adjacency.neighbors,
+            convex: adjacency.convex,
             bvh: BoundaryBvh::build(&mesh.points, &mesh.tets, &adjacency.boundary_faces),
         })
     }
 
     pub fn bvh(&self) -> &BoundaryBvh {
         &self.bvh
+    }
+
+    /// The mesh's scalar, one per point.
+    pub fn scalars(&self) -> &[f64] {
+        self.scalar
     }
 
     /// The mesh's tets.
@@ -370,6 +388,21 @@ impl<'a> ReferenceRenderer<'a> {
         stats: &mut ReferenceStats,
         visit: &mut dyn FnMut(&LineSegment) -> bool,
     ) {
+        self.walk_line_entering_after(line, t_start, f64::NEG_INFINITY, entries, stats, visit)
+    }
+
+    /// [`ReferenceRenderer::walk_line`] from the entries at parameters ≥
+    /// `first_entry` only (the line is known to be outside the mesh just
+    /// before it).
+    fn walk_line_entering_after(
+        &self,
+        line: &Line,
+        t_start: f64,
+        first_entry: f64,
+        entries: &mut Vec<Entry>,
+        stats: &mut ReferenceStats,
+        visit: &mut dyn FnMut(&LineSegment) -> bool,
+    ) {
         entries.clear();
         self.bvh.for_each_near_line(line.origin, line.q_vec() - line.origin, |tri| {
             let [p0, p1, p2] = tri.vertices.map(|v| &self.points[v as usize]);
@@ -398,65 +431,171 @@ impl<'a> ReferenceRenderer<'a> {
                 // since a walk starting there keeps t monotone from it.
                 self.point_on_face(line, ids, [1.0; 3]).expect("positive weights")
             });
-            entries.push(Entry { at, packed_face: tri.packed_face });
+            if at.t >= first_entry {
+                entries.push(Entry { at, packed_face: tri.packed_face });
+            }
         });
         entries.sort_by(|a, b| a.at.t.total_cmp(&b.at.t).then(a.packed_face.cmp(&b.packed_face)));
         let mut hit = false;
-        let n_tets = self.tets.len() as u64;
         let mut steps_this_ray = 0u64;
-        'walks: for e in entries.iter() {
+        for e in entries.iter() {
             stats.entries += 1;
-            let mut tet = (e.packed_face / 4) as usize;
-            let mut f_in = (e.packed_face % 4) as usize;
-            let mut p_in = e.at;
-            let mut steps = 0u64;
-            loop {
-                steps += 1;
-                if steps > n_tets + 1 {
-                    stats.walk_failures += 1;
-                    break;
-                }
-                let Some((f_out, p_raw)) = self.exit(line, tet, f_in) else {
-                    stats.walk_failures += 1;
-                    break;
-                };
-                let p_out = match p_raw {
-                    Some(p) if p.t > p_in.t => p,
-                    // Degenerate (all weights 0) or rounding put the exit
-                    // before the entry: a zero-length segment here, the
-                    // next tet takes the length.
-                    _ => p_in,
-                };
-                if p_out.t > t_start {
-                    hit = true;
-                    let seg = LineSegment { front: p_in, back: p_out, t_front: p_in.t.max(t_start) };
-                    if seg.len() > 0.0 {
-                        stats.segments += 1;
-                        if visit(&seg) {
-                            stats.terminated_early = 1;
-                            steps_this_ray += steps;
-                            break 'walks;
-                        }
-                    }
-                }
-                let next = self.neighbors[tet][f_out];
-                if next == NO_NEIGHBOR {
-                    break;
-                }
-                let back = self.neighbors[next as usize].iter().position(|&n| n as usize == tet);
-                let Some(back) = back else {
-                    stats.walk_failures += 1;
-                    break;
-                };
-                tet = next as usize;
-                f_in = back;
-                p_in = p_out;
-            }
+            let (tet, f_in) = ((e.packed_face / 4) as usize, (e.packed_face % 4) as usize);
+            let (end, steps) = self.walk_from(line, tet, f_in, e.at, t_start, &mut hit, stats, visit);
             steps_this_ray += steps;
+            if end == WalkEnd::Stopped {
+                break;
+            }
         }
         stats.steps += steps_this_ray;
         stats.max_steps_per_ray = stats.max_steps_per_ray.max(steps_this_ray);
         stats.rays_hit = stats.rays_hit.max(hit as u64);
+    }
+
+    /// Walks on from `tet`, entered through face `f_in` at `p_in`, until the
+    /// line leaves the mesh, `visit` stops it, or the walk fails; returns
+    /// how it ended and the steps taken. Segments before `t_start` are
+    /// skipped; `hit` is set once one reaches past it.
+    #[allow(clippy::too_many_arguments)]
+    fn walk_from(
+        &self,
+        line: &Line,
+        mut tet: usize,
+        mut f_in: usize,
+        mut p_in: LinePoint,
+        t_start: f64,
+        hit: &mut bool,
+        stats: &mut ReferenceStats,
+        visit: &mut dyn FnMut(&LineSegment) -> bool,
+    ) -> (WalkEnd, u64) {
+        let n_tets = self.tets.len() as u64;
+        let mut steps = 0u64;
+        loop {
+            steps += 1;
+            if steps > n_tets + 1 {
+                stats.walk_failures += 1;
+                return (WalkEnd::Failed, steps);
+            }
+            let Some((f_out, p_raw)) = self.exit(line, tet, f_in) else {
+                stats.walk_failures += 1;
+                return (WalkEnd::Failed, steps);
+            };
+            let p_out = match p_raw {
+                Some(p) if p.t > p_in.t => p,
+                // Degenerate (all weights 0) or rounding put the exit
+                // before the entry: a zero-length segment here, the
+                // next tet takes the length.
+                _ => p_in,
+            };
+            if p_out.t > t_start {
+                *hit = true;
+                let seg = LineSegment { front: p_in, back: p_out, t_front: p_in.t.max(t_start) };
+                if seg.len() > 0.0 {
+                    stats.segments += 1;
+                    if visit(&seg) {
+                        stats.terminated_early = 1;
+                        return (WalkEnd::Stopped, steps);
+                    }
+                }
+            }
+            let next = self.neighbors[tet][f_out];
+            if next == NO_NEIGHBOR {
+                return (WalkEnd::Left(p_out.t), steps);
+            }
+            let back = self.neighbors[next as usize].iter().position(|&n| n as usize == tet);
+            let Some(back) = back else {
+                stats.walk_failures += 1;
+                return (WalkEnd::Failed, steps);
+            };
+            tet = next as usize;
+            f_in = back;
+            p_in = p_out;
+        }
+    }
+
+    /// Walks the line from `start`, a point strictly inside `tet` with
+    /// scalar `s_start`, forwards (t ≥ 0, t = 0 at `start` = the line's
+    /// origin) — no boundary hierarchy, no sort, only the tets ahead. Where
+    /// the line leaves the mesh of a non-convex domain it may come back:
+    /// then the rest is walked from the boundary entries beyond. `visit` as
+    /// in [`ReferenceRenderer::walk_line`].
+    pub(crate) fn walk_line_from_inside(
+        &self,
+        line: &Line,
+        tet: usize,
+        s_start: f64,
+        entries: &mut Vec<Entry>,
+        stats: &mut ReferenceStats,
+        visit: &mut dyn FnMut(&LineSegment) -> bool,
+    ) {
+        let Some((f_out, Some(p_out))) = self.first_exit(line, tet) else {
+            // The line lies in a face's plane: walk it whole.
+            return self.walk_line(line, 0.0, entries, stats, visit);
+        };
+        let t = &self.tets[tet];
+        // `start` as a "face point": the tet's vertex 0 with the start's
+        // scalar (only t and s of a segment's front are read by visitors
+        // that interpolate nothing else; gradients use the back's weights
+        // beyond the first segment).
+        let p_in = LinePoint { t: 0.0, s: s_start, ids: [t[0], t[0], t[0]], w: [1.0, 0.0, 0.0] };
+        let mut hit = false;
+        stats.steps += 1;
+        if p_out.t > 0.0 {
+            let seg = LineSegment { front: p_in, back: p_out, t_front: 0.0 };
+            stats.segments += 1;
+            if visit(&seg) {
+                stats.terminated_early = 1;
+                return;
+            }
+        }
+        let next = self.neighbors[tet][f_out];
+        let left_at = if next == NO_NEIGHBOR {
+            Some(p_out.t)
+        } else {
+            let Some(back) = self.neighbors[next as usize].iter().position(|&n| n as usize == tet) else {
+                stats.walk_failures += 1;
+                return;
+            };
+            let (end, steps) = self.walk_from(line, next as usize, back, p_out, 0.0, &mut hit, stats, visit);
+            stats.steps += steps;
+            match end {
+                WalkEnd::Left(t) => Some(t),
+                WalkEnd::Stopped | WalkEnd::Failed => None,
+            }
+        };
+        if let Some(t_left) = left_at {
+            if !self.convex {
+                // Re-entries further along.
+                self.walk_line_entering_after(line, t_left, t_left, entries, stats, visit);
+            }
+        }
+    }
+
+    /// The face through which the line leaves `tet` going forwards, for a
+    /// line through a point strictly inside it: the face whose three edges
+    /// the line passes on the leaving side (exact, perturbed decisions as
+    /// in [`ReferenceRenderer::exit`]).
+    fn first_exit(&self, line: &Line, tet: usize) -> Option<(usize, Option<LinePoint>)> {
+        let t = &self.tets[tet];
+        let p = |l: usize| &self.points[t[l] as usize];
+        for (f, &face) in FACE_OUTWARD.iter().enumerate() {
+            let mut vals = [0.0f64; 3];
+            let mut ok = true;
+            for e in 0..3 {
+                let (val, s) = line_side(&line.o, &line.q, p(face[e]), p(face[(e + 1) % 3]));
+                if s >= 0 {
+                    ok = false;
+                    break;
+                }
+                vals[e] = val;
+            }
+            if ok {
+                let w = std::array::from_fn(|i| (-vals[(i + 1) % 3]).max(0.0));
+                let ids = [t[face[0]], t[face[1]], t[face[2]]];
+                return Some((f, self.point_on_face(line, ids, w)));
+            }
+        }
+        None
     }
 
     /// Leaving `tet`, entered through face `f_in`: the exit face and, unless

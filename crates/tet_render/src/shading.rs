@@ -18,14 +18,19 @@
 //!
 //! so a segment of colour C and opacity α becomes C·D + α·S when D and S
 //! are taken as constant over it (the fast renderers, at the segment's
-//! midpoint), and the reference integrates D and S along the ray with the
+//! emission centroid, splitting it where they vary: [`light_segment`]),
+//! and the reference integrates D and S along the ray with the
 //! TF's emission and extinction. Lighting is two-sided: a gradient's sign
 //! does not say which side is out. With the default single headlight
 //! (l̂ = ĥ = v̂) this is the classic `C·(ka + kd|n̂·v̂|) + ks|n̂·v̂|^p·α`.
 //!
 //! Where the model has no answer the result is finite and documented:
-//! * a zero or non-finite gradient has no direction: D = 1, S = 0 (the
-//!   sample is drawn unshaded, as without lighting);
+//! * a zero or non-finite gradient has no direction: the sample is lit as
+//!   an isotropic medium, `D = ka + Σᵢ Iᵢ Vᵢ kd` (every light at full
+//!   diffuse strength, dimmed by its shadow), S = 0, no silhouette — with
+//!   the default headlight that is D = 1, the sample as without lighting;
+//!   below [`Shading::gradient_floor`] the terms blend linearly from these
+//!   to the surface terms (a vanishing gradient's direction is noise);
 //! * a point light at the sample itself has no direction: that light adds
 //!   nothing there;
 //! * a light exactly behind the sample as seen from the eye (l̂ = −v̂) has
@@ -69,7 +74,8 @@ pub enum LightSource {
         intensity: f64,
     },
     /// At infinity, light travelling along `direction` (from the light into
-    /// the scene; any non-zero length).
+    /// the scene; any non-zero length, kept as a unit vector in a
+    /// [`LightSet`]).
     Directional {
         direction: [f64; 3],
         #[serde(default = "unit_intensity")]
@@ -108,7 +114,12 @@ impl LightSource {
     pub fn towards(&self, pos_in_world: DVec3, view_dir: DVec3) -> Option<(DVec3, f64)> {
         match *self {
             LightSource::Headlight { .. } => Some((-view_dir, f64::INFINITY)),
-            LightSource::Directional { direction, .. } => Some((-DVec3::from(direction).normalize(), f64::INFINITY)),
+            LightSource::Directional { direction, .. } => {
+                // A LightSet stores unit directions; others are normalized here.
+                let d = DVec3::from(direction);
+                let d = if (d.length_squared() - 1.0).abs() < 1e-12 { d } else { d.normalize() };
+                Some((-d, f64::INFINITY))
+            }
             LightSource::Point { position, .. } => {
                 let d = DVec3::from(position) - pos_in_world;
                 let len = d.length();
@@ -167,7 +178,13 @@ impl LightSet {
         let mut items = [LightSource::Headlight { intensity: 0.0 }; MAX_LIGHTS];
         for (i, l) in lights.iter().enumerate() {
             l.validate(i)?;
-            items[i] = *l;
+            items[i] = match *l {
+                // Stored as a unit vector: lighting uses it per sample.
+                LightSource::Directional { direction, intensity } => {
+                    LightSource::Directional { direction: DVec3::from(direction).normalize().into(), intensity }
+                }
+                other => other,
+            };
         }
         Ok(LightSet { n: lights.len(), items })
     }
@@ -211,13 +228,25 @@ pub struct Shading {
     #[serde(default)]
     pub shadows: bool,
     /// Gradient magnitude (scalar units per world length) below which
-    /// shading fades linearly to none: at |g| = 0 the sample is drawn
-    /// unshaded, from |g| ≥ `gradient_floor` fully shaded. Where the
-    /// gradient vanishes (a peak, a plateau) its direction is noise and
-    /// swings within a cell; the fade keeps the lighting continuous there.
-    /// 0 (the default): no fade. [`Shading::gradient_floor_for`] picks one.
+    /// surface shading fades linearly into the isotropic medium's (see the
+    /// module docs): at |g| = 0 no normal is used, from |g| ≥
+    /// `gradient_floor` fully shaded. Where the gradient vanishes (a peak,
+    /// a plateau) its direction is noise and swings within a cell; the fade
+    /// keeps the lighting continuous there. 0 (the default): no fade.
+    /// [`Shading::gradient_floor_for`] picks one.
     #[serde(default)]
     pub gradient_floor: f32,
+}
+
+/// x^p for x in [0, 1]: by multiplications when p is a whole number up to
+/// 128 (the usual shininess; a tenth of `powf`'s cost), else `powf`.
+#[inline]
+fn pow_shininess(x: f64, p: f32) -> f64 {
+    if p == p.trunc() && (0.0..=128.0).contains(&p) {
+        x.powi(p as i32)
+    } else {
+        x.powf(p as f64)
+    }
 }
 
 /// The lighting terms at one point: emitted colour times `diffuse`, plus
@@ -283,15 +312,19 @@ impl Shading {
         mut shadow: impl FnMut(usize) -> f64,
     ) -> LitPoint {
         let len = grad.length();
-        if !(len > 0.0 && len.is_finite()) {
-            return LitPoint::NONE;
-        }
-        let n = grad / len;
-        let weight = if (len as f32) < self.gradient_floor { len / self.gradient_floor as f64 } else { 1.0 };
+        let has_direction = len > 0.0 && len.is_finite();
+        let n = if has_direction { grad / len } else { DVec3::ZERO };
+        // How much of surface shading applies (the rest is the isotropic
+        // medium's): 0 without a direction, rising to 1 at the floor.
+        let weight = match has_direction {
+            false => 0.0,
+            true if (len as f32) < self.gradient_floor => len / self.gradient_floor as f64,
+            true => 1.0,
+        };
         let mut out = LitPoint::NONE;
         if let Some(m) = self.light {
             let to_eye = -view_dir;
-            let (mut d, mut s) = (m.ambient as f64, 0.0);
+            let (mut d_iso, mut d, mut s) = (m.ambient as f64, m.ambient as f64, 0.0);
             for (i, l) in self.sources.lights().iter().enumerate() {
                 let Some((to_light, _)) = l.towards(pos_in_world, view_dir) else { continue };
                 let mut w = l.intensity();
@@ -301,17 +334,24 @@ impl Shading {
                 if w == 0.0 {
                     continue;
                 }
+                d_iso += w * m.diffuse as f64;
+                if weight == 0.0 {
+                    continue;
+                }
                 d += w * m.diffuse as f64 * n.dot(to_light).abs().min(1.0);
                 let h = to_light + to_eye;
                 let h_len = h.length();
                 // h_len is 0 (or rounding noise) only for a light exactly
                 // behind the sample: no highlight.
                 if h_len > 1e-9 {
-                    s += w * m.specular as f64 * (n.dot(h) / h_len).abs().min(1.0).powf(m.shininess as f64);
+                    s += w * m.specular as f64 * pow_shininess((n.dot(h) / h_len).abs().min(1.0), m.shininess);
                 }
             }
-            out.diffuse = 1.0 + weight * (d - 1.0);
+            out.diffuse = d_iso + weight * (d - d_iso);
             out.specular = weight * s;
+        }
+        if weight == 0.0 {
+            return out;
         }
         if let Some(p) = self.silhouette {
             let n_dot_v = n.dot(view_dir).abs().min(1.0);
@@ -343,31 +383,59 @@ pub const LIT_SPLIT_TOLERANCE: f64 = 5e-4;
 /// Most pieces a lit segment is split into.
 pub const LIT_MAX_PIECES: usize = 32;
 
+/// Where along a segment of opacity `alpha` its light comes from, as a
+/// fraction of its length: the centroid of the emission weight e^(−τu)
+/// for a constant extinction of total depth τ = −ln(1 − α), which is
+/// 1/τ − (1 − α)/α — ½ for a transparent segment, → 0 (its front) for an
+/// opaque one. The one point at which a segment is lit.
+pub fn emission_centroid(alpha: f32) -> f32 {
+    let a = alpha as f64;
+    if a.is_nan() || a <= 1e-4 {
+        return 0.5;
+    }
+    if a >= 1.0 {
+        return 0.0;
+    }
+    let tau = -(-a).ln_1p();
+    (1.0 / tau - (1.0 - a) / a).clamp(0.0, 0.5) as f32
+}
+
 /// Lights segment `seg`, shaded `c`, whose lighting terms at fraction w
-/// (0 front, 1 back) are `lit_at(w)`: at its midpoint where the terms vary
+/// (0 front, 1 back) are `lit_at(w)`: at its emission centroid
+/// ([`emission_centroid`]; the midpoint for a thin segment) where the terms vary
 /// little over it, else split into up to [`LIT_MAX_PIECES`] equal pieces
 /// (their number growing with the square root of variation × colour, as
 /// the midpoint rule's error falls with the square of the piece), each
 /// shaded by `shade` and lit at its own midpoint, composited in order. A
 /// highlight or a shadow edge inside one long segment is thus not decided
-/// by a single point. Both CPU renderers call this.
+/// by a single point. `front`: the terms at the segment's front when the
+/// caller has them (the previous segment's back, returned as the second
+/// value when it was computed). Both CPU renderers call this.
 pub fn light_segment(
     seg: &tet_preint::Segment,
     c: [f32; 4],
+    front: Option<LitPoint>,
     mut lit_at: impl FnMut(f32) -> LitPoint,
     mut shade: impl FnMut(&tet_preint::Segment) -> [f32; 4],
-) -> [f32; 4] {
-    let mid = lit_at(0.5);
+) -> ([f32; 4], Option<LitPoint>) {
     let weight = c.iter().fold(0.0f32, |a, &x| a.max(x)) as f64;
     if weight == 0.0 {
-        return mid.apply(c);
+        // Nothing to light (every term scales the colour or the opacity).
+        return (c, None);
     }
-    let (front, back) = (lit_at(0.0), lit_at(1.0));
+    let mid = lit_at(emission_centroid(c[3]));
+    // The variation of D, S and the silhouette factor is at most about 4
+    // (two intervals of each): a segment this faint is never split.
+    if weight * 4.0 < LIT_SPLIT_TOLERANCE {
+        return (mid.apply(c), None);
+    }
+    let front = front.unwrap_or_else(|| lit_at(0.0));
+    let back = lit_at(1.0);
     let var = |f: fn(&LitPoint) -> f64| (f(&front) - f(&mid)).abs() + (f(&mid) - f(&back)).abs();
     let variation = var(|p| p.diffuse) + var(|p| p.specular) + var(|p| p.silhouette);
     let pieces = ((variation * weight / LIT_SPLIT_TOLERANCE).sqrt().ceil() as usize).clamp(1, LIT_MAX_PIECES);
     if pieces == 1 {
-        return mid.apply(c);
+        return (mid.apply(c), Some(back));
     }
     let mut out = [0.0f32; 4];
     let step = 1.0 / pieces as f32;
@@ -381,13 +449,14 @@ pub fn light_segment(
             grad_back: lerp(seg.grad_front, seg.grad_back, w1),
             len_world: seg.len_world * step,
         };
-        let lit = lit_at(0.5 * (w0 + w1)).apply(shade(&piece));
+        let rgba = shade(&piece);
+        let lit = lit_at(w0 + (w1 - w0) * emission_centroid(rgba[3])).apply(rgba);
         let t = 1.0 - out[3];
         for (o, l) in out.iter_mut().zip(lit) {
             *o += t * l;
         }
     }
-    out
+    (out, Some(back))
 }
 
 /// The `"lighting"` object of a view file: the material, the lights and
@@ -558,10 +627,16 @@ mod tests {
         let p = s.lit_point(DVec3::Z, DVec3::ZERO, DVec3::Z, no_shadow);
         assert_eq!(p.specular, 0.0);
         assert!((p.diffuse - 1.0).abs() < 1e-6);
-        // Zero, tiny and non-finite gradients.
+        // Zero and non-finite gradients: the isotropic medium (here one
+        // light of intensity 1: ka + kd), no highlight.
         for g in [DVec3::ZERO, DVec3::splat(f64::NAN), DVec3::new(f64::INFINITY, 0.0, 0.0)] {
-            assert_eq!(s.lit_point(g, DVec3::ZERO, DVec3::Z, no_shadow), LitPoint::NONE);
+            let p = s.lit_point(g, DVec3::ZERO, DVec3::Z, no_shadow);
+            assert!((p.diffuse - 1.0).abs() < 1e-6 && p.specular == 0.0 && p.silhouette == 1.0, "{p:?}");
         }
+        // ... dimmed by shadows.
+        let shadowed = Shading { shadows: true, ..s };
+        let p = shadowed.lit_point(DVec3::ZERO, DVec3::ZERO, DVec3::Z, |_| 0.5);
+        assert!((p.diffuse - (0.3 + 0.7 * 0.5)).abs() < 1e-6, "{p:?}");
         let p = s.lit_point(DVec3::new(1e-300, 0.0, 1e-300), DVec3::ZERO, DVec3::Z, no_shadow);
         assert!(p.diffuse.is_finite() && p.specular.is_finite());
     }
@@ -572,13 +647,32 @@ mod tests {
             Shading { light: Some(Light::default()), silhouette: Some(2.0), gradient_floor: 2.0, ..Default::default() };
         let full = s.lit_point(DVec3::Z * 4.0, DVec3::ZERO, DVec3::Z, no_shadow);
         let half = s.lit_point(DVec3::Z, DVec3::ZERO, DVec3::Z, no_shadow);
-        assert!(full.diffuse == 1.0 && (full.specular - 0.2).abs() < 1e-6 && full.silhouette == 0.0, "{full:?}");
+        assert!((full.diffuse - 1.0).abs() < 1e-6 && (full.specular - 0.2).abs() < 1e-6, "{full:?}");
+        assert_eq!(full.silhouette, 0.0);
         assert!((half.diffuse - 1.0).abs() < 1e-6 && (half.specular - 0.1).abs() < 1e-6, "{half:?}");
         assert!((half.silhouette - 0.5).abs() < 1e-12, "{half:?}");
         let tiny = s.lit_point(DVec3::Z * 1e-12, DVec3::ZERO, DVec3::Z, no_shadow);
-        assert!((tiny.diffuse - 1.0).abs() < 1e-9 && tiny.specular < 1e-9 && tiny.silhouette > 1.0 - 1e-9);
+        assert!((tiny.diffuse - 1.0).abs() < 1e-6 && tiny.specular < 1e-9 && tiny.silhouette > 1.0 - 1e-9);
         assert!((Shading::gradient_floor_for([0.0, 2.0], [0.0; 3], [3.0, 4.0, 0.0]) - 0.008).abs() < 1e-9);
         assert_eq!(Shading::gradient_floor_for([1.0, 1.0], [0.0; 3], [1.0; 3]), 0.0);
+    }
+
+    #[test]
+    fn emission_centroid_moves_to_the_front_as_segments_thicken() {
+        assert_eq!(emission_centroid(0.0), 0.5);
+        assert_eq!(emission_centroid(f32::NAN), 0.5);
+        assert_eq!(emission_centroid(1.0), 0.0);
+        let mut last = 0.5;
+        for a in [0.01f32, 0.1, 0.5, 0.9, 0.999, 0.999999] {
+            let u = emission_centroid(a);
+            assert!(u < last && u > 0.0, "{a}: {u}");
+            last = u;
+        }
+        // Small α: ½ − α/12.
+        assert!((emission_centroid(0.01) - (0.5 - 0.01 / 12.0)).abs() < 1e-4);
+        // α = 1 − e^−τ with τ = 10: 1/10 − e^−10/(1 − e^−10).
+        let a = 1.0 - (-10.0f64).exp();
+        assert!((emission_centroid(a as f32) as f64 - (0.1 - (-10.0f64).exp() / a)).abs() < 1e-4);
     }
 
     #[test]

@@ -6,8 +6,9 @@
 //! walk (exact predicates, so a line through an edge or a vertex is neither
 //! lost nor counted twice) and the exact optical depth of each linear
 //! piece of the TF ([`tet_preint::optical_depth_with`]). Renderers
-//! interpolate it linearly inside each tet, like the gradients: the only
-//! approximation is that interpolation (the reference casts a shadow ray
+//! interpolate its optical depth linearly inside each tet, like the
+//! gradients, and take exp(−depth): the only approximation is that
+//! interpolation (the reference casts a shadow ray
 //! at every integration node instead, [`ShadowMode::Exact`]).
 //!
 //! The field depends on the mesh, the TF and the lights, not on the
@@ -17,9 +18,18 @@
 //! behind it (no acne; a vertex on the sheet's lit face sees transmittance
 //! 1 in the limit).
 //!
+//! Each vertex's value is the limit at the vertex from inside one of its
+//! (visible) tets: the walk starts a hair inside that tet and drops the
+//! segments that only circle the vertex (those leaving by faces that hold
+//! it), so a vertex on a lit boundary face sees 1 however dense the medium.
 //! A light inside the mesh (a point light) ends each walk at the light; a
 //! vertex at a point light's position sees transmittance 1. Huge
-//! extinction underflows to transmittance 0 (never NaN).
+//! extinction underflows to transmittance 0 (never NaN); a medium so dense
+//! that light dies within a small part of a cell is lit only at the
+//! boundary vertices facing the light — the field cannot resolve the lit
+//! skin the exact reference integrates. Vertices no
+//! visible tet uses (every tet around them transparent under the TF) get
+//! no walk and transmittance 1: nothing is drawn there.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -27,12 +37,19 @@ use glam::DVec3;
 use rayon::prelude::*;
 use tet_preint::{optical_depth_with, TransferFunction};
 
+use crate::cull::CellCuller;
 use crate::reference::{Line, ReferenceRenderer, ReferenceStats};
 use crate::shading::{LightSet, LightSource};
 use crate::RenderError;
 
-/// Optical depth beyond which transmittance is 0 in f64 (e^−746 underflows).
-pub const OPAQUE_DEPTH: f64 = 746.0;
+/// How far into one of its tets a vertex's walk starts, as a fraction of
+/// the way to the tet's centroid.
+const START_INSIDE: f64 = 1e-7;
+
+/// Optical depth at which a shadow walk stops: transmittance below
+/// e^−46 ≈ 1e-20 changes no pixel (what is stored is the transmittance so
+/// far, ≤ 1e-20; past e^−746 it is 0).
+pub const OPAQUE_DEPTH: f64 = 46.0;
 
 /// How a renderer obtains shadow transmittances.
 #[derive(Debug, Clone, Copy)]
@@ -60,8 +77,9 @@ pub struct ShadowKey {
 #[derive(Debug, Clone)]
 pub struct ShadowField {
     key: ShadowKey,
-    /// `per_light[i][v]`: transmittance from vertex v to light i; empty
-    /// for lights that cast no shadow (the headlight).
+    /// `per_light[i][v]`: optical depth from vertex v to light i (at most
+    /// [`OPAQUE_DEPTH`]); empty for lights that cast no shadow (the
+    /// headlight).
     per_light: Vec<Vec<f32>>,
     stats: ReferenceStats,
 }
@@ -80,6 +98,12 @@ impl ShadowField {
         if tf.normalized() {
             return Err(RenderError::NormalizedTransferFunction);
         }
+        if !tf.widgets().is_empty() {
+            return Err(RenderError::Scene(
+                "shadows need a 1D transfer function (this one has 2D widgets, whose extinction depends on |∇s|)"
+                    .into(),
+            ));
+        }
         let points = reference.points();
         let n = points.len();
         // Each vertex's walk starts a hair inside one of its tets (towards
@@ -88,23 +112,33 @@ impl ShadowField {
         // the light grazes a boundary face through the vertex (there the
         // vertex itself is on the line's perturbed outside).
         let tets = reference.tets();
+        let scalar = reference.scalars();
+        let culler = crate::TfCuller::new(tf);
         let mut owner = vec![u32::MAX; n];
         for (t, tet) in tets.iter().enumerate() {
+            let s = tet.map(|v| scalar[v as usize]);
+            let range =
+                [s.iter().copied().fold(f64::INFINITY, f64::min), s.iter().copied().fold(f64::NEG_INFINITY, f64::max)];
+            if culler.is_invisible(range, None) {
+                continue;
+            }
             for &v in tet {
                 if owner[v as usize] == u32::MAX {
                     owner[v as usize] = t as u32;
                 }
             }
         }
-        let start = |v: usize| -> DVec3 {
-            let p = DVec3::from(points[v]);
-            match owner[v] {
-                u32::MAX => p,
-                t => {
-                    let c = tets[t as usize].iter().map(|&w| DVec3::from(points[w as usize])).sum::<DVec3>() * 0.25;
-                    p + (c - p) * 1e-7
-                }
+        // The start point, its tet and the scalar there.
+        let start = |v: usize| -> Option<(DVec3, usize, f64)> {
+            let t = owner[v];
+            if t == u32::MAX {
+                return None;
             }
+            let tet = &tets[t as usize];
+            let p = DVec3::from(points[v]);
+            let c = tet.iter().map(|&w| DVec3::from(points[w as usize])).sum::<DVec3>() * 0.25;
+            let s_mean = tet.iter().map(|&w| scalar[w as usize]).sum::<f64>() * 0.25;
+            Some((p + (c - p) * START_INSIDE, t as usize, scalar[v] + (s_mean - scalar[v]) * START_INSIDE))
         };
         let casting: Vec<usize> =
             lights.lights().iter().enumerate().filter(|(_, l)| l.casts_shadow()).map(|(i, _)| i).collect();
@@ -122,8 +156,14 @@ impl ShadowField {
                     let len = range.len();
                     let v = range
                         .map(|v| {
-                            let depth = reference.depth_to_light(start(v), &light, tf, scratch, &mut st);
-                            (-depth).exp() as f32
+                            let depth: f64 = match start(v) {
+                                Some((p, t, s)) => {
+                                    reference.depth_to_light_from(p, t, s, Some(v as u32), &light, tf, scratch, &mut st)
+                                }
+                                // A point no visible tet uses: never drawn.
+                                None => 0.0,
+                            };
+                            depth.min(OPAQUE_DEPTH) as f32
                         })
                         .collect();
                     progress(done.fetch_add(len, Ordering::Relaxed) + len, total);
@@ -151,11 +191,18 @@ impl ShadowField {
         &self.stats
     }
 
-    /// Transmittance from vertex `v` to light `i` (1 for a light without a
-    /// shadow).
+    /// Optical depth from vertex `v` to light `i` (0 for a light without a
+    /// shadow). Renderers interpolate the depth inside a tet and take
+    /// exp(−depth): exact where the depth is linear (a uniform medium under
+    /// a directional light), and never a transmittance above the vertices'.
     #[inline]
+    pub fn depth_at(&self, light: usize, v: u32) -> f32 {
+        self.per_light.get(light).and_then(|f| f.get(v as usize)).copied().unwrap_or(0.0)
+    }
+
+    /// Transmittance from vertex `v` to light `i`: exp(−depth).
     pub fn at(&self, light: usize, v: u32) -> f32 {
-        self.per_light.get(light).and_then(|f| f.get(v as usize)).copied().unwrap_or(1.0)
+        (-self.depth_at(light, v)).exp()
     }
 
     /// Whether light `i` has a field.
@@ -182,6 +229,48 @@ pub struct ShadowScratch {
 }
 
 impl ReferenceRenderer<'_> {
+    /// [`ReferenceRenderer::depth_to_light`] from `from`, a point strictly
+    /// inside `tet` with scalar `s_from`: the walk starts there and covers
+    /// only the tets towards the light. With `near_vertex`, `from` stands
+    /// for that vertex of `tet` approached from inside the tet: the depth
+    /// is the limit there (a vertex on a lit boundary face sees 1 however
+    /// dense the medium).
+    #[allow(clippy::too_many_arguments)]
+    pub fn depth_to_light_from(
+        &self,
+        from: DVec3,
+        tet: usize,
+        s_from: f64,
+        near_vertex: Option<u32>,
+        light: &LightSource,
+        tf: &TransferFunction,
+        scratch: &mut ShadowScratch,
+        stats: &mut ReferenceStats,
+    ) -> f64 {
+        if !light.casts_shadow() {
+            return 0.0;
+        }
+        let Some((to_light, dist)) = light.towards(from, DVec3::Z) else { return 0.0 };
+        let Some(line) = Line::through(from, from + to_light) else { return 0.0 };
+        let mut depth = 0.0;
+        let breakpoints = &mut scratch.breakpoints;
+        stats.rays += 1;
+        // Started a hair from `near_vertex`: while the ray leaves tets by
+        // faces holding that vertex it is still circling it, and those
+        // segments vanish in the limit of starting at the vertex.
+        let mut circling = near_vertex;
+        self.walk_line_from_inside(&line, tet, s_from, &mut scratch.entries, stats, &mut |seg| {
+            if let Some(v) = circling {
+                if seg.back.ids.contains(&v) {
+                    return false;
+                }
+                circling = None;
+            }
+            accumulate_depth(seg, dist, tf, breakpoints, &mut depth)
+        });
+        depth
+    }
+
     /// Optical depth from `from` (world) to `light` through the mesh:
     /// exact walk, exact depth per segment; stops once the depth reaches
     /// [`OPAQUE_DEPTH`]. 0 where the light has no direction from `from`.
@@ -203,20 +292,29 @@ impl ReferenceRenderer<'_> {
         let breakpoints = &mut scratch.breakpoints;
         stats.rays += 1;
         self.walk_line(&line, 0.0, &mut scratch.entries, stats, &mut |seg| {
-            if seg.t_front >= dist {
-                return true;
-            }
-            let t_back = seg.back.t.min(dist);
-            let s_back = if t_back < seg.back.t {
-                seg.front.s + (seg.back.s - seg.front.s) * seg.frac(t_back)
-            } else {
-                seg.back.s
-            };
-            depth += optical_depth_with(tf, seg.s_front(), s_back, t_back - seg.t_front, breakpoints);
-            depth >= OPAQUE_DEPTH || t_back >= dist
+            accumulate_depth(seg, dist, tf, breakpoints, &mut depth)
         });
         depth
     }
+}
+
+/// Adds a shadow ray's segment (up to the light at `dist`) to `depth`;
+/// true once the ray is done (past the light, or opaque).
+fn accumulate_depth(
+    seg: &crate::reference::LineSegment,
+    dist: f64,
+    tf: &TransferFunction,
+    breakpoints: &mut Vec<f64>,
+    depth: &mut f64,
+) -> bool {
+    if seg.t_front >= dist {
+        return true;
+    }
+    let t_back = seg.back.t.min(dist);
+    let s_back =
+        if t_back < seg.back.t { seg.front.s + (seg.back.s - seg.front.s) * seg.frac(t_back) } else { seg.back.s };
+    *depth += optical_depth_with(tf, seg.s_front(), s_back, t_back - seg.t_front, breakpoints);
+    *depth >= OPAQUE_DEPTH || t_back >= dist
 }
 
 impl crate::Scene {

@@ -32,7 +32,7 @@ use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_engine::{Certifier, CpuFrameRenderer, FrameRenderer, FrameStats as EngineStats, GpuFrameRenderer, Look};
 use tet_preint::{BakeOptions, CertifyOptions, Method, Table3dParams, TableDomain, TransferFunction};
-use tet_render::{Display, Image, Scene, ViewSpec};
+use tet_render::{Display, Image, Scene, Shading, ViewSpec};
 
 /// Everything a frame depends on.
 #[derive(Clone)]
@@ -51,6 +51,9 @@ pub struct FrameRequest {
     /// A time-series bundle's time (`None`: the scalar as loaded, the
     /// first step).
     pub time: Option<f64>,
+    /// Lighting and shadows (CPU only: a lit frame is drawn on the CPU
+    /// even when the GPU is preferred).
+    pub shading: Shading,
 }
 
 impl FrameRequest {
@@ -63,6 +66,7 @@ impl FrameRequest {
             && self.prefer_gpu == other.prefer_gpu
             && self.display == other.display
             && self.time == other.time
+            && self.shading == other.shading
     }
 }
 
@@ -294,7 +298,8 @@ impl Engine {
     /// Renders `req`, recomputing only what changed since the last call.
     pub fn render(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
         self.apply_time(req.time)?;
-        let use_gpu = req.prefer_gpu && self.gpu.is_some() && gpu_supports(req.method);
+        let lit = req.shading.is_active();
+        let use_gpu = req.prefer_gpu && self.gpu.is_some() && gpu_supports(req.method) && !lit;
         if use_gpu {
             return self.render_gpu(req);
         }
@@ -302,6 +307,8 @@ impl Engine {
             format!("CPU ({})", self.gpu_note)
         } else if !req.prefer_gpu {
             format!("CPU (GPU {} not selected)", self.gpu_note)
+        } else if lit {
+            "CPU (lighting and shadows are CPU-only)".to_string()
         } else {
             format!("CPU (method {} is not on the GPU)", req.method)
         };
@@ -355,10 +362,20 @@ impl Engine {
     }
 
     /// The frame request of tet_engine for `req`: the viewer's CPU
-    /// algorithm, tet_engine's defaults otherwise (unlit, culled, early
-    /// termination).
+    /// algorithm and the request's shading, tet_engine's defaults otherwise
+    /// (culled, early termination).
     fn engine_request(&self, req: &FrameRequest) -> tet_engine::FrameRequest {
-        tet_engine::FrameRequest { cpu: self.cpu_kind, ..tet_engine::FrameRequest::new(req.view.clone()) }
+        tet_engine::FrameRequest {
+            cpu: self.cpu_kind,
+            shading: req.shading,
+            ..tet_engine::FrameRequest::new(req.view.clone())
+        }
+    }
+
+    /// Seconds the last CPU frame spent on its shadow field (0 when it
+    /// reused one).
+    pub fn shadow_seconds(&self) -> f64 {
+        self.cpu.shadow_seconds
     }
 
     fn render_cpu(&mut self, req: &FrameRequest, backend: String) -> Result<Frame, ViewerError> {
@@ -470,6 +487,7 @@ mod tests {
             prefer_gpu,
             display: Display::default(),
             time: None,
+            shading: Shading::default(),
         }
     }
 
@@ -596,6 +614,35 @@ mod tests {
         }
     }
 
+    /// Lighting with shadows: drawn on the CPU even with the GPU preferred,
+    /// different from the unlit frame; the shadow field is computed for the
+    /// first lit frame and reused when only the camera moves.
+    #[test]
+    fn lit_frames_with_shadows_reuse_their_field_across_camera_moves() {
+        let bundle = sample_bundle();
+        let mut engine = Engine::new(&bundle, false).unwrap();
+        let model = TfModel::ramp(engine.scene().scalar_range(), 0.5);
+        let plain = request(&engine, &model, Method::Table3d, true);
+        let unlit = engine.render(&plain).unwrap();
+        let lights = tet_render::LightSet::new(&[tet_render::LightSource::Directional {
+            direction: [0.5, -0.7, -0.5],
+            intensity: 1.0,
+        }])
+        .unwrap();
+        let lit = FrameRequest {
+            shading: tet_render::Lighting { lights, shadows: true, ..Default::default() }.shading(None),
+            ..plain.clone()
+        };
+        assert!(!lit.same_frame(&plain));
+        let f = engine.render(&lit).unwrap();
+        assert!(f.stats.backend.starts_with("CPU"), "{}", f.stats.backend);
+        assert!(engine.shadow_seconds() > 0.0);
+        assert!(tet_render::diff(&f.image, &unlit.image).unwrap().max_abs > 1e-3);
+        let moved = FrameRequest { view: lit.view.orbit(15.0, 0.0, 1.0), ..lit.clone() };
+        engine.render(&moved).unwrap();
+        assert_eq!(engine.shadow_seconds(), 0.0, "a camera move keeps the field");
+    }
+
     /// A held-out TF (a dozen narrow opacity peaks): the first table3d frame
     /// draws the plain table while its certified bake runs; once that is
     /// done, the same request draws the certified table, which meets 1/255
@@ -619,6 +666,7 @@ mod tests {
             prefer_gpu: false,
             display: Display::default(),
             time: None,
+            shading: Shading::default(),
         };
         let plain = engine.render(&req).unwrap();
         assert_eq!(plain.stats.accuracy, TableAccuracy::Certifying);

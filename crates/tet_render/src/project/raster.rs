@@ -347,7 +347,7 @@ impl TetSetup {
             }
             if let Some(f) = inp.shadows {
                 for i in 0..f.num_lights() {
-                    self.lit_fields.push(field_of(&tet.map(|v| f.at(i, v) as f64)));
+                    self.lit_fields.push(field_of(&tet.map(|v| f.depth_at(i, v) as f64)));
                 }
             }
         }
@@ -565,7 +565,7 @@ impl TetSetup {
         };
         let mut shadow = [1.0; crate::MAX_LIGHTS];
         for (i, fi) in f[self.n_pos..].iter().enumerate().take(crate::MAX_LIGHTS) {
-            shadow[i] = fi.at(x, y, z).clamp(0.0, 1.0);
+            shadow[i] = (-fi.at(x, y, z).max(0.0)).exp();
         }
         (pos, shadow)
     }

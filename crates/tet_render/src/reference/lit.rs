@@ -6,10 +6,11 @@
 //! independent emission; D and S the lighting terms of
 //! [`crate::shading`]), attenuated by the ray's transmittance. Inside each
 //! ray–tet segment the TF's nodes split the segment into pieces on which
-//! κ and ρ are linear; each piece is integrated by adaptive Gauss–Kronrod
-//! (7/15 points, halving until the Kronrod–Gauss difference is below the
-//! tolerance) with the transmittance in closed form, so the only error is
-//! the quadrature's, bounded by [`LitReference::tolerance`]. D and S come
+//! κ and ρ are linear; each piece is split where its optical depth reaches
+//! ½, 1, 2, 4, … and integrated by adaptive Gauss–Kronrod (7/15 points,
+//! halving until the Kronrod–Gauss difference is below the tolerance) with
+//! the transmittance in closed form, so the only error is the
+//! quadrature's, bounded by [`LitReference::tolerance`]. D and S come
 //! from the gradient interpolated linearly in the tet (exact at every
 //! node) and, with shadows, from an exact shadow ray cast from each node
 //! to each light ([`ShadowMode::Exact`]) or from the per-vertex
@@ -93,6 +94,8 @@ struct LitRay<'r, 'a> {
     seg: &'r LineSegment,
     g_front: [f64; 3],
     g_back: [f64; 3],
+    /// Optical depths towards each light from the shadow field, at the
+    /// segment's ends (Field mode).
     v_front: [f64; MAX_LIGHTS],
     v_back: [f64; MAX_LIGHTS],
 }
@@ -107,7 +110,7 @@ impl LitRay<'_, '_> {
         let lights = self.lit.shading.sources;
         let p = self.lit.shading.lit_point(g, pos, self.view_dir, |i| match self.lit.shadows {
             ShadowMode::Exact => (-self.r.depth_to_light(pos, &lights.lights()[i], self.tf, shadow, stats)).exp(),
-            ShadowMode::Field(_) => self.v_front[i] + u * (self.v_back[i] - self.v_front[i]),
+            ShadowMode::Field(_) => (-(self.v_front[i] + u * (self.v_back[i] - self.v_front[i]))).exp(),
         });
         (p.diffuse, p.specular)
     }
@@ -128,6 +131,40 @@ impl LitRay<'_, '_> {
             Emission::Independent => 1.0,
         };
         std::array::from_fn(|k| tr * (w * (p.c0[k] + f * (p.c1[k] - p.c0[k])) * d + rho * s))
+    }
+
+    /// ∫ over the whole piece: split where its optical depth from the front
+    /// reaches ½, 1, 2, 4, … (so that no interval holds more than a
+    /// doubling of depth, and an opaque piece's light, all in a thin layer
+    /// at its front, is not missed by the quadrature nodes), each interval
+    /// integrated adaptively; intervals beyond depth 46 (transmittance
+    /// 1e-20) are dropped.
+    fn integrate_piece(&self, p: &Piece, tol: f64, shadow: &mut ShadowScratch, stats: &mut ReferenceStats) -> [f64; 3] {
+        // Depth τ(v) = ρ0 v + (ρ1 − ρ0) v² / (2d), increasing; v(τ) solves
+        // the quadratic in its stable form.
+        let a = 0.5 * (p.rho1 - p.rho0) / p.d;
+        let total = 0.5 * (p.rho0 + p.rho1) * p.d;
+        let v_at = |tau: f64| {
+            let disc = (p.rho0 * p.rho0 + 4.0 * a * tau).max(0.0).sqrt();
+            (2.0 * tau / (p.rho0 + disc)).clamp(0.0, p.d)
+        };
+        let mut out = [0.0; 3];
+        let (mut v0, mut tau) = (0.0, 0.5);
+        loop {
+            let last = tau >= total || tau > 46.0;
+            let v1 = if last { p.d } else { v_at(tau) };
+            if v1 > v0 {
+                let part = self.integrate(p, v0, v1, tol, 0, shadow, stats);
+                for (o, x) in out.iter_mut().zip(part) {
+                    *o += x;
+                }
+            }
+            if last {
+                return out;
+            }
+            v0 = v1;
+            tau *= 2.0;
+        }
     }
 
     /// ∫ over [a, b] ⊂ [0, d] of the piece's integrand, adaptively.
@@ -207,6 +244,11 @@ impl ReferenceRenderer<'_> {
         if tf.normalized() {
             return Err(RenderError::NormalizedTransferFunction);
         }
+        if lit.shading.light.is_some() && !tf.widgets().is_empty() {
+            return Err(RenderError::Scene(
+                "the lit reference needs a 1D transfer function (this one has 2D widgets)".into(),
+            ));
+        }
         self.render_rows(camera, progress, &|x, y, scratch| {
             if lit.shading.light.is_none() {
                 return self.trace_pixel(camera, x, y, tf, options, scratch);
@@ -242,8 +284,8 @@ impl ReferenceRenderer<'_> {
         self.walk_line(&line, t_start, &mut scratch.entries, &mut res.stats, &mut |seg| {
             let fv = |p: &super::LinePoint| -> [f64; MAX_LIGHTS] {
                 std::array::from_fn(|i| match field {
-                    Some(f) if f.has_light(i) => (0..3).map(|k| p.w[k] * f.at(i, p.ids[k]) as f64).sum(),
-                    _ => 1.0,
+                    Some(f) if f.has_light(i) => (0..3).map(|k| p.w[k] * f.depth_at(i, p.ids[k]) as f64).sum(),
+                    _ => 0.0,
                 })
             };
             let ray = LitRay {
@@ -295,7 +337,7 @@ impl ReferenceRenderer<'_> {
                 let c = if silent {
                     [0.0; 3]
                 } else {
-                    ray.integrate(&piece, 0.0, d, lit.tolerance, 0, shadow, &mut shadow_stats)
+                    ray.integrate_piece(&piece, lit.tolerance, shadow, &mut shadow_stats)
                 };
                 let tr = 1.0 - acc[3];
                 for (a, ck) in acc.iter_mut().zip(c) {

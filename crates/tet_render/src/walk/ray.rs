@@ -653,15 +653,24 @@ impl WalkCtx<'_> {
             DVec3::ZERO
         };
         let shadow = |i: usize| match m.shadows.as_deref() {
-            Some(f) if f.has_light(i) => ends.at(w, |v| [f.at(i, m.scene_vertex[v as usize])])[0] as f64,
+            Some(f) if f.has_light(i) => {
+                (-(ends.at(w, |v| [f.depth_at(i, m.scene_vertex[v as usize])])[0] as f64)).exp()
+            }
             _ => 1.0,
         };
         sh.lit_point(DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64), pos, view_dir, shadow)
     }
 
     /// Lights segment `seg` (shaded `c`): see [`crate::shading::light_segment`].
-    fn light_segment(&self, seg: &Segment, c: Rgba32, ends: &LitEnds, view_dir: DVec3) -> Rgba32 {
-        crate::shading::light_segment(seg, c, |w| self.lit_at(ends, w, view_dir), |p| self.shader.shade(p))
+    fn light_segment(
+        &self,
+        seg: &Segment,
+        c: Rgba32,
+        front: Option<LitPoint>,
+        ends: &LitEnds,
+        view_dir: DVec3,
+    ) -> (Rgba32, Option<LitPoint>) {
+        crate::shading::light_segment(seg, c, front, |w| self.lit_at(ends, w, view_dir), |p| self.shader.shade(p))
     }
 
     /// Shades the batch and composites it under `acc` in order; true once
@@ -675,6 +684,9 @@ impl WalkCtx<'_> {
         self.shader.shade_batch(&batch.segs, &mut batch.rgba);
         batch.segs.len = 0;
         let view_dir = self.lit.then(|| self.view.frame.view_dir(fx as f64, fy as f64));
+        // The lighting terms at the previous segment's back face point,
+        // which is the next one's front when the ray went straight on.
+        let mut prev_back: Option<(FacePoint, LitPoint)> = None;
         for k in 0..n {
             let mut c = batch.rgba[k];
             if let Some(vd) = view_dir {
@@ -686,7 +698,13 @@ impl WalkCtx<'_> {
                     grad_back: segs.grad_back[k],
                     len_world: segs.len_world[k],
                 };
-                c = self.light_segment(&seg, c, &batch.lit_ends[k], vd);
+                let ends = &batch.lit_ends[k];
+                let front = prev_back
+                    .filter(|(p, _)| ends.u_front == 0.0 && p.ids == ends.a.ids && p.lam == ends.a.lam)
+                    .map(|(_, l)| l);
+                let (lit, back) = self.light_segment(&seg, c, front, ends, vd);
+                c = lit;
+                prev_back = back.map(|l| (ends.b, l));
             }
             let t = 1.0 - acc[3];
             acc[0] += t * c[0];

@@ -19,7 +19,7 @@ use tet_analysis::{Axis, Histograms, Scale};
 use tet_bundle::Bundle;
 use tet_preint::widget::{MAX_FREQUENCY, UNBOUNDED};
 use tet_preint::{LoadOptions, Method, Shape};
-use tet_render::{Display, ToneMap, ViewSpec};
+use tet_render::{Display, LightSet, LightSource, Lighting, Shading, ToneMap, ViewSpec};
 
 mod editor;
 
@@ -269,6 +269,13 @@ pub(crate) struct ViewerApp {
     pub(crate) drag_scale: f32,
     pub(crate) exposure: f32,
     pub(crate) tonemap: bool,
+    /// Lighting: a key light from (azimuth, elevation) degrees about the
+    /// home view (from its eye side, above its horizon), a dim headlight,
+    /// and the key light's volumetric shadow.
+    pub(crate) light: bool,
+    pub(crate) shadows: bool,
+    pub(crate) light_azimuth: f32,
+    pub(crate) light_elevation: f32,
     pub(crate) tx: Sender<(u64, FrameRequest)>,
     pub(crate) rx: Receiver<Reply>,
     pub(crate) seq: u64,
@@ -292,6 +299,20 @@ pub(crate) struct ViewerApp {
     /// The open file dialog and the field it fills.
     pub(crate) dialog: Option<(FileDialog, Browse)>,
     pub(crate) script: Option<Script>,
+}
+
+/// The direction a key light at (azimuth, elevation) degrees travels: on
+/// the eye side of `home`, turned about its view-up by the azimuth (towards
+/// the right for positive angles) and raised above its horizon by the
+/// elevation, shining towards the focal point.
+pub(crate) fn key_light_direction(home: &ViewSpec, azimuth_deg: f64, elevation_deg: f64) -> [f64; 3] {
+    use glam::DVec3;
+    let forward = (DVec3::from(home.focal_point) - DVec3::from(home.position)).normalize_or(DVec3::NEG_Z);
+    let right = forward.cross(DVec3::from(home.view_up)).normalize_or(DVec3::X);
+    let up = right.cross(forward);
+    let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
+    let from = (-forward * az.cos() + right * az.sin()) * el.cos() + up * el.sin();
+    (-from).into()
 }
 
 impl ViewerApp {
@@ -340,6 +361,10 @@ impl ViewerApp {
             drag_scale: 0.5,
             exposure: 1.0,
             tonemap: true,
+            light: false,
+            shadows: false,
+            light_azimuth: -40.0,
+            light_elevation: 45.0,
             tx,
             rx,
             seq: 0,
@@ -442,7 +467,20 @@ impl ViewerApp {
             prefer_gpu: self.prefer_gpu,
             display: self.display(),
             time: self.time,
+            shading: self.shading(),
         })
+    }
+
+    /// The shading the light controls ask for.
+    pub(crate) fn shading(&self) -> Shading {
+        if !self.light {
+            return Shading::default();
+        }
+        let key = key_light_direction(&self.home, self.light_azimuth as f64, self.light_elevation as f64);
+        let lights =
+            [LightSource::Directional { direction: key, intensity: 0.9 }, LightSource::Headlight { intensity: 0.3 }];
+        let lights = LightSet::new(&lights).expect("a finite key light and a headlight");
+        Lighting { lights, shadows: self.shadows, ..Default::default() }.shading(None)
     }
 
     pub(crate) fn controls(&mut self, ui: &mut egui::Ui) {
@@ -493,6 +531,15 @@ impl ViewerApp {
             for (s, l) in SCALES {
                 ui.selectable_value(&mut self.drag_scale, s, l);
             }
+        });
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut self.light, "Light").on_hover_text("key light and headlight, gradients as normals (CPU)");
+            ui.add_enabled(self.light, egui::Checkbox::new(&mut self.shadows, "Shadows"))
+                .on_hover_text("the key light's volumetric shadow (recomputed when the light or the TF changes)");
+        });
+        ui.add_enabled_ui(self.light, |ui| {
+            ui.add(egui::Slider::new(&mut self.light_azimuth, -180.0..=180.0).text("light azimuth °"));
+            ui.add(egui::Slider::new(&mut self.light_elevation, -89.0..=89.0).text("light elevation °"));
         });
         ui.horizontal(|ui| {
             ui.checkbox(&mut self.tonemap, "Reinhard");
@@ -965,6 +1012,19 @@ impl eframe::App for ViewerApp {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn key_light_comes_from_the_eye_side_turned_and_raised() {
+        let home = ViewSpec::looking_at([0.0, 0.0, 5.0], [0.0; 3], [0.0, 1.0, 0.0], [8, 8]);
+        let d = |az, el| glam::DVec3::from(key_light_direction(&home, az, el));
+        // Straight from the eye: travels along the view direction (−z).
+        assert!((d(0.0, 0.0) - glam::DVec3::NEG_Z).length() < 1e-12);
+        // Raised 90°: from above, travelling down.
+        assert!((d(0.0, 90.0) - glam::DVec3::NEG_Y).length() < 1e-12);
+        // Turned 90° to the right (+x here): travelling towards −x.
+        assert!((d(90.0, 0.0) - glam::DVec3::NEG_X).length() < 1e-12);
+        assert!((d(-40.0, 45.0).length() - 1.0).abs() < 1e-12);
+    }
 
     #[test]
     fn image_rect_keeps_the_view_aspect_inside_the_panel() {

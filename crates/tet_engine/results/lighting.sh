@@ -1,0 +1,28 @@
+#!/bin/sh
+# Lighting and shadows: the rows of lighting.md and the pictures beside it.
+# Run from the repository root; writes into crates/tet_engine/results/ and /tmp.
+set -e
+R=crates/tet_engine/results
+T=${CARGO_TARGET_DIR:-target}/release
+cargo build --release -p tet_engine --example lighting_bench -p tetview -p tetprep
+$T/tetprep convert tests/data/plot3d/bluntfinxyz.bin --q tests/data/plot3d/bluntfinq.bin --scalar density --gradients -o /tmp/bf.tetb
+$T/tetprep convert tests/data/points/autzen_trim.las --gradients -o /tmp/autzen.tetb
+# Rows (frames at 512², errors at 96², costs only at 8²): Blunt Fin with the
+# sample TF and with a denser one whose shadows show, the Delaunay mesh of
+# the Autzen lidar points with its automatic TF, and two 1M-tet meshes of
+# /work/bench (ironProt 68³ and a 60³ grid, 6-split) when present.
+rm -f $R/lighting_rows.md
+$T/examples/lighting_bench /tmp/bf.tetb formats/samples/tf_normalized.json 512 96 $R/lighting_rows.md
+$T/examples/lighting_bench /tmp/bf.tetb $R/bf_shadow_tf.json 512 96 $R/lighting_rows.md
+$T/examples/lighting_bench /tmp/autzen.tetb $R/autzen_tf.json 512 96 $R/lighting_rows.md
+for b in ip grid60; do
+  [ -f /work/bench/$b.tetb ] && $T/examples/lighting_bench /work/bench/$b.tetb formats/samples/tf_normalized.json 512 8 $R/lighting_rows.md
+done
+# Pictures: the same light without and with shadows.
+for shadows in "" --shadows; do
+  name=$([ -n "$shadows" ] && echo shadows || echo lit)
+  $T/tetview render /tmp/bf.tetb --tf $R/bf_shadow_tf.json --light-dir 0.6,-0.5,-0.62 \
+    --azimuth 34 --elevation 20 --size 512x512 $shadows -o $R/bf_$name.png
+  $T/tetview render /tmp/autzen.tetb --tf $R/autzen_tf.json --light-dir 0.6,-0.5,-0.62 \
+    --azimuth 34 --elevation 20 --size 512x512 $shadows -o $R/autzen_$name.png
+done

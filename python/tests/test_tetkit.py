@@ -101,6 +101,37 @@ def test_render_equals_tetview_bit_for_bit(tmp_path):
             == cli.tobytes()
 
 
+def test_lights_and_shadows_match_tetview_and_the_lit_reference(tmp_path):
+    b = bluntfin()
+    kw = dict(tf=PEAKS, size=(48, 40), azimuth=30, elevation=20)
+    lit = tetkit.render(b, light_dir=(0.6, -0.5, -0.62), **kw)
+    dark = tetkit.render(b, light_dir=(0.6, -0.5, -0.62), shadows=True, **kw)
+    assert tetkit.diff(lit, dark)["max_abs"] > 1e-3
+    # The lighting against the lit reference; shadows darken it (the
+    # per-vertex shadow field's own error is measured by
+    # crates/tet_engine/results/lighting.sh, not bounded here).
+    ref_lit = tetkit.reference(b, light_dir=(0.6, -0.5, -0.62), **kw)
+    assert tetkit.diff(lit, ref_lit)["rmse"] < 5e-3
+    ref_dark = np.asarray(tetkit.reference(b, light_dir=(0.6, -0.5, -0.62), shadows=True, **kw))
+    assert np.isfinite(ref_dark).all()
+    assert (ref_dark[..., :3] <= np.asarray(ref_lit)[..., :3] + 1e-6).all()
+    with pytest.raises(tetkit.TetkitError, match="headlight casts no shadow"):
+        tetkit.render(b, shadows=True, **kw)
+    with pytest.raises(tetkit.TetkitError, match="light_dir"):
+        tetkit.render(b, light_dir="up", **kw)
+    tetview = os.environ.get("TETVIEW")
+    if tetview:
+        bundle_path, tf_path, npy = tmp_path / "bf.tetb", tmp_path / "peaks.json", tmp_path / "cli.npy"
+        b.save(str(bundle_path))
+        tf_path.write_text(json.dumps(PEAKS))
+        subprocess.run(
+            [tetview, "render", str(bundle_path), "--tf", str(tf_path), "--size", "48x40", "--azimuth", "30",
+             "--elevation", "20", "--light-dir", "0.6,-0.5,-0.62", "--shadows", "-o", str(tmp_path / "x.png"),
+             "--float", str(npy)],
+            check=True, capture_output=True)
+        assert np.load(npy).tobytes() == np.asarray(dark).tobytes()
+
+
 def test_reference_diff_and_display():
     b = bluntfin()
     img = tetkit.render(b, tf=PEAKS, size=(64, 48), elevation=20)

@@ -241,6 +241,17 @@ def _view_args(view: Any, azimuth: float, elevation: float, zoom: float, size: T
     return args
 
 
+def _light_args(light_dir: Any, shadows: bool) -> dict:
+    args = {"shadows": bool(shadows)}
+    if light_dir is not None:
+        try:
+            x, y, z = light_dir
+            args["light_dir"] = (float(x), float(y), float(z))
+        except (TypeError, ValueError):
+            raise TetkitError(f"light_dir: expected (x, y, z), got {light_dir!r}") from None
+    return args
+
+
 def _progress(progress: Any, what: str) -> Any:
     """The native progress callback: a callable ``f(done, total)`` as it
     is; ``True``: a tqdm bar where tqdm is installed (else none); ``None``
@@ -275,7 +286,8 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
            elevation: float = 0.0, zoom: float = 1.0, size: Tuple[int, int] = (512, 512), renderer: str = "walk",
            lut: Optional[PathLike] = None, light: bool = False, cull: bool = True,
            time: Optional[float] = None, stats: bool = False, table: Optional[Table] = None,
-           progress: Any = None) -> Any:
+           progress: Any = None, light_dir: Optional[Tuple[float, float, float]] = None,
+           shadows: bool = False) -> Any:
     """Renders on the CPU as ``tetview render`` does: the same TF policy,
     table bake (``method``: see :func:`methods`), ``table`` (from
     :func:`bake`: drawn with its TF and method) or ``lut`` file, ``renderer``
@@ -287,8 +299,13 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
     engine — bake or load, scene, frame — ``frame_seconds``, ``renderer``,
     ``tets_drawn``, ``tets_culled``, ``crossings``, ``fragments``).
     ``progress``: a callable ``f(done, total)`` over tiles, or ``True`` for
-    a tqdm bar where tqdm is installed."""
+    a tqdm bar where tqdm is installed. Lighting as ``tetview render``'s:
+    ``light`` (a headlight), ``light_dir`` (one directional light
+    travelling along that world direction), the view's ``"lighting"``
+    object (several lights; it turns lighting on), and ``shadows``
+    (volumetric shadows of every light but the headlight)."""
     args = _view_args(view, azimuth, elevation, zoom, size)
+    args.update(_light_args(light_dir, shadows))
     args.update(_tf_args(tf))
     if lut is not None:
         args["lut"] = _path("lut", lut)
@@ -310,11 +327,16 @@ def bake(bundle: Bundle, tf: TfLike = None, method: str = "table3d") -> Table:
 
 def reference(bundle: Bundle, tf: TfLike = None, view: Any = None, azimuth: float = 0.0, elevation: float = 0.0,
               zoom: float = 1.0, size: Tuple[int, int] = (512, 512), time: Optional[float] = None,
-              progress: Any = None) -> Image:
+              progress: Any = None, light: bool = False, light_dir: Optional[Tuple[float, float, float]] = None,
+              shadows: bool = False) -> Image:
     """The exact ray-cast reference (``tetview reference``) of the same
-    view and TF: the ground truth :func:`diff` compares with."""
+    view and TF: the ground truth :func:`diff` compares with. With
+    lighting (as :func:`render`'s) it integrates the lighting along every
+    ray and casts exact shadow rays."""
     args = _view_args(view, azimuth, elevation, zoom, size)
     args.update(_tf_args(tf))
+    args.update(_light_args(light_dir, shadows))
+    args["light"] = bool(light)
     return Image(_tetkit.reference(_at(bundle, time), progress=_progress(progress, "reference"), **args))
 
 

@@ -88,6 +88,8 @@ def render(
     cull: bool = True,
     table: Optional[Table] = None,
     progress: Optional[Callable[[int, int], None]] = None,
+    light_dir: Optional[Tuple[float, float, float]] = None,
+    shadows: bool = False,
 ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]: ...
 def reference(
     bundle: Bundle,
@@ -100,6 +102,9 @@ def reference(
     zoom: float = 1.0,
     size: Tuple[int, int] = (512, 512),
     progress: Optional[Callable[[int, int], None]] = None,
+    light: bool = False,
+    light_dir: Optional[Tuple[float, float, float]] = None,
+    shadows: bool = False,
 ) -> npt.NDArray[np.float32]: ...
 def tonemap(
     image: npt.NDArray[np.float32], exposure: float = 1.0, background: Tuple[float, float, float] = ..., reinhard: bool = True

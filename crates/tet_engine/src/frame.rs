@@ -316,8 +316,8 @@ impl FrameRenderer for ReferenceFrameRenderer<'_> {
                 }
                 _ => ShadowMode::Exact,
             };
-            let lit = LitReference::new(shading, gradients, shadows);
-            self.renderer.render_lit(&camera, &look.tf, &options, &lit, &progress)?
+            let lit = LitReference { options, ..LitReference::new(shading, gradients, shadows) };
+            self.renderer.render_lit(&camera, &look.tf, &lit, &progress)?
         } else {
             self.renderer.render(&camera, &look.tf, &options, &progress)?
         };

@@ -41,7 +41,7 @@ use tet_engine::{
     resolve_tf, CpuFrameRenderer, FrameRenderer, FrameRequest, Look, ReferenceFrameRenderer, TfRequest, TfSource,
 };
 use tet_preint::{Colormap, Method, TransferFunction};
-use tet_render::{CpuRenderer, Display, Image, Light, Shading, ToneMap, ViewSpec};
+use tet_render::{CpuRenderer, Display, Image, Shading, ToneMap, ViewSpec};
 
 create_exception!(
     _tetkit,
@@ -479,6 +479,23 @@ fn from_cells(
 
 /// The view of `tetview render`: a VTK-fields view JSON, or the default
 /// framing of the bundle's bounds orbited by azimuth/elevation/zoom.
+/// The shading a Python call asks for: the view JSON's "lighting", a
+/// light direction, the headlight, shadows (`tet_render::Lighting::choose`,
+/// as `tetview`).
+fn shading_of(
+    view_json: Option<&str>,
+    light: bool,
+    light_dir: Option<(f64, f64, f64)>,
+    shadows: bool,
+) -> Result<Shading, tet_render::RenderError> {
+    let from_view = match view_json {
+        Some(text) => tet_render::Lighting::from_view_json(text)?,
+        None => None,
+    };
+    let lighting = tet_render::Lighting::choose(from_view, light, light_dir.map(|(x, y, z)| [x, y, z]), shadows)?;
+    Ok(lighting.map(|l| l.shading(None)).unwrap_or_default())
+}
+
 pub fn view_of(
     bundle: &Bundle,
     view_json: Option<&str>,
@@ -617,7 +634,7 @@ fn bake(
 #[pyfunction]
 #[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, method="table3d", lut=None, view_json=None,
     azimuth=0.0, elevation=0.0, zoom=1.0, size=(512, 512), renderer="walk", light=false, cull=true, table=None,
-    progress=None))]
+    progress=None, light_dir=None, shadows=false))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -637,6 +654,8 @@ fn render<'py>(
     cull: bool,
     table: Option<PyRef<'py, PyTable>>,
     progress: Option<Py<PyAny>>,
+    light_dir: Option<(f64, f64, f64)>,
+    shadows: bool,
 ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     let b = &bundle.bundle;
     let progress = progress_of(progress);
@@ -658,7 +677,7 @@ fn render<'py>(
                 let cpu: CpuRenderer =
                     renderer.parse().map_err(|e: String| anyhow::Error::msg(format!("renderer: {e}")))?;
                 let request = FrameRequest {
-                    shading: Shading { light: light.then(Light::default), silhouette: None, ..Default::default() },
+                    shading: shading_of(view_json, light, light_dir, shadows)?,
                     cpu,
                     cull,
                     ..FrameRequest::new(view)
@@ -709,7 +728,7 @@ fn progress_of(f: Option<Py<PyAny>>) -> impl Fn(usize, usize) + Sync {
 /// reference`), H×W×4 float32.
 #[pyfunction]
 #[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, view_json=None, azimuth=0.0, elevation=0.0,
-    zoom=1.0, size=(512, 512), progress=None))]
+    zoom=1.0, size=(512, 512), progress=None, light=false, light_dir=None, shadows=false))]
 #[allow(clippy::too_many_arguments)]
 fn reference<'py>(
     py: Python<'py>,
@@ -723,6 +742,9 @@ fn reference<'py>(
     zoom: f64,
     size: (u32, u32),
     progress: Option<Py<PyAny>>,
+    light: bool,
+    light_dir: Option<(f64, f64, f64)>,
+    shadows: bool,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let b = &bundle.bundle;
     let progress = progress_of(progress);
@@ -730,8 +752,9 @@ fn reference<'py>(
         .allow_threads(|| -> anyhow::Result<Image> {
             let tf = tf_of(b, tf_json, tf_path.clone(), colormap)?;
             let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
+            let shading = shading_of(view_json, light, light_dir, shadows)?;
             let mut r = ReferenceFrameRenderer::new(b)?;
-            Ok(r.render(&Look::exact(tf), &FrameRequest::new(view), &progress)?.image)
+            Ok(r.render(&Look::exact(tf), &FrameRequest { shading, ..FrameRequest::new(view) }, &progress)?.image)
         })
         .map_err(py_err)?;
     Ok(image_to_py(py, image))

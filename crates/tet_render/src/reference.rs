@@ -132,10 +132,10 @@ pub(crate) struct Entry {
 /// per-vertex field can be interpolated there.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct LinePoint {
-    pub(crate) t: f64,
-    pub(crate) s: f64,
     pub(crate) ids: [u32; 3],
     pub(crate) w: [f64; 3],
+    pub(crate) t: f64,
+    pub(crate) s: f64,
 }
 
 impl LinePoint {
@@ -150,7 +150,10 @@ impl LinePoint {
 /// Every per-vertex field is linear along it.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct LineSegment {
+    /// Where the line enters the tet (or, walking from inside a tet, the
+    /// start: only its parameter and scalar are meaningful then).
     pub(crate) front: LinePoint,
+    /// Where it leaves.
     pub(crate) back: LinePoint,
     pub(crate) t_front: f64,
 }
@@ -522,8 +525,7 @@ impl<'a> ReferenceRenderer<'a> {
     pub(crate) fn walk_line_from_inside(
         &self,
         line: &Line,
-        tet: usize,
-        s_start: f64,
+        (tet, s_start): (usize, f64),
         entries: &mut Vec<Entry>,
         stats: &mut ReferenceStats,
         visit: &mut dyn FnMut(&LineSegment) -> bool,

@@ -530,6 +530,42 @@ impl Lighting {
         Ok(Some(l))
     }
 
+    /// The lighting a front end renders with, from what the user gave: a
+    /// view file's `"lighting"` (which turns lighting on), else one
+    /// directional light travelling along `light_dir`, else the headlight
+    /// when `light` or `shadows` is set; `shadows` turns shadows on. `None`:
+    /// unlit. A `light_dir` beside a view file's lighting, a zero or
+    /// non-finite `light_dir`, and shadows with only a headlight are
+    /// errors (what to change in the message).
+    pub fn choose(
+        from_view: Option<Lighting>,
+        light: bool,
+        light_dir: Option<[f64; 3]>,
+        shadows: bool,
+    ) -> Result<Option<Lighting>, RenderError> {
+        let mut lighting = match (from_view, light_dir) {
+            (Some(_), Some(_)) => {
+                return Err(RenderError::View(
+                    "light direction: the view file has its own \"lighting\" (edit its lights)".into(),
+                ))
+            }
+            (Some(l), None) => l,
+            (None, Some(d)) => {
+                let lights = LightSet::new(&[LightSource::Directional { direction: d, intensity: 1.0 }])?;
+                Lighting { lights, ..Default::default() }
+            }
+            (None, None) if light || shadows => Lighting::default(),
+            (None, None) => return Ok(None),
+        };
+        lighting.shadows |= shadows;
+        if lighting.shadows && !lighting.lights.any_shadow() {
+            return Err(RenderError::View(
+                "shadows: the headlight casts no shadow; add a directional or point light (a light direction, or \"lights\" in the view file)".into(),
+            ));
+        }
+        Ok(Some(lighting))
+    }
+
     pub fn material(&self) -> Light {
         Light { ambient: self.ambient, diffuse: self.diffuse, specular: self.specular, shininess: self.shininess }
     }

@@ -247,28 +247,7 @@ impl ReferenceRenderer<'_> {
         scratch: &mut ShadowScratch,
         stats: &mut ReferenceStats,
     ) -> f64 {
-        if !light.casts_shadow() {
-            return 0.0;
-        }
-        let Some((to_light, dist)) = light.towards(from, DVec3::Z) else { return 0.0 };
-        let Some(line) = Line::through(from, from + to_light) else { return 0.0 };
-        let mut depth = 0.0;
-        let breakpoints = &mut scratch.breakpoints;
-        stats.rays += 1;
-        // Started a hair from `near_vertex`: while the ray leaves tets by
-        // faces holding that vertex it is still circling it, and those
-        // segments vanish in the limit of starting at the vertex.
-        let mut circling = near_vertex;
-        self.walk_line_from_inside(&line, tet, s_from, &mut scratch.entries, stats, &mut |seg| {
-            if let Some(v) = circling {
-                if seg.back.ids.contains(&v) {
-                    return false;
-                }
-                circling = None;
-            }
-            accumulate_depth(seg, dist, tf, breakpoints, &mut depth)
-        });
-        depth
+        self.depth_along(from, Some((tet, s_from, near_vertex)), light, tf, scratch, stats)
     }
 
     /// Optical depth from `from` (world) to `light` through the mesh:
@@ -277,6 +256,21 @@ impl ReferenceRenderer<'_> {
     pub fn depth_to_light(
         &self,
         from: DVec3,
+        light: &LightSource,
+        tf: &TransferFunction,
+        scratch: &mut ShadowScratch,
+        stats: &mut ReferenceStats,
+    ) -> f64 {
+        self.depth_along(from, None, light, tf, scratch, stats)
+    }
+
+    /// The optical depth from `from` to `light`: walked from `inside` (a
+    /// tet holding `from`, the scalar there, and the vertex `from` stands
+    /// for) or, without it, from the boundary entries of the whole line.
+    fn depth_along(
+        &self,
+        from: DVec3,
+        inside: Option<(usize, f64, Option<u32>)>,
         light: &LightSource,
         tf: &TransferFunction,
         scratch: &mut ShadowScratch,
@@ -291,9 +285,25 @@ impl ReferenceRenderer<'_> {
         let mut depth = 0.0;
         let breakpoints = &mut scratch.breakpoints;
         stats.rays += 1;
-        self.walk_line(&line, 0.0, &mut scratch.entries, stats, &mut |seg| {
+        // Started a hair from a vertex: while the ray leaves tets by faces
+        // holding that vertex it is still circling it, and those segments
+        // vanish in the limit of starting at the vertex.
+        let mut circling = inside.and_then(|(_, _, v)| v);
+        let mut visit = |seg: &crate::reference::LineSegment| {
+            if let Some(v) = circling {
+                if seg.back.ids.contains(&v) {
+                    return false;
+                }
+                circling = None;
+            }
             accumulate_depth(seg, dist, tf, breakpoints, &mut depth)
-        });
+        };
+        match inside {
+            Some((tet, s_from, _)) => {
+                self.walk_line_from_inside(&line, (tet, s_from), &mut scratch.entries, stats, &mut visit)
+            }
+            None => self.walk_line(&line, 0.0, &mut scratch.entries, stats, &mut visit),
+        }
         depth
     }
 }

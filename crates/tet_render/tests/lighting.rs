@@ -65,7 +65,7 @@ fn shading(sources: LightSet, shadows: bool) -> Shading {
 fn reference_lit(c: &Case, tf: &TransferFunction, v: &ViewSpec, sh: Shading, mode: ShadowMode) -> Image {
     let r = ReferenceRenderer::new(&c.mesh, &c.adj).unwrap();
     let lit = LitReference::new(sh, &c.grads, mode);
-    r.render_lit(&Camera::new(v).unwrap(), tf, &ReferenceOptions::default(), &lit, &|_, _| {}).unwrap().0
+    r.render_lit(&Camera::new(v).unwrap(), tf, &lit, &|_, _| {}).unwrap().0
 }
 
 fn cpu(c: &Case, tf: &TransferFunction, v: &ViewSpec, sh: Shading, kind: CpuRenderer) -> Image {
@@ -109,11 +109,23 @@ fn headlight_reference_matches_both_cpu_renderers() {
     let v = view(24);
     let sh = shading(LightSet::default(), false);
     let reference = reference_lit(&c, &t, &v, sh, ShadowMode::Exact);
+    // Lighting at emission centroids, split where it varies, against the integral.
+    assert_cpu_renderers_near(&c, &t, &v, sh, &reference, 2e-2, 4e-3);
+}
+
+/// Both CPU renderers within `max_abs` and `rmse` of `reference`.
+fn assert_cpu_renderers_near(
+    c: &Case,
+    t: &TransferFunction,
+    v: &ViewSpec,
+    sh: Shading,
+    reference: &Image,
+    max_abs: f64,
+    rmse: f64,
+) {
     for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
-        let img = cpu(&c, &t, &v, sh, kind);
-        let d = diff(&img, &reference).unwrap();
-        // Lighting at segment midpoints, split where it varies, against the integral.
-        assert!(d.max_abs < 2e-2 && d.rmse < 4e-3, "{kind:?}: {d:?}");
+        let d = diff(&cpu(c, t, v, sh, kind), reference).unwrap();
+        assert!(d.max_abs < max_abs && d.rmse < rmse, "{kind:?}: {d:?}");
     }
 }
 
@@ -176,11 +188,7 @@ fn shadowed_renderers_match_the_reference_with_their_field_and_with_exact_rays()
     let field_err = diff(&with_field, &exact).unwrap();
     // Linear interpolation of an exponential over 5 cells.
     assert!(field_err.max_abs < 3e-2 && field_err.rmse < 4e-3, "shadow field vs exact rays: {field_err:?}");
-    for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
-        let img = cpu(&c, &t, &v, sh, kind);
-        let d = diff(&img, &with_field).unwrap();
-        assert!(d.max_abs < 2e-2 && d.rmse < 4e-3, "{kind:?} vs the reference with its field: {d:?}");
-    }
+    assert_cpu_renderers_near(&c, &t, &v, sh, &with_field, 2e-2, 4e-3);
 }
 
 #[test]

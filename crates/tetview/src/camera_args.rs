@@ -6,7 +6,7 @@
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 use tet_cli::{ExitKind, KindExt};
-use tet_render::{Display, LightSet, LightSource, Lighting, ToneMap, ViewSpec};
+use tet_render::{Display, Lighting, ToneMap, ViewSpec};
 
 /// Where the camera is and how large the image.
 #[derive(Debug, Clone, clap::Args)]
@@ -94,28 +94,7 @@ impl LightingArgs {
             }
             None => None,
         };
-        let mut lighting = match (from_file, self.light_dir) {
-            (Some(_), Some(_)) => {
-                return Err(tet_cli::usage("--light-dir: the view file has its own \"lighting\" (edit its lights)"))
-            }
-            (Some(l), None) => l,
-            (None, Some(d)) => {
-                let lights = LightSet::new(&[LightSource::Directional { direction: d, intensity: 1.0 }])
-                    .map_err(|e| tet_cli::usage(format!("--light-dir: {e}")))?;
-                Lighting { lights, ..Default::default() }
-            }
-            (None, None) if self.light || self.shadows => Lighting::default(),
-            (None, None) => return Ok(None),
-        };
-        if self.shadows {
-            lighting.shadows = true;
-        }
-        if lighting.shadows && !lighting.lights.any_shadow() {
-            return Err(tet_cli::usage(
-                "--shadows: the headlight casts no shadow; add a directional or point light (--light-dir, or \"lights\" in the view file)",
-            ));
-        }
-        Ok(Some(lighting))
+        Lighting::choose(from_file, self.light, self.light_dir, self.shadows).map_err(|e| tet_cli::usage(e.to_string()))
     }
 }
 

@@ -52,6 +52,14 @@ fn path_arg(p: &Path) -> &str {
     p.to_str().expect("a UTF-8 path")
 }
 
+/// The cube bundle and the TF in `dir` as arguments, and a namer of more
+/// files there.
+fn cube_tf_and_paths(dir: &Path) -> (String, String, impl Fn(&str) -> String + '_) {
+    let (b, t) = (bundle(dir), tf(dir));
+    let (b, t) = (path_arg(&b).to_string(), path_arg(&t).to_string());
+    (b, t, move |name: &str| path_arg(&dir.join(name)).to_string())
+}
+
 fn tetview(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_tetview")).args(args).output().unwrap()
 }
@@ -534,9 +542,7 @@ fn view_up_flag_default_z_up_and_saved_views_round_trip() {
 #[test]
 fn render_and_reference_share_the_camera_and_display_flags() {
     let dir = tempfile::tempdir().unwrap();
-    let (b, t) = (bundle(dir.path()), tf(dir.path()));
-    let f = |name: &str| path_arg(&dir.path().join(name)).to_string();
-    let (b, t) = (path_arg(&b).to_string(), path_arg(&t).to_string());
+    let (b, t, f) = cube_tf_and_paths(dir.path());
     let (png, npy, rv, vv) = (f("a.png"), f("a.npy"), f("r.json"), f("v.json"));
     let camera = ["--azimuth", "-25", "--elevation", "30", "--zoom", "1.5", "--parallel", "--size", "40x24"];
     let out = tetview(&[&["render", &b, "--tf", &t, "-o", &png, "--save-view", &vv][..], &camera].concat());
@@ -760,9 +766,7 @@ fn constant_scalar_without_tf_is_rejected_with_the_one_message() {
 #[test]
 fn lights_and_shadows_render_against_the_lit_reference() {
     let dir = tempfile::tempdir().unwrap();
-    let (b, t) = (bundle(dir.path()), tf(dir.path()));
-    let f = |name: &str| path_arg(&dir.path().join(name)).to_string();
-    let (b, t) = (path_arg(&b).to_string(), path_arg(&t).to_string());
+    let (b, t, f) = cube_tf_and_paths(dir.path());
     let (lit, dark, reference, vv) = (f("lit.npy"), f("dark.npy"), f("ref.npy"), f("v.json"));
     let size = ["--size", "24x24", "--azimuth", "30", "--elevation", "20"];
     let render = |extra: &[&str], npy: &str| {

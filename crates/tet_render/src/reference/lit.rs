@@ -28,6 +28,9 @@ use crate::shading::{Shading, MAX_LIGHTS};
 use crate::shadow::{ShadowMode, ShadowScratch};
 use crate::{Camera, Image, RenderError};
 
+/// `progress(rows_done, rows_total)`, called from worker threads.
+pub type RowProgress<'p> = &'p (dyn Fn(u32, u32) + Sync);
+
 /// Lighting for a reference render.
 #[derive(Debug, Clone, Copy)]
 pub struct LitReference<'a> {
@@ -38,11 +41,13 @@ pub struct LitReference<'a> {
     /// Largest quadrature error allowed per TF piece, in premultiplied
     /// colour (the default 1e-6 keeps a ray's error far below 8-bit steps).
     pub tolerance: f64,
+    /// Early termination, as for the unlit reference.
+    pub options: ReferenceOptions,
 }
 
 impl<'a> LitReference<'a> {
     pub fn new(shading: Shading, gradients: &'a [[f64; 3]], shadows: ShadowMode<'a>) -> LitReference<'a> {
-        LitReference { shading, gradients, shadows, tolerance: 1e-6 }
+        LitReference { shading, gradients, shadows, tolerance: 1e-6, options: ReferenceOptions::default() }
     }
 }
 
@@ -236,10 +241,10 @@ impl ReferenceRenderer<'_> {
         &self,
         camera: &Camera,
         tf: &TransferFunction,
-        options: &ReferenceOptions,
         lit: &LitReference,
-        progress: &(dyn Fn(u32, u32) + Sync),
+        progress: RowProgress,
     ) -> Result<(Image, ReferenceStats), RenderError> {
+        let options = &lit.options;
         self.check_lit(lit)?;
         if tf.normalized() {
             return Err(RenderError::NormalizedTransferFunction);
@@ -256,24 +261,25 @@ impl ReferenceRenderer<'_> {
             let (origin, dir) = camera.ray(x, y);
             let t_start =
                 if camera.is_parallel() { f64::NEG_INFINITY } else { camera.near_depth() / dir.dot(camera.forward()) };
-            self.trace_line_lit(origin, origin + dir, t_start, tf, options, lit, scratch)
+            match super::Line::through(origin, origin + dir) {
+                Some(line) => self.trace_line_lit(&line, t_start, tf, lit, scratch),
+                None => RayResult { stats: ReferenceStats { rays: 1, ..Default::default() }, ..Default::default() },
+            }
         })
     }
 
-    /// [`ReferenceRenderer::trace_line`] with lighting.
-    #[allow(clippy::too_many_arguments)]
-    pub fn trace_line_lit(
+    /// [`ReferenceRenderer::trace_line`] with lighting, along `line` from
+    /// parameter `t_start` on.
+    fn trace_line_lit(
         &self,
-        origin: DVec3,
-        through: DVec3,
+        line: &super::Line,
         t_start: f64,
         tf: &TransferFunction,
-        options: &ReferenceOptions,
         lit: &LitReference,
         scratch: &mut RayScratch,
     ) -> RayResult {
+        let options = &lit.options;
         let mut res = RayResult { stats: ReferenceStats { rays: 1, ..Default::default() }, ..Default::default() };
-        let Some(line) = super::Line::through(origin, through) else { return res };
         let mut acc = [0.0f64; 4];
         let (breakpoints, shadow) = (&mut scratch.breakpoints, &mut scratch.shadow);
         let mut shadow_stats = ReferenceStats::default();
@@ -281,7 +287,7 @@ impl ReferenceRenderer<'_> {
             ShadowMode::Field(f) if lit.shading.shadows => Some(f),
             _ => None,
         };
-        self.walk_line(&line, t_start, &mut scratch.entries, &mut res.stats, &mut |seg| {
+        self.walk_line(line, t_start, &mut scratch.entries, &mut res.stats, &mut |seg| {
             let fv = |p: &super::LinePoint| -> [f64; MAX_LIGHTS] {
                 std::array::from_fn(|i| match field {
                     Some(f) if f.has_light(i) => (0..3).map(|k| p.w[k] * f.depth_at(i, p.ids[k]) as f64).sum(),
@@ -293,7 +299,7 @@ impl ReferenceRenderer<'_> {
                 lit,
                 tf,
                 view_dir: line.unit,
-                line: &line,
+                line,
                 seg,
                 g_front: seg.front.interp(lit.gradients),
                 g_back: seg.back.interp(lit.gradients),

@@ -106,8 +106,8 @@ pub(crate) struct RayState {
 /// where it starts (0 unless the near plane cut it).
 #[derive(Clone, Copy, Default)]
 pub(crate) struct LitEnds {
-    pub(crate) a: FacePoint,
-    pub(crate) b: FacePoint,
+    /// The face points `a` (entry) and `b` (exit).
+    pub(crate) ab: [FacePoint; 2],
     pub(crate) u_front: f32,
 }
 
@@ -120,7 +120,7 @@ impl LitEnds {
             let v = p.ids.map(&f);
             std::array::from_fn(|c| p.lam[0] * v[0][c] + p.lam[1] * v[1][c] + p.lam[2] * v[2][c])
         };
-        let (fa, fb) = (at(&self.a), at(&self.b));
+        let (fa, fb) = (at(&self.ab[0]), at(&self.ab[1]));
         let u = self.u_front + w * (1.0 - self.u_front);
         std::array::from_fn(|c| fa[c] + u * (fb[c] - fa[c]))
     }
@@ -635,7 +635,7 @@ impl WalkCtx<'_> {
             batch.segs.grad_back[k] = 0.0;
         }
         if GRADS && self.lit {
-            batch.lit_ends[k] = LitEnds { a: *a, b: *b, u_front: 0.0 };
+            batch.lit_ends[k] = LitEnds { ab: [*a, *b], u_front: 0.0 };
         }
         batch.segs.len = k + 1;
     }
@@ -700,11 +700,11 @@ impl WalkCtx<'_> {
                 };
                 let ends = &batch.lit_ends[k];
                 let front = prev_back
-                    .filter(|(p, _)| ends.u_front == 0.0 && p.ids == ends.a.ids && p.lam == ends.a.lam)
+                    .filter(|(p, _)| ends.u_front == 0.0 && p.ids == ends.ab[0].ids && p.lam == ends.ab[0].lam)
                     .map(|(_, l)| l);
                 let (lit, back) = self.light_segment(&seg, c, front, ends, vd);
                 c = lit;
-                prev_back = back.map(|l| (ends.b, l));
+                prev_back = back.map(|l| (ends.ab[1], l));
             }
             let t = 1.0 - acc[3];
             acc[0] += t * c[0];

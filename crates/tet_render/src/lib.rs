@@ -19,7 +19,11 @@
 //!   that sets each tet up once per frame and shades fragments in SoA
 //!   batches through [`tet_preint::SegmentShader::shade_batch`], with images
 //!   bit-identical to the per-tile path) and optional lighting/silhouettes
-//!   ([`shading`]).
+//!   ([`shading`]: [`Shading`], [`LightSet`], the view file's [`Lighting`])
+//!   with volumetric shadows ([`shadow`]: [`ShadowField`], a deep shadow
+//!   map per directional light, per-vertex depths per point light); the
+//!   reference lights by quadrature with exact shadow rays
+//!   ([`LitReference`]).
 //!
 //! ```
 //! use std::sync::Arc;

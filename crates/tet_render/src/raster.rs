@@ -139,8 +139,9 @@ pub fn rasterize(
         view,
         want_grad_mag: shader.method().is_bivariate(),
         want_normals: opts.shading.is_active(),
-        want_position: opts.shading.needs_position(),
-        shadows: scene.shadows().filter(|_| opts.shading.wants_shadows()).map(|f| f.as_ref()),
+        want_position: opts.shading.needs_position()
+            || (opts.shading.wants_shadows() && scene.shadows().is_some_and(|f| f.has_maps())),
+        shadows: scene.shadows().filter(|_| opts.shading.wants_shadows()),
         want_thick: shader.method().shades_per_tet(),
         want_span: !shader.method().shades_per_tet(),
     };

@@ -1,35 +1,40 @@
 //! Volumetric shadows: each light's transmittance through the volume.
 //!
-//! [`ShadowField`] holds, per shadow-casting light and per mesh vertex, the
-//! transmittance exp(−∫ρ) from the vertex to the light, found by walking
-//! the mesh from the vertex towards the light with the reference's exact
-//! walk (exact predicates, so a line through an edge or a vertex is neither
-//! lost nor counted twice) and the exact optical depth of each linear
-//! piece of the TF ([`tet_preint::optical_depth_with`]). Renderers
-//! interpolate its optical depth linearly inside each tet, like the
-//! gradients, and take exp(−depth): the only approximation is that
-//! interpolation (the reference casts a shadow ray
-//! at every integration node instead, [`ShadowMode::Exact`]).
+//! [`ShadowField`] holds, per shadow-casting light, the optical depth ∫ρ
+//! from points of the volume to the light, found with the reference's
+//! exact walk (exact predicates, so a line through an edge or a vertex is
+//! neither lost nor counted twice) and the exact optical depth of each
+//! linear piece of the TF ([`tet_preint::optical_depth_with`]); renderers
+//! take exp(−depth). Two forms:
+//!
+//! * **Directional lights: a deep shadow map** ([`DeepShadowMap`]): a grid
+//!   of [`MAP_RAYS`] rays across the light's view of the bounding box,
+//!   each walked through the mesh and sampled at [`MAP_DEPTHS`] depths,
+//!   looked up by position (bilinear across rays, linear in depth). Its
+//!   resolution is the grid's, not the mesh's: a shadow edge inside a
+//!   large cell stays sharp to a ray spacing.
+//! * **Point lights: per vertex**, walked from each vertex towards the
+//!   light and interpolated linearly inside each tet like the gradients.
+//!   Each vertex's value is the limit at the vertex from inside one of its
+//!   (visible) tets: the walk starts a hair inside that tet and drops the
+//!   segments that only circle the vertex (those leaving by faces that
+//!   hold it), so a vertex on a lit boundary face sees 1 however dense the
+//!   medium; the walk ends at the light (a light inside the mesh), and a
+//!   vertex at the light's position sees 1. Vertices no visible tet uses
+//!   get no walk. A shadow changing within a cell is blurred to the
+//!   cell; a medium so dense that light dies within a small part of a
+//!   cell is lit only at the boundary vertices facing the light.
+//!
+//! The reference instead casts a shadow ray at every integration node
+//! ([`ShadowMode::Exact`]), or reads this field ([`ShadowMode::Field`]) so
+//! that the field's error and the lighting's are measured apart.
 //!
 //! The field depends on the mesh, the TF and the lights, not on the
 //! camera: a camera move reuses it ([`ShadowKey`] says what it was made
-//! for). Self-shadowing needs no bias: the walk starts exactly at the
-//! vertex and integrates from there, so a thin sheet shadows only what lies
-//! behind it (no acne; a vertex on the sheet's lit face sees transmittance
-//! 1 in the limit).
-//!
-//! Each vertex's value is the limit at the vertex from inside one of its
-//! (visible) tets: the walk starts a hair inside that tet and drops the
-//! segments that only circle the vertex (those leaving by faces that hold
-//! it), so a vertex on a lit boundary face sees 1 however dense the medium.
-//! A light inside the mesh (a point light) ends each walk at the light; a
-//! vertex at a point light's position sees transmittance 1. Huge
-//! extinction underflows to transmittance 0 (never NaN); a medium so dense
-//! that light dies within a small part of a cell is lit only at the
-//! boundary vertices facing the light — the field cannot resolve the lit
-//! skin the exact reference integrates. Vertices no
-//! visible tet uses (every tet around them transparent under the TF) get
-//! no walk and transmittance 1: nothing is drawn there.
+//! for). Self-shadowing needs no bias: walks start at the point they
+//! shade, so a thin sheet shadows only what lies behind it (no acne).
+//! Depths stop at [`OPAQUE_DEPTH`] (transmittance 1e-20), never NaN or
+//! infinite.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -41,6 +46,10 @@ use crate::cull::CellCuller;
 use crate::reference::{Line, ReferenceRenderer, ReferenceStats};
 use crate::shading::{LightSet, LightSource};
 use crate::RenderError;
+
+mod map;
+
+pub use map::{DeepShadowMap, MAP_DEPTHS, MAP_RAYS};
 
 /// How far into one of its tets a vertex's walk starts, as a fraction of
 /// the way to the tet's centroid.
@@ -73,14 +82,26 @@ pub struct ShadowKey {
     pub num_points: usize,
 }
 
-/// Per-vertex transmittance towards each light.
+/// What one light's shadow is held as.
+#[derive(Debug, Clone)]
+enum LightShadow {
+    /// The light casts none (the headlight).
+    None,
+    /// Optical depth per vertex (at most [`OPAQUE_DEPTH`]): point lights.
+    Vertices(Vec<f32>),
+    /// A deep shadow map: directional lights.
+    Map(DeepShadowMap),
+}
+
+/// Each light's optical depth through the volume: per vertex for point
+/// lights, a light-space deep shadow map for directional lights.
 #[derive(Debug, Clone)]
 pub struct ShadowField {
     key: ShadowKey,
-    /// `per_light[i][v]`: optical depth from vertex v to light i (at most
-    /// [`OPAQUE_DEPTH`]); empty for lights that cast no shadow (the
-    /// headlight).
-    per_light: Vec<Vec<f32>>,
+    per_light: Vec<LightShadow>,
+    /// Where the frame the field was walked in has its origin, in world
+    /// coordinates (the scene's centre): map lookups subtract it.
+    frame_origin_in_world: DVec3,
     stats: ReferenceStats,
 }
 
@@ -144,10 +165,16 @@ impl ShadowField {
             lights.lights().iter().enumerate().filter(|(_, l)| l.casts_shadow()).map(|(i, _)| i).collect();
         let total = n * casting.len();
         let done = AtomicUsize::new(0);
-        let mut per_light = vec![Vec::new(); lights.lights().len()];
+        let mut per_light = vec![LightShadow::None; lights.lights().len()];
         let mut stats = ReferenceStats::default();
         for &i in &casting {
             let light = lights.lights()[i];
+            if let LightSource::Directional { direction, .. } = light {
+                let d = DVec3::from(direction).normalize();
+                per_light[i] = LightShadow::Map(DeepShadowMap::build(reference, d, tf, &mut stats));
+                progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
+                continue;
+            }
             let chunks: Vec<std::ops::Range<usize>> = (0..n).step_by(4096).map(|a| a..(a + 4096).min(n)).collect();
             let rows: Vec<(Vec<f32>, ReferenceStats)> = chunks
                 .into_par_iter()
@@ -175,11 +202,11 @@ impl ShadowField {
                 field.extend(v);
                 stats.add(&st);
             }
-            per_light[i] = field;
+            per_light[i] = LightShadow::Vertices(field);
         }
         let key =
             ShadowKey { lights: *lights, tf_json: tf.to_json(), scalar_range: reference.scalar_range(), num_points: n };
-        Ok(ShadowField { key, per_light, stats })
+        Ok(ShadowField { key, per_light, frame_origin_in_world: DVec3::ZERO, stats })
     }
 
     pub fn key(&self) -> &ShadowKey {
@@ -192,32 +219,60 @@ impl ShadowField {
     }
 
     /// Optical depth from vertex `v` to light `i` (0 for a light without a
-    /// shadow). Renderers interpolate the depth inside a tet and take
-    /// exp(−depth): exact where the depth is linear (a uniform medium under
-    /// a directional light), and never a transmittance above the vertices'.
+    /// per-vertex field). Renderers interpolate the depth inside a tet and
+    /// take exp(−depth): exact where the depth is linear (a uniform medium),
+    /// and never a transmittance above the vertices'.
     #[inline]
     pub fn depth_at(&self, light: usize, v: u32) -> f32 {
-        self.per_light.get(light).and_then(|f| f.get(v as usize)).copied().unwrap_or(0.0)
+        match self.per_light.get(light) {
+            Some(LightShadow::Vertices(f)) => f.get(v as usize).copied().unwrap_or(0.0),
+            _ => 0.0,
+        }
     }
 
-    /// Transmittance from vertex `v` to light `i`: exp(−depth).
+    /// Transmittance from vertex `v` to light `i` (per-vertex lights):
+    /// exp(−depth).
     pub fn at(&self, light: usize, v: u32) -> f32 {
         (-self.depth_at(light, v)).exp()
     }
 
-    /// Whether light `i` has a field.
-    pub fn has_light(&self, light: usize) -> bool {
-        self.per_light.get(light).is_some_and(|f| !f.is_empty())
+    /// Optical depth from the light to `pos_in_world`, for lights held as a
+    /// deep shadow map (`None` for the others: interpolate
+    /// [`ShadowField::depth_at`] instead).
+    #[inline]
+    pub fn map_depth_at(&self, light: usize, pos_in_world: DVec3) -> Option<f64> {
+        match self.per_light.get(light) {
+            Some(LightShadow::Map(m)) => Some(m.depth_at(pos_in_world - self.frame_origin_in_world)),
+            _ => None,
+        }
     }
 
-    /// Number of lights (with or without fields).
+    /// Whether light `i` has a shadow (of either kind).
+    pub fn has_light(&self, light: usize) -> bool {
+        self.per_light.get(light).is_some_and(|f| !matches!(f, LightShadow::None))
+    }
+
+    /// Whether any light's shadow is a map (renderers then need every
+    /// sample's position).
+    pub fn has_maps(&self) -> bool {
+        self.per_light.iter().any(|f| matches!(f, LightShadow::Map(_)))
+    }
+
+    /// Number of lights (with or without shadows).
     pub fn num_lights(&self) -> usize {
         self.per_light.len()
     }
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.per_light.iter().map(|f| f.len() * 4).sum()
+        self.per_light
+            .iter()
+            .map(|f| match f {
+                LightShadow::None => 0,
+                LightShadow::Vertices(v) => v.len() * 4,
+                LightShadow::Map(m) => m.memory_bytes(),
+            })
+            .sum()
     }
 }
 
@@ -368,6 +423,7 @@ impl crate::Scene {
             .collect();
         let mut field = ShadowField::compute(&reference, tf, &LightSet::new(&moved)?, progress)?;
         field.key.lights = *lights;
+        field.frame_origin_in_world = centre;
         Ok(field)
     }
 }

@@ -139,9 +139,15 @@ fn shadow_field_equals_the_closed_form_transmittance() {
     let down = lights(&[LightSource::Directional { direction: [0.0, 0.0, -1.0], intensity: 1.0 }]);
     let f = scene.compute_shadows(&t, &down, &|_, _| {}).unwrap();
     assert_eq!(f.stats().walk_failures, 0);
-    for (v, p) in points.iter().enumerate() {
-        let want = (-2.0 * (1.0 - p[2])).exp();
-        assert!((f.at(0, v as u32) as f64 - want).abs() < 1e-6, "vertex {v} at {p:?}: {} vs {want}", f.at(0, v as u32));
+    // A directional light's shadow is a deep shadow map, exact here (the
+    // depth is linear along the light and constant across it) at vertices
+    // and in between.
+    let mut rng = common::Rng(11);
+    let inner = (0..200).map(|_| [rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+    for p in points.iter().copied().chain(inner) {
+        let got = f.map_depth_at(0, glam::DVec3::from(p)).expect("a map for a directional light");
+        let want = 2.0 * (1.0 - p[2]);
+        assert!((got - want).abs() < 1e-5, "at {p:?}: {got} vs {want}");
     }
     // A point light inside the mesh: walks end at the light.
     let inside = lights(&[LightSource::Point { position: [0.5, 0.5, 0.5], intensity: 1.0 }]);
@@ -151,9 +157,17 @@ fn shadow_field_equals_the_closed_form_transmittance() {
         let want = (-2.0 * dist).exp();
         assert!((f.at(0, v as u32) as f64 - want).abs() < 1e-6, "vertex {v}: {} vs {want}", f.at(0, v as u32));
     }
-    // Huge extinction: transmittance underflows to 0, never NaN.
+    // Huge extinction: transmittance underflows to 0, never NaN. The map
+    // is lit at the top and dark from the first sample below it.
     let dense = tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1e300]], "unit_distance": 1}"#);
     let f = scene.compute_shadows(&dense, &down, &|_, _| {}).unwrap();
+    for p in &points {
+        let d = f.map_depth_at(0, glam::DVec3::from(*p)).unwrap();
+        assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::OPAQUE_DEPTH * 0.99 });
+    }
+    // The same with a point light far above: the per-vertex field.
+    let above = lights(&[LightSource::Point { position: [0.5, 0.5, 50.0], intensity: 1.0 }]);
+    let f = scene.compute_shadows(&dense, &above, &|_, _| {}).unwrap();
     for (v, p) in points.iter().enumerate() {
         let got = f.at(0, v as u32);
         assert!(got.is_finite() && (0.0..=1.0).contains(&got));

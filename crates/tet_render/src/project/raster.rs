@@ -28,7 +28,7 @@ pub(crate) struct SetupInputs<'a> {
     /// Lighting: the world position (point lights) and the shadow field,
     /// interpolated like the normals.
     pub want_position: bool,
-    pub shadows: Option<&'a crate::ShadowField>,
+    pub shadows: Option<&'a std::sync::Arc<crate::ShadowField>>,
     /// The f64 thick-point data `pt-linear` shades once per tet.
     pub want_thick: bool,
     /// The f32 span data per-fragment methods evaluate (always built for clipped tets).
@@ -345,6 +345,7 @@ impl TetSetup {
                 self.n_pos = 3;
                 self.centre = inp.scene.centre_in_world();
             }
+            self.shadow_maps = inp.shadows.filter(|f| f.has_maps()).cloned();
             if let Some(f) = inp.shadows {
                 for i in 0..f.num_lights() {
                     self.lit_fields.push(field_of(&tet.map(|v| f.depth_at(i, v) as f64)));
@@ -565,7 +566,8 @@ impl TetSetup {
         };
         let mut shadow = [1.0; crate::MAX_LIGHTS];
         for (i, fi) in f[self.n_pos..].iter().enumerate().take(crate::MAX_LIGHTS) {
-            shadow[i] = (-fi.at(x, y, z).max(0.0)).exp();
+            let depth = self.shadow_maps.as_ref().and_then(|m| m.map_depth_at(i, pos));
+            shadow[i] = (-depth.unwrap_or_else(|| fi.at(x, y, z)).max(0.0)).exp();
         }
         (pos, shadow)
     }

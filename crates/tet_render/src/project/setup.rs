@@ -103,6 +103,9 @@ pub(crate) struct TetSetup {
     pub(crate) lit_fields: Vec<Field>,
     pub(crate) n_pos: usize,
     pub(crate) centre: DVec3,
+    /// The shadow field, kept when a light's shadow is a map (looked up
+    /// by position).
+    pub(crate) shadow_maps: Option<std::sync::Arc<crate::ShadowField>>,
     pub(crate) s_range: [f64; 2],
     pub(crate) g_range: [f64; 2],
     pub(crate) len_max: f64,

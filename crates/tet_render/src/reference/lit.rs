@@ -115,7 +115,10 @@ impl LitRay<'_, '_> {
         let lights = self.lit.shading.sources;
         let p = self.lit.shading.lit_point(g, pos, self.view_dir, |i| match self.lit.shadows {
             ShadowMode::Exact => (-self.r.depth_to_light(pos, &lights.lights()[i], self.tf, shadow, stats)).exp(),
-            ShadowMode::Field(_) => (-(self.v_front[i] + u * (self.v_back[i] - self.v_front[i]))).exp(),
+            ShadowMode::Field(f) => {
+                let depth = f.map_depth_at(i, pos).unwrap_or(self.v_front[i] + u * (self.v_back[i] - self.v_front[i]));
+                (-depth).exp()
+            }
         });
         (p.diffuse, p.specular)
     }

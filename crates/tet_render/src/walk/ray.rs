@@ -646,15 +646,19 @@ impl WalkCtx<'_> {
         let m = self.mesh;
         let sh = &self.opts.shading;
         let g = ends.at(w, |v| m.grads.as_deref().expect("checked in lit")[v as usize]);
-        let pos = if sh.needs_position() {
+        let field = m.shadows.as_deref().filter(|_| sh.wants_shadows());
+        let pos = if sh.needs_position() || field.is_some_and(|f| f.has_maps()) {
             let p = ends.at(w, |v| m.pos_rel[v as usize].map(|x| x as f32));
             DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) + m.centre_in_world
         } else {
             DVec3::ZERO
         };
-        let shadow = |i: usize| match m.shadows.as_deref() {
+        let shadow = |i: usize| match field {
             Some(f) if f.has_light(i) => {
-                (-(ends.at(w, |v| [f.depth_at(i, m.scene_vertex[v as usize])])[0] as f64)).exp()
+                let depth = f
+                    .map_depth_at(i, pos)
+                    .unwrap_or_else(|| ends.at(w, |v| [f.depth_at(i, m.scene_vertex[v as usize])])[0] as f64);
+                (-depth).exp()
             }
             _ => 1.0,
         };

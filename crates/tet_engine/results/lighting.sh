@@ -15,6 +15,10 @@ rm -f $R/lighting_rows.md
 $T/examples/lighting_bench /tmp/bf.tetb formats/samples/tf_normalized.json 512 96 $R/lighting_rows.md
 $T/examples/lighting_bench /tmp/bf.tetb $R/bf_shadow_tf.json 512 96 $R/lighting_rows.md
 $T/examples/lighting_bench /tmp/autzen.tetb $R/autzen_tf.json 512 96 $R/lighting_rows.md
+# The held-out TFs (narrow peaks, a sharp 8-node TF, steps, plateaus) on Blunt Fin, errors at 64².
+for f in peaks12 sharp8 steps plateaus; do
+  $T/examples/lighting_bench /tmp/bf.tetb crates/tet_preint/tests/data/heldout/tf_$f.json 512 64 $R/lighting_rows.md
+done
 for b in ip grid60; do
   [ -f /work/bench/$b.tetb ] && $T/examples/lighting_bench /work/bench/$b.tetb formats/samples/tf_normalized.json 512 8 $R/lighting_rows.md
 done

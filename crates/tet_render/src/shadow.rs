@@ -9,8 +9,9 @@
 //!
 //! * **Directional lights: a deep shadow map** ([`DeepShadowMap`]): a grid
 //!   of [`MAP_RAYS`] rays across the light's view of the bounding box,
-//!   each walked through the mesh and sampled at [`MAP_DEPTHS`] depths,
-//!   looked up by position (bilinear across rays, linear in depth). Its
+//!   each walked through the mesh, its depth kept at every tet crossing
+//!   and TF node, looked up by position (bilinear across rays, linear
+//!   between knots). Its
 //!   resolution is the grid's, not the mesh's: a shadow edge inside a
 //!   large cell stays sharp to a ray spacing.
 //! * **Point lights: per vertex**, walked from each vertex towards the
@@ -49,7 +50,7 @@ use crate::RenderError;
 
 mod map;
 
-pub use map::{DeepShadowMap, MAP_DEPTHS, MAP_RAYS};
+pub use map::{DeepShadowMap, MAP_RAYS};
 
 /// How far into one of its tets a vertex's walk starts, as a fraction of
 /// the way to the tet's centroid.

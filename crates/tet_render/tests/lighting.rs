@@ -286,3 +286,22 @@ fn shadows_without_a_field_or_for_other_lights_are_refused() {
     let f = small_scene.compute_shadows(&t, &sh.sources, &|_, _| {}).unwrap();
     assert!(r.set_shadows(Some(Arc::new(f))).is_err());
 }
+
+#[test]
+fn a_thin_dense_sheet_shadows_what_lies_below_it_without_acne() {
+    // A sheet one cell thick about z = 0.5 (scalar 1 there, 0 elsewhere,
+    // linear between) in a faint medium, lit from above: its top is lit,
+    // the medium below it is in its shadow, and the shadowed renderers
+    // match exact shadow rays with no speckle on the sheet itself.
+    let c = case(6, |p| (1.0 - (p[2] - 0.5).abs() * 6.0).max(0.0));
+    let t = tf(
+        r#"{"color": [[0, 0.3, 0.6, 1], [1, 1, 0.8, 0.4]], "opacity": [[0, 0.4], [0.7, 0.4], [1, 30]], "unit_distance": 1}"#,
+    );
+    let mut v = ViewSpec::looking_at([2.6, 1.2, 1.1], [0.5, 0.5, 0.5], [0.0, 0.0, 1.0], [28, 28]);
+    v.view_angle = 30.0;
+    let sh = shading(lights(&[LightSource::Directional { direction: [0.1, 0.2, -1.0], intensity: 1.0 }]), true);
+    let exact = reference_lit(&c, &t, &v, sh, ShadowMode::Exact);
+    let unshadowed = reference_lit(&c, &t, &v, Shading { shadows: false, ..sh }, ShadowMode::Exact);
+    assert!(diff(&exact, &unshadowed).unwrap().max_abs > 0.05, "the sheet casts a shadow");
+    assert_cpu_renderers_near(&c, &t, &v, sh, &exact, 8.0 / 255.0, 2e-3);
+}

@@ -1,11 +1,14 @@
 //! A light-space deep shadow map for a directional light (after Lokovic &
 //! Veach, "Deep Shadow Maps", SIGGRAPH 2000): a grid of rays travelling
 //! with the light across the mesh's bounding box, each walked exactly
-//! through the mesh, recording the optical depth from the light at evenly
-//! spaced depths. A point's depth is interpolated bilinearly between the
-//! four nearest rays and linearly in depth, so its resolution is the
+//! through the mesh, recording the optical depth from the light at every
+//! tet crossing and every TF node it meets (between two of those the
+//! depth is a smooth quadratic, so a narrow opaque layer of the TF is a
+//! sharp step, not a ramp over a depth sample). A point's depth is
+//! interpolated linearly along each of the four nearest rays and
+//! bilinearly between them, so its resolution across the light is the
 //! grid's, not the mesh's: a shadow edge inside a large cell stays sharp
-//! to a texel.
+//! to a ray spacing.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -16,8 +19,6 @@ use crate::reference::{Line, ReferenceRenderer, ReferenceStats};
 
 /// Rays across the longer side of the light's view of the bounding box.
 pub const MAP_RAYS: usize = 256;
-/// Depth samples along each ray.
-pub const MAP_DEPTHS: usize = 128;
 
 /// Optical depth from a directional light over a grid of its rays.
 #[derive(Debug, Clone)]
@@ -34,13 +35,22 @@ pub struct DeepShadowMap {
     t0: f64,
     du: f64,
     dv: f64,
-    dt: f64,
     nu: usize,
     nv: usize,
-    nt: usize,
-    /// `depth[(j·nu + i)·nt + k]`: optical depth at sample k of ray (i, j).
-    depth: Vec<f32>,
+    /// Ray (i, j)'s knots are `knots[first[j·nu + i]..first[j·nu + i + 1]]`:
+    /// (parameter along the ray from depth `t0`, optical depth there), at
+    /// every tet crossing and every TF node the ray meets, increasing.
+    first: Vec<u32>,
+    knots: Vec<[f32; 2]>,
+    /// A coarse index into each ray's knots: `bins[r·BINS + b]` counts the
+    /// knots of ray r before parameter b·`bin_len` (the search starts
+    /// there instead of bisecting the whole ray).
+    bins: Vec<u16>,
+    bin_len: f32,
 }
+
+/// Index bins along each ray.
+const BINS: usize = 32;
 
 impl DeepShadowMap {
     /// Walks `MAP_RAYS` × (as many as the aspect gives) rays of a light
@@ -75,28 +85,47 @@ impl DeepShadowMap {
         // depth to the last.
         let inset = ext.x.max(ext.y) * 1e-7;
         let (du, dv) = ((ext.x - 2.0 * inset) / (nu - 1) as f64, (ext.y - 2.0 * inset) / (nv - 1) as f64);
-        let nt = MAP_DEPTHS;
-        let dt = ext.z / (nt - 1) as f64;
         let (u0, v0, t0) = (lo.x + inset, lo.y + inset, lo.z);
-        let rows: Vec<(Vec<f32>, ReferenceStats)> = (0..nv)
+        let rows: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)> = (0..nv)
             .into_par_iter()
             .map_init(ShadowScratch::default, |scratch, j| {
                 let mut st = ReferenceStats::default();
-                let mut row = vec![0.0f32; nu * nt];
+                let (mut counts, mut knots) = (Vec::with_capacity(nu), Vec::new());
                 for i in 0..nu {
                     let start = e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0;
-                    let out = &mut row[i * nt..(i + 1) * nt];
-                    walk_ray(reference, start, d, dt, tf, scratch, &mut st, out);
+                    let before = knots.len();
+                    walk_ray(reference, start, d, tf, scratch, &mut st, &mut knots);
+                    counts.push((knots.len() - before) as u32);
                 }
-                (row, st)
+                (counts, knots, st)
             })
             .collect();
-        let mut depth = Vec::with_capacity(nu * nv * nt);
-        for (row, st) in rows {
-            depth.extend(row);
+        let mut first = Vec::with_capacity(nu * nv + 1);
+        let mut knots = Vec::new();
+        first.push(0u32);
+        for (counts, row, st) in rows {
+            let mut at = knots.len() as u32;
+            for c in counts {
+                at += c;
+                first.push(at);
+            }
+            knots.extend(row);
             stats.add(&st);
         }
-        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, dt, nu, nv, nt, depth }
+        let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
+        let mut bins = Vec::with_capacity(nu * nv * BINS);
+        for r in 0..nu * nv {
+            let k = &knots[first[r] as usize..first[r + 1] as usize];
+            let mut n = 0usize;
+            for b in 0..BINS {
+                let t = b as f32 * bin_len;
+                while n < k.len() && k[n][0] < t {
+                    n += 1;
+                }
+                bins.push(n.min(u16::MAX as usize) as u16);
+            }
+        }
+        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, first, knots, bins, bin_len }
     }
 
     /// The optical depth from the light to `p` (in the map's frame).
@@ -108,11 +137,26 @@ impl DeepShadowMap {
         };
         let (i, wu) = coord(p.dot(self.e1), self.u0, self.du, self.nu);
         let (j, wv) = coord(p.dot(self.e2), self.v0, self.dv, self.nv);
-        let (k, wt) = coord(p.dot(self.d), self.t0, self.dt, self.nt);
-        let at = |i: usize, j: usize| {
-            let base = (j * self.nu + i) * self.nt + k;
-            let (a, b) = (self.depth[base] as f64, self.depth[base + 1] as f64);
-            a + wt * (b - a)
+        let t = (p.dot(self.d) - self.t0) as f32;
+        let at = |i: usize, j: usize| -> f64 {
+            let r = j * self.nu + i;
+            let k = &self.knots[self.first[r] as usize..self.first[r + 1] as usize];
+            // The first knot past t; before the first knot nothing has
+            // been crossed, after the last the depth stays.
+            let b = ((t / self.bin_len).max(0.0) as usize).min(BINS - 1);
+            let mut n = self.bins[r * BINS + b] as usize;
+            while n < k.len() && k[n][0] <= t {
+                n += 1;
+            }
+            match (n, k.len()) {
+                (0, _) => 0.0,
+                (n, len) if n == len => k[len - 1][1] as f64,
+                (n, _) => {
+                    let ([ta, da], [tb, db]) = (k[n - 1], k[n]);
+                    let w = if tb > ta { (t - ta) / (tb - ta) } else { 1.0 };
+                    (da + w * (db - da)) as f64
+                }
+            }
         };
         let bottom = at(i, j) + wu * (at(i + 1, j) - at(i, j));
         let top = at(i, j + 1) + wu * (at(i + 1, j + 1) - at(i, j + 1));
@@ -120,50 +164,127 @@ impl DeepShadowMap {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.depth.len() * 4
+        self.knots.len() * 8 + self.first.len() * 4 + self.bins.len() * 2
     }
 
-    /// Rays across and along, and samples along each ray.
-    pub fn resolution(&self) -> [usize; 3] {
-        [self.nu, self.nv, self.nt]
+    /// Rays across and along.
+    pub fn resolution(&self) -> [usize; 2] {
+        [self.nu, self.nv]
     }
 }
 
-/// Walks the ray from `start` along `d`, writing the optical depth at
-/// parameters k·dt (k = 0…) into `out`.
-#[allow(clippy::too_many_arguments)]
+/// Walks the ray from `start` along `d`, appending its knots: (parameter,
+/// optical depth) where it enters the mesh, at every TF node and tet
+/// crossing after, up to the last crossing or [`OPAQUE_DEPTH`].
 fn walk_ray(
     reference: &ReferenceRenderer,
     start: DVec3,
     d: DVec3,
-    dt: f64,
     tf: &TransferFunction,
     scratch: &mut ShadowScratch,
     stats: &mut ReferenceStats,
-    out: &mut [f32],
+    knots: &mut Vec<[f32; 2]>,
 ) {
     let Some(line) = Line::through(start, start + d) else { return };
-    let (mut acc, mut k) = (0.0f64, 0usize);
-    let n = out.len();
-    let breakpoints = &mut scratch.breakpoints;
+    let mut acc = 0.0f64;
+    let ShadowScratch { entries, breakpoints } = scratch;
+    let mut nodes = Vec::new();
+    let first = knots.len();
+    let push = |t: f64, depth: f64, knots: &mut Vec<[f32; 2]>| {
+        let knot = [t as f32, depth.min(OPAQUE_DEPTH) as f32];
+        match knots[first..].last() {
+            // Keep t increasing; a repeated t keeps the deeper value.
+            Some(last) if last[0] >= knot[0] => {
+                let l = knots.len() - 1;
+                knots[l][1] = knots[l][1].max(knot[1]);
+            }
+            _ => knots.push(knot),
+        }
+    };
     stats.rays += 1;
-    reference.walk_line(&line, f64::NEG_INFINITY, &mut scratch.entries, stats, &mut |seg| {
-        let s0 = seg.s_front();
-        // Samples before this segment see the depth so far.
-        while k < n && (k as f64) * dt < seg.t_front {
-            out[k] = acc.min(OPAQUE_DEPTH) as f32;
-            k += 1;
+    reference.walk_line(&line, f64::NEG_INFINITY, entries, stats, &mut |seg| {
+        let (s0, s1, len) = (seg.s_front(), seg.back.s, seg.len());
+        // Where the segment starts (an entry, or the last back again).
+        push(seg.t_front, acc, knots);
+        // The TF's nodes split the segment into pieces of linear extinction,
+        // over which the depth is quadratic: each piece gets knots every
+        // quarter of optical depth (at most 16), so linear interpolation
+        // between knots stays within ~0.01 of the depth.
+        nodes.clear();
+        nodes.push(0.0);
+        if s0 != s1 {
+            let at = nodes.len();
+            tf.breakpoints_between(s0.min(s1), s0.max(s1), &mut nodes);
+            for x in &mut nodes[at..] {
+                *x = (*x - s0) / (s1 - s0);
+            }
+            if s1 < s0 {
+                nodes[at..].reverse();
+            }
         }
-        while k < n && (k as f64) * dt <= seg.back.t {
-            let t = k as f64 * dt;
-            let s = s0 + (seg.back.s - s0) * ((t - seg.t_front) / seg.len()).clamp(0.0, 1.0);
-            out[k] = (acc + optical_depth_with(tf, s0, s, t - seg.t_front, breakpoints)).min(OPAQUE_DEPTH) as f32;
-            k += 1;
+        nodes.push(1.0);
+        let depth_to =
+            |f: f64, breakpoints: &mut Vec<f64>| optical_depth_with(tf, s0, s0 + f * (s1 - s0), f * len, breakpoints);
+        let mut prev = 0.0;
+        for w in 1..nodes.len() {
+            let (fa, fb) = (nodes[w - 1], nodes[w]);
+            let end = depth_to(fb, breakpoints);
+            let pieces = ((end - prev) / 0.25).ceil().clamp(1.0, 16.0) as usize;
+            for q in 1..=pieces {
+                let f = fa + (fb - fa) * q as f64 / pieces as f64;
+                let part = if q == pieces { end } else { depth_to(f, breakpoints) };
+                push(seg.t_front + f * len, acc + part, knots);
+            }
+            prev = end;
         }
-        acc += optical_depth_with(tf, s0, seg.back.s, seg.len(), breakpoints);
-        acc >= OPAQUE_DEPTH || k >= n
+        acc += prev;
+        acc >= OPAQUE_DEPTH
     });
-    for x in &mut out[k..] {
-        *x = acc.min(OPAQUE_DEPTH) as f32;
+    simplify(knots, first, KNOT_TOLERANCE);
+}
+
+/// Optical depth error allowed when dropping knots (transmittance off by
+/// at most 1%).
+const KNOT_TOLERANCE: f32 = 0.01;
+
+/// Drops the knots of `knots[first..]` that linear interpolation between
+/// the kept ones reproduces within `tol` (the swing-door rule: from the
+/// last kept knot, the slopes that pass within `tol` of every knot since
+/// form a narrowing interval; a knot is kept where it would empty). Most
+/// crossings of faint cells go, the bends at opaque layers stay.
+fn simplify(knots: &mut Vec<[f32; 2]>, first: usize, tol: f32) {
+    if knots.len() - first < 3 {
+        return;
     }
+    let mut out = first + 1; // knots[first] is kept
+    let mut anchor = knots[first];
+    let (mut lo, mut hi) = (f32::NEG_INFINITY, f32::INFINITY);
+    let mut i = first + 1;
+    while i < knots.len() {
+        let p = knots[i];
+        let dt = p[0] - anchor[0];
+        if dt <= 0.0 {
+            i += 1;
+            continue;
+        }
+        let (a, b) = ((p[1] - tol - anchor[1]) / dt, (p[1] + tol - anchor[1]) / dt);
+        let (nlo, nhi) = (lo.max(a), hi.min(b));
+        if nlo > nhi {
+            // p cannot join: the previous knot is kept, and the door
+            // reopens from it.
+            anchor = knots[i - 1];
+            knots[out] = anchor;
+            out += 1;
+            (lo, hi) = (f32::NEG_INFINITY, f32::INFINITY);
+            continue;
+        }
+        (lo, hi) = (nlo, nhi);
+        i += 1;
+    }
+    let last = knots[knots.len() - 1];
+    if knots[out - 1] != last {
+        knots[out] = last;
+        out += 1;
+    }
+    knots.truncate(out);
 }

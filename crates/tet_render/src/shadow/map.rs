@@ -37,15 +37,16 @@ pub struct DeepShadowMap {
     dv: f64,
     nu: usize,
     nv: usize,
-    /// Ray (i, j)'s knots are `knots[first[j·nu + i]..first[j·nu + i + 1]]`:
-    /// (parameter along the ray from depth `t0`, optical depth there), at
-    /// every tet crossing and every TF node the ray meets, increasing.
-    first: Vec<u32>,
+    /// Every ray's knots, ray after ray: (parameter along the ray from
+    /// depth `t0`, optical depth there), at every tet crossing and every
+    /// TF node the ray meets, increasing.
     knots: Vec<[f32; 2]>,
-    /// A coarse index into each ray's knots: `bins[r·BINS + b]` counts the
-    /// knots of ray r before parameter b·`bin_len` (the search starts
-    /// there instead of bisecting the whole ray).
-    bins: Vec<u16>,
+    /// Per ray r (= j·nu + i), `BINS + 1` indices into `knots`: entry 0 is
+    /// its first knot, entry b (0 < b < BINS) its first knot at or past
+    /// parameter b·`bin_len` (a lookup scans on from there), entry BINS the
+    /// end of its knots.
+    /// One record a ray, so a lookup touches one place for it.
+    index: Vec<u32>,
     bin_len: f32,
 }
 
@@ -113,19 +114,22 @@ impl DeepShadowMap {
             stats.add(&st);
         }
         let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
-        let mut bins = Vec::with_capacity(nu * nv * BINS);
+        let mut index = Vec::with_capacity(nu * nv * (BINS + 1));
         for r in 0..nu * nv {
-            let k = &knots[first[r] as usize..first[r + 1] as usize];
-            let mut n = 0usize;
-            for b in 0..BINS {
+            let (start, end) = (first[r] as usize, first[r + 1] as usize);
+            let mut n = start;
+            // Entry 0 is the ray's first knot whatever its parameter.
+            index.push(start as u32);
+            for b in 1..BINS {
                 let t = b as f32 * bin_len;
-                while n < k.len() && k[n][0] < t {
+                while n < end && knots[n][0] < t {
                     n += 1;
                 }
-                bins.push(n.min(u16::MAX as usize) as u16);
+                index.push(n as u32);
             }
+            index.push(end as u32);
         }
-        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, first, knots, bins, bin_len }
+        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, knots, index, bin_len }
     }
 
     /// The optical depth from the light to `p` (in the map's frame).
@@ -139,12 +143,14 @@ impl DeepShadowMap {
         let (j, wv) = coord(p.dot(self.e2), self.v0, self.dv, self.nv);
         let t = (p.dot(self.d) - self.t0) as f32;
         let at = |i: usize, j: usize| -> f64 {
-            let r = j * self.nu + i;
-            let k = &self.knots[self.first[r] as usize..self.first[r + 1] as usize];
-            // The first knot past t; before the first knot nothing has
-            // been crossed, after the last the depth stays.
+            let rec = &self.index[(j * self.nu + i) * (BINS + 1)..][..BINS + 1];
             let b = ((t / self.bin_len).max(0.0) as usize).min(BINS - 1);
-            let mut n = self.bins[r * BINS + b] as usize;
+            let (lo, end) = (rec[b] as usize, rec[BINS] as usize);
+            // The ray's knots from its bin on; before the first nothing has
+            // been crossed, after the last the depth stays.
+            let start = rec[0] as usize;
+            let k = &self.knots[start..end];
+            let mut n = lo - start;
             while n < k.len() && k[n][0] <= t {
                 n += 1;
             }
@@ -158,13 +164,14 @@ impl DeepShadowMap {
                 }
             }
         };
-        let bottom = at(i, j) + wu * (at(i + 1, j) - at(i, j));
-        let top = at(i, j + 1) + wu * (at(i + 1, j + 1) - at(i, j + 1));
+        let (a, b) = (at(i, j), at(i, j + 1));
+        let bottom = a + wu * (at(i + 1, j) - a);
+        let top = b + wu * (at(i + 1, j + 1) - b);
         bottom + wv * (top - bottom)
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.knots.len() * 8 + self.first.len() * 4 + self.bins.len() * 2
+        self.knots.len() * 8 + self.index.len() * 4
     }
 
     /// Rays across and along.

@@ -212,7 +212,7 @@ impl FrameRenderer for CpuFrameRenderer {
         if req.shading.wants_shadows() {
             let stale = r.scene().shadows().is_none_or(|f| {
                 f.key().lights != req.shading.sources
-                    || f.key().tf_json != look.tf.to_json()
+                    || f.key().tf != look.tf
                     || f.key().scalar_range != r.scene().scalar_range()
             });
             if stale {
@@ -307,7 +307,7 @@ impl FrameRenderer for ReferenceFrameRenderer<'_> {
             let shadows = match &self.shadow_field {
                 Some(f) if req.shading.shadows => {
                     let f = f.as_ref();
-                    if f.key().lights != req.shading.sources || f.key().tf_json != look.tf.to_json() {
+                    if f.key().lights != req.shading.sources || f.key().tf != look.tf {
                         return Err(EngineError::Render(tet_render::RenderError::NotReady(
                             "the reference's shadow field was made for other lights or another TF",
                         )));

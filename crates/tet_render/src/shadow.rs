@@ -75,8 +75,8 @@ pub enum ShadowMode<'a> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShadowKey {
     pub lights: LightSet,
-    /// The TF's JSON text (denormalized) — cheap beside the field itself.
-    pub tf_json: String,
+    /// The TF it was walked with (in scalar units).
+    pub tf: TransferFunction,
     /// The scene's scalar range and vertex count, a guard against using a
     /// field with another time step's scalar.
     pub scalar_range: [f64; 2],
@@ -136,8 +136,11 @@ impl ShadowField {
         let tets = reference.tets();
         let scalar = reference.scalars();
         let culler = crate::TfCuller::new(tf);
-        let mut owner = vec![u32::MAX; n];
-        for (t, tet) in tets.iter().enumerate() {
+        // Only point lights walk from the vertices (directional ones build
+        // a map): without one, no vertex needs a tet.
+        let any_point = lights.lights().iter().any(|l| matches!(l, LightSource::Point { .. }));
+        let mut owner = vec![u32::MAX; if any_point { n } else { 0 }];
+        for (t, tet) in tets.iter().enumerate().filter(|_| any_point) {
             let s = tet.map(|v| scalar[v as usize]);
             let range =
                 [s.iter().copied().fold(f64::INFINITY, f64::min), s.iter().copied().fold(f64::NEG_INFINITY, f64::max)];
@@ -205,8 +208,7 @@ impl ShadowField {
             }
             per_light[i] = LightShadow::Vertices(field);
         }
-        let key =
-            ShadowKey { lights: *lights, tf_json: tf.to_json(), scalar_range: reference.scalar_range(), num_points: n };
+        let key = ShadowKey { lights: *lights, tf: tf.clone(), scalar_range: reference.scalar_range(), num_points: n };
         Ok(ShadowField { key, per_light, frame_origin_in_world: DVec3::ZERO, stats })
     }
 

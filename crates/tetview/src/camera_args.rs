@@ -39,19 +39,45 @@ impl CameraArgs {
     /// `--view-up`), orbited by azimuth, elevation and zoom. A view file that
     /// cannot be read or parsed is an input error (exit 3).
     pub fn resolve(&self, bounds: ([f64; 3], [f64; 3]), z_up: bool) -> Result<ViewSpec> {
-        match &self.view {
-            Some(p) => {
-                let text = std::fs::read_to_string(p)
+        self.resolve_text(self.view_text()?.as_deref(), bounds, z_up)
+    }
+
+    /// The view as [`CameraArgs::resolve`] and the lighting as
+    /// [`LightingArgs::lighting`], the view file read once for both.
+    pub fn resolve_lit(
+        &self,
+        lighting: &LightingArgs,
+        bounds: ([f64; 3], [f64; 3]),
+        z_up: bool,
+    ) -> Result<(ViewSpec, Option<Lighting>)> {
+        let text = self.view_text()?;
+        let view = self.resolve_text(text.as_deref(), bounds, z_up)?;
+        Ok((view, lighting.lighting(self, text.as_deref())?))
+    }
+
+    /// The `--view` file's text, if one is given (unreadable: exit 3).
+    fn view_text(&self) -> Result<Option<String>> {
+        self.view
+            .as_ref()
+            .map(|p| {
+                std::fs::read_to_string(p)
                     .with_context(|| format!("reading view {}", p.display()))
-                    .kind(ExitKind::Input)?;
+                    .kind(ExitKind::Input)
+            })
+            .transpose()
+    }
+
+    fn resolve_text(&self, text: Option<&str>, bounds: ([f64; 3], [f64; 3]), z_up: bool) -> Result<ViewSpec> {
+        match (text, &self.view) {
+            (Some(text), Some(p)) => {
                 let mut v =
-                    ViewSpec::from_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?;
+                    ViewSpec::from_json(text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?;
                 if let Some(s) = self.size {
                     v.size = s;
                 }
                 Ok(v)
             }
-            None => {
+            _ => {
                 let (lo, hi) = bounds;
                 let mut v = ViewSpec::default_for(lo, hi, self.size.unwrap_or([512, 512]), z_up, self.view_up)?;
                 v.parallel = self.parallel;
@@ -82,17 +108,15 @@ pub struct LightingArgs {
 
 impl LightingArgs {
     /// The lighting to render with, or `None` for none: the view file's
-    /// "lighting" (a view file that has one turns lighting on), else
-    /// --light-dir, else the headlight when --light or --shadows is given.
-    pub fn lighting(&self, camera: &CameraArgs) -> Result<Option<Lighting>> {
-        let from_file = match &camera.view {
-            Some(p) => {
-                let text = std::fs::read_to_string(p)
-                    .with_context(|| format!("reading view {}", p.display()))
-                    .kind(ExitKind::Input)?;
-                Lighting::from_view_json(&text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?
+    /// "lighting" (`view_text`, the text of `camera`'s `--view`; a view
+    /// file that has one turns lighting on), else --light-dir, else the
+    /// headlight when --light or --shadows is given.
+    fn lighting(&self, camera: &CameraArgs, view_text: Option<&str>) -> Result<Option<Lighting>> {
+        let from_file = match (view_text, &camera.view) {
+            (Some(text), Some(p)) => {
+                Lighting::from_view_json(text).with_context(|| format!("in {}", p.display())).kind(ExitKind::Input)?
             }
-            None => None,
+            _ => None,
         };
         Lighting::choose(from_file, self.light, self.light_dir, self.shadows).map_err(|e| tet_cli::usage(e.to_string()))
     }

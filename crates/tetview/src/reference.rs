@@ -63,9 +63,9 @@ pub fn run(args: &ReferenceArgs) -> Result<()> {
     crate::cli::warn_if_constant_scalar(&bundle);
     let tf = crate::tf_choice::resolve(args.tf.as_deref(), args.range, &bundle, &args.tf_choice)?;
 
-    let spec = args.camera.resolve(bounds(&mesh.points), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
+    let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
+    let (spec, lighting) = args.camera.resolve_lit(&args.lighting, bounds(&mesh.points), z_up)?;
     let camera = Camera::new(&spec)?;
-    let lighting = args.lighting.lighting(&args.camera)?;
     if let Some(p) = &args.save_view {
         std::fs::write(p, crate::camera_args::view_json(&spec, lighting.as_ref()))
             .with_context(|| format!("writing {}", p.display()))

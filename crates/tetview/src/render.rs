@@ -74,11 +74,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let chosen = args.look.resolve(&bundle)?;
     let (tf, method) = (chosen.tf.clone(), chosen.method);
 
-    let lighting = args.lighting.lighting(&args.camera)?;
-    let shading = match &lighting {
-        Some(l) => l.shading(args.silhouette),
-        None => Shading { silhouette: args.silhouette, ..Default::default() },
-    };
     if let Some(p) = args.silhouette {
         if !(p >= 0.0 && p.is_finite()) {
             return Err(usage(format!("--silhouette {p}: need a finite exponent ≥ 0")));
@@ -88,7 +83,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.gpu {
         crate::gpu::check_args(args, method)?;
     }
-    let view = args.camera.resolve(scene.bounds(), tet_render::camera::bundle_is_z_up(&bundle.meta))?;
+    let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
+    let (view, lighting) = args.camera.resolve_lit(&args.lighting, scene.bounds(), z_up)?;
+    let shading = match &lighting {
+        Some(l) => l.shading(args.silhouette),
+        None => Shading { silhouette: args.silhouette, ..Default::default() },
+    };
     let display = args.display.display();
     let request = FrameRequest {
         shading,

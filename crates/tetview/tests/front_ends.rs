@@ -300,14 +300,7 @@ fn animate_draws_each_time_as_render_does() {
         (bs, vec!["--frames", "0"], "--frames 0"),
         (bs, vec!["--fps", "0"], "--fps 0"),
     ] {
-        let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
-            .args(["animate", bundle, "--tf", ts, "-o", path_arg(&orbit)])
-            .args(&extra)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{extra:?}: {err}");
-        assert!(err.contains(want), "{extra:?}: {err}");
+        assert_animate_refused(bundle, ts, path_arg(&orbit), &extra, want);
     }
 }
 
@@ -388,14 +381,7 @@ fn animate_moves_through_key_views_into_a_gif() {
         (vec!["--key-views", key_list.as_str(), "--orbit", "90"], "m.gif", "cannot be used with"),
     ] {
         let o = dir.path().join(out_name);
-        let out = Command::new(env!("CARGO_BIN_EXE_tetview"))
-            .args(["animate", bs, "--tf", ts, "-o", o.to_str().unwrap()])
-            .args(&extra)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{extra:?}: {err}");
-        assert!(err.contains(want), "{extra:?}: {err}");
+        assert_animate_refused(bs, ts, o.to_str().unwrap(), &extra, want);
         assert!(!o.exists());
     }
 }
@@ -462,4 +448,17 @@ fn animate_encodes_video_through_ffmpeg_or_says_why_not() {
     } else {
         eprintln!("note: no ffmpeg on PATH; the video path was checked with a stand-in only");
     }
+}
+
+/// `tetview animate BUNDLE --tf TF -o OUT EXTRA…` is a usage error (exit 2)
+/// whose message holds `want`.
+fn assert_animate_refused(bundle: &str, tf: &str, out: &str, extra: &[&str], want: &str) {
+    let run = Command::new(env!("CARGO_BIN_EXE_tetview"))
+        .args(["animate", bundle, "--tf", tf, "-o", out])
+        .args(extra)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{extra:?}: {err}");
+    assert!(err.contains(want), "{extra:?}: {err}");
 }

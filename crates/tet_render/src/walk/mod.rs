@@ -432,6 +432,7 @@ pub fn walk_frame(
         return (img, stats);
     }
     let n_tiles = view.tiles_x * view.tiles_y;
+    let lit_shadows = mesh.shadows.as_deref().filter(|_| opts.shading.wants_shadows());
     let ctx = WalkCtx {
         mesh,
         view,
@@ -440,6 +441,8 @@ pub fn walk_frame(
         opts,
         want_grad_mag: shader.method().is_bivariate() && mesh.grad_mag.is_some(),
         lit: opts.shading.is_active() && mesh.grads.is_some(),
+        lit_shadows,
+        lit_position: opts.shading.needs_position() || lit_shadows.is_some_and(|f| f.has_maps()),
         lanes: opts.walk_interleave.unwrap_or(1).clamp(1, 64),
         prefetch: opts.walk_prefetch,
     };

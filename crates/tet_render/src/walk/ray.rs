@@ -14,6 +14,10 @@ pub(crate) struct WalkCtx<'a> {
     pub(crate) opts: &'a RasterOptions,
     pub(crate) want_grad_mag: bool,
     pub(crate) lit: bool,
+    /// Lighting reads the shadow field (shadows on and a field given).
+    pub(crate) lit_shadows: Option<&'a crate::ShadowField>,
+    /// Lighting needs each sample's position (point lights, shadow maps).
+    pub(crate) lit_position: bool,
     /// Rays walked at once ([`RasterOptions::walk_interleave`]).
     pub(crate) lanes: usize,
     /// Request the records of the next step's candidate tets ([`RasterOptions::walk_prefetch`]).
@@ -646,8 +650,8 @@ impl WalkCtx<'_> {
         let m = self.mesh;
         let sh = &self.opts.shading;
         let g = ends.at(w, |v| m.grads.as_deref().expect("checked in lit")[v as usize]);
-        let field = m.shadows.as_deref().filter(|_| sh.wants_shadows());
-        let pos = if sh.needs_position() || field.is_some_and(|f| f.has_maps()) {
+        let field = self.lit_shadows;
+        let pos = if self.lit_position {
             let p = ends.at(w, |v| m.pos_rel[v as usize].map(|x| x as f32));
             DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) + m.centre_in_world
         } else {

@@ -17,7 +17,7 @@
 
 /// The columns of a results row (wall seconds, CPU/wall in brackets;
 /// errors as RMSE / largest 8-bit difference, against the lit reference).
-pub const HEADER: &str = "| bundle | frame / error size | unlit frame | lit frame (no shadows), camera moving | shadow field (CPU/wall of that frame) | shadowed frame, camera moving, and the field's cost then | walker vs reference, unlit | headlight | lit + shadows vs the reference lit from the same field (lighting error) | that reference vs exact shadow rays (the field's error) | walker vs exact (both) | exact-shadow reference time |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
+pub const HEADER: &str = "| bundle | frame / error size | unlit frame | lit frame (no shadows), camera moving | shadow field (CPU/wall of that frame), its memory | shadowed frame, camera moving, and the field's cost then | walker vs reference, unlit | headlight | lit + shadows vs the reference lit from the same field (lighting error) | that reference vs exact shadow rays (the field's error) | walker vs exact (both) | exact-shadow reference time |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 use std::io::Write;
 use std::time::Instant;
@@ -66,6 +66,7 @@ fn main() -> anyhow::Result<()> {
     frame(unlit, 30.0, &mut cpu)?; // warm: walker links, cull mask, gradients
     let (unlit_s, unlit_cpu, _) = frame(unlit, 32.0, &mut cpu)?;
     let (first_s, first_cpu, field_s) = frame(lit, 34.0, &mut cpu)?;
+    let field_bytes = cpu.renderer().scene().shadows().map_or(0, |f| f.memory_bytes());
     let (move_s, move_cpu, move_field) = frame(lit, 36.0, &mut cpu)?;
     let (move2_s, _, _) = frame(lit, 38.0, &mut cpu)?;
     let no_shadows = tet_render::Shading { shadows: false, ..lit };
@@ -73,7 +74,7 @@ fn main() -> anyhow::Result<()> {
     let (lit2_s, _, _) = frame(no_shadows, 42.0, &mut cpu)?;
     row.push(format!("{:.3} s ({:.2})", unlit_s, unlit_cpu / unlit_s));
     row.push(format!("{:.3}–{:.3} s ({:.2})", lit_s.min(lit2_s), lit_s.max(lit2_s), lit_cpu / lit_s));
-    row.push(format!("{:.3} s ({:.2})", field_s, first_cpu / first_s));
+    row.push(format!("{:.3} s ({:.2}), {:.1} MB", field_s, first_cpu / first_s, field_bytes as f64 / 1e6));
     row.push(format!(
         "{:.3}–{:.3} s ({:.2}), field {:.3} s",
         move_s.min(move2_s),

@@ -99,6 +99,17 @@ def test_render_equals_tetview_bit_for_bit(tmp_path):
         # A TF file and a TF dict are the same TF.
         assert np.asarray(tetkit.render(b, tf=tf_path, size=(96, 72), azimuth=40, renderer=renderer)).tobytes() \
             == cli.tobytes()
+    # Adaptive sampling: the same preview through both, and bad tolerances refused.
+    subprocess.run(
+        [tetview, "render", str(bundle_path), "--tf", str(tf_path), "--size", "96x72", "--azimuth", "40",
+         "--adaptive", "0.01", "-o", str(tmp_path / "x.png"), "--float", str(npy)],
+        check=True, capture_output=True)
+    mine, figures = tetkit.render(b, tf=PEAKS, size=(96, 72), azimuth=40, adaptive=0.01, stats=True)
+    assert np.load(npy).tobytes() == np.asarray(mine).tobytes()
+    assert figures["rays_interpolated"] > 0 and figures["rays_walked"] > 0
+    for bad, renderer in ((-0.5, "walk"), (float("nan"), "walk"), (0.01, "pt")):
+        with pytest.raises(tetkit.TetkitError, match="adaptive"):
+            tetkit.render(b, tf=PEAKS, size=(16, 16), adaptive=bad, renderer=renderer)
 
 
 def test_lights_and_shadows_match_tetview_and_the_lit_reference(tmp_path):

@@ -287,7 +287,7 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
            lut: Optional[PathLike] = None, light: bool = False, cull: bool = True,
            time: Optional[float] = None, stats: bool = False, table: Optional[Table] = None,
            progress: Any = None, light_dir: Optional[Tuple[float, float, float]] = None,
-           shadows: bool = False) -> Any:
+           shadows: bool = False, adaptive: Optional[float] = None) -> Any:
     """Renders on the CPU as ``tetview render`` does: the same TF policy,
     table bake (``method``: see :func:`methods`), ``table`` (from
     :func:`bake`: drawn with its TF and method) or ``lut`` file, ``renderer``
@@ -303,7 +303,11 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
     ``light`` (a headlight), ``light_dir`` (one directional light
     travelling along that world direction), the view's ``"lighting"``
     object (several lights; it turns lighting on), and ``shadows``
-    (volumetric shadows of every light but the headlight)."""
+    (volumetric shadows of every light but the headlight). ``adaptive``
+    (walker only): a preview by image-space adaptive sampling at that
+    tolerance, as ``tetview render --adaptive`` (faster where the image is
+    smooth; its error measured, not bounded; the figures' ``rays_walked``
+    and ``rays_interpolated`` say how many pixels it walked)."""
     args = _view_args(view, azimuth, elevation, zoom, size)
     args.update(_light_args(light_dir, shadows))
     args.update(_tf_args(tf))
@@ -312,7 +316,8 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
     if table is not None and not isinstance(table, Table):
         raise TetkitError(f"table: expected a tetkit.Table from tetkit.bake, got {type(table).__name__}")
     img, figures = _tetkit.render(_at(bundle, time), method=method, renderer=renderer, light=bool(light),
-                                  cull=bool(cull), table=table, progress=_progress(progress, "render"), **args)
+                                  cull=bool(cull), table=table, progress=_progress(progress, "render"),
+                                  adaptive=None if adaptive is None else float(adaptive), **args)
     return (Image(img), figures) if stats else Image(img)
 
 

@@ -90,6 +90,7 @@ def render(
     progress: Optional[Callable[[int, int], None]] = None,
     light_dir: Optional[Tuple[float, float, float]] = None,
     shadows: bool = False,
+    adaptive: Optional[float] = None,
 ) -> Tuple[npt.NDArray[np.float32], Dict[str, Any]]: ...
 def reference(
     bundle: Bundle,

@@ -205,7 +205,7 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
     if let Some(e) = cause.downcast_ref::<tet_engine::EngineError>() {
         use tet_engine::EngineError as E;
         return match e {
-            E::RangeForAbsoluteTf => Some(Usage),
+            E::RangeForAbsoluteTf | E::Adaptive { .. } => Some(Usage),
             // Every failure of a method's bake, whatever the table error.
             E::Bake { .. } => Some(Bake),
             // A .tetl whose stored TF or method is unusable: the file's fault.
@@ -445,6 +445,7 @@ mod tests {
             (tet_render::RenderError::NotReady("no shader").into(), ExitKind::Internal),
             // The engine's own meanings, and its wrapped errors by their type.
             (tet_engine::EngineError::RangeForAbsoluteTf.into(), ExitKind::Usage),
+            (tet_engine::EngineError::Adaptive { tol: -1.0, why: "x" }.into(), ExitKind::Usage),
             (
                 tet_engine::EngineError::Bake {
                     method: tet_preint::Method::Table3d,

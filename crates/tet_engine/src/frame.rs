@@ -38,6 +38,24 @@ pub struct FrameRequest {
     /// Stop rays once nothing behind can change the pixel (the reference:
     /// α ≥ 1 − 1e-9; the CPU renderers: their opaque α).
     pub early_termination: bool,
+    /// The walker only: image-space adaptive sampling at this tolerance
+    /// (`tet_render::RasterOptions::walk_adaptive`: faster, the error
+    /// measured, not bounded). `None`: every pixel's ray is walked.
+    pub adaptive: Option<f32>,
+}
+
+/// Checks an adaptive-sampling request ([`FrameRequest::adaptive`]): a
+/// tolerance in [0, 1] (a difference of premultiplied channels) for the
+/// walker. `tetview` and the Python package check their arguments with it
+/// before loading anything; [`CpuFrameRenderer`] checks every request.
+pub fn check_adaptive(tol: f32, cpu: CpuRenderer) -> Result<(), EngineError> {
+    if !(0.0..=1.0).contains(&tol) {
+        return Err(EngineError::Adaptive { tol, why: "need a tolerance in [0, 1] (e.g. 0.004)" });
+    }
+    if cpu != CpuRenderer::Walk {
+        return Err(EngineError::Adaptive { tol, why: "the walker only (not projected tetrahedra or the GPU)" });
+    }
+    Ok(())
 }
 
 impl FrameRequest {
@@ -51,6 +69,7 @@ impl FrameRequest {
             sort: SortMethod::Auto,
             cull: true,
             early_termination: true,
+            adaptive: None,
         }
     }
 }
@@ -190,6 +209,9 @@ impl FrameRenderer for CpuFrameRenderer {
         req: &FrameRequest,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Frame, EngineError> {
+        if let Some(tol) = req.adaptive {
+            check_adaptive(tol, req.cpu)?;
+        }
         let mut notes = Vec::new();
         if (req.shading.is_active() || look.method.is_bivariate()) && self.ensure_gradients()? {
             notes.push(GRADIENTS_NOTE.to_string());
@@ -223,7 +245,7 @@ impl FrameRenderer for CpuFrameRenderer {
             }
         }
         let shading = shading_for_scene(req.shading, r.scene());
-        let mut raster = RasterOptions { shading, ..Default::default() };
+        let mut raster = RasterOptions { shading, walk_adaptive: req.adaptive, ..Default::default() };
         if !req.early_termination {
             raster.opaque_alpha = f32::INFINITY;
         }

@@ -93,7 +93,8 @@ pub use gpu::{GpuFrameOptions, GpuFrameRenderer, GpuFrameStats};
 
 pub use certify::Certifier;
 pub use frame::{
-    CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer, GRADIENTS_NOTE,
+    check_adaptive, CpuFrameRenderer, Frame, FrameRenderer, FrameRequest, FrameStats, ReferenceFrameRenderer,
+    GRADIENTS_NOTE,
 };
 pub use look::{count_table_bake, tables_baked, Look};
 pub use tf::{resolve_tf, ResolvedTf, TfRequest, TfSource};
@@ -109,6 +110,10 @@ pub enum EngineError {
     /// other variants: its contents).
     #[error("{0}")]
     Tf(#[from] tet_preint::TfError),
+    /// An adaptive-sampling tolerance outside [0, 1] or not finite, or
+    /// asked of a renderer other than the walker ([`FrameRequest::adaptive`]).
+    #[error("adaptive sampling {tol}: {why}")]
+    Adaptive { tol: f32, why: &'static str },
     /// A range was given for a TF in absolute scalar units.
     #[error("a scalar range is only for normalized transfer functions (this one is in scalar units)")]
     RangeForAbsoluteTf,

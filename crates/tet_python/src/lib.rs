@@ -634,7 +634,7 @@ fn bake(
 #[pyfunction]
 #[pyo3(signature = (bundle, tf_json=None, tf_path=None, colormap=None, method="table3d", lut=None, view_json=None,
     azimuth=0.0, elevation=0.0, zoom=1.0, size=(512, 512), renderer="walk", light=false, cull=true, table=None,
-    progress=None, light_dir=None, shadows=false))]
+    progress=None, light_dir=None, shadows=false, adaptive=None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -656,6 +656,7 @@ fn render<'py>(
     progress: Option<Py<PyAny>>,
     light_dir: Option<(f64, f64, f64)>,
     shadows: bool,
+    adaptive: Option<f32>,
 ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, pyo3::types::PyDict>)> {
     let b = &bundle.bundle;
     let progress = progress_of(progress);
@@ -676,7 +677,11 @@ fn render<'py>(
                 let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
                 let cpu: CpuRenderer =
                     renderer.parse().map_err(|e: String| anyhow::Error::msg(format!("renderer: {e}")))?;
+                if let Some(tol) = adaptive {
+                    tet_engine::check_adaptive(tol, cpu).map_err(|e| anyhow::Error::new(e).context("adaptive"))?;
+                }
                 let request = FrameRequest {
+                    adaptive,
                     shading: shading_of(view_json, light, light_dir, shadows)?,
                     cpu,
                     cull,
@@ -699,6 +704,8 @@ fn render<'py>(
     d.set_item("tets_culled", stats.tets_culled)?;
     d.set_item("crossings", stats.crossings)?;
     d.set_item("fragments", stats.fragments)?;
+    d.set_item("rays_walked", stats.walk_rays)?;
+    d.set_item("rays_interpolated", stats.walk_rays_interpolated)?;
     Ok((image_to_py(py, image), d))
 }
 

@@ -84,7 +84,9 @@ fn main() {
     let walk_interleave =
         std::env::var("TET_WALK_INTERLEAVE").ok().map(|k| k.parse().expect("TET_WALK_INTERLEAVE: rays"));
     let walk_prefetch = std::env::var("TET_WALK_PREFETCH").map_or(true, |v| v != "0");
-    let mut opts = RasterOptions { fast_path, tile, walk_interleave, walk_prefetch, ..Default::default() };
+    let walk_adaptive = std::env::var("TET_ADAPTIVE").ok().map(|k| k.parse().expect("TET_ADAPTIVE: tolerance"));
+    let mut opts =
+        RasterOptions { fast_path, tile, walk_interleave, walk_prefetch, walk_adaptive, ..Default::default() };
     if !keep {
         opts.setup_cache_bytes = 0;
     }
@@ -105,7 +107,7 @@ fn main() {
         }
         let cpu = process_cpu_seconds() - c0;
         println!(
-            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {}",
+            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} rays walked, {} interpolated, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {}",
             st.renderer,
             st.total_seconds,
             st.view_seconds,
@@ -117,6 +119,8 @@ fn main() {
             st.tets_drawn,
             st.fragments,
             st.crossings,
+            st.walk_rays,
+            st.walk_rays_interpolated,
             st.walk_runs,
             st.walk_front_faces,
             st.walk_terminated,

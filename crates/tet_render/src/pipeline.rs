@@ -121,6 +121,10 @@ pub struct RenderStats {
     /// decided exactly, runs ended at non-manifold links or the step bound.
     pub crossings: u64,
     pub walk_runs: u64,
+    /// Walker: covered pixels walked, and covered pixels interpolated by
+    /// adaptive sampling (`RasterOptions::walk_adaptive`).
+    pub walk_rays: u64,
+    pub walk_rays_interpolated: u64,
     pub walk_exact_tests: u64,
     pub walk_non_manifold: u64,
     pub walk_step_limit: u64,
@@ -437,6 +441,8 @@ impl Renderer {
         stats.fragments = ws.fragments;
         stats.crossings = ws.crossings;
         stats.walk_runs = ws.runs;
+        stats.walk_rays = ws.rays;
+        stats.walk_rays_interpolated = ws.rays_interpolated;
         stats.walk_exact_tests = ws.exact_tests;
         stats.walk_non_manifold = ws.non_manifold;
         stats.walk_step_limit = ws.step_limit;

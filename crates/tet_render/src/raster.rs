@@ -58,6 +58,18 @@ pub struct RasterOptions {
     /// next while the current step is computed (`walk::prefetch`). Meshes
     /// far larger than the caches gain most; the image is the same either way.
     pub walk_prefetch: bool,
+    /// The walker: image-space adaptive sampling, an approximation for
+    /// interaction (`None`, the default: every covered pixel walks its
+    /// ray). `Some(tol)`: each tile walks the rays of a 4-pixel lattice
+    /// first; a block whose pixels all meet the mesh through the same
+    /// number of entries and whose corners differ by at most `tol` in every
+    /// premultiplied channel is filled bilinearly, any other block is
+    /// halved and tested again down to single pixels. Silhouettes and
+    /// re-entries are walked exactly (coverage comes from the rasterized
+    /// entries), but a feature narrower than a block that none of its
+    /// corners meets is missed: the error is not bounded, only measured
+    /// (`crates/tetview/results/walker.md`).
+    pub walk_adaptive: Option<f32>,
 }
 
 impl Default for RasterOptions {
@@ -70,6 +82,7 @@ impl Default for RasterOptions {
             setup_cache_bytes: 512 << 20,
             walk_interleave: None,
             walk_prefetch: true,
+            walk_adaptive: None,
         }
     }
 }

@@ -61,6 +61,11 @@ pub struct BenchArgs {
     /// Visibility order for PT (auto: MPVO on convex meshes, MPVONC otherwise).
     #[arg(long, default_value = "auto")]
     pub sort: SortMethod,
+    /// Also run the walker with adaptive image-space sampling at these
+    /// tolerances (`tetview render --adaptive`), each a row of its own
+    /// ("walk~TOL"), so its speed is set against its error.
+    #[arg(long, value_delimiter = ',', value_name = "TOL,...")]
+    pub adaptive: Vec<f32>,
     /// Pareto plot PNG: image error against frame time, one series per method.
     #[arg(short, long, value_name = "pareto.png")]
     pub output: Option<PathBuf>,
@@ -134,7 +139,17 @@ struct Row {
     bundle: String,
     method: Method,
     renderer: CpuRenderer,
+    adaptive: Option<f32>,
     views: Vec<Sample>,
+}
+
+/// A renderer as the bench's rows name it: `walk`, `pt`, or `walk~TOL`
+/// with adaptive sampling.
+fn variant_label(kind: CpuRenderer, adaptive: Option<f32>) -> String {
+    match adaptive {
+        Some(tol) => format!("{kind}~{tol}"),
+        None => kind.to_string(),
+    }
 }
 
 impl Row {
@@ -213,6 +228,19 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.renderers.is_empty() {
         return Err(usage("--renderers: name at least one of walk, pt"));
     }
+    for &tol in &args.adaptive {
+        tet_engine::check_adaptive(tol, CpuRenderer::Walk).context("--adaptive")?;
+    }
+    if !args.adaptive.is_empty() && !args.renderers.contains(&CpuRenderer::Walk) {
+        return Err(usage("--adaptive: the walker only; add walk to --renderers"));
+    }
+    // Each renderer as it is, then the walker at each adaptive tolerance.
+    let variants: Vec<(CpuRenderer, Option<f32>)> = args
+        .renderers
+        .iter()
+        .map(|&k| (k, None))
+        .chain(args.adaptive.iter().map(|&tol| (CpuRenderer::Walk, Some(tol))))
+        .collect();
     // The bytes key the cache; the TF comes from the one loader.
     let tf_text = std::fs::read(&args.tf)
         .map_err(|e| tet_preint::TfError::Read { source: tet_preint::IoFailure::new(e), path: args.tf.clone() })?;
@@ -264,10 +292,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let t = Instant::now();
             let look = Look::bake(&bundle, m, tf.clone())?;
             let bake_s = t.elapsed().as_secs_f64();
-            for &kind in &args.renderers {
+            for &(kind, adaptive) in &variants {
                 let mut samples = vec![];
                 for (v, reference) in views.iter().zip(&references) {
-                    let req = FrameRequest { cpu: kind, sort: args.sort, ..FrameRequest::new(v.clone()) };
+                    let req = FrameRequest { cpu: kind, sort: args.sort, adaptive, ..FrameRequest::new(v.clone()) };
                     let frame = |r: &mut CpuFrameRenderer| -> Result<(Image, RenderStats)> {
                         let f = r.render(&look, &req, &|_, _| {})?;
                         let FrameStats::Cpu(st) = f.stats else {
@@ -315,7 +343,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                         max_8bit,
                     });
                 }
-                rows.push(Row { bundle: name.clone(), method: m, renderer: kind, views: samples });
+                rows.push(Row { bundle: name.clone(), method: m, renderer: kind, adaptive, views: samples });
             }
             eprintln!("{name} {m}: done");
         }
@@ -340,7 +368,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             out.push_str(&format!(
                 "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2} | {:.1} | {:.2} | {:.2e} | {:.2e} | {} |\n",
                 row.method,
-                row.renderer,
+                variant_label(row.renderer, row.adaptive),
                 row.bake_s() * 1e3,
                 row.mean(|s| s.sort_s) * 1e3,
                 row.mean(|s| s.raster_s) * 1e3,
@@ -369,6 +397,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 "bundle": r.bundle,
                 "method": r.method.id(),
                 "renderer": r.renderer.id(),
+                "adaptive": r.adaptive,
                 "bake_seconds": r.bake_s(),
                 "frame_seconds": r.total_s(),
                 "tets_per_second": r.tets_per_s(),
@@ -396,12 +425,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let series = |y: &dyn Fn(&Row) -> f64| -> Vec<Series> {
             methods
                 .iter()
-                .flat_map(|m| args.renderers.iter().map(move |k| (*m, *k)))
-                .map(|(m, k)| Series {
-                    name: format!("{m} {k}"),
+                .flat_map(|m| variants.iter().map(move |&(k, a)| (*m, k, a)))
+                .map(|(m, k, a)| Series {
+                    name: format!("{m} {}", variant_label(k, a)),
                     points: rows
                         .iter()
-                        .filter(|r| r.method == m && r.renderer == k)
+                        .filter(|r| r.method == m && r.renderer == k && r.adaptive == a)
                         .map(|r| Point {
                             x: r.total_s(),
                             y: y(r),

@@ -29,6 +29,14 @@ pub struct RenderArgs {
     /// radix (centroid depth, approximate), auto.
     #[arg(long, default_value = "auto")]
     pub sort: SortMethod,
+    /// Walker only: adaptive image-space sampling for previews — rays on a
+    /// 4-pixel lattice first, blocks whose corners differ by at most TOL
+    /// (premultiplied linear RGBA, e.g. 0.004) filled by interpolation,
+    /// others refined down to single pixels. Faster where the image is
+    /// smooth; its error is measured (`tetview bench --adaptive`), not
+    /// bounded: thin features between lattice rays can be missed.
+    #[arg(long, value_name = "TOL")]
+    pub adaptive: Option<f32>,
     #[command(flatten)]
     pub lighting: crate::camera_args::LightingArgs,
     /// Silhouette enhancement exponent p: α·(1 − |ĝ·v|)^p.
@@ -79,6 +87,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             return Err(usage(format!("--silhouette {p}: need a finite exponent ≥ 0")));
         }
     }
+    if let Some(tol) = args.adaptive {
+        let cpu = if args.gpu { tet_render::CpuRenderer::Pt } else { args.renderer };
+        tet_engine::check_adaptive(tol, cpu).context("--adaptive")?;
+    }
     let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
     if args.gpu {
         crate::gpu::check_args(args, method)?;
@@ -95,6 +107,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         cpu: args.renderer,
         sort: args.sort,
         cull: !args.no_cull,
+        adaptive: args.adaptive,
         ..FrameRequest::new(view.clone())
     };
     if args.gpu {
@@ -169,6 +182,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             st.raster_seconds,
             args.output.display()
         );
+        if args.adaptive.is_some() {
+            eprintln!(
+                "adaptive sampling: {} covered pixels walked, {} interpolated",
+                st.walk_rays, st.walk_rays_interpolated
+            );
+        }
     }
     Ok(())
 }

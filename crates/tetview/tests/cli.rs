@@ -466,6 +466,26 @@ fn renderer_flag_chooses_walk_or_pt() {
     let out = run(&["--renderer", "zsweep"], &pt);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("walk, pt"));
+    // --adaptive: the walker's preview sampling; every covered pixel
+    // walked or interpolated, close to the full walk on this smooth cube.
+    let ad = dir.path().join("adaptive.npy");
+    let out = run(&["--adaptive", "0.01"], &ad);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let st: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let full: serde_json::Value = serde_json::from_slice(&run(&[], &walk).stdout).unwrap();
+    assert_eq!(
+        st["walk_rays"].as_u64().unwrap() + st["walk_rays_interpolated"].as_u64().unwrap(),
+        full["walk_rays"].as_u64().unwrap(),
+        "{st}"
+    );
+    let d = tet_render::diff(&tet_render::Image::read_npy(&walk).unwrap(), &tet_render::Image::read_npy(&ad).unwrap())
+        .unwrap();
+    assert!(d.max_abs < 0.02, "{d:?}");
+    for bad in [&["--adaptive=-0.1"][..], &["--adaptive", "NaN"], &["--adaptive", "0.01", "--renderer", "pt"]] {
+        let out = run(bad, &ad);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("adaptive"), "{bad:?}");
+    }
 }
 
 fn saved_view(path: &Path) -> tet_render::ViewSpec {

@@ -363,8 +363,11 @@ impl WalkMesh {
 pub struct WalkStats {
     /// Entry faces facing the eye (the entries' candidates).
     pub front_faces: usize,
-    /// Pixels whose ray meets the mesh.
+    /// Pixels whose ray meets the mesh and was walked.
     pub rays: u64,
+    /// Pixels whose ray meets the mesh but whose colour was interpolated
+    /// from walked neighbours ([`RasterOptions::walk_adaptive`]).
+    pub rays_interpolated: u64,
     /// Runs walked (a ray re-entering a non-convex mesh walks several).
     pub runs: u64,
     /// Tets crossed (visible ones only: culled tets are never entered).
@@ -391,6 +394,7 @@ pub struct WalkStats {
 impl WalkStats {
     pub(crate) fn add(&mut self, o: &WalkStats) {
         self.rays += o.rays;
+        self.rays_interpolated += o.rays_interpolated;
         self.runs += o.runs;
         self.crossings += o.crossings;
         self.fragments += o.fragments;
@@ -445,6 +449,7 @@ pub fn walk_frame(
         lit_position: opts.shading.needs_position() || lit_shadows.is_some_and(|f| f.has_maps()),
         lanes: opts.walk_interleave.unwrap_or(1).clamp(1, 64),
         prefetch: opts.walk_prefetch,
+        adaptive: opts.walk_adaptive.filter(|t| t.is_finite() && *t >= 0.0),
     };
     let done = AtomicUsize::new(0);
     let tiles: Vec<(Vec<[f32; 4]>, WalkStats)> = (0..n_tiles)

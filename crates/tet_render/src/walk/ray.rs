@@ -22,6 +22,8 @@ pub(crate) struct WalkCtx<'a> {
     pub(crate) lanes: usize,
     /// Request the records of the next step's candidate tets ([`RasterOptions::walk_prefetch`]).
     pub(crate) prefetch: bool,
+    /// Image-space adaptive sampling's tolerance ([`RasterOptions::walk_adaptive`]).
+    pub(crate) adaptive: Option<f32>,
 }
 
 /// A point on a face along one ray: depth, scalar and the barycentric
@@ -322,7 +324,19 @@ impl WalkCtx<'_> {
         let mut flight: Vec<Option<(u32, RayState)>> = vec![None; lanes];
         let mut next = 0;
         let mut active = 0;
-        if lanes == 1 {
+        if let Some(tol) = self.adaptive {
+            let batch = &mut batches[0];
+            let mut walk = |pix: u32, first: usize, end: usize, st: &mut WalkStats| {
+                let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
+                batch.segs.len = 0;
+                st.rays += 1;
+                let mut ray = self.start_ray(px, py, first, end);
+                while !self.step::<G, GRADS>(g, &mut ray, &entries, batch, st, &mut counters) {}
+                ray.acc
+            };
+            adaptive_fill(&rays, stride, acc.len() / stride, tol, &mut acc, &mut st, &mut walk);
+            next = rays.len();
+        } else if lanes == 1 {
             // One ray at a time (the default): its state stays a local.
             let batch = &mut batches[0];
             for &(pix, first, end) in &rays {
@@ -725,5 +739,249 @@ impl WalkCtx<'_> {
             }
         }
         false
+    }
+}
+
+/// Lattice spacing of [`adaptive_fill`]'s first pass, in pixels.
+const ADAPTIVE_SPACING: usize = 4;
+
+/// Image-space adaptive sampling of one tile ([`RasterOptions::walk_adaptive`]):
+/// `rays` are the tile's (pixel, first entry, end) in pixel order, `walk`
+/// walks one and returns its colour. Pixels without a ray stay clear.
+pub(crate) fn adaptive_fill(
+    rays: &[(u32, usize, usize)],
+    stride: usize,
+    rows: usize,
+    tol: f32,
+    acc: &mut [[f32; 4]],
+    st: &mut WalkStats,
+    walk: &mut dyn FnMut(u32, usize, usize, &mut WalkStats) -> [f32; 4],
+) {
+    // Per pixel: its ray's index + 1 (0: none) and whether its colour is known.
+    let mut ray_of = vec![0u32; acc.len()];
+    for (r, &(pix, _, _)) in rays.iter().enumerate() {
+        ray_of[pix as usize] = r as u32 + 1;
+    }
+    let mut known = vec![false; acc.len()];
+    let lattice = |n: usize| -> Vec<usize> {
+        let mut v: Vec<usize> = (0..n).step_by(ADAPTIVE_SPACING).collect();
+        if *v.last().unwrap_or(&0) != n.saturating_sub(1) {
+            v.push(n - 1);
+        }
+        v
+    };
+    let (xs, ys) = (lattice(stride), lattice(rows));
+    struct Fill<'a> {
+        rays: &'a [(u32, usize, usize)],
+        ray_of: &'a [u32],
+        known: &'a mut [bool],
+        acc: &'a mut [[f32; 4]],
+        stride: usize,
+        tol: f32,
+    }
+    impl Fill<'_> {
+        fn get(
+            &mut self,
+            x: usize,
+            y: usize,
+            st: &mut WalkStats,
+            walk: &mut dyn FnMut(u32, usize, usize, &mut WalkStats) -> [f32; 4],
+        ) -> [f32; 4] {
+            let p = y * self.stride + x;
+            if !self.known[p] {
+                self.known[p] = true;
+                let r = self.ray_of[p];
+                if r != 0 {
+                    let (pix, first, end) = self.rays[r as usize - 1];
+                    self.acc[p] = walk(pix, first, end, st);
+                }
+            }
+            self.acc[p]
+        }
+        /// Entries of the pixel's ray (0: no ray).
+        fn entries(&self, x: usize, y: usize) -> usize {
+            let r = self.ray_of[y * self.stride + x];
+            if r == 0 {
+                0
+            } else {
+                let (_, first, end) = self.rays[r as usize - 1];
+                end - first
+            }
+        }
+        fn block(
+            &mut self,
+            x0: usize,
+            x1: usize,
+            y0: usize,
+            y1: usize,
+            st: &mut WalkStats,
+            walk: &mut dyn FnMut(u32, usize, usize, &mut WalkStats) -> [f32; 4],
+        ) {
+            let c = [
+                self.get(x0, y0, st, walk),
+                self.get(x1, y0, st, walk),
+                self.get(x0, y1, st, walk),
+                self.get(x1, y1, st, walk),
+            ];
+            if x1 - x0 <= 1 && y1 - y0 <= 1 {
+                return;
+            }
+            let n0 = self.entries(x0, y0);
+            let same_cover = (y0..=y1).all(|y| (x0..=x1).all(|x| self.entries(x, y) == n0));
+            let close = (0..4).all(|k| {
+                let (lo, hi) =
+                    c.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| (lo.min(v[k]), hi.max(v[k])));
+                hi - lo <= self.tol
+            });
+            if same_cover && close {
+                if n0 == 0 {
+                    return;
+                }
+                let (dx, dy) = ((x1 - x0) as f32, (y1 - y0) as f32);
+                for y in y0..=y1 {
+                    let v = if dy > 0.0 { (y - y0) as f32 / dy } else { 0.0 };
+                    for x in x0..=x1 {
+                        let p = y * self.stride + x;
+                        if self.known[p] {
+                            continue;
+                        }
+                        let u = if dx > 0.0 { (x - x0) as f32 / dx } else { 0.0 };
+                        let w = [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v];
+                        let mut out = [0.0f32; 4];
+                        for (k, o) in out.iter_mut().enumerate() {
+                            *o = w[0] * c[0][k] + w[1] * c[1][k] + w[2] * c[2][k] + w[3] * c[3][k];
+                        }
+                        self.acc[p] = out;
+                        self.known[p] = true;
+                        st.rays_interpolated += 1;
+                    }
+                }
+                return;
+            }
+            let (xm, ym) = ((x0 + x1) / 2, (y0 + y1) / 2);
+            let xsplit: &[(usize, usize)] = if x1 - x0 >= 2 { &[(x0, xm), (xm, x1)] } else { &[(x0, x1)] };
+            let ysplit: &[(usize, usize)] = if y1 - y0 >= 2 { &[(y0, ym), (ym, y1)] } else { &[(y0, y1)] };
+            for &(ya, yb) in ysplit {
+                for &(xa, xb) in xsplit {
+                    self.block(xa, xb, ya, yb, st, walk);
+                }
+            }
+        }
+    }
+    let mut f = Fill { rays, ray_of: &ray_of, known: &mut known, acc, stride, tol };
+    for yw in ys.windows(2).chain((ys.len() == 1).then_some(&ys[..1])) {
+        let (y0, y1) = (yw[0], *yw.last().unwrap());
+        for xw in xs.windows(2).chain((xs.len() == 1).then_some(&xs[..1])) {
+            let (x0, x1) = (xw[0], *xw.last().unwrap());
+            f.block(x0, x1, y0, y1, st, walk);
+        }
+    }
+}
+
+#[cfg(test)]
+mod adaptive_tests {
+    use super::*;
+
+    /// Runs [`adaptive_fill`] over a `w`×`h` tile whose covered pixels
+    /// (`entries(x, y)` > 0 entries) have the colour `colour(x, y)`;
+    /// returns the image and the walked pixels.
+    fn close(a: [f32; 4], b: [f32; 4]) -> bool {
+        (0..4).all(|k| (a[k] - b[k]).abs() < 1e-6)
+    }
+
+    fn fill(
+        w: usize,
+        h: usize,
+        tol: f32,
+        entries: impl Fn(usize, usize) -> usize,
+        colour: impl Fn(usize, usize) -> [f32; 4],
+    ) -> (Vec<[f32; 4]>, Vec<u32>, WalkStats) {
+        let mut rays = Vec::new();
+        let mut next = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let n = entries(x, y);
+                if n > 0 {
+                    rays.push(((y * w + x) as u32, next, next + n));
+                    next += n;
+                }
+            }
+        }
+        let mut acc = vec![[0.0f32; 4]; w * h];
+        let mut st = WalkStats::default();
+        let mut walked = Vec::new();
+        let mut walk = |pix: u32, _: usize, _: usize, st: &mut WalkStats| {
+            st.rays += 1;
+            walked.push(pix);
+            colour(pix as usize % w, pix as usize / w)
+        };
+        adaptive_fill(&rays, w, h, tol, &mut acc, &mut st, &mut walk);
+        (acc, walked, st)
+    }
+
+    /// A colour linear in the pixel is interpolated exactly from the
+    /// lattice: a 16×16 tile walks its 5×5 lattice rays only.
+    #[test]
+    fn linear_colour_walks_the_lattice_only() {
+        let colour = |x: usize, y: usize| [0.01 * x as f32, 0.02 * y as f32, 0.3, 0.5];
+        let (acc, walked, st) = fill(16, 16, 1.0, |_, _| 1, colour);
+        assert_eq!(walked.len(), 25);
+        assert_eq!((st.rays, st.rays_interpolated), (25, 256 - 25));
+        for y in 0..16 {
+            for x in 0..16 {
+                let (got, want) = (acc[y * 16 + x], colour(x, y));
+                assert!((0..4).all(|k| (got[k] - want[k]).abs() < 1e-6), "({x}, {y}): {got:?} vs {want:?}");
+            }
+        }
+        // A ragged tile (13×7: the last lattice column and row closer).
+        let (acc, walked, _) = fill(13, 7, 1.0, |_, _| 1, colour);
+        assert_eq!(walked.len(), 4 * 3, "lattice 0,4,8,12 × 0,4,6");
+        assert!((0..91).all(|p| (acc[p][0] - colour(p % 13, p / 13)[0]).abs() < 1e-6));
+    }
+
+    /// A bright pixel on the lattice makes its blocks refine down to single
+    /// pixels: every pixel next to it is walked, none smeared.
+    #[test]
+    fn a_spike_on_the_lattice_is_refined_around() {
+        let colour = |x: usize, y: usize| if (x, y) == (8, 4) { [1.0; 4] } else { [0.1, 0.1, 0.1, 0.2] };
+        let (acc, walked, _) = fill(16, 16, 0.01, |_, _| 1, colour);
+        for y in 0..16 {
+            for x in 0..16 {
+                assert!(close(acc[y * 16 + x], colour(x, y)), "({x}, {y})");
+            }
+        }
+        for (x, y) in [(7, 3), (9, 5), (7, 5), (8, 3)] {
+            assert!(walked.contains(&((y * 16 + x) as u32)), "({x}, {y}) not walked");
+        }
+    }
+
+    /// Coverage comes from the entries: pixels without a ray stay clear,
+    /// and no block is interpolated across a silhouette or a change in the
+    /// number of entries (a ray re-entering a non-convex mesh).
+    #[test]
+    fn silhouettes_and_reentries_are_walked_not_interpolated() {
+        let entries = |x: usize, y: usize| {
+            if x + y < 9 {
+                0
+            } else if x > 11 {
+                2
+            } else {
+                1
+            }
+        };
+        let colour = |x: usize, _: usize| [0.5, 0.4, 0.3, if x > 11 { 0.9 } else { 0.6 }];
+        let (acc, walked, st) = fill(16, 16, 1.0, entries, colour);
+        let covered = (0..256).filter(|&p| entries(p % 16, p / 16) > 0).count() as u64;
+        assert_eq!(st.rays + st.rays_interpolated, covered);
+        for (p, &got) in acc.iter().enumerate() {
+            let (x, y) = (p % 16, p / 16);
+            if entries(x, y) == 0 {
+                assert_eq!(got, [0.0; 4], "({x}, {y}) has no ray");
+                assert!(!walked.contains(&(p as u32)));
+            } else {
+                assert!(close(got, colour(x, y)), "({x}, {y})");
+            }
+        }
+        assert!(st.rays_interpolated > 0, "smooth blocks away from the edges are interpolated");
     }
 }

@@ -54,6 +54,10 @@ pub struct FrameRequest {
     /// Lighting and shadows (CPU only: a lit frame is drawn on the CPU
     /// even when the GPU is preferred).
     pub shading: Shading,
+    /// The CPU walker's adaptive sampling (`tet_engine::FrameRequest::adaptive`),
+    /// which the window asks for while the user drags; other renderers
+    /// draw every pixel.
+    pub adaptive: Option<f32>,
 }
 
 impl FrameRequest {
@@ -67,6 +71,7 @@ impl FrameRequest {
             && self.display == other.display
             && self.time == other.time
             && self.shading == other.shading
+            && self.adaptive == other.adaptive
     }
 }
 
@@ -368,6 +373,7 @@ impl Engine {
         tet_engine::FrameRequest {
             cpu: self.cpu_kind,
             shading: req.shading,
+            adaptive: req.adaptive.filter(|_| self.cpu_kind == tet_render::CpuRenderer::Walk),
             ..tet_engine::FrameRequest::new(req.view.clone())
         }
     }
@@ -488,6 +494,7 @@ mod tests {
             display: Display::default(),
             time: None,
             shading: Shading::default(),
+            adaptive: None,
         }
     }
 
@@ -667,6 +674,7 @@ mod tests {
             display: Display::default(),
             time: None,
             shading: Shading::default(),
+            adaptive: None,
         };
         let plain = engine.render(&req).unwrap();
         assert_eq!(plain.stats.accuracy, TableAccuracy::Certifying);
@@ -808,6 +816,30 @@ mod tests {
             req.time = Some(2.5);
             let Err(e) = engine.render(&req) else { panic!("time 2.5 is outside the steps") };
             assert!(e.to_string().contains("outside"), "{e}");
+        }
+    }
+
+    /// Dragging with adaptive sampling: the walker draws the engine's
+    /// adaptive frame; projected tetrahedra ignore the request (every pixel).
+    #[test]
+    fn adaptive_requests_reach_the_walker_only() {
+        let bundle = sample_bundle();
+        let domain = TableDomain::from_bundle(&bundle).unwrap();
+        for kind in [tet_render::CpuRenderer::Walk, tet_render::CpuRenderer::Pt] {
+            let mut engine = Engine::new(&bundle, false).unwrap();
+            engine.set_cpu_renderer(kind);
+            let model = TfModel::ramp(engine.scene().scalar_range(), 0.5);
+            let plain = request(&engine, &model, Method::Table3d, false);
+            let req = FrameRequest { adaptive: Some(0.05), ..plain.clone() };
+            assert!(!req.same_frame(&plain));
+            let tf = TransferFunction::clone(&req.tf);
+            let look = Look::bake_with(&domain, Method::Table3d, tf, &bake_options(req.table_n_s), &[]).unwrap();
+            let adaptive = (kind == tet_render::CpuRenderer::Walk).then_some(0.05);
+            let direct_req =
+                tet_engine::FrameRequest { cpu: kind, adaptive, ..tet_engine::FrameRequest::new(req.view.clone()) };
+            let want = CpuFrameRenderer::new(&bundle).unwrap().render(&look, &direct_req, &|_, _| {}).unwrap().image;
+            let got = engine.render(&req).unwrap();
+            assert!(bits(&got.image) == bits(&want), "{kind}");
         }
     }
 }

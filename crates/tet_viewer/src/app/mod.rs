@@ -184,6 +184,12 @@ pub(crate) const SCRIPT_POLL: Duration = Duration::from_millis(20);
 
 /// Render scale choices (fraction of the window's pixels along each axis).
 pub(crate) const SCALES: [(f32, &str); 4] = [(1.0, "100%"), (0.75, "75%"), (0.5, "50%"), (0.25, "25%")];
+
+/// The walker's adaptive-sampling tolerance while dragging: an order of
+/// magnitude closer to the full frame than half resolution, for less of a
+/// speed-up (both measured in `crates/tetview/results/walker.md`).
+pub(crate) const DRAG_ADAPTIVE_TOL: f32 = 0.008;
+
 pub(crate) const TABLE_SIZES: [usize; 5] = [16, 32, 64, 128, 256];
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -267,6 +273,9 @@ pub(crate) struct ViewerApp {
     pub(crate) gpu_note: String,
     pub(crate) scale: f32,
     pub(crate) drag_scale: f32,
+    /// While dragging, the CPU walker samples adaptively
+    /// ([`DRAG_ADAPTIVE_TOL`]) at the drag resolution.
+    pub(crate) drag_adaptive: bool,
     pub(crate) exposure: f32,
     pub(crate) tonemap: bool,
     /// Lighting: a key light from (azimuth, elevation) degrees about the
@@ -359,6 +368,7 @@ impl ViewerApp {
             gpu_note,
             scale: 1.0,
             drag_scale: 0.5,
+            drag_adaptive: false,
             exposure: 1.0,
             tonemap: true,
             light: false,
@@ -468,6 +478,7 @@ impl ViewerApp {
             display: self.display(),
             time: self.time,
             shading: self.shading(),
+            adaptive: None,
         })
     }
 
@@ -532,6 +543,9 @@ impl ViewerApp {
                 ui.selectable_value(&mut self.drag_scale, s, l);
             }
         });
+        ui.checkbox(&mut self.drag_adaptive, "adaptive while dragging").on_hover_text(
+            "CPU walker: rays on a 4-pixel lattice, smooth blocks interpolated, edges walked (sharper than a lower resolution)",
+        );
         ui.horizontal(|ui| {
             ui.checkbox(&mut self.light, "Light").on_hover_text("key light and headlight, gradients as normals (CPU)");
             ui.add_enabled(self.light, egui::Checkbox::new(&mut self.shadows, "Shadows"))
@@ -1002,7 +1016,10 @@ impl eframe::App for ViewerApp {
         self.idle_size = scaled(self.scale);
         let size = if interacting { scaled(self.scale * self.drag_scale) } else { self.idle_size };
         match self.request(size) {
-            Ok(req) => self.send(req),
+            Ok(mut req) => {
+                req.adaptive = (interacting && self.drag_adaptive).then_some(DRAG_ADAPTIVE_TOL);
+                self.send(req)
+            }
             Err(e) => self.status = format!("transfer function: {e}"),
         }
         self.run_script(&ctx);

@@ -335,3 +335,28 @@ def test_progress_callbacks_and_interact():
     else:
         ui = tetkit.interact(b, tf=PEAKS, size=(32, 32))
         assert ui is not None
+
+
+def test_interact_without_ipywidgets_says_what_to_install(monkeypatch):
+    # A None entry in sys.modules makes `import ipywidgets` raise ImportError,
+    # as on a machine without it (CI installs it, so simulate the absence).
+    monkeypatch.setitem(__import__("sys").modules, "ipywidgets", None)
+    with pytest.raises(ImportError) as e:
+        tetkit.interact(bluntfin(), tf=PEAKS)
+    assert "pip install ipywidgets" in str(e.value)
+
+
+def test_histogram_png_and_notebook_summary(tmp_path):
+    b = bluntfin()
+    out = tmp_path / "hist.png"
+    png = b.histogram_png(str(out), bins=(64, 32), units="kg/m^3", length_units="m")
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and out.read_bytes() == png
+    width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+    assert (width, height) == (900, 776), (width, height)  # the figure of `tetprep hist`
+    assert b.histogram_png(log=False) != b.histogram_png()
+    with pytest.raises(tetkit.TetkitIOError):
+        b.histogram_png(str(tmp_path / "no-such-dir" / "h.png"))
+    with pytest.raises(tetkit.TetkitError):
+        b.histogram_png(bins=(0, 8))
+    html = b._repr_html_()
+    assert f"<td>{b.num_tets}</td>" in html and "density" in html and "<table>" in html

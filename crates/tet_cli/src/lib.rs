@@ -11,6 +11,8 @@
 //! * [`exit_code`]: the code of an error chain — the outermost tag wins,
 //!   else the first library error in the chain is classified by its type
 //!   ([`classify`]), else 1. [`describe`] is the message the programs print.
+//! * [`hist_plot::histogram_figure`]: the scalar × |∇s| histogram figure
+//!   `tetprep hist` and the Python package draw.
 //! * [`parse_size`], [`parse_window_size`], [`parse_range`], [`parse_rgb`]:
 //!   clap `value_parser`s for `WxH`, `LO,HI` and `R,G,B`.
 //!
@@ -41,6 +43,7 @@
 
 mod args;
 mod exit;
+pub mod hist_plot;
 
 pub use args::{
     parse_counts3, parse_direction, parse_range, parse_rgb, parse_size, parse_window_size, parse_xyz, WINDOW_SIDE,

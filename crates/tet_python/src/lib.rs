@@ -36,7 +36,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use tet_bundle::Bundle;
-use tet_cli::ExitKind;
+use tet_cli::{ExitKind, KindExt};
 use tet_engine::{
     resolve_tf, CpuFrameRenderer, FrameRenderer, FrameRequest, Look, ReferenceFrameRenderer, TfRequest, TfSource,
 };
@@ -165,6 +165,51 @@ impl PyBundle {
         Ok(d)
     }
 
+    /// The histogram figure `tetprep hist` draws (the scalar × |∇s|
+    /// histogram with the 1D one above, log colour scale unless `log` is
+    /// false), as PNG bytes; also written to `path` when given. `units` and
+    /// `length_units` label the axes; `bins`, `scalar_range` and
+    /// `gradient_range` as for `histogram`.
+    #[pyo3(signature = (path=None, bins=(256, 256), log=true, scalar_range=None, gradient_range=None, units=None,
+        length_units=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn histogram_png<'py>(
+        &self,
+        py: Python<'py>,
+        path: Option<PathBuf>,
+        bins: (u32, u32),
+        log: bool,
+        scalar_range: Option<(f64, f64)>,
+        gradient_range: Option<(f64, f64)>,
+        units: Option<String>,
+        length_units: Option<String>,
+    ) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
+        let mesh = &self.bundle.mesh;
+        let opts = tet_analysis::HistogramOptions {
+            scalar_bins: bins.0,
+            gradient_bins: bins.1,
+            scalar_range,
+            gradient_range,
+            ..Default::default()
+        };
+        let png = py
+            .allow_threads(|| -> anyhow::Result<Vec<u8>> {
+                let h = tet_analysis::Analyzer::from_mesh(mesh)?.histograms(&opts)?;
+                let name = &mesh.scalar_name;
+                let axis_units = tet_cli::hist_plot::AxisUnits { scalar: units, length: length_units };
+                let title = format!("{name} × |∇{name}|");
+                let png = tet_cli::hist_plot::histogram_figure(&h, name, &title, log, &axis_units).to_png()?;
+                if let Some(p) = &path {
+                    std::fs::write(p, &png)
+                        .map_err(|e| anyhow::Error::new(e).context(format!("writing {}", p.display())))
+                        .kind(ExitKind::Output)?;
+                }
+                Ok(png)
+            })
+            .map_err(py_err)?;
+        Ok(pyo3::types::PyBytes::new(py, &png))
+    }
+
     /// Per-point gradients of the scalar, N×3 (scalar units per world
     /// length): the stored ones, else computed now by `method` (`lsq`,
     /// least squares over the one-ring, or `tet-average`).
@@ -225,6 +270,43 @@ impl PyBundle {
             b.mesh.tets.len(),
             b.mesh.scalar_name
         )
+    }
+
+    /// A notebook's summary of the bundle: an HTML table of its size,
+    /// scalar, bounds, volume, time steps and the conversion's findings
+    /// (`histogram_png` draws its histograms).
+    fn _repr_html_(&self) -> String {
+        let b = &self.bundle;
+        let st = &b.meta.stats;
+        let (lo, hi) = b.scalar_range();
+        let esc = |t: &str| t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+        let v3 = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
+        let mut rows = vec![
+            ("points", b.mesh.points.len().to_string()),
+            ("tets", b.mesh.tets.len().to_string()),
+            ("scalar", format!("{} in [{lo:.6}, {hi:.6}]", esc(&b.mesh.scalar_name))),
+            ("bounds", format!("{} – {}", v3(st.bounds_min), v3(st.bounds_max))),
+            ("volume", format!("{:.6}", st.total_volume)),
+            ("gradients stored", b.analysis.as_ref().is_some_and(|a| a.gradients.is_some()).to_string()),
+        ];
+        if let Some(steps) = &b.steps {
+            let t = steps.times();
+            rows.push((
+                "time steps",
+                format!(
+                    "{} from {} to {}",
+                    t.len(),
+                    t.first().copied().unwrap_or(0.0),
+                    t.last().copied().unwrap_or(0.0)
+                ),
+            ));
+        }
+        for f in &b.meta.findings {
+            rows.push(("finding", esc(f)));
+        }
+        let body: String =
+            rows.iter().map(|(k, v)| format!("<tr><th style=\"text-align:left\">{k}</th><td>{v}</td></tr>")).collect();
+        format!("<table><caption>tetkit.Bundle</caption>{body}</table>")
     }
 }
 

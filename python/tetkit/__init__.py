@@ -291,7 +291,9 @@ def render(bundle: Bundle, tf: TfLike = None, method: str = "table3d", view: Any
     """Renders on the CPU as ``tetview render`` does: the same TF policy,
     table bake (``method``: see :func:`methods`), ``table`` (from
     :func:`bake`: drawn with its TF and method) or ``lut`` file, ``renderer``
-    (``walk`` or ``pt``) and view (``view``: VTK camera fields as a dict or
+    (``walk`` or ``pt`` on the CPU, or ``gpu``: projected tetrahedra on the
+    GPU as ``tetview render --gpu``, unlit, for the methods the GPU has; a
+    ``TetkitError`` where no GPU adapter exists) and view (``view``: VTK camera fields as a dict or
     a view JSON file; else the default framing turned by ``azimuth`` and
     ``elevation`` degrees and ``zoom``). ``time`` draws a time series at
     that time. Returns an :class:`Image`, or with ``stats`` the pair

@@ -744,7 +744,7 @@ fn render<'py>(
     let progress = progress_of(progress);
     let table_look = table.map(|t| t.look.clone());
     let (image, stats, engine_seconds) = py
-        .allow_threads(|| -> anyhow::Result<(Image, tet_render::RenderStats, f64)> {
+        .allow_threads(|| -> anyhow::Result<(Image, tet_engine::FrameStats, f64)> {
             let start = std::time::Instant::now();
             // The look and the renderer are dropped inside the timed block:
             // freeing tables and the walker's mesh is the engine's time.
@@ -757,8 +757,16 @@ fn render<'py>(
                     }
                 };
                 let view = view_of(b, view_json, azimuth, elevation, zoom, [size.0, size.1])?;
-                let cpu: CpuRenderer =
-                    renderer.parse().map_err(|e: String| anyhow::Error::msg(format!("renderer: {e}")))?;
+                // "gpu": projected tetrahedra on the GPU (the engine's
+                // GpuFrameRenderer, as `tetview render --gpu`).
+                let gpu = renderer == "gpu";
+                let cpu: CpuRenderer = if gpu {
+                    CpuRenderer::Pt
+                } else {
+                    renderer
+                        .parse()
+                        .map_err(|e: String| anyhow::Error::msg(format!("renderer: {e} (or gpu on the GPU)")))?
+                };
                 if let Some(tol) = adaptive {
                     tet_engine::check_adaptive(tol, cpu).map_err(|e| anyhow::Error::new(e).context("adaptive"))?;
                 }
@@ -769,25 +777,40 @@ fn render<'py>(
                     cull,
                     ..FrameRequest::new(view)
                 };
-                let mut r = CpuFrameRenderer::new(b)?;
-                r.render(&look, &request, &progress)?
+                if gpu {
+                    let scene = tet_render::Scene::from_bundle(b)?;
+                    let mut r = tet_engine::GpuFrameRenderer::new(b, scene, Default::default())?;
+                    r.render(&look, &request, &progress)?
+                } else {
+                    let mut r = CpuFrameRenderer::new(b)?;
+                    r.render(&look, &request, &progress)?
+                }
             };
-            let tet_engine::FrameStats::Cpu(stats) = frame.stats else {
-                unreachable!("the CPU renderer reports CPU statistics")
-            };
-            Ok((frame.image, stats, start.elapsed().as_secs_f64()))
+            Ok((frame.image, frame.stats, start.elapsed().as_secs_f64()))
         })
         .map_err(py_err)?;
     let d = pyo3::types::PyDict::new(py);
     d.set_item("engine_seconds", engine_seconds)?;
-    d.set_item("frame_seconds", stats.total_seconds)?;
-    d.set_item("renderer", stats.renderer.clone())?;
-    d.set_item("tets_drawn", stats.tets_drawn)?;
-    d.set_item("tets_culled", stats.tets_culled)?;
-    d.set_item("crossings", stats.crossings)?;
-    d.set_item("fragments", stats.fragments)?;
-    d.set_item("rays_walked", stats.walk_rays)?;
-    d.set_item("rays_interpolated", stats.walk_rays_interpolated)?;
+    match stats {
+        tet_engine::FrameStats::Cpu(stats) => {
+            d.set_item("frame_seconds", stats.total_seconds)?;
+            d.set_item("renderer", stats.renderer.clone())?;
+            d.set_item("tets_drawn", stats.tets_drawn)?;
+            d.set_item("tets_culled", stats.tets_culled)?;
+            d.set_item("crossings", stats.crossings)?;
+            d.set_item("fragments", stats.fragments)?;
+            d.set_item("rays_walked", stats.walk_rays)?;
+            d.set_item("rays_interpolated", stats.walk_rays_interpolated)?;
+        }
+        tet_engine::FrameStats::Gpu(g) => {
+            d.set_item("frame_seconds", g.render.total_seconds)?;
+            d.set_item("renderer", "gpu")?;
+            d.set_item("device", g.device.clone())?;
+            d.set_item("tets_drawn", g.render.tets_drawn)?;
+            d.set_item("tets_culled", g.render.tets_culled)?;
+        }
+        tet_engine::FrameStats::Reference { .. } => unreachable!("render draws with the CPU or the GPU renderer"),
+    }
     Ok((image_to_py(py, image), d))
 }
 

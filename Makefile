@@ -3,7 +3,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all build install ci test test-gpu python-test python-deps gpu-driver viewer-deps video-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
+.PHONY: all build install ci test test-gpu python-test python-deps mpi-test mpi-deps gpu-driver viewer-deps video-deps demo golden bench device-bin fuzz fuzz-build fmt lint clean
 
 all: build
 
@@ -29,7 +29,27 @@ test: gpu-driver viewer-deps video-deps
 	trap '[ -z "$$d" ] || rm -rf "$$d"' EXIT; \
 	echo "$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc"; \
 	$(CARGO) test --workspace --all-targets && $(CARGO) test --workspace --doc
+	$(MAKE) mpi-test
 	$(MAKE) python-test
+
+## The distributed crate over MPI (its `mpi` feature: rsmpi on Open MPI), run under mpirun.
+## Skips with a note where Open MPI cannot be installed (needs apt-get and root or sudo).
+mpi-test: mpi-deps
+	@if command -v mpirun >/dev/null 2>&1 && command -v mpicc >/dev/null 2>&1; then \
+		echo "$(CARGO) clippy -p tet_distributed --features mpi --all-targets -- -D warnings && $(CARGO) test -p tet_distributed --features mpi"; \
+		$(CARGO) clippy -q -p tet_distributed --features mpi --all-targets -- -D warnings && \
+		$(CARGO) test -p tet_distributed --features mpi; \
+	else echo "note: no Open MPI here; the MPI tests are skipped"; fi
+
+## Open MPI and libclang (rsmpi's bindings) from Debian's packages.
+mpi-deps:
+	@if ! command -v mpicc >/dev/null 2>&1 || ! ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1; then \
+		if command -v apt-get >/dev/null 2>&1 && { [ "$$(id -u)" = 0 ] || sudo -n true 2>/dev/null; }; then \
+			SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+			$$SUDO apt-get install -y libopenmpi-dev openmpi-bin libclang-dev || { $$SUDO apt-get update && $$SUDO apt-get install -y libopenmpi-dev openmpi-bin libclang-dev; } \
+			|| echo "note: installing Open MPI failed; the MPI tests will skip"; \
+		else echo "note: no Open MPI, and it cannot be installed here (needs apt-get and root or sudo); the MPI tests will skip"; fi; \
+	fi
 
 ## The Python package (python/, the native module crates/tet_python): a virtual environment
 ## in cargo's target directory with maturin, pytest, numpy, meshio, PyVista (with VTK), tqdm and

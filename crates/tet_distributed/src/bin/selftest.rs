@@ -1,0 +1,70 @@
+//! Under `mpirun -np N`: every rank draws a seeded image, the ranks agree
+//! on the request, composite in a shuffled visibility order, and rank 0
+//! checks the result against sequential front-to-back compositing of all
+//! N images. Exit 0 when it matches (rank 0 prints the bytes each rank
+//! sent), 1 when it does not, 3 when the agreement failed (every rank
+//! prints the same message). `TET_SELFTEST_FAIL=R` makes rank R report a
+//! failure; `TET_SELFTEST_DISAGREE=R` gives rank R another request.
+
+use tet_distributed::{agree, composite, over, Comm, MpiComm};
+use tet_render::Image;
+
+fn image_of(rank: usize, w: u32, h: u32) -> Image {
+    let mut x = 0x2545_F491_4F6C_DD1Du64 ^ (rank as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let px = (0..w * h)
+        .map(|_| {
+            let a = if next() < 0.2 { 0.0 } else { next() };
+            [a * next(), a * next(), a * next(), a]
+        })
+        .collect();
+    Image::from_pixels(w, h, px).expect("w × h pixels")
+}
+
+fn main() {
+    let comm = MpiComm::init().expect("MPI initializes once");
+    let (rank, size) = (comm.rank(), comm.size());
+    let (w, h) = (67, 41);
+    let env_rank = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<usize>().ok());
+    let state = if env_rank("TET_SELFTEST_FAIL") == Some(rank) {
+        Err(format!("simulated failure on rank {rank}"))
+    } else if env_rank("TET_SELFTEST_DISAGREE") == Some(rank) {
+        Ok(format!("size={w}x{h}\nview=another"))
+    } else {
+        Ok(format!("size={w}x{h}\nview=seeded"))
+    };
+    if let Err(e) = agree(&comm, state) {
+        eprintln!("rank {rank}: error: {e}");
+        std::process::exit(3);
+    }
+    // A visibility order that is not the rank order: every other rank
+    // first, then the rest backwards.
+    let mut order: Vec<usize> = (0..size).step_by(2).collect();
+    order.extend((0..size).filter(|r| r % 2 == 1).rev());
+    let (image, stats) = composite(&comm, image_of(rank, w, h), &order).unwrap_or_else(|e| {
+        eprintln!("rank {rank}: error: {e}");
+        std::process::exit(3)
+    });
+    println!("rank {rank}: sent {} bytes in {} messages", stats.bytes_sent, stats.messages);
+    if let Some(img) = image {
+        let imgs: Vec<Image> = (0..size).map(|r| image_of(r, w, h)).collect();
+        let worst = img
+            .pixels()
+            .iter()
+            .enumerate()
+            .map(|(p, g)| {
+                let want = order.iter().fold([0.0; 4], |acc, &r| over(acc, imgs[r].pixels()[p]));
+                (0..4).map(|k| (g[k] - want[k]).abs()).fold(0.0f32, f32::max)
+            })
+            .fold(0.0f32, f32::max);
+        println!("rank 0: {size} ranks, order {order:?}, largest difference from sequential compositing {worst:e}");
+        if worst > 1e-6 {
+            std::process::exit(1);
+        }
+    }
+}

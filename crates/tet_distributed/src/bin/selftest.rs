@@ -4,7 +4,10 @@
 //! N images. Exit 0 when it matches (rank 0 prints the bytes each rank
 //! sent), 1 when it does not, 3 when the agreement failed (every rank
 //! prints the same message). `TET_SELFTEST_FAIL=R` makes rank R report a
-//! failure; `TET_SELFTEST_DISAGREE=R` gives rank R another request.
+//! failure; `TET_SELFTEST_DISAGREE=R` gives rank R another request;
+//! `TET_SELFTEST_SIZE=WxH` sets the image size (default 67x41) and
+//! `TET_SELFTEST_ROUNDS=K` composites K times (rank 0 prints each round's
+//! seconds: the compositing benchmark of `docs/scaling.md`).
 
 use tet_distributed::{agree, composite, over, Comm, MpiComm};
 use tet_render::Image;
@@ -29,7 +32,11 @@ fn image_of(rank: usize, w: u32, h: u32) -> Image {
 fn main() {
     let comm = MpiComm::init().expect("MPI initializes once");
     let (rank, size) = (comm.rank(), comm.size());
-    let (w, h) = (67, 41);
+    let (w, h) = std::env::var("TET_SELFTEST_SIZE")
+        .ok()
+        .and_then(|s| s.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))))
+        .unwrap_or((67u32, 41u32));
+    let rounds = std::env::var("TET_SELFTEST_ROUNDS").ok().and_then(|v| v.parse::<usize>().ok()).unwrap_or(1).max(1);
     let env_rank = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<usize>().ok());
     let state = if env_rank("TET_SELFTEST_FAIL") == Some(rank) {
         Err(format!("simulated failure on rank {rank}"))
@@ -46,10 +53,22 @@ fn main() {
     // first, then the rest backwards.
     let mut order: Vec<usize> = (0..size).step_by(2).collect();
     order.extend((0..size).filter(|r| r % 2 == 1).rev());
-    let (image, stats) = composite(&comm, image_of(rank, w, h), &order).unwrap_or_else(|e| {
-        eprintln!("rank {rank}: error: {e}");
-        std::process::exit(3)
-    });
+    let mine = image_of(rank, w, h);
+    let mut result = None;
+    for round in 0..rounds {
+        let (image, stats) = composite(&comm, mine.clone(), &order).unwrap_or_else(|e| {
+            eprintln!("rank {rank}: error: {e}");
+            std::process::exit(3)
+        });
+        if rounds > 1 {
+            println!(
+                "round {round} rank {rank}: {:.4} s, sent {} bytes, received {}",
+                stats.seconds, stats.bytes_sent, stats.bytes_received
+            );
+        }
+        result = Some((image, stats));
+    }
+    let (image, stats) = result.expect("one round at least");
     println!("rank {rank}: sent {} bytes in {} messages", stats.bytes_sent, stats.messages);
     if let Some(img) = image {
         let imgs: Vec<Image> = (0..size).map(|r| image_of(r, w, h)).collect();

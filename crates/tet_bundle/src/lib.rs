@@ -103,11 +103,18 @@ pub struct Bundle {
     /// `STEP00000`…); `mesh.scalar` is the first step's unless
     /// [`Bundle::set_time`] chose another time.
     pub steps: Option<TimeSteps>,
+    /// The stored gradients at the time [`Bundle::set_time`] chose (from the
+    /// steps' `GRAD` sections), while `analysis` is dropped.
+    time_gradients: Option<VertexGradients>,
 }
 
 /// Most time steps a bundle holds (one section each, under the container's
 /// 65,536 sections).
 pub const MAX_STEPS: usize = 60_000;
+
+/// Most time steps a bundle holds with per-step gradients (two sections a
+/// step).
+pub const MAX_STEPS_WITH_GRADIENTS: usize = 30_000;
 
 /// The scalar of every time step of a series on one mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -115,6 +122,9 @@ pub struct TimeSteps {
     times: Vec<f64>,
     scalars: Vec<Vec<f64>>,
     sources: Vec<String>,
+    /// Per-vertex gradients of every step's scalar, by one method
+    /// (`tetprep convert --gradients` of a series).
+    gradients: Option<(GradientMethod, Vec<Vec<[f64; 3]>>)>,
     /// Over every step.
     scalar_min: f64,
     scalar_max: f64,
@@ -171,7 +181,56 @@ impl TimeSteps {
                 hi = hi.max(v);
             }
         }
-        Ok(TimeSteps { times, scalars, sources, scalar_min: lo, scalar_max: hi })
+        Ok(TimeSteps { times, scalars, sources, gradients: None, scalar_min: lo, scalar_max: hi })
+    }
+
+    /// Adds every step's per-vertex gradients (by `method`, one N×3 array a
+    /// step, finite), so that a time's gradients are read, not computed.
+    /// A series with gradients holds at most [`MAX_STEPS_WITH_GRADIENTS`].
+    pub fn with_gradients(mut self, method: GradientMethod, per_step: Vec<Vec<[f64; 3]>>) -> Result<TimeSteps, String> {
+        if self.times.len() > MAX_STEPS_WITH_GRADIENTS {
+            return Err(format!(
+                "{} steps; a bundle holds gradients for at most {MAX_STEPS_WITH_GRADIENTS}",
+                self.times.len()
+            ));
+        }
+        if per_step.len() != self.times.len() {
+            return Err(format!("{} gradient arrays for {} steps", per_step.len(), self.times.len()));
+        }
+        let n = self.scalars[0].len();
+        for (k, g) in per_step.iter().enumerate() {
+            if g.len() != n {
+                return Err(format!("step {k}: {} gradients for {n} points", g.len()));
+            }
+            if let Some(i) = g.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+                return Err(format!("step {k} (time {}): gradient {:?} at point {i}", self.times[k], g[i]));
+            }
+        }
+        self.gradients = Some((method, per_step));
+        Ok(self)
+    }
+
+    /// The method of the stored per-step gradients, if any.
+    pub fn gradient_method(&self) -> Option<GradientMethod> {
+        self.gradients.as_ref().map(|g| g.0)
+    }
+
+    /// Step `k`'s stored gradients, if any.
+    pub fn gradient(&self, k: usize) -> Option<&[[f64; 3]]> {
+        self.gradients.as_ref().map(|g| g.1[k].as_slice())
+    }
+
+    /// The stored gradients at `time`, weighted as [`TimeSteps::scalar_at`]
+    /// weights the scalar (`None` without stored gradients). Both gradient
+    /// methods are linear in the scalar, so this is the gradient of the
+    /// interpolated scalar up to rounding.
+    pub fn gradient_at(&self, time: f64) -> Result<Option<Vec<[f64; 3]>>, TimeError> {
+        let TimeSample { lo, hi, weight_hi: w } = self.sample(time)?;
+        let Some((_, g)) = &self.gradients else { return Ok(None) };
+        if lo == hi {
+            return Ok(Some(g[lo].clone()));
+        }
+        Ok(Some(g[lo].iter().zip(&g[hi]).map(|(a, b)| std::array::from_fn(|c| (1.0 - w) * a[c] + w * b[c])).collect()))
     }
 
     pub fn len(&self) -> usize {
@@ -263,7 +322,7 @@ impl Bundle {
         if meta.writer.is_empty() {
             meta.writer = format!("tetkit {}", env!("CARGO_PKG_VERSION"));
         }
-        Bundle { meta, mesh, adjacency, analysis: None, steps: None }
+        Bundle { meta, mesh, adjacency, analysis: None, steps: None, time_gradients: None }
     }
 
     /// The sections in file order, payloads borrowed where possible.
@@ -317,6 +376,15 @@ impl Bundle {
             sections.push(("TIMES".into(), Cow::Owned(bytes)));
             for (k, s) in st.scalars.iter().enumerate() {
                 sections.push((format!("STEP{k:05}"), layout::le_bytes(s)));
+            }
+            if let Some((method, per_step)) = &st.gradients {
+                let bytes =
+                    bincode::serde::encode_to_vec(StepGradientsRecord { method: *method }, bincode::config::standard())
+                        .expect("a method always encodes");
+                sections.push(("STEPGRAD".into(), Cow::Owned(bytes)));
+                for (k, g) in per_step.iter().enumerate() {
+                    sections.push((format!("GRAD{k:05}"), layout::le_bytes(g.as_flattened())));
+                }
             }
         }
         sections
@@ -425,6 +493,7 @@ impl Bundle {
             adjacency: Adjacency { neighbors, boundary_faces, convex: record.convex },
             analysis,
             steps,
+            time_gradients: None,
         })
     }
 
@@ -452,13 +521,24 @@ impl Bundle {
     /// and the statistics' scalar range the whole series' (so a normalized
     /// TF means the same colours at every time). The analysis describes one
     /// step's scalar, so it is dropped (what needs it is computed again);
-    /// the steps stay.
+    /// the steps stay, and their stored gradients at `time`, if any, become
+    /// [`Bundle::gradients`].
     pub fn set_time(&mut self, time: f64) -> Result<(), TimeError> {
         let steps = self.steps.as_ref().ok_or(TimeError::NoSteps)?;
         self.mesh.scalar = steps.scalar_at(time)?;
         (self.meta.stats.scalar_min, self.meta.stats.scalar_max) = steps.scalar_range();
+        self.time_gradients = match (steps.gradient_method(), steps.gradient_at(time)?) {
+            (Some(method), Some(per_point)) => Some(VertexGradients { method, per_point }),
+            _ => None,
+        };
         self.analysis = None;
         Ok(())
+    }
+
+    /// The per-vertex gradients of the mesh's current scalar, where stored:
+    /// the analysis's, or after [`Bundle::set_time`] the steps' at that time.
+    pub fn gradients(&self) -> Option<&VertexGradients> {
+        self.analysis.as_ref().and_then(|a| a.gradients.as_ref()).or(self.time_gradients.as_ref())
     }
 
     /// Sets the analysis part (replacing any earlier one).
@@ -497,7 +577,28 @@ fn read_steps<'a>(sec: &[u8], section: &dyn Fn(&str) -> Option<&'a [u8]>, np: us
         }
         scalars.push(values);
     }
-    TimeSteps::new(record.times, scalars, record.sources).map_err(|e| format!("TIMES: {e}"))
+    let steps = TimeSteps::new(record.times, scalars, record.sources).map_err(|e| format!("TIMES: {e}"))?;
+    let Some(sec) = section("STEPGRAD") else { return Ok(steps) };
+    let (record, _): (StepGradientsRecord, usize) =
+        bincode::serde::decode_from_slice(sec, bincode::config::standard().with_limit::<{ 1 << 10 }>())
+            .map_err(|e| format!("STEPGRAD section does not decode ({e})"))?;
+    let mut per_step = Vec::with_capacity(steps.len().min(1 << 16));
+    for k in 0..steps.len() {
+        let tag = format!("GRAD{k:05}");
+        let bytes = section(&tag).ok_or_else(|| format!("STEPGRAD is present but {tag} is missing"))?;
+        let values = layout::le_to_f64s(bytes, 3).map_err(|e| format!("{tag}: {e}"))?;
+        if values.len() != 3 * np {
+            return Err(format!("{tag} has {} values for {np} points × 3", values.len()));
+        }
+        per_step.push(values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
+    }
+    steps.with_gradients(record.method, per_step).map_err(|e| format!("STEPGRAD: {e}"))
+}
+
+/// What the `STEPGRAD` section holds (the arrays are `GRAD00000`…).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+struct StepGradientsRecord {
+    method: GradientMethod,
 }
 
 /// Decodes the optional analysis sections; errors say what is inconsistent.

@@ -238,3 +238,60 @@ fn damaged_time_steps_are_named() {
     assert!(e.to_string().contains("STEP00002 is missing"), "{e}");
     assert!(step2.length > 0);
 }
+
+/// Per-step gradients (`STEPGRAD`, `GRAD00000`…) round-trip; `set_time`
+/// makes the time's gradients the bundle's, weighted as the scalar is;
+/// a bundle without them reads as before; bad arrays are refused and a
+/// missing array is named.
+#[test]
+fn step_gradients_round_trip_and_interpolate() {
+    let b = series_bundle();
+    let n = b.mesh.points.len();
+    let grads: Vec<Vec<[f64; 3]>> =
+        (0..3).map(|k| (0..n).map(|i| [i as f64, k as f64, (i * k) as f64 * 0.5]).collect()).collect();
+    let method = tet_analysis::GradientMethod::TetAverage;
+    let steps = b.steps.clone().unwrap().with_gradients(method, grads.clone()).unwrap();
+    let b = b.with_steps(steps).unwrap();
+    let (_dir, _, back) = assert_round_trips(&b, "g.tetb");
+    let st = back.steps.as_ref().unwrap();
+    assert_eq!(st.gradient_method(), Some(method));
+    assert_eq!(st.gradient(2), Some(&grads[2][..]));
+    assert!(back.gradients().is_none(), "no analysis and no time set");
+
+    let mut at = back.clone();
+    at.set_time(2.5).unwrap();
+    let g = at.gradients().expect("the time's gradients");
+    assert_eq!(g.method, method);
+    for (i, v) in g.per_point.iter().enumerate() {
+        for c in 0..3 {
+            let want = 0.25 * grads[1][i][c] + 0.75 * grads[2][i][c];
+            assert!((v[c] - want).abs() <= 1e-12 * want.abs().max(1.0), "point {i}");
+        }
+    }
+    at.set_time(1.0).unwrap();
+    assert_eq!(at.gradients().unwrap().per_point, grads[1]);
+    // Without stored gradients a time has none.
+    let mut plain = series_bundle();
+    plain.set_time(1.0).unwrap();
+    assert!(plain.gradients().is_none());
+
+    let st0 = series_bundle().steps.unwrap();
+    assert!(st0.clone().with_gradients(method, grads[..2].to_vec()).unwrap_err().contains("2 gradient arrays for 3"));
+    let mut nan = grads.clone();
+    nan[1][0][2] = f64::NAN;
+    assert!(st0.clone().with_gradients(method, nan).unwrap_err().contains("step 1"));
+    let short = vec![vec![[0.0; 3]; n - 1]; 3];
+    assert!(st0.with_gradients(method, short).unwrap_err().contains("gradients for"));
+
+    // A STEPGRAD whose GRAD00001 is gone.
+    let bytes = b.to_bytes();
+    let path = Path::new("g.tetb");
+    let table = Bundle::sections(&bytes, path).unwrap();
+    let mut renamed = bytes.clone();
+    let at = 32 + 40 * table.iter().position(|e| e.name == "GRAD00001").unwrap();
+    renamed[at..at + 9].copy_from_slice(b"XRAD00001");
+    let crc = crc32fast::hash(&renamed[32..32 + 40 * table.len()]);
+    renamed[24..28].copy_from_slice(&crc.to_le_bytes());
+    let e = Bundle::from_bytes(&renamed, path).unwrap_err();
+    assert!(e.to_string().contains("GRAD00001 is missing"), "{e}");
+}

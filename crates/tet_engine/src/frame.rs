@@ -158,8 +158,19 @@ impl CpuFrameRenderer {
     /// geometry stays, what depends on the scalar is redone (see
     /// [`Renderer::set_scalar`]).
     pub fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), EngineError> {
+        self.set_scalar_with_gradients(scalar, None)
+    }
+
+    /// [`CpuFrameRenderer::set_scalar`] with the scalar's gradients where
+    /// the bundle stores them ([`tet_bundle::TimeSteps::gradient_at`]): lit
+    /// and bivariate frames then use them instead of computing them.
+    pub fn set_scalar_with_gradients(
+        &mut self,
+        scalar: Vec<f64>,
+        gradients: Option<Vec<[f64; 3]>>,
+    ) -> Result<(), EngineError> {
         // The culler stays (it reads the scene's scalar when the mask is redone).
-        self.renderer.as_mut().expect("a renderer").set_scalar(scalar)?;
+        self.renderer.as_mut().expect("a renderer").set_scalar_with_gradients(scalar, gradients)?;
         Ok(())
     }
 

@@ -153,3 +153,45 @@ fn a_look_baked_by_the_gpu_is_refused_on_the_cpu() {
     assert!(matches!(e, tet_engine::EngineError::NotBaked { method: Method::Table3d }), "{e}");
     assert!(e.to_string().contains("Look::bake"), "{e}");
 }
+
+/// A time step's stored gradients light the frame (no gradients computed,
+/// no note), and the frame equals one whose gradients were computed from
+/// that step's scalar (least squares of the same scalar: the same image up
+/// to rounding); a step without stored gradients computes them again.
+#[test]
+fn a_time_steps_stored_gradients_light_the_frame() {
+    let bundle = grid_bundle(7, false);
+    let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::Given(peaks()), ..TfRequest::default() }).unwrap().tf;
+    let look = Look::bake(&bundle, Method::Table3d, tf).unwrap();
+    let view = ViewSpec::framing([0.0; 3], [6.0, 6.0, 4.8], [48, 40]).orbit(25.0, 15.0, 1.0);
+    let lit = tet_render::Lighting::default().shading(None);
+    let req = FrameRequest { shading: lit, ..FrameRequest::new(view) };
+    let step: Vec<f64> = bundle.mesh.scalar.iter().map(|s| 0.5 * s + 0.25).collect();
+    // The least-squares gradients a scene computes for the step's scalar.
+    let lsq = Scene::new(&bundle.mesh.points, bundle.mesh.tets.clone(), step.clone())
+        .unwrap()
+        .ensure_gradients()
+        .unwrap()
+        .gradients()
+        .unwrap()
+        .to_vec();
+    for cpu in [CpuRenderer::Walk, CpuRenderer::Pt] {
+        let req = FrameRequest { cpu, ..req.clone() };
+        let mut stored = CpuFrameRenderer::new(&bundle).unwrap();
+        stored.render(&look, &req, &|_, _| {}).unwrap();
+        stored.set_scalar_with_gradients(step.clone(), Some(lsq.clone())).unwrap();
+        let a = stored.render(&look, &req, &|_, _| {}).unwrap();
+        assert!(a.notes.is_empty(), "{cpu}: {:?}", a.notes);
+        let mut computed = CpuFrameRenderer::new(&bundle).unwrap();
+        computed.render(&look, &req, &|_, _| {}).unwrap();
+        computed.set_scalar(step.clone()).unwrap();
+        let b = computed.render(&look, &req, &|_, _| {}).unwrap();
+        assert_eq!(b.notes, [tet_engine::GRADIENTS_NOTE], "{cpu}");
+        let d = tet_render::diff(&a.image, &b.image).unwrap();
+        assert!(d.max_abs < 1e-6, "{cpu}: {d:?}");
+        assert!(
+            stored.set_scalar_with_gradients(step.clone(), Some(lsq[1..].to_vec())).is_err(),
+            "{cpu}: a gradient short is refused"
+        );
+    }
+}

@@ -262,11 +262,32 @@ impl Renderer {
     /// per-tet setup are redone. Gradients are dropped with the old scalar
     /// (the walker's copy with them).
     pub fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), RenderError> {
-        let had_gradients = self.scene.set_scalar(scalar)?;
-        match &mut self.walk_mesh {
-            Some(_) if had_gradients => self.walk_mesh = None,
-            Some(m) => m.set_scalar(&self.scene),
-            None => {}
+        self.set_scalar_with_gradients(scalar, None)
+    }
+
+    /// [`Renderer::set_scalar`] with the new scalar's per-vertex gradients
+    /// where they are known (a time series' stored ones), so that lighting
+    /// and bivariate methods need not compute them.
+    pub fn set_scalar_with_gradients(
+        &mut self,
+        scalar: Vec<f64>,
+        gradients: Option<Vec<[f64; 3]>>,
+    ) -> Result<(), RenderError> {
+        if let Some(g) = &gradients {
+            if g.len() != self.scene.positions_rel().len() {
+                return Err(RenderError::Scene(format!(
+                    "{} gradients for {} points",
+                    g.len(),
+                    self.scene.positions_rel().len()
+                )));
+            }
+        }
+        self.scene.set_scalar(scalar)?;
+        if let Some(g) = gradients {
+            self.scene.set_gradients(g)?;
+        }
+        if let Some(m) = &mut self.walk_mesh {
+            m.set_scalar(&self.scene);
         }
         self.walk_view_stale = true;
         self.prepared = None;

@@ -59,7 +59,7 @@ impl Scene {
             bundle.adjacency.neighbors.clone(),
             bundle.adjacency.convex,
         )?;
-        if let Some(g) = bundle.analysis.as_ref().and_then(|a| a.gradients.as_ref()) {
+        if let Some(g) = bundle.gradients() {
             s = s.with_gradients(g.per_point.clone())?;
         }
         Ok(s)
@@ -102,6 +102,13 @@ impl Scene {
     /// normals for lighting and silhouettes and, as magnitudes, by bivariate
     /// methods.
     pub fn with_gradients(mut self, per_point: Vec<[f64; 3]>) -> Result<Scene, RenderError> {
+        self.set_gradients(per_point)?;
+        Ok(self)
+    }
+
+    /// [`Scene::with_gradients`] in place (a time step's stored gradients
+    /// after [`Scene::set_scalar`]).
+    pub fn set_gradients(&mut self, per_point: Vec<[f64; 3]>) -> Result<(), RenderError> {
         if per_point.len() != self.pos_rel.len() {
             return Err(RenderError::Scene(format!("{} gradients for {} points", per_point.len(), self.pos_rel.len())));
         }
@@ -110,7 +117,7 @@ impl Scene {
         }
         self.grad_mag = Some(per_point.iter().map(|g| DVec3::from(*g).length()).collect());
         self.gradients = Some(per_point);
-        Ok(self)
+        Ok(())
     }
 
     /// Replaces the scalar (a time series' next step: the geometry stays).

@@ -292,10 +292,11 @@ impl Engine {
             return Ok(());
         }
         let scalar = steps.scalar_at(t).map_err(|e| ViewerError::Input(e.to_string()))?;
+        let gradients = steps.gradient_at(t).map_err(|e| ViewerError::Input(e.to_string()))?;
         if let Some(g) = &mut self.gpu {
             g.set_scalar(scalar.clone())?;
         }
-        self.cpu.set_scalar(scalar)?;
+        self.cpu.set_scalar_with_gradients(scalar, gradients)?;
         self.time = Some(t);
         Ok(())
     }

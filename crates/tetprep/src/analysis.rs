@@ -43,6 +43,23 @@ pub fn analyze(bundle: &Bundle, opts: &AnalysisOptions) -> anyhow::Result<Analys
     Ok(an.analyze(opts)?)
 }
 
+/// A time series' bundle with every step's per-vertex gradients by
+/// `method` (the `GRAD` sections), so a time's gradients are read, not
+/// computed, by every renderer; a bundle without steps is returned as it is.
+pub fn with_step_gradients(mut bundle: Bundle, method: tet_analysis::GradientMethod) -> anyhow::Result<Bundle> {
+    let Some(steps) = bundle.steps.take() else { return Ok(bundle) };
+    let mesh = &bundle.mesh;
+    let per_step = (0..steps.len())
+        .map(|k| {
+            let an = Analyzer::new(&mesh.points, &mesh.tets, steps.scalar(k))
+                .with_context(|| format!("time step {k} (time {}) cannot be analysed", steps.times()[k]))?;
+            Ok(an.vertex_gradients(method).to_vec())
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let steps = steps.with_gradients(method, per_step).map_err(anyhow::Error::msg)?;
+    bundle.with_steps(steps).map_err(anyhow::Error::msg)
+}
+
 pub fn run_analyze(path: &Path, output: Option<&Path>, args: &AnalysisArgs, as_json: bool) -> anyhow::Result<()> {
     let bundle = Bundle::read(path)?;
     // Keep what the bundle already has: its gradient method and histogram axes.
@@ -66,8 +83,12 @@ pub fn run_analyze(path: &Path, output: Option<&Path>, args: &AnalysisArgs, as_j
     };
     let t = Instant::now();
     let analysis = analyze(&bundle, &AnalysisOptions { gradients, histogram, ..Default::default() })?;
-    let secs = t.elapsed().as_secs_f64();
     let bundle = bundle.with_analysis(analysis);
+    let bundle = match gradients {
+        Some(m) => with_step_gradients(bundle, m)?,
+        None => bundle,
+    };
+    let secs = t.elapsed().as_secs_f64();
     let out = output.unwrap_or(path);
     bundle.write(out).context("writing the bundle failed").kind(ExitKind::Output)?;
     if as_json {

@@ -137,6 +137,9 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         let t = Instant::now();
         let analysis = crate::analysis::analyze(&bundle, &opts)?;
         bundle = bundle.with_analysis(analysis);
+        if let Some(m) = opts.gradients {
+            bundle = crate::analysis::with_step_gradients(bundle, m)?;
+        }
         timings.push(("analysis", t.elapsed().as_secs_f64()));
     }
     let t = Instant::now();

@@ -83,6 +83,7 @@ fn summary_json_mesh(b: &Bundle) -> Value {
             json!({
                 "count": st.len(),
                 "scalar_range": [lo, hi],
+                "gradients": st.gradient_method().map(|m| m.name()),
                 "steps": (0..st.len()).map(|k| {
                     let (mn, mx) = min_max(st.scalar(k));
                     json!({"time": st.times()[k], "source": st.source(k), "scalar_min": mn, "scalar_max": mx})
@@ -144,10 +145,14 @@ pub fn summary_text(b: &Bundle) -> String {
         let (lo, hi) = st.scalar_range();
         let _ = writeln!(
             o,
-            "time steps  {}, t = {} to {}; scalar over all steps [{lo:.6e}, {hi:.6e}] (the scalar above is step 0's)",
+            "time steps  {}, t = {} to {}; scalar over all steps [{lo:.6e}, {hi:.6e}] (the scalar above is step 0's){}",
             st.len(),
             st.times()[0],
-            st.times()[st.len() - 1]
+            st.times()[st.len() - 1],
+            match st.gradient_method() {
+                Some(m) => format!("; gradients stored for every step ({})", m.name()),
+                None => String::new(),
+            }
         );
         // Every step of a short series; the ends of a long one.
         let shown: Vec<usize> =

@@ -643,3 +643,44 @@ fn time_series_become_one_bundle_with_steps() {
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("gone.vti") && stderr(&o).contains("missing.pvd"), "{}", stderr(&o));
 }
+
+/// `convert --gradients` of a time series stores every step's gradients
+/// (the method `info` names), each equal to the step's own; at a time
+/// between steps the stored ones, interpolated, are the gradients of the
+/// interpolated scalar (both methods are linear in the scalar); `analyze
+/// --gradients` adds them to a series converted without.
+#[test]
+fn series_store_every_steps_gradients() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("g.tetb");
+    let o =
+        tetprep(&["convert", path_arg(&data("series/isabel_eye.pvd")), "-o", path_arg(&out), "--gradients", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json(&o)["time_steps"]["gradients"], "lsq");
+    let b = tet_bundle::Bundle::read(&out).unwrap();
+    let st = b.steps.as_ref().unwrap();
+    let lsq = tet_analysis::GradientMethod::LeastSquares;
+    let gradients_of = |s: &[f64]| {
+        tet_analysis::Analyzer::new(&b.mesh.points, &b.mesh.tets, s).unwrap().vertex_gradients(lsq).to_vec()
+    };
+    for k in 0..st.len() {
+        assert_eq!(st.gradient(k).unwrap(), &gradients_of(st.scalar(k))[..], "step {k}");
+    }
+    let mut at = b.clone();
+    at.set_time(3.25).unwrap();
+    let want = gradients_of(&at.mesh.scalar);
+    let got = &at.gradients().unwrap().per_point;
+    let scale = want.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = got.iter().flatten().zip(want.iter().flatten()).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(worst <= 1e-12 * scale, "largest difference {worst} of {scale}");
+    let info = String::from_utf8_lossy(&tetprep(&["info", path_arg(&out)]).stdout).into_owned();
+    assert!(info.contains("gradients stored for every step (lsq)"), "{info}");
+
+    let plain = dir.path().join("p.tetb");
+    assert!(tetprep(&["convert", path_arg(&data("series/isabel_eye.pvd")), "-o", path_arg(&plain)]).status.success());
+    assert!(tet_bundle::Bundle::read(&plain).unwrap().steps.unwrap().gradient_method().is_none());
+    let o = tetprep(&["analyze", path_arg(&plain), "--gradients"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let again = tet_bundle::Bundle::read(&plain).unwrap();
+    assert_eq!(again.steps.as_ref().unwrap().gradient(3), b.steps.as_ref().unwrap().gradient(3));
+}

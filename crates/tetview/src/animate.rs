@@ -105,9 +105,11 @@ impl Animator {
             Animator::Gpu(r) => r.render(look, req, &|_, _| {}),
         }
     }
-    fn set_scalar(&mut self, scalar: Vec<f64>) -> Result<(), EngineError> {
+    /// A time's scalar, and its gradients where the bundle stores them (the
+    /// CPU lights with them; the GPU draws unlit and needs none).
+    fn set_scalar(&mut self, scalar: Vec<f64>, gradients: Option<Vec<[f64; 3]>>) -> Result<(), EngineError> {
         match self {
-            Animator::Cpu(r) => r.set_scalar(scalar),
+            Animator::Cpu(r) => r.set_scalar_with_gradients(scalar, gradients),
             Animator::Gpu(r) => r.set_scalar(scalar),
         }
     }
@@ -342,7 +344,8 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
         let (azimuth, time) = frame_at(i, n, orbit, times);
         if let (Some(t), Some(st)) = (time, &steps) {
             if last_time != Some(t) {
-                animator.set_scalar(st.scalar_at(t).map_err(|e| usage(format!("frame {i}: {e}")))?)?;
+                let at = |e: tet_bundle::TimeError| usage(format!("frame {i}: {e}"));
+                animator.set_scalar(st.scalar_at(t).map_err(at)?, st.gradient_at(t).map_err(at)?)?;
                 last_time = Some(t);
             }
         }

@@ -299,9 +299,15 @@ impl WalkMesh {
     pub fn set_scalar(&mut self, scene: &Scene) {
         let s = scene.scalar();
         self.scalar = self.scene_vertex.iter().map(|&i| s[i as usize] as f32).collect();
-        self.grads = None;
-        self.grad_mag = None;
+        self.set_gradients(scene);
         self.shadows = None;
+    }
+
+    /// Takes the scene's gradients (and magnitudes) again, in walk order.
+    pub fn set_gradients(&mut self, scene: &Scene) {
+        let sv = &self.scene_vertex;
+        self.grads = scene.gradients().map(|g| sv.iter().map(|&i| g[i as usize].map(|c| c as f32)).collect());
+        self.grad_mag = scene.gradient_magnitudes().map(|m| sv.iter().map(|&i| m[i as usize] as f32).collect());
     }
 
     /// Takes the scene's shadow field again (lights or TF changed).

@@ -79,7 +79,10 @@ def test_files_that_cannot_be_read_are_oserrors():
     assert "no scalar named 'nope'" in str(e.value)
 
 
-def test_render_equals_tetview_bit_for_bit(tmp_path):
+def tetview_on_bluntfin(tmp_path):
+    """Blunt Fin saved where `tetview` reads it, PEAKS as a file, and a
+    function that runs `tetview render` on them at 96x72, azimuth 40, with
+    extra arguments, returning the process and the .npy it wrote."""
     tetview = os.environ.get("TETVIEW")
     if not tetview:
         pytest.skip("TETVIEW (the tetview binary) is not set; make test sets it")
@@ -87,11 +90,19 @@ def test_render_equals_tetview_bit_for_bit(tmp_path):
     bundle_path, tf_path, npy = tmp_path / "bf.tetb", tmp_path / "peaks.json", tmp_path / "cli.npy"
     b.save(str(bundle_path))
     tf_path.write_text(json.dumps(PEAKS))
-    for renderer in ("walk", "pt"):
-        subprocess.run(
+
+    def run(*extra, check=True):
+        out = subprocess.run(
             [tetview, "render", str(bundle_path), "--tf", str(tf_path), "--size", "96x72", "--azimuth", "40",
-             "--renderer", renderer, "-o", str(tmp_path / "x.png"), "--float", str(npy)],
-            check=True, capture_output=True)
+             *extra, "-o", str(tmp_path / "x.png"), "--float", str(npy)], check=check, capture_output=True)
+        return out, npy
+    return b, tf_path, run
+
+
+def test_render_equals_tetview_bit_for_bit(tmp_path):
+    b, tf_path, tetview_render = tetview_on_bluntfin(tmp_path)
+    for renderer in ("walk", "pt"):
+        _, npy = tetview_render("--renderer", renderer)
         cli = np.load(npy)
         mine = tetkit.render(b, tf=PEAKS, size=(96, 72), azimuth=40, renderer=renderer)
         assert mine.shape == (72, 96, 4) and mine.dtype == np.float32
@@ -100,10 +111,7 @@ def test_render_equals_tetview_bit_for_bit(tmp_path):
         assert np.asarray(tetkit.render(b, tf=tf_path, size=(96, 72), azimuth=40, renderer=renderer)).tobytes() \
             == cli.tobytes()
     # Adaptive sampling: the same preview through both, and bad tolerances refused.
-    subprocess.run(
-        [tetview, "render", str(bundle_path), "--tf", str(tf_path), "--size", "96x72", "--azimuth", "40",
-         "--adaptive", "0.01", "-o", str(tmp_path / "x.png"), "--float", str(npy)],
-        check=True, capture_output=True)
+    _, npy = tetview_render("--adaptive", "0.01")
     mine, figures = tetkit.render(b, tf=PEAKS, size=(96, 72), azimuth=40, adaptive=0.01, stats=True)
     assert np.load(npy).tobytes() == np.asarray(mine).tobytes()
     assert figures["rays_interpolated"] > 0 and figures["rays_walked"] > 0
@@ -113,16 +121,8 @@ def test_render_equals_tetview_bit_for_bit(tmp_path):
 
 
 def test_gpu_renderer_equals_tetview_gpu(tmp_path):
-    tetview = os.environ.get("TETVIEW")
-    if not tetview:
-        pytest.skip("TETVIEW (the tetview binary) is not set; make test sets it")
-    b = bluntfin()
-    bundle_path, tf_path, npy = tmp_path / "bf.tetb", tmp_path / "peaks.json", tmp_path / "gpu.npy"
-    b.save(str(bundle_path))
-    tf_path.write_text(json.dumps(PEAKS))
-    cli = subprocess.run(
-        [tetview, "render", str(bundle_path), "--tf", str(tf_path), "--size", "96x72", "--azimuth", "40", "--gpu",
-         "-o", str(tmp_path / "x.png"), "--float", str(npy)], capture_output=True)
+    b, _, tetview_render = tetview_on_bluntfin(tmp_path)
+    cli, npy = tetview_render("--gpu", check=False)
     if cli.returncode == 7:  # no GPU adapter
         if os.environ.get("TETKIT_REQUIRE_GPU") == "1":
             pytest.fail("TETKIT_REQUIRE_GPU=1 but tetview found no GPU: " + cli.stderr.decode())

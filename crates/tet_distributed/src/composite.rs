@@ -255,34 +255,46 @@ pub fn composite<C: Comm + ?Sized>(
     Ok((Some(image), st))
 }
 
+/// A rank's test image: a pseudo-random premultiplied colour per pixel
+/// (α in [0, 1], colour ≤ α, a fifth of the pixels empty) from `rank` and
+/// `seed` (the tests' and `tet-distributed-selftest`'s).
+pub fn seeded_image(rank: usize, seed: u64, w: u32, h: u32) -> Image {
+    let mut x = seed ^ (rank as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let px = (0..w * h)
+        .map(|_| {
+            let a = if next() < 0.2 { 0.0 } else { next() };
+            [a * next(), a * next(), a * next(), a]
+        })
+        .collect();
+    Image::from_pixels(w, h, px).expect("w × h pixels")
+}
+
+/// `images[order[0]]` over `images[order[1]]` over …, pixel by pixel, in
+/// one process: what [`composite`] must equal.
+pub fn sequential_over(images: &[Image], order: &[usize]) -> Vec<[f32; 4]> {
+    let n = images.first().map_or(0, |i| i.pixels().len());
+    (0..n).map(|p| order.iter().fold([0.0; 4], |acc, &r| over(acc, images[r].pixels()[p]))).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::ThreadComm;
     use proptest::prelude::*;
 
-    /// A rank's image: a pseudo-random premultiplied colour per pixel
-    /// (α in [0, 1], colour ≤ α), some pixels empty.
     fn image_of(rank: usize, seed: u64, w: u32, h: u32) -> Image {
-        let mut x = seed ^ (rank as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let px = (0..w * h)
-            .map(|_| {
-                let a = if next() < 0.2 { 0.0 } else { next() };
-                [a * next(), a * next(), a * next(), a]
-            })
-            .collect();
-        Image::from_pixels(w, h, px).unwrap()
+        seeded_image(rank, seed, w, h)
     }
 
     fn sequential(order: &[usize], seed: u64, w: u32, h: u32) -> Vec<[f32; 4]> {
         let imgs: Vec<Image> = (0..order.len()).map(|r| image_of(r, seed, w, h)).collect();
-        (0..(w * h) as usize).map(|p| order.iter().fold([0.0; 4], |acc, &r| over(acc, imgs[r].pixels()[p]))).collect()
+        sequential_over(&imgs, order)
     }
 
     proptest! {

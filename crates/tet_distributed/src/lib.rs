@@ -43,7 +43,7 @@ mod composite;
 #[cfg(feature = "mpi")]
 pub use comm::mpi_comm::MpiComm;
 pub use comm::{Comm, ThreadComm};
-pub use composite::{agree, composite, over, CompositeStats};
+pub use composite::{agree, composite, over, seeded_image, sequential_over, CompositeStats};
 
 use std::time::Duration;
 

@@ -72,6 +72,25 @@ pub struct PyBundle {
     pub bundle: Bundle,
 }
 
+impl PyBundle {
+    /// The histograms `histogram` returns and `histogram_png` draws.
+    fn histograms(
+        &self,
+        bins: (u32, u32),
+        scalar_range: Option<(f64, f64)>,
+        gradient_range: Option<(f64, f64)>,
+    ) -> anyhow::Result<tet_analysis::Histograms> {
+        let opts = tet_analysis::HistogramOptions {
+            scalar_bins: bins.0,
+            gradient_bins: bins.1,
+            scalar_range,
+            gradient_range,
+            ..Default::default()
+        };
+        Ok(tet_analysis::Analyzer::from_mesh(&self.bundle.mesh)?.histograms(&opts)?)
+    }
+}
+
 #[pymethods]
 impl PyBundle {
     /// Points, N×3 float64 (a copy).
@@ -137,19 +156,7 @@ impl PyBundle {
         scalar_range: Option<(f64, f64)>,
         gradient_range: Option<(f64, f64)>,
     ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-        let mesh = &self.bundle.mesh;
-        let opts = tet_analysis::HistogramOptions {
-            scalar_bins: bins.0,
-            gradient_bins: bins.1,
-            scalar_range,
-            gradient_range,
-            ..Default::default()
-        };
-        let h = py
-            .allow_threads(|| -> anyhow::Result<tet_analysis::Histograms> {
-                Ok(tet_analysis::Analyzer::from_mesh(mesh)?.histograms(&opts)?)
-            })
-            .map_err(py_err)?;
+        let h = py.allow_threads(|| self.histograms(bins, scalar_range, gradient_range)).map_err(py_err)?;
         let edges = |a: &tet_analysis::histogram::Axis| (0..=a.bins as usize).map(|k| a.edge(k)).collect::<Vec<f64>>();
         let (ns, ng) = (h.scalar_axis.bins as usize, h.gradient_axis.bins as usize);
         let d = pyo3::types::PyDict::new(py);
@@ -184,18 +191,10 @@ impl PyBundle {
         units: Option<String>,
         length_units: Option<String>,
     ) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
-        let mesh = &self.bundle.mesh;
-        let opts = tet_analysis::HistogramOptions {
-            scalar_bins: bins.0,
-            gradient_bins: bins.1,
-            scalar_range,
-            gradient_range,
-            ..Default::default()
-        };
         let png = py
             .allow_threads(|| -> anyhow::Result<Vec<u8>> {
-                let h = tet_analysis::Analyzer::from_mesh(mesh)?.histograms(&opts)?;
-                let name = &mesh.scalar_name;
+                let h = self.histograms(bins, scalar_range, gradient_range)?;
+                let name = &self.bundle.mesh.scalar_name;
                 let axis_units = tet_cli::hist_plot::AxisUnits { scalar: units, length: length_units };
                 let title = format!("{name} × |∇{name}|");
                 let png = tet_cli::hist_plot::histogram_figure(&h, name, &title, log, &axis_units).to_png()?;

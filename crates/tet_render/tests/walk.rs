@@ -61,8 +61,9 @@ fn mesh_of(points: Vec<[f64; 3]>, tets: Vec<[u32; 4]>, scalar: Vec<f64>) -> (Tet
 /// On NASA Blunt Fin (187k tets, a non-convex curvilinear grid) the walker
 /// crosses the tets PT rasterizes, gives PT's image and is as accurate
 /// against the exact reference.
-#[test]
-fn bluntfin_walk_matches_pt_segments_and_accuracy() {
+/// Blunt Fin with the sample TF over its range, table3d baked for it, and
+/// its scene.
+fn bluntfin_table3d() -> (Bundle, TransferFunction, Arc<dyn SegmentShader>, Scene) {
     let bundle = bluntfin_bundle();
     let s = &bundle.meta.stats;
     let tf = sample_tf(s.scalar_min, s.scalar_max);
@@ -70,6 +71,12 @@ fn bluntfin_walk_matches_pt_segments_and_accuracy() {
     let shader: Arc<dyn SegmentShader> =
         make_shader(Method::Table3d, &tf, &domain, &BakeOptions::default()).unwrap().into();
     let scene = Scene::from_bundle(&bundle).unwrap();
+    (bundle, tf, shader, scene)
+}
+
+#[test]
+fn bluntfin_walk_matches_pt_segments_and_accuracy() {
+    let (bundle, tf, shader, scene) = bluntfin_table3d();
     let (lo, hi) = scene.bounds();
     let view = ViewSpec::framing(lo, hi, [96, 80]).orbit(30.0, 20.0, 1.0);
     // No early termination: every covered (tet, pixel) pair is composited.
@@ -589,13 +596,7 @@ fn eye_on_a_face_plane_is_drawn_by_pt_and_reported() {
 /// default) unchanged.
 #[test]
 fn adaptive_sampling_keeps_coverage_and_stays_close() {
-    let bundle = bluntfin_bundle();
-    let s = &bundle.meta.stats;
-    let tf = sample_tf(s.scalar_min, s.scalar_max);
-    let domain = TableDomain::from_bundle(&bundle).unwrap();
-    let shader: Arc<dyn SegmentShader> =
-        make_shader(Method::Table3d, &tf, &domain, &BakeOptions::default()).unwrap().into();
-    let scene = Scene::from_bundle(&bundle).unwrap();
+    let (_, _, shader, scene) = bluntfin_table3d();
     let (lo, hi) = scene.bounds();
     let view = ViewSpec::framing(lo, hi, [160, 128]).orbit(30.0, 20.0, 1.0);
     let (full, fs) = render(&scene, CpuRenderer::Walk, &view, shader.clone(), RasterOptions::default());

@@ -9,25 +9,11 @@
 //! `TET_SELFTEST_ROUNDS=K` composites K times (rank 0 prints each round's
 //! seconds: the compositing benchmark of `docs/scaling.md`).
 
-use tet_distributed::{agree, composite, over, Comm, MpiComm};
+use tet_distributed::{agree, composite, seeded_image, sequential_over, Comm, MpiComm};
 use tet_render::Image;
 
-fn image_of(rank: usize, w: u32, h: u32) -> Image {
-    let mut x = 0x2545_F491_4F6C_DD1Du64 ^ (rank as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let px = (0..w * h)
-        .map(|_| {
-            let a = if next() < 0.2 { 0.0 } else { next() };
-            [a * next(), a * next(), a * next(), a]
-        })
-        .collect();
-    Image::from_pixels(w, h, px).expect("w × h pixels")
-}
+/// The selftest's seed for every rank's image.
+const SEED: u64 = 0x2545_F491_4F6C_DD1D;
 
 fn main() {
     let comm = MpiComm::init().expect("MPI initializes once");
@@ -53,7 +39,7 @@ fn main() {
     // first, then the rest backwards.
     let mut order: Vec<usize> = (0..size).step_by(2).collect();
     order.extend((0..size).filter(|r| r % 2 == 1).rev());
-    let mine = image_of(rank, w, h);
+    let mine = seeded_image(rank, SEED, w, h);
     let mut result = None;
     for round in 0..rounds {
         let (image, stats) = composite(&comm, mine.clone(), &order).unwrap_or_else(|e| {
@@ -71,15 +57,13 @@ fn main() {
     let (image, stats) = result.expect("one round at least");
     println!("rank {rank}: sent {} bytes in {} messages", stats.bytes_sent, stats.messages);
     if let Some(img) = image {
-        let imgs: Vec<Image> = (0..size).map(|r| image_of(r, w, h)).collect();
+        let imgs: Vec<Image> = (0..size).map(|r| seeded_image(r, SEED, w, h)).collect();
+        let want = sequential_over(&imgs, &order);
         let worst = img
             .pixels()
             .iter()
-            .enumerate()
-            .map(|(p, g)| {
-                let want = order.iter().fold([0.0; 4], |acc, &r| over(acc, imgs[r].pixels()[p]));
-                (0..4).map(|k| (g[k] - want[k]).abs()).fold(0.0f32, f32::max)
-            })
+            .zip(&want)
+            .map(|(g, e)| (0..4).map(|k| (g[k] - e[k]).abs()).fold(0.0f32, f32::max))
             .fold(0.0f32, f32::max);
         println!("rank 0: {size} ranks, order {order:?}, largest difference from sequential compositing {worst:e}");
         if worst > 1e-6 {

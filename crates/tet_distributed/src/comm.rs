@@ -19,6 +19,26 @@ pub trait Comm {
     fn timeout(&self) -> Duration {
         RECEIVE_TIMEOUT
     }
+
+    /// Waits until every rank has called it (at most [`Comm::timeout`] for
+    /// each message). Ranks that stop on an agreed error call it after
+    /// printing, so that `mpirun`, which ends the job when the first rank
+    /// exits with an error, cannot cut another rank's message off.
+    fn barrier(&self) -> Result<(), DistributedError> {
+        const TAG_BARRIER: i32 = 0x7ff0;
+        if self.rank() == 0 {
+            for from in 1..self.size() {
+                self.recv(from, TAG_BARRIER, self.timeout())?;
+            }
+            for to in 1..self.size() {
+                self.send(to, TAG_BARRIER, &[])?;
+            }
+        } else {
+            self.send(0, TAG_BARRIER, &[])?;
+            self.recv(0, TAG_BARRIER, self.timeout())?;
+        }
+        Ok(())
+    }
 }
 
 type Message = (usize, i32, Vec<u8>);

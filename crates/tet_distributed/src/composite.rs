@@ -382,6 +382,19 @@ mod tests {
         }
     }
 
+    /// The barrier holds every rank until all have reached it.
+    #[test]
+    fn barrier_waits_for_every_rank() {
+        let reached = std::sync::atomic::AtomicUsize::new(0);
+        let seen = ThreadComm::run(4, |c| {
+            std::thread::sleep(std::time::Duration::from_millis(10 * c.rank() as u64));
+            reached.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            c.barrier().unwrap();
+            reached.load(std::sync::atomic::Ordering::SeqCst)
+        });
+        assert_eq!(seen, [4, 4, 4, 4]);
+    }
+
     /// A rank whose message never comes: the waiting rank gives up with
     /// the peer and tag named (the test shortens the wait).
     #[test]

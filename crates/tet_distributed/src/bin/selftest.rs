@@ -33,6 +33,9 @@ fn main() {
     };
     if let Err(e) = agree(&comm, state) {
         eprintln!("rank {rank}: error: {e}");
+        // Every rank has printed before any exits (mpirun ends the job at
+        // the first error exit).
+        let _ = comm.barrier();
         std::process::exit(3);
     }
     // A visibility order that is not the rank order: every other rank

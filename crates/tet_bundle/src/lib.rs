@@ -504,6 +504,8 @@ impl Bundle {
             return Err(format!("{} values a step for {} points", steps.scalars[0].len(), self.mesh.points.len()));
         }
         self.steps = Some(steps);
+        // Gradients of a time chosen on the steps replaced no longer hold.
+        self.time_gradients = None;
         Ok(self)
     }
 

@@ -119,9 +119,14 @@ fn encode_span(px: &[[f32; 4]]) -> Vec<u8> {
     let mut v = Vec::with_capacity(16 + (last - first) * 16);
     v.extend_from_slice(&(px.len() as u64).to_le_bytes());
     v.extend_from_slice(&(first as u64).to_le_bytes());
-    for p in &px[first..last] {
-        for c in p {
-            v.extend_from_slice(&c.to_le_bytes());
+    if cfg!(target_endian = "little") {
+        // The pixels' bytes as they are in memory: one copy.
+        v.extend_from_slice(bytemuck::cast_slice(&px[first..last]));
+    } else {
+        for p in &px[first..last] {
+            for c in p {
+                v.extend_from_slice(&c.to_le_bytes());
+            }
         }
     }
     v
@@ -146,10 +151,17 @@ fn decode_span(
             "a region of {len} pixels with {count} from {offset}, for {n} pixels (an image of another size?)"
         )));
     }
-    let px = b[16..]
-        .chunks_exact(16)
-        .map(|p| std::array::from_fn(|k| f32::from_le_bytes(p[4 * k..4 * k + 4].try_into().expect("4 bytes"))))
-        .collect();
+    let px = if cfg!(target_endian = "little") {
+        // One copy into aligned pixels (a message's bytes need not be aligned).
+        let mut px = vec![[0.0f32; 4]; count];
+        bytemuck::cast_slice_mut::<[f32; 4], u8>(&mut px).copy_from_slice(&b[16..]);
+        px
+    } else {
+        b[16..]
+            .chunks_exact(16)
+            .map(|p| std::array::from_fn(|k| f32::from_le_bytes(p[4 * k..4 * k + 4].try_into().expect("4 bytes"))))
+            .collect()
+    };
     Ok((offset, px))
 }
 

@@ -9,6 +9,8 @@
 //! edge, which the walker decides by exact predicates with symbolic
 //! perturbation and PT by f64 rounding, so they may differ by one whole ray
 //! there (fuzz finding, pinned in crates/tet_render/tests/walk.rs).
+//! Adaptive sampling must give every pixel the full walk covers a colour,
+//! walked or interpolated, and finite pixels too.
 #![no_main]
 mod common;
 
@@ -41,7 +43,10 @@ fuzz_target!(|data: &[u8]| {
     let view = view.orbit(az, el, 1.0 + zoom as f64 / 4.0);
     let tf = common::tf();
     let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf));
-    for kind in [CpuRenderer::Walk, CpuRenderer::Pt] {
+    // The walker's adaptive sampling at a tolerance from the input, too.
+    let tol = (sbyte % 16) as f32 / 256.0;
+    let mut walked = None;
+    for (kind, adaptive) in [(CpuRenderer::Walk, None), (CpuRenderer::Pt, None), (CpuRenderer::Walk, Some(tol))] {
         let mut r = Renderer::new(scene.clone());
         r.set_renderer(kind);
         if r.set_view(&view).is_err() {
@@ -49,9 +54,18 @@ fuzz_target!(|data: &[u8]| {
         }
         r.set_shader(shader.clone());
         // No early termination: both composite every segment.
-        r.set_raster_options(RasterOptions { opaque_alpha: 2.0, ..Default::default() });
+        r.set_raster_options(RasterOptions { opaque_alpha: 2.0, walk_adaptive: adaptive, ..Default::default() });
         let Ok((img, st)) = r.render(&|_, _| {}) else { return };
         assert_eq!(st.walk_non_manifold + st.walk_step_limit, 0, "walk failures on a valid mesh: {st:?}");
         common::check_pixels(&img, &kind.to_string());
+        match (adaptive, &walked) {
+            (None, None) if kind == CpuRenderer::Walk => walked = Some((img, st)),
+            // Adaptive sampling covers the pixels the full walk covers,
+            // each walked or interpolated.
+            (Some(_), Some((_, fs))) if st.renderer == "walk" && fs.renderer == "walk" => {
+                assert_eq!(st.walk_rays + st.walk_rays_interpolated, fs.walk_rays, "{st:?} vs {fs:?}");
+            }
+            _ => {}
+        }
     }
 });

@@ -11,7 +11,8 @@
 //! are drawn at SIZE², with the default method (table3d) and the walker;
 //! errors are measured at REF_SIZE² (the exact-shadow reference casts a
 //! shadow ray at every quadrature node: keep it small). The light: one
-//! directional light from the upper left front plus a dim headlight. A
+//! directional light from the upper left front plus a dim headlight
+//! (`TET_LIGHT=point`: a point light there instead, outside the box). A
 //! results file gets a markdown row appended, columns as in
 //! [`HEADER`].
 
@@ -38,10 +39,21 @@ fn main() -> anyhow::Result<()> {
     let s = [bundle.meta.stats.scalar_min, bundle.meta.stats.scalar_max];
     let tf = TransferFunction::from_json(&std::fs::read_to_string(&args[2])?)?;
     let tf = if tf.normalized() { tf.denormalize(s[0], s[1])? } else { tf };
-    let lights = LightSet::new(&[
-        LightSource::Directional { direction: [0.6, -0.5, -0.62], intensity: 0.9 },
-        LightSource::Headlight { intensity: 0.3 },
-    ])?;
+    // `TET_LIGHT=point`: a point light where the directional one comes
+    // from, half a bounding-box diagonal outside the box (per-vertex shadow
+    // depths instead of the deep shadow map).
+    let point = std::env::var("TET_LIGHT").is_ok_and(|v| v == "point");
+    let key = if point {
+        let (lo, hi) = (bundle.meta.stats.bounds_min, bundle.meta.stats.bounds_max);
+        let diag = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
+        let dir = [0.6f64, -0.5, -0.62];
+        let norm = dir.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let position = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]) - dir[a] / norm * diag);
+        LightSource::Point { position, intensity: 0.9 }
+    } else {
+        LightSource::Directional { direction: [0.6, -0.5, -0.62], intensity: 0.9 }
+    };
+    let lights = LightSet::new(&[key, LightSource::Headlight { intensity: 0.3 }])?;
     let lighting = Lighting { lights, shadows: true, ..Default::default() };
     let (lo, hi) = (bundle.meta.stats.bounds_min, bundle.meta.stats.bounds_max);
     let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
@@ -107,7 +119,9 @@ fn main() -> anyhow::Result<()> {
     row.push(fmt(diff(&walker, &exact)?));
     row.push(format!("{exact_s:.1} s"));
     let name = std::path::Path::new(&args[1]).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let line = format!("| {name} ({} tets) | {size}² / {ref_size}² | {} |", bundle.mesh.tets.len(), row.join(" | "));
+    let light = if point { ", point light" } else { "" };
+    let line =
+        format!("| {name} ({} tets{light}) | {size}² / {ref_size}² | {} |", bundle.mesh.tets.len(), row.join(" | "));
     println!("{line}");
     if let Some(p) = args.get(5) {
         let fresh = !std::path::Path::new(p).exists();

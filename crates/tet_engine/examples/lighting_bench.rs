@@ -40,8 +40,8 @@ fn main() -> anyhow::Result<()> {
     let tf = TransferFunction::from_json(&std::fs::read_to_string(&args[2])?)?;
     let tf = if tf.normalized() { tf.denormalize(s[0], s[1])? } else { tf };
     // `TET_LIGHT=point`: a point light where the directional one comes
-    // from, half a bounding-box diagonal outside the box (per-vertex shadow
-    // depths instead of the deep shadow map).
+    // from, half a bounding-box diagonal outside the box (its deep shadow
+    // map fans out from it).
     let point = std::env::var("TET_LIGHT").is_ok_and(|v| v == "point");
     let key = if point {
         let (lo, hi) = (bundle.meta.stats.bounds_min, bundle.meta.stats.bounds_max);

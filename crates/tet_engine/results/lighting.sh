@@ -4,7 +4,8 @@
 set -e
 R=crates/tet_engine/results
 T=${CARGO_TARGET_DIR:-target}/release
-cargo build --release -p tet_engine --example lighting_bench -p tetview -p tetprep
+cargo build --release -p tet_engine --example lighting_bench
+cargo build --release -p tetview -p tetprep
 $T/tetprep convert tests/data/plot3d/bluntfinxyz.bin --q tests/data/plot3d/bluntfinq.bin --scalar density --gradients -o /tmp/bf.tetb
 $T/tetprep convert tests/data/points/autzen_trim.las --gradients -o /tmp/autzen.tetb
 # Rows (frames at 512², errors at 96², costs only at 8²): Blunt Fin with the

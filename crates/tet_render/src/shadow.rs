@@ -14,8 +14,12 @@
 //!   between knots). Its
 //!   resolution is the grid's, not the mesh's: a shadow edge inside a
 //!   large cell stays sharp to a ray spacing.
-//! * **Point lights: per vertex**, walked from each vertex towards the
-//!   light and interpolated linearly inside each tet like the gradients.
+//! * **Point lights outside the mesh's bounding box: a deep shadow map**
+//!   of rays fanning out from the light over the mesh (looked up by
+//!   direction from the light and distance).
+//! * **Other point lights (inside or beside the box): per vertex**, walked
+//!   from each vertex towards the light and interpolated linearly inside
+//!   each tet like the gradients.
 //!   Each vertex's value is the limit at the vertex from inside one of its
 //!   (visible) tets: the walk starts a hair inside that tet and drops the
 //!   segments that only circle the vertex (those leaving by faces that
@@ -90,7 +94,7 @@ enum LightShadow {
     None,
     /// Optical depth per vertex (at most [`OPAQUE_DEPTH`]): point lights.
     Vertices(Vec<f32>),
-    /// A deep shadow map: directional lights.
+    /// A deep shadow map: directional lights, point lights outside the box.
     Map(DeepShadowMap),
 }
 
@@ -178,6 +182,13 @@ impl ShadowField {
                 per_light[i] = LightShadow::Map(DeepShadowMap::build(reference, d, tf, &mut stats));
                 progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
                 continue;
+            }
+            if let LightSource::Point { position, .. } = light {
+                if let Some(m) = DeepShadowMap::build_point(reference, DVec3::from(position), tf, &mut stats) {
+                    per_light[i] = LightShadow::Map(m);
+                    progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
+                    continue;
+                }
             }
             let chunks: Vec<std::ops::Range<usize>> = (0..n).step_by(4096).map(|a| a..(a + 4096).min(n)).collect();
             let rows: Vec<(Vec<f32>, ReferenceStats)> = chunks

@@ -165,15 +165,40 @@ fn shadow_field_equals_the_closed_form_transmittance() {
         let d = f.map_depth_at(0, glam::DVec3::from(*p)).unwrap();
         assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::OPAQUE_DEPTH * 0.99 });
     }
-    // The same with a point light far above: the per-vertex field.
+    // A point light far above, outside the box: a deep map of rays fanning
+    // out from it. With ρ = 2 a point p sees 2 × the length of the light's
+    // ray inside the cube, entering through the top face. (Within a ray
+    // spacing of the cube's outline seen from the light, the map mixes in
+    // rays that miss the cube, as any map does: points are taken inside.)
     let above = lights(&[LightSource::Point { position: [0.5, 0.5, 50.0], intensity: 1.0 }]);
+    let f = scene.compute_shadows(&t, &above, &|_, _| {}).unwrap();
+    assert!(f.has_maps());
+    let mut rng = common::Rng(12);
+    let inner = (0..200).map(|_| [rng.range(0.02, 0.98), rng.range(0.02, 0.98), rng.range(0.0, 1.0)]);
+    let away_from_outline = points.iter().copied().filter(|p| (0..2).all(|a| p[a] > 0.0 && p[a] < 1.0));
+    for p in away_from_outline.chain(inner) {
+        let got = f.map_depth_at(0, glam::DVec3::from(p)).expect("a map for a point light outside");
+        let dist = ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 50.0).powi(2)).sqrt();
+        let want = 2.0 * dist * (1.0 - p[2]) / (50.0 - p[2]);
+        assert!((got - want).abs() < 1e-4, "at {p:?}: {got} vs {want}");
+    }
+    // Huge extinction there: lit at the top, as dark as the map records
+    // below, never NaN.
     let f = scene.compute_shadows(&dense, &above, &|_, _| {}).unwrap();
+    for p in points.iter().filter(|p| (0..2).all(|a| p[a] > 0.0 && p[a] < 1.0)) {
+        let d = f.map_depth_at(0, glam::DVec3::from(*p)).unwrap();
+        assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::OPAQUE_DEPTH * 0.99 });
+    }
+    // A point light beside the box (some of the mesh not in front of it
+    // along the way to the centre): the per-vertex field, the limit at
+    // each vertex from inside — the vertices of the face towards the light
+    // see it, the rest are as dark as the field records.
+    let beside = lights(&[LightSource::Point { position: [0.5, 0.5, 1.05], intensity: 1.0 }]);
+    let f = scene.compute_shadows(&dense, &beside, &|_, _| {}).unwrap();
+    assert!(!f.has_maps());
     for (v, p) in points.iter().enumerate() {
         let got = f.at(0, v as u32);
         assert!(got.is_finite() && (0.0..=1.0).contains(&got));
-        // The field is the limit at the vertex from inside: only the lit
-        // top face's vertices see the light; the rest is as dark as the
-        // field records (depth capped at OPAQUE_DEPTH).
         if p[2] == 1.0 {
             assert_eq!(got, 1.0, "vertex {v} at {p:?}");
         } else {

@@ -8,7 +8,8 @@
 //! interpolated linearly along each of the four nearest rays and
 //! bilinearly between them, so its resolution across the light is the
 //! grid's, not the mesh's: a shadow edge inside a large cell stays sharp
-//! to a ray spacing.
+//! to a ray spacing. A point light outside the mesh's bounding box gets the
+//! same map with rays fanning out from it ([`DeepShadowMap::build_point`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -48,6 +49,10 @@ pub struct DeepShadowMap {
     /// One record a ray, so a lookup touches one place for it.
     index: Vec<u32>,
     bin_len: f32,
+    /// A point light's map: rays fan out from this point (the light), the
+    /// grid is over slopes across `d` and a sample's parameter is its
+    /// distance from the light. `None`: parallel rays along `d`.
+    origin: Option<DVec3>,
 }
 
 /// Index bins along each ray.
@@ -101,35 +106,71 @@ impl DeepShadowMap {
                 (counts, knots, st)
             })
             .collect();
-        let mut first = Vec::with_capacity(nu * nv + 1);
-        let mut knots = Vec::new();
-        first.push(0u32);
-        for (counts, row, st) in rows {
-            let mut at = knots.len() as u32;
-            for c in counts {
-                at += c;
-                first.push(at);
-            }
-            knots.extend(row);
-            stats.add(&st);
-        }
         let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
-        let mut index = Vec::with_capacity(nu * nv * (BINS + 1));
-        for r in 0..nu * nv {
-            let (start, end) = (first[r] as usize, first[r + 1] as usize);
-            let mut n = start;
-            // Entry 0 is the ray's first knot whatever its parameter.
-            index.push(start as u32);
-            for b in 1..BINS {
-                let t = b as f32 * bin_len;
-                while n < end && knots[n][0] < t {
-                    n += 1;
-                }
-                index.push(n as u32);
-            }
-            index.push(end as u32);
+        let (knots, index) = index_rays(rows, nu * nv, bin_len, stats);
+        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, knots, index, bin_len, origin: None }
+    }
+
+    /// A point light's map (after the same paper's perspective maps): rays
+    /// from `light` through a grid over the mesh's view from it, each
+    /// walked from the light, its knots at distances from it. `None` when
+    /// some point of the mesh is not in front of the light along the
+    /// direction to the mesh's centre (a light inside or beside the
+    /// bounding box): such a light keeps its per-vertex field.
+    pub(crate) fn build_point(
+        reference: &ReferenceRenderer,
+        light: DVec3,
+        tf: &TransferFunction,
+        stats: &mut ReferenceStats,
+    ) -> Option<DeepShadowMap> {
+        let pts = reference.points();
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in pts {
+            lo = lo.min(DVec3::from(*p));
+            hi = hi.max(DVec3::from(*p));
         }
-        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, knots, index, bin_len }
+        let d = ((lo + hi) * 0.5 - light).try_normalize()?;
+        let e1 = d.any_orthonormal_vector();
+        let e2 = d.cross(e1);
+        // Every point well in front (slopes at most 4, i.e. within ~76° of
+        // the axis), else the fan would need more than one map.
+        let (mut slo, mut shi, mut far) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2], 0.0f64);
+        for p in pts {
+            let q = DVec3::from(*p) - light;
+            let w = q.dot(d);
+            // False for NaN too (a non-finite point or light): no map.
+            let in_front = w > 0.25 * q.length();
+            if !in_front {
+                return None;
+            }
+            let (u, v) = (q.dot(e1) / w, q.dot(e2) / w);
+            (slo[0], shi[0], slo[1], shi[1]) = (slo[0].min(u), shi[0].max(u), slo[1].min(v), shi[1].max(v));
+            far = far.max(q.length());
+        }
+        let ext = [(shi[0] - slo[0]).max(1e-300), (shi[1] - slo[1]).max(1e-300)];
+        let longest = ext[0].max(ext[1]);
+        let count = |e: f64| ((MAP_RAYS as f64 * e / longest).ceil() as usize).clamp(2, MAP_RAYS);
+        let (nu, nv) = (count(ext[0]), count(ext[1]));
+        let inset = longest * 1e-7;
+        let (du, dv) = ((ext[0] - 2.0 * inset) / (nu - 1) as f64, (ext[1] - 2.0 * inset) / (nv - 1) as f64);
+        let (u0, v0) = (slo[0] + inset, slo[1] + inset);
+        let rays: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)> = (0..nv)
+            .into_par_iter()
+            .map_init(ShadowScratch::default, |scratch, j| {
+                let mut st = ReferenceStats::default();
+                let (mut counts, mut knots) = (Vec::with_capacity(nu), Vec::new());
+                for i in 0..nu {
+                    let dir = (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize();
+                    let before = knots.len();
+                    walk_ray(reference, light, dir, tf, scratch, &mut st, &mut knots);
+                    counts.push((knots.len() - before) as u32);
+                }
+                (counts, knots, st)
+            })
+            .collect();
+        let bin_len = (far / BINS as f64).max(1e-300) as f32;
+        let (knots, index) = index_rays(rays, nu * nv, bin_len, stats);
+        Some(DeepShadowMap { e1, e2, d, u0, v0, t0: 0.0, du, dv, nu, nv, knots, index, bin_len, origin: Some(light) })
     }
 
     /// The optical depth from the light to `p` (in the map's frame).
@@ -139,10 +180,33 @@ impl DeepShadowMap {
             let i = (f as usize).min(n - 2);
             (i, f - i as f64)
         };
-        let (i, wu) = coord(p.dot(self.e1), self.u0, self.du, self.nu);
-        let (j, wv) = coord(p.dot(self.e2), self.v0, self.dv, self.nv);
-        let t = (p.dot(self.d) - self.t0) as f32;
+        // Parallel rays: every ray is read at the point's depth along `d`.
+        // A point light's fan: each ray at the point where it crosses the
+        // point's plane across `d` (depth w along the axis, so a face the
+        // light looks straight at is met by all four rays at once), i.e. at
+        // distance w·√(1 + u² + v²) along a ray of slopes (u, v).
+        let (u, v, axial) = match self.origin {
+            None => (p.dot(self.e1), p.dot(self.e2), p.dot(self.d) - self.t0),
+            Some(o) => {
+                let q = p - o;
+                let w = q.dot(self.d);
+                if w <= 0.0 {
+                    // Behind the light: nothing between (not in the mesh).
+                    return 0.0;
+                }
+                (q.dot(self.e1) / w, q.dot(self.e2) / w, w)
+            }
+        };
+        let (i, wu) = coord(u, self.u0, self.du, self.nu);
+        let (j, wv) = coord(v, self.v0, self.dv, self.nv);
         let at = |i: usize, j: usize| -> f64 {
+            let t = match self.origin {
+                None => axial as f32,
+                Some(_) => {
+                    let (su, sv) = (self.u0 + i as f64 * self.du, self.v0 + j as f64 * self.dv);
+                    (axial * (1.0 + su * su + sv * sv).sqrt()) as f32
+                }
+            };
             let rec = &self.index[(j * self.nu + i) * (BINS + 1)..][..BINS + 1];
             let b = ((t / self.bin_len).max(0.0) as usize).min(BINS - 1);
             let (lo, end) = (rec[b] as usize, rec[BINS] as usize);
@@ -178,6 +242,44 @@ impl DeepShadowMap {
     pub fn resolution(&self) -> [usize; 2] {
         [self.nu, self.nv]
     }
+}
+
+/// The rays' knots in one array, rows of (knot counts, knots, stats) in
+/// ray order, and each ray's index record ([`DeepShadowMap`]'s `index`).
+fn index_rays(
+    rows: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)>,
+    rays: usize,
+    bin_len: f32,
+    stats: &mut ReferenceStats,
+) -> (Vec<[f32; 2]>, Vec<u32>) {
+    let mut first = Vec::with_capacity(rays + 1);
+    let mut knots = Vec::new();
+    first.push(0u32);
+    for (counts, row, st) in rows {
+        let mut at = knots.len() as u32;
+        for c in counts {
+            at += c;
+            first.push(at);
+        }
+        knots.extend(row);
+        stats.add(&st);
+    }
+    let mut index = Vec::with_capacity(rays * (BINS + 1));
+    for r in 0..rays {
+        let (start, end) = (first[r] as usize, first[r + 1] as usize);
+        let mut n = start;
+        // Entry 0 is the ray's first knot whatever its parameter.
+        index.push(start as u32);
+        for b in 1..BINS {
+            let t = b as f32 * bin_len;
+            while n < end && knots[n][0] < t {
+                n += 1;
+            }
+            index.push(n as u32);
+        }
+        index.push(end as u32);
+    }
+    (knots, index)
 }
 
 /// Walks the ray from `start` along `d`, appending its knots: (parameter,

@@ -35,6 +35,7 @@
 #![forbid(unsafe_code)]
 
 mod layout;
+pub mod manifest;
 
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -43,6 +44,7 @@ use tet_analysis::{Analysis, CellRanges, FrequencyLimits, GradientMethod, Histog
 use tet_mesh::{Adjacency, Field, MeshStats, TetMesh, NO_NEIGHBOR};
 
 pub use layout::{SectionEntry, FORMAT_VERSION, MAGIC};
+pub use manifest::{Manifest, ManifestError};
 
 /// Failures reading or writing a bundle; the path comes last.
 #[derive(Debug, thiserror::Error)]

@@ -349,24 +349,26 @@ impl Manifest {
     /// Checks that every piece file in `dir` exists with the recorded size
     /// and CRC-32; the first failure names the piece and its path.
     pub fn verify_pieces(&self, dir: &Path) -> Result<(), ManifestError> {
-        for (k, p) in self.pieces.iter().enumerate() {
-            let path = self.piece_path(dir, k);
-            let meta = std::fs::metadata(&path).map_err(|source| ManifestError::MissingPiece {
-                piece: k,
-                source,
-                path: path.clone(),
-            })?;
-            if meta.len() != p.bytes {
-                return Err(ManifestError::PieceSize { piece: k, expected: p.bytes, found: meta.len(), path });
-            }
-            let (crc, _) = file_crc32(&path).map_err(|source| ManifestError::MissingPiece {
-                piece: k,
-                source,
-                path: path.clone(),
-            })?;
-            if crc != p.crc32 {
-                return Err(ManifestError::PieceChecksum { piece: k, expected: p.crc32, found: crc, path });
-            }
+        (0..self.pieces.len()).try_for_each(|k| self.verify_piece(dir, k))
+    }
+
+    /// Checks that piece `k`'s file in `dir` exists with the recorded size
+    /// and CRC-32 (`k` must be below `pieces.len()`).
+    pub fn verify_piece(&self, dir: &Path, k: usize) -> Result<(), ManifestError> {
+        let p = &self.pieces[k];
+        let path = self.piece_path(dir, k);
+        let meta = std::fs::metadata(&path).map_err(|source| ManifestError::MissingPiece {
+            piece: k,
+            source,
+            path: path.clone(),
+        })?;
+        if meta.len() != p.bytes {
+            return Err(ManifestError::PieceSize { piece: k, expected: p.bytes, found: meta.len(), path });
+        }
+        let (crc, _) =
+            file_crc32(&path).map_err(|source| ManifestError::MissingPiece { piece: k, source, path: path.clone() })?;
+        if crc != p.crc32 {
+            return Err(ManifestError::PieceChecksum { piece: k, expected: p.crc32, found: crc, path });
         }
         Ok(())
     }

@@ -239,6 +239,26 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             | C::Step { .. } => None,
         };
     }
+    if let Some(e) = cause.downcast_ref::<tet_convert::partition::PartitionError>() {
+        use tet_convert::partition::PartitionError as P;
+        return match e {
+            // A part count the mesh cannot have: the flag's value.
+            P::NoParts | P::TooManyParts { .. } => Some(Usage),
+            // Centroids that leave a piece empty: the data.
+            P::EmptyPiece { .. } => Some(Rejected),
+            // A point outside its box, steps that do not fit: our bug.
+            P::OutsideBox { .. } | P::PieceSteps { .. } => Some(Internal),
+            // An existing output directory without --force, a failed write.
+            P::OutputExists { .. } | P::Write { .. } | P::WritePiece { .. } => Some(Output),
+            P::Source { .. } => Some(Input),
+            // The conversion's or the analysis's error decides.
+            P::Piece { .. } | P::Prepare { .. } => None,
+        };
+    }
+    if cause.downcast_ref::<tet_bundle::ManifestError>().is_some() {
+        // A manifest or piece that is missing, malformed or fails its checks.
+        return Some(Input);
+    }
     if let Some(e) = cause.downcast_ref::<tet_io::ReadError>() {
         return Some(match e {
             tet_io::ReadError::MissingOption { .. } => Usage,

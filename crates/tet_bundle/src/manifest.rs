@@ -268,7 +268,10 @@ impl Manifest {
                 self.parts
             )));
         }
-        if !(self.scalar_range.min <= self.scalar_range.max) {
+        if !matches!(
+            self.scalar_range.min.partial_cmp(&self.scalar_range.max),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        ) {
             return Err(bad(format!("scalar range {} to {}", self.scalar_range.min, self.scalar_range.max)));
         }
         let mut node_seen = vec![false; self.tree.len()];
@@ -289,7 +292,7 @@ impl Manifest {
                     if axis > 2 {
                         return Err(bad(format!("tree node {n} splits axis {axis}")));
                     }
-                    if !(bounds.min[axis] <= *plane && *plane <= bounds.max[axis]) {
+                    if !(bounds.min[axis]..=bounds.max[axis]).contains(plane) {
                         return Err(bad(format!("tree node {n}'s plane {plane} is outside its box")));
                     }
                     if let Some(c) = children.iter().find(|&&c| c >= self.tree.len()) {

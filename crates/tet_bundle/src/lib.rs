@@ -545,6 +545,12 @@ impl Bundle {
         self.analysis.as_ref().and_then(|a| a.gradients.as_ref()).or(self.time_gradients.as_ref())
     }
 
+    /// The analysis's stored per-vertex gradients (the `GRADIENT` section),
+    /// if any — unlike [`Bundle::gradients`], never a time's.
+    pub fn gradients_of_analysis(&self) -> Option<&[[f64; 3]]> {
+        self.analysis.as_ref().and_then(|a| a.gradients.as_ref()).map(|g| g.per_point.as_slice())
+    }
+
     /// Sets the analysis part (replacing any earlier one).
     pub fn with_analysis(mut self, analysis: Analysis) -> Bundle {
         self.analysis = Some(analysis);

@@ -252,7 +252,7 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             P::OutputExists { .. } | P::Write { .. } | P::WritePiece { .. } => Some(Output),
             P::Source { .. } => Some(Input),
             // The conversion's or the analysis's error decides.
-            P::Piece { .. } | P::Prepare { .. } => None,
+            P::Piece { .. } | P::Prepare { .. } | P::Analysis { .. } => None,
         };
     }
     if cause.downcast_ref::<tet_bundle::ManifestError>().is_some() {
@@ -449,6 +449,14 @@ mod tests {
                 ExitKind::Output,
             ),
             (tet_mesh::MeshError::Empty { reason: "all NaN".into() }.into(), ExitKind::Rejected),
+            (tet_convert::partition::PartitionError::NoParts.into(), ExitKind::Usage),
+            (tet_convert::partition::PartitionError::TooManyParts { parts: 9, tets: 5 }.into(), ExitKind::Usage),
+            (tet_convert::partition::PartitionError::EmptyPiece { piece: 1, parts: 3 }.into(), ExitKind::Rejected),
+            (tet_convert::partition::PartitionError::OutputExists { path: "d".into() }.into(), ExitKind::Output),
+            (
+                tet_bundle::ManifestError::PieceChecksum { piece: 2, expected: 1, found: 2, path: "p".into() }.into(),
+                ExitKind::Input,
+            ),
             (tet_mesh::MeshError::UnknownScalar { name: "p".into(), available: "q".into() }.into(), ExitKind::Usage),
             (tet_delaunay::DelaunayError::NoPoints.into(), ExitKind::Rejected),
             (tet_delaunay::DelaunayError::BadCircumradius(-1.0).into(), ExitKind::Usage),

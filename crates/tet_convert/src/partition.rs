@@ -97,6 +97,12 @@ pub enum PartitionError {
     },
     #[error("piece {piece}: {what}")]
     PieceSteps { piece: usize, what: String },
+    #[error("piece {piece} cannot be analysed as its source was")]
+    Analysis {
+        piece: usize,
+        #[source]
+        source: tet_analysis::AnalysisError,
+    },
     #[error("{} exists and is not empty (use --force to replace it)", path.display())]
     OutputExists { path: PathBuf },
     #[error("cannot {action} {}", path.display())]
@@ -378,6 +384,7 @@ impl Builder<'_> {
 /// Hidden field names that carry time steps through the conversion.
 const STEP_FIELD: &str = "\u{1}partition-step";
 const GRAD_FIELD: &str = "\u{1}partition-grad";
+const ANALYSIS_GRAD_FIELD: &str = "\u{1}partition-analysis-grad";
 
 /// Cuts `source` into `req.parts` pieces (see the module documentation);
 /// `label` names the source in the pieces' metadata and in errors.
@@ -401,8 +408,11 @@ pub fn partition(
     let steps = source.steps.as_ref();
     let n_steps = steps.map_or(0, TimeSteps::len);
     let step_grads = steps.is_some_and(|s| s.gradient_method().is_some());
-    let stride =
-        1 + other_fields.iter().map(|f| f.num_components).sum::<usize>() + n_steps * (1 + 3 * step_grads as usize);
+    let analysis_grads = source.gradients_of_analysis();
+    let stride = 1
+        + other_fields.iter().map(|f| f.num_components).sum::<usize>()
+        + n_steps * (1 + 3 * step_grads as usize)
+        + 3 * analysis_grads.is_some() as usize;
     let np = mesh.points.len();
     let mut attrs = Vec::with_capacity(np * stride);
     for i in 0..np {
@@ -417,6 +427,9 @@ pub fn partition(
                     attrs.extend_from_slice(&g[i]);
                 }
             }
+        }
+        if let Some(g) = analysis_grads {
+            attrs.extend_from_slice(&g[i]);
         }
     }
     let (lo, hi) = tet_mesh::stats::bounds(&mesh.points);
@@ -499,6 +512,9 @@ fn piece(
             c += 3;
         }
     }
+    if source.gradients_of_analysis().is_some() {
+        fields.push(Field::new(ANALYSIS_GRAD_FIELD, 3, column(c, 3)));
+    }
     let mut cells = Cells::new();
     for t in &tets {
         cells.push(CellType::Tetra, &t.map(|g| local[&g]));
@@ -533,26 +549,30 @@ fn piece(
         .filter(|f| scalar_is_field || f.name != mesh.scalar_name)
         .partition(|f| f.name.starts_with('\u{1}'));
     bundle.mesh.point_fields = kept;
+    let mut hidden: HashMap<String, Vec<f64>> = hidden.into_iter().map(|f| (f.name, f.values)).collect();
+    let mut take = |name: String| hidden.remove(&name).unwrap_or_default();
+    let triples = |v: Vec<f64>| -> Vec<[f64; 3]> { v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() };
     if let Some(st) = steps {
-        let mut scalars = Vec::with_capacity(n_steps);
-        let mut grads = Vec::new();
-        let mut hidden = hidden.into_iter();
-        for _ in 0..n_steps {
-            scalars.push(hidden.next().map(|f| f.values).unwrap_or_default());
-            if st.gradient_method().is_some() {
-                let g = hidden.next().map(|f| f.values).unwrap_or_default();
-                grads.push(g.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
-            }
-        }
+        let scalars = (0..n_steps).map(|s| take(format!("{STEP_FIELD}{s}"))).collect();
         let sources = (0..n_steps).map(|s| st.source(s).to_string()).collect();
         let mut piece_steps = TimeSteps::new(st.times().to_vec(), scalars, sources)
             .map_err(|what| PartitionError::PieceSteps { piece: k, what })?;
         if let Some(method) = st.gradient_method() {
+            let grads = (0..n_steps).map(|s| triples(take(format!("{GRAD_FIELD}{s}")))).collect();
             piece_steps = piece_steps
                 .with_gradients(method, grads)
                 .map_err(|what| PartitionError::PieceSteps { piece: k, what })?;
         }
         bundle = bundle.with_steps(piece_steps).map_err(|what| PartitionError::PieceSteps { piece: k, what })?;
+    }
+    if let Some(a) = &source.analysis {
+        let grads = a.gradients.as_ref().map(|g| tet_analysis::VertexGradients {
+            method: g.method,
+            per_point: triples(take(ANALYSIS_GRAD_FIELD.to_string())),
+        });
+        let analysis =
+            piece_analysis(&bundle, a, grads).map_err(|source| PartitionError::Analysis { piece: k, source })?;
+        bundle = bundle.with_analysis(analysis);
     }
     let meta = &mut bundle.meta;
     meta.source_path = label.to_string();
@@ -570,6 +590,35 @@ fn piece(
         ),
     );
     Ok(Piece { bundle, bounds, new_points })
+}
+
+/// A piece's analysis like its source's: the source's per-vertex gradients
+/// cut with the mesh (`grads`), the per-cell ranges, segment facts and
+/// frequency limits of the piece, and, where the source has histograms,
+/// the piece's over the source's axes (so the pieces' bins add up to the
+/// source's).
+fn piece_analysis(
+    piece: &Bundle,
+    source: &tet_analysis::Analysis,
+    grads: Option<tet_analysis::VertexGradients>,
+) -> Result<tet_analysis::Analysis, tet_analysis::AnalysisError> {
+    let mesh = &piece.mesh;
+    let an = tet_analysis::Analyzer::from_mesh(mesh)?;
+    let histograms = match &source.histograms {
+        None => None,
+        Some(h) => Some(an.histograms(&tet_analysis::HistogramOptions {
+            scalar_bins: h.scalar_axis.bins,
+            gradient_bins: h.gradient_axis.bins,
+            scalar_range: Some((h.scalar_axis.lo, h.scalar_axis.hi)),
+            gradient_range: Some((h.gradient_axis.lo, h.gradient_axis.hi)),
+            scalar_scale: h.scalar_axis.scale,
+            gradient_scale: h.gradient_axis.scale,
+        })?),
+    };
+    let ranges = tet_analysis::cell_ranges(&mesh.tets, &mesh.scalar, grads.as_ref().map(|g| g.per_point.as_slice()));
+    let facts = tet_analysis::segment_facts(&mesh.points, &mesh.tets, &ranges);
+    let limits = tet_analysis::frequency_limits(&facts, tet_analysis::DEFAULT_TABLE_TOLERANCE);
+    Ok(tet_analysis::Analysis { gradients: grads, ranges, facts, limits, histograms })
 }
 
 /// The file name of piece `k`.
@@ -809,10 +858,7 @@ mod tests {
             for (x, &s) in m.points.iter().zip(&m.scalar) {
                 let (t, w) = src.tets.iter().find_map(|t| inside(&src.points, t, x).map(|w| (t, w))).expect("in a tet");
                 let want: f64 = (0..4).map(|c| w[c] * src.scalar[t[c] as usize]).sum();
-                assert!(
-                    (s - want).abs() <= 1e-12 * (hi - lo).max(want.abs()) * 10.0,
-                    "piece {k}: {s} vs {want} at {x:?}"
-                );
+                assert!((s - want).abs() <= 1e-12 * (hi - lo).max(want.abs()), "piece {k}: {s} vs {want} at {x:?}");
                 assert!(lo <= s && s <= hi);
             }
         }
@@ -953,6 +999,45 @@ mod tests {
                 assert_eq!(f.name, "v");
                 assert!((0..3).all(|c| (f.values[3 * i + c] - x[c]).abs() < 1e-12));
             }
+        }
+    }
+
+    /// A source with gradients and histograms: the pieces carry the
+    /// gradients cut with the mesh, and histograms over the source's axes
+    /// whose bins add up to the source's.
+    #[test]
+    fn the_analysis_is_cut_too() {
+        use tet_analysis::{AnalysisOptions, Analyzer, GradientMethod, HistogramOptions};
+        let grid = grid_bundle([3, 3, 3], 0.5, 19);
+        let mut mesh = grid.mesh.clone();
+        mesh.scalar = mesh.points.iter().map(|p| p[0] + 2.0 * p[1] + 3.0 * p[2]).collect();
+        let opts = AnalysisOptions {
+            gradients: Some(GradientMethod::LeastSquares),
+            histogram: Some(HistogramOptions { scalar_bins: 16, gradient_bins: 8, ..Default::default() }),
+            ..Default::default()
+        };
+        let analysis = Analyzer::from_mesh(&mesh).unwrap().analyze(&opts).unwrap();
+        let source = Bundle::new(mesh, grid.adjacency.clone(), Default::default()).with_analysis(analysis);
+        let part =
+            partition(&source, "g", &PartitionRequest { parts: 4, cost: TetCost::Uniform }, &mut |_| {}).unwrap();
+        let whole = source.analysis.as_ref().unwrap().histograms.as_ref().unwrap();
+        let mut bins = vec![0.0; whole.scalar.len()];
+        for p in &part.pieces {
+            let a = p.bundle.analysis.as_ref().expect("the piece is analysed");
+            let g = a.gradients.as_ref().expect("gradients cut");
+            assert_eq!(g.per_point.len(), p.bundle.mesh.points.len());
+            for v in &g.per_point {
+                assert!((0..3).all(|c| (v[c] - [1.0, 2.0, 3.0][c]).abs() < 1e-9), "{v:?}");
+            }
+            let h = a.histograms.as_ref().unwrap();
+            assert_eq!((h.scalar_axis, h.gradient_axis), (whole.scalar_axis, whole.gradient_axis));
+            for (b, v) in bins.iter_mut().zip(&h.scalar) {
+                *b += v;
+            }
+        }
+        let total = source.meta.stats.total_volume;
+        for (b, w) in bins.iter().zip(&whole.scalar) {
+            assert!((b - w).abs() <= 1e-12 * total, "{b} vs {w}");
         }
     }
 

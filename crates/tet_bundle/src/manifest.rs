@@ -261,7 +261,7 @@ impl Manifest {
         if self.tree.is_empty() {
             return Err(bad("the tree has no nodes".into()));
         }
-        if self.tree.len() != 2 * self.parts - 1 {
+        if Some(self.tree.len()) != self.parts.checked_mul(2).map(|n| n - 1) {
             return Err(bad(format!(
                 "{} tree nodes for {} parts (a k-d tree has 2N − 1)",
                 self.tree.len(),
@@ -344,9 +344,10 @@ impl Manifest {
         Ok(())
     }
 
-    /// Where piece `k`'s file is, for a manifest in `dir`.
+    /// Where piece `k`'s file is, for a manifest in `dir` (`dir` itself
+    /// for a piece that does not exist).
     pub fn piece_path(&self, dir: &Path, k: usize) -> PathBuf {
-        dir.join(&self.pieces[k].file)
+        self.pieces.get(k).map_or_else(|| dir.to_path_buf(), |p| dir.join(&p.file))
     }
 
     /// Checks that every piece file in `dir` exists with the recorded size
@@ -356,9 +357,15 @@ impl Manifest {
     }
 
     /// Checks that piece `k`'s file in `dir` exists with the recorded size
-    /// and CRC-32 (`k` must be below `pieces.len()`).
+    /// and CRC-32.
     pub fn verify_piece(&self, dir: &Path, k: usize) -> Result<(), ManifestError> {
-        let p = &self.pieces[k];
+        let Some(p) = self.pieces.get(k) else {
+            return Err(ManifestError::BadPiece {
+                piece: k,
+                what: format!("there are {} pieces", self.pieces.len()),
+                path: dir.to_path_buf(),
+            });
+        };
         let path = self.piece_path(dir, k);
         let meta = std::fs::metadata(&path).map_err(|source| ManifestError::MissingPiece {
             piece: k,

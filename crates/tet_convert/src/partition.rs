@@ -230,16 +230,28 @@ fn clip(v: &mut Vertices, tets: &[[u32; 4]], axis: usize, plane: f64) -> (Vec<[u
     };
     for t in tets {
         let sides = t.map(|i| side(v, i));
-        let of = |s: Side| -> Vec<u32> { (0..4).filter(|&k| sides[k] == s).map(|k| t[k]).collect() };
-        let (lo, on, hi) = (of(Side::Below), of(Side::On), of(Side::Above));
-        if hi.is_empty() {
+        if !sides.contains(&Side::Above) {
             below.push(*t);
             continue;
         }
-        if lo.is_empty() {
+        if !sides.contains(&Side::Below) {
             above.push(*t);
             continue;
         }
+        // The vertices on each side, in the tet's order (no allocation:
+        // this runs for every cut tet).
+        let group = |s: Side| {
+            let mut ids = [0u32; 4];
+            let mut len = 0;
+            for k in (0..4).filter(|&k| sides[k] == s) {
+                ids[len] = t[k];
+                len += 1;
+            }
+            (ids, len)
+        };
+        let ((lo_ids, n_lo), (on_ids, n_on), (hi_ids, n_hi)) =
+            (group(Side::Below), group(Side::On), group(Side::Above));
+        let (lo, on, hi) = (&lo_ids[..n_lo], &on_ids[..n_on], &hi_ids[..n_hi]);
         let mut cut = |a: u32, b: u32| {
             let key = (a.min(b), a.max(b));
             *cuts.entry(key).or_insert_with(|| v.cut(key.0, key.1, axis, plane))
@@ -251,8 +263,8 @@ fn clip(v: &mut Vertices, tets: &[[u32; 4]], axis: usize, plane: f64) -> (Vec<[u
         };
         match (lo.len(), on.len(), hi.len()) {
             (1, 0, 3) | (3, 0, 1) => {
-                let (lone, three, lone_below) = if lo.len() == 1 { (lo[0], &hi, true) } else { (hi[0], &lo, false) };
-                let p: Vec<u32> = three.iter().map(|&g| cut(lone, g)).collect();
+                let (lone, three, lone_below) = if lo.len() == 1 { (lo[0], hi, true) } else { (hi[0], lo, false) };
+                let p = [cut(lone, three[0]), cut(lone, three[1]), cut(lone, three[2])];
                 emit(Polyhedron::Tet([lone, p[0], p[1], p[2]]), lone_below);
                 emit(Polyhedron::Wedge([three[0], three[1], three[2], p[0], p[1], p[2]]), !lone_below);
             }
@@ -264,7 +276,7 @@ fn clip(v: &mut Vertices, tets: &[[u32; 4]], axis: usize, plane: f64) -> (Vec<[u
             }
             (1, 1, 2) | (2, 1, 1) => {
                 let z = on[0];
-                let (lone, two, lone_below) = if lo.len() == 1 { (lo[0], &hi, true) } else { (hi[0], &lo, false) };
+                let (lone, two, lone_below) = if lo.len() == 1 { (lo[0], hi, true) } else { (hi[0], lo, false) };
                 let (c, d) = (two[0], two[1]);
                 let (pc, pd) = (cut(lone, c), cut(lone, d));
                 emit(Polyhedron::Tet([lone, z, pc, pd]), lone_below);

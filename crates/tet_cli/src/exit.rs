@@ -245,7 +245,7 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             // A part count the mesh cannot have: the flag's value.
             P::NoParts | P::TooManyParts { .. } => Some(Usage),
             // Centroids that leave a piece empty: the data.
-            P::EmptyPiece { .. } => Some(Rejected),
+            P::EmptyPiece { .. } | P::TooLarge { .. } => Some(Rejected),
             // A point outside its box, steps that do not fit: our bug.
             P::OutsideBox { .. } | P::PieceSteps { .. } => Some(Internal),
             // An existing output directory without --force, a failed write.

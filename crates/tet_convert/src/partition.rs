@@ -85,6 +85,8 @@ pub enum PartitionError {
     NoParts,
     #[error("{parts} parts for a mesh of {tets} tets: at most one part per tet")]
     TooManyParts { parts: usize, tets: usize },
+    #[error("cutting the mesh makes {points} points, more than a mesh's u32 vertex ids address")]
+    TooLarge { points: usize },
     #[error("piece {piece} would be empty: the mesh cannot be cut into {parts} parts along its centroids")]
     EmptyPiece { piece: usize, parts: usize },
     #[error("piece {piece}: point {point} at {pos_in_world:?} lies outside its box {bounds:?} (a bug)")]
@@ -356,6 +358,11 @@ impl Builder<'_> {
         // A placeholder, filled once the children's indices are known.
         self.tree.push(KdNode::Leaf { bounds, piece: usize::MAX });
         let (below, above) = clip(&mut self.v, &tets, axis, plane);
+        // Vertex ids are u32, as in every mesh: more points than that
+        // would have wrapped, and nothing made with them is used.
+        if self.v.pos_in_world.len() >= u32::MAX as usize {
+            return Err(PartitionError::TooLarge { points: self.v.pos_in_world.len() });
+        }
         drop(tets);
         let (lo_box, hi_box) = bounds.split(axis, plane);
         let left = self.node(below, lo_box, left_parts)?;

@@ -48,8 +48,31 @@ fn volume(b: &Bundle) -> f64 {
         .sum()
 }
 
+/// Area of the boundary faces of `b` that do not lie in a face of `bounds`.
+fn boundary_area_off(b: &Bundle, bounds: &tet_bundle::manifest::BoxBounds) -> f64 {
+    let m = &b.mesh;
+    b.adjacency
+        .boundary_faces
+        .iter()
+        .map(|&f| {
+            let t = m.tets[(f / 4) as usize];
+            let v = tet_mesh::FACE_OUTWARD[(f % 4) as usize].map(|c| m.points[t[c] as usize]);
+            let on_box =
+                (0..3).any(|a| v.iter().all(|p| p[a] == bounds.min[a]) || v.iter().all(|p| p[a] == bounds.max[a]));
+            if on_box {
+                return 0.0;
+            }
+            let (e1, e2) = ([0, 1, 2].map(|c| v[1][c] - v[0][c]), [0, 1, 2].map(|c| v[2][c] - v[0][c]));
+            let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+            0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+        })
+        .sum()
+}
+
 /// Every piece valid, inside its box, within the whole scalar range; the
-/// pieces' volume is the source's.
+/// pieces' volume is the source's; the pieces are conforming: their
+/// boundary off their boxes' faces is the source's boundary (off the root
+/// box), so no cut left a hole or a hanging face inside a piece.
 fn check(source: &Bundle, dir: &Path, parts: usize) -> Manifest {
     let m = Manifest::load(&dir.join(MANIFEST_FILE), true).unwrap();
     assert_eq!(m.parts, parts);
@@ -57,6 +80,7 @@ fn check(source: &Bundle, dir: &Path, parts: usize) -> Manifest {
     assert_eq!(m.scalar_range.min, source.scalar_range().0);
     assert_eq!(m.scalar_range.max, source.scalar_range().1);
     let mut total = 0.0;
+    let mut area = 0.0;
     for (k, p) in m.pieces.iter().enumerate() {
         let b = Bundle::read(&m.piece_path(dir, k)).unwrap();
         tet_mesh::check_tet_mesh(&b.mesh).unwrap_or_else(|e| panic!("piece {k}: {e}"));
@@ -65,7 +89,10 @@ fn check(source: &Bundle, dir: &Path, parts: usize) -> Manifest {
         assert!(b.mesh.scalar.iter().all(|&s| m.scalar_range.min <= s && s <= m.scalar_range.max));
         assert_eq!(p.tets as usize, b.mesh.tets.len());
         total += volume(&b);
+        area += boundary_area_off(&b, &p.bounds);
     }
+    let want_area = boundary_area_off(source, m.tree[0].bounds());
+    assert!((area - want_area).abs() <= 1e-9 * want_area, "boundary {area} vs {want_area}");
     let want = volume(source);
     assert!((total - want).abs() <= 1e-12 * want.abs(), "volume {total} vs {want}");
     m
@@ -96,6 +123,18 @@ fn pieces_of_a_mesh_for_several_counts() {
         ok(&text);
         let t = String::from_utf8_lossy(&text.stdout);
         assert!(t.contains("tree:") && t.contains("checksum ok"), "{t}");
+    }
+}
+
+#[test]
+fn pieces_of_a_tetgen_delaunay_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = convert(dir.path(), &data("tetgen/cloud.1.ele"), &[]);
+    let source = Bundle::read(&src).unwrap();
+    for parts in [2usize, 6] {
+        let out = dir.path().join(format!("p{parts}"));
+        ok(&tetprep(&["partition", arg(&src), "--parts", &parts.to_string(), "-o", arg(&out), "-q"]));
+        check(&source, &out, parts);
     }
 }
 

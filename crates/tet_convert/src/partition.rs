@@ -895,6 +895,27 @@ mod tests {
             if parts > 1 {
                 assert!(part.pieces.iter().any(|p| p.new_points > 0), "N = {parts} cut no edge");
             }
+            if parts >= 4 {
+                // Some tet is cut by two planes: a point lies on both.
+                let planes: Vec<(usize, f64)> = part
+                    .tree
+                    .iter()
+                    .filter_map(|n| match n {
+                        KdNode::Split { axis, plane, .. } => Some((*axis as usize, *plane)),
+                        KdNode::Leaf { .. } => None,
+                    })
+                    .collect();
+                let on_two = part.pieces.iter().flat_map(|p| &p.bundle.mesh.points).any(|x| {
+                    planes
+                        .iter()
+                        .filter(|(a, v)| x[*a] == *v)
+                        .map(|(a, _)| *a)
+                        .collect::<std::collections::BTreeSet<_>>()
+                        .len()
+                        >= 2
+                });
+                assert!(on_two, "N = {parts}: no tet was cut by two planes");
+            }
         }
     }
 

@@ -162,6 +162,12 @@ pub enum ManifestError {
     Inconsistent { what: String, path: PathBuf },
     #[error("piece {piece}: {what}: {}", path.display())]
     BadPiece { piece: usize, what: String, path: PathBuf },
+    #[error("piece {piece}")]
+    PieceBundle {
+        piece: usize,
+        #[source]
+        source: crate::BundleError,
+    },
     #[error("piece {piece} is missing or unreadable ({source}): {}", path.display())]
     MissingPiece {
         piece: usize,
@@ -381,6 +387,25 @@ impl Manifest {
             return Err(ManifestError::PieceChecksum { piece: k, expected: p.crc32, found: crc, path });
         }
         Ok(())
+    }
+
+    /// Reads piece `k` of a manifest in `dir` (a rank's share): the file's
+    /// size and CRC-32 are checked first ([`Manifest::verify_piece`]), then
+    /// the bundle is read and its counts compared with the manifest's.
+    pub fn load_piece(&self, dir: &Path, k: usize) -> Result<crate::Bundle, ManifestError> {
+        self.verify_piece(dir, k)?;
+        let path = self.piece_path(dir, k);
+        let bundle = crate::Bundle::read(&path).map_err(|source| ManifestError::PieceBundle { piece: k, source })?;
+        let p = &self.pieces[k];
+        let (tets, points) = (bundle.mesh.tets.len() as u64, bundle.mesh.points.len() as u64);
+        if (tets, points) != (p.tets, p.points) {
+            return Err(ManifestError::BadPiece {
+                piece: k,
+                what: format!("{tets} tets and {points} points, the manifest says {} and {}", p.tets, p.points),
+                path,
+            });
+        }
+        Ok(bundle)
     }
 
     /// The pieces in front-to-back order for an eye at `eye_in_world`

@@ -255,9 +255,13 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             P::Piece { .. } | P::Prepare { .. } | P::Analysis { .. } => None,
         };
     }
-    if cause.downcast_ref::<tet_bundle::ManifestError>().is_some() {
-        // A manifest or piece that is missing, malformed or fails its checks.
-        return Some(Input);
+    if let Some(e) = cause.downcast_ref::<tet_bundle::ManifestError>() {
+        return match e {
+            // The bundle's own error decides (a piece that cannot be read).
+            tet_bundle::ManifestError::PieceBundle { .. } => None,
+            // A manifest or piece that is missing, malformed or fails its checks.
+            _ => Some(Input),
+        };
     }
     if let Some(e) = cause.downcast_ref::<tet_io::ReadError>() {
         return Some(match e {

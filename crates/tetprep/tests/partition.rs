@@ -82,7 +82,7 @@ fn check(source: &Bundle, dir: &Path, parts: usize) -> Manifest {
     let mut total = 0.0;
     let mut area = 0.0;
     for (k, p) in m.pieces.iter().enumerate() {
-        let b = Bundle::read(&m.piece_path(dir, k)).unwrap();
+        let b = m.load_piece(dir, k).unwrap();
         tet_mesh::check_tet_mesh(&b.mesh).unwrap_or_else(|e| panic!("piece {k}: {e}"));
         tet_mesh::check_adjacency(&b.mesh.tets, &b.adjacency).unwrap();
         assert!(b.mesh.points.iter().all(|x| p.bounds.contains(x)), "piece {k} leaves its box");
@@ -199,6 +199,12 @@ fn bad_requests_exit_with_their_codes() {
     ok(&tetprep(&["partition", arg(&src), "--parts", "2", "-o", arg(&empty), "-q"]));
 }
 
+/// `Manifest::load_piece`'s error for piece `k`, as text.
+fn m_load_piece_error(manifest: &Path, k: usize) -> String {
+    let m = Manifest::load(manifest, false).unwrap();
+    m.load_piece(manifest.parent().unwrap(), k).map(|_| ()).unwrap_err().to_string()
+}
+
 #[test]
 fn damaged_partitions_name_the_piece() {
     let dir = tempfile::tempdir().unwrap();
@@ -217,6 +223,8 @@ fn damaged_partitions_name_the_piece() {
     assert!(t.contains("BAD: piece 2 is corrupt") && t.contains("piece_0002.tetb"), "{t}");
     let e = Manifest::load(&manifest, true).unwrap_err();
     assert!(matches!(e, tet_bundle::ManifestError::PieceChecksum { piece: 2, .. }), "{e}");
+    let e = m_load_piece_error(&manifest, 2);
+    assert!(e.contains("piece 2") && e.contains("piece_0002.tetb"), "{e}");
     // A missing piece.
     std::fs::remove_file(&p2).unwrap();
     let e = Manifest::load(&manifest, true).unwrap_err();

@@ -329,16 +329,15 @@ impl Polyhedron {
 }
 
 /// Leaves under construction: each leaf's tets (global ids) and box.
-struct Builder<'a> {
+struct Builder {
     v: Vertices,
     tree: Vec<KdNode>,
     leaves: Vec<(Vec<[u32; 4]>, BoxBounds)>,
     cost: TetCost,
     parts: usize,
-    progress: &'a mut dyn FnMut(PartitionStage),
 }
 
-impl Builder<'_> {
+impl Builder {
     /// Builds the subtree of `parts` parts over `tets` in `bounds`; returns
     /// its node index.
     fn node(&mut self, tets: Vec<[u32; 4]>, bounds: BoxBounds, parts: usize) -> Result<usize, PartitionError> {
@@ -413,6 +412,35 @@ pub fn partition(
     req: &PartitionRequest,
     progress: &mut dyn FnMut(PartitionStage),
 ) -> Result<Partition, PartitionError> {
+    let Cut { v, tree, leaves } = cut(source, req, progress)?;
+    let count = leaves.len();
+    let mut pieces = Vec::with_capacity(count);
+    for (k, (tets, bounds)) in leaves.into_iter().enumerate() {
+        progress(PartitionStage::Converting { index: k, count });
+        pieces.push(piece(source, label, &v, k, count, tets, bounds)?);
+    }
+    Ok(Partition { tree, pieces })
+}
+
+/// The tree and each leaf's tets over every vertex made.
+struct Cut {
+    v: Vertices,
+    tree: Vec<KdNode>,
+    leaves: Vec<(Vec<[u32; 4]>, BoxBounds)>,
+}
+
+/// The point fields other than the scalar, in the source's order: the
+/// attributes after the scalar.
+fn other_fields(mesh: &tet_mesh::TetMesh) -> Vec<&Field> {
+    mesh.point_fields.iter().filter(|f| f.name != mesh.scalar_name).collect()
+}
+
+/// Builds the tree and clips the tets (the cutting half of [`partition`]).
+fn cut(
+    source: &Bundle,
+    req: &PartitionRequest,
+    progress: &mut dyn FnMut(PartitionStage),
+) -> Result<Cut, PartitionError> {
     let mesh = &source.mesh;
     if req.parts == 0 {
         return Err(PartitionError::NoParts);
@@ -423,7 +451,7 @@ pub fn partition(
     progress(PartitionStage::Cutting);
     // Attributes a point: the scalar, the other point fields' components,
     // each step's scalar, each step's gradient.
-    let other_fields: Vec<&Field> = mesh.point_fields.iter().filter(|f| f.name != mesh.scalar_name).collect();
+    let other_fields = other_fields(mesh);
     let steps = source.steps.as_ref();
     let n_steps = steps.map_or(0, TimeSteps::len);
     let step_grads = steps.is_some_and(|s| s.gradient_method().is_some());
@@ -459,18 +487,10 @@ pub fn partition(
         leaves: Vec::new(),
         cost: req.cost,
         parts: req.parts,
-        progress,
     };
     b.node(mesh.tets.clone(), root, req.parts)?;
-    let Builder { v, tree, leaves, progress, .. } = b;
-
-    let count = leaves.len();
-    let mut pieces = Vec::with_capacity(count);
-    for (k, (tets, bounds)) in leaves.into_iter().enumerate() {
-        progress(PartitionStage::Converting { index: k, count });
-        pieces.push(piece(source, label, &v, &other_fields, k, count, tets, bounds)?);
-    }
-    Ok(Partition { tree, pieces })
+    let Builder { v, tree, leaves, .. } = b;
+    Ok(Cut { v, tree, leaves })
 }
 
 /// One leaf's tets to a converted bundle with its steps.
@@ -479,13 +499,13 @@ fn piece(
     source: &Bundle,
     label: &str,
     v: &Vertices,
-    other_fields: &[&Field],
     k: usize,
     count: usize,
     tets: Vec<[u32; 4]>,
     bounds: BoxBounds,
 ) -> Result<Piece, PartitionError> {
     let mesh = &source.mesh;
+    let other_fields = other_fields(mesh);
     let np_source = mesh.points.len();
     // Local ids in global order.
     let mut used: Vec<u32> = tets.iter().flatten().copied().collect();
@@ -645,31 +665,9 @@ pub fn piece_file_name(k: usize) -> String {
     format!("piece_{k:04}.tetb")
 }
 
-/// The manifest of a partition whose pieces are written in `dir`, with the
-/// source's facts (`source_file` its file name, `crc32` and `bytes` its
-/// file's).
-fn manifest_of(
-    source: &Bundle,
-    source_info: SourceInfo,
-    part: &Partition,
-    dir: &Path,
-) -> Result<Manifest, PartitionError> {
-    let mut pieces = Vec::with_capacity(part.pieces.len());
-    for (k, p) in part.pieces.iter().enumerate() {
-        let file = piece_file_name(k);
-        let path = dir.join(&file);
-        let (crc32, bytes) =
-            file_crc32(&path).map_err(|source| PartitionError::Write { action: "read back", source, path })?;
-        pieces.push(PieceInfo {
-            file,
-            bounds: p.bounds,
-            tets: p.bundle.mesh.tets.len() as u64,
-            points: p.bundle.mesh.points.len() as u64,
-            volume: p.bundle.meta.stats.total_volume,
-            bytes,
-            crc32,
-        });
-    }
+/// The manifest of a partition of `source` (described by `source_info`)
+/// with `tree` and `pieces`.
+fn manifest_of(source: &Bundle, source_info: SourceInfo, tree: Vec<KdNode>, pieces: Vec<PieceInfo>) -> Manifest {
     let (min, max) = source.scalar_range();
     let steps = source.steps.as_ref().map_or_else(Vec::new, |st| {
         (0..st.len())
@@ -680,18 +678,18 @@ fn manifest_of(
             })
             .collect()
     });
-    Ok(Manifest {
+    Manifest {
         format: MANIFEST_FORMAT.into(),
         version: MANIFEST_VERSION,
         writer: format!("tetkit {}", env!("CARGO_PKG_VERSION")),
         source: source_info,
-        parts: part.pieces.len(),
+        parts: pieces.len(),
         scalar_name: source.mesh.scalar_name.clone(),
         scalar_range: ScalarRange { min, max },
         steps,
-        tree: part.tree.clone(),
+        tree,
         pieces,
-    })
+    }
 }
 
 /// Whether `dir` exists and holds anything.
@@ -703,13 +701,14 @@ fn non_empty_dir(dir: &Path) -> bool {
     }
 }
 
-/// Reads the bundle at `source_path`, partitions it and writes the pieces
-/// and `manifest.json` into `out_dir`, atomically: everything goes into a
+/// Partitions `source` (read from `source_path`) and writes the pieces and
+/// `manifest.json` into `out_dir`, atomically: everything goes into a
 /// temporary directory beside `out_dir`, which is renamed into place at the
 /// end (an existing non-empty `out_dir` is refused unless `force`, then
-/// replaced). `prepare` may change each piece before it is written (the
-/// binary adds the analysis `tetprep convert` would). Returns the manifest
-/// and the partition.
+/// replaced). Each piece is converted, given to `prepare` (the binary adds
+/// the analysis `tetprep convert` would), written and dropped before the
+/// next, so only one piece's bundle is in memory at a time. Returns the
+/// manifest and the number of points made on cut edges per piece.
 pub fn write_partition(
     source: &Bundle,
     source_path: &Path,
@@ -718,7 +717,7 @@ pub fn write_partition(
     force: bool,
     prepare: &mut dyn FnMut(usize, Bundle) -> Result<Bundle, Box<dyn std::error::Error + Send + Sync>>,
     progress: &mut dyn FnMut(PartitionStage),
-) -> Result<(Manifest, Partition), PartitionError> {
+) -> Result<(Manifest, Vec<usize>), PartitionError> {
     if non_empty_dir(out_dir) && !force {
         return Err(PartitionError::OutputExists { path: out_dir.to_path_buf() });
     }
@@ -726,7 +725,7 @@ pub fn write_partition(
         source_path.file_name().map_or_else(|| source_path.display().to_string(), |n| n.to_string_lossy().into_owned());
     let (crc32, bytes) =
         file_crc32(source_path).map_err(|e| PartitionError::Source { source: e, path: source_path.to_path_buf() })?;
-    let mut part = partition(source, &source_file, req, progress)?;
+    let Cut { v, tree, leaves } = cut(source, req, progress)?;
     // The temporary directory beside the output, removed on any failure.
     let parent = match out_dir.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -735,16 +734,31 @@ pub fn write_partition(
     let tmp = tempfile::Builder::new().prefix(".tetprep-partition-").tempdir_in(&parent).map_err(|source| {
         PartitionError::Write { action: "create a temporary directory in", source, path: parent.clone() }
     })?;
-    let pieces = std::mem::take(&mut part.pieces);
-    let count = pieces.len();
-    for (k, mut p) in pieces.into_iter().enumerate() {
+    let count = leaves.len();
+    let mut infos = Vec::with_capacity(count);
+    let mut new_points = Vec::with_capacity(count);
+    for (k, (tets, bounds)) in leaves.into_iter().enumerate() {
+        progress(PartitionStage::Converting { index: k, count });
+        let p = piece(source, &source_file, &v, k, count, tets, bounds)?;
+        let bundle = prepare(k, p.bundle).map_err(|source| PartitionError::Prepare { piece: k, source })?;
         progress(PartitionStage::Writing { index: k, count });
-        p.bundle = prepare(k, p.bundle).map_err(|source| PartitionError::Prepare { piece: k, source })?;
-        p.bundle
-            .write(&tmp.path().join(piece_file_name(k)))
-            .map_err(|source| PartitionError::WritePiece { piece: k, source })?;
-        part.pieces.push(p);
+        let file = piece_file_name(k);
+        let path = tmp.path().join(&file);
+        bundle.write(&path).map_err(|source| PartitionError::WritePiece { piece: k, source })?;
+        let (crc32, bytes) =
+            file_crc32(&path).map_err(|source| PartitionError::Write { action: "read back", source, path })?;
+        infos.push(PieceInfo {
+            file,
+            bounds,
+            tets: bundle.mesh.tets.len() as u64,
+            points: bundle.mesh.points.len() as u64,
+            volume: bundle.meta.stats.total_volume,
+            bytes,
+            crc32,
+        });
+        new_points.push(p.new_points);
     }
+    drop(v);
     let info = SourceInfo {
         file: source_file,
         crc32,
@@ -753,7 +767,7 @@ pub fn write_partition(
         tets: source.mesh.tets.len() as u64,
         total_volume: source.meta.stats.total_volume,
     };
-    let manifest = manifest_of(source, info, &part, tmp.path())?;
+    let manifest = manifest_of(source, info, tree, infos);
     let manifest_path = tmp.path().join(MANIFEST_FILE);
     std::fs::write(&manifest_path, manifest.to_json()).map_err(|source| PartitionError::Write {
         action: "write",
@@ -792,7 +806,7 @@ pub fn write_partition(
             let _ = std::fs::remove_file(&aside);
         }
     }
-    Ok((manifest, part))
+    Ok((manifest, new_points))
 }
 
 #[cfg(test)]

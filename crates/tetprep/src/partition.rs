@@ -28,7 +28,7 @@ pub fn run(args: PartitionArgs) -> anyhow::Result<()> {
     });
     let req = PartitionRequest { parts: args.parts, cost: TetCost::Uniform };
     let t = Instant::now();
-    let (manifest, part) = write_partition(
+    let (manifest, new_points) = write_partition(
         &source,
         &args.bundle,
         &args.output,
@@ -63,7 +63,7 @@ pub fn run(args: PartitionArgs) -> anyhow::Result<()> {
     if args.json {
         let mut v = manifest_json(&manifest, None);
         v["manifest"] = json!(manifest_path.display().to_string());
-        v["new_points"] = json!(part.pieces.iter().map(|p| p.new_points).collect::<Vec<_>>());
+        v["new_points"] = json!(new_points);
         v["timings_s"] = json!({ "read": t_read, "partition_and_write": t_partition, "total": total });
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else if !args.quiet {

@@ -29,13 +29,20 @@
 //! is shared by the two tets (or the two sides of the plane) that meet
 //! there, with the same global ids, so both split it the same way: each
 //! side's mesh is conforming and the cut faces on the two sides of a plane
-//! coincide. Sub-tets of zero volume (exact orientation) are dropped;
-//! every kept tet is positively oriented.
+//! coincide. (A deeper plane of one side may cut that side's face again:
+//! the two sides then cover the same region of the plane, subdivided
+//! differently, which rendering piece by piece does not mind.) Sub-tets of
+//! zero volume (the exact orientation test, `piece_tet_orientation`) are dropped;
+//! each kept one gets the vertex order that makes it positive.
 //!
 //! **Pieces** go through the conversion every bundle goes through
 //! ([`crate::convert_source`]: validation, adjacency, statistics), with
-//! merging limited to identical coordinates, and carry the source's time
-//! steps. Nothing is printed; [`PartitionError`] names what failed.
+//! merging limited to identical coordinates, and carry the source's other
+//! point fields, time steps (with their stored gradients) and analysis
+//! (its gradients cut, histograms over the source's axes, the piece's
+//! ranges, facts and limits). [`write_partition`] writes one piece at a
+//! time with the manifest (`formats/manifest.md`). Nothing is printed;
+//! [`PartitionError`] names what failed.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

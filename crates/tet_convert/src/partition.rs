@@ -194,12 +194,21 @@ impl Vertices {
     /// The point where edge (a, b) crosses `plane` along `axis`: its axis
     /// coordinate is the plane value exactly, the rest linear along the
     /// edge from the smaller id, clamped to the edge's range so rounding
-    /// never takes it out of the box both endpoints lie in.
+    /// never takes it out of the box both endpoints lie in (a field's
+    /// non-finite values stay non-finite, unclamped).
     fn cut(&mut self, a: u32, b: u32, axis: usize, plane: f64) -> u32 {
         let (a, b) = if a < b { (a, b) } else { (b, a) };
         let (pa, pb) = (self.pos_in_world[a as usize], self.pos_in_world[b as usize]);
         let t = (plane - pa[axis]) / (pb[axis] - pa[axis]);
-        let lerp = |x: f64, y: f64| (x + t * (y - x)).clamp(x.min(y), x.max(y));
+        let lerp = |x: f64, y: f64| {
+            let (v, lo, hi) = (x + t * (y - x), x.min(y), x.max(y));
+            // `clamp` wants ordered bounds: not so where both are NaN.
+            if lo <= hi {
+                v.clamp(lo, hi)
+            } else {
+                v
+            }
+        };
         let mut pos = [0.0; 3];
         for k in 0..3 {
             pos[k] = if k == axis { plane } else { lerp(pa[k], pb[k]) };
@@ -1100,6 +1109,19 @@ mod tests {
         for (b, w) in bins.iter().zip(&whole.scalar) {
             assert!((b - w).abs() <= 1e-12 * total, "{b} vs {w}");
         }
+    }
+
+    /// A point field of NaN and infinities (fields other than the scalar
+    /// are not checked for finiteness) is cut without a panic.
+    #[test]
+    fn non_finite_fields_are_carried() {
+        let mut source = grid_bundle([2, 2, 2], 0.3, 23);
+        let n = source.mesh.points.len();
+        let values = (0..n).map(|i| [f64::NAN, f64::INFINITY, -1.0][i % 3]).collect();
+        source.mesh.point_fields.push(Field::new("odd", 1, values));
+        let part =
+            partition(&source, "g", &PartitionRequest { parts: 3, cost: TetCost::Uniform }, &mut |_| {}).unwrap();
+        assert!(part.pieces.iter().all(|p| p.bundle.mesh.point_fields[0].name == "odd"));
     }
 
     fn tet_analysis_method() -> tet_analysis::GradientMethod {

@@ -250,7 +250,7 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             P::OutsideBox { .. } | P::PieceSteps { .. } => Some(Internal),
             // An existing output directory without --force, a failed write.
             P::OutputExists { .. } | P::Write { .. } | P::WritePiece { .. } => Some(Output),
-            P::Source { .. } => Some(Input),
+            P::Source { .. } | P::BadSource { .. } => Some(Input),
             // The conversion's or the analysis's error decides.
             P::Piece { .. } | P::Prepare { .. } | P::Analysis { .. } => None,
         };

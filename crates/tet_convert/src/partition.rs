@@ -88,6 +88,8 @@ pub struct PartitionRequest {
 /// last.
 #[derive(Debug, thiserror::Error)]
 pub enum PartitionError {
+    #[error("the bundle's arrays do not fit together: {what}")]
+    BadSource { what: String },
     #[error("--parts must be at least 1")]
     NoParts,
     #[error("{parts} parts for a mesh of {tets} tets: at most one part per tet")]
@@ -438,6 +440,32 @@ pub fn partition(
     Ok(Partition { tree, pieces })
 }
 
+/// The array sizes the cut indexes by (a bundle read from a file has
+/// them; one built in memory may not).
+fn check_arrays(source: &Bundle) -> Result<(), PartitionError> {
+    let mesh = &source.mesh;
+    let np = mesh.points.len();
+    let bad = |what: String| Err(PartitionError::BadSource { what });
+    if mesh.scalar.len() != np {
+        return bad(format!("{} scalars for {np} points", mesh.scalar.len()));
+    }
+    if let Some(t) = mesh.tets.iter().position(|t| t.iter().any(|&v| v as usize >= np)) {
+        return bad(format!("tet {t} names a point beyond the {np} points"));
+    }
+    if let Some(f) = mesh.point_fields.iter().find(|f| f.values.len() != np * f.num_components) {
+        return bad(format!("field '{}' has {} values for {np} points × {}", f.name, f.values.len(), f.num_components));
+    }
+    if source.gradients_of_analysis().is_some_and(|g| g.len() != np) {
+        return bad(format!("the analysis's gradients are not one per point ({np})"));
+    }
+    if let Some(st) = &source.steps {
+        if (0..st.len()).any(|k| st.scalar(k).len() != np || st.gradient(k).is_some_and(|g| g.len() != np)) {
+            return bad(format!("a time step's values are not one per point ({np})"));
+        }
+    }
+    Ok(())
+}
+
 /// The tree and each leaf's tets over every vertex made.
 struct Cut {
     v: Vertices,
@@ -464,6 +492,7 @@ fn cut(
     if req.parts > mesh.tets.len() {
         return Err(PartitionError::TooManyParts { parts: req.parts, tets: mesh.tets.len() });
     }
+    check_arrays(source)?;
     progress(PartitionStage::Cutting);
     // Attributes a point: the scalar, the other point fields' components,
     // each step's scalar, each step's gradient.
@@ -1138,6 +1167,9 @@ mod tests {
             Err(PartitionError::TooManyParts { parts: 6, tets: 5 })
         ));
         assert!(partition(&source, "g", &req(5), &mut |_| {}).is_ok());
+        let mut short = source;
+        short.mesh.point_fields.push(Field::new("f", 2, vec![0.0; 3]));
+        assert!(matches!(partition(&short, "g", &req(2), &mut |_| {}), Err(PartitionError::BadSource { .. })));
     }
 
     #[test]

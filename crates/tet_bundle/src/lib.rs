@@ -35,6 +35,7 @@
 #![forbid(unsafe_code)]
 
 mod layout;
+pub mod manifest;
 
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -43,6 +44,7 @@ use tet_analysis::{Analysis, CellRanges, FrequencyLimits, GradientMethod, Histog
 use tet_mesh::{Adjacency, Field, MeshStats, TetMesh, NO_NEIGHBOR};
 
 pub use layout::{SectionEntry, FORMAT_VERSION, MAGIC};
+pub use manifest::{Manifest, ManifestError};
 
 /// Failures reading or writing a bundle; the path comes last.
 #[derive(Debug, thiserror::Error)]
@@ -541,6 +543,12 @@ impl Bundle {
     /// the analysis's, or after [`Bundle::set_time`] the steps' at that time.
     pub fn gradients(&self) -> Option<&VertexGradients> {
         self.analysis.as_ref().and_then(|a| a.gradients.as_ref()).or(self.time_gradients.as_ref())
+    }
+
+    /// The analysis's stored per-vertex gradients (the `GRADIENT` section),
+    /// if any — unlike [`Bundle::gradients`], never a time's.
+    pub fn gradients_of_analysis(&self) -> Option<&[[f64; 3]]> {
+        self.analysis.as_ref().and_then(|a| a.gradients.as_ref()).map(|g| g.per_point.as_slice())
     }
 
     /// Sets the analysis part (replacing any earlier one).

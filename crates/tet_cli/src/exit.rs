@@ -239,6 +239,30 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             | C::Step { .. } => None,
         };
     }
+    if let Some(e) = cause.downcast_ref::<tet_convert::partition::PartitionError>() {
+        use tet_convert::partition::PartitionError as P;
+        return match e {
+            // A part count the mesh cannot have: the flag's value.
+            P::NoParts | P::TooManyParts { .. } => Some(Usage),
+            // Centroids that leave a piece empty: the data.
+            P::EmptyPiece { .. } | P::TooLarge { .. } => Some(Rejected),
+            // A point outside its box, steps that do not fit: our bug.
+            P::OutsideBox { .. } | P::PieceSteps { .. } => Some(Internal),
+            // An existing output directory without --force, a failed write.
+            P::OutputExists { .. } | P::Write { .. } | P::WritePiece { .. } => Some(Output),
+            P::Source { .. } | P::BadSource { .. } => Some(Input),
+            // The conversion's or the analysis's error decides.
+            P::Piece { .. } | P::Prepare { .. } | P::Analysis { .. } => None,
+        };
+    }
+    if let Some(e) = cause.downcast_ref::<tet_bundle::ManifestError>() {
+        return match e {
+            // The bundle's own error decides (a piece that cannot be read).
+            tet_bundle::ManifestError::PieceBundle { .. } => None,
+            // A manifest or piece that is missing, malformed or fails its checks.
+            _ => Some(Input),
+        };
+    }
     if let Some(e) = cause.downcast_ref::<tet_io::ReadError>() {
         return Some(match e {
             tet_io::ReadError::MissingOption { .. } => Usage,
@@ -429,6 +453,14 @@ mod tests {
                 ExitKind::Output,
             ),
             (tet_mesh::MeshError::Empty { reason: "all NaN".into() }.into(), ExitKind::Rejected),
+            (tet_convert::partition::PartitionError::NoParts.into(), ExitKind::Usage),
+            (tet_convert::partition::PartitionError::TooManyParts { parts: 9, tets: 5 }.into(), ExitKind::Usage),
+            (tet_convert::partition::PartitionError::EmptyPiece { piece: 1, parts: 3 }.into(), ExitKind::Rejected),
+            (tet_convert::partition::PartitionError::OutputExists { path: "d".into() }.into(), ExitKind::Output),
+            (
+                tet_bundle::ManifestError::PieceChecksum { piece: 2, expected: 1, found: 2, path: "p".into() }.into(),
+                ExitKind::Input,
+            ),
             (tet_mesh::MeshError::UnknownScalar { name: "p".into(), available: "q".into() }.into(), ExitKind::Usage),
             (tet_delaunay::DelaunayError::NoPoints.into(), ExitKind::Rejected),
             (tet_delaunay::DelaunayError::BadCircumradius(-1.0).into(), ExitKind::Usage),

@@ -27,6 +27,8 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod partition;
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

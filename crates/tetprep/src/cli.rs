@@ -30,8 +30,21 @@ pub enum Command {
     ///
     /// Example: tetprep convert bluntfinxyz.bin --q bluntfinq.bin --scalar density -o bluntfin.tetb
     Convert(Box<ConvertArgs>),
-    /// Print a bundle's counts, bounds, scalar range, cell sizes and boundary facts.
+    /// Cut a bundle into N pieces by a k-d tree for distributed rendering.
+    ///
+    /// Tets straddling a plane are clipped exactly at it (the scalar stays
+    /// linear, so the pieces draw what the whole does); each piece is a
+    /// validated bundle, with the time steps of a series. DIR gets the
+    /// pieces and manifest.json (the tree, boxes, checksums and the whole
+    /// mesh's scalar range), written atomically.
+    ///
+    /// Example: tetprep partition bluntfin.tetb --parts 8 -o bluntfin.parts
+    Partition(Box<PartitionArgs>),
+    /// Print a bundle's counts, bounds, scalar range, cell sizes and boundary
+    /// facts; or a partition manifest's tree, boxes, counts and whether each
+    /// piece file matches its checksum.
     Info {
+        /// A bundle (.tetb), or a partition's manifest.json or directory.
         bundle: PathBuf,
         /// Machine-readable JSON instead of text.
         #[arg(long)]
@@ -126,6 +139,32 @@ pub struct AnalysisArgs {
     /// Histogram |∇s| range LO,HI (default: 0 to the 99.9% volume quantile).
     #[arg(long, value_parser = tet_cli::parse_range, allow_hyphen_values = true)]
     pub gradient_range: Option<(f64, f64)>,
+}
+
+#[derive(Debug, Args)]
+pub struct PartitionArgs {
+    /// The bundle to cut.
+    pub bundle: PathBuf,
+    /// Number of pieces (any N ≥ 1, at most the number of tets).
+    #[arg(long)]
+    pub parts: usize,
+    /// Output directory (created; its pieces and manifest.json appear together).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Replace an existing non-empty output directory.
+    #[arg(long)]
+    pub force: bool,
+    /// Print the manifest and timings as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bars or summary (errors are still printed).
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// What each piece gets beyond its mesh, as `convert` computes it (the
+    /// histogram's scalar axis defaults to the whole mesh's range, so the
+    /// pieces' histograms add up to the whole's).
+    #[command(flatten, next_help_heading = "Analysis of each piece")]
+    pub analysis: AnalysisArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -288,6 +327,7 @@ fn parse_bins(s: &str) -> Result<[u32; 2], String> {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Convert(args) => crate::convert::run(*args),
+        Command::Partition(args) => crate::partition::run(*args),
         Command::Info { bundle, json } => crate::info::run(&bundle, json),
         Command::Export { bundle, output } => crate::info::export(&bundle, &output),
         Command::Analyze { bundle, output, analysis, json } => {

@@ -60,12 +60,12 @@ fn read_options(args: &ConvertArgs) -> anyhow::Result<ReadOptions> {
 }
 
 /// A spinner that appears only for steps that take over a second.
-struct Progress {
+pub(crate) struct Progress {
     bar: Option<ProgressBar>,
 }
 
 impl Progress {
-    fn new(quiet: bool) -> Progress {
+    pub(crate) fn new(quiet: bool) -> Progress {
         if quiet {
             return Progress { bar: None };
         }
@@ -75,19 +75,19 @@ impl Progress {
         Progress { bar: Some(bar) }
     }
 
-    fn step(&self, msg: &'static str) {
+    pub(crate) fn step(&self, msg: &'static str) {
         if let Some(b) = &self.bar {
             b.set_message(msg);
         }
     }
 
-    fn set(&self, msg: String) {
+    pub(crate) fn set(&self, msg: String) {
         if let Some(b) = &self.bar {
             b.set_message(msg);
         }
     }
 
-    fn finish(&self) {
+    pub(crate) fn finish(&self) {
         if let Some(b) = &self.bar {
             b.finish_and_clear();
         }

@@ -9,6 +9,9 @@ use tet_cli::{ExitKind, KindExt};
 use tet_mesh::Field;
 
 pub fn run(path: &Path, as_json: bool) -> anyhow::Result<()> {
+    if let Some(manifest) = crate::partition::manifest_path(path) {
+        return crate::partition::info(&manifest, as_json);
+    }
     let bundle = Bundle::read(path)?;
     if as_json {
         let mut v = summary_json(&bundle);

@@ -7,6 +7,7 @@ mod analysis;
 mod cli;
 mod convert;
 mod info;
+mod partition;
 mod plot;
 
 fn main() -> ExitCode {

@@ -15,18 +15,34 @@ use tet_engine::{
 };
 use tet_gpu::RasterPath;
 use tet_mesh::{build_adjacency, tetrahedralize, Block, ConvertOptions, Field, SourceMesh};
-use tet_preint::{Method, TransferFunction};
-use tet_render::{diff, CpuRenderer, DiffStats, Image, Light, LightSet, LightSource, Lighting, Scene, Shading, ViewSpec};
+use tet_preint::{BakeOptions, CertifyOptions, Method, TableDomain, TransferFunction};
+use tet_render::{
+    diff, CpuRenderer, DiffStats, Image, Light, LightSet, LightSource, Lighting, Scene, Shading, ViewSpec,
+};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/plot3d");
 
-/// Largest RMSE and largest |Δ| of one channel (premultiplied linear RGBA)
-/// allowed between a lit GPU frame and the CPU's projected tetrahedra.
-/// Measured on lavapipe (f32 on the GPU, f64 lighting on the CPU; the
-/// figures in the commit message and the README): worst RMSE 1.9e-5 and
-/// max 9.9e-4 over the frames below; set with a margin.
-const LIT_RMSE: f64 = 1.0;
-const LIT_MAX: f64 = 1.0;
+/// (RMSE, max |Δ| of one channel) allowed between a lit GPU frame and the
+/// CPU's projected tetrahedra (premultiplied linear RGBA), measured on
+/// lavapipe and set with a margin of about 20%: overall, and for the
+/// lighting alone (where the unlit GPU and CPU frames agree to 1e-4: f32
+/// lighting against the CPU's f64, the split count decided in f32).
+struct Tolerance {
+    overall: (f64, f64),
+    lighting: (f64, f64),
+}
+
+/// Plain table3d and pt-linear. Measured: overall rmse 1.53e-5, max
+/// 1.58e-3 (a few pixels' coverage, as unlit); the lighting alone rmse
+/// 5.4e-6, max 1.9e-4.
+const PLAIN: Tolerance = Tolerance { overall: (2e-5, 2e-3), lighting: (7e-6, 2.5e-4) };
+
+/// The default table3d look, certified: the GPU looks its table up plainly
+/// where the CPU splits segments at TF control points and integrates some
+/// exactly, so its frames differ unlit already (here rmse 6.1e-4, max
+/// 2.5e-2), and lit ones inherit that. Measured lit: overall rmse 5.1e-4,
+/// max 1.49e-2; "the lighting alone" rmse 4.0e-5, max 1.8e-3.
+const CERTIFIED: Tolerance = Tolerance { overall: (6e-4, 1.8e-2), lighting: (5e-5, 2.2e-3) };
 
 /// The GPU, or `None` (skip) where there is no adapter; with
 /// TETKIT_REQUIRE_GPU=1 a missing adapter fails the test.
@@ -176,36 +192,68 @@ fn masked(got: &Image, want: &Image, mask: &[bool]) -> (f64, f64, usize) {
 }
 
 /// Every lighting on `bundle` from `view`, table3d and pt-linear, both GPU
-/// rasterizers: within the measured tolerance of the CPU; lit frames differ
-/// from the unlit one (the lighting is applied, not ignored).
+/// rasterizers (a lit frame asked of the compute one runs on the graphics
+/// one on llvmpipe, see `tet_gpu::LIT_LOOP_LIMITED_PAIRS`): within the
+/// measured tolerance of the CPU overall, and within the tighter one of
+/// the lighting alone where the unlit GPU and CPU frames of the same
+/// rasterizer agree (elsewhere they differ unlit already); lit frames
+/// differ from the unlit one (the lighting is applied, not ignored).
 fn lit_frames_match_the_cpu(name: &str, bundle: &Bundle, view: ViewSpec) {
     let tf = resolve_tf(bundle, &TfRequest { source: TfSource::Given(peaks()), ..TfRequest::default() }).unwrap().tf;
     let mut cpu = CpuFrameRenderer::new(bundle).unwrap();
-    let (mut worst_rmse, mut worst_max) = (0.0f64, 0.0f64);
-    for raster in [RasterPath::Compute, RasterPath::Graphics] {
-        let Some(mut gpu) = gpu_renderer(bundle, raster) else { return };
-        for method in [Method::Table3d, Method::PtLinear] {
-            let look = Look::bake(bundle, method, tf.clone()).unwrap();
-            let unlit = gpu.render(&look, &FrameRequest::new(view.clone()), &|_, _| {}).unwrap().image;
-            let (_, cpu_unlit, _) = frames(&mut gpu, &mut cpu, &look, &FrameRequest::new(view.clone()));
-            report(&format!("{name} {method} UNLIT ({raster:?})"), &unlit, &cpu_unlit);
-            let same = same_fragments(&unlit, &cpu_unlit);
+    let Some(compute) = gpu_renderer(bundle, RasterPath::Compute) else { return };
+    let graphics = gpu_renderer(bundle, RasterPath::Graphics).expect("a second renderer on the same adapter");
+    let mut gpus = [compute, graphics];
+    let (mut worst, mut worst_lighting) = ((0.0f64, 0.0f64), (0.0f64, 0.0f64));
+    let domain = TableDomain::from_bundle(bundle).unwrap();
+    let plain = BakeOptions { certify: CertifyOptions::off(), ..BakeOptions::default() };
+    let looks = [
+        ("table3d", &CERTIFIED, Look::bake(bundle, Method::Table3d, tf.clone()).unwrap()),
+        ("table3d (plain)", &PLAIN, Look::bake_with(&domain, Method::Table3d, tf.clone(), &plain, &[]).unwrap()),
+        ("pt-linear", &PLAIN, Look::bake(bundle, Method::PtLinear, tf.clone()).unwrap()),
+    ];
+    for (method, tol, look) in &looks {
+        let look = look.clone();
+        let unlit_req = FrameRequest::new(view.clone());
+        let want_unlit = cpu.render(&look, &FrameRequest { cpu: CpuRenderer::Pt, ..unlit_req.clone() }, &|_, _| {});
+        let want_unlit = want_unlit.unwrap().image;
+        // Unlit GPU frames by rasterizer: the lit frames' baseline.
+        let mut unlit = vec![];
+        for gpu in gpus.iter_mut() {
+            let f = gpu.render(&look, &unlit_req, &|_, _| {}).unwrap();
+            let FrameStats::Gpu(s) = &f.stats else { panic!("not a GPU frame") };
+            report(&format!("{name} {method} unlit ({:?})", s.render.raster_path), &f.image, &want_unlit);
+            unlit.push((s.render.raster_path, f.image));
+        }
+        for (asked, gpu) in [RasterPath::Compute, RasterPath::Graphics].into_iter().zip(gpus.iter_mut()) {
             for (lighting, shading) in shadings(bundle) {
                 let req = FrameRequest { shading, ..FrameRequest::new(view.clone()) };
-                let (got, want, stats) = frames(&mut gpu, &mut cpu, &look, &req);
-                let what = format!("{name} {method} {lighting} ({raster:?})");
+                let (got, want, stats) = frames(gpu, &mut cpu, &look, &req);
+                let FrameStats::Gpu(s) = stats else { panic!("not a GPU frame") };
+                let path = s.render.raster_path;
+                if path != asked {
+                    assert!(gpu.is_software(), "{asked:?} fell back to {path:?} on {}", gpu.describe());
+                }
+                let what = format!("{name} {method} {lighting} (asked {asked:?}, drawn {path:?})");
                 let d = report(&what, &got, &want);
-                let m = masked(&got, &want, &same);
-                eprintln!("{what}: where the unlit frames agree: rmse {:.3e}, max {:.3e} over {} pixels", m.0, m.1, m.2);
-                assert!(d.rmse <= LIT_RMSE && d.max_abs <= LIT_MAX, "{what}: {d:?}");
-                (worst_rmse, worst_max) = (worst_rmse.max(d.rmse), worst_max.max(d.max_abs));
-                assert!(diff(&got, &unlit).unwrap().max_abs > 1e-3, "{what}: the lighting changed nothing");
-                let FrameStats::Gpu(s) = stats else { panic!("{what}: not a GPU frame") };
+                let base = &unlit.iter().find(|(p, _)| *p == path).expect("an unlit frame of each rasterizer").1;
+                let (rmse, max, n) = masked(&got, &want, &same_fragments(base, &want_unlit));
+                eprintln!("{what}: where the unlit frames agree ({n} pixels): rmse {rmse:.3e}, max {max:.3e}");
+                assert!(d.rmse <= tol.overall.0 && d.max_abs <= tol.overall.1, "{what}: {d:?}");
+                assert!(n * 2 > want.pixels().len(), "{what}: too few pixels to compare the lighting alone");
+                let ok = rmse <= tol.lighting.0 && max <= tol.lighting.1;
+                assert!(ok, "{what}: the lighting alone: rmse {rmse}, max {max}");
+                worst = (worst.0.max(d.rmse), worst.1.max(d.max_abs));
+                worst_lighting = (worst_lighting.0.max(rmse), worst_lighting.1.max(max));
+                assert!(diff(&got, base).unwrap().max_abs > 1e-3, "{what}: the lighting changed nothing");
                 assert!(s.render.tets_drawn > 0, "{what}");
             }
         }
     }
-    eprintln!("{name}: worst rmse {worst_rmse:.3e}, worst max |Δ| {worst_max:.3e}");
+    eprintln!(
+        "{name}: worst rmse {:.3e}, max |Δ| {:.3e}; the lighting alone: rmse {:.3e}, max {:.3e}",
+        worst.0, worst.1, worst_lighting.0, worst_lighting.1
+    );
 }
 
 #[test]
@@ -236,7 +284,9 @@ fn zero_gradients_are_lit_as_the_isotropic_medium() {
     )
     .unwrap();
     let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::Given(tf), ..TfRequest::default() }).unwrap().tf;
-    let Some(mut gpu) = gpu_renderer(&bundle, RasterPath::Compute) else { return };
+    // The graphics rasterizer: lit frames on llvmpipe take it, so the unlit
+    // frame it draws is the one lit frames are compared with bit for bit.
+    let Some(mut gpu) = gpu_renderer(&bundle, RasterPath::Graphics) else { return };
     let mut cpu = CpuFrameRenderer::new(&bundle).unwrap();
     let view = ViewSpec::framing([0.0; 3], [5.0, 5.0, 4.0], [48, 40]).orbit(30.0, 25.0, 1.0);
     let look = Look::bake(&bundle, Method::Table3d, tf).unwrap();
@@ -245,7 +295,7 @@ fn zero_gradients_are_lit_as_the_isotropic_medium() {
         let req = FrameRequest { shading, ..FrameRequest::new(view.clone()) };
         let (got, want, _) = frames(&mut gpu, &mut cpu, &look, &req);
         let d = report(&format!("constant scalar, {lighting}"), &got, &want);
-        assert!(d.rmse <= LIT_RMSE && d.max_abs <= LIT_MAX, "{lighting}: {d:?}");
+        assert!(d.rmse <= PLAIN.overall.0 && d.max_abs <= PLAIN.overall.1, "{lighting}: {d:?}");
         if lighting.starts_with("headlight") {
             let d = report(&format!("constant scalar, {lighting} vs unlit"), &got, &unlit);
             assert!(d.max_abs <= 1e-5, "{lighting}: the isotropic medium under ka + kd = 1 is the unlit frame: {d:?}");
@@ -260,7 +310,7 @@ fn zero_gradients_are_lit_as_the_isotropic_medium() {
     let req = FrameRequest { shading: dim, ..FrameRequest::new(view.clone()) };
     let (got, want, _) = frames(&mut gpu, &mut cpu, &look, &req);
     let d = report("constant scalar, dim headlight", &got, &want);
-    assert!(d.rmse <= LIT_RMSE && d.max_abs <= LIT_MAX, "{d:?}");
+    assert!(d.rmse <= PLAIN.overall.0 && d.max_abs <= PLAIN.overall.1, "{d:?}");
     assert!(diff(&got, &unlit).unwrap().max_abs > 1e-3);
 }
 
@@ -276,7 +326,8 @@ fn shadows_are_refused_lighting_is_drawn() {
     let req = FrameRequest { shading: shadowed, ..FrameRequest::new(view.clone()) };
     let why = GpuFrameRenderer::supports(Method::Table3d, &req).unwrap_err();
     assert!(why.contains("shadows"), "{why}");
-    let lit = FrameRequest { shading: Lighting { lights: sources, ..Lighting::default() }.shading(None), ..req.clone() };
+    let lit =
+        FrameRequest { shading: Lighting { lights: sources, ..Lighting::default() }.shading(None), ..req.clone() };
     assert_eq!(GpuFrameRenderer::supports(Method::Table3d, &lit), Ok(()));
     let head = Shading { shadows: true, ..Lighting::default().shading(Some(1.0)) };
     let head = FrameRequest { shading: head, ..req.clone() };

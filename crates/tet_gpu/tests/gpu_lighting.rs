@@ -97,7 +97,9 @@ fn lighting_without_gradients_or_with_shadows_is_refused() {
     let shader = GpuShader::pt_linear(&ctx, &tf()).unwrap();
     let lit = shading();
     let opts = FrameOptions { shading: Some(&lit), ..Default::default() };
-    let draw = |scene: &tet_gpu::GpuScene, opts: &FrameOptions| renderer.render_frame(&ctx, scene, &cam, GpuOrder::Given(&order), &shader, opts);
+    let draw = |scene: &tet_gpu::GpuScene, opts: &FrameOptions| {
+        renderer.render_frame(&ctx, scene, &cam, GpuOrder::Given(&order), &shader, opts)
+    };
     assert!(matches!(draw(&scene, &opts), Err(GpuError::Input(e)) if e.contains("gradients")));
     let g = mesh.cpu_scene().ensure_gradients().unwrap().gradients().unwrap().to_vec();
     assert!(scene_err(&ctx, &mesh, &g[1..]).contains("gradients"));

@@ -8,8 +8,8 @@
 use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
 use crate::cull::{CullBuffers, CullPipelines};
 use crate::gpu_types::{
-    BinParams, FrameUniforms, LightParams, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_EXACT,
-    METHOD_PT_LINEAR, METHOD_TABLE3D, NORMAL_ROWS, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
+    BinParams, FrameUniforms, LightParams, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_EXACT, METHOD_PT_LINEAR,
+    METHOD_TABLE3D, NORMAL_ROWS, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
 use crate::gpusort::SortPipelines;
 use crate::methods::Tables2d;

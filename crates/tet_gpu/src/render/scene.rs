@@ -149,8 +149,7 @@ impl GpuScene {
                 }
             })
             .collect();
-        let grads =
-            ctx.checked(|| buffer_init(&ctx.device, "gradients", bytemuck::cast_slice(&g4), SCENE_USAGE))?;
+        let grads = ctx.checked(|| buffer_init(&ctx.device, "gradients", bytemuck::cast_slice(&g4), SCENE_USAGE))?;
         self.grads = Some(grads);
         Ok(self)
     }

@@ -61,8 +61,9 @@ pub struct GpuFrameOptions {
     pub raster: RasterPath,
 }
 
-/// Projected tetrahedra on the GPU. Lighting and silhouettes are CPU-only
-/// (an unsupported request is [`GpuFailure::Unsupported`]).
+/// Projected tetrahedra on the GPU, lit (headlight, directional and point
+/// lights, silhouettes) as the CPU's projected tetrahedra light a fragment.
+/// Shadows are CPU-only (such a request is [`GpuFailure::Unsupported`]).
 pub struct GpuFrameRenderer {
     ctx: GpuContext,
     /// `None` only while gradients are being added (as `gpu_scene`).
@@ -159,8 +160,8 @@ impl GpuFrameRenderer {
             let ids: Vec<&str> = GPU_METHODS.iter().map(|m| m.id()).collect();
             return Err(format!("method {method} is not on the GPU yet (GPU methods: {})", ids.join(", ")));
         }
-        if req.shading.is_active() {
-            return Err("lighting and silhouettes are CPU-only for now".into());
+        if let Some(why) = tet_gpu::unsupported_shading(&req.shading) {
+            return Err(why.into());
         }
         Ok(())
     }
@@ -214,20 +215,32 @@ impl FrameRenderer for GpuFrameRenderer {
     ) -> Result<Frame, EngineError> {
         GpuFrameRenderer::supports(look.method, req).map_err(unsupported)?;
         let mut notes = Vec::new();
-        if look.method.is_bivariate() && !self.gpu_scene().has_gradient_magnitudes() {
+        let lit = req.shading.is_active();
+        let need_mags = look.method.is_bivariate() && !self.gpu_scene().has_gradient_magnitudes();
+        let need_grads = lit && !self.gpu_scene().has_gradients();
+        if need_mags || need_grads {
             let scene = self.scene.take().expect("a scene outside this block");
             if scene.gradients().is_none() {
                 notes.push(crate::GRADIENTS_NOTE.to_string());
             }
             let scene = self.scene.insert(scene.ensure_gradients()?);
-            let g = scene.gradient_magnitudes().expect("gradients ensured above");
-            let gpu_scene = self.gpu_scene.take().expect("a GPU scene outside this block");
-            self.gpu_scene = Some(gpu_scene.with_gradient_magnitudes(&self.ctx, g).map_err(gpu_error)?);
-            self.cull = None;
+            let mut gpu_scene = self.gpu_scene.take().expect("a GPU scene outside this block");
+            if need_mags {
+                let g = scene.gradient_magnitudes().expect("gradients ensured above");
+                gpu_scene = gpu_scene.with_gradient_magnitudes(&self.ctx, g).map_err(gpu_error)?;
+                self.cull = None;
+            }
+            if need_grads {
+                let g = scene.gradients().expect("gradients ensured above");
+                gpu_scene = gpu_scene.with_gradients(&self.ctx, g).map_err(gpu_error)?;
+            }
+            self.gpu_scene = Some(gpu_scene);
         }
         let camera = Camera::new(&req.view)?;
         let scene = self.scene.as_ref().expect("a scene");
         let tets_total = scene.num_tets();
+        // The CPU's shading: the scene's default gradient floor where the request has none.
+        let shading = crate::frame::shading_for_scene(req.shading, scene);
         let recomputed_order = self.order.as_ref().is_none_or(|(v, s, _)| *v != req.view || *s != req.sort);
         let (mut view_seconds, mut sort_seconds) = (0.0, 0.0);
         if recomputed_order {
@@ -262,7 +275,11 @@ impl FrameRenderer for GpuFrameRenderer {
 
         let shader = &self.shader.as_ref().expect("ensured above").1;
         let order = &self.order.as_ref().expect("set above").2;
-        let opts = FrameOptions { raster: self.options.raster, cull: self.cull.as_ref().map(|c| &c.1) };
+        let opts = FrameOptions {
+            raster: self.options.raster,
+            cull: self.cull.as_ref().map(|c| &c.1),
+            shading: lit.then_some(&shading),
+        };
         // The previous frame's texture is reused by this one.
         self.last = None;
         let frame = self

@@ -92,7 +92,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
         let shader = GpuShader::from_baked(&ctx, &baked)?;
         let upload_s = t.elapsed().as_secs_f64();
-        let fo = FrameOptions { raster, cull: Some(&gcull) };
+        let fo = FrameOptions { raster, cull: Some(&gcull), ..Default::default() };
         let mut sums = [0.0f64; 5];
         let mut last = None;
         for f in 0..frames {
@@ -135,7 +135,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let gcull = GpuCull::new(&ctx, &scene, &tf)?;
     let shader = GpuShader::from_baked(&ctx, &Baked::build(tet_preint::Method::Table3d, &tf, &domain, &opts)?)?;
     for (what, c) in [("without culling", None), ("with GPU culling", Some(&gcull))] {
-        let fo = FrameOptions { raster, cull: c };
+        let fo = FrameOptions { raster, cull: c, ..Default::default() };
         let mut total = 0.0;
         for f in 0..frames {
             let s = renderer.render_frame(&ctx, &scene, &camera, GpuOrder::Given(&order), &shader, &fo)?.stats;

@@ -17,6 +17,16 @@
 // field out (two rows a slot, as TetShade's s_a, s_b).
 @group(0) @binding(17) var<storage, read> gmags: array<f32>;
 @group(0) @binding(18) var<storage, read_write> gshades: array<vec4<f32>>;
+// Lighting (lighting.wgsl's `lighting.enabled`): per-vertex gradients in
+// (xyz; w = 1 where finite, else 0 and xyz = 0), per slot the gradient's
+// components as linear fields out (NORMAL_ROWS rows a slot).
+@group(0) @binding(20) var<storage, read> vgrads: array<vec4<f32>>;
+@group(0) @binding(21) var<storage, read_write> nshades: array<vec4<f32>>;
+
+// pt-linear's thick point is the only segment this module shades.
+fn shade_piece(f: Frame, seg: Seg) -> vec4<f32> {
+    return shade_pt_linear(f, seg);
+}
 
 // tet_mesh::FACE_OUTWARD: face f is opposite vertex f, outward for a
 // positively oriented tet.
@@ -259,6 +269,39 @@ fn classify(@builtin(global_invocation_id) gid: vec3<u32>) {
         gshades[2u * slot] = ga;
         gshades[2u * slot + 1u] = gb;
     }
+    // Lighting: each gradient component as the same kind of linear field
+    // (tet_render's TetSetup normal fields); row 0's w says whether every
+    // vertex gradient is finite (else the tet has no direction).
+    var nrows: array<vec4<f32>, 6>;
+    if lighting.enabled != 0u {
+        var vg: array<vec4<f32>, 4>;
+        var finite_all = 1.0;
+        for (var k = 0u; k < 4u; k++) {
+            vg[k] = vgrads[ids[k]];
+            if vg[k].w < 0.5 {
+                finite_all = 0.0;
+            }
+        }
+        for (var c = 0u; c < 3u; c++) {
+            let gg = (c23 * (vg[1][c] - vg[0][c]) + c31 * (vg[2][c] - vg[0][c]) + c12 * (vg[3][c] - vg[0][c])) / det;
+            let g0 = vg[0][c] - dot(gg, x[0]);
+            var ra: vec4<f32>;
+            var rb: vec4<f32>;
+            if fr.parallel != 0u {
+                ra = vec4<f32>(g0 + gg.x * fr.bx + gg.y * fr.by, gg.x * fr.ax, gg.y * fr.ay, 0.0);
+                rb = vec4<f32>(gg.z, 0.0, 0.0, 0.0);
+            } else {
+                ra = vec4<f32>(g0, 0.0, 0.0, 0.0);
+                rb = vec4<f32>(gg.x * fr.bx + gg.y * fr.by + gg.z, gg.x * fr.ax, gg.y * fr.ay, 0.0);
+            }
+            nrows[2u * c] = ra;
+            nrows[2u * c + 1u] = rb;
+        }
+        nrows[0].w = finite_all;
+        for (var r = 0u; r < NORMAL_ROWS; r++) {
+            nshades[NORMAL_ROWS * slot + r] = nrows[r];
+        }
+    }
     var len_sq = 0.0;
     for (var i = 0u; i < 4u; i++) {
         for (var j = i + 1u; j < 4u; j++) {
@@ -315,7 +358,11 @@ fn classify(@builtin(global_invocation_id) gid: vec3<u32>) {
             emit_none(slot);
             return;
         }
-        let rgba = shade_pt_linear(fr, seg);
+        var rgba = shade_pt_linear(fr, seg);
+        if lighting.enabled != 0u {
+            // Lit at the thick point (tet_render's raster `shade`).
+            rgba = light_segment(fr, seg, rgba, lit_ends(fr, nrows, seg, g.thick.x, g.thick.y));
+        }
         g.hull[4] = rgba.xy;
         g.hull[5] = rgba.zw;
     }

@@ -626,6 +626,13 @@ fn shade_segment(fr: Frame, seg: Seg) -> vec4<f32> {
 
 // The per-slot shading data (bound by the raster and bin modules).
 @group(0) @binding(6) var<storage, read> shades: array<TetShade>;
+// Lighting: per slot the gradient's linear fields (classify.wgsl).
+@group(0) @binding(21) var<storage, read> nshades: array<vec4<f32>>;
+
+// A piece of a lit segment (lighting.wgsl's light_segment): the method's colour.
+fn shade_piece(fr: Frame, seg: Seg) -> vec4<f32> {
+    return shade_segment(fr, seg);
+}
 
 struct Frag {
     rgba: vec4<f32>,
@@ -665,5 +672,10 @@ fn fragment_color(fr: Frame, mode: u32, thick_rgba: vec4<f32>, tent: f32, slot: 
     }
     out.ok = true;
     out.rgba = shade_segment(fr, seg);
+    if lighting.enabled != 0u {
+        let o = NORMAL_ROWS * slot;
+        let rows = array<vec4<f32>, 6>(nshades[o], nshades[o + 1u], nshades[o + 2u], nshades[o + 3u], nshades[o + 4u], nshades[o + 5u]);
+        out.rgba = light_segment(fr, seg, out.rgba, lit_ends(fr, rows, seg, x, y));
+    }
     return out;
 }

@@ -33,6 +33,8 @@ impl BinPipelines {
             uint_texture_entry(15, cs, wgpu::TextureViewDimension::D1),
             uniform_entry(16, cs),
             storage_entry(18, cs, true),
+            uniform_entry(19, cs),
+            storage_entry(21, cs, true),
         ]);
         let bound =
             BoundModule::new(dev, "bin", &entries, shader_module(dev, "bin.wgsl", shader_source_fragment(BIN_WGSL)));

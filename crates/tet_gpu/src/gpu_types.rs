@@ -255,6 +255,59 @@ pub struct ShadeParams {
 /// [`ShadeParams::band`] of a poly table stored as the full square.
 pub const NO_BAND: u32 = u32::MAX;
 
+/// One light of [`LightParams`] (`GpuLight` in lighting.wgsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    /// xyz: a directional light's unit direction of travel (world frame),
+    /// a point light's position relative to the mesh centre (the GPU's
+    /// positions), unused for the headlight; w: the intensity.
+    pub v: [f32; 4],
+    /// `LIGHT_*`.
+    pub kind: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// `tet_render::Shading` on the GPU (`LightParams` in lighting.wgsl): the
+/// material, the lights, silhouettes, the gradient floor and
+/// `light_segment`'s split rule. Shadows are not on the GPU.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct LightParams {
+    pub ambient: f32,
+    pub diffuse: f32,
+    pub specular: f32,
+    pub shininess: f32,
+    /// Lights in `lights`.
+    pub n_lights: u32,
+    /// 1 with lighting (a material), 0 without.
+    pub lit: u32,
+    /// 1 with silhouettes (exponent `silhouette_exp`), 0 without.
+    pub silhouette: u32,
+    pub silhouette_exp: f32,
+    /// `Shading::gradient_floor` (0: no fade).
+    pub gradient_floor: f32,
+    /// `tet_render::LIT_SPLIT_TOLERANCE` and `LIT_MAX_PIECES`.
+    pub split_tolerance: f32,
+    pub max_pieces: u32,
+    /// 1 when any shading is on (lighting or silhouettes): fragments are
+    /// lit; 0: they are not, and nothing else here is read.
+    pub enabled: u32,
+    pub lights: [GpuLight; MAX_GPU_LIGHTS],
+}
+
+/// Lights a [`LightParams`] holds (`tet_render::MAX_LIGHTS`).
+pub const MAX_GPU_LIGHTS: usize = 8;
+pub const LIGHT_HEADLIGHT: u32 = 0;
+pub const LIGHT_DIRECTIONAL: u32 = 1;
+pub const LIGHT_POINT: u32 = 2;
+
+/// Rows of the per-slot gradient fields (lighting): per component of the
+/// interpolated gradient two rows like `TetShade`'s `s_a`, `s_b`.
+pub const NORMAL_ROWS: u32 = 6;
+
 /// Parameters of the culling compaction (`CullParams` in cull.wgsl).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
@@ -336,6 +389,9 @@ mod tests {
         assert_eq!(size_of::<PolyBakeParams>(), 48);
         assert_eq!(size_of::<ShadeParams>(), 80);
         assert_eq!(size_of::<CullParams>(), 32);
+        assert_eq!(size_of::<GpuLight>(), 32);
+        assert_eq!(size_of::<LightParams>(), 304);
+        assert_eq!(MAX_GPU_LIGHTS, tet_render::MAX_LIGHTS);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
             (size_of::<TetGeom>(), align_of::<TetGeom>()),
@@ -348,6 +404,8 @@ mod tests {
             (size_of::<PolyBakeParams>(), align_of::<PolyBakeParams>()),
             (size_of::<ShadeParams>(), align_of::<ShadeParams>()),
             (size_of::<CullParams>(), align_of::<CullParams>()),
+            (size_of::<GpuLight>(), align_of::<GpuLight>()),
+            (size_of::<LightParams>(), align_of::<LightParams>()),
         ] {
             assert_eq!(s % 16, 0);
             assert_eq!(a, 4);

@@ -111,6 +111,7 @@ mod binning;
 mod cull;
 pub mod gpu_types;
 mod gpusort;
+mod lighting;
 mod methods;
 mod poly_bake;
 mod render;
@@ -119,10 +120,12 @@ mod workspace;
 
 pub use bake::{GpuAccumulation, GpuBakeStats, GpuTable3d};
 pub use cull::GpuCull;
+pub use lighting::{light_params, unsupported_shading};
 pub use methods::GPU_METHODS;
 pub use poly_bake::bake_poly;
 pub use render::{
     centroid_order, FrameOptions, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer, GpuScene, GpuShader, RasterPath,
+    LIT_LOOP_LIMITED_PAIRS,
 };
 pub use tonemap::ToneResult;
 
@@ -258,6 +261,7 @@ pub fn shader_sources() -> Vec<(&'static str, String)> {
 
 const COMMON_WGSL: &str = include_str!("../shaders/common.wgsl");
 const FRAGMENT_WGSL: &str = include_str!("../shaders/fragment.wgsl");
+const LIGHTING_WGSL: &str = include_str!("../shaders/lighting.wgsl");
 const BIV_EXACT_WGSL: &str = include_str!("../shaders/biv_exact.wgsl");
 const CLASSIFY_WGSL: &str = include_str!("../shaders/classify.wgsl");
 const RASTER_WGSL: &str = include_str!("../shaders/raster.wgsl");
@@ -269,16 +273,16 @@ const PROBE_WGSL: &str = include_str!("../shaders/probe.wgsl");
 const POLY_BAKE_WGSL: &str = include_str!("../shaders/poly_bake.wgsl");
 const CULL_WGSL: &str = include_str!("../shaders/cull.wgsl");
 
-/// common.wgsl + `body` (classify).
+/// common.wgsl + lighting.wgsl + `body` (classify).
 fn shader_source(body: &str) -> String {
-    format!("{COMMON_WGSL}\n{body}")
+    format!("{COMMON_WGSL}\n{LIGHTING_WGSL}\n{body}")
 }
 
-/// common.wgsl + fragment.wgsl + biv_exact.wgsl + `body`: the modules that
+/// common.wgsl + lighting.wgsl + fragment.wgsl + biv_exact.wgsl + `body`: the modules that
 /// shade fragments (graphics raster, compute raster, probe), so all run the
 /// same maths.
 fn shader_source_fragment(body: &str) -> String {
-    format!("{COMMON_WGSL}\n{FRAGMENT_WGSL}\n{BIV_EXACT_WGSL}\n{body}")
+    format!("{COMMON_WGSL}\n{LIGHTING_WGSL}\n{FRAGMENT_WGSL}\n{BIV_EXACT_WGSL}\n{body}")
 }
 
 /// A module on its own (sort, tonemap, bake).

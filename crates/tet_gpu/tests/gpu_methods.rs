@@ -244,7 +244,7 @@ fn gpu_culling_matches_the_cpu_culler() {
     for method in [Method::Partial, Method::Table3d] {
         let baked = bake(method, &tf, &mesh);
         let shader = GpuShader::from_baked(&ctx, &baked).unwrap();
-        let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
+        let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull), ..Default::default() };
         let frame = renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, &opts).unwrap();
         let s = &frame.stats;
         eprintln!(
@@ -270,7 +270,7 @@ fn gpu_culling_matches_the_cpu_culler() {
 
     // The GPU centroid order compacted, and chunks of 256 slots.
     let shader = GpuShader::from_baked(&ctx, &bake(Method::Partial, &tf, &mesh)).unwrap();
-    let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
+    let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull), ..Default::default() };
     let plain = renderer
         .render_frame(&ctx, &scene, &cam, GpuOrder::GpuCentroid, &shader, &FrameOptions::default())
         .unwrap()
@@ -423,7 +423,7 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
     for (what, sc, mask, sh) in [("with |∇s|", &scene, &with_g, &shader), ("without |∇s|", &bare, &without_g, &pt)]
     {
         let gcull = GpuCull::new(&ctx, sc, &tf).unwrap();
-        let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
+        let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull), ..Default::default() };
         let frame = renderer.render_frame(&ctx, sc, &cam, GpuOrder::Given(&order), sh, &opts).unwrap();
         eprintln!("GPU culling {what}: {} culled", frame.stats.tets_culled);
         assert_eq!(frame.stats.tets_culled, mask.culled, "{what}");
@@ -438,7 +438,7 @@ fn gpu_culling_with_widgets_matches_the_cpu_culler() {
     let (want, st) = cpu.render(&|_, _| {}).unwrap();
     assert_eq!(st.tets_culled, with_g.culled);
     let gcull = GpuCull::new(&ctx, &scene, &tf).unwrap();
-    let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull) };
+    let opts = FrameOptions { raster: RasterPath::Compute, cull: Some(&gcull), ..Default::default() };
     let got = renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), &shader, &opts).unwrap().image;
     assert_close_images("biv-approx with widgets, culled on the GPU vs CPU PT culled", &got, &want);
 }

@@ -51,6 +51,7 @@ fn shader_files_on_disk_are_all_included() {
             "common.wgsl",
             "cull.wgsl",
             "fragment.wgsl",
+            "lighting.wgsl",
             "poly_bake.wgsl",
             "probe.wgsl",
             "raster.wgsl",
@@ -150,6 +151,26 @@ fn pod_layouts_match_the_wgsl_structs() {
             ]
         ),
         layout!(CullParams, "CullParams", [n, n_intervals, groups_x, n_widgets, use_g, _pad0, _pad1, _pad2]),
+        layout!(GpuLight, "GpuLight", [v, kind, _pad0, _pad1, _pad2]),
+        layout!(
+            LightParams,
+            "LightParams",
+            [
+                ambient,
+                diffuse,
+                specular,
+                shininess,
+                n_lights,
+                lit,
+                silhouette,
+                silhouette_exp,
+                gradient_floor,
+                split_tolerance,
+                max_pieces,
+                enabled,
+                lights
+            ]
+        ),
     ];
     let modules: Vec<naga::Module> =
         tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();

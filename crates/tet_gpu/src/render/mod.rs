@@ -8,8 +8,8 @@
 use crate::binning::{BinPipelines, BIN_PARAMS_SIZE};
 use crate::cull::{CullBuffers, CullPipelines};
 use crate::gpu_types::{
-    BinParams, FrameUniforms, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_EXACT, METHOD_PT_LINEAR,
-    METHOD_TABLE3D, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
+    BinParams, FrameUniforms, LightParams, TetGeom, TetShade, BIN_WG, CLASSIFY_WG, METHOD_BIV_EXACT, METHOD_PT_LINEAR,
+    METHOD_TABLE3D, NORMAL_ROWS, RADIX_BLOCK, SCAN_BLOCK, TILE_PX, VERTS_PER_SLOT,
 };
 use crate::gpusort::SortPipelines;
 use crate::methods::Tables2d;
@@ -147,6 +147,14 @@ pub struct FrameOptions<'a> {
     /// Cull on the GPU: the order's tets that the TF makes invisible are
     /// compacted out before classification (see [`crate::GpuCull`]).
     pub cull: Option<&'a crate::GpuCull>,
+    /// Lighting and silhouettes (`tet_render::Shading`, with the gradient
+    /// floor it is to use: the engine gives the scene's default where the
+    /// request has none), as the CPU's projected tetrahedra light a
+    /// fragment: each segment at its emission centroid, split into pieces
+    /// where the terms vary (`tet_render::shading::light_segment`), in f32.
+    /// Needs [`GpuScene::with_gradients`]; shadows are
+    /// [`GpuError::Unsupported`]. `None`: unshaded.
+    pub shading: Option<&'a tet_render::Shading>,
 }
 
 /// One rendered frame: the linear premultiplied image and the HDR texture
@@ -175,6 +183,10 @@ struct Workspace {
     depth_vals: [Grow; 2],
     /// Bivariate methods: the gradient magnitude's field per slot.
     gshades: Grow,
+    /// Lighting: the gradient's fields per slot (NORMAL_ROWS rows).
+    nshades: Grow,
+    /// The frame's [`LightParams`].
+    lights: wgpu::Buffer,
     cull_flags: Grow,
     cull_order: Grow,
     readback: Grow,
@@ -205,6 +217,13 @@ impl Workspace {
             depth_keys: two("depth keys 0", "depth keys 1"),
             depth_vals: two("depth order 0", "depth order 1"),
             gshades: Grow::storage("gradient-magnitude fields"),
+            nshades: Grow::storage("gradient fields"),
+            lights: buffer(
+                &ctx.device,
+                "lighting",
+                std::mem::size_of::<LightParams>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
             cull_flags: Grow::storage("cull flags"),
             cull_order: Grow::storage("culled order"),
             readback: Grow::new("readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
@@ -226,6 +245,14 @@ impl Workspace {
 /// seen end-on. Methods that loop far more per fragment (biv-exact) take
 /// the graphics rasterizer there instead, where each fragment counts alone.
 const LOOP_LIMITED_PAIRS: u32 = 2 * 1024;
+
+/// Most (tile, tet) pairs of one compute-raster pass of a lit frame on such
+/// an adapter: a lit fragment may shade its segment in up to 32 pieces
+/// (`tet_render::shading::LIT_MAX_PIECES`), each with the method's lookup
+/// and the lights' loop, about 1 000 iterations in all; 64 such fragments
+/// stay under the limit. Lit frames there take the graphics rasterizer
+/// unless [`GpuRenderer::set_chunk_limits`] caps the pairs at this.
+pub const LIT_LOOP_LIMITED_PAIRS: u32 = 64;
 
 /// Which pipeline shades fragments: the graphics raster or the compute
 /// rasterizer's composite pass.
@@ -272,6 +299,8 @@ impl GpuRenderer {
             // shades written; TF rows read.
             entries.extend(storage_entries(1, cs, &[true, true, true, true, false, false, true]));
             entries.extend([storage_entry(17, cs, true), storage_entry(18, cs, false)]);
+            // Lighting: its parameters and the vertex gradients read, the gradient fields written.
+            entries.extend([uniform_entry(19, cs), storage_entry(20, cs, true), storage_entry(21, cs, false)]);
             let module = shader_module(dev, "classify.wgsl", shader_source(CLASSIFY_WGSL));
             let classify_module = BoundModule::new(dev, "classify", &entries, module);
             let classify = classify_module.compute(dev, "classify", &[]);
@@ -289,6 +318,8 @@ impl GpuRenderer {
                     uint_texture_entry(15, fs, wgpu::TextureViewDimension::D1),
                     uniform_entry(16, fs),
                     storage_entry(18, fs, true),
+                    uniform_entry(19, fs),
+                    storage_entry(21, fs, true),
                 ],
                 shader_module(dev, "raster.wgsl", shader_source_fragment(RASTER_WGSL)),
             );
@@ -466,7 +497,7 @@ impl GpuRenderer {
         shader: &GpuShader,
         raster: RasterPath,
     ) -> Result<GpuFrame, GpuError> {
-        self.render_frame(ctx, scene, camera, order, shader, &FrameOptions { raster, cull: None })
+        self.render_frame(ctx, scene, camera, order, shader, &FrameOptions { raster, ..Default::default() })
     }
 
     /// [`GpuRenderer::render_with`] with options: with
@@ -488,6 +519,16 @@ impl GpuRenderer {
             if c.scene_id != scene.id() {
                 return Err(GpuError::Input("the GpuCull was built for another scene".into()));
             }
+        }
+        let lights = match opts.shading {
+            Some(shading) => crate::light_params(shading, scene.centre_in_world)?,
+            None => crate::light_params(&tet_render::Shading::default(), scene.centre_in_world)?,
+        };
+        let lit = lights.enabled != 0;
+        if lit && scene.grads.is_none() {
+            return Err(GpuError::Input(
+                "lighting and silhouettes need per-vertex gradients: GpuScene::with_gradients".into(),
+            ));
         }
         if shader.is_bivariate() && scene.gmags.is_none() {
             return Err(GpuError::Input(format!(
@@ -530,6 +571,14 @@ impl GpuRenderer {
             // share llvmpipe's 65 535 loop iterations (see
             // GpuContext::limits_loop_iterations): its pixels would come out
             // wrong past ~10⁵ tets; each graphics fragment gets its own count.
+            stats.raster_path = RasterPath::Graphics;
+        }
+        if raster == RasterPath::Compute && lit && ctx.limits_loop_iterations() && ws.max_pairs > LIT_LOOP_LIMITED_PAIRS
+        {
+            // Likewise for lit fragments (a split segment shades up to 32
+            // pieces): passes of LIT_LOOP_LIMITED_PAIRS pairs stay within
+            // the limit, more need not; the graphics rasterizer gives each
+            // fragment its own count.
             stats.raster_path = RasterPath::Graphics;
         }
         if ws.hdr.as_ref().is_none_or(|t| t.width() != w || t.height() != h) {
@@ -634,6 +683,9 @@ impl GpuRenderer {
         stats.buffers_grown += ws.shades.ensure(ctx, chunk as u64 * 112, limit)? as usize;
         let bivariate = shader.is_bivariate();
         stats.buffers_grown += ws.gshades.ensure(ctx, if bivariate { chunk as u64 * 32 } else { 16 }, limit)? as usize;
+        let normal_bytes = if lit { chunk as u64 * NORMAL_ROWS as u64 * 16 } else { 16 };
+        stats.buffers_grown += ws.nshades.ensure(ctx, normal_bytes, limit)? as usize;
+        ctx.queue.write_buffer(&ws.lights, 0, bytemuck::bytes_of(&lights));
         let compute = stats.raster_path == RasterPath::Compute && n > 0;
         let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
         if compute {
@@ -711,6 +763,9 @@ impl GpuRenderer {
                         bind(7, &shader.tf_nodes),
                         bind(17, scene.gmags.as_ref().unwrap_or(&scene.scalars)),
                         bind(18, ws.gshades.get()),
+                        bind(19, &ws.lights),
+                        bind(20, scene.grads.as_ref().unwrap_or(&scene.positions)),
+                        bind(21, ws.nshades.get()),
                     ],
                 );
                 let mut enc = dev.create_command_encoder(&Default::default());
@@ -751,6 +806,7 @@ impl GpuRenderer {
                         bind_view(15, &alpha_view),
                     ]);
                     entries.extend([bind(16, &shader.shade_buf), bind(18, ws.gshades.get())]);
+                    entries.extend([bind(19, &ws.lights), bind(21, ws.nshades.get())]);
                     let bg = bind_group(dev, "raster", &self.raster.layout, &entries);
                     let mut enc = dev.create_command_encoder(&Default::default());
                     {
@@ -960,6 +1016,7 @@ impl GpuRenderer {
         entries.extend(bind_all(9, &[ws.ranges.get(), ws.accum.get()]));
         entries.extend([bind_view(11, env.hdr_view), bind_view(14, env.table2d_view), bind_view(15, env.alpha_view)]);
         entries.extend([bind(16, &env.shader.shade_buf), bind(18, ws.gshades.get())]);
+        entries.extend([bind(19, &ws.lights), bind(21, ws.nshades.get())]);
         Ok(bind_group(&ctx.device, "bin", &self.bin.bound.layout, &entries))
     }
 }

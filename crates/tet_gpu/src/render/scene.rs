@@ -27,6 +27,9 @@ pub struct GpuScene {
     /// (culling with 2D widgets).
     pub(crate) g_distinct: Option<Vec<f64>>,
     pub(crate) g_ranks: Option<wgpu::Buffer>,
+    /// Per-vertex gradients (lighting): xyz in f32, w = 1 where the
+    /// gradient is finite (else 0, xyz = 0: no direction).
+    pub(crate) grads: Option<wgpu::Buffer>,
 }
 
 impl GpuScene {
@@ -97,6 +100,7 @@ impl GpuScene {
             gmags: None,
             g_distinct: None,
             g_ranks: None,
+            grads: None,
         })
     }
 
@@ -125,9 +129,39 @@ impl GpuScene {
         Ok(self)
     }
 
+    /// The scene with per-vertex gradients ∇s in the world frame (what
+    /// lighting and silhouettes interpolate as the normal; tet_render's
+    /// `Scene::gradients`), one a point. A non-finite gradient is kept as
+    /// one with no direction: a tet with one is lit as the isotropic medium,
+    /// as on the CPU (where its interpolated normal is not finite).
+    pub fn with_gradients(mut self, ctx: &GpuContext, g: &[[f64; 3]]) -> Result<GpuScene, GpuError> {
+        if g.len() != self.n_points {
+            return Err(GpuError::Input(format!("{} gradients for {} points", g.len(), self.n_points)));
+        }
+        let g4: Vec<[f32; 4]> = g
+            .par_iter()
+            .map(|v| {
+                let f = v.map(|c| c as f32);
+                if f.iter().all(|c| c.is_finite()) {
+                    [f[0], f[1], f[2], 1.0]
+                } else {
+                    [0.0; 4]
+                }
+            })
+            .collect();
+        let grads = ctx.checked(|| buffer_init(&ctx.device, "gradients", bytemuck::cast_slice(&g4), SCENE_USAGE))?;
+        self.grads = Some(grads);
+        Ok(self)
+    }
+
+    /// Whether the scene carries per-vertex gradients.
+    pub fn has_gradients(&self) -> bool {
+        self.grads.is_some()
+    }
+
     /// Replaces the scalar (a time series' step; one finite value per
-    /// point), written into the existing buffers. Gradient magnitudes
-    /// describe the old scalar and are dropped; the scene gets a new id, so
+    /// point), written into the existing buffers. Gradients and their
+    /// magnitudes describe the old scalar and are dropped; the scene gets a new id, so
     /// a [`crate::GpuCull`] of the old scalar is refused rather than used.
     pub fn set_scalar(&mut self, ctx: &GpuContext, scalar: &[f64]) -> Result<(), GpuError> {
         if scalar.len() != self.n_points {
@@ -143,7 +177,7 @@ impl GpuScene {
             ctx.queue.write_buffer(&self.ranks, 0, bytemuck::cast_slice(&ranks));
         })?;
         self.distinct = distinct;
-        (self.gmags, self.g_ranks, self.g_distinct) = (None, None, None);
+        (self.gmags, self.g_ranks, self.g_distinct, self.grads) = (None, None, None, None);
         self.id = next_scene_id();
         Ok(())
     }

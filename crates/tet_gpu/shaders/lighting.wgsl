@@ -1,0 +1,253 @@
+// Lighting and silhouettes on the GPU: tet_render::shading's one model
+// (Blinn–Phong, two-sided, several lights, the isotropic medium where the
+// gradient has no direction, the fade below the gradient floor) and
+// `light_segment` (the segment lit at its emission centroid, split into
+// equal pieces where the terms vary), in f32. Prepended after common.wgsl
+// to the classify module (pt-linear's thick point) and to the modules that
+// shade fragments; each defines `shade_piece(fr, seg)`, the method's colour
+// of a piece of a segment. No shadows.
+
+struct GpuLight {
+    v: vec4<f32>,
+    kind: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+struct LightParams {
+    ambient: f32,
+    diffuse: f32,
+    specular: f32,
+    shininess: f32,
+    n_lights: u32,
+    lit: u32,
+    silhouette: u32,
+    silhouette_exp: f32,
+    gradient_floor: f32,
+    split_tolerance: f32,
+    max_pieces: u32,
+    enabled: u32,
+    lights: array<GpuLight, 8>,
+}
+
+const LIGHT_HEADLIGHT: u32 = 0u;
+const LIGHT_DIRECTIONAL: u32 = 1u;
+const LIGHT_POINT: u32 = 2u;
+const NORMAL_ROWS: u32 = 6u;
+
+@group(0) @binding(19) var<uniform> lighting: LightParams;
+
+// The lighting terms at one point (tet_render's LitPoint): emitted colour
+// times `diffuse`, plus white `specular` times extinction; `silhouette`
+// scales everything.
+struct LitPoint {
+    diffuse: f32,
+    specular: f32,
+    silhouette: f32,
+}
+
+// x^p for x in [0, 1] (0^0 = 1, as powi and powf give).
+fn pow_unit(x: f32, p: f32) -> f32 {
+    if p == 0.0 {
+        return 1.0;
+    }
+    if !(x > 0.0) {
+        return 0.0;
+    }
+    return pow(x, p);
+}
+
+// Shading::lit_point for gradient `g` (world frame; `has_dir` false where a
+// vertex gradient was not finite: no direction) at `pos_rel` (relative to
+// the mesh centre), seen along unit `view_dir` (eye towards the sample).
+fn lit_point(g: vec3<f32>, has_dir_in: bool, pos_rel: vec3<f32>, view_dir: vec3<f32>) -> LitPoint {
+    var out = LitPoint(1.0, 0.0, 1.0);
+    // |g| scaled by its largest component: no overflow or underflow in f32.
+    let m = max(max(abs(g.x), abs(g.y)), abs(g.z));
+    let has_dir = has_dir_in && m > 0.0 && m <= 3.4e38;
+    var n = vec3<f32>(0.0);
+    var len = 0.0;
+    if has_dir {
+        let gs = g / m;
+        let ls = length(gs);
+        n = gs / ls;
+        len = m * ls;
+    }
+    var weight = 0.0;
+    if has_dir {
+        weight = 1.0;
+        if len < lighting.gradient_floor {
+            weight = len / lighting.gradient_floor;
+        }
+    }
+    if lighting.lit != 0u {
+        let to_eye = -view_dir;
+        var d_iso = lighting.ambient;
+        var d = lighting.ambient;
+        var s = 0.0;
+        for (var i = 0u; i < lighting.n_lights; i++) {
+            let l = lighting.lights[i];
+            var to_light = -view_dir;
+            if l.kind == LIGHT_DIRECTIONAL {
+                to_light = -l.v.xyz;
+            } else if l.kind == LIGHT_POINT {
+                let dv = l.v.xyz - pos_rel;
+                let dm = max(max(abs(dv.x), abs(dv.y)), abs(dv.z));
+                if !(dm > 0.0) {
+                    // A point light at the sample: no direction, nothing added.
+                    continue;
+                }
+                to_light = normalize(dv / dm);
+            }
+            let w = l.v.w;
+            if w == 0.0 {
+                continue;
+            }
+            d_iso += w * lighting.diffuse;
+            if weight == 0.0 {
+                continue;
+            }
+            d += w * lighting.diffuse * min(abs(dot(n, to_light)), 1.0);
+            let h = to_light + to_eye;
+            let h_len = length(h);
+            // A light behind the sample (l̂ = −v̂): no half vector, no
+            // highlight. The CPU's threshold is 1e-9 in f64; f32 rounding
+            // leaves |h| ~1e-7 there, so 1e-5.
+            if h_len > 1.0e-5 {
+                s += w * lighting.specular * pow_unit(min(abs(dot(n, h)) / h_len, 1.0), lighting.shininess);
+            }
+        }
+        out.diffuse = d_iso + weight * (d - d_iso);
+        out.specular = weight * s;
+    }
+    if weight == 0.0 {
+        return out;
+    }
+    if lighting.silhouette != 0u {
+        let n_dot_v = min(abs(dot(n, view_dir)), 1.0);
+        out.silhouette = 1.0 + weight * (pow_unit(max(1.0 - n_dot_v, 0.0), lighting.silhouette_exp) - 1.0);
+    }
+    return out;
+}
+
+// LitPoint::apply: premultiplied `c` lit by constant terms.
+fn lit_apply(p: LitPoint, c: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>((c.xyz * p.diffuse + vec3<f32>(p.specular * c.w)) * p.silhouette, c.w * p.silhouette);
+}
+
+// tet_render::shading::emission_centroid in f32: 1/τ − (1 − α)/α with
+// τ = −ln(1 − α); by its series ½ − α/12 − α²/24 − 19α³/720 below α = 0.05
+// (the closed form cancels there in f32; the series' error < 2e-7).
+fn emission_centroid(alpha: f32) -> f32 {
+    if !(alpha > 1.0e-4) {
+        return 0.5;
+    }
+    if alpha >= 1.0 {
+        return 0.0;
+    }
+    if alpha < 0.05 {
+        return 0.5 - alpha * (1.0 / 12.0 + alpha * (1.0 / 24.0 + alpha * (19.0 / 720.0)));
+    }
+    let tau = -log(1.0 - alpha);
+    return clamp(1.0 / tau - (1.0 - alpha) / alpha, 0.0, 0.5);
+}
+
+// A segment's lighting inputs at its two ends (the gradient and position
+// are linear in depth along the ray, as tet_render's TetSetup fields).
+struct LitEnds {
+    nf: vec3<f32>,
+    nb: vec3<f32>,
+    pf: vec3<f32>,
+    pb: vec3<f32>,
+    view_dir: vec3<f32>,
+    has_dir: bool,
+}
+
+// The terms at fraction w of the segment (0 front, 1 back).
+fn lit_at(e: LitEnds, w: f32) -> LitPoint {
+    return lit_point(e.nf + w * (e.nb - e.nf), e.has_dir, e.pf + w * (e.pb - e.pf), e.view_dir);
+}
+
+// Unit direction of the ray through pixel (x, y) (Frame::view_dir).
+fn ray_dir(fr: Frame, x: f32, y: f32) -> vec3<f32> {
+    if fr.parallel != 0u {
+        return fr.forward.xyz;
+    }
+    let cx = fr.ax * x + fr.bx;
+    let cy = fr.ay * y + fr.by;
+    return normalize(fr.forward.xyz + fr.right.xyz * cx + fr.up.xyz * cy);
+}
+
+// Position relative to the mesh centre at depth z on the ray through (x, y).
+fn ray_pos(fr: Frame, x: f32, y: f32, z: f32) -> vec3<f32> {
+    let cx = fr.ax * x + fr.bx;
+    let cy = fr.ay * y + fr.by;
+    if fr.parallel != 0u {
+        return fr.eye_rel.xyz + fr.right.xyz * cx + fr.up.xyz * cy + fr.forward.xyz * z;
+    }
+    return fr.eye_rel.xyz + (fr.forward.xyz + fr.right.xyz * cx + fr.up.xyz * cy) * z;
+}
+
+// The lighting inputs of segment `seg` through pixel (x, y) from a slot's
+// gradient fields `rows` (per component c, rows 2c and 2c + 1 as TetShade's
+// s_a and s_b; rows[0].w: 1 where every vertex gradient is finite).
+fn lit_ends(fr: Frame, rows: array<vec4<f32>, 6>, seg: Seg, x: f32, y: f32) -> LitEnds {
+    var e: LitEnds;
+    let xy1 = vec3<f32>(1.0, x, y);
+    let base_a = vec3<f32>(dot(rows[0].xyz, xy1), dot(rows[2].xyz, xy1), dot(rows[4].xyz, xy1));
+    let base_b = vec3<f32>(dot(rows[1].xyz, xy1), dot(rows[3].xyz, xy1), dot(rows[5].xyz, xy1));
+    e.nf = base_a + seg.zf * base_b;
+    e.nb = base_a + seg.zb * base_b;
+    e.has_dir = rows[0].w > 0.5;
+    e.pf = ray_pos(fr, x, y, seg.zf);
+    e.pb = ray_pos(fr, x, y, seg.zb);
+    e.view_dir = ray_dir(fr, x, y);
+    return e;
+}
+
+// tet_render::shading::light_segment: `c`, the method's colour of `seg`,
+// lit at its emission centroid where the terms vary little over it, else
+// split into up to `max_pieces` equal pieces (their number
+// ⌈√(variation·weight/tolerance)⌉), each shaded by `shade_piece` and lit at
+// its own emission centroid, composited front to back.
+fn light_segment(fr: Frame, seg: Seg, c: vec4<f32>, e: LitEnds) -> vec4<f32> {
+    let weight = max(max(max(c.x, c.y), max(c.z, c.w)), 0.0);
+    if !(weight > 0.0) {
+        return c;
+    }
+    let mid = lit_at(e, emission_centroid(c.w));
+    let tol = lighting.split_tolerance;
+    if weight * 4.0 < tol {
+        return lit_apply(mid, c);
+    }
+    let front = lit_at(e, 0.0);
+    let back = lit_at(e, 1.0);
+    let variation = abs(front.diffuse - mid.diffuse) + abs(mid.diffuse - back.diffuse)
+        + abs(front.specular - mid.specular) + abs(mid.specular - back.specular)
+        + abs(front.silhouette - mid.silhouette) + abs(mid.silhouette - back.silhouette);
+    let want = ceil(sqrt(variation * weight / tol));
+    var pieces = 1u;
+    if want > 1.0 {
+        pieces = u32(min(want, f32(lighting.max_pieces)));
+    }
+    if pieces <= 1u {
+        return lit_apply(mid, c);
+    }
+    var out = vec4<f32>(0.0);
+    let step = 1.0 / f32(pieces);
+    for (var j = 0u; j < pieces; j++) {
+        let w0 = f32(j) * step;
+        let w1 = f32(j + 1u) * step;
+        var piece = seg;
+        piece.sf = seg.sf + w0 * (seg.sb - seg.sf);
+        piece.sb = seg.sf + w1 * (seg.sb - seg.sf);
+        piece.gf = seg.gf + w0 * (seg.gb - seg.gf);
+        piece.gb = seg.gf + w1 * (seg.gb - seg.gf);
+        piece.len = seg.len * step;
+        let rgba = shade_piece(fr, piece);
+        let lit = lit_apply(lit_at(e, w0 + (w1 - w0) * emission_centroid(rgba.w)), rgba);
+        out += (1.0 - out.w) * lit;
+    }
+    return out;
+}

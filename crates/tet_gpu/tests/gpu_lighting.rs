@@ -1,0 +1,118 @@
+//! Lit frames on tet_gpu's renderer (`FrameOptions::shading`): both
+//! rasterizers against tet_render's projected tetrahedra lit the same way
+//! (same MPVO order), the compute rasterizer's lit passes on llvmpipe,
+//! what is refused. The engine-level comparisons (headlight, directional,
+//! point lights, Blunt Fin) are in tet_engine's tests/gpu_lit.rs. Skip
+//! with a printed reason where no adapter exists (fail instead with
+//! TETKIT_REQUIRE_GPU=1); lavapipe here.
+
+mod common;
+
+use common::{cpu_image_and_order, cpu_pt_renderer, gpu_with_scene, grid, report, tf, Mesh};
+use std::sync::Arc;
+use tet_gpu::{FrameOptions, GpuError, GpuOrder, GpuShader, RasterPath, LIT_LOOP_LIMITED_PAIRS};
+use tet_preint::{PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain};
+use tet_render::{Camera, LightSet, LightSource, Lighting, RasterOptions, Shading, ViewSpec};
+
+fn table_for(mesh: &Mesh) -> Table3d {
+    let (max_ds, len) = mesh.cell_limits();
+    let domain = TableDomain::new(0.0, 1.0, max_ds, len).unwrap();
+    Table3d::build(&tf(), &domain, &Table3dParams { n_s: 64, n_l: 64, ..Default::default() }).unwrap()
+}
+
+/// A directional light with a strong highlight and a point light beside
+/// the unit cube, silhouettes on.
+fn shading() -> Shading {
+    let lights = LightSet::new(&[
+        LightSource::Directional { direction: [1.0, -0.5, -1.0], intensity: 0.8 },
+        LightSource::Point { position: [1.8, 0.5, 1.2], intensity: 0.6 },
+    ])
+    .unwrap();
+    Lighting { ambient: 0.2, specular: 0.6, shininess: 16.0, lights, ..Lighting::default() }.shading(Some(1.5))
+}
+
+/// The compute rasterizer (passes of at most `LIT_LOOP_LIMITED_PAIRS`
+/// pairs, which llvmpipe's loop limit allows) and the graphics one draw
+/// the lit frame of the CPU's projected tetrahedra, for table3d and
+/// pt-linear; with the default pair cap a lit frame on llvmpipe takes the
+/// graphics rasterizer.
+#[test]
+fn lit_frames_on_both_rasterizers_match_the_cpu() {
+    let mesh = grid(6);
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let cpu_scene = mesh.cpu_scene().ensure_gradients().unwrap();
+    let scene = scene.with_gradients(&ctx, cpu_scene.gradients().unwrap()).unwrap();
+    let shading = shading();
+    let mut cpu = cpu_pt_renderer(cpu_scene);
+    cpu.set_raster_options(RasterOptions { shading, ..Default::default() });
+    let spec = ViewSpec::framing([0.0; 3], [1.0; 3], [48, 40]).orbit(30.0, 20.0, 1.0);
+    let cam = Camera::new(&spec).unwrap();
+    cpu.set_view(&spec).unwrap();
+    let table = Arc::new(table_for(&mesh));
+    let shaders: [(GpuShader, Arc<dyn SegmentShader>); 2] = [
+        (GpuShader::table3d(&ctx, &table).unwrap(), table.clone()),
+        (GpuShader::pt_linear(&ctx, &tf()).unwrap(), Arc::new(PtLinearShader::new(tf()))),
+    ];
+    let llvmpipe = ctx.describe().contains("llvmpipe");
+    for (gpu_shader, cpu_shader) in &shaders {
+        let m = gpu_shader.method_id();
+        cpu.set_shader(cpu_shader.clone());
+        let (want, order) = cpu_image_and_order(&mut cpu);
+        let opts = |raster| FrameOptions { raster, shading: Some(&shading), ..Default::default() };
+        let draw = |raster| {
+            renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), gpu_shader, &opts(raster)).unwrap()
+        };
+        let default_cap = draw(RasterPath::Compute);
+        let expect = if llvmpipe { RasterPath::Graphics } else { RasterPath::Compute };
+        assert_eq!(default_cap.stats.raster_path, expect, "{m}");
+        renderer.set_chunk_limits(None, Some(LIT_LOOP_LIMITED_PAIRS));
+        let comp = draw(RasterPath::Compute);
+        renderer.set_chunk_limits(None, None);
+        assert_eq!(comp.stats.raster_path, RasterPath::Compute, "{m}");
+        let gfx = draw(RasterPath::Graphics);
+        // Measured on lavapipe (f32 lighting against the CPU's f64):
+        // table3d rmse 6.8e-7, max 3.2e-5; pt-linear rmse 8.8e-6, max
+        // 2.3e-4; compute against graphics rmse 8.5e-7, max 3.8e-5.
+        for (what, img) in [("compute", &comp.image), ("graphics", &gfx.image)] {
+            let d = report(&format!("lit {m} {what} vs CPU"), img, &want);
+            assert!(d.rmse <= 1.5e-5 && d.max_abs <= 3.5e-4, "{m} {what}: {d:?}");
+        }
+        let d = report(&format!("lit {m} compute vs graphics"), &comp.image, &gfx.image);
+        assert!(d.rmse <= 2e-6 && d.max_abs <= 6e-5, "{m}: {d:?}");
+        let unlit = renderer
+            .render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), gpu_shader, &FrameOptions::default())
+            .unwrap();
+        assert!(tet_render::diff(&unlit.image, &gfx.image).unwrap().max_abs > 1e-2, "{m}: lighting changed nothing");
+    }
+}
+
+/// Lighting needs the scene's gradients; shadows are not on the GPU.
+#[test]
+fn lighting_without_gradients_or_with_shadows_is_refused() {
+    let mesh = grid(3);
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let spec = ViewSpec::framing([0.0; 3], [1.0; 3], [16, 16]);
+    let cam = Camera::new(&spec).unwrap();
+    let order: Vec<u32> = (0..mesh.tets.len() as u32).collect();
+    let shader = GpuShader::pt_linear(&ctx, &tf()).unwrap();
+    let lit = shading();
+    let opts = FrameOptions { shading: Some(&lit), ..Default::default() };
+    let draw = |scene: &tet_gpu::GpuScene, opts: &FrameOptions| {
+        renderer.render_frame(&ctx, scene, &cam, GpuOrder::Given(&order), &shader, opts)
+    };
+    assert!(matches!(draw(&scene, &opts), Err(GpuError::Input(e)) if e.contains("gradients")));
+    let g = mesh.cpu_scene().ensure_gradients().unwrap().gradients().unwrap().to_vec();
+    assert!(scene_err(&ctx, &mesh, &g[1..]).contains("gradients"));
+    let scene = scene.with_gradients(&ctx, &g).unwrap();
+    assert!(draw(&scene, &opts).is_ok());
+    let shadowed = Shading { shadows: true, ..lit };
+    let opts = FrameOptions { shading: Some(&shadowed), ..Default::default() };
+    assert!(matches!(draw(&scene, &opts), Err(GpuError::Unsupported(e)) if e.contains("shadows")));
+}
+
+fn scene_err(ctx: &tet_gpu::GpuContext, mesh: &Mesh, g: &[[f64; 3]]) -> String {
+    match mesh.gpu_scene(ctx).with_gradients(ctx, g) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("{} gradients for {} points accepted", g.len(), mesh.points.len()),
+    }
+}

@@ -32,15 +32,17 @@ test: gpu-driver viewer-deps video-deps
 	$(MAKE) mpi-test
 	$(MAKE) python-test
 
-## The distributed crate over MPI (its `mpi` feature: rsmpi on Open MPI), run under mpirun.
+## The distributed crate and `tetview render --distributed` over MPI (their `mpi` features:
+## rsmpi on Open MPI), run under mpirun.
 ## Skips with a note where Open MPI cannot be installed (needs apt-get and root or sudo).
 mpi-test: mpi-deps
 	@if command -v mpirun >/dev/null 2>&1 && command -v mpicc >/dev/null 2>&1; then \
-		echo "$(CARGO) clippy -p tet_distributed --features mpi --all-targets -- -D warnings && $(CARGO) test -p tet_distributed --features mpi"; \
-		{ $(CARGO) clippy -q -p tet_distributed --features mpi --all-targets -- -D warnings || \
+		echo "$(CARGO) clippy -p tet_distributed -p tetview --features mpi --all-targets -- -D warnings && $(CARGO) test -p tet_distributed --features mpi && $(CARGO) test -p tetview --features mpi --test distributed"; \
+		{ $(CARGO) clippy -q -p tet_distributed -p tetview --features mpi --all-targets -- -D warnings || \
 		  { echo "clippy failed; once more (a fresh machine's first cargo run after the Open MPI install once failed in cargo's rustc probe, fed a gcc message; lint failures fail again)"; \
-		    $(CARGO) clippy -q -p tet_distributed --features mpi --all-targets -- -D warnings; }; } && \
-		$(CARGO) test -p tet_distributed --features mpi; \
+		    $(CARGO) clippy -q -p tet_distributed -p tetview --features mpi --all-targets -- -D warnings; }; } && \
+		$(CARGO) test -p tet_distributed --features mpi && \
+		$(CARGO) test -p tetview --features mpi --test distributed; \
 	else echo "note: no Open MPI here; the MPI tests are skipped"; fi
 
 ## Open MPI and libclang (rsmpi's bindings) from Debian's packages.

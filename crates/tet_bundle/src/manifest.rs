@@ -87,6 +87,19 @@ pub struct SourceInfo {
     pub tets: u64,
     /// Total volume of the source's tets (world units cubed).
     pub total_volume: f64,
+    /// How the source's cells were made (its `BundleMeta::split`:
+    /// "delaunay" and "layered" for point clouds), so the default view of
+    /// a distributed frame is framed as the source's (z up for point
+    /// clouds). Empty in manifests written before it was recorded.
+    #[serde(default)]
+    pub split: String,
+}
+
+impl SourceInfo {
+    /// Whether the source was tetrahedralized from a point cloud.
+    pub fn from_point_cloud(&self) -> bool {
+        matches!(self.split.as_str(), "delaunay" | "layered")
+    }
 }
 
 /// A scalar's range over the whole mesh.
@@ -481,7 +494,15 @@ mod tests {
             format: MANIFEST_FORMAT.into(),
             version: MANIFEST_VERSION,
             writer: "test".into(),
-            source: SourceInfo { file: "s.tetb".into(), crc32: 0, bytes: 0, points: 0, tets: 0, total_volume: 1.0 },
+            source: SourceInfo {
+                file: "s.tetb".into(),
+                crc32: 0,
+                bytes: 0,
+                points: 0,
+                tets: 0,
+                total_volume: 1.0,
+                split: String::new(),
+            },
             parts: 3,
             scalar_name: "s".into(),
             scalar_range: ScalarRange { min: 0.0, max: 1.0 },

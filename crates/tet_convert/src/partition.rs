@@ -811,6 +811,7 @@ pub fn write_partition(
         points: source.mesh.points.len() as u64,
         tets: source.mesh.tets.len() as u64,
         total_volume: source.meta.stats.total_volume,
+        split: source.meta.split.clone(),
     };
     let manifest = manifest_of(source, info, tree, infos);
     let manifest_path = tmp.path().join(MANIFEST_FILE);

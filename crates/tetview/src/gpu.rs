@@ -31,8 +31,11 @@ pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
     if !GPU_METHODS.contains(&method) {
         return Err(usage(format!("--gpu: method {method} is not on the GPU yet (GPU methods: {})", gpu_methods())));
     }
-    if args.lighting.light || args.lighting.light_dir.is_some() || args.lighting.shadows || args.silhouette.is_some() {
-        return Err(usage("--gpu: lighting, shadows and --silhouette are CPU-only for now"));
+    // Lighting (--light, --light-dir, a view file's lights) and
+    // --silhouette are drawn on the GPU; shadows are not (a view file's
+    // "shadows" is refused by `render` before the device opens).
+    if args.lighting.shadows {
+        return Err(usage("--gpu: shadows are CPU-only for now (lighting without --shadows is drawn on the GPU)"));
     }
     if args.gpu_bake && method != Method::Table3d {
         return Err(usage(format!("--gpu-bake: method {method} has no table to bake (only table3d)")));
@@ -66,8 +69,11 @@ pub fn render(
     request: &FrameRequest,
     display: &Display,
     lut: Option<&(LutFile, std::path::PathBuf)>,
+    lighting: Option<&tet_render::Lighting>,
 ) -> Result<()> {
     let start = Instant::now();
+    // What the GPU renderer refuses (a view file's shadows), before the device opens.
+    GpuFrameRenderer::supports(method, request).map_err(|why| usage(format!("--gpu: {why}")))?;
     let raster = match args.gpu_raster {
         GpuRasterArg::Compute => RasterPath::Compute,
         GpuRasterArg::Graphics => RasterPath::Graphics,
@@ -96,7 +102,10 @@ pub fn render(
         frame.image.write_npy(p)?;
     }
     if let Some(p) = &args.save_view {
-        std::fs::write(p, view.to_json()).with_context(|| format!("writing {}", p.display())).kind(ExitKind::Output)?;
+        // The view and its lighting, as the CPU path writes them.
+        std::fs::write(p, crate::camera_args::view_json(view, lighting))
+            .with_context(|| format!("writing {}", p.display()))
+            .kind(ExitKind::Output)?;
     }
     let total_seconds = start.elapsed().as_secs_f64();
     let s = &g.render;

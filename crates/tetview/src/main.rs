@@ -9,6 +9,7 @@ mod bench;
 mod camera_args;
 mod cli;
 mod diff;
+mod distributed;
 mod gpu;
 mod look_args;
 mod reference;

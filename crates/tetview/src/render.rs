@@ -9,8 +9,18 @@ use tet_render::{Scene, Shading, SortMethod};
 /// Render BUNDLE with a transfer function and method (or a baked table).
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
-    /// The bundle (.tetb) written by `tetprep convert`.
+    /// The bundle (.tetb) written by `tetprep convert`; with
+    /// --distributed, a partition's manifest (or its directory) written by
+    /// `tetprep partition`.
     pub bundle: PathBuf,
+    /// Draw a partition (`tetprep partition`): one rank a piece, composited
+    /// front to back in its k-d tree's order; the image is the unsplit
+    /// bundle's. Under `mpirun -np N` (tetview built with `--features mpi`)
+    /// each process is a rank; otherwise the ranks are threads of this
+    /// process. Needs --tf or --lut; a normalized TF spans the whole mesh's
+    /// range.
+    #[arg(long)]
+    pub distributed: bool,
     #[command(flatten)]
     pub look: crate::look_args::LookArgs,
     #[command(flatten)]
@@ -45,6 +55,11 @@ pub struct RenderArgs {
     /// Draw every tet (turn off culling of invisible cells).
     #[arg(long)]
     pub no_cull: bool,
+    /// Walk every ray to its end (no early ray termination at α 0.9999):
+    /// the image no longer depends on where a mesh is split
+    /// (--distributed's exact comparisons use it).
+    #[arg(long)]
+    pub no_early_termination: bool,
     /// Output PNG (8-bit sRGB after tone mapping, over the background).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -59,9 +74,11 @@ pub struct RenderArgs {
     pub json: bool,
     /// Render on the GPU (tet_gpu; methods pt-linear, table3d, atlas2d,
     /// poly1/2/4, partial, biv-exact and biv-approx; the same
-    /// visibility order and tables as the CPU, culling on the GPU). Exit
-    /// code 7 where no GPU adapter exists; without --gpu tetview renders on
-    /// the CPU.
+    /// visibility order and tables as the CPU, culling on the GPU; lit by
+    /// --light, --light-dir or the view file's lights, and --silhouette, as
+    /// the CPU's projected tetrahedra light; not --shadows). Exit code 7
+    /// where no GPU adapter exists; without --gpu tetview renders on the
+    /// CPU.
     #[arg(long)]
     pub gpu: bool,
     /// With --gpu: the compute-shader tile rasterizer or the hardware
@@ -76,6 +93,9 @@ pub struct RenderArgs {
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
+    if args.distributed {
+        return crate::distributed::run(args);
+    }
     let bundle = args.time.read_bundle(&args.bundle)?;
     crate::cli::warn_if_constant_scalar(&bundle);
     // Either a baked .tetl (its TF travels in the file) or a TF and a method.
@@ -108,12 +128,23 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         sort: args.sort,
         cull: !args.no_cull,
         adaptive: args.adaptive,
+        early_termination: !args.no_early_termination,
         ..FrameRequest::new(view.clone())
     };
     if args.gpu {
         // The GPU path opens its device before baking (without one nothing
         // is baked), and --gpu-bake bakes on the device instead.
-        return crate::gpu::render(args, &bundle, scene, &tf, method, &request, &display, chosen.lut.as_ref());
+        return crate::gpu::render(
+            args,
+            &bundle,
+            scene,
+            &tf,
+            method,
+            &request,
+            &display,
+            chosen.lut.as_ref(),
+            lighting.as_ref(),
+        );
     }
     let look = chosen.look(&bundle)?;
     let mut renderer = CpuFrameRenderer::from_scene(scene);

@@ -369,6 +369,109 @@ fn gpu_render_matches_the_cpu_or_skips() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no GPU adapter"));
 }
 
+/// `render --gpu` lit (`--light`, `--light-dir`, `--silhouette`, a view
+/// file's lights) draws what the CPU's projected tetrahedra draw with the
+/// same flags; `--shadows`, or a view file's shadows, with `--gpu` is a
+/// usage error naming shadows. Skips where no GPU adapter exists (fails
+/// instead with TETKIT_REQUIRE_GPU=1).
+#[test]
+fn gpu_render_lit_matches_the_cpu_or_skips() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, t) = (bundle(dir.path()), tf(dir.path()));
+    let f = |name: &str| dir.path().join(name);
+    let png = f("x.png");
+    let render = |extra: &[&str], npy: &Path| {
+        let mut a = vec!["render", path_arg(&b), "--tf", path_arg(&t), "--size", "64x48", "--azimuth", "30"];
+        a.extend(["--elevation", "-20", "-o", path_arg(&png), "--float", path_arg(npy)]);
+        a.extend_from_slice(extra);
+        tetview(&a)
+    };
+    // Shadows stay on the CPU, with or without an adapter: usage errors.
+    let out = render(&["--gpu", "--light-dir", "-1,-0.5,-0.8", "--shadows"], &f("x.npy"));
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("shadows"), "{}", String::from_utf8_lossy(&out.stderr));
+    let shadow_view = f("shadow_view.json");
+    let out = render(&["--light-dir", "-1,-0.5,-0.8", "--shadows", "--save-view", path_arg(&shadow_view)], &f("x.npy"));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = tetview(&[
+        "render",
+        path_arg(&b),
+        "--tf",
+        path_arg(&t),
+        "--gpu",
+        "--view",
+        path_arg(&shadow_view),
+        "-o",
+        path_arg(&png),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("shadows"), "{}", String::from_utf8_lossy(&out.stderr));
+
+    if let Err(e) = tet_gpu::GpuContext::new_headless() {
+        if tet_gpu::gpu_required() {
+            panic!("TETKIT_REQUIRE_GPU=1 but: {e}");
+        }
+        eprintln!("skipped: {e}");
+        let out = render(&["--gpu", "--light"], &f("x.npy"));
+        assert_eq!(out.status.code(), Some(7), "{}", String::from_utf8_lossy(&out.stderr));
+        return;
+    }
+    // The same lit view from a view file too (its lights, no shadows).
+    let (lit_view, unlit) = (f("lit_view.json"), f("unlit.npy"));
+    let out = render(&["--gpu", "--method", "pt-linear"], &unlit);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let cases: [(&str, &[&str]); 4] = [
+        ("pt-linear", &["--light"]),
+        ("pt-linear", &["--light-dir", "-1,-0.5,-0.8", "--silhouette", "2", "--save-view", path_arg(&lit_view)]),
+        ("table3d", &["--light-dir", "-1,-0.5,-0.8"]),
+        ("table3d", &["--light", "--silhouette", "1"]),
+    ];
+    for (k, (method, flags)) in cases.iter().enumerate() {
+        let (gpu, cpu) = (f(&format!("gpu{k}.npy")), f(&format!("cpu{k}.npy")));
+        let mut g = vec!["--gpu", "--method", method, "--json"];
+        g.extend_from_slice(flags);
+        let out = render(&g, &gpu);
+        assert!(out.status.success(), "{method} {flags:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(stats["device"].as_str().is_some_and(|d| !d.is_empty()), "{stats}");
+        let mut c = vec!["--renderer", "pt", "--method", method];
+        c.extend(flags.iter().filter(|a| !a.ends_with(".json") && **a != "--save-view"));
+        let out = render(&c, &cpu);
+        assert!(out.status.success(), "{method} {flags:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let (gi, ci) = (tet_render::Image::read_npy(&gpu).unwrap(), tet_render::Image::read_npy(&cpu).unwrap());
+        let d = tet_render::diff(&gi, &ci).unwrap();
+        eprintln!("--gpu {method} {flags:?} vs --renderer pt: rmse {:.3e}, max {:.3e}", d.rmse, d.max_abs);
+        // Measured on lavapipe: rmse ≤ 1.7e-7, max ≤ 1.9e-6.
+        assert!(d.rmse <= 1e-6 && d.max_abs <= 1e-5, "{method} {flags:?}: {d:?}");
+        if *method == "pt-linear" {
+            let u = tet_render::diff(&gi, &tet_render::Image::read_npy(&unlit).unwrap()).unwrap();
+            assert!(u.max_abs > 1e-3, "{flags:?} changed nothing on the GPU");
+        }
+    }
+    let (from_view, direct) = (f("from_view.npy"), f("gpu1.npy"));
+    let out = tetview(&[
+        "render",
+        path_arg(&b),
+        "--tf",
+        path_arg(&t),
+        "--gpu",
+        "--method",
+        "pt-linear",
+        "--view",
+        path_arg(&lit_view),
+        "--silhouette",
+        "2",
+        "-o",
+        path_arg(&f("x.png")),
+        "--float",
+        path_arg(&from_view),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // `--gpu --save-view` writes the lighting too (it once wrote the view alone).
+    let same = tet_render::Image::read_npy(&from_view).unwrap() == tet_render::Image::read_npy(&direct).unwrap();
+    assert!(same, "a view file's lights draw what --light-dir drew");
+}
+
 #[test]
 fn bench_prints_a_table_writes_plot_and_json_and_caches_the_reference() {
     let dir = tempfile::tempdir().unwrap();

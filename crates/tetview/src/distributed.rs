@@ -1,0 +1,277 @@
+//! `tetview render --distributed MANIFEST`: a partition's pieces drawn by
+//! one rank each and composited in the k-d tree's visibility order.
+//!
+//! Under `mpirun` (tetview built with its `mpi` feature) each process is a
+//! rank; otherwise the ranks are threads of this process, composited the
+//! same way (`tet_distributed::ThreadComm`). Every rank reads the manifest
+//! and only its own piece (size and CRC-32 checked), resolves the TF over
+//! the whole mesh's scalar range (the manifest's, as one process would over
+//! the unsplit bundle), frames the default view on the whole mesh's box,
+//! and draws its piece over the whole screen with the engine's CPU
+//! renderer (walker or projected tetrahedra), premultiplied RGBA. The ranks
+//! then agree (`tet_distributed::agree`: the first rank's error, or the
+//! first request that differs, stops every rank with the same message and
+//! exit code) and composite by binary swap front to back; rank 0 writes
+//! the PNG, the `.npy`, the view and the statistics.
+//!
+//! Pieces lie inside their boxes and the boxes tile the mesh's, so the
+//! tree's order from the eye is a visibility order and compositing the
+//! ranks' images is the single-process image up to f32 rounding — where
+//! every ray is walked to its end. Early ray termination stops a ray on
+//! the α it gathered in one piece, not in the pieces before it, so a
+//! nearly opaque ray keeps up to 1 − opaque α of what one process would
+//! have dropped (`--no-early-termination` on both sides compares exactly).
+
+use anyhow::{Context, Result};
+use std::path::{Path, PathBuf};
+use tet_bundle::manifest::{Manifest, MANIFEST_FILE};
+use tet_cli::{usage, ExitKind, KindExt};
+use tet_distributed::{agree, composite, Comm, CompositeStats, DistributedError, ThreadComm};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats};
+use tet_render::{Image, Scene, Shading, ViewSpec};
+
+use crate::render::RenderArgs;
+
+/// What one rank drew, kept for rank 0's report.
+struct RankFrame {
+    image: Image,
+    view: ViewSpec,
+    lighting: Option<tet_render::Lighting>,
+    stats: tet_render::RenderStats,
+    order: Vec<usize>,
+    method: String,
+}
+
+/// Rank 0's result: the composited image and what to report.
+struct Composited {
+    image: Image,
+    frame: RankFrame,
+    composite: CompositeStats,
+    ranks: usize,
+}
+
+/// The manifest file: `path` itself, or `path/manifest.json` for a directory.
+fn manifest_path(path: &Path) -> PathBuf {
+    if path.is_dir() {
+        path.join(MANIFEST_FILE)
+    } else {
+        path.to_path_buf()
+    }
+}
+
+/// How many ranks `mpirun` started this process among, from the launcher's
+/// environment (Open MPI, MPICH/PMI, PMIx); `None` outside a launcher.
+fn launcher_size() -> Option<usize> {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok().and_then(|s| s.trim().parse::<usize>().ok()))
+}
+
+pub fn run(args: &RenderArgs) -> Result<()> {
+    if args.gpu {
+        return Err(usage(
+            "--distributed: the ranks draw on the CPU (walker or --renderer pt); --gpu is not distributed yet",
+        ));
+    }
+    let path = manifest_path(&args.bundle);
+    let under_launcher = launcher_size().is_some_and(|n| n > 1);
+    #[cfg(feature = "mpi")]
+    if under_launcher {
+        let comm = tet_distributed::MpiComm::init()
+            .ok_or_else(|| tet_cli::fail(ExitKind::Internal, "MPI was initialized twice"))?;
+        return match rank_main(&comm, args, &path) {
+            Ok(Some(c)) => write_outputs(args, c),
+            Ok(None) => Ok(()),
+            Err(e) => {
+                // Every rank has the error before any exits: mpirun ends
+                // the job at the first failing exit.
+                let _ = comm.barrier();
+                Err(e)
+            }
+        };
+    }
+    if under_launcher {
+        return Err(usage(format!(
+            "--distributed under mpirun ({} ranks), but this tetview was built without MPI: \
+             build it with `cargo install --path crates/tetview --features mpi` (Open MPI's libopenmpi-dev), \
+             or run one process, whose ranks are threads",
+            launcher_size().unwrap_or(0)
+        )));
+    }
+    // One process: one thread rank per piece. The manifest is read first
+    // to know how many (each rank reads it again, as MPI ranks do).
+    let manifest = Manifest::load(&path, false)?;
+    let ranks = manifest.pieces.len();
+    let results = ThreadComm::run(ranks, |comm| rank_main(comm, args, &path));
+    let mut results = results.into_iter();
+    let first = results.next().expect("a manifest has one piece at least");
+    // After the agreement every rank has the same error, or none.
+    let first = first?;
+    write_outputs(args, first.expect("rank 0 holds the image"))
+}
+
+/// One rank's whole frame: its piece drawn, the agreement, compositing.
+/// Rank 0 returns the composited image; the others `None`. After the
+/// agreement all ranks fail alike or none does.
+fn rank_main<C: Comm + ?Sized>(comm: &C, args: &RenderArgs, path: &Path) -> Result<Option<Composited>> {
+    let (rank, size) = (comm.rank(), comm.size());
+    let drawn = draw_piece(rank, size, args, path);
+    let state = match &drawn {
+        Ok((frame, fingerprint)) => Ok(format!("{fingerprint}\norder={:?}", frame.order)),
+        Err(e) => Err(format!("{}\t{}", ExitKind::of(e).code(), tet_cli::describe(e))),
+    };
+    if let Err(e) = agree(comm, state) {
+        return Err(agreed_error(e));
+    }
+    let (frame, _) = drawn.expect("agreed: every rank drew");
+    let (image, stats) = composite(comm, frame.image.clone(), &frame.order).map_err(agreed_error)?;
+    Ok(image.map(|image| Composited { image, frame, composite: stats, ranks: size }))
+}
+
+/// A failed agreement as the error every rank returns: a rank's own
+/// failure keeps its message and exit code; ranks that were given
+/// different requests are a usage error; a lost or garbled message is ours.
+fn agreed_error(e: DistributedError) -> anyhow::Error {
+    match e {
+        DistributedError::RankFailed { rank, message } => {
+            let (kind, text) = match message.split_once('\t') {
+                Some((code, text)) => {
+                    let kind = code.parse::<u8>().ok().and_then(|c| ExitKind::ALL.into_iter().find(|k| k.code() == c));
+                    (kind.unwrap_or(ExitKind::Internal), text.to_string())
+                }
+                None => (ExitKind::Internal, message),
+            };
+            tet_cli::fail(kind, format!("rank {rank}: {text}"))
+        }
+        e @ DistributedError::Disagree { .. } => tet_cli::fail(ExitKind::Usage, e.to_string()),
+        e => tet_cli::fail(ExitKind::Internal, e.to_string()),
+    }
+}
+
+/// Rank `rank` of `size`: reads the manifest and its piece, resolves the
+/// look and view as one process over the whole mesh would, and draws the
+/// piece over the whole screen. Returns the frame and the fingerprint of
+/// the request ranks must agree on.
+fn draw_piece(rank: usize, size: usize, args: &RenderArgs, path: &Path) -> Result<(RankFrame, String)> {
+    let manifest = Manifest::load(path, false)?;
+    if manifest.pieces.len() != size {
+        return Err(usage(format!(
+            "{} ranks for a partition of {} pieces (one rank a piece): run mpirun -np {} ({})",
+            size,
+            manifest.pieces.len(),
+            manifest.pieces.len(),
+            path.display()
+        )));
+    }
+    let (manifest_crc, _) = tet_bundle::manifest::file_crc32(path)
+        .with_context(|| format!("reading {}", path.display()))
+        .kind(ExitKind::Input)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut bundle = manifest.load_piece(dir, rank)?;
+    if let Some(t) = args.time.time {
+        let piece = manifest.piece_path(dir, rank);
+        bundle.set_time(t).map_err(|e| usage(format!("--time {t}: {e} ({})", piece.display())))?;
+    }
+    // The TF over the whole mesh's range (a normalized TF, unless --range).
+    let mut look_args = args.look.clone();
+    if args.look.lut.is_none() {
+        let Some(tf_path) = &args.look.tf else {
+            return Err(usage(
+                "--distributed needs --tf or --lut: the automatic TF of a partition (from the pieces' summed histograms) is not built yet",
+            ));
+        };
+        let tf = tet_preint::load_tf(tf_path)?;
+        if tf.normalized() && look_args.range.is_none() {
+            let r = &manifest.scalar_range;
+            look_args.range = Some(tet_preint::normalized_tf_range(r.min, r.max));
+        }
+    }
+    let chosen = look_args.resolve(&bundle)?;
+    let (tf, method) = (chosen.tf.clone(), chosen.method);
+    let scene = Scene::from_bundle(&bundle).with_context(|| format!("piece {rank}"))?;
+    let root = manifest.tree.first().expect("a checked manifest has a root").bounds();
+    let bounds = (root.min, root.max);
+    let z_up = tet_render::camera::z_up_data(manifest.source.from_point_cloud(), root.min, root.max);
+    let (view, lighting) = args.camera.resolve_lit(&args.lighting, bounds, z_up)?;
+    let shading = match &lighting {
+        Some(l) => l.shading(args.silhouette),
+        None => Shading { silhouette: args.silhouette, ..Default::default() },
+    };
+    let request = FrameRequest {
+        shading,
+        cpu: args.renderer,
+        sort: args.sort,
+        cull: !args.no_cull,
+        adaptive: args.adaptive,
+        early_termination: !args.no_early_termination,
+        ..FrameRequest::new(view.clone())
+    };
+    let order = if view.parallel {
+        let d = [0, 1, 2].map(|k| view.focal_point[k] - view.position[k]);
+        manifest.front_to_back_parallel(d)
+    } else {
+        manifest.front_to_back(view.position)
+    };
+    let look = chosen.look(&bundle)?;
+    let mut renderer = CpuFrameRenderer::from_scene(scene);
+    let frame = renderer.render(&look, &request, &|_, _| {})?;
+    let (image, FrameStats::Cpu(stats)) = (frame.image, frame.stats) else {
+        unreachable!("the CPU renderer reports CPU statistics")
+    };
+    let fingerprint = format!(
+        "manifest={manifest_crc:08x}\nview={}\ntf={}\nmethod={}\nrenderer={:?}\nshading={:?}\nearly={}\ncull={}\nadaptive={:?}",
+        serde_json::to_string(&view)?,
+        tf.to_json().replace('\n', " "),
+        method.id(),
+        args.renderer,
+        request.shading,
+        request.early_termination,
+        request.cull,
+        request.adaptive,
+    );
+    let frame = RankFrame { image, view, lighting, stats, order, method: method.id().to_string() };
+    Ok((frame, fingerprint))
+}
+
+/// Rank 0's outputs, as `tetview render` writes them.
+fn write_outputs(args: &RenderArgs, c: Composited) -> Result<()> {
+    let display = args.display.display();
+    c.image.write_png(&args.output, &display)?;
+    if let Some(p) = &args.float {
+        c.image.write_npy(p)?;
+    }
+    if let Some(p) = &args.save_view {
+        std::fs::write(p, crate::camera_args::view_json(&c.frame.view, c.frame.lighting.as_ref()))
+            .with_context(|| format!("writing {}", p.display()))
+            .kind(ExitKind::Output)?;
+    }
+    let st = &c.frame.stats;
+    if args.json {
+        let v = serde_json::json!({
+            "distributed": true,
+            "ranks": c.ranks,
+            "order": c.frame.order,
+            "method": c.frame.method,
+            "rank0": serde_json::to_value(st)?,
+            "composite_seconds": c.composite.seconds,
+            "composite_bytes_sent_rank0": c.composite.bytes_sent,
+            "composite_bytes_received_rank0": c.composite.bytes_received,
+            "output": args.output.display().to_string(),
+            "size": c.frame.view.size,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        eprintln!(
+            "{} pieces on {} ranks, composited front to back ({:?}) in {:.3} s; rank 0 drew {} of {} tets in {:.3} s → {}",
+            c.ranks,
+            c.ranks,
+            c.frame.order,
+            c.composite.seconds,
+            st.tets_drawn,
+            st.tets_total,
+            st.total_seconds,
+            args.output.display()
+        );
+    }
+    Ok(())
+}

@@ -7,6 +7,8 @@ use tet_render::Image;
 
 const TAG_AGREE: i32 = 1;
 const TAG_VERDICT: i32 = 2;
+const TAG_REDUCE: i32 = 4;
+const TAG_REDUCED: i32 = 5;
 const TAG_FOLD: i32 = 3;
 /// Binary-swap stage s uses `TAG_SWAP + s`.
 const TAG_SWAP: i32 = 16;
@@ -96,6 +98,76 @@ pub fn agree<C: Comm + ?Sized>(comm: &C, mine: Result<String, String>) -> Result
             })
         }
         _ => Err(DistributedError::Malformed { rank, from: 0, tag: TAG_VERDICT, what: "a verdict of no kind".into() }),
+    }
+}
+
+/// Every rank's contribution (bytes, or the error it met making them) to
+/// rank 0, which combines them in rank order with `combine`; every rank
+/// returns the same result: the lowest failing rank's error
+/// ([`DistributedError::RankFailed`]), `combine`'s error (as rank 0's), or
+/// the combined bytes. What a rank sums over the others before drawing
+/// (a partition's histograms for the automatic TF) goes through here, so
+/// one rank's failure stops all of them instead of leaving them waiting.
+pub fn reduce<C: Comm + ?Sized>(
+    comm: &C,
+    mine: Result<Vec<u8>, String>,
+    combine: impl FnOnce(Vec<Vec<u8>>) -> Result<Vec<u8>, String>,
+) -> Result<Vec<u8>, DistributedError> {
+    let encode = |flag: u8, rank: usize, body: &[u8]| {
+        let mut v = Vec::with_capacity(body.len() + 9);
+        v.push(flag);
+        v.extend_from_slice(&(rank as u64).to_le_bytes());
+        v.extend_from_slice(body);
+        v
+    };
+    let rank = comm.rank();
+    let result = if rank == 0 {
+        let mut parts = vec![mine];
+        for from in 1..comm.size() {
+            let m = comm.recv(from, TAG_REDUCE, comm.timeout())?;
+            let body = m.get(1..).unwrap_or_default().to_vec();
+            parts.push(if m.first() == Some(&0) { Ok(body) } else { Err(String::from_utf8_lossy(&body).into_owned()) });
+        }
+        let failed = parts.iter().enumerate().find_map(|(r, p)| p.as_ref().err().map(|m| (r, m.clone())));
+        let out = match failed {
+            Some((r, message)) => encode(1, r, message.as_bytes()),
+            None => match combine(parts.into_iter().map(|p| p.expect("no rank failed")).collect()) {
+                Ok(bytes) => encode(0, 0, &bytes),
+                Err(message) => encode(1, 0, message.as_bytes()),
+            },
+        };
+        for to in 1..comm.size() {
+            comm.send(to, TAG_REDUCED, &out)?;
+        }
+        out
+    } else {
+        let m = match &mine {
+            Ok(bytes) => {
+                let mut v = vec![0u8];
+                v.extend_from_slice(bytes);
+                v
+            }
+            Err(message) => {
+                let mut v = vec![1u8];
+                v.extend_from_slice(message.as_bytes());
+                v
+            }
+        };
+        comm.send(0, TAG_REDUCE, &m)?;
+        comm.recv(0, TAG_REDUCED, comm.timeout())?
+    };
+    if result.len() < 9 {
+        return Err(DistributedError::Malformed {
+            rank,
+            from: 0,
+            tag: TAG_REDUCED,
+            what: "a result of no kind".into(),
+        });
+    }
+    let r = u64::from_le_bytes(result[1..9].try_into().expect("8 bytes")) as usize;
+    match result[0] {
+        0 => Ok(result[9..].to_vec()),
+        _ => Err(DistributedError::RankFailed { rank: r, message: String::from_utf8_lossy(&result[9..]).into_owned() }),
     }
 }
 
@@ -450,6 +522,31 @@ mod tests {
     }
 
     /// The barrier holds every rank until all have reached it.
+    #[test]
+    fn reduce_combines_in_rank_order_and_shares_failures() {
+        // A sum of each rank's number, in rank order, on every rank.
+        let got = ThreadComm::run(4, |comm| {
+            let mine = Ok(vec![comm.rank() as u8 + 1]);
+            reduce(comm, mine, |parts| {
+                assert_eq!(parts, vec![vec![1], vec![2], vec![3], vec![4]]);
+                Ok(vec![parts.iter().map(|p| p[0]).sum()])
+            })
+            .unwrap()
+        });
+        assert!(got.iter().all(|g| g == &[10u8]), "{got:?}");
+        // Rank 2 fails: every rank gets its message, combine never runs.
+        let got = ThreadComm::run(3, |comm| {
+            let mine = if comm.rank() == 2 { Err("no histogram in piece 2".to_string()) } else { Ok(vec![1]) };
+            reduce(comm, mine, |_| unreachable!("a rank failed")).unwrap_err().to_string()
+        });
+        assert!(got.iter().all(|e| e == "rank 2: no histogram in piece 2"), "{got:?}");
+        // combine refuses: rank 0's error everywhere.
+        let got = ThreadComm::run(2, |comm| {
+            reduce(comm, Ok(vec![comm.rank() as u8]), |_| Err("axes differ".into())).unwrap_err().to_string()
+        });
+        assert!(got.iter().all(|e| e == "rank 0: axes differ"), "{got:?}");
+    }
+
     #[test]
     fn barrier_waits_for_every_rank() {
         let reached = std::sync::atomic::AtomicUsize::new(0);

@@ -15,6 +15,9 @@
 //!   or the error it met reading its pieces); all ranks return the same
 //!   verdict, so bad input stops every rank with one message and no rank
 //!   waits for an image that never comes.
+//! * [`reduce`]: every rank's bytes (or error) combined on rank 0 and the
+//!   result handed to all, failures included (the automatic TF of a
+//!   partition sums the pieces' histograms through it).
 //! * [`composite`]: binary swap (Ma, Painter, Hansen and Krogh, "Parallel
 //!   Volume Rendering Using Binary-Swap Compositing", IEEE CG&A 1994) over
 //!   ranks in visibility order, non-powers of two folded first; rank 0 ends
@@ -43,7 +46,7 @@ mod composite;
 #[cfg(feature = "mpi")]
 pub use comm::mpi_comm::MpiComm;
 pub use comm::{Comm, ThreadComm};
-pub use composite::{agree, composite, over, seeded_image, sequential_over, CompositeStats};
+pub use composite::{agree, composite, over, reduce, seeded_image, sequential_over, CompositeStats};
 
 use std::time::Duration;
 

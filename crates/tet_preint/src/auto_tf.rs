@@ -128,17 +128,9 @@ const CUT: f64 = 0.1;
 pub fn auto_tf(bundle: &Bundle, opts: &AutoTfOptions) -> Result<AutoTf, TfError> {
     let stats = &bundle.meta.stats;
     let mesh = &bundle.mesh;
-    let (smin, smax) = mesh.scalar.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-    if !(smin.is_finite() && smax.is_finite()) {
-        return Err(TfError::AutoTf("the scalar has no finite values".into()));
-    }
-    if smin >= smax {
-        return Err(TfError::AutoTf(format!(
-            "the scalar is constant ({smin}): there is nothing for an automatic transfer function to separate; give --tf"
-        )));
-    }
+    let range = finite_range(&mesh.scalar)?;
     let stored = bundle.analysis.as_ref().and_then(|a| a.histograms.clone()).filter(|h| h.check().is_ok());
-    let (hist, mut source) = match stored {
+    let (hist, source) = match stored {
         Some(h) => (h, BoundarySource::BundleHistogram),
         None => {
             let an = Analyzer::new(&mesh.points, &mesh.tets, &mesh.scalar)
@@ -148,15 +140,70 @@ pub fn auto_tf(bundle: &Bundle, opts: &AutoTfOptions) -> Result<AutoTf, TfError>
             (h, BoundarySource::ComputedHistogram)
         }
     };
-    let centres = bin_centres(&hist);
-    let opacity = match boundary_opacity(&hist) {
+    let bounds = (stats.bounds_min, stats.bounds_max);
+    from_summary(&hist, source, range, bounds, stats.total_volume, opts)
+}
+
+/// The automatic TF of a mesh known by its summary instead of as a bundle:
+/// its scalar × |∇s| histograms (a partition's pieces' histograms summed —
+/// cut over the source's axes, they add up to the source's), the scalar's
+/// finite range, the bounding box and the total volume: what [`auto_tf`]
+/// reads from a bundle with a stored histogram, so the same mesh gives the
+/// same TF (to the rounding of the sums).
+pub fn auto_tf_from_histograms(
+    hist: &Histograms,
+    scalar_range: (f64, f64),
+    bounds: ([f64; 3], [f64; 3]),
+    total_volume: f64,
+    opts: &AutoTfOptions,
+) -> Result<AutoTf, TfError> {
+    hist.check().map_err(|e| TfError::AutoTf(format!("histogram: {e}")))?;
+    let (lo, hi) = scalar_range;
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err(TfError::AutoTf("the scalar has no finite values".into()));
+    }
+    if lo >= hi {
+        return Err(constant(lo));
+    }
+    from_summary(hist, BoundarySource::BundleHistogram, scalar_range, bounds, total_volume, opts)
+}
+
+/// The smallest and largest value of `scalar`; an error for a scalar
+/// with no finite value or one value.
+fn finite_range(scalar: &[f64]) -> Result<(f64, f64), TfError> {
+    let (smin, smax) = scalar.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    if !(smin.is_finite() && smax.is_finite()) {
+        return Err(TfError::AutoTf("the scalar has no finite values".into()));
+    }
+    if smin >= smax {
+        return Err(constant(smin));
+    }
+    Ok((smin, smax))
+}
+
+fn constant(v: f64) -> TfError {
+    TfError::AutoTf(format!(
+        "the scalar is constant ({v}): there is nothing for an automatic transfer function to separate; give --tf"
+    ))
+}
+
+fn from_summary(
+    hist: &Histograms,
+    mut source: BoundarySource,
+    (smin, smax): (f64, f64),
+    (bounds_min, bounds_max): ([f64; 3], [f64; 3]),
+    total_volume: f64,
+    opts: &AutoTfOptions,
+) -> Result<AutoTf, TfError> {
+    let centres = bin_centres(hist);
+    let opacity = match boundary_opacity(hist) {
         Some(o) => o,
         None => {
             source = BoundarySource::ScalarHistogramOnly;
             rarity_opacity(&hist.scalar)
         }
     };
-    let mean_chord = mean_chord(stats.bounds_min, stats.bounds_max, hist.total_volume.max(stats.total_volume));
+    let mean_chord = mean_chord(bounds_min, bounds_max, hist.total_volume.max(total_volume));
     let volume: f64 = hist.scalar.iter().sum();
     let weighted: f64 = hist.scalar.iter().zip(&opacity).map(|(v, o)| v * o).sum();
     if weighted.is_nan() || weighted <= 0.0 || volume <= 0.0 {

@@ -104,8 +104,8 @@ pub mod widget;
 
 pub use atlas2d::{Atlas2d, Atlas2dParams};
 pub use auto_tf::{
-    auto_tf, choose_tf, constant_scalar_warning, normalized_tf_range, tf_for_bundle, AutoTf, AutoTfOptions,
-    BoundarySource,
+    auto_tf, auto_tf_from_histograms, choose_tf, constant_scalar_warning, normalized_tf_range, tf_for_bundle, AutoTf,
+    AutoTfOptions, BoundarySource,
 };
 pub use biv_tables::{BandKind, BandTable, GaussErfTable};
 pub use bivariate::{BivApprox, BivExact, BivTables, FbTable};

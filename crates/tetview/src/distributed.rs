@@ -6,7 +6,9 @@
 //! same way (`tet_distributed::ThreadComm`). Every rank reads the manifest
 //! and only its own piece (size and CRC-32 checked), resolves the TF over
 //! the whole mesh's scalar range (the manifest's, as one process would over
-//! the unsplit bundle), frames the default view on the whole mesh's box,
+//! the unsplit bundle) — or, without a TF, builds the automatic TF from the
+//! pieces' histograms summed over the ranks (`tet_distributed::reduce`) —
+//! frames the default view on the whole mesh's box,
 //! and draws its piece over the whole screen with the engine's CPU
 //! renderer (walker or projected tetrahedra), premultiplied RGBA. The ranks
 //! then agree (`tet_distributed::agree`: the first rank's error, or the
@@ -26,8 +28,9 @@ use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use tet_bundle::manifest::{Manifest, MANIFEST_FILE};
 use tet_cli::{usage, ExitKind, KindExt};
-use tet_distributed::{agree, composite, Comm, CompositeStats, DistributedError, ThreadComm};
+use tet_distributed::{agree, composite, reduce, Comm, CompositeStats, DistributedError, ThreadComm};
 use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats};
+use tet_preint::{AutoTfOptions, Method, TransferFunction};
 use tet_render::{Image, Scene, Shading, ViewSpec};
 
 use crate::render::RenderArgs;
@@ -110,22 +113,37 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     write_outputs(args, first.expect("rank 0 holds the image"))
 }
 
-/// One rank's whole frame: its piece drawn, the agreement, compositing.
-/// Rank 0 returns the composited image; the others `None`. After the
-/// agreement all ranks fail alike or none does.
+/// One rank's whole frame: its piece read, the first agreement (every
+/// rank has its piece), the automatic TF from the pieces' summed
+/// histograms where no TF is given, its piece drawn, the second agreement
+/// (the same request everywhere), compositing. Rank 0 returns the
+/// composited image; the others `None`. After each agreement all ranks
+/// fail alike or none does.
 fn rank_main<C: Comm + ?Sized>(comm: &C, args: &RenderArgs, path: &Path) -> Result<Option<Composited>> {
     let (rank, size) = (comm.rank(), comm.size());
-    let drawn = draw_piece(rank, size, args, path);
+    let loaded = load_piece(rank, size, args, path);
+    let state = match &loaded {
+        Ok(l) => Ok(format!("manifest={:08x}", l.manifest_crc)),
+        Err(e) => Err(encode_error(e)),
+    };
+    agree(comm, state).map_err(agreed_error)?;
+    let loaded = loaded.expect("agreed: every rank read its piece");
+    let auto =
+        if args.look.lut.is_none() && args.look.tf.is_none() { Some(automatic_tf(comm, &loaded, args)?) } else { None };
+    let drawn = draw_piece(rank, &loaded, auto, args);
     let state = match &drawn {
         Ok((frame, fingerprint)) => Ok(format!("{fingerprint}\norder={:?}", frame.order)),
-        Err(e) => Err(format!("{}\t{}", ExitKind::of(e).code(), tet_cli::describe(e))),
+        Err(e) => Err(encode_error(e)),
     };
-    if let Err(e) = agree(comm, state) {
-        return Err(agreed_error(e));
-    }
+    agree(comm, state).map_err(agreed_error)?;
     let (frame, _) = drawn.expect("agreed: every rank drew");
     let (image, stats) = composite(comm, frame.image.clone(), &frame.order).map_err(agreed_error)?;
     Ok(image.map(|image| Composited { image, frame, composite: stats, ranks: size }))
+}
+
+/// A rank's error as it travels to the others: its exit code, a tab, its message.
+fn encode_error(e: &anyhow::Error) -> String {
+    format!("{}\t{}", ExitKind::of(e).code(), tet_cli::describe(e))
 }
 
 /// A failed agreement as the error every rank returns: a rank's own
@@ -148,11 +166,16 @@ fn agreed_error(e: DistributedError) -> anyhow::Error {
     }
 }
 
-/// Rank `rank` of `size`: reads the manifest and its piece, resolves the
-/// look and view as one process over the whole mesh would, and draws the
-/// piece over the whole screen. Returns the frame and the fingerprint of
-/// the request ranks must agree on.
-fn draw_piece(rank: usize, size: usize, args: &RenderArgs, path: &Path) -> Result<(RankFrame, String)> {
+/// A rank's share: the manifest, its piece (at `--time`), and the
+/// manifest file's checksum (part of what ranks agree on).
+struct Loaded {
+    manifest: Manifest,
+    manifest_crc: u32,
+    bundle: tet_bundle::Bundle,
+}
+
+/// Reads the manifest and piece `rank` (its size and CRC-32 checked).
+fn load_piece(rank: usize, size: usize, args: &RenderArgs, path: &Path) -> Result<Loaded> {
     let manifest = Manifest::load(path, false)?;
     if manifest.pieces.len() != size {
         return Err(usage(format!(
@@ -172,23 +195,123 @@ fn draw_piece(rank: usize, size: usize, args: &RenderArgs, path: &Path) -> Resul
         let piece = manifest.piece_path(dir, rank);
         bundle.set_time(t).map_err(|e| usage(format!("--time {t}: {e} ({})", piece.display())))?;
     }
-    // The TF over the whole mesh's range (a normalized TF, unless --range).
-    let mut look_args = args.look.clone();
-    if args.look.lut.is_none() {
-        let Some(tf_path) = &args.look.tf else {
-            return Err(usage(
-                "--distributed needs --tf or --lut: the automatic TF of a partition (from the pieces' summed histograms) is not built yet",
-            ));
-        };
-        let tf = tet_preint::load_tf(tf_path)?;
-        if tf.normalized() && look_args.range.is_none() {
-            let r = &manifest.scalar_range;
-            look_args.range = Some(tet_preint::normalized_tf_range(r.min, r.max));
+    Ok(Loaded { manifest, manifest_crc, bundle })
+}
+
+/// What each rank contributes to the automatic TF: its piece's histograms
+/// and the finite range of its scalar.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Summary {
+    hist: tet_analysis::Histograms,
+    scalar_min: f64,
+    scalar_max: f64,
+}
+
+/// The automatic TF one process would build over the unsplit bundle: the
+/// pieces' scalar × |∇s| histograms (cut over the source's axes by
+/// `tetprep partition`, so they add up to the source's) summed across the
+/// ranks, with the whole mesh's scalar range, box and volume. Needs
+/// histograms in the pieces (a source analysed with `--histogram`); every
+/// rank returns the same TF or the same error.
+fn automatic_tf<C: Comm + ?Sized>(comm: &C, loaded: &Loaded, args: &RenderArgs) -> Result<TransferFunction> {
+    let rank = comm.rank();
+    let mine = (|| -> Result<Vec<u8>> {
+        let b = &loaded.bundle;
+        let hist = b.analysis.as_ref().and_then(|a| a.histograms.clone()).filter(|h| h.check().is_ok()).ok_or_else(|| {
+            usage(format!(
+                "piece {rank} has no scalar × |∇s| histogram, which the automatic TF of a partition sums over the pieces: \
+                 store one in the source (`tetprep analyze SRC --histogram`) before `tetprep partition`, or pass --tf or --lut"
+            ))
+        })?;
+        let finite = b.mesh.scalar.iter().copied().filter(|v| v.is_finite());
+        let (scalar_min, scalar_max) =
+            finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, c), v| (a.min(v), c.max(v)));
+        Ok(serde_json::to_vec(&Summary { hist, scalar_min, scalar_max })?)
+    })();
+    let summed = reduce(comm, mine.map_err(|e| encode_error(&e)), |parts| {
+        let mut all = parts.iter().map(|p| serde_json::from_slice::<Summary>(p).map_err(|e| format!("1\t{e}")));
+        let mut total = all.next().expect("one rank at least")?;
+        for (k, s) in all.enumerate() {
+            let s = s?;
+            let h = &mut total.hist;
+            if (s.hist.scalar_axis, s.hist.gradient_axis) != (h.scalar_axis, h.gradient_axis) {
+                return Err(format!(
+                    "{}\tpiece {}'s histogram axes differ from piece 0's: the pieces were not cut from one analysed source; \
+                     pass --tf or --lut",
+                    ExitKind::Rejected.code(),
+                    k + 1
+                ));
+            }
+            h.scalar.iter_mut().zip(&s.hist.scalar).for_each(|(a, b)| *a += b);
+            h.joint.iter_mut().zip(&s.hist.joint).for_each(|(a, b)| *a += b);
+            h.scalar_below += s.hist.scalar_below;
+            h.scalar_above += s.hist.scalar_above;
+            h.joint_outside += s.hist.joint_outside;
+            h.total_volume += s.hist.total_volume;
+            total.scalar_min = total.scalar_min.min(s.scalar_min);
+            total.scalar_max = total.scalar_max.max(s.scalar_max);
+        }
+        serde_json::to_vec(&total).map_err(|e| format!("1\t{e}"))
+    })
+    .map_err(agreed_error)?;
+    let total: Summary = serde_json::from_slice(&summed).context("the summed histograms").kind(ExitKind::Internal)?;
+    let root = loaded.manifest.tree.first().expect("a checked manifest has a root").bounds();
+    let opts = AutoTfOptions { colormap: args.look.tf_choice.colormap.unwrap_or_default(), ..Default::default() };
+    let auto = tet_preint::auto_tf_from_histograms(
+        &total.hist,
+        (total.scalar_min, total.scalar_max),
+        (root.min, root.max),
+        loaded.manifest.source.total_volume,
+        &opts,
+    )?;
+    let scale = args.look.tf_choice.opacity_scale;
+    let tf = if scale == 1.0 { auto.tf } else { auto.tf.with_opacity_scale(scale)? };
+    if rank == 0 {
+        eprintln!(
+            "note: no --tf: automatic transfer function of the whole partition (the pieces' histograms summed; opacity on the scalar × |∇s| boundaries, {} over {:.4}..{:.4}); --save-tf writes it",
+            opts.colormap, auto.color_range.0, auto.color_range.1
+        );
+        if let Some(p) = &args.look.tf_choice.save_tf {
+            std::fs::write(p, tf.to_json())
+                .with_context(|| format!("writing {}", p.display()))
+                .kind(ExitKind::Output)?;
         }
     }
-    let chosen = look_args.resolve(&bundle)?;
-    let (tf, method) = (chosen.tf.clone(), chosen.method);
-    let scene = Scene::from_bundle(&bundle).with_context(|| format!("piece {rank}"))?;
+    Ok(tf)
+}
+
+/// Draws piece `rank` over the whole screen with the look and view one
+/// process would use for the unsplit bundle; returns the frame and the
+/// fingerprint of the request ranks must agree on.
+fn draw_piece(
+    rank: usize,
+    loaded: &Loaded,
+    auto: Option<TransferFunction>,
+    args: &RenderArgs,
+) -> Result<(RankFrame, String)> {
+    let (manifest, bundle) = (&loaded.manifest, &loaded.bundle);
+    let (tf, method, look) = match auto {
+        Some(tf) => {
+            let method: Method = args.look.method.parse()?;
+            let look = tet_engine::Look::bake(bundle, method, tf.clone())?;
+            (tf, method, look)
+        }
+        None => {
+            // A normalized TF spans the whole mesh's range (unless --range).
+            let mut look_args = args.look.clone();
+            if let Some(tf_path) = &args.look.tf {
+                let tf = tet_preint::load_tf(tf_path)?;
+                if tf.normalized() && look_args.range.is_none() {
+                    let r = &manifest.scalar_range;
+                    look_args.range = Some(tet_preint::normalized_tf_range(r.min, r.max));
+                }
+            }
+            let chosen = look_args.resolve(bundle)?;
+            let (tf, method) = (chosen.tf.clone(), chosen.method);
+            (tf, method, chosen.look(bundle)?)
+        }
+    };
+    let scene = Scene::from_bundle(bundle).with_context(|| format!("piece {rank}"))?;
     let root = manifest.tree.first().expect("a checked manifest has a root").bounds();
     let bounds = (root.min, root.max);
     let z_up = tet_render::camera::z_up_data(manifest.source.from_point_cloud(), root.min, root.max);
@@ -212,14 +335,14 @@ fn draw_piece(rank: usize, size: usize, args: &RenderArgs, path: &Path) -> Resul
     } else {
         manifest.front_to_back(view.position)
     };
-    let look = chosen.look(&bundle)?;
     let mut renderer = CpuFrameRenderer::from_scene(scene);
     let frame = renderer.render(&look, &request, &|_, _| {})?;
     let (image, FrameStats::Cpu(stats)) = (frame.image, frame.stats) else {
         unreachable!("the CPU renderer reports CPU statistics")
     };
     let fingerprint = format!(
-        "manifest={manifest_crc:08x}\nview={}\ntf={}\nmethod={}\nrenderer={:?}\nshading={:?}\nearly={}\ncull={}\nadaptive={:?}",
+        "manifest={:08x}\nview={}\ntf={}\nmethod={}\nrenderer={:?}\nshading={:?}\nearly={}\ncull={}\nadaptive={:?}",
+        loaded.manifest_crc,
         serde_json::to_string(&view)?,
         tf.to_json().replace('\n', " "),
         method.id(),

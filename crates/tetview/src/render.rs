@@ -17,8 +17,9 @@ pub struct RenderArgs {
     /// front to back in its k-d tree's order; the image is the unsplit
     /// bundle's. Under `mpirun -np N` (tetview built with `--features mpi`)
     /// each process is a rank; otherwise the ranks are threads of this
-    /// process. Needs --tf or --lut; a normalized TF spans the whole mesh's
-    /// range.
+    /// process. A normalized TF spans the whole mesh's range; without --tf
+    /// the automatic TF is built from the pieces' summed histograms (a
+    /// source analysed with --histogram before partitioning).
     #[arg(long)]
     pub distributed: bool,
     #[command(flatten)]

@@ -9,8 +9,9 @@
 //! the unsplit bundle) — or, without a TF, builds the automatic TF from the
 //! pieces' histograms summed over the ranks (`tet_distributed::reduce`) —
 //! frames the default view on the whole mesh's box,
-//! and draws its piece over the whole screen with the engine's CPU
-//! renderer (walker or projected tetrahedra), premultiplied RGBA. The ranks
+//! and draws its piece over the whole screen with the engine's renderer
+//! (the CPU walker, projected tetrahedra, or `--gpu` on the rank's
+//! adapter), premultiplied RGBA. The ranks
 //! then agree (`tet_distributed::agree`: the first rank's error, or the
 //! first request that differs, stops every rank with the same message and
 //! exit code) and composite by binary swap front to back; rank 0 writes
@@ -29,7 +30,8 @@ use std::path::{Path, PathBuf};
 use tet_bundle::manifest::{Manifest, MANIFEST_FILE};
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_distributed::{agree, composite, reduce, Comm, CompositeStats, DistributedError, ThreadComm};
-use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, GpuFrameOptions, GpuFrameRenderer};
+use tet_gpu::RasterPath;
 use tet_preint::{AutoTfOptions, Method, TransferFunction};
 use tet_render::{Image, Scene, Shading, ViewSpec};
 
@@ -40,7 +42,11 @@ struct RankFrame {
     image: Image,
     view: ViewSpec,
     lighting: Option<tet_render::Lighting>,
-    stats: tet_render::RenderStats,
+    /// The renderer's statistics as JSON (CPU or GPU).
+    stats: serde_json::Value,
+    tets_drawn: usize,
+    tets_total: usize,
+    seconds: f64,
     order: Vec<usize>,
     method: String,
 }
@@ -71,11 +77,6 @@ fn launcher_size() -> Option<usize> {
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
-    if args.gpu {
-        return Err(usage(
-            "--distributed: the ranks draw on the CPU (walker or --renderer pt); --gpu is not distributed yet",
-        ));
-    }
     let path = manifest_path(&args.bundle);
     let under_launcher = launcher_size().is_some_and(|n| n > 1);
     #[cfg(feature = "mpi")]
@@ -293,7 +294,11 @@ fn draw_piece(
     let (tf, method, look) = match auto {
         Some(tf) => {
             let method: Method = args.look.method.parse()?;
-            let look = tet_engine::Look::bake(bundle, method, tf.clone())?;
+            let look = if args.gpu_bake {
+                tet_engine::Look::baked_by_renderer(bundle, tf.clone(), method)?
+            } else {
+                tet_engine::Look::bake(bundle, method, tf.clone())?
+            };
             (tf, method, look)
         }
         None => {
@@ -308,9 +313,17 @@ fn draw_piece(
             }
             let chosen = look_args.resolve(bundle)?;
             let (tf, method) = (chosen.tf.clone(), chosen.method);
-            (tf, method, chosen.look(bundle)?)
+            let look = if args.gpu_bake {
+                tet_engine::Look::baked_by_renderer(bundle, tf.clone(), method)?
+            } else {
+                chosen.look(bundle)?
+            };
+            (tf, method, look)
         }
     };
+    if args.gpu {
+        crate::gpu::check_args(args, method)?;
+    }
     let scene = Scene::from_bundle(bundle).with_context(|| format!("piece {rank}"))?;
     let root = manifest.tree.first().expect("a checked manifest has a root").bounds();
     let bounds = (root.min, root.max);
@@ -335,24 +348,49 @@ fn draw_piece(
     } else {
         manifest.front_to_back(view.position)
     };
-    let mut renderer = CpuFrameRenderer::from_scene(scene);
-    let frame = renderer.render(&look, &request, &|_, _| {})?;
-    let (image, FrameStats::Cpu(stats)) = (frame.image, frame.stats) else {
-        unreachable!("the CPU renderer reports CPU statistics")
+    let (image, stats, tets_drawn, tets_total, seconds) = if args.gpu {
+        // The engine's GPU renderer on this rank's adapter (no adapter:
+        // exit code 7 on every rank).
+        GpuFrameRenderer::supports(method, &request).map_err(|why| usage(format!("--gpu: {why}")))?;
+        let raster = match args.gpu_raster {
+            crate::gpu::GpuRasterArg::Compute => RasterPath::Compute,
+            crate::gpu::GpuRasterArg::Graphics => RasterPath::Graphics,
+        };
+        let mut renderer =
+            GpuFrameRenderer::new(bundle, scene, GpuFrameOptions { raster }).map_err(crate::gpu::on_cpu_instead)?;
+        let frame = renderer.render(&look, &request, &|_, _| {}).map_err(crate::gpu::on_cpu_instead)?;
+        let FrameStats::Gpu(g) = &frame.stats else { unreachable!("the GPU renderer reports GPU statistics") };
+        let stats = serde_json::json!({
+            "renderer": "gpu",
+            "device": g.device,
+            "raster_path": g.render.raster_path.id(),
+            "tets_total": g.tets_total,
+            "tets_drawn": g.render.tets_drawn,
+            "gpu_seconds": g.render.total_seconds,
+        });
+        (frame.image, stats, g.render.tets_drawn, g.tets_total, g.render.total_seconds)
+    } else {
+        let mut renderer = CpuFrameRenderer::from_scene(scene);
+        let frame = renderer.render(&look, &request, &|_, _| {})?;
+        let (image, FrameStats::Cpu(st)) = (frame.image, frame.stats) else {
+            unreachable!("the CPU renderer reports CPU statistics")
+        };
+        (image, serde_json::to_value(&st)?, st.tets_drawn, st.tets_total, st.total_seconds)
     };
     let fingerprint = format!(
-        "manifest={:08x}\nview={}\ntf={}\nmethod={}\nrenderer={:?}\nshading={:?}\nearly={}\ncull={}\nadaptive={:?}",
+        "manifest={:08x}\nview={}\ntf={}\nmethod={}\nrenderer={}\nshading={:?}\nearly={}\ncull={}\nadaptive={:?}",
         loaded.manifest_crc,
         serde_json::to_string(&view)?,
         tf.to_json().replace('\n', " "),
         method.id(),
-        args.renderer,
+        if args.gpu { format!("gpu {:?}", args.gpu_raster) } else { format!("{:?}", args.renderer) },
         request.shading,
         request.early_termination,
         request.cull,
         request.adaptive,
     );
-    let frame = RankFrame { image, view, lighting, stats, order, method: method.id().to_string() };
+    let method = method.id().to_string();
+    let frame = RankFrame { image, view, lighting, stats, tets_drawn, tets_total, seconds, order, method };
     Ok((frame, fingerprint))
 }
 
@@ -368,14 +406,14 @@ fn write_outputs(args: &RenderArgs, c: Composited) -> Result<()> {
             .with_context(|| format!("writing {}", p.display()))
             .kind(ExitKind::Output)?;
     }
-    let st = &c.frame.stats;
+    let f = &c.frame;
     if args.json {
         let v = serde_json::json!({
             "distributed": true,
             "ranks": c.ranks,
             "order": c.frame.order,
             "method": c.frame.method,
-            "rank0": serde_json::to_value(st)?,
+            "rank0": f.stats,
             "composite_seconds": c.composite.seconds,
             "composite_bytes_sent_rank0": c.composite.bytes_sent,
             "composite_bytes_received_rank0": c.composite.bytes_received,
@@ -390,9 +428,9 @@ fn write_outputs(args: &RenderArgs, c: Composited) -> Result<()> {
             c.ranks,
             c.frame.order,
             c.composite.seconds,
-            st.tets_drawn,
-            st.tets_total,
-            st.total_seconds,
+            f.tets_drawn,
+            f.tets_total,
+            f.seconds,
             args.output.display()
         );
     }

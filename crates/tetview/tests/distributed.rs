@@ -216,6 +216,45 @@ fn the_automatic_tf_of_a_partition_is_the_unsplit_bundles() {
     assert!(diff.rmse <= 2e-6 && diff.max_abs <= 5e-5, "{diff:?}");
 }
 
+/// `--gpu`: each rank draws its piece on its adapter; the composite is the
+/// unsplit bundle's GPU image within the method's own change under
+/// splitting. Skips where no adapter exists (every rank then exits 7).
+#[test]
+fn gpu_ranks_draw_what_one_gpu_draws_or_skip() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    tf(d);
+    let src = convert(d, &data("gmsh/boxcyl_41_bin.msh"), "boxcyl.tetb");
+    let part = d.join("part3");
+    partition(&src, &part, 3);
+    let flags = ["--size", "48x40", "--azimuth", "-50", "--elevation", "15", "--method", "table3d", "--gpu"];
+    if let Err(e) = tet_gpu::GpuContext::new_headless() {
+        if tet_gpu::gpu_required() {
+            panic!("TETKIT_REQUIRE_GPU=1 but: {e}");
+        }
+        eprintln!("skipped: {e}");
+        let (png, tf) = (d.join("x.png"), d.join("tf.json"));
+        let mut a = vec!["render", arg(&part), "--distributed", "--tf", arg(&tf), "-o", arg(&png)];
+        a.extend_from_slice(&flags);
+        let out = tetview(&a);
+        assert_eq!(out.status.code(), Some(7), "{}", String::from_utf8_lossy(&out.stderr));
+        return;
+    }
+    let (one, _) = render(d, &src, "gpu_one", false, &flags);
+    let (dist, _) = render(d, &part, "gpu_dist", true, &flags);
+    let exact =
+        ["--size", "48x40", "--azimuth", "-50", "--elevation", "15", "--method", "exact", "--no-early-termination"];
+    let (truth, _) = render(d, &src, "exact", false, &exact);
+    let (e1, ed) = (tet_render::diff(&truth, &one).unwrap(), tet_render::diff(&truth, &dist).unwrap());
+    eprintln!(
+        "--gpu table3d vs exact: one GPU rmse {:.2e} max {:.2e}; 3 GPU ranks rmse {:.2e} max {:.2e}",
+        e1.rmse, e1.max_abs, ed.rmse, ed.max_abs
+    );
+    // As accurate as one GPU drawing the unsplit bundle (each rank's table
+    // baked over its piece).
+    assert!(ed.rmse <= 2.0 * e1.rmse.max(1e-5) && ed.max_abs <= 2.0 * e1.max_abs.max(1e-3), "{e1:?} {ed:?}");
+}
+
 #[test]
 fn bad_partitions_and_requests_stop_with_one_clear_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -243,8 +282,8 @@ fn bad_partitions_and_requests_stop_with_one_clear_error() {
     expect(run(&part, &[]), 2, &["rank 0", "no scalar × |∇s| histogram", "tetprep analyze"]);
     // A bundle, not a manifest.
     expect(run(&src, &["--tf", arg(&tf)]), 3, &["not a tetkit partition manifest"]);
-    // --gpu is not distributed.
-    expect(run(&part, &["--tf", arg(&tf), "--gpu"]), 2, &["--gpu"]);
+    // A method the GPU does not have.
+    expect(run(&part, &["--tf", arg(&tf), "--gpu", "--method", "exact"]), 2, &["--gpu", "exact"]);
     // A corrupt piece: every rank stops with rank 1's message.
     let p1 = part.join("piece_0001.tetb");
     let mut bytes = std::fs::read(&p1).unwrap();

@@ -30,10 +30,10 @@ use std::path::{Path, PathBuf};
 use tet_bundle::manifest::{Manifest, MANIFEST_FILE};
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_distributed::{agree, composite, reduce, Comm, CompositeStats, DistributedError, ThreadComm};
-use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameRequest, FrameStats, GpuFrameOptions, GpuFrameRenderer};
+use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameStats, GpuFrameOptions, GpuFrameRenderer};
 use tet_gpu::RasterPath;
 use tet_preint::{AutoTfOptions, Method, TransferFunction};
-use tet_render::{Image, Scene, Shading, ViewSpec};
+use tet_render::{Image, Scene, ViewSpec};
 
 use crate::render::RenderArgs;
 
@@ -329,19 +329,7 @@ fn draw_piece(
     let bounds = (root.min, root.max);
     let z_up = tet_render::camera::z_up_data(manifest.source.from_point_cloud(), root.min, root.max);
     let (view, lighting) = args.camera.resolve_lit(&args.lighting, bounds, z_up)?;
-    let shading = match &lighting {
-        Some(l) => l.shading(args.silhouette),
-        None => Shading { silhouette: args.silhouette, ..Default::default() },
-    };
-    let request = FrameRequest {
-        shading,
-        cpu: args.renderer,
-        sort: args.sort,
-        cull: !args.no_cull,
-        adaptive: args.adaptive,
-        early_termination: !args.no_early_termination,
-        ..FrameRequest::new(view.clone())
-    };
+    let request = args.frame_request(&view, lighting.as_ref());
     let order = if view.parallel {
         let d = [0, 1, 2].map(|k| view.focal_point[k] - view.position[k]);
         manifest.front_to_back_parallel(d)

@@ -93,6 +93,26 @@ pub struct RenderArgs {
     pub gpu_bake: bool,
 }
 
+impl RenderArgs {
+    /// The engine's request for `view` lit by `lighting` with these flags
+    /// (what `render` and each rank of `render --distributed` draw).
+    pub fn frame_request(&self, view: &tet_render::ViewSpec, lighting: Option<&tet_render::Lighting>) -> FrameRequest {
+        let shading = match lighting {
+            Some(l) => l.shading(self.silhouette),
+            None => Shading { silhouette: self.silhouette, ..Default::default() },
+        };
+        FrameRequest {
+            shading,
+            cpu: self.renderer,
+            sort: self.sort,
+            cull: !self.no_cull,
+            adaptive: self.adaptive,
+            early_termination: !self.no_early_termination,
+            ..FrameRequest::new(view.clone())
+        }
+    }
+}
+
 pub fn run(args: &RenderArgs) -> Result<()> {
     if args.distributed {
         return crate::distributed::run(args);
@@ -118,20 +138,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
     let (view, lighting) = args.camera.resolve_lit(&args.lighting, scene.bounds(), z_up)?;
-    let shading = match &lighting {
-        Some(l) => l.shading(args.silhouette),
-        None => Shading { silhouette: args.silhouette, ..Default::default() },
-    };
     let display = args.display.display();
-    let request = FrameRequest {
-        shading,
-        cpu: args.renderer,
-        sort: args.sort,
-        cull: !args.no_cull,
-        adaptive: args.adaptive,
-        early_termination: !args.no_early_termination,
-        ..FrameRequest::new(view.clone())
-    };
+    let request = args.frame_request(&view, lighting.as_ref());
     if args.gpu {
         // The GPU path opens its device before baking (without one nothing
         // is baked), and --gpu-bake bakes on the device instead.

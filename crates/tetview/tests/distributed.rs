@@ -153,12 +153,15 @@ fn tables_and_early_termination_stay_within_the_methods_tolerance() {
     // over its piece's domain: as close to exact as one process's is.
     let (one, _) = render(dir.path(), &src, "one", false, &flags);
     let (dist, _) = render(dir.path(), &part, "dist", true, &flags);
-    let (e1, ed) = (tet_render::diff(&exact, &one).unwrap(), tet_render::diff(&exact, &dist).unwrap());
-    eprintln!(
-        "table3d vs exact: one process rmse {:.2e} max {:.2e}; distributed rmse {:.2e} max {:.2e}",
-        e1.rmse, e1.max_abs, ed.rmse, ed.max_abs
-    );
-    assert!(ed.rmse <= 2.0 * e1.rmse.max(1e-5) && ed.max_abs <= 2.0 * e1.max_abs.max(1e-3), "{e1:?} {ed:?}");
+    as_accurate("table3d, one process and 3 ranks", &exact, &one, &dist);
+}
+
+/// `dist` is as close to `exact` as `one` is (twice its error at most,
+/// with floors for errors near zero).
+fn as_accurate(label: &str, exact: &Image, one: &Image, dist: &Image) {
+    let (e1, ed) = (tet_render::diff(exact, one).unwrap(), tet_render::diff(exact, dist).unwrap());
+    eprintln!("{label} vs exact: rmse {:.2e} / {:.2e}, max {:.2e} / {:.2e}", e1.rmse, ed.rmse, e1.max_abs, ed.max_abs);
+    assert!(ed.rmse <= 2.0 * e1.rmse.max(1e-5) && ed.max_abs <= 2.0 * e1.max_abs.max(1e-3), "{label}: {e1:?} {ed:?}");
 }
 
 /// Without --tf: the automatic TF from the pieces' summed histograms is
@@ -245,14 +248,9 @@ fn gpu_ranks_draw_what_one_gpu_draws_or_skip() {
     let exact =
         ["--size", "48x40", "--azimuth", "-50", "--elevation", "15", "--method", "exact", "--no-early-termination"];
     let (truth, _) = render(d, &src, "exact", false, &exact);
-    let (e1, ed) = (tet_render::diff(&truth, &one).unwrap(), tet_render::diff(&truth, &dist).unwrap());
-    eprintln!(
-        "--gpu table3d vs exact: one GPU rmse {:.2e} max {:.2e}; 3 GPU ranks rmse {:.2e} max {:.2e}",
-        e1.rmse, e1.max_abs, ed.rmse, ed.max_abs
-    );
     // As accurate as one GPU drawing the unsplit bundle (each rank's table
     // baked over its piece).
-    assert!(ed.rmse <= 2.0 * e1.rmse.max(1e-5) && ed.max_abs <= 2.0 * e1.max_abs.max(1e-3), "{e1:?} {ed:?}");
+    as_accurate("--gpu table3d, one GPU and 3 GPU ranks", &truth, &one, &dist);
 }
 
 #[test]

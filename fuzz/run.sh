@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus openfoam series raw ply las csv bundle convert delaunay lut tf_json view_json render walk)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus openfoam series raw ply las csv bundle convert delaunay lut tf_json view_json render walk manifest)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -37,6 +37,7 @@ seed gmsh "$data"/gmsh/*.msh
 seed nrrd "$data"/volume/*.nrrd "$data"/volume/*.nhdr
 seed bundle ../formats/samples/*.tetb
 seed lut ../formats/samples/*.tetl
+seed manifest ../formats/samples/manifest_*.json
 seed tf_json ../formats/samples/tf_*.json ../crates/tetlut/tests/data/*.json ../crates/tet_preint/tests/data/vtk/tf_*.json
 mkdir -p corpus/view_json
 printf '{"position":[0,-5,1],"focal_point":[0,0,0],"view_up":[0,0,1],"view_angle":30,"parallel":false,"parallel_scale":1,"size":[64,48]}' > corpus/view_json/view

@@ -156,6 +156,15 @@ pub struct Manifest {
     pub tree: Vec<KdNode>,
     /// The pieces in leaf order (left before right, depth first).
     pub pieces: Vec<PieceInfo>,
+    /// What the planes balance: "tets" (counts) or "crossings" (each tet
+    /// weighted by its surface area, its expected ray crossings). Absent in
+    /// older files: "tets".
+    #[serde(default = "default_cost")]
+    pub cost: String,
+}
+
+fn default_cost() -> String {
+    "tets".into()
 }
 
 /// Why a manifest or one of its pieces is not usable; the path comes last.
@@ -515,6 +524,7 @@ mod tests {
                 KdNode::Leaf { bounds: rr, piece: 2 },
             ],
             pieces: vec![piece(0, l), piece(1, rl), piece(2, rr)],
+            cost: "tets".into(),
         }
     }
 

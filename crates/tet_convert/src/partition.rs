@@ -5,8 +5,8 @@
 //! parts (n ≥ 2) is cut across the longest axis of its box at the
 //! cost-weighted quantile `floor(n/2) / n` of its tets' centroids; the
 //! side below the plane gets `floor(n/2)` parts, the side above the rest,
-//! so any N ≥ 1 works, not only powers of two. The cost of a tet is a hook
-//! ([`TetCost`]): one per tet today.
+//! so any N ≥ 1 works, not only powers of two. The cost of a tet
+//! ([`TetCost`]) is one, or its expected ray crossings (its surface area).
 //!
 //! **The exact clip.** A tet straddling a plane is cut by it. The point
 //! where an edge crosses the plane gets its axis coordinate set to the
@@ -58,20 +58,47 @@ use tet_mesh::{Block, CellType, Cells, ConvertOptions, Field, SourceMesh};
 use crate::{convert_source, ConvertError, ConvertRequest};
 
 /// What a tet costs to draw, for the quantile that places each plane.
-/// A hook: a cost from the expected ray crossings per tet can be added
-/// beside `Uniform`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TetCost {
-    /// Every tet costs 1: pieces get about equal tet counts.
+    /// Every tet costs 1: pieces get about equal tet counts (what projected
+    /// tetrahedra, whose work is per tet, spend).
     #[default]
     Uniform,
+    /// A tet's expected ray crossings: its surface area. By Cauchy and
+    /// Crofton's formula a uniformly random line meets a convex body with
+    /// a probability proportional to its surface area, so over all views
+    /// a ray walker's crossings of a tet, and its work there, follow the
+    /// area: a graded mesh's small cells cost less than their count says.
+    Crossings,
 }
 
 impl TetCost {
     /// The cost of the tet with corners `pos_in_world`.
-    pub fn of(self, _pos_in_world: &[[f64; 3]; 4]) -> f64 {
+    pub fn of(self, pos_in_world: &[[f64; 3]; 4]) -> f64 {
         match self {
             TetCost::Uniform => 1.0,
+            TetCost::Crossings => {
+                let p = pos_in_world;
+                let area = |a: usize, b: usize, c: usize| {
+                    let (u, v) = ([0, 1, 2].map(|k| p[b][k] - p[a][k]), [0, 1, 2].map(|k| p[c][k] - p[a][k]));
+                    let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+                    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+                };
+                let total = area(0, 1, 2) + area(0, 1, 3) + area(0, 2, 3) + area(1, 2, 3);
+                if total.is_finite() {
+                    total
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+
+    /// The name the manifest and `tetprep partition --cost` use.
+    pub fn id(self) -> &'static str {
+        match self {
+            TetCost::Uniform => "tets",
+            TetCost::Crossings => "crossings",
         }
     }
 }
@@ -734,6 +761,7 @@ fn manifest_of(source: &Bundle, source_info: SourceInfo, tree: Vec<KdNode>, piec
         steps,
         tree,
         pieces,
+        cost: TetCost::Uniform.id().into(),
     }
 }
 
@@ -813,7 +841,8 @@ pub fn write_partition(
         total_volume: source.meta.stats.total_volume,
         split: source.meta.split.clone(),
     };
-    let manifest = manifest_of(source, info, tree, infos);
+    let mut manifest = manifest_of(source, info, tree, infos);
+    manifest.cost = req.cost.id().into();
     let manifest_path = tmp.path().join(MANIFEST_FILE);
     std::fs::write(&manifest_path, manifest.to_json()).map_err(|source| PartitionError::Write {
         action: "write",
@@ -943,6 +972,39 @@ mod tests {
         }
         let want = source.meta.stats.total_volume;
         assert!((total - want).abs() <= 1e-12 * want, "volume {total} vs {want}");
+    }
+
+    /// On a Delaunay mesh of points crowded towards x = 0, longest in x (cells small in
+    /// every direction there), pieces of equal tet counts have very unequal
+    /// surface (expected crossings); the crossings cost balances the surface
+    /// instead, the volume kept.
+    #[test]
+    fn the_crossings_cost_balances_surface_not_count() {
+        let mut rng = SplitMix64(11);
+        let points: Vec<[f64; 3]> =
+            (0..3000).map(|_| [2.0 * rng.next_f64().powi(3), rng.next_f64(), rng.next_f64()]).collect();
+        let d = tet_delaunay::tetrahedralize_points(&points, &Default::default()).unwrap();
+        let scalar = points.iter().map(|p| p[0] + 2.0 * p[1] - p[2]).collect();
+        let mesh = TetMesh { points, tets: d.tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
+        let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+        let source = Bundle::new(mesh, adjacency, Default::default());
+        let surface = |b: &Bundle| -> f64 {
+            b.mesh.tets.iter().map(|t| TetCost::Crossings.of(&t.map(|v| b.mesh.points[v as usize]))).sum()
+        };
+        let spread = |cost: TetCost| -> (f64, f64) {
+            let part = partition(&source, "g", &PartitionRequest { parts: 2, cost }, &mut |_| {}).unwrap();
+            let v: f64 = part.pieces.iter().map(|p| volume(&p.bundle.mesh.points, &p.bundle.mesh.tets)).sum();
+            let whole = volume(&source.mesh.points, &source.mesh.tets);
+            assert!((v - whole).abs() <= 1e-12 * whole, "{v} {whole}");
+            let (a, b) = (surface(&part.pieces[0].bundle), surface(&part.pieces[1].bundle));
+            let (ta, tb) = (part.pieces[0].bundle.mesh.tets.len() as f64, part.pieces[1].bundle.mesh.tets.len() as f64);
+            ((a - b).abs() / (a + b), (ta - tb).abs() / (ta + tb))
+        };
+        let (surf_uniform, count_uniform) = spread(TetCost::Uniform);
+        let (surf_crossings, count_crossings) = spread(TetCost::Crossings);
+        eprintln!("tets: surface spread {surf_uniform:.3}, count spread {count_uniform:.3}; crossings: {surf_crossings:.3}, {count_crossings:.3}");
+        assert!(count_uniform < 0.05 && surf_uniform > 0.2, "{count_uniform} {surf_uniform}");
+        assert!(surf_crossings < 0.05 && count_crossings > 0.2, "{count_crossings} {surf_crossings}");
     }
 
     #[test]

@@ -148,6 +148,11 @@ pub struct PartitionArgs {
     /// Number of pieces (any N ≥ 1, at most the number of tets).
     #[arg(long)]
     pub parts: usize,
+    /// What the planes balance: tets (equal tet counts: projected
+    /// tetrahedra's work) or crossings (tets weighted by their surface
+    /// area, their expected ray crossings: the walker's work).
+    #[arg(long, value_enum, default_value = "tets")]
+    pub cost: CostArg,
     /// Output directory (created; its pieces and manifest.json appear together).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -165,6 +170,12 @@ pub struct PartitionArgs {
     /// pieces' histograms add up to the whole's).
     #[command(flatten, next_help_heading = "Analysis of each piece")]
     pub analysis: AnalysisArgs,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum CostArg {
+    Tets,
+    Crossings,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]

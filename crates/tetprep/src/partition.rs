@@ -26,7 +26,11 @@ pub fn run(args: PartitionArgs) -> anyhow::Result<()> {
         }
         opts
     });
-    let req = PartitionRequest { parts: args.parts, cost: TetCost::Uniform };
+    let cost = match args.cost {
+        crate::cli::CostArg::Tets => TetCost::Uniform,
+        crate::cli::CostArg::Crossings => TetCost::Crossings,
+    };
+    let req = PartitionRequest { parts: args.parts, cost };
     let t = Instant::now();
     let (manifest, new_points) = write_partition(
         &source,

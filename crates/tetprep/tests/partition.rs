@@ -134,8 +134,12 @@ fn pieces_of_a_tetgen_delaunay_mesh() {
     for parts in [2usize, 6] {
         let out = dir.path().join(format!("p{parts}"));
         ok(&tetprep(&["partition", arg(&src), "--parts", &parts.to_string(), "-o", arg(&out), "-q"]));
-        check(&source, &out, parts);
+        assert_eq!(check(&source, &out, parts).cost, "tets");
     }
+    // Balanced by expected crossings (each tet's surface area): as exact.
+    let out = dir.path().join("crossings");
+    ok(&tetprep(&["partition", arg(&src), "--parts", "3", "--cost", "crossings", "-o", arg(&out), "-q"]));
+    assert_eq!(check(&source, &out, 3).cost, "crossings");
 }
 
 #[test]

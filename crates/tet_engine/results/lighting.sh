@@ -31,3 +31,7 @@ for shadows in "" --shadows; do
   $T/tetview render /tmp/autzen.tetb --tf $R/autzen_tf.json --light-dir 0.6,-0.5,-0.62 \
     --azimuth 34 --elevation 20 --size 512x512 $shadows -o $R/autzen_$name.png
 done
+# A point light outside the mesh (its perspective deep shadow map), without and with shadows.
+for n in point point_shadows; do
+  $T/tetview render /tmp/bf.tetb --tf $R/bf_shadow_tf.json --view $R/bf_${n}_view.json -o $R/bf_$n.png
+done

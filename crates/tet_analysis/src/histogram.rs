@@ -187,6 +187,21 @@ pub struct Histograms {
 }
 
 impl Histograms {
+    /// Options that histogram another mesh over these axes (bins, ranges,
+    /// scales): a re-analysis keeping a bundle's axes, or a partition's
+    /// pieces, whose histograms then add up to the whole's.
+    pub fn same_axes(&self) -> HistogramOptions {
+        let (s, g) = (&self.scalar_axis, &self.gradient_axis);
+        HistogramOptions {
+            scalar_bins: s.bins,
+            gradient_bins: g.bins,
+            scalar_range: Some((s.lo, s.hi)),
+            gradient_range: Some((g.lo, g.hi)),
+            scalar_scale: s.scale,
+            gradient_scale: g.scale,
+        }
+    }
+
     /// Checks that the arrays match the axes (for data read from a file).
     pub fn check(&self) -> Result<(), String> {
         for a in [&self.scalar_axis, &self.gradient_axis] {

@@ -717,14 +717,7 @@ fn piece_analysis(
     let an = tet_analysis::Analyzer::from_mesh(mesh)?;
     let histograms = match &source.histograms {
         None => None,
-        Some(h) => Some(an.histograms(&tet_analysis::HistogramOptions {
-            scalar_bins: h.scalar_axis.bins,
-            gradient_bins: h.gradient_axis.bins,
-            scalar_range: Some((h.scalar_axis.lo, h.scalar_axis.hi)),
-            gradient_range: Some((h.gradient_axis.lo, h.gradient_axis.hi)),
-            scalar_scale: h.scalar_axis.scale,
-            gradient_scale: h.gradient_axis.scale,
-        })?),
+        Some(h) => Some(an.histograms(&h.same_axes())?),
     };
     let ranges = tet_analysis::cell_ranges(&mesh.tets, &mesh.scalar, grads.as_ref().map(|g| g.per_point.as_slice()));
     let facts = tet_analysis::segment_facts(&mesh.points, &mesh.tets, &ranges);

@@ -54,6 +54,27 @@ fn finite(v: f32) -> bool {
     return v == v && abs(v) <= 3.4e38;
 }
 
+/// A linear field with values `v` at the tet's vertices as the two rows a
+/// fragment evaluates it from (xyz; w left 0): affine in the pixel position
+/// for a parallel view, over depth for a perspective one. `x0` is vertex
+/// 0 in camera space, `c23`, `c31`, `c12` and `det` the cofactors and
+/// determinant of the tet's camera-space edges. The scalar, the gradient
+/// magnitude and each gradient component all go through here.
+fn linear_field_rows(v: vec4<f32>, x0: vec3<f32>, c23: vec3<f32>, c31: vec3<f32>, c12: vec3<f32>, det: f32) -> array<vec4<f32>, 2> {
+    let g = (c23 * (v[1] - v[0]) + c31 * (v[2] - v[0]) + c12 * (v[3] - v[0])) / det;
+    let g0 = v[0] - dot(g, x0);
+    if fr.parallel != 0u {
+        return array<vec4<f32>, 2>(
+            vec4<f32>(g0 + g.x * fr.bx + g.y * fr.by, g.x * fr.ax, g.y * fr.ay, 0.0),
+            vec4<f32>(g.z, 0.0, 0.0, 0.0),
+        );
+    }
+    return array<vec4<f32>, 2>(
+        vec4<f32>(g0, 0.0, 0.0, 0.0),
+        vec4<f32>(g.x * fr.bx + g.y * fr.by + g.z, g.x * fr.ax, g.y * fr.ay, 0.0),
+    );
+}
+
 fn emit_none(slot: u32) {
     var g: TetGeom;
     g.mode = GEOM_NONE;
@@ -235,16 +256,10 @@ fn classify(@builtin(global_invocation_id) gid: vec3<u32>) {
         emit_none(slot);
         return;
     }
-    let grad = (c23 * (s[1] - s[0]) + c31 * (s[2] - s[0]) + c12 * (s[3] - s[0])) / det;
-    let c0 = s[0] - dot(grad, x[0]);
     var sh: TetShade;
-    if fr.parallel != 0u {
-        sh.s_a = vec4<f32>(c0 + grad.x * fr.bx + grad.y * fr.by, grad.x * fr.ax, grad.y * fr.ay, 0.0);
-        sh.s_b = vec4<f32>(grad.z, 0.0, 0.0, 0.0);
-    } else {
-        sh.s_a = vec4<f32>(c0, 0.0, 0.0, 0.0);
-        sh.s_b = vec4<f32>(grad.x * fr.bx + grad.y * fr.by + grad.z, grad.x * fr.ax, grad.y * fr.ay, 0.0);
-    }
+    let srows = linear_field_rows(vec4<f32>(s[0], s[1], s[2], s[3]), x[0], c23, c31, c12, det);
+    sh.s_a = srows[0];
+    sh.s_b = srows[1];
     sh.s_a.w = min(min(s[0], s[1]), min(s[2], s[3]));
     sh.s_b.w = max(max(s[0], s[1]), max(s[2], s[3]));
     if fr.method == METHOD_BIV_APPROX || fr.method == METHOD_BIV_EXACT {
@@ -253,17 +268,9 @@ fn classify(@builtin(global_invocation_id) gid: vec3<u32>) {
         for (var k = 0u; k < 4u; k++) {
             gv[k] = gmags[ids[k]];
         }
-        let gg = (c23 * (gv[1] - gv[0]) + c31 * (gv[2] - gv[0]) + c12 * (gv[3] - gv[0])) / det;
-        let g0 = gv[0] - dot(gg, x[0]);
-        var ga: vec4<f32>;
-        var gb: vec4<f32>;
-        if fr.parallel != 0u {
-            ga = vec4<f32>(g0 + gg.x * fr.bx + gg.y * fr.by, gg.x * fr.ax, gg.y * fr.ay, 0.0);
-            gb = vec4<f32>(gg.z, 0.0, 0.0, 0.0);
-        } else {
-            ga = vec4<f32>(g0, 0.0, 0.0, 0.0);
-            gb = vec4<f32>(gg.x * fr.bx + gg.y * fr.by + gg.z, gg.x * fr.ax, gg.y * fr.ay, 0.0);
-        }
+        let grows = linear_field_rows(vec4<f32>(gv[0], gv[1], gv[2], gv[3]), x[0], c23, c31, c12, det);
+        var ga = grows[0];
+        var gb = grows[1];
         ga.w = min(min(gv[0], gv[1]), min(gv[2], gv[3]));
         gb.w = max(max(gv[0], gv[1]), max(gv[2], gv[3]));
         gshades[2u * slot] = ga;
@@ -283,19 +290,9 @@ fn classify(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
         for (var c = 0u; c < 3u; c++) {
-            let gg = (c23 * (vg[1][c] - vg[0][c]) + c31 * (vg[2][c] - vg[0][c]) + c12 * (vg[3][c] - vg[0][c])) / det;
-            let g0 = vg[0][c] - dot(gg, x[0]);
-            var ra: vec4<f32>;
-            var rb: vec4<f32>;
-            if fr.parallel != 0u {
-                ra = vec4<f32>(g0 + gg.x * fr.bx + gg.y * fr.by, gg.x * fr.ax, gg.y * fr.ay, 0.0);
-                rb = vec4<f32>(gg.z, 0.0, 0.0, 0.0);
-            } else {
-                ra = vec4<f32>(g0, 0.0, 0.0, 0.0);
-                rb = vec4<f32>(gg.x * fr.bx + gg.y * fr.by + gg.z, gg.x * fr.ax, gg.y * fr.ay, 0.0);
-            }
-            nrows[2u * c] = ra;
-            nrows[2u * c + 1u] = rb;
+            let rows = linear_field_rows(vec4<f32>(vg[0][c], vg[1][c], vg[2][c], vg[3][c]), x[0], c23, c31, c12, det);
+            nrows[2u * c] = rows[0];
+            nrows[2u * c + 1u] = rows[1];
         }
         nrows[0].w = finite_all;
         for (var r = 0u; r < NORMAL_ROWS; r++) {

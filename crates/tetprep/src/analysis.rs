@@ -72,14 +72,7 @@ pub fn run_analyze(path: &Path, output: Option<&Path>, args: &AnalysisArgs, as_j
     let histogram = if args.histogram {
         Some(histogram_options(args))
     } else {
-        old.and_then(|a| a.histograms.as_ref()).map(|h| HistogramOptions {
-            scalar_bins: h.scalar_axis.bins,
-            gradient_bins: h.gradient_axis.bins,
-            scalar_range: Some((h.scalar_axis.lo, h.scalar_axis.hi)),
-            gradient_range: Some((h.gradient_axis.lo, h.gradient_axis.hi)),
-            scalar_scale: h.scalar_axis.scale,
-            gradient_scale: h.gradient_axis.scale,
-        })
+        old.and_then(|a| a.histograms.as_ref()).map(|h| h.same_axes())
     };
     let t = Instant::now();
     let analysis = analyze(&bundle, &AnalysisOptions { gradients, histogram, ..Default::default() })?;

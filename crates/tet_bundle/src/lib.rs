@@ -407,40 +407,34 @@ impl Bundle {
             .map_err(|e| BundleError::Io { action: e.action, source: e.source, path: path.to_path_buf() })
     }
 
-    /// Reads and verifies a bundle file.
+    /// Reads and verifies a bundle file, section by section straight into
+    /// its arrays: loading needs the memory of the bundle, not of the
+    /// bundle and the file besides.
     pub fn read(path: &Path) -> Result<Bundle, BundleError> {
-        let bytes = std::fs::read(path).map_err(|source| BundleError::Io {
-            action: "read",
-            source,
-            path: path.to_path_buf(),
-        })?;
-        Bundle::from_bytes(&bytes, path)
+        let mut sections = layout::Sections::open(path)?;
+        let bundle = Bundle::decode(&mut sections, path)?;
+        sections.verify_unread(path)?;
+        Ok(bundle)
     }
 
     /// Parses and verifies bundle bytes; `path` is only used in errors.
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Bundle, BundleError> {
-        let damaged = |what: String| BundleError::Damaged { what, path: path.to_path_buf() };
         let table = layout::parse(bytes, path)?;
-        let get = |name: &'static str| -> Result<&[u8], BundleError> {
-            table
-                .iter()
-                .find(|e| e.name == name)
-                .map(|e| &bytes[e.offset as usize..(e.offset + e.length) as usize])
-                .ok_or(BundleError::MissingSection { section: name, path: path.to_path_buf() })
-        };
+        Bundle::decode(&mut layout::Sections::Bytes { bytes, table }, path)
+    }
+
+    fn decode(src: &mut layout::Sections<'_>, path: &Path) -> Result<Bundle, BundleError> {
+        let damaged = |what: String| BundleError::Damaged { what, path: path.to_path_buf() };
+        let missing = |section: &'static str| BundleError::MissingSection { section, path: path.to_path_buf() };
+        let meta = src.bytes("META", path)?.ok_or_else(|| missing("META"))?;
         let (record, _): (MetaRecord, usize) =
-            bincode::serde::decode_from_slice(get("META")?, bincode::config::standard().with_limit::<{ 1 << 26 }>())
+            bincode::serde::decode_from_slice(&meta, bincode::config::standard().with_limit::<{ 1 << 26 }>())
                 .map_err(|e| damaged(format!("META section does not decode ({e})")))?;
-        let points: Vec<[f64; 3]> = layout::le_to_f64s(get("POINTS")?, 3)
-            .map_err(|e| damaged(format!("POINTS: {e}")))?
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect();
-        let tets: Vec<[u32; 4]> = layout::le_to_u32_quads(get("TETS")?).map_err(|e| damaged(format!("TETS: {e}")))?;
-        let scalar = layout::le_to_f64s(get("SCALAR")?, 1).map_err(|e| damaged(format!("SCALAR: {e}")))?;
-        let neighbors: Vec<[u32; 4]> =
-            layout::le_to_u32_quads(get("NEIGHBOR")?).map_err(|e| damaged(format!("NEIGHBOR: {e}")))?;
-        let boundary_faces = layout::le_to_u32s(get("BOUNDARY")?, 1).map_err(|e| damaged(format!("BOUNDARY: {e}")))?;
+        let points: Vec<[f64; 3]> = src.records::<_, u64>("POINTS", path)?.ok_or_else(|| missing("POINTS"))?;
+        let tets: Vec<[u32; 4]> = src.records::<_, u32>("TETS", path)?.ok_or_else(|| missing("TETS"))?;
+        let scalar: Vec<f64> = src.records::<_, u64>("SCALAR", path)?.ok_or_else(|| missing("SCALAR"))?;
+        let neighbors: Vec<[u32; 4]> = src.records::<_, u32>("NEIGHBOR", path)?.ok_or_else(|| missing("NEIGHBOR"))?;
+        let boundary_faces: Vec<u32> = src.records::<_, u32>("BOUNDARY", path)?.ok_or_else(|| missing("BOUNDARY"))?;
 
         let np = points.len();
         if let Some(i) = tets.iter().position(|t| t.iter().any(|&v| v as usize >= np)) {
@@ -462,13 +456,10 @@ impl Bundle {
         let mut point_fields = Vec::with_capacity(record.fields.len());
         for (i, info) in record.fields.iter().enumerate() {
             let tag = format!("FLD{i:05}");
-            let sec = table
-                .iter()
-                .find(|e| e.name == tag)
-                .map(|e| &bytes[e.offset as usize..(e.offset + e.length) as usize])
+            let values: Vec<f64> = src
+                .records::<_, u64>(&tag, path)?
                 .ok_or_else(|| damaged(format!("field '{}' has no section {tag}", info.name)))?;
             let nc = info.num_components as usize;
-            let values = layout::le_to_f64s(sec, nc.max(1)).map_err(|e| damaged(format!("{tag}: {e}")))?;
             if nc == 0 || values.len() != np * nc {
                 return Err(damaged(format!(
                     "field '{}' has {} values for {np} points × {nc}",
@@ -478,16 +469,13 @@ impl Bundle {
             }
             point_fields.push(Field { name: info.name.clone(), num_components: nc, values });
         }
-        let section = |name: &str| {
-            table.iter().find(|e| e.name == name).map(|e| &bytes[e.offset as usize..(e.offset + e.length) as usize])
-        };
-        let analysis = match section("ANALYSIS") {
+        let analysis = match src.bytes("ANALYSIS", path)? {
             None => None,
-            Some(sec) => Some(read_analysis(sec, &section, np, tets.len()).map_err(damaged)?),
+            Some(sec) => Some(read_analysis(&sec, src, path, np, tets.len())?),
         };
-        let steps = match section("TIMES") {
+        let steps = match src.bytes("TIMES", path)? {
             None => None,
-            Some(sec) => Some(read_steps(sec, &section, np).map_err(damaged)?),
+            Some(sec) => Some(read_steps(&sec, src, path, np)?),
         };
         Ok(Bundle {
             meta: record.meta,
@@ -572,37 +560,39 @@ struct TimesRecord {
 
 /// Decodes the optional time-series sections; errors say what is
 /// inconsistent.
-fn read_steps<'a>(sec: &[u8], section: &dyn Fn(&str) -> Option<&'a [u8]>, np: usize) -> Result<TimeSteps, String> {
+fn read_steps(sec: &[u8], src: &mut layout::Sections<'_>, path: &Path, np: usize) -> Result<TimeSteps, BundleError> {
+    let damaged = |what: String| BundleError::Damaged { what, path: path.to_path_buf() };
     let (record, _): (TimesRecord, usize) =
         bincode::serde::decode_from_slice(sec, bincode::config::standard().with_limit::<{ 1 << 26 }>())
-            .map_err(|e| format!("TIMES section does not decode ({e})"))?;
+            .map_err(|e| damaged(format!("TIMES section does not decode ({e})")))?;
     let mut scalars = Vec::with_capacity(record.times.len().min(1 << 16));
     for k in 0..record.times.len() {
         let tag = format!("STEP{k:05}");
-        let bytes =
-            section(&tag).ok_or_else(|| format!("TIMES lists {} steps but {tag} is missing", record.times.len()))?;
-        let values = layout::le_to_f64s(bytes, 1).map_err(|e| format!("{tag}: {e}"))?;
+        let values: Vec<f64> = src
+            .records::<_, u64>(&tag, path)?
+            .ok_or_else(|| damaged(format!("TIMES lists {} steps but {tag} is missing", record.times.len())))?;
         if values.len() != np {
-            return Err(format!("{tag} has {} values for {np} points", values.len()));
+            return Err(damaged(format!("{tag} has {} values for {np} points", values.len())));
         }
         scalars.push(values);
     }
-    let steps = TimeSteps::new(record.times, scalars, record.sources).map_err(|e| format!("TIMES: {e}"))?;
-    let Some(sec) = section("STEPGRAD") else { return Ok(steps) };
+    let steps = TimeSteps::new(record.times, scalars, record.sources).map_err(|e| damaged(format!("TIMES: {e}")))?;
+    let Some(sec) = src.bytes("STEPGRAD", path)? else { return Ok(steps) };
     let (record, _): (StepGradientsRecord, usize) =
-        bincode::serde::decode_from_slice(sec, bincode::config::standard().with_limit::<{ 1 << 10 }>())
-            .map_err(|e| format!("STEPGRAD section does not decode ({e})"))?;
+        bincode::serde::decode_from_slice(&sec, bincode::config::standard().with_limit::<{ 1 << 10 }>())
+            .map_err(|e| damaged(format!("STEPGRAD section does not decode ({e})")))?;
     let mut per_step = Vec::with_capacity(steps.len().min(1 << 16));
     for k in 0..steps.len() {
         let tag = format!("GRAD{k:05}");
-        let bytes = section(&tag).ok_or_else(|| format!("STEPGRAD is present but {tag} is missing"))?;
-        let values = layout::le_to_f64s(bytes, 3).map_err(|e| format!("{tag}: {e}"))?;
-        if values.len() != 3 * np {
-            return Err(format!("{tag} has {} values for {np} points × 3", values.len()));
+        let values: Vec<[f64; 3]> = src
+            .records::<_, u64>(&tag, path)?
+            .ok_or_else(|| damaged(format!("STEPGRAD is present but {tag} is missing")))?;
+        if values.len() != np {
+            return Err(damaged(format!("{tag} has {} values for {np} points × 3", 3 * values.len())));
         }
-        per_step.push(values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
+        per_step.push(values);
     }
-    steps.with_gradients(record.method, per_step).map_err(|e| format!("STEPGRAD: {e}"))
+    steps.with_gradients(record.method, per_step).map_err(|e| damaged(format!("STEPGRAD: {e}")))
 }
 
 /// What the `STEPGRAD` section holds (the arrays are `GRAD00000`…).
@@ -612,39 +602,41 @@ struct StepGradientsRecord {
 }
 
 /// Decodes the optional analysis sections; errors say what is inconsistent.
-fn read_analysis<'b>(
+fn read_analysis(
     record_bytes: &[u8],
-    section: &dyn Fn(&str) -> Option<&'b [u8]>,
+    src: &mut layout::Sections<'_>,
+    path: &Path,
     np: usize,
     nt: usize,
-) -> Result<Analysis, String> {
+) -> Result<Analysis, BundleError> {
+    let damaged = |what: String| BundleError::Damaged { what, path: path.to_path_buf() };
     let (record, _): (AnalysisRecord, usize) =
         bincode::serde::decode_from_slice(record_bytes, bincode::config::standard().with_limit::<{ 1 << 28 }>())
-            .map_err(|e| format!("ANALYSIS section does not decode ({e})"))?;
+            .map_err(|e| damaged(format!("ANALYSIS section does not decode ({e})")))?;
     if let Some(h) = &record.histograms {
-        h.check().map_err(|e| format!("ANALYSIS: {e}"))?;
+        h.check().map_err(|e| damaged(format!("ANALYSIS: {e}")))?;
     }
-    let pairs = |name: &str, required: bool| -> Result<Option<Vec<[f64; 2]>>, String> {
-        let Some(sec) = section(name) else {
-            return if required { Err(format!("ANALYSIS present without {name}")) } else { Ok(None) };
+    let mut pairs = |name: &str, required: bool| -> Result<Option<Vec<[f64; 2]>>, BundleError> {
+        let Some(v) = src.records::<[f64; 2], u64>(name, path)? else {
+            return if required { Err(damaged(format!("ANALYSIS present without {name}"))) } else { Ok(None) };
         };
-        let v = layout::le_to_f64s(sec, 2).map_err(|e| format!("{name}: {e}"))?;
-        if v.len() != 2 * nt {
-            return Err(format!("{name} has {} values for {nt} tets × 2", v.len()));
+        if v.len() != nt {
+            return Err(damaged(format!("{name} has {} values for {nt} tets × 2", 2 * v.len())));
         }
-        Ok(Some(v.chunks_exact(2).map(|c| [c[0], c[1]]).collect()))
+        Ok(Some(v))
     };
     let scalar = pairs("CELLRANGE", true)?.unwrap_or_default();
     let gradient_magnitude = pairs("CELLGRANGE", false)?;
     let gradients = match record.gradient_method {
         None => None,
         Some(method) => {
-            let sec = section("GRADIENT").ok_or("ANALYSIS names a gradient method but GRADIENT is missing")?;
-            let v = layout::le_to_f64s(sec, 3).map_err(|e| format!("GRADIENT: {e}"))?;
-            if v.len() != 3 * np {
-                return Err(format!("GRADIENT has {} values for {np} points × 3", v.len()));
+            let v: Vec<[f64; 3]> = src
+                .records::<_, u64>("GRADIENT", path)?
+                .ok_or_else(|| damaged("ANALYSIS names a gradient method but GRADIENT is missing".into()))?;
+            if v.len() != np {
+                return Err(damaged(format!("GRADIENT has {} values for {np} points × 3", 3 * v.len())));
             }
-            Some(VertexGradients { method, per_point: v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() })
+            Some(VertexGradients { method, per_point: v })
         }
     };
     Ok(Analysis {

@@ -108,6 +108,42 @@ fn every_truncation_and_byte_flip_is_an_error_not_a_panic() {
     }
 }
 
+/// `Bundle::read` reads a file section by section, not through
+/// `from_bytes`: it must agree with it on every file, good or damaged — the
+/// same bundle, or an error (with the path) where `from_bytes` has one.
+#[test]
+fn reading_a_file_agrees_with_reading_its_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.tetb");
+    for good in [sample_bundle(), analyzed_bundle()] {
+        let bytes = good.to_bytes();
+        std::fs::write(&path, &bytes).unwrap();
+        assert_eq!(Bundle::read(&path).unwrap(), good);
+        for len in (0..bytes.len()).step_by(5) {
+            std::fs::write(&path, &bytes[..len]).unwrap();
+            let e = Bundle::read(&path).expect_err("a truncated file was accepted");
+            assert!(e.to_string().contains("f.tetb"), "{e}");
+        }
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..600 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            let i = (seed % bytes.len() as u64) as usize;
+            let mut b = bytes.clone();
+            b[i] ^= 1 << (seed >> 60 & 7);
+            std::fs::write(&path, &b).unwrap();
+            match (Bundle::read(&path), Bundle::from_bytes(&b, &path)) {
+                (Ok(x), Ok(y)) => assert_eq!(x, y, "flip at byte {i}"),
+                (Err(_), Err(_)) => {}
+                (x, y) => panic!("flip at byte {i}: the file gave {x:?}, the bytes {y:?}"),
+            }
+        }
+    }
+    let e = Bundle::read(&dir.path().join("absent.tetb")).unwrap_err();
+    assert!(matches!(e, BundleError::Io { action: "read", .. }), "{e}");
+}
+
 #[test]
 fn sample_in_formats_reads() {
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/samples/cube5.tetb"));

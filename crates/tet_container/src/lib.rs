@@ -4,6 +4,7 @@
 //!
 //! Main items: [`ContainerFormat`] (a format's magic, version and section
 //! limit), [`write_sections`] and [`parse`] (the byte layout),
+//! [`SectionFile`] (a file read section by section, checksummed on the way),
 //! [`write_atomic`] (temporary file beside the target, fsync, rename, so an
 //! interrupted run never leaves a partial file under the final name),
 //! [`SectionEntry`] and [`ContainerError`]. Errors carry the byte offsets
@@ -141,17 +142,42 @@ fn align(n: usize) -> usize {
 /// Verifies the header, the table's and every section's checksum and
 /// bounds; returns the file's version and its sections in table order.
 pub fn parse(bytes: &[u8], fmt: &ContainerFormat) -> Result<(u32, Vec<SectionEntry>), ContainerError> {
-    if bytes.len() < fmt.magic.len() || bytes[..8] != fmt.magic {
-        return Err(ContainerError::BadMagic);
-    }
-    if bytes.len() < HEADER_LEN {
+    let head = parse_header(&bytes[..bytes.len().min(HEADER_LEN)], bytes.len() as u64, fmt)?;
+    let table_end = HEADER_LEN + head.table_len as usize;
+    if bytes.len() < table_end {
         return Err(ContainerError::Truncated {
-            what: format!("the header needs {HEADER_LEN} bytes"),
+            what: format!("the section table ends at byte {table_end}"),
             offset: bytes.len() as u64,
         });
     }
-    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+    let entries = parse_table(&bytes[HEADER_LEN..table_end], &head, bytes.len() as u64)?;
+    for e in &entries {
+        check_crc(e, crc32fast::hash(e.data(bytes)))?;
+    }
+    Ok((head.version, entries))
+}
+
+/// What the 32-byte header says.
+struct Header {
+    version: u32,
+    table_len: u64,
+    table_crc32: u32,
+}
+
+/// Checks the header (`head`: the file's first bytes, up to
+/// [`HEADER_LEN`]) of a file of `file_len` bytes.
+fn parse_header(head: &[u8], file_len: u64, fmt: &ContainerFormat) -> Result<Header, ContainerError> {
+    if head.len() < fmt.magic.len() || head[..8] != fmt.magic {
+        return Err(ContainerError::BadMagic);
+    }
+    if head.len() < HEADER_LEN {
+        return Err(ContainerError::Truncated {
+            what: format!("the header needs {HEADER_LEN} bytes"),
+            offset: head.len() as u64,
+        });
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(head[o..o + 4].try_into().expect("4 bytes"));
+    let u64_at = |o: usize| u64::from_le_bytes(head[o..o + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
     if version > fmt.version {
         return Err(ContainerError::NewerVersion { found: version, supported: fmt.version });
@@ -165,43 +191,183 @@ pub fn parse(bytes: &[u8], fmt: &ContainerFormat) -> Result<(u32, Vec<SectionEnt
             what: format!("section table of {count} entries / {table_len} bytes is inconsistent"),
         });
     }
-    let table_end = HEADER_LEN + table_len as usize;
-    if bytes.len() < table_end {
+    if file_len < HEADER_LEN as u64 + table_len {
         return Err(ContainerError::Truncated {
-            what: format!("the section table ends at byte {table_end}"),
-            offset: bytes.len() as u64,
+            what: format!("the section table ends at byte {}", HEADER_LEN as u64 + table_len),
+            offset: file_len,
         });
     }
-    let table = &bytes[HEADER_LEN..table_end];
-    let (expected, found) = (u32_at(24), crc32fast::hash(table));
-    if expected != found {
+    Ok(Header { version, table_len, table_crc32: u32_at(24) })
+}
+
+/// Checks the table's checksum and that every section lies within a file
+/// of `file_len` bytes (the sections' own checksums are the caller's).
+fn parse_table(table: &[u8], head: &Header, file_len: u64) -> Result<Vec<SectionEntry>, ContainerError> {
+    let found = crc32fast::hash(table);
+    if head.table_crc32 != found {
         return Err(ContainerError::BadChecksum {
             section: "section table".into(),
             offset: HEADER_LEN as u64,
-            expected,
+            expected: head.table_crc32,
             found,
         });
     }
-    let mut entries = Vec::with_capacity(count as usize);
+    let mut entries = Vec::with_capacity(table.len() / ENTRY_LEN);
     for e in table.chunks_exact(ENTRY_LEN) {
         let end = e[..NAME_LEN].iter().position(|&b| b == 0).unwrap_or(NAME_LEN);
         let name = String::from_utf8_lossy(&e[..end]).into_owned();
         let offset = u64::from_le_bytes(e[16..24].try_into().expect("8 bytes"));
         let length = u64::from_le_bytes(e[24..32].try_into().expect("8 bytes"));
         let crc32 = u32::from_le_bytes(e[32..36].try_into().expect("4 bytes"));
-        if offset.checked_add(length).is_none_or(|end| end > bytes.len() as u64) {
+        if offset.checked_add(length).is_none_or(|end| end > file_len) {
             return Err(ContainerError::Truncated {
                 what: format!("section '{name}' spans bytes {offset}..+{length}"),
-                offset: bytes.len() as u64,
+                offset: file_len,
             });
-        }
-        let found = crc32fast::hash(&bytes[offset as usize..(offset + length) as usize]);
-        if found != crc32 {
-            return Err(ContainerError::BadChecksum { section: name, offset, expected: crc32, found });
         }
         entries.push(SectionEntry { name, offset, length, crc32 });
     }
-    Ok((version, entries))
+    Ok(entries)
+}
+
+fn check_crc(e: &SectionEntry, found: u32) -> Result<(), ContainerError> {
+    if found != e.crc32 {
+        return Err(ContainerError::BadChecksum {
+            section: e.name.clone(),
+            offset: e.offset,
+            expected: e.crc32,
+            found,
+        });
+    }
+    Ok(())
+}
+
+/// A container file read section by section, each straight into the
+/// caller's array and checked against its checksum on the way: a file is
+/// never held in memory whole, so reading one costs the memory of what is
+/// decoded from it (a 4 GB bundle does not need 8 GB to load).
+/// [`SectionFile::verify_unread`] checks what was not read, so a flipped
+/// bit anywhere is found as [`parse`] finds it.
+#[derive(Debug)]
+pub struct SectionFile {
+    file: std::fs::File,
+    version: u32,
+    sections: Vec<SectionEntry>,
+    read: Vec<bool>,
+}
+
+/// Why a [`SectionFile`] could not be read: the file system's error, or
+/// what is wrong with the bytes.
+#[derive(Debug, thiserror::Error)]
+pub enum SectionFileError {
+    #[error("cannot read: {0}")]
+    Io(#[from] io::Error),
+    #[error(transparent)]
+    Format(#[from] ContainerError),
+}
+
+/// Bytes read (and checksummed) at a time: small enough to stay in cache
+/// between the read and the checksum.
+const READ_CHUNK: usize = 1 << 20;
+
+impl SectionFile {
+    /// Opens `path` and checks its header and section table (not yet the
+    /// sections' checksums).
+    pub fn open(path: &Path, fmt: &ContainerFormat) -> Result<SectionFile, SectionFileError> {
+        use std::io::Read;
+        let mut file = std::fs::File::open(path)?;
+        let file_len = file.metadata()?.len();
+        let mut head = Vec::with_capacity(HEADER_LEN);
+        (&mut file).take(HEADER_LEN as u64).read_to_end(&mut head)?;
+        let header = parse_header(&head, file_len, fmt)?;
+        let mut table = vec![0u8; header.table_len as usize];
+        file.read_exact(&mut table)?;
+        let sections = parse_table(&table, &header, file_len)?;
+        let read = vec![false; sections.len()];
+        Ok(SectionFile { file, version: header.version, sections, read })
+    }
+
+    /// The file's format version.
+    pub fn version(&self) -> u32 {
+        self.version
+    }
+
+    /// The sections, in table order.
+    pub fn sections(&self) -> &[SectionEntry] {
+        &self.sections
+    }
+
+    /// The index of the first section named `name`.
+    pub fn find(&self, name: &str) -> Option<usize> {
+        self.sections.iter().position(|e| e.name == name)
+    }
+
+    /// Reads section `index` into `dst` (exactly its length) and checks
+    /// its checksum.
+    pub fn read_into(&mut self, index: usize, dst: &mut [u8]) -> Result<(), SectionFileError> {
+        let e = &self.sections[index];
+        if dst.len() as u64 != e.length {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!("section '{}' has {} bytes, not {}", e.name, e.length, dst.len()),
+            )
+            .into());
+        }
+        let found = self.stream(index, dst)?;
+        check_crc(&self.sections[index], found)?;
+        self.read[index] = true;
+        Ok(())
+    }
+
+    /// Reads section `index` into a new byte vector (small records).
+    pub fn read_vec(&mut self, index: usize) -> Result<Vec<u8>, SectionFileError> {
+        let mut v = vec![0u8; self.sections[index].length as usize];
+        self.read_into(index, &mut v)?;
+        Ok(v)
+    }
+
+    /// Checks the checksum of every section not read yet, a chunk at a
+    /// time (no memory kept).
+    pub fn verify_unread(&mut self) -> Result<(), SectionFileError> {
+        let mut buf = vec![0u8; READ_CHUNK];
+        for i in 0..self.sections.len() {
+            if !self.read[i] {
+                let found = self.stream(i, &mut buf)?;
+                check_crc(&self.sections[i], found)?;
+                self.read[i] = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads section `index` chunk by chunk and returns the checksum of
+    /// what was read: into `dst` when it is the section's length, else
+    /// through `dst` as a reused buffer of at least [`READ_CHUNK`] bytes.
+    fn stream(&mut self, index: usize, dst: &mut [u8]) -> Result<u32, SectionFileError> {
+        use std::io::{Read, Seek, SeekFrom};
+        let e = &self.sections[index];
+        self.file.seek(SeekFrom::Start(e.offset))?;
+        let whole = dst.len() as u64 == e.length;
+        let mut hasher = crc32fast::Hasher::new();
+        let mut done = 0u64;
+        while done < e.length {
+            let n = (e.length - done).min(READ_CHUNK as u64) as usize;
+            let chunk = if whole { &mut dst[done as usize..done as usize + n] } else { &mut dst[..n] };
+            self.file.read_exact(chunk).map_err(|err| {
+                if err.kind() == io::ErrorKind::UnexpectedEof {
+                    SectionFileError::Format(ContainerError::Truncated {
+                        what: format!("section '{}' spans bytes {}..+{}", e.name, e.offset, e.length),
+                        offset: e.offset + done,
+                    })
+                } else {
+                    err.into()
+                }
+            })?;
+            hasher.update(chunk);
+            done += n as u64;
+        }
+        Ok(hasher.finalize())
+    }
 }
 
 /// A failed [`write_atomic`]: the step and the I/O error (the caller adds the path).
@@ -293,6 +459,37 @@ mod tests {
             b[i] ^= 0x10;
             assert!(parse(&b, &FMT).is_err(), "bit flip at byte {i} went unnoticed");
         }
+    }
+
+    /// A file read section by section finds what `parse` finds in its
+    /// bytes: the same sections and payloads, and every truncation and
+    /// covered bit flip, either while reading a section or in
+    /// `verify_unread`.
+    #[test]
+    fn a_section_file_agrees_with_parse() {
+        let bytes = sample();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.bin");
+        let read_all = |b: &[u8]| -> Result<Vec<Vec<u8>>, SectionFileError> {
+            std::fs::write(&path, b).unwrap();
+            let mut f = SectionFile::open(&path, &FMT)?;
+            let first = f.find("THREE").map(|i| f.read_vec(i)).transpose()?;
+            f.verify_unread()?;
+            Ok(first.into_iter().collect())
+        };
+        assert_eq!(read_all(&bytes).unwrap(), vec![vec![1, 2, 3, 4, 5, 6, 7, 8, 9]]);
+        std::fs::write(&path, &bytes).unwrap();
+        let f = SectionFile::open(&path, &FMT).unwrap();
+        assert_eq!((f.version(), f.sections()), (3, parse(&bytes, &FMT).unwrap().1.as_slice()));
+        for len in 0..bytes.len() {
+            assert!(read_all(&bytes[..len]).is_err(), "truncated to {len}");
+        }
+        for i in 0..bytes.len() {
+            let mut b = bytes.clone();
+            b[i] ^= 0x10;
+            assert_eq!(read_all(&b).is_err(), parse(&b, &FMT).is_err(), "bit flip at byte {i}");
+        }
+        assert!(matches!(SectionFile::open(&dir.path().join("absent"), &FMT), Err(SectionFileError::Io(_))));
     }
 
     #[test]

@@ -533,6 +533,14 @@ impl Bundle {
         self.analysis.as_ref().and_then(|a| a.gradients.as_ref()).or(self.time_gradients.as_ref())
     }
 
+    /// Takes the bundle apart for a consumer that keeps only the mesh: its
+    /// mesh, adjacency and the gradients [`Bundle::gradients`] gives, moved
+    /// out, not copied (a 10⁸-tet renderer then holds its arrays once).
+    pub fn into_mesh(self) -> (TetMesh, Adjacency, Option<VertexGradients>) {
+        let gradients = self.analysis.and_then(|a| a.gradients).or(self.time_gradients);
+        (self.mesh, self.adjacency, gradients)
+    }
+
     /// The analysis's stored per-vertex gradients (the `GRADIENT` section),
     /// if any — unlike [`Bundle::gradients`], never a time's.
     pub fn gradients_of_analysis(&self) -> Option<&[[f64; 3]]> {

@@ -44,25 +44,52 @@ impl Scene {
     /// Takes the mesh, adjacency and (if stored) gradients of a bundle.
     pub fn from_bundle(bundle: &Bundle) -> Result<Scene, RenderError> {
         let m = &bundle.mesh;
-        check_arrays(&m.points, &m.tets, &m.scalar)?;
-        if bundle.adjacency.neighbors.len() != m.tets.len() {
-            return Err(RenderError::Scene(format!(
-                "adjacency has {} entries for {} tets",
-                bundle.adjacency.neighbors.len(),
-                m.tets.len()
-            )));
-        }
-        let mut s = Scene::assemble(
+        Scene::from_parts(
             &m.points,
             m.tets.clone(),
             m.scalar.clone(),
             bundle.adjacency.neighbors.clone(),
             bundle.adjacency.convex,
-        )?;
-        if let Some(g) = bundle.gradients() {
-            s = s.with_gradients(g.per_point.clone())?;
+            bundle.gradients().map(|g| g.per_point.clone()),
+        )
+    }
+
+    /// [`Scene::from_bundle`] taking the bundle: its arrays are moved into
+    /// the scene rather than copied, for a caller done with the bundle
+    /// (a one-shot render of a mesh near the memory's size).
+    pub fn from_bundle_owned(bundle: Bundle) -> Result<Scene, RenderError> {
+        let (m, adjacency, gradients) = bundle.into_mesh();
+        Scene::from_parts(
+            &m.points,
+            m.tets,
+            m.scalar,
+            adjacency.neighbors,
+            adjacency.convex,
+            gradients.map(|g| g.per_point),
+        )
+    }
+
+    fn from_parts(
+        points: &[[f64; 3]],
+        tets: Vec<[u32; 4]>,
+        scalar: Vec<f64>,
+        neighbors: Vec<[u32; 4]>,
+        convex: bool,
+        gradients: Option<Vec<[f64; 3]>>,
+    ) -> Result<Scene, RenderError> {
+        check_arrays(points, &tets, &scalar)?;
+        if neighbors.len() != tets.len() {
+            return Err(RenderError::Scene(format!(
+                "adjacency has {} entries for {} tets",
+                neighbors.len(),
+                tets.len()
+            )));
         }
-        Ok(s)
+        let s = Scene::assemble(points, tets, scalar, neighbors, convex)?;
+        match gradients {
+            Some(g) => s.with_gradients(g),
+            None => Ok(s),
+        }
     }
 
     fn assemble(

@@ -618,3 +618,27 @@ fn adaptive_sampling_keeps_coverage_and_stays_close() {
         assert_eq!(ad1.pixels(), ad.pixels(), "tol {tol}: thread count");
     }
 }
+
+/// A scene that takes its bundle (the one-shot `tetview render`, which then
+/// holds a large mesh's arrays once) is the scene a borrowed bundle gives:
+/// same arrays, same gradients, the same image.
+#[test]
+fn a_scene_taking_its_bundle_equals_one_borrowing_it() {
+    let b = bluntfin_bundle();
+    let an = tet_analysis::Analyzer::from_mesh(&b.mesh).unwrap();
+    let opts = tet_analysis::AnalysisOptions {
+        gradients: Some(tet_analysis::GradientMethod::LeastSquares),
+        ..Default::default()
+    };
+    let analysis = an.analyze(&opts).unwrap();
+    let b = b.clone().with_analysis(analysis);
+    let borrowed = Scene::from_bundle(&b).unwrap();
+    let taken = Scene::from_bundle_owned(b.clone()).unwrap();
+    assert_eq!(taken.tets(), borrowed.tets());
+    assert_eq!(taken.neighbors(), borrowed.neighbors());
+    assert_eq!(taken.positions_rel(), borrowed.positions_rel());
+    assert_eq!(taken.scalar(), borrowed.scalar());
+    assert!(taken.gradients().is_some());
+    assert_eq!(taken.gradients(), borrowed.gradients());
+    assert_eq!(taken.bounds(), borrowed.bounds());
+}

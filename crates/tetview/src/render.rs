@@ -132,15 +132,18 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         let cpu = if args.gpu { tet_render::CpuRenderer::Pt } else { args.renderer };
         tet_engine::check_adaptive(tol, cpu).context("--adaptive")?;
     }
-    let scene = Scene::from_bundle(&bundle).with_context(|| format!("in {}", args.bundle.display()))?;
     if args.gpu {
         crate::gpu::check_args(args, method)?;
     }
     let z_up = tet_render::camera::bundle_is_z_up(&bundle.meta);
-    let (view, lighting) = args.camera.resolve_lit(&args.lighting, scene.bounds(), z_up)?;
+    // The scene's bounds (`Scene::bounds` is the same function of the points).
+    let bounds = tet_mesh::stats::bounds(&bundle.mesh.points);
+    let (view, lighting) = args.camera.resolve_lit(&args.lighting, bounds, z_up)?;
     let display = args.display.display();
     let request = args.frame_request(&view, lighting.as_ref());
+    let in_bundle = || format!("in {}", args.bundle.display());
     if args.gpu {
+        let scene = Scene::from_bundle(&bundle).with_context(in_bundle)?;
         // The GPU path opens its device before baking (without one nothing
         // is baked), and --gpu-bake bakes on the device instead.
         return crate::gpu::render(
@@ -156,6 +159,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     }
     let look = chosen.look(&bundle)?;
+    // Nothing below needs the bundle: its arrays move into the scene, so a
+    // mesh near the memory's size is held once, not twice.
+    let scene = Scene::from_bundle_owned(bundle).with_context(in_bundle)?;
     let mut renderer = CpuFrameRenderer::from_scene(scene);
     let bar = if args.json { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(0) };
     bar.set_style(

@@ -15,11 +15,11 @@ use std::time::Instant;
 use tet_bundle::Bundle;
 use tet_gpu::{
     FrameOptions, GpuAccumulation, GpuContext, GpuCull, GpuError, GpuFrame, GpuOrder, GpuRenderStats, GpuRenderer,
-    GpuScene, GpuShader, GpuTable3d, RasterPath, ToneResult, GPU_METHODS,
+    GpuScene, GpuShader, GpuTable3d, RasterPath, ShadowMaps, ToneResult, GPU_METHODS,
 };
 use tet_preint::{BakeOptions, Build3d, Method, Table3dParams, TransferFunction};
 use tet_render::project::ViewGeometry;
-use tet_render::{visibility_order, Camera, Display, Scene, SortMethod, ViewSpec, VisibilityOrder};
+use tet_render::{visibility_order, Camera, Display, Scene, ShadowField, SortMethod, ViewSpec, VisibilityOrder};
 
 use crate::{count_table_bake, EngineError, Frame, FrameRenderer, FrameRequest, FrameStats, GpuFailure, Look};
 
@@ -52,6 +52,9 @@ pub struct GpuFrameStats {
     /// Tables uploaded or baked and the cull built this frame (0 when the
     /// look was the last frame's).
     pub setup_seconds: f64,
+    /// Computing the shadow field (on the CPU) and its maps this frame (0
+    /// when the last frame's still held, or without shadows).
+    pub shadow_seconds: f64,
 }
 
 /// How the GPU renderer draws.
@@ -62,8 +65,12 @@ pub struct GpuFrameOptions {
 }
 
 /// Projected tetrahedra on the GPU, lit (headlight, directional and point
-/// lights, silhouettes) as the CPU's projected tetrahedra light a fragment.
-/// Shadows are CPU-only (such a request is [`GpuFailure::Unsupported`]).
+/// lights, silhouettes) as the CPU's projected tetrahedra light a fragment,
+/// with the shadows of lights whose shadow field is a deep shadow map
+/// (directional lights, point lights outside the mesh's box; the field is
+/// computed on the CPU as the CPU renderers compute it and kept while the
+/// lights, TF and scalar stay). A point light's shadow held per vertex (the
+/// light inside or beside the box) is [`GpuFailure::Unsupported`].
 pub struct GpuFrameRenderer {
     ctx: GpuContext,
     /// `None` only while gradients are being added (as `gpu_scene`).
@@ -77,6 +84,9 @@ pub struct GpuFrameRenderer {
     cull: Option<(TransferFunction, GpuCull)>,
     /// The visibility order of this view and sort method.
     order: Option<(ViewSpec, SortMethod, VisibilityOrder)>,
+    /// The shadow field of the last shadowed frame (its key says for which
+    /// lights, TF and scalar) and its maps for the device.
+    shadows: Option<(ShadowField, ShadowMaps)>,
     /// The last frame (its HDR texture, for [`GpuFrameRenderer::tonemap_last`]).
     last: Option<GpuFrame>,
     /// Seconds to open the device.
@@ -117,6 +127,7 @@ impl GpuFrameRenderer {
             shader: None,
             cull: None,
             order: None,
+            shadows: None,
             last: None,
             device_seconds,
         })
@@ -155,13 +166,13 @@ impl GpuFrameRenderer {
 
     /// Whether the GPU draws `method` with `req`'s shading; `Err` says why
     /// not (checked before any device work by front ends that want to).
-    pub fn supports(method: Method, req: &FrameRequest) -> Result<(), String> {
+    /// Every shading is drawn but the shadow of a point light inside or
+    /// beside the mesh's box, which only the shadow field tells: that frame
+    /// is [`GpuFailure::Unsupported`].
+    pub fn supports(method: Method, _req: &FrameRequest) -> Result<(), String> {
         if !GpuFrameRenderer::supports_method(method) {
             let ids: Vec<&str> = GPU_METHODS.iter().map(|m| m.id()).collect();
             return Err(format!("method {method} is not on the GPU yet (GPU methods: {})", ids.join(", ")));
-        }
-        if let Some(why) = tet_gpu::unsupported_shading(&req.shading) {
-            return Err(why.into());
         }
         Ok(())
     }
@@ -273,12 +284,32 @@ impl FrameRenderer for GpuFrameRenderer {
         let cull_setup_seconds = t_cull.elapsed().as_secs_f64();
         let setup_seconds = t.elapsed().as_secs_f64();
 
+        let mut shadow_seconds = 0.0;
+        if shading.wants_shadows() {
+            let scene = self.scene.as_ref().expect("a scene");
+            let stale = self.shadows.as_ref().is_none_or(|(f, _)| {
+                f.key().lights != req.shading.sources
+                    || f.key().tf != look.tf
+                    || f.key().scalar_range != scene.scalar_range()
+            });
+            if stale {
+                self.shadows = None;
+                let t = Instant::now();
+                let field = scene.compute_shadows(&look.tf, &req.shading.sources, &|_, _| {})?;
+                let centre = self.gpu_scene.as_ref().expect("a GPU scene").centre_in_world();
+                let maps = ShadowMaps::new(&field, centre).map_err(gpu_error)?;
+                self.shadows = Some((field, maps));
+                shadow_seconds = t.elapsed().as_secs_f64();
+            }
+        }
+
         let shader = &self.shader.as_ref().expect("ensured above").1;
         let order = &self.order.as_ref().expect("set above").2;
         let opts = FrameOptions {
             raster: self.options.raster,
             cull: self.cull.as_ref().map(|c| &c.1),
             shading: lit.then_some(&shading),
+            shadows: self.shadows.as_ref().filter(|_| shading.wants_shadows()).map(|(_, m)| m),
         };
         // The previous frame's texture is reused by this one.
         self.last = None;
@@ -307,6 +338,7 @@ impl FrameRenderer for GpuFrameRenderer {
             recomputed_cull,
             cull_setup_seconds,
             setup_seconds,
+            shadow_seconds,
         };
         let image = frame.image.clone();
         self.last = Some(frame);

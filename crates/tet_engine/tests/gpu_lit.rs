@@ -2,7 +2,7 @@
 //! reference (the same request: view, shading, order, culling): headlight,
 //! a directional light and a point light with ambient and specular terms,
 //! silhouettes, on a small grid and on Blunt Fin; zero gradients lit as
-//! the isotropic medium; shadows refused. Skipped without a GPU adapter
+//! the isotropic medium; shadows (deep shadow maps). Skipped without a GPU adapter
 //! (failed instead with TETKIT_REQUIRE_GPU=1); on this kind of machine
 //! they run on lavapipe.
 
@@ -292,35 +292,63 @@ fn zero_gradients_are_lit_as_the_isotropic_medium() {
     assert!(diff(&got, &unlit).unwrap().max_abs > 1e-3);
 }
 
-/// Shadows stay on the CPU: refused before any device work by `supports`
-/// and by `render` as `GpuFailure::Unsupported`; lighting without them,
-/// and shadows asked of the headlight alone (it casts none), are drawn.
+/// Shadows on the GPU: the deep shadow maps of a directional light and of
+/// a point light outside the mesh's box, computed on the CPU as the CPU
+/// renderer computes them and looked up where each piece is lit, against
+/// the CPU's projected tetrahedra with the same field (both rasterizers;
+/// the shadows darken the frame, and a camera move keeps the field); a
+/// point light inside the box, whose shadow is held per vertex, is
+/// `GpuFailure::Unsupported` naming shadows; shadows asked of the
+/// headlight alone (it casts none) are drawn.
 #[test]
-fn shadows_are_refused_lighting_is_drawn() {
-    let bundle = grid_bundle(5, false);
-    let view = ViewSpec::framing([0.0; 3], [4.0, 4.0, 3.2], [32, 32]);
-    let sources = LightSet::new(&[LightSource::Directional { direction: [0.0, -1.0, 0.0], intensity: 1.0 }]).unwrap();
-    let shadowed = Lighting { lights: sources, shadows: true, ..Lighting::default() }.shading(None);
-    let req = FrameRequest { shading: shadowed, ..FrameRequest::new(view.clone()) };
-    let why = GpuFrameRenderer::supports(Method::Table3d, &req).unwrap_err();
-    assert!(why.contains("shadows"), "{why}");
-    let lit =
-        FrameRequest { shading: Lighting { lights: sources, ..Lighting::default() }.shading(None), ..req.clone() };
-    assert_eq!(GpuFrameRenderer::supports(Method::Table3d, &lit), Ok(()));
-    let head = Shading { shadows: true, ..Lighting::default().shading(Some(1.0)) };
-    let head = FrameRequest { shading: head, ..req.clone() };
-    assert_eq!(GpuFrameRenderer::supports(Method::Table3d, &head), Ok(()));
-    let Some(mut gpu) = gpu_renderer(&bundle, RasterPath::Compute) else { return };
+fn shadowed_gpu_frames_match_the_cpu() {
+    let bundle = grid_bundle(8, false);
+    let view = ViewSpec::framing([0.0; 3], [7.0, 7.0, 5.6], [72, 60]).orbit(35.0, 20.0, 1.0);
+    let lights = LightSet::new(&[
+        LightSource::Directional { direction: [0.6, -1.0, -0.5], intensity: 0.8 },
+        LightSource::Point { position: [-6.0, 12.0, 9.0], intensity: 0.7 },
+        LightSource::Headlight { intensity: 0.2 },
+    ])
+    .unwrap();
+    let material = Lighting { ambient: 0.2, specular: 0.4, lights, ..Lighting::default() };
+    let lit = FrameRequest { shading: material.shading(None), ..FrameRequest::new(view.clone()) };
+    let shadowed = FrameRequest { shading: Lighting { shadows: true, ..material }.shading(None), ..lit.clone() };
+    assert_eq!(GpuFrameRenderer::supports(Method::Table3d, &shadowed), Ok(()));
     let tf = resolve_tf(&bundle, &TfRequest { source: TfSource::Given(peaks()), ..TfRequest::default() }).unwrap().tf;
-    let look = Look::bake(&bundle, Method::Table3d, tf).unwrap();
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let plain = BakeOptions { certify: CertifyOptions::off(), ..BakeOptions::default() };
+    let look = Look::bake_with(&domain, Method::Table3d, tf.clone(), &plain, &[]).unwrap();
+    let mut cpu = CpuFrameRenderer::new(&bundle).unwrap();
+    let Some(compute) = gpu_renderer(&bundle, RasterPath::Compute) else { return };
+    let graphics = gpu_renderer(&bundle, RasterPath::Graphics).expect("a second renderer on the same adapter");
+    for mut gpu in [compute, graphics] {
+        let (got, want, stats) = frames(&mut gpu, &mut cpu, &look, &shadowed);
+        let FrameStats::Gpu(s) = stats else { panic!("not a GPU frame") };
+        assert!(s.shadow_seconds > 0.0, "the first shadowed frame computes the field");
+        let what = format!("shadowed ({:?})", s.render.raster_path);
+        let d = report(&what, &got, &want);
+        assert!(d.rmse <= PLAIN.overall.0 && d.max_abs <= PLAIN.overall.1, "{what}: {d:?}");
+        let (unshadowed, _, _) = frames(&mut gpu, &mut cpu, &look, &lit);
+        assert!(diff(&got, &unshadowed).unwrap().max_abs > 1e-2, "{what}: the shadows changed nothing");
+        // A camera move with the lights, TF and scalar kept reuses the field.
+        let moved = FrameRequest { view: view.orbit(20.0, 0.0, 1.0), ..shadowed.clone() };
+        let (got, want, stats) = frames(&mut gpu, &mut cpu, &look, &moved);
+        let FrameStats::Gpu(s) = stats else { panic!("not a GPU frame") };
+        assert_eq!(s.shadow_seconds, 0.0, "{what}: a camera move recomputed the shadows");
+        let d = report(&format!("{what}, camera moved"), &got, &want);
+        assert!(d.rmse <= PLAIN.overall.0 && d.max_abs <= PLAIN.overall.1, "{what}, moved: {d:?}");
+    }
+    let Some(mut gpu) = gpu_renderer(&bundle, RasterPath::Graphics) else { return };
+    let inside = LightSet::new(&[LightSource::Point { position: [3.5, 3.5, 2.8], intensity: 1.0 }]).unwrap();
+    let inside = Lighting { lights: inside, shadows: true, ..Lighting::default() }.shading(None);
+    let req = FrameRequest { shading: inside, ..lit.clone() };
     match gpu.render(&look, &req, &|_, _| {}) {
         Err(EngineError::Gpu { kind: GpuFailure::Unsupported, source }) => {
             assert!(source.to_string().contains("shadows"), "{source}")
         }
-        other => panic!("shadows on the GPU: {:?}", other.map(|f| f.stats)),
+        other => panic!("a per-vertex shadow on the GPU: {:?}", other.map(|f| f.stats)),
     }
-    for r in [&lit, &head] {
-        let frame = gpu.render(&look, r, &|_, _| {}).unwrap();
-        assert!(frame.image.pixels().iter().any(|p| p[3] > 0.0));
-    }
+    let head = FrameRequest { shading: Shading { shadows: true, ..Lighting::default().shading(Some(1.0)) }, ..lit };
+    let frame = gpu.render(&look, &head, &|_, _| {}).unwrap();
+    assert!(frame.image.pixels().iter().any(|p| p[3] > 0.0));
 }

@@ -5,7 +5,9 @@
 // equal pieces where the terms vary), in f32. Prepended after common.wgsl
 // to the classify module (pt-linear's thick point) and to the modules that
 // shade fragments; each defines `shade_piece(fr, seg)`, the method's colour
-// of a piece of a segment. No shadows.
+// of a piece of a segment. Shadows: each shadow-casting light's deep
+// shadow map (tet_render::shadow::DeepShadowMap), looked up where a piece
+// is lit as `DeepShadowMap::depth_at` looks it up, in f32.
 
 struct GpuLight {
     v: vec4<f32>,
@@ -37,6 +39,118 @@ const LIGHT_POINT: u32 = 2u;
 const NORMAL_ROWS: u32 = 6u;
 
 @group(0) @binding(19) var<uniform> lighting: LightParams;
+
+// gpu_types::GpuShadowMap: a light's map in the GPU's frame (positions
+// relative to the mesh centre); `has_map` 0: no shadow from this light.
+struct ShadowMap {
+    e1: vec4<f32>,
+    e2: vec4<f32>,
+    d: vec4<f32>,
+    origin: vec4<f32>,
+    u0: f32,
+    v0: f32,
+    t0: f32,
+    du: f32,
+    dv: f32,
+    bin_len: f32,
+    nu: u32,
+    nv: u32,
+    knot_base: u32,
+    index_base: u32,
+    has_map: u32,
+    _pad: u32,
+}
+
+const SHADOW_BINS: u32 = 32u;
+
+@group(0) @binding(22) var<storage, read> shadow_maps: array<ShadowMap, 8>;
+@group(0) @binding(23) var<storage, read> shadow_knots: array<vec2<f32>>;
+@group(0) @binding(24) var<storage, read> shadow_index: array<u32>;
+
+// Ray (i, j) of map `m`'s optical depth at parameter t: linear between
+// its knots, 0 before the first, the last's after it.
+fn shadow_ray_depth(m: ShadowMap, i: u32, j: u32, t: f32) -> f32 {
+    let rec = m.index_base + (j * m.nu + i) * (SHADOW_BINS + 1u);
+    let b = u32(clamp(t / m.bin_len, 0.0, f32(SHADOW_BINS - 1u)));
+    let start = shadow_index[rec];
+    let end = shadow_index[rec + SHADOW_BINS];
+    var n = shadow_index[rec + b];
+    loop {
+        if n >= end || shadow_knots[m.knot_base + n].x > t {
+            break;
+        }
+        n++;
+    }
+    if n == start {
+        return 0.0;
+    }
+    if n == end {
+        return shadow_knots[m.knot_base + end - 1u].y;
+    }
+    let a = shadow_knots[m.knot_base + n - 1u];
+    let c = shadow_knots[m.knot_base + n];
+    var w = 1.0;
+    if c.x > a.x {
+        w = (t - a.x) / (c.x - a.x);
+    }
+    return a.y + w * (c.y - a.y);
+}
+
+// The ray index below `x` on an axis of `n` rays from `x0` spaced `dx`, and
+// the weight of the next (DeepShadowMap::depth_at's `coord`).
+fn shadow_coord(x: f32, x0: f32, dx: f32, n: u32) -> vec2<f32> {
+    var f = 0.0;
+    if dx > 0.0 {
+        f = clamp((x - x0) / dx, 0.0, f32(n - 1u));
+    }
+    let i = min(floor(f), f32(n - 2u));
+    return vec2<f32>(i, f - i);
+}
+
+// Optical depth from light `l` to `pos_rel` through its map
+// (DeepShadowMap::depth_at): bilinear across the four nearest rays, each
+// read where it crosses the point's depth along the light (a point
+// light's fan: the point's plane across its axis).
+fn shadow_depth(l: u32, pos_rel: vec3<f32>) -> f32 {
+    let m = shadow_maps[l];
+    var u: f32;
+    var v: f32;
+    var axial: f32;
+    let fan = m.origin.w != 0.0;
+    if fan {
+        let q = pos_rel - m.origin.xyz;
+        let w = dot(q, m.d.xyz);
+        if !(w > 0.0) {
+            return 0.0;
+        }
+        u = dot(q, m.e1.xyz) / w;
+        v = dot(q, m.e2.xyz) / w;
+        axial = w;
+    } else {
+        u = dot(pos_rel, m.e1.xyz);
+        v = dot(pos_rel, m.e2.xyz);
+        axial = dot(pos_rel, m.d.xyz) - m.t0;
+    }
+    let cu = shadow_coord(u, m.u0, m.du, m.nu);
+    let cv = shadow_coord(v, m.v0, m.dv, m.nv);
+    let i = u32(cu.x);
+    let j = u32(cv.x);
+    var depth: array<f32, 4>;
+    for (var k = 0u; k < 4u; k++) {
+        let ii = i + (k & 1u);
+        let jj = j + (k >> 1u);
+        var t = axial;
+        if fan {
+            let su = m.u0 + f32(ii) * m.du;
+            let sv = m.v0 + f32(jj) * m.dv;
+            t = axial * sqrt(1.0 + su * su + sv * sv);
+        }
+        depth[k] = shadow_ray_depth(m, ii, jj, t);
+    }
+    let bottom = depth[0] + cu.y * (depth[1] - depth[0]);
+    let top = depth[2] + cu.y * (depth[3] - depth[2]);
+    return bottom + cv.y * (top - bottom);
+}
 
 // The lighting terms at one point (tet_render's LitPoint): emitted colour
 // times `diffuse`, plus white `specular` times extinction; `silhouette`
@@ -100,7 +214,11 @@ fn lit_point(g: vec3<f32>, has_dir_in: bool, pos_rel: vec3<f32>, view_dir: vec3<
                 }
                 to_light = normalize(dv / dm);
             }
-            let w = l.v.w;
+            var w = l.v.w;
+            if shadow_maps[i].has_map != 0u {
+                // ShadowField depths stop at OPAQUE_DEPTH: exp stays finite.
+                w *= exp(-max(shadow_depth(i, pos_rel), 0.0));
+            }
             if w == 0.0 {
                 continue;
             }

@@ -36,6 +36,7 @@ impl BinPipelines {
             uniform_entry(19, cs),
             storage_entry(21, cs, true),
         ]);
+        entries.extend(crate::render::shadow_entries(cs));
         let bound =
             BoundModule::new(dev, "bin", &entries, shader_module(dev, "bin.wgsl", shader_source_fragment(BIN_WGSL)));
         BinPipelines {

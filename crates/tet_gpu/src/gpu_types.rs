@@ -272,7 +272,7 @@ pub struct GpuLight {
 
 /// `tet_render::Shading` on the GPU (`LightParams` in lighting.wgsl): the
 /// material, the lights, silhouettes, the gradient floor and
-/// `light_segment`'s split rule. Shadows are not on the GPU.
+/// `light_segment`'s split rule. Shadows: [`GpuShadowMap`].
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct LightParams {
@@ -297,6 +297,39 @@ pub struct LightParams {
     pub enabled: u32,
     pub lights: [GpuLight; MAX_GPU_LIGHTS],
 }
+
+/// One light's deep shadow map on the GPU (`ShadowMap` in lighting.wgsl):
+/// `tet_render::shadow::MapLayout` in the GPU's frame (positions relative to
+/// the mesh centre), its knots and ray index at offsets into the buffers
+/// every light's maps share. `has_map` 0: the light casts no shadow here.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct GpuShadowMap {
+    /// Unit vectors across the rays and along them (w unused).
+    pub e1: [f32; 4],
+    pub e2: [f32; 4],
+    pub d: [f32; 4],
+    /// xyz: a point light's position (its rays fan out); w: 1 for a point
+    /// light's map, 0 for parallel rays.
+    pub origin: [f32; 4],
+    pub u0: f32,
+    pub v0: f32,
+    pub t0: f32,
+    pub du: f32,
+    pub dv: f32,
+    pub bin_len: f32,
+    pub nu: u32,
+    pub nv: u32,
+    /// Where this map's knots and index records start in their buffers.
+    pub knot_base: u32,
+    pub index_base: u32,
+    pub has_map: u32,
+    pub _pad: u32,
+}
+
+/// Index bins along each shadow-map ray (`SHADOW_BINS` in lighting.wgsl;
+/// `tet_render::shadow::MapLayout::bins`).
+pub const SHADOW_BINS: usize = 32;
 
 /// Lights a [`LightParams`] holds (`tet_render::MAX_LIGHTS`).
 pub const MAX_GPU_LIGHTS: usize = 8;
@@ -391,6 +424,7 @@ mod tests {
         assert_eq!(size_of::<CullParams>(), 32);
         assert_eq!(size_of::<GpuLight>(), 32);
         assert_eq!(size_of::<LightParams>(), 304);
+        assert_eq!(size_of::<GpuShadowMap>(), 112);
         assert_eq!(MAX_GPU_LIGHTS, tet_render::MAX_LIGHTS);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
@@ -406,6 +440,7 @@ mod tests {
             (size_of::<CullParams>(), align_of::<CullParams>()),
             (size_of::<GpuLight>(), align_of::<GpuLight>()),
             (size_of::<LightParams>(), align_of::<LightParams>()),
+            (size_of::<GpuShadowMap>(), align_of::<GpuShadowMap>()),
         ] {
             assert_eq!(s % 16, 0);
             assert_eq!(a, 4);

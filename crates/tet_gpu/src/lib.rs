@@ -120,7 +120,7 @@ mod workspace;
 
 pub use bake::{GpuAccumulation, GpuBakeStats, GpuTable3d};
 pub use cull::GpuCull;
-pub use lighting::{light_params, unsupported_shading};
+pub use lighting::{light_params, ShadowMaps};
 pub use methods::GPU_METHODS;
 pub use poly_bake::bake_poly;
 pub use render::{

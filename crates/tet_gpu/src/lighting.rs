@@ -1,25 +1,122 @@
 //! `tet_render::Shading` as the GPU's [`LightParams`] (lighting.wgsl):
 //! the material, up to 8 lights in the GPU's frame (point lights relative
 //! to the mesh centre), silhouettes, the gradient floor and the split rule
-//! of `tet_render::shading::light_segment`. Shadows are not on the GPU.
+//! of `tet_render::shading::light_segment`; and shadows: each
+//! shadow-casting light's deep shadow map (`tet_render::ShadowField`'s maps:
+//! directional lights, point lights outside the mesh's box) as
+//! [`ShadowMaps`], looked up in lighting.wgsl as `DeepShadowMap::depth_at`
+//! looks it up, in f32. A shadow held per vertex (a point light inside or
+//! beside the box) is not on the GPU.
 
 use glam::DVec3;
 use tet_render::shading::{LIT_MAX_PIECES, LIT_SPLIT_TOLERANCE};
-use tet_render::{LightSource, Shading};
+use tet_render::{LightSource, Shading, ShadowField};
 
-use crate::gpu_types::{GpuLight, LightParams, LIGHT_DIRECTIONAL, LIGHT_HEADLIGHT, LIGHT_POINT, MAX_GPU_LIGHTS};
+use crate::gpu_types::{
+    GpuLight, GpuShadowMap, LightParams, LIGHT_DIRECTIONAL, LIGHT_HEADLIGHT, LIGHT_POINT, MAX_GPU_LIGHTS, SHADOW_BINS,
+};
 use crate::GpuError;
 
-/// Why `shading` cannot be drawn on the GPU (shadows), or `None`.
-pub fn unsupported_shading(shading: &Shading) -> Option<&'static str> {
-    shading.wants_shadows().then_some("shadows are CPU-only for now (lighting without shadows is on the GPU)")
+/// Every light's shadow for the GPU: a [`GpuShadowMap`] a light (inactive
+/// for lights without one), and the maps' knots and ray index concatenated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShadowMaps {
+    pub maps: [GpuShadowMap; MAX_GPU_LIGHTS],
+    pub knots: Vec<[f32; 2]>,
+    pub index: Vec<u32>,
+}
+
+impl ShadowMaps {
+    /// No shadows: every map inactive (one knot and index entry, so the
+    /// buffers are never empty).
+    pub fn none() -> ShadowMaps {
+        ShadowMaps { maps: [bytemuck::Zeroable::zeroed(); MAX_GPU_LIGHTS], knots: vec![[0.0; 2]], index: vec![0] }
+    }
+
+    /// `field`'s maps in the frame of a scene whose positions are relative
+    /// to `centre_in_world`. A light whose shadow `field` holds per vertex
+    /// is [`GpuError::Unsupported`]; a map too large for u32 offsets or not
+    /// finite in f32 is [`GpuError::Input`].
+    pub fn new(field: &ShadowField, centre_in_world: DVec3) -> Result<ShadowMaps, GpuError> {
+        if field.has_vertex_lights() {
+            return Err(GpuError::Unsupported(
+                "shadows of a point light inside or beside the mesh's bounding box are CPU-only (held per vertex); \
+                 lights outside the box and directional lights cast theirs on the GPU"
+                    .into(),
+            ));
+        }
+        if field.num_lights() > MAX_GPU_LIGHTS {
+            return Err(GpuError::Input(format!("{} lights, at most {MAX_GPU_LIGHTS}", field.num_lights())));
+        }
+        let mut out = ShadowMaps::none();
+        out.knots.clear();
+        out.index.clear();
+        // The map's frame is `field`'s; the GPU's positions are relative to
+        // `centre_in_world`: p_map = p_gpu + off.
+        let off = centre_in_world - field.frame_origin_in_world();
+        for (i, slot) in out.maps.iter_mut().enumerate().take(field.num_lights()) {
+            let Some(map) = field.map(i) else { continue };
+            let m = map.layout();
+            if m.bins != SHADOW_BINS {
+                return Err(GpuError::Input(format!("a shadow map of {} bins; the GPU reads {SHADOW_BINS}", m.bins)));
+            }
+            let (knot_base, index_base) = (out.knots.len(), out.index.len());
+            if knot_base + m.knots.len() > u32::MAX as usize || index_base + m.index.len() > u32::MAX as usize {
+                return Err(GpuError::Input("shadow maps beyond 2³² knots".into()));
+            }
+            // Parallel rays read p·e1, p·e2, p·d − t0 of the map's frame:
+            // the offset folds into the first ray's coordinates and t0. A
+            // fan's origin moves into the GPU's frame instead.
+            let (u0, v0, t0, origin) = match m.origin {
+                None => (m.u0 - off.dot(m.e1), m.v0 - off.dot(m.e2), m.t0 - off.dot(m.d), [0.0; 4]),
+                Some(o) => {
+                    let o = (o - off).as_vec3();
+                    (m.u0, m.v0, m.t0, [o.x, o.y, o.z, 1.0])
+                }
+            };
+            let v3 = |v: DVec3| {
+                let v = v.as_vec3();
+                [v.x, v.y, v.z, 0.0]
+            };
+            *slot = GpuShadowMap {
+                e1: v3(m.e1),
+                e2: v3(m.e2),
+                d: v3(m.d),
+                origin,
+                u0: u0 as f32,
+                v0: v0 as f32,
+                t0: t0 as f32,
+                du: m.du as f32,
+                dv: m.dv as f32,
+                bin_len: m.bin_len,
+                nu: m.nu as u32,
+                nv: m.nv as u32,
+                knot_base: knot_base as u32,
+                index_base: index_base as u32,
+                has_map: 1,
+                _pad: 0,
+            };
+            let floats = [slot.u0, slot.v0, slot.t0, slot.du, slot.dv, slot.bin_len];
+            if !floats.iter().chain(&slot.origin).all(|x| x.is_finite()) || m.nu < 2 || m.nv < 2 {
+                return Err(GpuError::Input(format!("light {i}'s shadow map is not representable in f32")));
+            }
+            out.knots.extend_from_slice(m.knots);
+            out.index.extend_from_slice(m.index);
+        }
+        if out.knots.is_empty() {
+            out.knots.push([0.0; 2]);
+        }
+        if out.index.is_empty() {
+            out.index.push(0);
+        }
+        Ok(out)
+    }
 }
 
 /// The GPU's lighting parameters for `shading` in a scene whose positions
 /// are relative to `centre_in_world` (`GpuScene::centre_in_world`).
-/// Unshaded (`Shading::default()`): `enabled` 0. Shadows requested (a
-/// shadow-casting light with `shadows` on) are [`GpuError::Unsupported`];
-/// a non-finite material, silhouette exponent or gradient floor, or a
+/// Unshaded (`Shading::default()`): `enabled` 0 (shadows come separately,
+/// [`ShadowMaps`]). A non-finite material, silhouette exponent or gradient floor, or a
 /// point light too far for f32 relative to the centre, [`GpuError::Input`].
 pub fn light_params(shading: &Shading, centre_in_world: DVec3) -> Result<LightParams, GpuError> {
     let mut p = LightParams {
@@ -29,9 +126,6 @@ pub fn light_params(shading: &Shading, centre_in_world: DVec3) -> Result<LightPa
     };
     if !shading.is_active() {
         return Ok(p);
-    }
-    if let Some(why) = unsupported_shading(shading) {
-        return Err(GpuError::Unsupported(why.into()));
     }
     let finite = |what: &str, x: f32| {
         if x.is_finite() {
@@ -112,16 +206,7 @@ mod tests {
     }
 
     #[test]
-    fn shadows_are_unsupported_and_bad_numbers_refused() {
-        let sources =
-            LightSet::new(&[LightSource::Directional { direction: [1.0, 0.0, 0.0], intensity: 1.0 }]).unwrap();
-        let s = Shading { light: Some(Light::default()), sources, shadows: true, ..Default::default() };
-        assert!(unsupported_shading(&s).is_some());
-        assert!(matches!(light_params(&s, DVec3::ZERO), Err(GpuError::Unsupported(_))));
-        // Shadows on with only the headlight cast none: drawn.
-        let head = Shading { light: Some(Light::default()), shadows: true, ..Default::default() };
-        assert!(unsupported_shading(&head).is_none());
-        assert!(light_params(&head, DVec3::ZERO).is_ok());
+    fn bad_numbers_are_refused() {
         let bad = Shading { light: Some(Light { ambient: f32::NAN, ..Light::default() }), ..Default::default() };
         assert!(matches!(light_params(&bad, DVec3::ZERO), Err(GpuError::Input(_))));
         let far = Shading {

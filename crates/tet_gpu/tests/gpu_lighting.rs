@@ -10,7 +10,7 @@ mod common;
 
 use common::{cpu_image_and_order, cpu_pt_renderer, gpu_with_scene, grid, report, tf, Mesh};
 use std::sync::Arc;
-use tet_gpu::{FrameOptions, GpuError, GpuOrder, GpuShader, RasterPath, LIT_LOOP_LIMITED_PAIRS};
+use tet_gpu::{FrameOptions, GpuError, GpuOrder, GpuShader, RasterPath, ShadowMaps, LIT_LOOP_LIMITED_PAIRS};
 use tet_preint::{PtLinearShader, SegmentShader, Table3d, Table3dParams, TableDomain};
 use tet_render::{Camera, LightSet, LightSource, Lighting, RasterOptions, Shading, ViewSpec};
 
@@ -86,9 +86,9 @@ fn lit_frames_on_both_rasterizers_match_the_cpu() {
     }
 }
 
-/// Lighting needs the scene's gradients; shadows are not on the GPU.
+/// Lighting needs the scene's gradients; shadows need their maps.
 #[test]
-fn lighting_without_gradients_or_with_shadows_is_refused() {
+fn lighting_without_gradients_or_shadow_maps_is_refused() {
     let mesh = grid(3);
     let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
     let spec = ViewSpec::framing([0.0; 3], [1.0; 3], [16, 16]);
@@ -107,7 +107,59 @@ fn lighting_without_gradients_or_with_shadows_is_refused() {
     assert!(draw(&scene, &opts).is_ok());
     let shadowed = Shading { shadows: true, ..lit };
     let opts = FrameOptions { shading: Some(&shadowed), ..Default::default() };
-    assert!(matches!(draw(&scene, &opts), Err(GpuError::Unsupported(e)) if e.contains("shadows")));
+    assert!(matches!(draw(&scene, &opts), Err(GpuError::Input(e)) if e.contains("shadows")));
+}
+
+/// Shadows from deep shadow maps (a directional light; a point light
+/// outside the box): both rasterizers (the compute one in passes llvmpipe's
+/// loop limit allows) against the CPU's projected tetrahedra lit with the
+/// same field; a per-vertex shadow (a point light inside the box) is
+/// refused by `ShadowMaps::new`.
+#[test]
+fn shadowed_frames_on_both_rasterizers_match_the_cpu() {
+    let mesh = grid(6);
+    let Some((ctx, scene, renderer)) = gpu_with_scene(&mesh) else { return };
+    let cpu_scene = mesh.cpu_scene().ensure_gradients().unwrap();
+    let scene = scene.with_gradients(&ctx, cpu_scene.gradients().unwrap()).unwrap();
+    let lights = LightSet::new(&[
+        LightSource::Directional { direction: [1.0, -0.5, -1.0], intensity: 0.8 },
+        LightSource::Point { position: [-1.5, 2.5, 2.0], intensity: 0.6 },
+    ])
+    .unwrap();
+    let shading = Lighting { ambient: 0.2, specular: 0.6, shadows: true, lights, ..Lighting::default() }.shading(None);
+    let field = Arc::new(cpu_scene.compute_shadows(&tf(), &lights, &|_, _| {}).unwrap());
+    let maps = ShadowMaps::new(&field, cpu_scene.centre_in_world()).unwrap();
+    let mut cpu = cpu_pt_renderer(cpu_scene.clone());
+    cpu.set_shadows(Some(field)).unwrap();
+    cpu.set_raster_options(RasterOptions { shading, ..Default::default() });
+    let spec = ViewSpec::framing([0.0; 3], [1.0; 3], [48, 40]).orbit(30.0, 20.0, 1.0);
+    let cam = Camera::new(&spec).unwrap();
+    cpu.set_view(&spec).unwrap();
+    let table = Arc::new(table_for(&mesh));
+    cpu.set_shader(table.clone());
+    let (want, order) = cpu_image_and_order(&mut cpu);
+    let gpu_shader = GpuShader::table3d(&ctx, &table).unwrap();
+    let draw = |raster, shadows| {
+        let opts = FrameOptions { raster, shading: Some(&shading), shadows, ..Default::default() };
+        renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), &gpu_shader, &opts).unwrap()
+    };
+    renderer.set_chunk_limits(None, Some(LIT_LOOP_LIMITED_PAIRS));
+    let comp = draw(RasterPath::Compute, Some(&maps));
+    renderer.set_chunk_limits(None, None);
+    assert_eq!(comp.stats.raster_path, RasterPath::Compute);
+    let gfx = draw(RasterPath::Graphics, Some(&maps));
+    for (what, img) in [("compute", &comp.image), ("graphics", &gfx.image)] {
+        let d = report(&format!("shadowed table3d {what} vs CPU"), img, &want);
+        assert!(d.rmse <= 1.5e-5 && d.max_abs <= 3.5e-4, "{what}: {d:?}");
+    }
+    let unshadowed = Shading { shadows: false, ..shading };
+    let opts = FrameOptions { raster: RasterPath::Graphics, shading: Some(&unshadowed), ..Default::default() };
+    let lit = renderer.render_frame(&ctx, &scene, &cam, GpuOrder::Given(&order), &gpu_shader, &opts).unwrap();
+    assert!(tet_render::diff(&lit.image, &gfx.image).unwrap().max_abs > 1e-2, "the shadows changed nothing");
+    let inside = LightSet::new(&[LightSource::Point { position: [0.5, 0.5, 0.5], intensity: 1.0 }]).unwrap();
+    let field = cpu_scene.compute_shadows(&tf(), &inside, &|_, _| {}).unwrap();
+    let e = ShadowMaps::new(&field, cpu_scene.centre_in_world()).unwrap_err();
+    assert!(matches!(&e, GpuError::Unsupported(w) if w.contains("shadows")), "{e}");
 }
 
 fn scene_err(ctx: &tet_gpu::GpuContext, mesh: &Mesh, g: &[[f64; 3]]) -> String {

@@ -54,7 +54,7 @@ use crate::RenderError;
 
 mod map;
 
-pub use map::{DeepShadowMap, MAP_RAYS};
+pub use map::{DeepShadowMap, MapLayout, MAP_RAYS};
 
 /// How far into one of its tets a vertex's walk starts, as a fraction of
 /// the way to the tet's centroid.
@@ -259,6 +259,26 @@ impl ShadowField {
             Some(LightShadow::Map(m)) => Some(m.depth_at(pos_in_world - self.frame_origin_in_world)),
             _ => None,
         }
+    }
+
+    /// Light `i`'s deep shadow map, if its shadow is held as one.
+    pub fn map(&self, light: usize) -> Option<&DeepShadowMap> {
+        match self.per_light.get(light) {
+            Some(LightShadow::Map(m)) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// Whether any light's shadow is held per vertex (a point light inside
+    /// or beside the mesh's box).
+    pub fn has_vertex_lights(&self) -> bool {
+        self.per_light.iter().any(|f| matches!(f, LightShadow::Vertices(_)))
+    }
+
+    /// Where the frame the maps were walked in has its origin, in world
+    /// coordinates (a map lookup's position is relative to it).
+    pub fn frame_origin_in_world(&self) -> DVec3 {
+        self.frame_origin_in_world
     }
 
     /// Whether light `i` has a shadow (of either kind).

@@ -30,7 +30,10 @@ use crate::ViewerError;
 use std::sync::Arc;
 use std::time::Instant;
 use tet_bundle::Bundle;
-use tet_engine::{Certifier, CpuFrameRenderer, FrameRenderer, FrameStats as EngineStats, GpuFrameRenderer, Look};
+use tet_engine::{
+    Certifier, CpuFrameRenderer, EngineError, FrameRenderer, FrameStats as EngineStats, GpuFailure, GpuFrameRenderer,
+    Look,
+};
 use tet_preint::{BakeOptions, CertifyOptions, Method, Table3dParams, TableDomain, TransferFunction};
 use tet_render::{Display, Image, Scene, Shading, ViewSpec};
 
@@ -51,8 +54,8 @@ pub struct FrameRequest {
     /// A time-series bundle's time (`None`: the scalar as loaded, the
     /// first step).
     pub time: Option<f64>,
-    /// Lighting and shadows (CPU only: a lit frame is drawn on the CPU
-    /// even when the GPU is preferred).
+    /// Lighting and shadows (on the GPU when preferred, but the shadow of
+    /// a point light inside or beside the mesh, drawn on the CPU).
     pub shading: Shading,
     /// The CPU walker's adaptive sampling (`tet_engine::FrameRequest::adaptive`),
     /// which the window asks for while the user drags; other renderers
@@ -209,6 +212,8 @@ pub struct Engine {
     time: Option<f64>,
     /// The range a normalized TF spans (every step's, for a series).
     scalar_range: [f64; 2],
+    /// Seconds the last frame (CPU or GPU) spent on its shadow field.
+    shadow_seconds: f64,
 }
 
 impl Engine {
@@ -246,6 +251,7 @@ impl Engine {
             steps: bundle.steps.clone(),
             time: None,
             scalar_range: bundle.scalar_range().into(),
+            shadow_seconds: 0.0,
         })
     }
 
@@ -304,17 +310,25 @@ impl Engine {
     /// Renders `req`, recomputing only what changed since the last call.
     pub fn render(&mut self, req: &FrameRequest) -> Result<Frame, ViewerError> {
         self.apply_time(req.time)?;
-        let lit = req.shading.is_active();
-        let use_gpu = req.prefer_gpu && self.gpu.is_some() && gpu_supports(req.method) && !lit;
+        let use_gpu = req.prefer_gpu && self.gpu.is_some() && gpu_supports(req.method);
+        let mut refused = None;
         if use_gpu {
-            return self.render_gpu(req);
+            // Lighting and shadows are drawn on the GPU too, but the shadow
+            // of a point light inside or beside the mesh (held per vertex):
+            // that frame is drawn on the CPU, saying why.
+            match self.render_gpu(req) {
+                Err(ViewerError::Engine(EngineError::Gpu { kind: GpuFailure::Unsupported, source })) => {
+                    refused = Some(source.to_string())
+                }
+                other => return other,
+            }
         }
-        let backend = if self.gpu.is_none() {
+        let backend = if let Some(why) = refused {
+            format!("CPU ({why})")
+        } else if self.gpu.is_none() {
             format!("CPU ({})", self.gpu_note)
         } else if !req.prefer_gpu {
             format!("CPU (GPU {} not selected)", self.gpu_note)
-        } else if lit {
-            "CPU (lighting and shadows are CPU-only)".to_string()
         } else {
             format!("CPU (method {} is not on the GPU)", req.method)
         };
@@ -379,10 +393,10 @@ impl Engine {
         }
     }
 
-    /// Seconds the last CPU frame spent on its shadow field (0 when it
-    /// reused one).
+    /// Seconds the last frame spent on its shadow field (0 when it reused
+    /// one).
     pub fn shadow_seconds(&self) -> f64 {
-        self.cpu.shadow_seconds
+        self.shadow_seconds
     }
 
     fn render_cpu(&mut self, req: &FrameRequest, backend: String) -> Result<Frame, ViewerError> {
@@ -420,6 +434,7 @@ impl Engine {
         let rebaked = self.cpu_drawn != Some(look.key());
         let engine_req = self.engine_request(req);
         let frame = self.cpu.render(&look, &engine_req, &|_, _| {})?;
+        self.shadow_seconds = self.cpu.shadow_seconds;
         self.cpu_drawn = Some(look.key());
         let EngineStats::Cpu(st) = frame.stats else { unreachable!("the CPU renderer reports CPU statistics") };
         let rgba8 = frame.image.to_rgba8(&req.display);
@@ -454,6 +469,7 @@ impl Engine {
         self.gpu_drawn = Some(look.key());
         let tone = gpu.tonemap_last(&req.display)?;
         let EngineStats::Gpu(st) = frame.stats else { unreachable!("the GPU renderer reports GPU statistics") };
+        self.shadow_seconds = st.shadow_seconds;
         let stats = FrameStats {
             backend: format!("GPU: {}", self.gpu_note),
             frame_seconds: start.elapsed().as_secs_f64(),
@@ -622,9 +638,9 @@ mod tests {
         }
     }
 
-    /// Lighting with shadows: drawn on the CPU even with the GPU preferred,
-    /// different from the unlit frame; the shadow field is computed for the
-    /// first lit frame and reused when only the camera moves.
+    /// Lighting with shadows on the CPU (no GPU here): different from the
+    /// unlit frame; the shadow field is computed for the first lit frame
+    /// and reused when only the camera moves.
     #[test]
     fn lit_frames_with_shadows_reuse_their_field_across_camera_moves() {
         let bundle = sample_bundle();
@@ -649,6 +665,43 @@ mod tests {
         let moved = FrameRequest { view: lit.view.orbit(15.0, 0.0, 1.0), ..lit.clone() };
         engine.render(&moved).unwrap();
         assert_eq!(engine.shadow_seconds(), 0.0, "a camera move keeps the field");
+    }
+
+    /// With the GPU preferred, a shadowed frame (a directional light's
+    /// map) is drawn on the GPU, its field kept across a camera move; the
+    /// shadow of a point light inside the mesh (per vertex) is drawn on the
+    /// CPU, the backend saying why.
+    #[test]
+    fn shadowed_frames_go_to_the_gpu_unless_held_per_vertex() {
+        let bundle = sample_bundle();
+        let Some(mut engine) = gpu_engine(&bundle) else { return };
+        let model = TfModel::ramp(engine.scene().scalar_range(), 0.5);
+        let plain = request(&engine, &model, Method::Table3d, true);
+        let lights = tet_render::LightSet::new(&[tet_render::LightSource::Directional {
+            direction: [0.5, -0.7, -0.5],
+            intensity: 1.0,
+        }])
+        .unwrap();
+        let lit = FrameRequest {
+            shading: tet_render::Lighting { lights, shadows: true, ..Default::default() }.shading(None),
+            ..plain.clone()
+        };
+        let f = engine.render(&lit).unwrap();
+        assert!(f.stats.backend.starts_with("GPU"), "{}", f.stats.backend);
+        assert!(engine.shadow_seconds() > 0.0);
+        let moved = FrameRequest { view: lit.view.orbit(15.0, 0.0, 1.0), ..lit.clone() };
+        engine.render(&moved).unwrap();
+        assert_eq!(engine.shadow_seconds(), 0.0, "a camera move keeps the field");
+        let (lo, hi) = engine.scene().bounds();
+        let centre = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+        let inside =
+            tet_render::LightSet::new(&[tet_render::LightSource::Point { position: centre, intensity: 1.0 }]).unwrap();
+        let req = FrameRequest {
+            shading: tet_render::Lighting { lights: inside, shadows: true, ..Default::default() }.shading(None),
+            ..plain
+        };
+        let f = engine.render(&req).unwrap();
+        assert!(f.stats.backend.starts_with("CPU") && f.stats.backend.contains("shadows"), "{}", f.stats.backend);
     }
 
     /// A held-out TF (a dozen narrow opacity peaks): the first table3d frame

@@ -31,12 +31,9 @@ pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
     if !GPU_METHODS.contains(&method) {
         return Err(usage(format!("--gpu: method {method} is not on the GPU yet (GPU methods: {})", gpu_methods())));
     }
-    // Lighting (--light, --light-dir, a view file's lights) and
-    // --silhouette are drawn on the GPU; shadows are not (a view file's
-    // "shadows" is refused by `render` before the device opens).
-    if args.lighting.shadows {
-        return Err(usage("--gpu: shadows are CPU-only for now (lighting without --shadows is drawn on the GPU)"));
-    }
+    // Lighting (--light, --light-dir, a view file's lights), --silhouette
+    // and --shadows are drawn on the GPU; the shadow of a point light inside
+    // or beside the mesh's box is refused by the renderer (exit code 2).
     if args.gpu_bake && method != Method::Table3d {
         return Err(usage(format!("--gpu-bake: method {method} has no table to bake (only table3d)")));
     }
@@ -72,7 +69,7 @@ pub fn render(
     lighting: Option<&tet_render::Lighting>,
 ) -> Result<()> {
     let start = Instant::now();
-    // What the GPU renderer refuses (a view file's shadows), before the device opens.
+    // What the GPU renderer refuses, before the device opens.
     GpuFrameRenderer::supports(method, request).map_err(|why| usage(format!("--gpu: {why}")))?;
     let raster = match args.gpu_raster {
         GpuRasterArg::Compute => RasterPath::Compute,
@@ -140,6 +137,7 @@ pub fn render(
             "table_bake_setup_seconds": g.device_bake_setup_seconds,
             "tables_baked": tet_engine::tables_baked(),
             "setup_seconds": setup_seconds,
+            "shadow_seconds": g.shadow_seconds,
             "upload_seconds": s.upload_seconds,
             "classify_seconds": s.classify_seconds,
             "bin_seconds": s.bin_seconds,

@@ -371,9 +371,10 @@ fn gpu_render_matches_the_cpu_or_skips() {
 
 /// `render --gpu` lit (`--light`, `--light-dir`, `--silhouette`, a view
 /// file's lights) draws what the CPU's projected tetrahedra draw with the
-/// same flags; `--shadows`, or a view file's shadows, with `--gpu` is a
-/// usage error naming shadows. Skips where no GPU adapter exists (fails
-/// instead with TETKIT_REQUIRE_GPU=1).
+/// same flags, shadows (`--shadows`, a view file's) included; the shadow
+/// of a point light inside the mesh (held per vertex) is a usage error
+/// naming shadows. Skips where no GPU adapter exists (fails instead with
+/// TETKIT_REQUIRE_GPU=1).
 #[test]
 fn gpu_render_lit_matches_the_cpu_or_skips() {
     let dir = tempfile::tempdir().unwrap();
@@ -386,26 +387,22 @@ fn gpu_render_lit_matches_the_cpu_or_skips() {
         a.extend_from_slice(extra);
         tetview(&a)
     };
-    // Shadows stay on the CPU, with or without an adapter: usage errors.
-    let out = render(&["--gpu", "--light-dir", "-1,-0.5,-0.8", "--shadows"], &f("x.npy"));
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("shadows"), "{}", String::from_utf8_lossy(&out.stderr));
+    // A view file with shadows, and one whose point light sits inside the
+    // mesh (its shadow is held per vertex: CPU-only).
     let shadow_view = f("shadow_view.json");
     let out = render(&["--light-dir", "-1,-0.5,-0.8", "--shadows", "--save-view", path_arg(&shadow_view)], &f("x.npy"));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = tetview(&[
-        "render",
-        path_arg(&b),
-        "--tf",
-        path_arg(&t),
-        "--gpu",
-        "--view",
-        path_arg(&shadow_view),
-        "-o",
-        path_arg(&png),
-    ]);
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("shadows"), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&shadow_view).unwrap()).unwrap();
+    let centre = v["focal_point"].clone();
+    v["lighting"]["lights"] = serde_json::json!([{"type": "point", "position": centre, "intensity": 1.0}]);
+    let inside_view = f("inside_view.json");
+    std::fs::write(&inside_view, v.to_string()).unwrap();
+    let with_view = |view: &Path, extra: &[&str], npy: &Path| {
+        let mut a = vec!["render", path_arg(&b), "--tf", path_arg(&t), "--view", path_arg(view)];
+        a.extend(["-o", path_arg(&png), "--float", path_arg(npy)]);
+        a.extend_from_slice(extra);
+        tetview(&a)
+    };
 
     if let Err(e) = tet_gpu::GpuContext::new_headless() {
         if tet_gpu::gpu_required() {
@@ -420,11 +417,12 @@ fn gpu_render_lit_matches_the_cpu_or_skips() {
     let (lit_view, unlit) = (f("lit_view.json"), f("unlit.npy"));
     let out = render(&["--gpu", "--method", "pt-linear"], &unlit);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let cases: [(&str, &[&str]); 4] = [
+    let cases: [(&str, &[&str]); 5] = [
         ("pt-linear", &["--light"]),
         ("pt-linear", &["--light-dir", "-1,-0.5,-0.8", "--silhouette", "2", "--save-view", path_arg(&lit_view)]),
         ("table3d", &["--light-dir", "-1,-0.5,-0.8"]),
         ("table3d", &["--light", "--silhouette", "1"]),
+        ("table3d", &["--light-dir", "-1,-0.5,-0.8", "--shadows"]),
     ];
     for (k, (method, flags)) in cases.iter().enumerate() {
         let (gpu, cpu) = (f(&format!("gpu{k}.npy")), f(&format!("cpu{k}.npy")));
@@ -448,6 +446,20 @@ fn gpu_render_lit_matches_the_cpu_or_skips() {
             assert!(u.max_abs > 1e-3, "{flags:?} changed nothing on the GPU");
         }
     }
+    // A view file's shadows draw what the CPU draws with it.
+    let (gpu, cpu) = (f("gpu_shadow_view.npy"), f("cpu_shadow_view.npy"));
+    let out = with_view(&shadow_view, &["--gpu"], &gpu);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = with_view(&shadow_view, &["--renderer", "pt"], &cpu);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let d = tet_render::diff(&tet_render::Image::read_npy(&gpu).unwrap(), &tet_render::Image::read_npy(&cpu).unwrap());
+    let d = d.unwrap();
+    assert!(d.rmse <= 1e-6 && d.max_abs <= 1e-5, "shadows from a view file: {d:?}");
+    let out = with_view(&inside_view, &["--gpu"], &f("x.npy"));
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("shadows"), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = with_view(&inside_view, &[], &f("x.npy"));
+    assert!(out.status.success(), "the CPU draws it: {}", String::from_utf8_lossy(&out.stderr));
     let (from_view, direct) = (f("from_view.npy"), f("gpu1.npy"));
     let out = tetview(&[
         "render",

@@ -152,9 +152,13 @@ pub struct FrameOptions<'a> {
     /// request has none), as the CPU's projected tetrahedra light a
     /// fragment: each segment at its emission centroid, split into pieces
     /// where the terms vary (`tet_render::shading::light_segment`), in f32.
-    /// Needs [`GpuScene::with_gradients`]; shadows are
-    /// [`GpuError::Unsupported`]. `None`: unshaded.
+    /// Needs [`GpuScene::with_gradients`]. `None`: unshaded.
     pub shading: Option<&'a tet_render::Shading>,
+    /// The shading's shadows ([`crate::ShadowMaps`] of the scene's
+    /// `tet_render::ShadowField`): each light's transmittance, looked up
+    /// where each piece of a segment is lit. Needed when `shading` wants
+    /// shadows; `None` otherwise.
+    pub shadows: Option<&'a crate::ShadowMaps>,
 }
 
 /// One rendered frame: the linear premultiplied image and the HDR texture
@@ -187,6 +191,11 @@ struct Workspace {
     nshades: Grow,
     /// The frame's [`LightParams`].
     lights: wgpu::Buffer,
+    /// Each light's [`crate::gpu_types::GpuShadowMap`], and the maps'
+    /// knots and ray index ([`crate::ShadowMaps`]).
+    shadow_maps: wgpu::Buffer,
+    shadow_knots: Grow,
+    shadow_index: Grow,
     cull_flags: Grow,
     cull_order: Grow,
     readback: Grow,
@@ -224,6 +233,14 @@ impl Workspace {
                 std::mem::size_of::<LightParams>() as u64,
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
+            shadow_maps: buffer(
+                &ctx.device,
+                "shadow maps",
+                std::mem::size_of::<[crate::gpu_types::GpuShadowMap; crate::gpu_types::MAX_GPU_LIGHTS]>() as u64,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            ),
+            shadow_knots: Grow::storage("shadow-map knots"),
+            shadow_index: Grow::storage("shadow-map ray index"),
             cull_flags: Grow::storage("cull flags"),
             cull_order: Grow::storage("culled order"),
             readback: Grow::new("readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
@@ -287,6 +304,15 @@ pub struct GpuRenderer {
 
 const FRAME_SIZE: u64 = std::mem::size_of::<FrameUniforms>() as u64;
 
+/// lighting.wgsl's shadow maps, knots and ray index (bindings 22–24), read.
+pub(crate) fn shadow_entries(stages: wgpu::ShaderStages) -> [wgpu::BindGroupLayoutEntry; 3] {
+    [storage_entry(22, stages, true), storage_entry(23, stages, true), storage_entry(24, stages, true)]
+}
+
+fn shadow_bindings(ws: &Workspace) -> [wgpu::BindGroupEntry<'_>; 3] {
+    [bind(22, &ws.shadow_maps), bind(23, ws.shadow_knots.get()), bind(24, ws.shadow_index.get())]
+}
+
 impl GpuRenderer {
     /// Compiles the shaders and builds the pipelines.
     pub fn new(ctx: &GpuContext) -> Result<GpuRenderer, GpuError> {
@@ -301,6 +327,7 @@ impl GpuRenderer {
             entries.extend([storage_entry(17, cs, true), storage_entry(18, cs, false)]);
             // Lighting: its parameters and the vertex gradients read, the gradient fields written.
             entries.extend([uniform_entry(19, cs), storage_entry(20, cs, true), storage_entry(21, cs, false)]);
+            entries.extend(shadow_entries(cs));
             let module = shader_module(dev, "classify.wgsl", shader_source(CLASSIFY_WGSL));
             let classify_module = BoundModule::new(dev, "classify", &entries, module);
             let classify = classify_module.compute(dev, "classify", &[]);
@@ -320,6 +347,9 @@ impl GpuRenderer {
                     storage_entry(18, fs, true),
                     uniform_entry(19, fs),
                     storage_entry(21, fs, true),
+                    storage_entry(22, fs, true),
+                    storage_entry(23, fs, true),
+                    storage_entry(24, fs, true),
                 ],
                 shader_module(dev, "raster.wgsl", shader_source_fragment(RASTER_WGSL)),
             );
@@ -686,6 +716,20 @@ impl GpuRenderer {
         let normal_bytes = if lit { chunk as u64 * NORMAL_ROWS as u64 * 16 } else { 16 };
         stats.buffers_grown += ws.nshades.ensure(ctx, normal_bytes, limit)? as usize;
         ctx.queue.write_buffer(&ws.lights, 0, bytemuck::bytes_of(&lights));
+        let none = crate::ShadowMaps::none();
+        let shadows = match (opts.shadows, opts.shading.is_some_and(|s| s.wants_shadows())) {
+            (Some(m), true) => m,
+            (None, true) => {
+                return Err(GpuError::Input("the shading wants shadows: FrameOptions::shadows (ShadowMaps)".into()))
+            }
+            (_, false) => &none,
+        };
+        let (knot_bytes, index_bytes) = (shadows.knots.len() as u64 * 8, shadows.index.len() as u64 * 4);
+        stats.buffers_grown += ws.shadow_knots.ensure(ctx, knot_bytes, limit)? as usize;
+        stats.buffers_grown += ws.shadow_index.ensure(ctx, index_bytes, limit)? as usize;
+        ctx.queue.write_buffer(&ws.shadow_maps, 0, bytemuck::cast_slice(&shadows.maps));
+        ctx.queue.write_buffer(ws.shadow_knots.get(), 0, bytemuck::cast_slice(&shadows.knots));
+        ctx.queue.write_buffer(ws.shadow_index.get(), 0, bytemuck::cast_slice(&shadows.index));
         let compute = stats.raster_path == RasterPath::Compute && n > 0;
         let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
         if compute {
@@ -766,6 +810,9 @@ impl GpuRenderer {
                         bind(19, &ws.lights),
                         bind(20, scene.grads.as_ref().unwrap_or(&scene.positions)),
                         bind(21, ws.nshades.get()),
+                        bind(22, &ws.shadow_maps),
+                        bind(23, ws.shadow_knots.get()),
+                        bind(24, ws.shadow_index.get()),
                     ],
                 );
                 let mut enc = dev.create_command_encoder(&Default::default());
@@ -807,6 +854,7 @@ impl GpuRenderer {
                     ]);
                     entries.extend([bind(16, &shader.shade_buf), bind(18, ws.gshades.get())]);
                     entries.extend([bind(19, &ws.lights), bind(21, ws.nshades.get())]);
+                    entries.extend(shadow_bindings(ws));
                     let bg = bind_group(dev, "raster", &self.raster.layout, &entries);
                     let mut enc = dev.create_command_encoder(&Default::default());
                     {
@@ -1017,6 +1065,7 @@ impl GpuRenderer {
         entries.extend([bind_view(11, env.hdr_view), bind_view(14, env.table2d_view), bind_view(15, env.alpha_view)]);
         entries.extend([bind(16, &env.shader.shade_buf), bind(18, ws.gshades.get())]);
         entries.extend([bind(19, &ws.lights), bind(21, ws.nshades.get())]);
+        entries.extend(shadow_bindings(ws));
         Ok(bind_group(&ctx.device, "bin", &self.bin.bound.layout, &entries))
     }
 }

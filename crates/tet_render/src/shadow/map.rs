@@ -58,6 +58,34 @@ pub struct DeepShadowMap {
 /// Index bins along each ray.
 const BINS: usize = 32;
 
+/// A [`DeepShadowMap`] as its lookup reads it: unit vectors across the
+/// rays (`e1`, `e2`) and along them (`d`); a point light's position
+/// (`origin`: rays fan out from it over slopes, samples by distance) or
+/// `None` (parallel rays, samples by depth along `d` from `t0`); the first
+/// ray's coordinates and the spacing (`u0`, `v0`, `du`, `dv`) of `nu` ×
+/// `nv` rays; each ray's knots (parameter, optical depth), ray after ray,
+/// and per ray `bins + 1` indices into them (its first knot, its first knot
+/// at or past each bin of length `bin_len`, its end). Positions are in the
+/// frame the map was walked in ([`crate::ShadowField::frame_origin_in_world`]).
+#[derive(Debug, Clone, Copy)]
+pub struct MapLayout<'a> {
+    pub e1: DVec3,
+    pub e2: DVec3,
+    pub d: DVec3,
+    pub origin: Option<DVec3>,
+    pub u0: f64,
+    pub v0: f64,
+    pub t0: f64,
+    pub du: f64,
+    pub dv: f64,
+    pub nu: usize,
+    pub nv: usize,
+    pub bin_len: f32,
+    pub bins: usize,
+    pub knots: &'a [[f32; 2]],
+    pub index: &'a [u32],
+}
+
 impl DeepShadowMap {
     /// Walks `MAP_RAYS` × (as many as the aspect gives) rays of a light
     /// travelling along unit `d` through `reference`'s mesh (points in the
@@ -236,6 +264,28 @@ impl DeepShadowMap {
 
     pub fn memory_bytes(&self) -> usize {
         self.knots.len() * 8 + self.index.len() * 4
+    }
+
+    /// The map's arrays and frame as [`DeepShadowMap::depth_at`] reads
+    /// them, for another reader of the same lookup (the GPU's).
+    pub fn layout(&self) -> MapLayout<'_> {
+        MapLayout {
+            e1: self.e1,
+            e2: self.e2,
+            d: self.d,
+            origin: self.origin,
+            u0: self.u0,
+            v0: self.v0,
+            t0: self.t0,
+            du: self.du,
+            dv: self.dv,
+            nu: self.nu,
+            nv: self.nv,
+            bin_len: self.bin_len,
+            bins: BINS,
+            knots: &self.knots,
+            index: &self.index,
+        }
     }
 
     /// Rays across and along.

@@ -131,7 +131,7 @@ fn rank_main<C: Comm + ?Sized>(comm: &C, args: &RenderArgs, path: &Path) -> Resu
     let loaded = loaded.expect("agreed: every rank read its piece");
     let auto =
         if args.look.lut.is_none() && args.look.tf.is_none() { Some(automatic_tf(comm, &loaded, args)?) } else { None };
-    let drawn = draw_piece(rank, &loaded, auto, args);
+    let drawn = draw_piece(rank, loaded, auto, args);
     let state = match &drawn {
         Ok((frame, fingerprint)) => Ok(format!("{fingerprint}\norder={:?}", frame.order)),
         Err(e) => Err(encode_error(e)),
@@ -286,11 +286,12 @@ fn automatic_tf<C: Comm + ?Sized>(comm: &C, loaded: &Loaded, args: &RenderArgs) 
 /// fingerprint of the request ranks must agree on.
 fn draw_piece(
     rank: usize,
-    loaded: &Loaded,
+    loaded: Loaded,
     auto: Option<TransferFunction>,
     args: &RenderArgs,
 ) -> Result<(RankFrame, String)> {
-    let (manifest, bundle) = (&loaded.manifest, &loaded.bundle);
+    let Loaded { manifest, manifest_crc, bundle: piece } = loaded;
+    let (manifest, bundle) = (&manifest, &piece);
     let (tf, method, look) = match auto {
         Some(tf) => {
             let method: Method = args.look.method.parse()?;
@@ -324,7 +325,7 @@ fn draw_piece(
     if args.gpu {
         crate::gpu::check_args(args, method)?;
     }
-    let scene = Scene::from_bundle(bundle).with_context(|| format!("piece {rank}"))?;
+    let in_piece = || format!("piece {rank}");
     let root = manifest.tree.first().expect("a checked manifest has a root").bounds();
     let bounds = (root.min, root.max);
     let z_up = tet_render::camera::z_up_data(manifest.source.from_point_cloud(), root.min, root.max);
@@ -344,6 +345,7 @@ fn draw_piece(
             crate::gpu::GpuRasterArg::Compute => RasterPath::Compute,
             crate::gpu::GpuRasterArg::Graphics => RasterPath::Graphics,
         };
+        let scene = Scene::from_bundle(bundle).with_context(in_piece)?;
         let mut renderer =
             GpuFrameRenderer::new(bundle, scene, GpuFrameOptions { raster }).map_err(crate::gpu::on_cpu_instead)?;
         let frame = renderer.render(&look, &request, &|_, _| {}).map_err(crate::gpu::on_cpu_instead)?;
@@ -358,6 +360,8 @@ fn draw_piece(
         });
         (frame.image, stats, g.render.tets_drawn, g.tets_total, g.render.total_seconds)
     } else {
+        // The piece's arrays move into the scene: a rank holds them once.
+        let scene = Scene::from_bundle_owned(piece).with_context(in_piece)?;
         let mut renderer = CpuFrameRenderer::from_scene(scene);
         let frame = renderer.render(&look, &request, &|_, _| {})?;
         let (image, FrameStats::Cpu(st)) = (frame.image, frame.stats) else {
@@ -367,7 +371,7 @@ fn draw_piece(
     };
     let fingerprint = format!(
         "manifest={:08x}\nview={}\ntf={}\nmethod={}\nrenderer={}\nshading={:?}\nearly={}\ncull={}\nadaptive={:?}",
-        loaded.manifest_crc,
+        manifest_crc,
         serde_json::to_string(&view)?,
         tf.to_json().replace('\n', " "),
         method.id(),

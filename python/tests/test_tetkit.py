@@ -149,7 +149,7 @@ def test_lights_and_shadows_match_tetview_and_the_lit_reference(tmp_path):
     dark = tetkit.render(b, light_dir=(0.6, -0.5, -0.62), shadows=True, **kw)
     assert tetkit.diff(lit, dark)["max_abs"] > 1e-3
     # The lighting against the lit reference; shadows darken it (the
-    # per-vertex shadow field's own error is measured by
+    # shadow field's own error is measured by
     # crates/tet_engine/results/lighting.sh, not bounded here).
     ref_lit = tetkit.reference(b, light_dir=(0.6, -0.5, -0.62), **kw)
     assert tetkit.diff(lit, ref_lit)["rmse"] < 5e-3

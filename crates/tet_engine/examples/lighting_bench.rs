@@ -12,7 +12,9 @@
 //! errors are measured at REF_SIZE² (the exact-shadow reference casts a
 //! shadow ray at every quadrature node: keep it small). The light: one
 //! directional light from the upper left front plus a dim headlight
-//! (`TET_LIGHT=point`: a point light there instead, outside the box). A
+//! (`TET_LIGHT=point`: a point light there instead, outside the box;
+//! `TET_LIGHT=inside`: at the box's centre; `TET_LIGHT=beside`: 5% of the
+//! box's diagonal outside it, that way). A
 //! results file gets a markdown row appended, columns as in
 //! [`HEADER`].
 
@@ -42,13 +44,27 @@ fn main() -> anyhow::Result<()> {
     // `TET_LIGHT=point`: a point light where the directional one comes
     // from, half a bounding-box diagonal outside the box (its deep shadow
     // map fans out from it).
-    let point = std::env::var("TET_LIGHT").is_ok_and(|v| v == "point");
-    let key = if point {
+    let place = std::env::var("TET_LIGHT").unwrap_or_default();
+    let key = if ["point", "inside", "beside"].contains(&place.as_str()) {
         let (lo, hi) = (bundle.meta.stats.bounds_min, bundle.meta.stats.bounds_max);
         let diag = (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
         let dir = [0.6f64, -0.5, -0.62];
         let norm = dir.iter().map(|c| c * c).sum::<f64>().sqrt();
-        let position = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]) - dir[a] / norm * diag);
+        let position: [f64; 3] = match place.as_str() {
+            "inside" => std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])),
+            // From the box's centre along −dir to its surface, then 5% of
+            // the diagonal further.
+            "beside" => {
+                let u: [f64; 3] = std::array::from_fn(|a| -dir[a] / norm);
+                let to_face = (0..3)
+                    .filter(|&a| u[a] != 0.0)
+                    .map(|a| 0.5 * (hi[a] - lo[a]) / u[a].abs())
+                    .fold(f64::INFINITY, f64::min);
+                std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]) + u[a] * (to_face + 0.05 * diag))
+            }
+            _ => std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]) - dir[a] / norm * diag),
+        };
+        eprintln!("point light at {position:?}");
         LightSource::Point { position, intensity: 0.9 }
     } else {
         LightSource::Directional { direction: [0.6, -0.5, -0.62], intensity: 0.9 }
@@ -119,7 +135,7 @@ fn main() -> anyhow::Result<()> {
     row.push(fmt(diff(&walker, &exact)?));
     row.push(format!("{exact_s:.1} s"));
     let name = std::path::Path::new(&args[1]).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let light = if point { ", point light" } else { "" };
+    let light = if place.is_empty() { String::new() } else { format!(", point light ({place})") };
     let line =
         format!("| {name} ({} tets{light}) | {size}² / {ref_size}² | {} |", bundle.mesh.tets.len(), row.join(" | "));
     println!("{line}");

@@ -274,7 +274,7 @@ pub struct ReferenceFrameRenderer<'b> {
     bundle: &'b Bundle,
     /// The bundle as a scene with gradients, made for the first lit frame.
     scene: Option<Scene>,
-    /// Light from this per-vertex field instead of exact shadow rays
+    /// Light from this shadow field instead of exact shadow rays
     /// ([`ReferenceFrameRenderer::use_shadow_field`]).
     shadow_field: Option<Arc<tet_render::ShadowField>>,
     /// Seconds to build the boundary hierarchy rays enter by.
@@ -303,7 +303,7 @@ impl<'b> ReferenceFrameRenderer<'b> {
         Ok(self.scene.as_ref().expect("made above"))
     }
 
-    /// Shadows from the per-vertex field the CPU renderers use, computed
+    /// Shadows from the shadow field the CPU renderers use, computed
     /// now for `tf` and `lights`, instead of exact shadow rays: the
     /// difference of the two references is the field's own error.
     pub fn use_shadow_field(

@@ -69,8 +69,8 @@ pub struct GpuFrameOptions {
 /// with the shadows of lights whose shadow field is a deep shadow map
 /// (directional lights, point lights outside the mesh's box; the field is
 /// computed on the CPU as the CPU renderers compute it and kept while the
-/// lights, TF and scalar stay). A point light's shadow held per vertex (the
-/// light inside or beside the box) is [`GpuFailure::Unsupported`].
+/// lights, TF and scalar stay). A point light's cube of maps (the light
+/// inside or beside the box) is [`GpuFailure::Unsupported`].
 pub struct GpuFrameRenderer {
     ctx: GpuContext,
     /// `None` only while gradients are being added (as `gpu_scene`).

@@ -297,7 +297,7 @@ fn zero_gradients_are_lit_as_the_isotropic_medium() {
 /// renderer computes them and looked up where each piece is lit, against
 /// the CPU's projected tetrahedra with the same field (both rasterizers;
 /// the shadows darken the frame, and a camera move keeps the field); a
-/// point light inside the box, whose shadow is held per vertex, is
+/// point light inside the box, whose shadow is a cube of maps, is
 /// `GpuFailure::Unsupported` naming shadows; shadows asked of the
 /// headlight alone (it casts none) are drawn.
 #[test]
@@ -346,7 +346,7 @@ fn shadowed_gpu_frames_match_the_cpu() {
         Err(EngineError::Gpu { kind: GpuFailure::Unsupported, source }) => {
             assert!(source.to_string().contains("shadows"), "{source}")
         }
-        other => panic!("a per-vertex shadow on the GPU: {:?}", other.map(|f| f.stats)),
+        other => panic!("a cube of shadow maps on the GPU: {:?}", other.map(|f| f.stats)),
     }
     let head = FrameRequest { shading: Shading { shadows: true, ..Lighting::default().shading(Some(1.0)) }, ..lit };
     let frame = gpu.render(&look, &head, &|_, _| {}).unwrap();

@@ -5,8 +5,8 @@
 //! shadow-casting light's deep shadow map (`tet_render::ShadowField`'s maps:
 //! directional lights, point lights outside the mesh's box) as
 //! [`ShadowMaps`], looked up in lighting.wgsl as `DeepShadowMap::depth_at`
-//! looks it up, in f32. A shadow held per vertex (a point light inside or
-//! beside the box) is not on the GPU.
+//! looks it up, in f32. A cube of maps (a point light inside or beside the
+//! box) is not on the GPU yet.
 
 use glam::DVec3;
 use tet_render::shading::{LIT_MAX_PIECES, LIT_SPLIT_TOLERANCE};
@@ -34,13 +34,13 @@ impl ShadowMaps {
     }
 
     /// `field`'s maps in the frame of a scene whose positions are relative
-    /// to `centre_in_world`. A light whose shadow `field` holds per vertex
+    /// to `centre_in_world`. A light whose shadow `field` holds as a cube of maps
     /// is [`GpuError::Unsupported`]; a map too large for u32 offsets or not
     /// finite in f32 is [`GpuError::Input`].
     pub fn new(field: &ShadowField, centre_in_world: DVec3) -> Result<ShadowMaps, GpuError> {
-        if field.has_vertex_lights() {
+        if field.has_cube_lights() {
             return Err(GpuError::Unsupported(
-                "shadows of a point light inside or beside the mesh's bounding box are CPU-only (held per vertex); \
+                "shadows of a point light inside or beside the mesh's bounding box are CPU-only (a cube of six maps); \
                  lights outside the box and directional lights cast theirs on the GPU"
                     .into(),
             ));

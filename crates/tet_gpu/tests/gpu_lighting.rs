@@ -113,7 +113,7 @@ fn lighting_without_gradients_or_shadow_maps_is_refused() {
 /// Shadows from deep shadow maps (a directional light; a point light
 /// outside the box): both rasterizers (the compute one in passes llvmpipe's
 /// loop limit allows) against the CPU's projected tetrahedra lit with the
-/// same field; a per-vertex shadow (a point light inside the box) is
+/// same field; a cube of maps (a point light inside the box) is
 /// refused by `ShadowMaps::new`.
 #[test]
 fn shadowed_frames_on_both_rasterizers_match_the_cpu() {

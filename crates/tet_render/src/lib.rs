@@ -21,7 +21,8 @@
 //!   bit-identical to the per-tile path) and optional lighting/silhouettes
 //!   ([`shading`]: [`Shading`], [`LightSet`], the view file's [`Lighting`])
 //!   with volumetric shadows ([`shadow`]: [`ShadowField`], a deep shadow
-//!   map per directional light, per-vertex depths per point light); the
+//!   map per directional light or point light outside the mesh's box, a
+//!   cube of six maps around a point light inside or beside it); the
 //!   reference lights by quadrature with exact shadow rays
 //!   ([`LitReference`]).
 //!

@@ -96,7 +96,6 @@ pub struct ReferenceRenderer<'a> {
     tets: &'a [[u32; 4]],
     scalar: &'a [f64],
     neighbors: &'a [[u32; 4]],
-    convex: bool,
     bvh: BoundaryBvh,
 }
 
@@ -248,7 +247,6 @@ impl<'a> ReferenceRenderer<'a> {
             tets: &mesh.tets,
             scalar: &mesh.scalar,
             neighbors: &adjacency.neighbors,
-            convex: adjacency.convex,
             bvh: BoundaryBvh::build(&mesh.points, &mesh.tets, &adjacency.boundary_faces),
         })
     }
@@ -514,90 +512,6 @@ impl<'a> ReferenceRenderer<'a> {
             f_in = back;
             p_in = p_out;
         }
-    }
-
-    /// Walks the line from `start`, a point strictly inside `tet` with
-    /// scalar `s_start`, forwards (t ≥ 0, t = 0 at `start` = the line's
-    /// origin) — no boundary hierarchy, no sort, only the tets ahead. Where
-    /// the line leaves the mesh of a non-convex domain it may come back:
-    /// then the rest is walked from the boundary entries beyond. `visit` as
-    /// in [`ReferenceRenderer::walk_line`].
-    pub(crate) fn walk_line_from_inside(
-        &self,
-        line: &Line,
-        (tet, s_start): (usize, f64),
-        entries: &mut Vec<Entry>,
-        stats: &mut ReferenceStats,
-        visit: &mut dyn FnMut(&LineSegment) -> bool,
-    ) {
-        let Some((f_out, Some(p_out))) = self.first_exit(line, tet) else {
-            // The line lies in a face's plane: walk it whole.
-            return self.walk_line(line, 0.0, entries, stats, visit);
-        };
-        let t = &self.tets[tet];
-        // `start` as a "face point": the tet's vertex 0 with the start's
-        // scalar (only t and s of a segment's front are read by visitors
-        // that interpolate nothing else; gradients use the back's weights
-        // beyond the first segment).
-        let p_in = LinePoint { t: 0.0, s: s_start, ids: [t[0], t[0], t[0]], w: [1.0, 0.0, 0.0] };
-        let mut hit = false;
-        stats.steps += 1;
-        if p_out.t > 0.0 {
-            let seg = LineSegment { front: p_in, back: p_out, t_front: 0.0 };
-            stats.segments += 1;
-            if visit(&seg) {
-                stats.terminated_early = 1;
-                return;
-            }
-        }
-        let next = self.neighbors[tet][f_out];
-        let left_at = if next == NO_NEIGHBOR {
-            Some(p_out.t)
-        } else {
-            let Some(back) = self.neighbors[next as usize].iter().position(|&n| n as usize == tet) else {
-                stats.walk_failures += 1;
-                return;
-            };
-            let (end, steps) = self.walk_from(line, next as usize, back, p_out, 0.0, &mut hit, stats, visit);
-            stats.steps += steps;
-            match end {
-                WalkEnd::Left(t) => Some(t),
-                WalkEnd::Stopped | WalkEnd::Failed => None,
-            }
-        };
-        if let Some(t_left) = left_at {
-            if !self.convex {
-                // Re-entries further along.
-                self.walk_line_entering_after(line, t_left, t_left, entries, stats, visit);
-            }
-        }
-    }
-
-    /// The face through which the line leaves `tet` going forwards, for a
-    /// line through a point strictly inside it: the face whose three edges
-    /// the line passes on the leaving side (exact, perturbed decisions as
-    /// in [`ReferenceRenderer::exit`]).
-    fn first_exit(&self, line: &Line, tet: usize) -> Option<(usize, Option<LinePoint>)> {
-        let t = &self.tets[tet];
-        let p = |l: usize| &self.points[t[l] as usize];
-        for (f, &face) in FACE_OUTWARD.iter().enumerate() {
-            let mut vals = [0.0f64; 3];
-            let mut ok = true;
-            for e in 0..3 {
-                let (val, s) = line_side(&line.o, &line.q, p(face[e]), p(face[(e + 1) % 3]));
-                if s >= 0 {
-                    ok = false;
-                    break;
-                }
-                vals[e] = val;
-            }
-            if ok {
-                let w = std::array::from_fn(|i| (-vals[(i + 1) % 3]).max(0.0));
-                let ids = [t[face[0]], t[face[1]], t[face[2]]];
-                return Some((f, self.point_on_face(line, ids, w)));
-            }
-        }
-        None
     }
 
     /// Leaving `tet`, entered through face `f_in`: the exit face and, unless

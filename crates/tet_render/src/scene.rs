@@ -27,7 +27,7 @@ pub struct Scene {
     bounds_min: [f64; 3],
     bounds_max: [f64; 3],
     scalar_range: [f64; 2],
-    /// Each light's transmittance per vertex, for shadows.
+    /// Each light's shadow (deep shadow maps), for shadows.
     shadows: Option<Arc<ShadowField>>,
 }
 

@@ -17,18 +17,12 @@
 //! * **Point lights outside the mesh's bounding box: a deep shadow map**
 //!   of rays fanning out from the light over the mesh (looked up by
 //!   direction from the light and distance).
-//! * **Other point lights (inside or beside the box): per vertex**, walked
-//!   from each vertex towards the light and interpolated linearly inside
-//!   each tet like the gradients.
-//!   Each vertex's value is the limit at the vertex from inside one of its
-//!   (visible) tets: the walk starts a hair inside that tet and drops the
-//!   segments that only circle the vertex (those leaving by faces that
-//!   hold it), so a vertex on a lit boundary face sees 1 however dense the
-//!   medium; the walk ends at the light (a light inside the mesh), and a
-//!   vertex at the light's position sees 1. Vertices no visible tet uses
-//!   get no walk. A shadow changing within a cell is blurred to the
-//!   cell; a medium so dense that light dies within a small part of a
-//!   cell is lit only at the boundary vertices facing the light.
+//! * **Other point lights (inside the mesh or beside its box): a cube of
+//!   six such maps** around the light ([`DeepShadowMap`]s of [`CUBE_RAYS`]²
+//!   rays each over slopes in [−1, 1]² along ±x, ±y, ±z), each ray walked
+//!   from the light outwards; a point is looked up in the face its largest
+//!   coordinate relative to the light points into. A point at the light
+//!   sees 1.
 //!
 //! The reference instead casts a shadow ray at every integration node
 //! ([`ShadowMode::Exact`]), or reads this field ([`ShadowMode::Field`]) so
@@ -36,29 +30,22 @@
 //!
 //! The field depends on the mesh, the TF and the lights, not on the
 //! camera: a camera move reuses it ([`ShadowKey`] says what it was made
-//! for). Self-shadowing needs no bias: walks start at the point they
-//! shade, so a thin sheet shadows only what lies behind it (no acne).
+//! for). Self-shadowing needs no bias: a map's rays keep the depth at
+//! every crossing and a point reads it at its own distance along the
+//! light, so a thin sheet shadows only what lies behind it (no acne).
 //! Depths stop at [`OPAQUE_DEPTH`] (transmittance 1e-20), never NaN or
 //! infinite.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use glam::DVec3;
-use rayon::prelude::*;
 use tet_preint::{optical_depth_with, TransferFunction};
 
-use crate::cull::CellCuller;
 use crate::reference::{Line, ReferenceRenderer, ReferenceStats};
 use crate::shading::{LightSet, LightSource};
 use crate::RenderError;
 
 mod map;
 
-pub use map::{DeepShadowMap, MapLayout, MAP_RAYS};
-
-/// How far into one of its tets a vertex's walk starts, as a fraction of
-/// the way to the tet's centroid.
-const START_INSIDE: f64 = 1e-7;
+pub use map::{DeepShadowMap, MapLayout, CUBE_RAYS, MAP_RAYS};
 
 /// Optical depth at which a shadow walk stops: transmittance below
 /// e^−46 ≈ 1e-20 changes no pixel (what is stored is the transmittance so
@@ -70,7 +57,7 @@ pub const OPAQUE_DEPTH: f64 = 46.0;
 pub enum ShadowMode<'a> {
     /// An exact shadow ray from every sample point (the reference only).
     Exact,
-    /// The per-vertex field, interpolated linearly inside each tet.
+    /// The shadow field's maps, looked up at every sample point.
     Field(&'a ShadowField),
 }
 
@@ -92,14 +79,15 @@ pub struct ShadowKey {
 enum LightShadow {
     /// The light casts none (the headlight).
     None,
-    /// Optical depth per vertex (at most [`OPAQUE_DEPTH`]): point lights.
-    Vertices(Vec<f32>),
     /// A deep shadow map: directional lights, point lights outside the box.
-    Map(DeepShadowMap),
+    Map(Box<DeepShadowMap>),
+    /// A cube of six maps around a point light inside or beside the box.
+    Cube(Box<[DeepShadowMap; 6]>),
 }
 
-/// Each light's optical depth through the volume: per vertex for point
-/// lights, a light-space deep shadow map for directional lights.
+/// Each light's optical depth through the volume: a light-space deep shadow
+/// map (directional lights, point lights outside the mesh's box) or a cube
+/// of them (point lights inside or beside it).
 #[derive(Debug, Clone)]
 pub struct ShadowField {
     key: ShadowKey,
@@ -111,10 +99,10 @@ pub struct ShadowField {
 }
 
 impl ShadowField {
-    /// Walks from every vertex towards every shadow-casting light of
-    /// `lights` through `reference`'s mesh with `tf` (in scalar units, not
-    /// normalized). Vertices in parallel; the result does not depend on the
-    /// thread count. `progress(done, total)` counts vertices.
+    /// Each shadow-casting light of `lights` as a map or a cube of maps,
+    /// their rays walked through `reference`'s mesh with `tf` (in scalar
+    /// units, not normalized), in parallel; the result does not depend on
+    /// the thread count. `progress(done, total)` counts lights.
     pub fn compute(
         reference: &ReferenceRenderer,
         tf: &TransferFunction,
@@ -130,94 +118,33 @@ impl ShadowField {
                     .into(),
             ));
         }
-        let points = reference.points();
-        let n = points.len();
-        // Each vertex's walk starts a hair inside one of its tets (towards
-        // that tet's centroid, 1e-7 of the way): the transmittance the
-        // tets interpolate is the limit from inside the mesh, also where
-        // the light grazes a boundary face through the vertex (there the
-        // vertex itself is on the line's perturbed outside).
-        let tets = reference.tets();
-        let scalar = reference.scalars();
-        let culler = crate::TfCuller::new(tf);
-        // Only point lights walk from the vertices (directional ones build
-        // a map): without one, no vertex needs a tet.
-        let any_point = lights.lights().iter().any(|l| matches!(l, LightSource::Point { .. }));
-        let mut owner = vec![u32::MAX; if any_point { n } else { 0 }];
-        for (t, tet) in tets.iter().enumerate().filter(|_| any_point) {
-            let s = tet.map(|v| scalar[v as usize]);
-            let range =
-                [s.iter().copied().fold(f64::INFINITY, f64::min), s.iter().copied().fold(f64::NEG_INFINITY, f64::max)];
-            if culler.is_invisible(range, None) {
-                continue;
-            }
-            for &v in tet {
-                if owner[v as usize] == u32::MAX {
-                    owner[v as usize] = t as u32;
-                }
-            }
-        }
-        // The start point, its tet and the scalar there.
-        let start = |v: usize| -> Option<(DVec3, usize, f64)> {
-            let t = owner[v];
-            if t == u32::MAX {
-                return None;
-            }
-            let tet = &tets[t as usize];
-            let p = DVec3::from(points[v]);
-            let c = tet.iter().map(|&w| DVec3::from(points[w as usize])).sum::<DVec3>() * 0.25;
-            let s_mean = tet.iter().map(|&w| scalar[w as usize]).sum::<f64>() * 0.25;
-            Some((p + (c - p) * START_INSIDE, t as usize, scalar[v] + (s_mean - scalar[v]) * START_INSIDE))
-        };
+        let n = reference.points().len();
         let casting: Vec<usize> =
             lights.lights().iter().enumerate().filter(|(_, l)| l.casts_shadow()).map(|(i, _)| i).collect();
-        let total = n * casting.len();
-        let done = AtomicUsize::new(0);
+        let total = casting.len();
         let mut per_light = vec![LightShadow::None; lights.lights().len()];
         let mut stats = ReferenceStats::default();
-        for &i in &casting {
-            let light = lights.lights()[i];
-            if let LightSource::Directional { direction, .. } = light {
-                let d = DVec3::from(direction).normalize();
-                per_light[i] = LightShadow::Map(DeepShadowMap::build(reference, d, tf, &mut stats));
-                progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
-                continue;
-            }
-            if let LightSource::Point { position, .. } = light {
-                if let Some(m) = DeepShadowMap::build_point(reference, DVec3::from(position), tf, &mut stats) {
-                    per_light[i] = LightShadow::Map(m);
-                    progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
-                    continue;
+        for (done, &i) in casting.iter().enumerate() {
+            per_light[i] = match lights.lights()[i] {
+                LightSource::Directional { direction, .. } => {
+                    let d = DVec3::from(direction).normalize();
+                    LightShadow::Map(Box::new(DeepShadowMap::build(reference, d, tf, &mut stats)))
                 }
-            }
-            let chunks: Vec<std::ops::Range<usize>> = (0..n).step_by(4096).map(|a| a..(a + 4096).min(n)).collect();
-            let rows: Vec<(Vec<f32>, ReferenceStats)> = chunks
-                .into_par_iter()
-                .map_init(ShadowScratch::default, |scratch, range| {
-                    let mut st = ReferenceStats::default();
-                    let len = range.len();
-                    let v = range
-                        .map(|v| {
-                            let depth: f64 = match start(v) {
-                                Some((p, t, s)) => {
-                                    reference.depth_to_light_from(p, t, s, Some(v as u32), &light, tf, scratch, &mut st)
-                                }
-                                // A point no visible tet uses: never drawn.
-                                None => 0.0,
-                            };
-                            depth.min(OPAQUE_DEPTH) as f32
-                        })
-                        .collect();
-                    progress(done.fetch_add(len, Ordering::Relaxed) + len, total);
-                    (v, st)
-                })
-                .collect();
-            let mut field = Vec::with_capacity(n);
-            for (v, st) in rows {
-                field.extend(v);
-                stats.add(&st);
-            }
-            per_light[i] = LightShadow::Vertices(field);
+                LightSource::Point { position, .. } => {
+                    let p = DVec3::from(position);
+                    match DeepShadowMap::build_point(reference, p, tf, &mut stats) {
+                        Some(m) => LightShadow::Map(Box::new(m)),
+                        None => match DeepShadowMap::build_cube(reference, p, tf, &mut stats) {
+                            Some(c) => LightShadow::Cube(c),
+                            None => {
+                                return Err(RenderError::Scene(format!("point light at {position:?} is not finite")))
+                            }
+                        },
+                    }
+                }
+                LightSource::Headlight { .. } => LightShadow::None,
+            };
+            progress(done + 1, total);
         }
         let key = ShadowKey { lights: *lights, tf: tf.clone(), scalar_range: reference.scalar_range(), num_points: n };
         Ok(ShadowField { key, per_light, frame_origin_in_world: DVec3::ZERO, stats })
@@ -227,37 +154,26 @@ impl ShadowField {
         &self.key
     }
 
-    /// The walks' counts (one ray per vertex and light).
+    /// The walks' counts (every map ray).
     pub fn stats(&self) -> &ReferenceStats {
         &self.stats
     }
 
-    /// Optical depth from vertex `v` to light `i` (0 for a light without a
-    /// per-vertex field). Renderers interpolate the depth inside a tet and
-    /// take exp(−depth): exact where the depth is linear (a uniform medium),
-    /// and never a transmittance above the vertices'.
+    /// Optical depth from light `light` to `pos_in_world` (0 for a light
+    /// that casts no shadow).
     #[inline]
-    pub fn depth_at(&self, light: usize, v: u32) -> f32 {
+    pub fn depth_at(&self, light: usize, pos_in_world: DVec3) -> f64 {
+        let p = pos_in_world - self.frame_origin_in_world;
         match self.per_light.get(light) {
-            Some(LightShadow::Vertices(f)) => f.get(v as usize).copied().unwrap_or(0.0),
+            Some(LightShadow::Map(m)) => m.depth_at(p),
+            Some(LightShadow::Cube(faces)) => {
+                let q = p - faces[0].origin().expect("a cube's faces fan out from the light");
+                if q == DVec3::ZERO {
+                    return 0.0;
+                }
+                faces[map::cube_face(q)].depth_at(p)
+            }
             _ => 0.0,
-        }
-    }
-
-    /// Transmittance from vertex `v` to light `i` (per-vertex lights):
-    /// exp(−depth).
-    pub fn at(&self, light: usize, v: u32) -> f32 {
-        (-self.depth_at(light, v)).exp()
-    }
-
-    /// Optical depth from the light to `pos_in_world`, for lights held as a
-    /// deep shadow map (`None` for the others: interpolate
-    /// [`ShadowField::depth_at`] instead).
-    #[inline]
-    pub fn map_depth_at(&self, light: usize, pos_in_world: DVec3) -> Option<f64> {
-        match self.per_light.get(light) {
-            Some(LightShadow::Map(m)) => Some(m.depth_at(pos_in_world - self.frame_origin_in_world)),
-            _ => None,
         }
     }
 
@@ -269,10 +185,10 @@ impl ShadowField {
         }
     }
 
-    /// Whether any light's shadow is held per vertex (a point light inside
+    /// Whether any light's shadow is a cube of maps (a point light inside
     /// or beside the mesh's box).
-    pub fn has_vertex_lights(&self) -> bool {
-        self.per_light.iter().any(|f| matches!(f, LightShadow::Vertices(_)))
+    pub fn has_cube_lights(&self) -> bool {
+        self.per_light.iter().any(|f| matches!(f, LightShadow::Cube(_)))
     }
 
     /// Where the frame the maps were walked in has its origin, in world
@@ -289,7 +205,7 @@ impl ShadowField {
     /// Whether any light's shadow is a map (renderers then need every
     /// sample's position).
     pub fn has_maps(&self) -> bool {
-        self.per_light.iter().any(|f| matches!(f, LightShadow::Map(_)))
+        self.per_light.iter().any(|f| !matches!(f, LightShadow::None))
     }
 
     /// Number of lights (with or without shadows).
@@ -303,8 +219,8 @@ impl ShadowField {
             .iter()
             .map(|f| match f {
                 LightShadow::None => 0,
-                LightShadow::Vertices(v) => v.len() * 4,
                 LightShadow::Map(m) => m.memory_bytes(),
+                LightShadow::Cube(faces) => faces.iter().map(DeepShadowMap::memory_bytes).sum(),
             })
             .sum()
     }
@@ -318,48 +234,12 @@ pub struct ShadowScratch {
 }
 
 impl ReferenceRenderer<'_> {
-    /// [`ReferenceRenderer::depth_to_light`] from `from`, a point strictly
-    /// inside `tet` with scalar `s_from`: the walk starts there and covers
-    /// only the tets towards the light. With `near_vertex`, `from` stands
-    /// for that vertex of `tet` approached from inside the tet: the depth
-    /// is the limit there (a vertex on a lit boundary face sees 1 however
-    /// dense the medium).
-    #[allow(clippy::too_many_arguments)]
-    pub fn depth_to_light_from(
-        &self,
-        from: DVec3,
-        tet: usize,
-        s_from: f64,
-        near_vertex: Option<u32>,
-        light: &LightSource,
-        tf: &TransferFunction,
-        scratch: &mut ShadowScratch,
-        stats: &mut ReferenceStats,
-    ) -> f64 {
-        self.depth_along(from, Some((tet, s_from, near_vertex)), light, tf, scratch, stats)
-    }
-
     /// Optical depth from `from` (world) to `light` through the mesh:
     /// exact walk, exact depth per segment; stops once the depth reaches
     /// [`OPAQUE_DEPTH`]. 0 where the light has no direction from `from`.
     pub fn depth_to_light(
         &self,
         from: DVec3,
-        light: &LightSource,
-        tf: &TransferFunction,
-        scratch: &mut ShadowScratch,
-        stats: &mut ReferenceStats,
-    ) -> f64 {
-        self.depth_along(from, None, light, tf, scratch, stats)
-    }
-
-    /// The optical depth from `from` to `light`: walked from `inside` (a
-    /// tet holding `from`, the scalar there, and the vertex `from` stands
-    /// for) or, without it, from the boundary entries of the whole line.
-    fn depth_along(
-        &self,
-        from: DVec3,
-        inside: Option<(usize, f64, Option<u32>)>,
         light: &LightSource,
         tf: &TransferFunction,
         scratch: &mut ShadowScratch,
@@ -374,25 +254,9 @@ impl ReferenceRenderer<'_> {
         let mut depth = 0.0;
         let breakpoints = &mut scratch.breakpoints;
         stats.rays += 1;
-        // Started a hair from a vertex: while the ray leaves tets by faces
-        // holding that vertex it is still circling it, and those segments
-        // vanish in the limit of starting at the vertex.
-        let mut circling = inside.and_then(|(_, _, v)| v);
-        let mut visit = |seg: &crate::reference::LineSegment| {
-            if let Some(v) = circling {
-                if seg.back.ids.contains(&v) {
-                    return false;
-                }
-                circling = None;
-            }
+        self.walk_line(&line, 0.0, &mut scratch.entries, stats, &mut |seg| {
             accumulate_depth(seg, dist, tf, breakpoints, &mut depth)
-        };
-        match inside {
-            Some((tet, s_from, _)) => {
-                self.walk_line_from_inside(&line, (tet, s_from), &mut scratch.entries, stats, &mut visit)
-            }
-            None => self.walk_line(&line, 0.0, &mut scratch.entries, stats, &mut visit),
-        }
+        });
         depth
     }
 }

@@ -145,24 +145,30 @@ fn shadow_field_equals_the_closed_form_transmittance() {
     let mut rng = common::Rng(11);
     let inner = (0..200).map(|_| [rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
     for p in points.iter().copied().chain(inner) {
-        let got = f.map_depth_at(0, glam::DVec3::from(p)).expect("a map for a directional light");
+        let got = f.depth_at(0, glam::DVec3::from(p));
         let want = 2.0 * (1.0 - p[2]);
         assert!((got - want).abs() < 1e-5, "at {p:?}: {got} vs {want}");
     }
-    // A point light inside the mesh: walks end at the light.
+    // A point light inside the mesh: a cube of maps around it, each ray
+    // walked from the light (ρ = 2: a point at distance r sees 2r, exact
+    // along each ray; between rays the interpolation's error).
     let inside = lights(&[LightSource::Point { position: [0.5, 0.5, 0.5], intensity: 1.0 }]);
     let f = scene.compute_shadows(&t, &inside, &|_, _| {}).unwrap();
-    for (v, p) in points.iter().enumerate() {
+    assert!(f.has_cube_lights() && f.has_maps());
+    let mut rng = common::Rng(13);
+    let inner = (0..300).map(|_| [rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+    for p in points.iter().copied().chain(inner) {
         let dist = ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 0.5).powi(2)).sqrt();
-        let want = (-2.0 * dist).exp();
-        assert!((f.at(0, v as u32) as f64 - want).abs() < 1e-6, "vertex {v}: {} vs {want}", f.at(0, v as u32));
+        let got = f.depth_at(0, glam::DVec3::from(p));
+        assert!((got - 2.0 * dist).abs() < 2e-4, "at {p:?}: {got} vs {}", 2.0 * dist);
     }
+    assert_eq!(f.depth_at(0, glam::DVec3::splat(0.5)), 0.0, "the light's own point");
     // Huge extinction: transmittance underflows to 0, never NaN. The map
     // is lit at the top and dark from the first sample below it.
     let dense = tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1e300]], "unit_distance": 1}"#);
     let f = scene.compute_shadows(&dense, &down, &|_, _| {}).unwrap();
     for p in &points {
-        let d = f.map_depth_at(0, glam::DVec3::from(*p)).unwrap();
+        let d = f.depth_at(0, glam::DVec3::from(*p));
         assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::OPAQUE_DEPTH * 0.99 });
     }
     // A point light far above, outside the box: a deep map of rays fanning
@@ -177,7 +183,7 @@ fn shadow_field_equals_the_closed_form_transmittance() {
     let inner = (0..200).map(|_| [rng.range(0.02, 0.98), rng.range(0.02, 0.98), rng.range(0.0, 1.0)]);
     let away_from_outline = points.iter().copied().filter(|p| (0..2).all(|a| p[a] > 0.0 && p[a] < 1.0));
     for p in away_from_outline.chain(inner) {
-        let got = f.map_depth_at(0, glam::DVec3::from(p)).expect("a map for a point light outside");
+        let got = f.depth_at(0, glam::DVec3::from(p));
         let dist = ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2) + (p[2] - 50.0).powi(2)).sqrt();
         let want = 2.0 * dist * (1.0 - p[2]) / (50.0 - p[2]);
         assert!((got - want).abs() < 1e-4, "at {p:?}: {got} vs {want}");
@@ -186,24 +192,28 @@ fn shadow_field_equals_the_closed_form_transmittance() {
     // below, never NaN.
     let f = scene.compute_shadows(&dense, &above, &|_, _| {}).unwrap();
     for p in points.iter().filter(|p| (0..2).all(|a| p[a] > 0.0 && p[a] < 1.0)) {
-        let d = f.map_depth_at(0, glam::DVec3::from(*p)).unwrap();
+        let d = f.depth_at(0, glam::DVec3::from(*p));
         assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::OPAQUE_DEPTH * 0.99 });
     }
     // A point light beside the box (some of the mesh not in front of it
-    // along the way to the centre): the per-vertex field, the limit at
-    // each vertex from inside — the vertices of the face towards the light
-    // see it, the rest are as dark as the field records.
+    // along the way to the centre): a cube of maps too. Under huge
+    // extinction the face towards the light is lit where the light looks
+    // at it head-on, everything deeper is as dark as the map records, and
+    // nothing is NaN. (Where the light grazes the face, within a ray
+    // spacing the map mixes rays that have entered with rays that have
+    // not, as any shadow map does at an outline.)
     let beside = lights(&[LightSource::Point { position: [0.5, 0.5, 1.05], intensity: 1.0 }]);
     let f = scene.compute_shadows(&dense, &beside, &|_, _| {}).unwrap();
-    assert!(!f.has_maps());
-    for (v, p) in points.iter().enumerate() {
-        let got = f.at(0, v as u32);
-        assert!(got.is_finite() && (0.0..=1.0).contains(&got));
-        if p[2] == 1.0 {
-            assert_eq!(got, 1.0, "vertex {v} at {p:?}");
-        } else {
-            assert!(got <= (-tet_render::shadow::OPAQUE_DEPTH).exp() as f32 * 1.001, "vertex {v} at {p:?}: {got}");
+    assert!(f.has_cube_lights());
+    for p in &points {
+        let d = f.depth_at(0, glam::DVec3::from(*p));
+        assert!(d.is_finite() && (0.0..=tet_render::shadow::OPAQUE_DEPTH).contains(&d), "at {p:?}: {d}");
+        if p[2] < 0.9 {
+            assert!(d >= tet_render::shadow::OPAQUE_DEPTH * 0.99, "at {p:?}: {d}");
         }
+    }
+    for p in [[0.5, 0.5, 1.0], [0.52, 0.49, 1.0]] {
+        assert_eq!(f.depth_at(0, glam::DVec3::from(p)), 0.0, "at {p:?}");
     }
 }
 
@@ -271,9 +281,8 @@ fn degenerate_lights_and_gradients_give_finite_images() {
     let img = cpu(&flat, &t, &v, sh, CpuRenderer::Walk);
     assert!(diff(&img, &lit).unwrap().rmse < 1e-2);
     // Huge extinction: light gets no further than a skin far thinner than
-    // a cell. The reference integrates that skin; the per-vertex field
-    // sees boundary vertices lit and everything inside dark, which it
-    // cannot resolve further. Both finite, opaque where the mesh is, and
+    // a cell. The reference integrates that skin; the field's maps see
+    // it to their knots' resolution. Both finite, opaque where the mesh is, and
     // no brighter than every light at full strength.
     let dense = tf(r#"{"color": [[0, 1, 1, 1]], "opacity": [[0, 1e30]], "unit_distance": 1}"#);
     let reference = reference_lit(&c, &dense, &v, sh, ShadowMode::Exact);

@@ -314,7 +314,7 @@ impl Engine {
         let mut refused = None;
         if use_gpu {
             // Lighting and shadows are drawn on the GPU too, but the shadow
-            // of a point light inside or beside the mesh (held per vertex):
+            // of a point light inside or beside the mesh (a cube of maps):
             // that frame is drawn on the CPU, saying why.
             match self.render_gpu(req) {
                 Err(ViewerError::Engine(EngineError::Gpu { kind: GpuFailure::Unsupported, source })) => {
@@ -669,10 +669,10 @@ mod tests {
 
     /// With the GPU preferred, a shadowed frame (a directional light's
     /// map) is drawn on the GPU, its field kept across a camera move; the
-    /// shadow of a point light inside the mesh (per vertex) is drawn on the
+    /// shadow of a point light inside the mesh (a cube of maps) is drawn on the
     /// CPU, the backend saying why.
     #[test]
-    fn shadowed_frames_go_to_the_gpu_unless_held_per_vertex() {
+    fn shadowed_frames_go_to_the_gpu_unless_a_cube_of_maps() {
         let bundle = sample_bundle();
         let Some(mut engine) = gpu_engine(&bundle) else { return };
         let model = TfModel::ramp(engine.scene().scalar_range(), 0.5);

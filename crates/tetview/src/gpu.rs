@@ -33,7 +33,8 @@ pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
     }
     // Lighting (--light, --light-dir, a view file's lights), --silhouette
     // and --shadows are drawn on the GPU; the shadow of a point light inside
-    // or beside the mesh's box is refused by the renderer (exit code 2).
+    // or beside the mesh's box (a cube of maps) is refused by the renderer
+    // (exit code 2).
     if args.gpu_bake && method != Method::Table3d {
         return Err(usage(format!("--gpu-bake: method {method} has no table to bake (only table3d)")));
     }

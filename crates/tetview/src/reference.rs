@@ -30,7 +30,7 @@ pub struct ReferenceArgs {
     pub camera: crate::camera_args::CameraArgs,
     #[command(flatten)]
     pub lighting: crate::camera_args::LightingArgs,
-    /// With --shadows: take shadows from the per-vertex shadow field the
+    /// With --shadows: take shadows from the shadow field (deep shadow maps) the
     /// CPU renderers use instead of exact shadow rays (their difference is
     /// the field's error).
     #[arg(long, requires = "shadows")]

@@ -372,7 +372,7 @@ fn gpu_render_matches_the_cpu_or_skips() {
 /// `render --gpu` lit (`--light`, `--light-dir`, `--silhouette`, a view
 /// file's lights) draws what the CPU's projected tetrahedra draw with the
 /// same flags, shadows (`--shadows`, a view file's) included; the shadow
-/// of a point light inside the mesh (held per vertex) is a usage error
+/// of a point light inside the mesh (a cube of maps) is a usage error
 /// naming shadows. Skips where no GPU adapter exists (fails instead with
 /// TETKIT_REQUIRE_GPU=1).
 #[test]
@@ -388,7 +388,7 @@ fn gpu_render_lit_matches_the_cpu_or_skips() {
         tetview(&a)
     };
     // A view file with shadows, and one whose point light sits inside the
-    // mesh (its shadow is held per vertex: CPU-only).
+    // mesh (its shadow is a cube of maps: CPU-only).
     let shadow_view = f("shadow_view.json");
     let out = render(&["--light-dir", "-1,-0.5,-0.8", "--shadows", "--save-view", path_arg(&shadow_view)], &f("x.npy"));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

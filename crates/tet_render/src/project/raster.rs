@@ -346,11 +346,6 @@ impl TetSetup {
                 self.centre = inp.scene.centre_in_world();
             }
             self.shadow_maps = inp.shadows.filter(|f| f.has_maps()).cloned();
-            if let Some(f) = inp.shadows {
-                for i in 0..f.num_lights() {
-                    self.lit_fields.push(field_of(&tet.map(|v| f.depth_at(i, v) as f64)));
-                }
-            }
         }
         let mut len_max: f64 = 0.0;
         for i in 0..4 {
@@ -565,9 +560,10 @@ impl TetSetup {
             DVec3::ZERO
         };
         let mut shadow = [1.0; crate::MAX_LIGHTS];
-        for (i, fi) in f[self.n_pos..].iter().enumerate().take(crate::MAX_LIGHTS) {
-            let depth = self.shadow_maps.as_ref().and_then(|m| m.map_depth_at(i, pos));
-            shadow[i] = (-depth.unwrap_or_else(|| fi.at(x, y, z)).max(0.0)).exp();
+        if let Some(m) = &self.shadow_maps {
+            for (i, t) in shadow.iter_mut().enumerate().take(m.num_lights()) {
+                *t = (-m.depth_at(i, pos).max(0.0)).exp();
+            }
         }
         (pos, shadow)
     }

@@ -99,12 +99,11 @@ pub(crate) struct TetSetup {
     pub(crate) g: Option<Field>,
     pub(crate) normal: Option<[Field; 3]>,
     /// Lighting: world position (x, y, z relative to `centre`, when
-    /// `n_pos` is 3) then one shadow transmittance per light.
+    /// `n_pos` is 3).
     pub(crate) lit_fields: Vec<Field>,
     pub(crate) n_pos: usize,
     pub(crate) centre: DVec3,
-    /// The shadow field, kept when a light's shadow is a map (looked up
-    /// by position).
+    /// The shadow field (its maps looked up by position).
     pub(crate) shadow_maps: Option<std::sync::Arc<crate::ShadowField>>,
     pub(crate) s_range: [f64; 2],
     pub(crate) g_range: [f64; 2],

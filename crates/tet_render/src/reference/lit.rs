@@ -13,8 +13,8 @@
 //! quadrature's, bounded by [`LitReference::tolerance`]. D and S come
 //! from the gradient interpolated linearly in the tet (exact at every
 //! node) and, with shadows, from an exact shadow ray cast from each node
-//! to each light ([`ShadowMode::Exact`]) or from the per-vertex
-//! [`ShadowField`] interpolated there ([`ShadowMode::Field`]), which
+//! to each light ([`ShadowMode::Exact`]) or from the [`ShadowField`]'s
+//! maps looked up there ([`ShadowMode::Field`]), which
 //! separates the field's error from the fast renderers' lighting error.
 //!
 //! Silhouettes are a per-segment effect of the fast renderers, not part of
@@ -24,7 +24,7 @@ use glam::DVec3;
 use tet_preint::{Emission, TransferFunction};
 
 use super::{LineSegment, RayResult, RayScratch, ReferenceOptions, ReferenceRenderer, ReferenceStats};
-use crate::shading::{Shading, MAX_LIGHTS};
+use crate::shading::Shading;
 use crate::shadow::{ShadowMode, ShadowScratch};
 use crate::{Camera, Image, RenderError};
 
@@ -99,10 +99,6 @@ struct LitRay<'r, 'a> {
     seg: &'r LineSegment,
     g_front: [f64; 3],
     g_back: [f64; 3],
-    /// Optical depths towards each light from the shadow field, at the
-    /// segment's ends (Field mode).
-    v_front: [f64; MAX_LIGHTS],
-    v_back: [f64; MAX_LIGHTS],
 }
 
 impl LitRay<'_, '_> {
@@ -115,10 +111,7 @@ impl LitRay<'_, '_> {
         let lights = self.lit.shading.sources;
         let p = self.lit.shading.lit_point(g, pos, self.view_dir, |i| match self.lit.shadows {
             ShadowMode::Exact => (-self.r.depth_to_light(pos, &lights.lights()[i], self.tf, shadow, stats)).exp(),
-            ShadowMode::Field(f) => {
-                let depth = f.map_depth_at(i, pos).unwrap_or(self.v_front[i] + u * (self.v_back[i] - self.v_front[i]));
-                (-depth).exp()
-            }
+            ShadowMode::Field(f) => (-f.depth_at(i, pos)).exp(),
         });
         (p.diffuse, p.specular)
     }
@@ -286,17 +279,7 @@ impl ReferenceRenderer<'_> {
         let mut acc = [0.0f64; 4];
         let (breakpoints, shadow) = (&mut scratch.breakpoints, &mut scratch.shadow);
         let mut shadow_stats = ReferenceStats::default();
-        let field = match lit.shadows {
-            ShadowMode::Field(f) if lit.shading.shadows => Some(f),
-            _ => None,
-        };
         self.walk_line(line, t_start, &mut scratch.entries, &mut res.stats, &mut |seg| {
-            let fv = |p: &super::LinePoint| -> [f64; MAX_LIGHTS] {
-                std::array::from_fn(|i| match field {
-                    Some(f) if f.has_light(i) => (0..3).map(|k| p.w[k] * f.depth_at(i, p.ids[k]) as f64).sum(),
-                    _ => 0.0,
-                })
-            };
             let ray = LitRay {
                 r: self,
                 lit,
@@ -306,8 +289,6 @@ impl ReferenceRenderer<'_> {
                 seg,
                 g_front: seg.front.interp(lit.gradients),
                 g_back: seg.back.interp(lit.gradients),
-                v_front: fv(&seg.front),
-                v_back: fv(&seg.back),
             };
             // The TF's nodes between the two scalars, in the order the ray
             // meets them, as parameters.

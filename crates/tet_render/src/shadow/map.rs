@@ -58,6 +58,35 @@ pub struct DeepShadowMap {
 /// Index bins along each ray.
 const BINS: usize = 32;
 
+/// Rays along each side of a cube map's face (90° of view: ~0.7° apart).
+pub const CUBE_RAYS: usize = 128;
+
+/// The faces of a point light's cube of maps: (axis d, e1, e2), face f
+/// seeing the points whose largest coordinate relative to the light is
+/// along d ([`cube_face`]).
+pub(crate) const CUBE_AXES: [(DVec3, DVec3, DVec3); 6] = [
+    (DVec3::X, DVec3::Y, DVec3::Z),
+    (DVec3::NEG_X, DVec3::Y, DVec3::Z),
+    (DVec3::Y, DVec3::Z, DVec3::X),
+    (DVec3::NEG_Y, DVec3::Z, DVec3::X),
+    (DVec3::Z, DVec3::X, DVec3::Y),
+    (DVec3::NEG_Z, DVec3::X, DVec3::Y),
+];
+
+/// The face of a cube of maps that sees `q` (a point relative to the
+/// light): its largest coordinate's axis and sign (ties to the first axis).
+pub(crate) fn cube_face(q: DVec3) -> usize {
+    let a = q.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    2 * axis + usize::from(q[axis] < 0.0)
+}
+
 /// A [`DeepShadowMap`] as its lookup reads it: unit vectors across the
 /// rays (`e1`, `e2`) and along them (`d`); a point light's position
 /// (`origin`: rays fan out from it over slopes, samples by distance) or
@@ -128,7 +157,7 @@ impl DeepShadowMap {
                 for i in 0..nu {
                     let start = e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0;
                     let before = knots.len();
-                    walk_ray(reference, start, d, tf, scratch, &mut st, &mut knots);
+                    walk_ray(reference, start, d, f64::NEG_INFINITY, tf, scratch, &mut st, &mut knots);
                     counts.push((knots.len() - before) as u32);
                 }
                 (counts, knots, st)
@@ -144,7 +173,8 @@ impl DeepShadowMap {
     /// walked from the light, its knots at distances from it. `None` when
     /// some point of the mesh is not in front of the light along the
     /// direction to the mesh's centre (a light inside or beside the
-    /// bounding box): such a light keeps its per-vertex field.
+    /// bounding box): such a light gets a cube of maps
+    /// ([`DeepShadowMap::build_cube`]).
     pub(crate) fn build_point(
         reference: &ReferenceRenderer,
         light: DVec3,
@@ -190,7 +220,7 @@ impl DeepShadowMap {
                 for i in 0..nu {
                     let dir = (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize();
                     let before = knots.len();
-                    walk_ray(reference, light, dir, tf, scratch, &mut st, &mut knots);
+                    walk_ray(reference, light, dir, f64::NEG_INFINITY, tf, scratch, &mut st, &mut knots);
                     counts.push((knots.len() - before) as u32);
                 }
                 (counts, knots, st)
@@ -199,6 +229,64 @@ impl DeepShadowMap {
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
         let (knots, index) = index_rays(rays, nu * nv, bin_len, stats);
         Some(DeepShadowMap { e1, e2, d, u0, v0, t0: 0.0, du, dv, nu, nv, knots, index, bin_len, origin: Some(light) })
+    }
+
+    /// A point light's cube of maps (after the same paper's perspective
+    /// maps, one for each face of a cube around the light): for a light
+    /// inside the mesh or beside its box, where no single fan covers the
+    /// mesh. Face f looks along [`CUBE_AXES`]`[f]`; its rays leave the light
+    /// over slopes in [−1, 1]² across that axis, each walked from the light
+    /// outwards (parameter = distance from the light). `None` for a light
+    /// that is not finite.
+    pub(crate) fn build_cube(
+        reference: &ReferenceRenderer,
+        light: DVec3,
+        tf: &TransferFunction,
+        stats: &mut ReferenceStats,
+    ) -> Option<Box<[DeepShadowMap; 6]>> {
+        if !light.is_finite() {
+            return None;
+        }
+        let far = reference.points().iter().map(|p| (DVec3::from(*p) - light).length()).fold(0.0f64, f64::max);
+        let bin_len = (far / BINS as f64).max(1e-300) as f32;
+        let n = CUBE_RAYS;
+        let step = 2.0 / (n - 1) as f64;
+        let faces = CUBE_AXES.map(|(d, e1, e2)| {
+            let rays: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)> = (0..n)
+                .into_par_iter()
+                .map_init(ShadowScratch::default, |scratch, j| {
+                    let mut st = ReferenceStats::default();
+                    let (mut counts, mut knots) = (Vec::with_capacity(n), Vec::new());
+                    for i in 0..n {
+                        let (u, v) = (-1.0 + i as f64 * step, -1.0 + j as f64 * step);
+                        let dir = (d + e1 * u + e2 * v).normalize();
+                        let before = knots.len();
+                        // From the light on: the mesh behind it is another face's.
+                        walk_ray(reference, light, dir, 0.0, tf, scratch, &mut st, &mut knots);
+                        counts.push((knots.len() - before) as u32);
+                    }
+                    (counts, knots, st)
+                })
+                .collect();
+            let (knots, index) = index_rays(rays, n * n, bin_len, stats);
+            DeepShadowMap {
+                e1,
+                e2,
+                d,
+                u0: -1.0,
+                v0: -1.0,
+                t0: 0.0,
+                du: step,
+                dv: step,
+                nu: n,
+                nv: n,
+                knots,
+                index,
+                bin_len,
+                origin: Some(light),
+            }
+        });
+        Some(Box::new(faces))
     }
 
     /// The optical depth from the light to `p` (in the map's frame).
@@ -264,6 +352,11 @@ impl DeepShadowMap {
 
     pub fn memory_bytes(&self) -> usize {
         self.knots.len() * 8 + self.index.len() * 4
+    }
+
+    /// A point light's map: the light (its rays fan out from it).
+    pub(crate) fn origin(&self) -> Option<DVec3> {
+        self.origin
     }
 
     /// The map's arrays and frame as [`DeepShadowMap::depth_at`] reads
@@ -335,10 +428,12 @@ fn index_rays(
 /// Walks the ray from `start` along `d`, appending its knots: (parameter,
 /// optical depth) where it enters the mesh, at every TF node and tet
 /// crossing after, up to the last crossing or [`OPAQUE_DEPTH`].
+#[allow(clippy::too_many_arguments)]
 fn walk_ray(
     reference: &ReferenceRenderer,
     start: DVec3,
     d: DVec3,
+    t_start: f64,
     tf: &TransferFunction,
     scratch: &mut ShadowScratch,
     stats: &mut ReferenceStats,
@@ -361,7 +456,7 @@ fn walk_ray(
         }
     };
     stats.rays += 1;
-    reference.walk_line(&line, f64::NEG_INFINITY, entries, stats, &mut |seg| {
+    reference.walk_line(&line, t_start, entries, stats, &mut |seg| {
         let (s0, s1, len) = (seg.s_front(), seg.back.s, seg.len());
         // Where the segment starts (an entry, or the last back again).
         push(seg.t_front, acc, knots);

@@ -672,12 +672,7 @@ impl WalkCtx<'_> {
             DVec3::ZERO
         };
         let shadow = |i: usize| match field {
-            Some(f) if f.has_light(i) => {
-                let depth = f
-                    .map_depth_at(i, pos)
-                    .unwrap_or_else(|| ends.at(w, |v| [f.depth_at(i, m.scene_vertex[v as usize])])[0] as f64);
-                (-depth).exp()
-            }
+            Some(f) if f.has_light(i) => (-f.depth_at(i, pos)).exp(),
             _ => 1.0,
         };
         sh.lit_point(DVec3::new(g[0] as f64, g[1] as f64, g[2] as f64), pos, view_dir, shadow)

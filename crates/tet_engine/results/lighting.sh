@@ -23,6 +23,11 @@ done
 for b in ip grid60; do
   [ -f /work/bench/$b.tetb ] && $T/examples/lighting_bench /work/bench/$b.tetb formats/samples/tf_normalized.json 512 8 $R/lighting_rows.md
 done
+# Point lights inside the mesh and beside its box (a cube of maps).
+for place in inside beside; do
+  TET_LIGHT=$place $T/examples/lighting_bench /tmp/bf.tetb $R/bf_shadow_tf.json 256 64 $R/lighting_rows.md
+done
+TET_LIGHT=inside $T/examples/lighting_bench /tmp/autzen.tetb $R/autzen_tf.json 256 64 $R/lighting_rows.md
 # Pictures: the same light without and with shadows.
 for shadows in "" --shadows; do
   name=$([ -n "$shadows" ] && echo shadows || echo lit)

@@ -40,3 +40,7 @@ done
 for n in point point_shadows; do
   $T/tetview render /tmp/bf.tetb --tf $R/bf_shadow_tf.json --view $R/bf_${n}_view.json -o $R/bf_$n.png
 done
+# A point light inside the mesh (its cube of maps), without and with shadows.
+for n in inside inside_shadows; do
+  $T/tetview render /tmp/bf.tetb --tf $R/bf_shadow_tf.json --view $R/bf_${n}_view.json -o $R/bf_$n.png
+done

@@ -87,20 +87,27 @@ fn assert_truncations_are_errors(bytes: &[u8], p: &Path, step: usize) {
     }
 }
 
+/// `count` copies of `bytes`, each with one bit flipped at a byte chosen by
+/// a xorshift generator from `seed`: (that byte, the copy).
+fn bit_flips(bytes: &[u8], mut seed: u64, count: usize) -> impl Iterator<Item = (usize, Vec<u8>)> + '_ {
+    (0..count).map(move |_| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        let i = (seed % bytes.len() as u64) as usize;
+        let mut b = bytes.to_vec();
+        b[i] ^= 1 << (seed >> 60 & 7);
+        (i, b)
+    })
+}
+
 #[test]
 fn every_truncation_and_byte_flip_is_an_error_not_a_panic() {
     let bytes = sample_bundle().to_bytes();
     let p = Path::new("t.tetb");
     assert_truncations_are_errors(&bytes, p, 7);
     let good = Bundle::from_bytes(&bytes, p).unwrap();
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    for _ in 0..2000 {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        let i = (seed % bytes.len() as u64) as usize;
-        let mut b = bytes.clone();
-        b[i] ^= 1 << (seed >> 60 & 7);
+    for (i, b) in bit_flips(&bytes, 0x2545_f491_4f6c_dd1d, 2000) {
         // Either detected, or the flip hit padding and changed nothing.
         if let Ok(x) = Bundle::from_bytes(&b, p) {
             assert_eq!(x, good, "flip at byte {i} changed the content undetected");
@@ -124,14 +131,7 @@ fn reading_a_file_agrees_with_reading_its_bytes() {
             let e = Bundle::read(&path).expect_err("a truncated file was accepted");
             assert!(e.to_string().contains("f.tetb"), "{e}");
         }
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        for _ in 0..600 {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            let i = (seed % bytes.len() as u64) as usize;
-            let mut b = bytes.clone();
-            b[i] ^= 1 << (seed >> 60 & 7);
+        for (i, b) in bit_flips(&bytes, 0x9e37_79b9_7f4a_7c15, 600) {
             std::fs::write(&path, &b).unwrap();
             match (Bundle::read(&path), Bundle::from_bytes(&b, &path)) {
                 (Ok(x), Ok(y)) => assert_eq!(x, y, "flip at byte {i}"),

@@ -149,20 +149,9 @@ impl DeepShadowMap {
         let inset = ext.x.max(ext.y) * 1e-7;
         let (du, dv) = ((ext.x - 2.0 * inset) / (nu - 1) as f64, (ext.y - 2.0 * inset) / (nv - 1) as f64);
         let (u0, v0, t0) = (lo.x + inset, lo.y + inset, lo.z);
-        let rows: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)> = (0..nv)
-            .into_par_iter()
-            .map_init(ShadowScratch::default, |scratch, j| {
-                let mut st = ReferenceStats::default();
-                let (mut counts, mut knots) = (Vec::with_capacity(nu), Vec::new());
-                for i in 0..nu {
-                    let start = e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0;
-                    let before = knots.len();
-                    walk_ray(reference, start, d, f64::NEG_INFINITY, tf, scratch, &mut st, &mut knots);
-                    counts.push((knots.len() - before) as u32);
-                }
-                (counts, knots, st)
-            })
-            .collect();
+        let rows = walk_grid(reference, [nu, nv], tf, |i, j| {
+            (e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0, d, f64::NEG_INFINITY)
+        });
         let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
         let (knots, index) = index_rays(rows, nu * nv, bin_len, stats);
         DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, knots, index, bin_len, origin: None }
@@ -212,20 +201,9 @@ impl DeepShadowMap {
         let inset = longest * 1e-7;
         let (du, dv) = ((ext[0] - 2.0 * inset) / (nu - 1) as f64, (ext[1] - 2.0 * inset) / (nv - 1) as f64);
         let (u0, v0) = (slo[0] + inset, slo[1] + inset);
-        let rays: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)> = (0..nv)
-            .into_par_iter()
-            .map_init(ShadowScratch::default, |scratch, j| {
-                let mut st = ReferenceStats::default();
-                let (mut counts, mut knots) = (Vec::with_capacity(nu), Vec::new());
-                for i in 0..nu {
-                    let dir = (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize();
-                    let before = knots.len();
-                    walk_ray(reference, light, dir, f64::NEG_INFINITY, tf, scratch, &mut st, &mut knots);
-                    counts.push((knots.len() - before) as u32);
-                }
-                (counts, knots, st)
-            })
-            .collect();
+        let rays = walk_grid(reference, [nu, nv], tf, |i, j| {
+            (light, (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize(), f64::NEG_INFINITY)
+        });
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
         let (knots, index) = index_rays(rays, nu * nv, bin_len, stats);
         Some(DeepShadowMap { e1, e2, d, u0, v0, t0: 0.0, du, dv, nu, nv, knots, index, bin_len, origin: Some(light) })
@@ -252,22 +230,11 @@ impl DeepShadowMap {
         let n = CUBE_RAYS;
         let step = 2.0 / (n - 1) as f64;
         let faces = CUBE_AXES.map(|(d, e1, e2)| {
-            let rays: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)> = (0..n)
-                .into_par_iter()
-                .map_init(ShadowScratch::default, |scratch, j| {
-                    let mut st = ReferenceStats::default();
-                    let (mut counts, mut knots) = (Vec::with_capacity(n), Vec::new());
-                    for i in 0..n {
-                        let (u, v) = (-1.0 + i as f64 * step, -1.0 + j as f64 * step);
-                        let dir = (d + e1 * u + e2 * v).normalize();
-                        let before = knots.len();
-                        // From the light on: the mesh behind it is another face's.
-                        walk_ray(reference, light, dir, 0.0, tf, scratch, &mut st, &mut knots);
-                        counts.push((knots.len() - before) as u32);
-                    }
-                    (counts, knots, st)
-                })
-                .collect();
+            // From the light on (t ≥ 0): the mesh behind it is another face's.
+            let rays = walk_grid(reference, [n, n], tf, |i, j| {
+                let (u, v) = (-1.0 + i as f64 * step, -1.0 + j as f64 * step);
+                (light, (d + e1 * u + e2 * v).normalize(), 0.0)
+            });
             let (knots, index) = index_rays(rays, n * n, bin_len, stats);
             DeepShadowMap {
                 e1,
@@ -389,12 +356,7 @@ impl DeepShadowMap {
 
 /// The rays' knots in one array, rows of (knot counts, knots, stats) in
 /// ray order, and each ray's index record ([`DeepShadowMap`]'s `index`).
-fn index_rays(
-    rows: Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)>,
-    rays: usize,
-    bin_len: f32,
-    stats: &mut ReferenceStats,
-) -> (Vec<[f32; 2]>, Vec<u32>) {
+fn index_rays(rows: RayRows, rays: usize, bin_len: f32, stats: &mut ReferenceStats) -> (Vec<[f32; 2]>, Vec<u32>) {
     let mut first = Vec::with_capacity(rays + 1);
     let mut knots = Vec::new();
     first.push(0u32);
@@ -428,6 +390,35 @@ fn index_rays(
 /// Walks the ray from `start` along `d`, appending its knots: (parameter,
 /// optical depth) where it enters the mesh, at every TF node and tet
 /// crossing after, up to the last crossing or [`OPAQUE_DEPTH`].
+/// Per row of a grid of rays: each ray's knot count, the row's knots, and
+/// its walks' counts.
+type RayRows = Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)>;
+
+/// The walks of a `[nu, nv]` grid of rays, rows in parallel (the result
+/// does not depend on the thread count); `ray(i, j)` gives ray (i, j)'s
+/// start, unit direction and the parameter its walk starts at.
+fn walk_grid(
+    reference: &ReferenceRenderer,
+    [nu, nv]: [usize; 2],
+    tf: &TransferFunction,
+    ray: impl Fn(usize, usize) -> (DVec3, DVec3, f64) + Sync,
+) -> RayRows {
+    (0..nv)
+        .into_par_iter()
+        .map_init(ShadowScratch::default, |scratch, j| {
+            let mut st = ReferenceStats::default();
+            let (mut counts, mut knots) = (Vec::with_capacity(nu), Vec::new());
+            for i in 0..nu {
+                let (start, dir, t_start) = ray(i, j);
+                let before = knots.len();
+                walk_ray(reference, start, dir, t_start, tf, scratch, &mut st, &mut knots);
+                counts.push((knots.len() - before) as u32);
+            }
+            (counts, knots, st)
+        })
+        .collect()
+}
+
 #[allow(clippy::too_many_arguments)]
 fn walk_ray(
     reference: &ReferenceRenderer,

@@ -1,10 +1,22 @@
 #![no_main]
 use libfuzzer_sys::fuzz_target;
+use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(b) = tet_bundle::Bundle::from_bytes(data, std::path::Path::new("fuzz.tetb")) {
+    let from_bytes = tet_bundle::Bundle::from_bytes(data, Path::new("fuzz.tetb"));
+    if let Ok(b) = &from_bytes {
         // Whatever is accepted must round-trip.
-        let again = tet_bundle::Bundle::from_bytes(&b.to_bytes(), std::path::Path::new("fuzz.tetb")).unwrap();
+        let again = tet_bundle::Bundle::from_bytes(&b.to_bytes(), Path::new("fuzz.tetb")).unwrap();
         assert_eq!(again.mesh, b.mesh);
+    }
+    // The file reader (section by section, tet_container::SectionFile)
+    // agrees with the bytes' parser: the same bundle, or an error.
+    let path = std::env::temp_dir().join(format!("tetkit-fuzz-bundle-{}.tetb", std::process::id()));
+    std::fs::write(&path, data).unwrap();
+    let from_file = tet_bundle::Bundle::read(&path);
+    match (&from_file, &from_bytes) {
+        (Ok(x), Ok(y)) => assert_eq!(x, y),
+        (Err(_), Err(_)) => {}
+        (x, y) => panic!("the file reader gave {:?}, the bytes' parser {:?}", x.is_ok(), y.is_ok()),
     }
 });

@@ -66,11 +66,10 @@ pub struct GpuFrameOptions {
 
 /// Projected tetrahedra on the GPU, lit (headlight, directional and point
 /// lights, silhouettes) as the CPU's projected tetrahedra light a fragment,
-/// with the shadows of lights whose shadow field is a deep shadow map
-/// (directional lights, point lights outside the mesh's box; the field is
-/// computed on the CPU as the CPU renderers compute it and kept while the
-/// lights, TF and scalar stay). A point light's cube of maps (the light
-/// inside or beside the box) is [`GpuFailure::Unsupported`].
+/// with their shadows: the shadow field's deep shadow maps (a point light's
+/// cube of them inside or beside the mesh's box), computed on the CPU as
+/// the CPU renderers compute them and kept while the lights, TF and scalar
+/// stay.
 pub struct GpuFrameRenderer {
     ctx: GpuContext,
     /// `None` only while gradients are being added (as `gpu_scene`).
@@ -166,9 +165,7 @@ impl GpuFrameRenderer {
 
     /// Whether the GPU draws `method` with `req`'s shading; `Err` says why
     /// not (checked before any device work by front ends that want to).
-    /// Every shading is drawn but the shadow of a point light inside or
-    /// beside the mesh's box, which only the shadow field tells: that frame
-    /// is [`GpuFailure::Unsupported`].
+    /// Every shading is drawn (`req` is not consulted today).
     pub fn supports(method: Method, _req: &FrameRequest) -> Result<(), String> {
         if !GpuFrameRenderer::supports_method(method) {
             let ids: Vec<&str> = GPU_METHODS.iter().map(|m| m.id()).collect();

@@ -40,8 +40,10 @@ const NORMAL_ROWS: u32 = 6u;
 
 @group(0) @binding(19) var<uniform> lighting: LightParams;
 
-// gpu_types::GpuShadowMap: a light's map in the GPU's frame (positions
-// relative to the mesh centre); `has_map` 0: no shadow from this light.
+// gpu_types::GpuShadowMap: a map in the GPU's frame (positions relative to
+// the mesh centre), light i's in slots SHADOW_SLOTS·i onwards; `has_map` 0
+// in a light's first slot: no shadow from it; `cube` 1 there: its six
+// slots are a cube of maps' faces (tet_render::shadow::cube_face order).
 struct ShadowMap {
     e1: vec4<f32>,
     e2: vec4<f32>,
@@ -58,12 +60,13 @@ struct ShadowMap {
     knot_base: u32,
     index_base: u32,
     has_map: u32,
-    _pad: u32,
+    cube: u32,
 }
 
 const SHADOW_BINS: u32 = 32u;
+const SHADOW_SLOTS: u32 = 6u;
 
-@group(0) @binding(22) var<storage, read> shadow_maps: array<ShadowMap, 8>;
+@group(0) @binding(22) var<storage, read> shadow_maps: array<ShadowMap, 48>;
 @group(0) @binding(23) var<storage, read> shadow_knots: array<vec2<f32>>;
 @group(0) @binding(24) var<storage, read> shadow_index: array<u32>;
 
@@ -107,12 +110,40 @@ fn shadow_coord(x: f32, x0: f32, dx: f32, n: u32) -> vec2<f32> {
     return vec2<f32>(i, f - i);
 }
 
-// Optical depth from light `l` to `pos_rel` through its map
-// (DeepShadowMap::depth_at): bilinear across the four nearest rays, each
-// read where it crosses the point's depth along the light (a point
-// light's fan: the point's plane across its axis).
-fn shadow_depth(l: u32, pos_rel: vec3<f32>) -> f32 {
-    let m = shadow_maps[l];
+// Optical depth from light `l` to `pos_rel` (ShadowField::depth_at): its
+// map, or the face of its cube that sees the point (the largest coordinate
+// relative to the light, ties to the first axis, as cube_face).
+fn light_shadow_depth(l: u32, pos_rel: vec3<f32>) -> f32 {
+    let first = l * SHADOW_SLOTS;
+    if shadow_maps[first].cube == 0u {
+        return shadow_depth(first, pos_rel);
+    }
+    let q = pos_rel - shadow_maps[first].origin.xyz;
+    let a = abs(q);
+    if !(max(max(a.x, a.y), a.z) > 0.0) {
+        return 0.0;
+    }
+    var face = 4u;
+    var neg = q.z < 0.0;
+    if a.x >= a.y && a.x >= a.z {
+        face = 0u;
+        neg = q.x < 0.0;
+    } else if a.y >= a.z {
+        face = 2u;
+        neg = q.y < 0.0;
+    }
+    if neg {
+        face += 1u;
+    }
+    return shadow_depth(first + face, pos_rel);
+}
+
+// Optical depth to `pos_rel` through map slot `s` (DeepShadowMap::depth_at):
+// bilinear across the four nearest rays, each read where it crosses the
+// point's depth along the light (a point light's fan: the point's plane
+// across its axis).
+fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
+    let m = shadow_maps[s];
     var u: f32;
     var v: f32;
     var axial: f32;
@@ -215,9 +246,9 @@ fn lit_point(g: vec3<f32>, has_dir_in: bool, pos_rel: vec3<f32>, view_dir: vec3<
                 to_light = normalize(dv / dm);
             }
             var w = l.v.w;
-            if shadow_maps[i].has_map != 0u {
+            if shadow_maps[i * SHADOW_SLOTS].has_map != 0u {
                 // ShadowField depths stop at OPAQUE_DEPTH: exp stays finite.
-                w *= exp(-max(shadow_depth(i, pos_rel), 0.0));
+                w *= exp(-max(light_shadow_depth(i, pos_rel), 0.0));
             }
             if w == 0.0 {
                 continue;

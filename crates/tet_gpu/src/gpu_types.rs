@@ -298,7 +298,8 @@ pub struct LightParams {
     pub lights: [GpuLight; MAX_GPU_LIGHTS],
 }
 
-/// One light's deep shadow map on the GPU (`ShadowMap` in lighting.wgsl):
+/// One deep shadow map on the GPU (`ShadowMap` in lighting.wgsl), light i's
+/// in slots [`SHADOW_SLOTS`]·i onwards:
 /// `tet_render::shadow::MapLayout` in the GPU's frame (positions relative to
 /// the mesh centre), its knots and ray index at offsets into the buffers
 /// every light's maps share. `has_map` 0: the light casts no shadow here.
@@ -324,8 +325,15 @@ pub struct GpuShadowMap {
     pub knot_base: u32,
     pub index_base: u32,
     pub has_map: u32,
-    pub _pad: u32,
+    /// In a light's first slot: 1 when the light's shadow is a cube of
+    /// six maps, its faces in this slot and the next five
+    /// (`tet_render::shadow::cube_face` order).
+    pub cube: u32,
 }
+
+/// Map slots a light has in the shadow-map buffer: one for a map, six
+/// for a cube of maps (`SHADOW_SLOTS` in lighting.wgsl).
+pub const SHADOW_SLOTS: usize = 6;
 
 /// Index bins along each shadow-map ray (`SHADOW_BINS` in lighting.wgsl;
 /// `tet_render::shadow::MapLayout::bins`).

@@ -5,8 +5,8 @@
 //! shadow-casting light's deep shadow map (`tet_render::ShadowField`'s maps:
 //! directional lights, point lights outside the mesh's box) as
 //! [`ShadowMaps`], looked up in lighting.wgsl as `DeepShadowMap::depth_at`
-//! looks it up, in f32. A cube of maps (a point light inside or beside the
-//! box) is not on the GPU yet.
+//! looks it up, in f32; a point light inside or beside the box has a cube
+//! of six maps, read in the face `tet_render::shadow::cube_face` picks.
 
 use glam::DVec3;
 use tet_render::shading::{LIT_MAX_PIECES, LIT_SPLIT_TOLERANCE};
@@ -14,14 +14,16 @@ use tet_render::{LightSource, Shading, ShadowField};
 
 use crate::gpu_types::{
     GpuLight, GpuShadowMap, LightParams, LIGHT_DIRECTIONAL, LIGHT_HEADLIGHT, LIGHT_POINT, MAX_GPU_LIGHTS, SHADOW_BINS,
+    SHADOW_SLOTS,
 };
 use crate::GpuError;
 
-/// Every light's shadow for the GPU: a [`GpuShadowMap`] a light (inactive
+/// Every light's shadow for the GPU: [`SHADOW_SLOTS`] [`GpuShadowMap`]
+/// slots a light (its map in the first, or a cube's six faces; inactive
 /// for lights without one), and the maps' knots and ray index concatenated.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShadowMaps {
-    pub maps: [GpuShadowMap; MAX_GPU_LIGHTS],
+    pub maps: [GpuShadowMap; SHADOW_SLOTS * MAX_GPU_LIGHTS],
     pub knots: Vec<[f32; 2]>,
     pub index: Vec<u32>,
 }
@@ -30,21 +32,18 @@ impl ShadowMaps {
     /// No shadows: every map inactive (one knot and index entry, so the
     /// buffers are never empty).
     pub fn none() -> ShadowMaps {
-        ShadowMaps { maps: [bytemuck::Zeroable::zeroed(); MAX_GPU_LIGHTS], knots: vec![[0.0; 2]], index: vec![0] }
+        ShadowMaps {
+            maps: [bytemuck::Zeroable::zeroed(); SHADOW_SLOTS * MAX_GPU_LIGHTS],
+            knots: vec![[0.0; 2]],
+            index: vec![0],
+        }
     }
 
-    /// `field`'s maps in the frame of a scene whose positions are relative
-    /// to `centre_in_world`. A light whose shadow `field` holds as a cube of maps
-    /// is [`GpuError::Unsupported`]; a map too large for u32 offsets or not
-    /// finite in f32 is [`GpuError::Input`].
+    /// `field`'s maps (a cube's six faces for a point light inside or
+    /// beside the box) in the frame of a scene whose positions are relative
+    /// to `centre_in_world`. A map too large for u32 offsets or not finite
+    /// in f32 is [`GpuError::Input`].
     pub fn new(field: &ShadowField, centre_in_world: DVec3) -> Result<ShadowMaps, GpuError> {
-        if field.has_cube_lights() {
-            return Err(GpuError::Unsupported(
-                "shadows of a point light inside or beside the mesh's bounding box are CPU-only (a cube of six maps); \
-                 lights outside the box and directional lights cast theirs on the GPU"
-                    .into(),
-            ));
-        }
         if field.num_lights() > MAX_GPU_LIGHTS {
             return Err(GpuError::Input(format!("{} lights, at most {MAX_GPU_LIGHTS}", field.num_lights())));
         }
@@ -54,54 +53,17 @@ impl ShadowMaps {
         // The map's frame is `field`'s; the GPU's positions are relative to
         // `centre_in_world`: p_map = p_gpu + off.
         let off = centre_in_world - field.frame_origin_in_world();
-        for (i, slot) in out.maps.iter_mut().enumerate().take(field.num_lights()) {
-            let Some(map) = field.map(i) else { continue };
-            let m = map.layout();
-            if m.bins != SHADOW_BINS {
-                return Err(GpuError::Input(format!("a shadow map of {} bins; the GPU reads {SHADOW_BINS}", m.bins)));
-            }
-            let (knot_base, index_base) = (out.knots.len(), out.index.len());
-            if knot_base + m.knots.len() > u32::MAX as usize || index_base + m.index.len() > u32::MAX as usize {
-                return Err(GpuError::Input("shadow maps beyond 2³² knots".into()));
-            }
-            // Parallel rays read p·e1, p·e2, p·d − t0 of the map's frame:
-            // the offset folds into the first ray's coordinates and t0. A
-            // fan's origin moves into the GPU's frame instead.
-            let (u0, v0, t0, origin) = match m.origin {
-                None => (m.u0 - off.dot(m.e1), m.v0 - off.dot(m.e2), m.t0 - off.dot(m.d), [0.0; 4]),
-                Some(o) => {
-                    let o = (o - off).as_vec3();
-                    (m.u0, m.v0, m.t0, [o.x, o.y, o.z, 1.0])
-                }
+        for i in 0..field.num_lights() {
+            let maps: Vec<&tet_render::shadow::DeepShadowMap> = match (field.map(i), field.cube(i)) {
+                (Some(m), _) => vec![m],
+                (None, Some(faces)) => faces.iter().collect(),
+                (None, None) => continue,
             };
-            let v3 = |v: DVec3| {
-                let v = v.as_vec3();
-                [v.x, v.y, v.z, 0.0]
-            };
-            *slot = GpuShadowMap {
-                e1: v3(m.e1),
-                e2: v3(m.e2),
-                d: v3(m.d),
-                origin,
-                u0: u0 as f32,
-                v0: v0 as f32,
-                t0: t0 as f32,
-                du: m.du as f32,
-                dv: m.dv as f32,
-                bin_len: m.bin_len,
-                nu: m.nu as u32,
-                nv: m.nv as u32,
-                knot_base: knot_base as u32,
-                index_base: index_base as u32,
-                has_map: 1,
-                _pad: 0,
-            };
-            let floats = [slot.u0, slot.v0, slot.t0, slot.du, slot.dv, slot.bin_len];
-            if !floats.iter().chain(&slot.origin).all(|x| x.is_finite()) || m.nu < 2 || m.nv < 2 {
-                return Err(GpuError::Input(format!("light {i}'s shadow map is not representable in f32")));
+            for (k, map) in maps.iter().enumerate() {
+                let slot = out.add(map, off, i)?;
+                out.maps[SHADOW_SLOTS * i + k] = slot;
             }
-            out.knots.extend_from_slice(m.knots);
-            out.index.extend_from_slice(m.index);
+            out.maps[SHADOW_SLOTS * i].cube = u32::from(maps.len() == 6);
         }
         if out.knots.is_empty() {
             out.knots.push([0.0; 2]);
@@ -110,6 +72,63 @@ impl ShadowMaps {
             out.index.push(0);
         }
         Ok(out)
+    }
+
+    /// Appends `map`'s knots and index (light `light`'s, moved by `off`
+    /// into the GPU's frame) and returns its slot.
+    fn add(
+        &mut self,
+        map: &tet_render::shadow::DeepShadowMap,
+        off: DVec3,
+        light: usize,
+    ) -> Result<GpuShadowMap, GpuError> {
+        let m = map.layout();
+        if m.bins != SHADOW_BINS {
+            return Err(GpuError::Input(format!("a shadow map of {} bins; the GPU reads {SHADOW_BINS}", m.bins)));
+        }
+        let (knot_base, index_base) = (self.knots.len(), self.index.len());
+        if knot_base + m.knots.len() > u32::MAX as usize || index_base + m.index.len() > u32::MAX as usize {
+            return Err(GpuError::Input("shadow maps beyond 2³² knots".into()));
+        }
+        // Parallel rays read p·e1, p·e2, p·d − t0 of the map's frame: the
+        // offset folds into the first ray's coordinates and t0. A fan's
+        // origin moves into the GPU's frame instead.
+        let (u0, v0, t0, origin) = match m.origin {
+            None => (m.u0 - off.dot(m.e1), m.v0 - off.dot(m.e2), m.t0 - off.dot(m.d), [0.0; 4]),
+            Some(o) => {
+                let o = (o - off).as_vec3();
+                (m.u0, m.v0, m.t0, [o.x, o.y, o.z, 1.0])
+            }
+        };
+        let v3 = |v: DVec3| {
+            let v = v.as_vec3();
+            [v.x, v.y, v.z, 0.0]
+        };
+        let slot = GpuShadowMap {
+            e1: v3(m.e1),
+            e2: v3(m.e2),
+            d: v3(m.d),
+            origin,
+            u0: u0 as f32,
+            v0: v0 as f32,
+            t0: t0 as f32,
+            du: m.du as f32,
+            dv: m.dv as f32,
+            bin_len: m.bin_len,
+            nu: m.nu as u32,
+            nv: m.nv as u32,
+            knot_base: knot_base as u32,
+            index_base: index_base as u32,
+            has_map: 1,
+            cube: 0,
+        };
+        let floats = [slot.u0, slot.v0, slot.t0, slot.du, slot.dv, slot.bin_len];
+        if !floats.iter().chain(&slot.origin).all(|x| x.is_finite()) || m.nu < 2 || m.nv < 2 {
+            return Err(GpuError::Input(format!("light {light}'s shadow map is not representable in f32")));
+        }
+        self.knots.extend_from_slice(m.knots);
+        self.index.extend_from_slice(m.index);
+        Ok(slot)
     }
 }
 

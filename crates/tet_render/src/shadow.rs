@@ -45,7 +45,7 @@ use crate::RenderError;
 
 mod map;
 
-pub use map::{DeepShadowMap, MapLayout, CUBE_RAYS, MAP_RAYS};
+pub use map::{cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, MAP_RAYS};
 
 /// Optical depth at which a shadow walk stops: transmittance below
 /// e^−46 ≈ 1e-20 changes no pixel (what is stored is the transmittance so
@@ -181,6 +181,15 @@ impl ShadowField {
     pub fn map(&self, light: usize) -> Option<&DeepShadowMap> {
         match self.per_light.get(light) {
             Some(LightShadow::Map(m)) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// Light `i`'s cube of maps (faces in the order of
+    /// [`shadow::cube_face`](cube_face)'s index), if its shadow is held as one.
+    pub fn cube(&self, light: usize) -> Option<&[DeepShadowMap; 6]> {
+        match self.per_light.get(light) {
+            Some(LightShadow::Cube(faces)) => Some(faces),
             _ => None,
         }
     }

@@ -32,9 +32,7 @@ pub fn check_args(args: &RenderArgs, method: Method) -> Result<()> {
         return Err(usage(format!("--gpu: method {method} is not on the GPU yet (GPU methods: {})", gpu_methods())));
     }
     // Lighting (--light, --light-dir, a view file's lights), --silhouette
-    // and --shadows are drawn on the GPU; the shadow of a point light inside
-    // or beside the mesh's box (a cube of maps) is refused by the renderer
-    // (exit code 2).
+    // and --shadows are drawn on the GPU.
     if args.gpu_bake && method != Method::Table3d {
         return Err(usage(format!("--gpu-bake: method {method} has no table to bake (only table3d)")));
     }

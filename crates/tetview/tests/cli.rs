@@ -371,10 +371,9 @@ fn gpu_render_matches_the_cpu_or_skips() {
 
 /// `render --gpu` lit (`--light`, `--light-dir`, `--silhouette`, a view
 /// file's lights) draws what the CPU's projected tetrahedra draw with the
-/// same flags, shadows (`--shadows`, a view file's) included; the shadow
-/// of a point light inside the mesh (a cube of maps) is a usage error
-/// naming shadows. Skips where no GPU adapter exists (fails instead with
-/// TETKIT_REQUIRE_GPU=1).
+/// same flags, shadows (`--shadows`, a view file's, a point light's inside
+/// the mesh) included. Skips where no GPU adapter exists (fails instead
+/// with TETKIT_REQUIRE_GPU=1).
 #[test]
 fn gpu_render_lit_matches_the_cpu_or_skips() {
     let dir = tempfile::tempdir().unwrap();
@@ -388,7 +387,7 @@ fn gpu_render_lit_matches_the_cpu_or_skips() {
         tetview(&a)
     };
     // A view file with shadows, and one whose point light sits inside the
-    // mesh (its shadow is a cube of maps: CPU-only).
+    // mesh (its shadow a cube of maps).
     let shadow_view = f("shadow_view.json");
     let out = render(&["--light-dir", "-1,-0.5,-0.8", "--shadows", "--save-view", path_arg(&shadow_view)], &f("x.npy"));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -446,20 +445,20 @@ fn gpu_render_lit_matches_the_cpu_or_skips() {
             assert!(u.max_abs > 1e-3, "{flags:?} changed nothing on the GPU");
         }
     }
-    // A view file's shadows draw what the CPU draws with it.
-    let (gpu, cpu) = (f("gpu_shadow_view.npy"), f("cpu_shadow_view.npy"));
-    let out = with_view(&shadow_view, &["--gpu"], &gpu);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = with_view(&shadow_view, &["--renderer", "pt"], &cpu);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let d = tet_render::diff(&tet_render::Image::read_npy(&gpu).unwrap(), &tet_render::Image::read_npy(&cpu).unwrap());
-    let d = d.unwrap();
-    assert!(d.rmse <= 1e-6 && d.max_abs <= 1e-5, "shadows from a view file: {d:?}");
-    let out = with_view(&inside_view, &["--gpu"], &f("x.npy"));
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("shadows"), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = with_view(&inside_view, &[], &f("x.npy"));
-    assert!(out.status.success(), "the CPU draws it: {}", String::from_utf8_lossy(&out.stderr));
+    // A view file's shadows draw what the CPU draws with it. Measured on
+    // lavapipe: rmse 1.7e-7 / 4.5e-7, max 1.9e-6 / 3.1e-5 (the light inside
+    // the mesh: the cube's lookups in f32 near the light).
+    for (view, max) in [(&shadow_view, 1e-5), (&inside_view, 5e-5)] {
+        let (gpu, cpu) = (f("gpu_shadow_view.npy"), f("cpu_shadow_view.npy"));
+        let out = with_view(view, &["--gpu"], &gpu);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let out = with_view(view, &["--renderer", "pt"], &cpu);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let (g, c) = (tet_render::Image::read_npy(&gpu).unwrap(), tet_render::Image::read_npy(&cpu).unwrap());
+        let d = tet_render::diff(&g, &c).unwrap();
+        eprintln!("--gpu --view {} vs --renderer pt: rmse {:.3e}, max {:.3e}", view.display(), d.rmse, d.max_abs);
+        assert!(d.rmse <= 1e-6 && d.max_abs <= max, "shadows from {}: {d:?}", view.display());
+    }
     let (from_view, direct) = (f("from_view.npy"), f("gpu1.npy"));
     let out = tetview(&[
         "render",

@@ -236,7 +236,9 @@ impl Workspace {
             shadow_maps: buffer(
                 &ctx.device,
                 "shadow maps",
-                std::mem::size_of::<[crate::gpu_types::GpuShadowMap; crate::gpu_types::MAX_GPU_LIGHTS]>() as u64,
+                std::mem::size_of::<
+                    [crate::gpu_types::GpuShadowMap; crate::gpu_types::SHADOW_SLOTS * crate::gpu_types::MAX_GPU_LIGHTS],
+                >() as u64,
                 wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             ),
             shadow_knots: Grow::storage("shadow-map knots"),

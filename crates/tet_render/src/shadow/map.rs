@@ -74,8 +74,9 @@ pub(crate) const CUBE_AXES: [(DVec3, DVec3, DVec3); 6] = [
 ];
 
 /// The face of a cube of maps that sees `q` (a point relative to the
-/// light): its largest coordinate's axis and sign (ties to the first axis).
-pub(crate) fn cube_face(q: DVec3) -> usize {
+/// light): its largest coordinate's axis and sign (ties to the first
+/// axis): 0 +x, 1 −x, 2 +y, 3 −y, 4 +z, 5 −z.
+pub fn cube_face(q: DVec3) -> usize {
     let a = q.abs();
     let axis = if a.x >= a.y && a.x >= a.z {
         0

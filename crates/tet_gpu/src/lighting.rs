@@ -21,12 +21,19 @@ use crate::GpuError;
 /// Every light's shadow for the GPU: [`SHADOW_SLOTS`] [`GpuShadowMap`]
 /// slots a light (its map in the first, or a cube's six faces; inactive
 /// for lights without one), and the maps' knots and ray index concatenated.
+/// Each value made by [`ShadowMaps::new`] has its own id (kept by clones),
+/// so a renderer uploads it once however many frames it lights.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShadowMaps {
-    pub maps: [GpuShadowMap; SHADOW_SLOTS * MAX_GPU_LIGHTS],
-    pub knots: Vec<[f32; 2]>,
-    pub index: Vec<u32>,
+    pub(crate) maps: [GpuShadowMap; SHADOW_SLOTS * MAX_GPU_LIGHTS],
+    pub(crate) knots: Vec<[f32; 2]>,
+    pub(crate) index: Vec<u32>,
+    /// 0 for [`ShadowMaps::none`] (always the same content).
+    pub(crate) id: u64,
 }
+
+/// The last id given to a [`ShadowMaps`].
+static SHADOW_MAPS_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 impl ShadowMaps {
     /// No shadows: every map inactive (one knot and index entry, so the
@@ -36,6 +43,7 @@ impl ShadowMaps {
             maps: [bytemuck::Zeroable::zeroed(); SHADOW_SLOTS * MAX_GPU_LIGHTS],
             knots: vec![[0.0; 2]],
             index: vec![0],
+            id: 0,
         }
     }
 
@@ -48,6 +56,7 @@ impl ShadowMaps {
             return Err(GpuError::Input(format!("{} lights, at most {MAX_GPU_LIGHTS}", field.num_lights())));
         }
         let mut out = ShadowMaps::none();
+        out.id = SHADOW_MAPS_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         out.knots.clear();
         out.index.clear();
         // The map's frame is `field`'s; the GPU's positions are relative to

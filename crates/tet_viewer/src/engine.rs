@@ -636,6 +636,15 @@ mod tests {
         }
     }
 
+    /// `plain` lit by `light` alone, with its shadows.
+    fn shadowed(plain: &FrameRequest, light: tet_render::LightSource) -> FrameRequest {
+        let lights = tet_render::LightSet::new(&[light]).unwrap();
+        FrameRequest {
+            shading: tet_render::Lighting { lights, shadows: true, ..Default::default() }.shading(None),
+            ..plain.clone()
+        }
+    }
+
     /// Lighting with shadows on the CPU (no GPU here): different from the
     /// unlit frame; the shadow field is computed for the first lit frame
     /// and reused when only the camera moves.
@@ -646,15 +655,8 @@ mod tests {
         let model = TfModel::ramp(engine.scene().scalar_range(), 0.5);
         let plain = request(&engine, &model, Method::Table3d, true);
         let unlit = engine.render(&plain).unwrap();
-        let lights = tet_render::LightSet::new(&[tet_render::LightSource::Directional {
-            direction: [0.5, -0.7, -0.5],
-            intensity: 1.0,
-        }])
-        .unwrap();
-        let lit = FrameRequest {
-            shading: tet_render::Lighting { lights, shadows: true, ..Default::default() }.shading(None),
-            ..plain.clone()
-        };
+        let sun = tet_render::LightSource::Directional { direction: [0.5, -0.7, -0.5], intensity: 1.0 };
+        let lit = shadowed(&plain, sun);
         assert!(!lit.same_frame(&plain));
         let f = engine.render(&lit).unwrap();
         assert!(f.stats.backend.starts_with("CPU"), "{}", f.stats.backend);
@@ -674,15 +676,8 @@ mod tests {
         let Some(mut engine) = gpu_engine(&bundle) else { return };
         let model = TfModel::ramp(engine.scene().scalar_range(), 0.5);
         let plain = request(&engine, &model, Method::Table3d, true);
-        let lights = tet_render::LightSet::new(&[tet_render::LightSource::Directional {
-            direction: [0.5, -0.7, -0.5],
-            intensity: 1.0,
-        }])
-        .unwrap();
-        let lit = FrameRequest {
-            shading: tet_render::Lighting { lights, shadows: true, ..Default::default() }.shading(None),
-            ..plain.clone()
-        };
+        let sun = tet_render::LightSource::Directional { direction: [0.5, -0.7, -0.5], intensity: 1.0 };
+        let lit = shadowed(&plain, sun);
         let f = engine.render(&lit).unwrap();
         assert!(f.stats.backend.starts_with("GPU"), "{}", f.stats.backend);
         assert!(engine.shadow_seconds() > 0.0);
@@ -691,12 +686,7 @@ mod tests {
         assert_eq!(engine.shadow_seconds(), 0.0, "a camera move keeps the field");
         let (lo, hi) = engine.scene().bounds();
         let centre = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
-        let inside =
-            tet_render::LightSet::new(&[tet_render::LightSource::Point { position: centre, intensity: 1.0 }]).unwrap();
-        let req = FrameRequest {
-            shading: tet_render::Lighting { lights: inside, shadows: true, ..Default::default() }.shading(None),
-            ..plain
-        };
+        let req = shadowed(&plain, tet_render::LightSource::Point { position: centre, intensity: 1.0 });
         let f = engine.render(&req).unwrap();
         assert!(f.stats.backend.starts_with("GPU"), "{}", f.stats.backend);
         assert!(engine.shadow_seconds() > 0.0);

@@ -196,6 +196,8 @@ struct Workspace {
     shadow_maps: wgpu::Buffer,
     shadow_knots: Grow,
     shadow_index: Grow,
+    /// The id of the `ShadowMaps` these three buffers hold.
+    shadows_uploaded: Option<u64>,
     cull_flags: Grow,
     cull_order: Grow,
     readback: Grow,
@@ -243,6 +245,7 @@ impl Workspace {
             ),
             shadow_knots: Grow::storage("shadow-map knots"),
             shadow_index: Grow::storage("shadow-map ray index"),
+            shadows_uploaded: None,
             cull_flags: Grow::storage("cull flags"),
             cull_order: Grow::storage("culled order"),
             readback: Grow::new("readback", wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
@@ -726,12 +729,18 @@ impl GpuRenderer {
             }
             (_, false) => &none,
         };
-        let (knot_bytes, index_bytes) = (shadows.knots.len() as u64 * 8, shadows.index.len() as u64 * 4);
-        stats.buffers_grown += ws.shadow_knots.ensure(ctx, knot_bytes, limit)? as usize;
-        stats.buffers_grown += ws.shadow_index.ensure(ctx, index_bytes, limit)? as usize;
-        ctx.queue.write_buffer(&ws.shadow_maps, 0, bytemuck::cast_slice(&shadows.maps));
-        ctx.queue.write_buffer(ws.shadow_knots.get(), 0, bytemuck::cast_slice(&shadows.knots));
-        ctx.queue.write_buffer(ws.shadow_index.get(), 0, bytemuck::cast_slice(&shadows.index));
+        // Uploaded once per shadow field, not per frame (a cube's knots
+        // are tens of MB).
+        if ws.shadows_uploaded != Some(shadows.id) {
+            ws.shadows_uploaded = None;
+            let (knot_bytes, index_bytes) = (shadows.knots.len() as u64 * 8, shadows.index.len() as u64 * 4);
+            stats.buffers_grown += ws.shadow_knots.ensure(ctx, knot_bytes, limit)? as usize;
+            stats.buffers_grown += ws.shadow_index.ensure(ctx, index_bytes, limit)? as usize;
+            ctx.queue.write_buffer(&ws.shadow_maps, 0, bytemuck::cast_slice(&shadows.maps));
+            ctx.queue.write_buffer(ws.shadow_knots.get(), 0, bytemuck::cast_slice(&shadows.knots));
+            ctx.queue.write_buffer(ws.shadow_index.get(), 0, bytemuck::cast_slice(&shadows.index));
+            ws.shadows_uploaded = Some(shadows.id);
+        }
         let compute = stats.raster_path == RasterPath::Compute && n > 0;
         let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
         if compute {

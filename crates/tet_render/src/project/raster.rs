@@ -336,13 +336,11 @@ impl TetSetup {
             }
             _ => None,
         };
-        self.lit_fields.clear();
-        self.n_pos = 0;
+        self.position = None;
         if inp.want_normals {
             if inp.want_position {
                 let pos = inp.scene.positions_rel();
-                self.lit_fields.extend((0..3).map(|c| field_of(&tet.map(|v| pos[v as usize][c]))));
-                self.n_pos = 3;
+                self.position = Some(std::array::from_fn(|c| field_of(&tet.map(|v| pos[v as usize][c]))));
                 self.centre = inp.scene.centre_in_world();
             }
             self.shadow_maps = inp.shadows.filter(|f| f.has_maps()).cloned();
@@ -553,11 +551,9 @@ impl TetSetup {
     /// transmittance (1 without a field) at depth `z` of the ray through
     /// (x, y).
     pub fn lit_at(&self, x: f64, y: f64, z: f64) -> (DVec3, [f64; crate::MAX_LIGHTS]) {
-        let f = &self.lit_fields;
-        let pos = if self.n_pos == 3 {
-            DVec3::new(f[0].at(x, y, z), f[1].at(x, y, z), f[2].at(x, y, z)) + self.centre
-        } else {
-            DVec3::ZERO
+        let pos = match &self.position {
+            Some(f) => DVec3::new(f[0].at(x, y, z), f[1].at(x, y, z), f[2].at(x, y, z)) + self.centre,
+            None => DVec3::ZERO,
         };
         let mut shadow = [1.0; crate::MAX_LIGHTS];
         if let Some(m) = &self.shadow_maps {

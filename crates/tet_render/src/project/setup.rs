@@ -98,10 +98,9 @@ pub(crate) struct TetSetup {
     pub(crate) s: Field,
     pub(crate) g: Option<Field>,
     pub(crate) normal: Option<[Field; 3]>,
-    /// Lighting: world position (x, y, z relative to `centre`, when
-    /// `n_pos` is 3).
-    pub(crate) lit_fields: Vec<Field>,
-    pub(crate) n_pos: usize,
+    /// Lighting: the position's x, y, z relative to `centre`, when asked
+    /// for.
+    pub(crate) position: Option<[Field; 3]>,
     pub(crate) centre: DVec3,
     /// The shadow field (its maps looked up by position).
     pub(crate) shadow_maps: Option<std::sync::Arc<crate::ShadowField>>,

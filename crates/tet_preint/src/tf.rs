@@ -369,8 +369,13 @@ impl TransferFunction {
 
     /// Extinction ρ(s) = a(s)/u per unit world length, clamped outside the nodes.
     pub fn extinction(&self, s: f64) -> f64 {
+        self.extinction_from(self.opacity.partition_point(|o| o.x <= s), s)
+    }
+
+    /// [`Self::extinction`] at `s` given the index of the first opacity node
+    /// past it (`partition_point(x ≤ s)`).
+    fn extinction_from(&self, i: usize, s: f64) -> f64 {
         let n = &self.opacity;
-        let i = n.partition_point(|o| o.x <= s);
         let a = if i == 0 {
             n[0].a
         } else if i == n.len() {
@@ -380,6 +385,42 @@ impl TransferFunction {
             p.a + (s - p.x) / (q.x - p.x) * (q.a - p.a)
         };
         a / self.unit_distance
+    }
+
+    /// The extinction along a segment whose scalar runs linearly from `sf`
+    /// to `sb`: `[fraction of the way, ρ]` at its start, at every opacity
+    /// node strictly between, and at its end, in order from `sf` (into
+    /// `out`, cleared first). ρ is linear between consecutive entries, so
+    /// the optical depth of a length-`len` segment is the trapezoid sum
+    /// `len · Σ (f₁ − f₀)(ρ₀ + ρ₁)/2`, exactly [`crate::optical_depth_with`]'s,
+    /// and quadratic inside each piece. Colour nodes do not bend ρ and are
+    /// left out.
+    pub fn extinction_knots(&self, sf: f64, sb: f64, out: &mut Vec<[f64; 2]>) {
+        // One search: the nodes strictly inside follow the first past the
+        // low end, and the first past the high end follows them.
+        let n = &self.opacity;
+        let (lo, hi) = (sf.min(sb), sf.max(sb));
+        let first = n.partition_point(|o| o.x <= lo);
+        let mut end = first;
+        while end < n.len() && n[end].x < hi {
+            end += 1;
+        }
+        let mut past_hi = end;
+        while past_hi < n.len() && n[past_hi].x <= hi {
+            past_hi += 1;
+        }
+        let (rho_lo, rho_hi) = (self.extinction_from(first, lo), self.extinction_from(past_hi, hi));
+        out.clear();
+        out.push([0.0, if sf <= sb { rho_lo } else { rho_hi }]);
+        if sf != sb {
+            let knot = |o: &OpacityNode| [(o.x - sf) / (sb - sf), o.a / self.unit_distance];
+            let at = out.len();
+            out.extend(n[first..end].iter().map(knot));
+            if sb < sf {
+                out[at..].reverse();
+            }
+        }
+        out.push([1.0, if sf <= sb { rho_hi } else { rho_lo }]);
     }
 
     /// The largest colour component at any node (κ never exceeds it).

@@ -96,6 +96,7 @@ pub struct ReferenceRenderer<'a> {
     tets: &'a [[u32; 4]],
     scalar: &'a [f64],
     neighbors: &'a [[u32; 4]],
+    convex: bool,
     bvh: BoundaryBvh,
 }
 
@@ -247,6 +248,7 @@ impl<'a> ReferenceRenderer<'a> {
             tets: &mesh.tets,
             scalar: &mesh.scalar,
             neighbors: &adjacency.neighbors,
+            convex: adjacency.convex,
             bvh: BoundaryBvh::build(&mesh.points, &mesh.tets, &adjacency.boundary_faces),
         })
     }
@@ -512,6 +514,125 @@ impl<'a> ReferenceRenderer<'a> {
             f_in = back;
             p_in = p_out;
         }
+    }
+
+    /// The tet holding `p` strictly inside and the scalar there (linear in
+    /// the tet), by exact predicates over every tet (a box test first).
+    /// `None` when `p` is outside the mesh or on a face, edge or vertex of
+    /// the tets around it: callers then walk whole lines instead.
+    pub(crate) fn tet_strictly_containing(&self, p: DVec3) -> Option<(usize, f64)> {
+        use tet_mesh::predicates::{tet_orientation, TetOrientation::Positive};
+        let p = p.to_array();
+        let tet = (0..self.tets.len()).into_par_iter().find_first(|&t| {
+            let v = self.tets[t].map(|i| &self.points[i as usize]);
+            let outside_box = (0..3).any(|k| {
+                let (lo, hi) =
+                    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| (lo.min(q[k]), hi.max(q[k])));
+                !(p[k] > lo && p[k] < hi)
+            });
+            // p strictly on vertex i's side of the face opposite it, for
+            // every i: p replaces i and the tet stays positive.
+            !outside_box
+                && (0..4).all(|i| {
+                    let mut q = v;
+                    q[i] = &p;
+                    tet_orientation(q[0], q[1], q[2], q[3]) == Positive
+                })
+        })?;
+        let v = self.tets[tet].map(|i| self.points[i as usize]);
+        let vol = |q: [&[f64; 3]; 4]| tet_mesh::predicates::signed_tet_volume(q[0], q[1], q[2], q[3]);
+        let w: [f64; 4] = std::array::from_fn(|i| {
+            let mut q = [&v[0], &v[1], &v[2], &v[3]];
+            q[i] = &p;
+            vol(q)
+        });
+        let total: f64 = w.iter().sum();
+        let s = (0..4).map(|i| w[i] * self.scalar[self.tets[tet][i] as usize]).sum::<f64>() / total;
+        Some((tet, s))
+    }
+
+    /// Walks the line from `start`, a point strictly inside `tet` with
+    /// scalar `s_start`, forwards (t ≥ 0, t = 0 at `start` = the line's
+    /// origin) — no boundary hierarchy, no sort, only the tets ahead. Where
+    /// the line leaves the mesh of a non-convex domain it may come back:
+    /// then the rest is walked from the boundary entries beyond. `visit` as
+    /// in [`ReferenceRenderer::walk_line`].
+    pub(crate) fn walk_line_from_inside(
+        &self,
+        line: &Line,
+        (tet, s_start): (usize, f64),
+        entries: &mut Vec<Entry>,
+        stats: &mut ReferenceStats,
+        visit: &mut dyn FnMut(&LineSegment) -> bool,
+    ) {
+        let Some((f_out, Some(p_out))) = self.first_exit(line, tet) else {
+            // The line lies in a face's plane: walk it whole.
+            return self.walk_line(line, 0.0, entries, stats, visit);
+        };
+        let t = &self.tets[tet];
+        // `start` as a "face point": the tet's vertex 0 with the start's
+        // scalar (only t and s of a segment's front are read by visitors
+        // that interpolate nothing else; gradients use the back's weights
+        // beyond the first segment).
+        let p_in = LinePoint { t: 0.0, s: s_start, ids: [t[0], t[0], t[0]], w: [1.0, 0.0, 0.0] };
+        let mut hit = false;
+        stats.steps += 1;
+        if p_out.t > 0.0 {
+            let seg = LineSegment { front: p_in, back: p_out, t_front: 0.0 };
+            stats.segments += 1;
+            if visit(&seg) {
+                stats.terminated_early = 1;
+                return;
+            }
+        }
+        let next = self.neighbors[tet][f_out];
+        let left_at = if next == NO_NEIGHBOR {
+            Some(p_out.t)
+        } else {
+            let Some(back) = self.neighbors[next as usize].iter().position(|&n| n as usize == tet) else {
+                stats.walk_failures += 1;
+                return;
+            };
+            let (end, steps) = self.walk_from(line, next as usize, back, p_out, 0.0, &mut hit, stats, visit);
+            stats.steps += steps;
+            match end {
+                WalkEnd::Left(t) => Some(t),
+                WalkEnd::Stopped | WalkEnd::Failed => None,
+            }
+        };
+        if let Some(t_left) = left_at {
+            if !self.convex {
+                // Re-entries further along.
+                self.walk_line_entering_after(line, t_left, t_left, entries, stats, visit);
+            }
+        }
+    }
+
+    /// The face through which the line leaves `tet` going forwards, for a
+    /// line through a point strictly inside it: the face whose three edges
+    /// the line passes on the leaving side (exact, perturbed decisions as
+    /// in [`ReferenceRenderer::exit`]).
+    fn first_exit(&self, line: &Line, tet: usize) -> Option<(usize, Option<LinePoint>)> {
+        let t = &self.tets[tet];
+        let p = |l: usize| &self.points[t[l] as usize];
+        for (f, &face) in FACE_OUTWARD.iter().enumerate() {
+            let mut vals = [0.0f64; 3];
+            let mut ok = true;
+            for e in 0..3 {
+                let (val, s) = line_side(&line.o, &line.q, p(face[e]), p(face[(e + 1) % 3]));
+                if s >= 0 {
+                    ok = false;
+                    break;
+                }
+                vals[e] = val;
+            }
+            if ok {
+                let w = std::array::from_fn(|i| (-vals[(i + 1) % 3]).max(0.0));
+                let ids = [t[face[0]], t[face[1]], t[face[2]]];
+                return Some((f, self.point_on_face(line, ids, w)));
+            }
+        }
+        None
     }
 
     /// Leaving `tet`, entered through face `f_in`: the exit face and, unless

@@ -240,6 +240,8 @@ impl ShadowField {
 pub struct ShadowScratch {
     pub(crate) entries: Vec<crate::reference::Entry>,
     pub(crate) breakpoints: Vec<f64>,
+    /// A segment's extinction knots (`TransferFunction::extinction_knots`).
+    pub(crate) extinction: Vec<[f64; 2]>,
 }
 
 impl ReferenceRenderer<'_> {

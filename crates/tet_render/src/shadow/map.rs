@@ -13,10 +13,10 @@
 
 use glam::DVec3;
 use rayon::prelude::*;
-use tet_preint::{optical_depth_with, TransferFunction};
+use tet_preint::TransferFunction;
 
 use super::{ShadowScratch, OPAQUE_DEPTH};
-use crate::reference::{Line, ReferenceRenderer, ReferenceStats};
+use crate::reference::{Line, LineSegment, ReferenceRenderer, ReferenceStats};
 
 /// Rays across the longer side of the light's view of the bounding box.
 pub const MAP_RAYS: usize = 256;
@@ -150,7 +150,7 @@ impl DeepShadowMap {
         let inset = ext.x.max(ext.y) * 1e-7;
         let (du, dv) = ((ext.x - 2.0 * inset) / (nu - 1) as f64, (ext.y - 2.0 * inset) / (nv - 1) as f64);
         let (u0, v0, t0) = (lo.x + inset, lo.y + inset, lo.z);
-        let rows = walk_grid(reference, [nu, nv], tf, |i, j| {
+        let rows = walk_grid(reference, [nu, nv], tf, None, |i, j| {
             (e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0, d, f64::NEG_INFINITY)
         });
         let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
@@ -202,7 +202,7 @@ impl DeepShadowMap {
         let inset = longest * 1e-7;
         let (du, dv) = ((ext[0] - 2.0 * inset) / (nu - 1) as f64, (ext[1] - 2.0 * inset) / (nv - 1) as f64);
         let (u0, v0) = (slo[0] + inset, slo[1] + inset);
-        let rays = walk_grid(reference, [nu, nv], tf, |i, j| {
+        let rays = walk_grid(reference, [nu, nv], tf, None, |i, j| {
             (light, (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize(), f64::NEG_INFINITY)
         });
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
@@ -226,13 +226,31 @@ impl DeepShadowMap {
         if !light.is_finite() {
             return None;
         }
+        // A light strictly inside a tet: every ray starts there and walks
+        // only what lies ahead (no boundary search, nothing behind the
+        // light). Otherwise (outside the mesh, or on a face, edge or vertex)
+        // each ray's whole line is walked from its boundary entries.
+        let from_inside = reference.tet_strictly_containing(light);
+        Some(Self::build_cube_from(reference, light, tf, stats, from_inside))
+    }
+
+    /// [`DeepShadowMap::build_cube`] for a finite light, its rays walked
+    /// from `from_inside` (the light's tet and scalar) or, without it, along
+    /// their whole lines.
+    fn build_cube_from(
+        reference: &ReferenceRenderer,
+        light: DVec3,
+        tf: &TransferFunction,
+        stats: &mut ReferenceStats,
+        from_inside: Option<(usize, f64)>,
+    ) -> Box<[DeepShadowMap; 6]> {
         let far = reference.points().iter().map(|p| (DVec3::from(*p) - light).length()).fold(0.0f64, f64::max);
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
         let n = CUBE_RAYS;
         let step = 2.0 / (n - 1) as f64;
         let faces = CUBE_AXES.map(|(d, e1, e2)| {
             // From the light on (t ≥ 0): the mesh behind it is another face's.
-            let rays = walk_grid(reference, [n, n], tf, |i, j| {
+            let rays = walk_grid(reference, [n, n], tf, from_inside, |i, j| {
                 let (u, v) = (-1.0 + i as f64 * step, -1.0 + j as f64 * step);
                 (light, (d + e1 * u + e2 * v).normalize(), 0.0)
             });
@@ -254,7 +272,7 @@ impl DeepShadowMap {
                 origin: Some(light),
             }
         });
-        Some(Box::new(faces))
+        Box::new(faces)
     }
 
     /// The optical depth from the light to `p` (in the map's frame).
@@ -402,6 +420,7 @@ fn walk_grid(
     reference: &ReferenceRenderer,
     [nu, nv]: [usize; 2],
     tf: &TransferFunction,
+    from_inside: Option<(usize, f64)>,
     ray: impl Fn(usize, usize) -> (DVec3, DVec3, f64) + Sync,
 ) -> RayRows {
     (0..nv)
@@ -412,7 +431,7 @@ fn walk_grid(
             for i in 0..nu {
                 let (start, dir, t_start) = ray(i, j);
                 let before = knots.len();
-                walk_ray(reference, start, dir, t_start, tf, scratch, &mut st, &mut knots);
+                walk_ray(reference, (start, dir, t_start), from_inside, tf, scratch, &mut st, &mut knots);
                 counts.push((knots.len() - before) as u32);
             }
             (counts, knots, st)
@@ -423,9 +442,8 @@ fn walk_grid(
 #[allow(clippy::too_many_arguments)]
 fn walk_ray(
     reference: &ReferenceRenderer,
-    start: DVec3,
-    d: DVec3,
-    t_start: f64,
+    (start, d, t_start): (DVec3, DVec3, f64),
+    from_inside: Option<(usize, f64)>,
     tf: &TransferFunction,
     scratch: &mut ShadowScratch,
     stats: &mut ReferenceStats,
@@ -433,8 +451,7 @@ fn walk_ray(
 ) {
     let Some(line) = Line::through(start, start + d) else { return };
     let mut acc = 0.0f64;
-    let ShadowScratch { entries, breakpoints } = scratch;
-    let mut nodes = Vec::new();
+    let ShadowScratch { entries, extinction, .. } = scratch;
     let first = knots.len();
     let push = |t: f64, depth: f64, knots: &mut Vec<[f32; 2]>| {
         let knot = [t as f32, depth.min(OPAQUE_DEPTH) as f32];
@@ -448,44 +465,37 @@ fn walk_ray(
         }
     };
     stats.rays += 1;
-    reference.walk_line(&line, t_start, entries, stats, &mut |seg| {
+    let mut visit = |seg: &LineSegment| {
         let (s0, s1, len) = (seg.s_front(), seg.back.s, seg.len());
         // Where the segment starts (an entry, or the last back again).
         push(seg.t_front, acc, knots);
-        // The TF's nodes split the segment into pieces of linear extinction,
-        // over which the depth is quadratic: each piece gets knots every
+        // The TF's opacity nodes split the segment into pieces of linear
+        // extinction, over which the depth is quadratic (closed form: no
+        // search or integration per knot): each piece gets knots every
         // quarter of optical depth (at most 16), so linear interpolation
         // between knots stays within ~0.01 of the depth.
-        nodes.clear();
-        nodes.push(0.0);
-        if s0 != s1 {
-            let at = nodes.len();
-            tf.breakpoints_between(s0.min(s1), s0.max(s1), &mut nodes);
-            for x in &mut nodes[at..] {
-                *x = (*x - s0) / (s1 - s0);
-            }
-            if s1 < s0 {
-                nodes[at..].reverse();
-            }
-        }
-        nodes.push(1.0);
-        let depth_to =
-            |f: f64, breakpoints: &mut Vec<f64>| optical_depth_with(tf, s0, s0 + f * (s1 - s0), f * len, breakpoints);
+        tf.extinction_knots(s0, s1, extinction);
         let mut prev = 0.0;
-        for w in 1..nodes.len() {
-            let (fa, fb) = (nodes[w - 1], nodes[w]);
-            let end = depth_to(fb, breakpoints);
+        for w in extinction.windows(2) {
+            let ([fa, ra], [fb, rb]) = (w[0], w[1]);
+            let width = (fb - fa) * len;
+            let end = prev + 0.5 * (ra + rb) * width;
             let pieces = ((end - prev) / 0.25).ceil().clamp(1.0, 16.0) as usize;
             for q in 1..=pieces {
-                let f = fa + (fb - fa) * q as f64 / pieces as f64;
-                let part = if q == pieces { end } else { depth_to(f, breakpoints) };
-                push(seg.t_front + f * len, acc + part, knots);
+                let u = q as f64 / pieces as f64;
+                let part = if q == pieces { end } else { prev + width * u * (ra + 0.5 * (rb - ra) * u) };
+                push(seg.t_front + (fa + (fb - fa) * u) * len, acc + part, knots);
             }
             prev = end;
         }
         acc += prev;
         acc >= OPAQUE_DEPTH
-    });
+    };
+    match from_inside {
+        // The ray starts in this tet (at t = 0): only the tets ahead.
+        Some(inside) => reference.walk_line_from_inside(&line, inside, entries, stats, &mut visit),
+        None => reference.walk_line(&line, t_start, entries, stats, &mut visit),
+    }
     simplify(knots, first, KNOT_TOLERANCE);
 }
 
@@ -533,4 +543,69 @@ fn simplify(knots: &mut Vec<[f32; 2]>, first: usize, tol: f32) {
         out += 1;
     }
     knots.truncate(out);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tet_mesh::{build_adjacency, tetrahedralize, ConvertOptions, SourceMesh, TetMesh};
+
+    /// A 6³-cell grid over [0, 1]³, 5-split, without the tets whose centre
+    /// lies in a slab across the middle (a non-convex mesh: rays leave into
+    /// the gap and come back), scalar varying along all three axes.
+    fn slotted_grid() -> TetMesh {
+        let n = 6;
+        let mut points = Vec::new();
+        for k in 0..=n {
+            for j in 0..=n {
+                for i in 0..=n {
+                    points.push([i as f64 / n as f64, j as f64 / n as f64, k as f64 / n as f64]);
+                }
+            }
+        }
+        let values = points.iter().map(|p| p[0] + 0.6 * p[1] * p[1] + 0.3 * p[2]).collect();
+        let src = SourceMesh::structured([n + 1; 3], points, "s", values);
+        let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
+        let (mut mesh, _) = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
+        let centre = |t: &[u32; 4]| t.iter().map(|&v| mesh.points[v as usize][0]).sum::<f64>() / 4.0;
+        let keep: Vec<bool> = mesh.tets.iter().map(|t| !(0.5..0.67).contains(&centre(t))).collect();
+        mesh.tets = mesh.tets.iter().zip(&keep).filter(|(_, &k)| k).map(|(t, _)| *t).collect();
+        mesh
+    }
+
+    /// A cube walked from the light's tet records the same depths as one
+    /// walked along whole lines from their boundary entries, on a mesh the
+    /// rays leave and re-enter; the light's tet is found, a light on a
+    /// vertex or outside the mesh has none.
+    #[test]
+    fn a_cube_walked_from_the_light_equals_one_walked_along_whole_lines() {
+        let mesh = slotted_grid();
+        let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+        assert!(!adjacency.convex);
+        let reference = ReferenceRenderer::new(&mesh, &adjacency).unwrap();
+        let tf = TransferFunction::from_json(
+            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.2], [0.7, 3], [0.8, 0.1], [2, 1.5]], "unit_distance": 1}"#,
+        )
+        .unwrap();
+        let light = DVec3::new(0.23, 0.31, 0.27);
+        let (tet, s) = reference.tet_strictly_containing(light).expect("the light's tet");
+        assert!((s - (0.23 + 0.6 * 0.31 * 0.31 + 0.3 * 0.27)).abs() < 0.05, "{s}");
+        assert_eq!(reference.tet_strictly_containing(DVec3::splat(0.5)), None, "a grid vertex");
+        assert_eq!(reference.tet_strictly_containing(DVec3::new(0.55, 0.5, 0.5)), None, "in the slot");
+        assert_eq!(reference.tet_strictly_containing(DVec3::splat(2.0)), None, "outside");
+        let (mut a, mut b) = (ReferenceStats::default(), ReferenceStats::default());
+        let inside = DeepShadowMap::build_cube_from(&reference, light, &tf, &mut a, Some((tet, s)));
+        let whole = DeepShadowMap::build_cube_from(&reference, light, &tf, &mut b, None);
+        assert_eq!((a.walk_failures, b.walk_failures), (0, 0));
+        let mut rng = tet_mesh::XorShift64(29);
+        let mut deep = 0;
+        for _ in 0..3000 {
+            let p = DVec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+            let f = cube_face(p - light);
+            let (x, y) = (inside[f].depth_at(p), whole[f].depth_at(p));
+            assert!((x - y).abs() <= 1e-5 * y.max(1.0), "at {p}: {x} vs {y}");
+            deep += usize::from(y > 1.0 && p.x > 0.67);
+        }
+        assert!(deep > 100, "rays across the slot carry depth: {deep}");
+    }
 }

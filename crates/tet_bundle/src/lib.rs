@@ -4,7 +4,8 @@
 //! Main types: [`Bundle`] (what is stored), [`BundleMeta`] (the bincode
 //! header section), [`TimeSteps`] (a time series' scalar per step on the
 //! one mesh; [`Bundle::set_time`] interpolates between steps),
-//! [`BundleError`]. [`Bundle::write`] writes atomically
+//! [`BundleError`], [`BundleStream`] (a bundle written while it is built:
+//! the mesh first, the rest when known). [`Bundle::write`] writes atomically
 //! (temporary file in the same directory, fsync, rename), so an interrupted
 //! run never leaves a truncated file under the final name; [`Bundle::read`]
 //! rejects a wrong magic, a newer format version, a bad section checksum or
@@ -66,6 +67,99 @@ pub enum BundleError {
     Damaged { what: String, path: PathBuf },
     #[error("bundle is missing required section '{section}': {}", path.display())]
     MissingSection { section: &'static str, path: PathBuf },
+}
+
+/// The sections of a mesh's own arrays: `POINTS`, `TETS`, `SCALAR`, then
+/// one `FLDnnnnn` per point field.
+fn mesh_sections(mesh: &TetMesh) -> Vec<(String, Cow<'_, [u8]>)> {
+    let mut sections: Vec<(String, Cow<'_, [u8]>)> = vec![
+        ("POINTS".into(), layout::le_bytes(mesh.points.as_flattened())),
+        ("TETS".into(), layout::le_bytes(mesh.tets.as_flattened())),
+        ("SCALAR".into(), layout::le_bytes(&mesh.scalar)),
+    ];
+    for (i, f) in mesh.point_fields.iter().enumerate() {
+        sections.push((format!("FLD{i:05}"), layout::le_bytes(&f.values)));
+    }
+    sections
+}
+
+fn neighbor_section(neighbors: &[[u32; 4]]) -> (String, Cow<'_, [u8]>) {
+    ("NEIGHBOR".into(), layout::le_bytes(neighbors.as_flattened()))
+}
+
+/// Table entries a [`BundleStream`] keeps room for: the mesh's sections,
+/// adjacency, metadata, analysis and up to ~240 point fields or time
+/// steps; a bundle with more is written afresh by `finish`.
+const STREAM_TABLE_ROOM: usize = 256;
+
+/// A bundle written while it is still being built: `tetprep convert`
+/// writes the mesh's arrays (and a Delaunay tetrahedralization's
+/// neighbours) while the adjacency is checked and the statistics are
+/// computed, then [`BundleStream::finish`] adds the rest of the [`Bundle`]
+/// and renames the file into place, as [`Bundle::write`] would. Dropped
+/// unfinished (the conversion failed), nothing appears at the path.
+///
+/// What was written early must be what the finished bundle holds: `finish`
+/// compares each such section's checksum with the bundle's and, where one
+/// differs (the adjacency was rebuilt from the faces, say), writes the
+/// whole bundle afresh instead; the result is the same either way.
+#[derive(Debug)]
+pub struct BundleStream {
+    writer: tet_container::SectionWriter,
+    path: PathBuf,
+}
+
+impl BundleStream {
+    /// Starts the bundle that will replace `path`.
+    pub fn create(path: &Path) -> Result<BundleStream, BundleError> {
+        let writer = tet_container::SectionWriter::create(path, ".tetb-", &layout::FORMAT, STREAM_TABLE_ROOM)
+            .map_err(|e| io_error(e, path))?;
+        Ok(BundleStream { writer, path: path.to_path_buf() })
+    }
+
+    /// Writes the mesh's arrays: points, tets, scalar and point fields.
+    pub fn write_mesh(&mut self, mesh: &TetMesh) -> Result<(), BundleError> {
+        for (name, data) in mesh_sections(mesh) {
+            self.writer.section(&name, &data).map_err(|e| io_error(e, &self.path))?;
+        }
+        Ok(())
+    }
+
+    /// Writes the face adjacency's neighbour array (before it is checked:
+    /// `finish` keeps it only if the bundle's is the same).
+    pub fn write_neighbors(&mut self, neighbors: &[[u32; 4]]) -> Result<(), BundleError> {
+        let (name, data) = neighbor_section(neighbors);
+        self.writer.section(&name, &data).map_err(|e| io_error(e, &self.path))
+    }
+
+    /// Adds `bundle`'s other sections, writes the table, syncs and renames
+    /// the file into place. True when the early sections were kept; false
+    /// when one differed from `bundle`'s and the bundle was written afresh.
+    pub fn finish(mut self, bundle: &Bundle) -> Result<bool, BundleError> {
+        let all = bundle.sections_out();
+        let early = self.writer.sections();
+        let kept = early.len() + self.writer.room() >= all.len()
+            && early.iter().all(|e| {
+                all.iter().any(|(name, data)| {
+                    *name == e.name && data.len() as u64 == e.length && crc32fast::hash(data) == e.crc32
+                })
+            });
+        if !kept {
+            drop(self.writer);
+            bundle.write(&self.path)?;
+            return Ok(false);
+        }
+        let early: Vec<String> = early.iter().map(|e| e.name.clone()).collect();
+        for (name, data) in all.iter().filter(|(name, _)| !early.contains(name)) {
+            self.writer.section(name, data).map_err(|e| io_error(e, &self.path))?;
+        }
+        self.writer.finish(&self.path).map_err(|e| io_error(e, &self.path))?;
+        Ok(true)
+    }
+}
+
+fn io_error(e: tet_container::AtomicWriteError, path: &Path) -> BundleError {
+    BundleError::Io { action: e.action, source: e.source, path: path.to_path_buf() }
 }
 
 /// Facts about the mesh and how it was made, stored in the `META` section.
@@ -342,17 +436,13 @@ impl Bundle {
         };
         let meta_bytes =
             bincode::serde::encode_to_vec(&record, bincode::config::standard()).expect("meta always encodes");
-        let mut sections: Vec<(String, Cow<'_, [u8]>)> = vec![
-            ("META".into(), Cow::Owned(meta_bytes)),
-            ("POINTS".into(), layout::le_bytes(self.mesh.points.as_flattened())),
-            ("TETS".into(), layout::le_bytes(self.mesh.tets.as_flattened())),
-            ("SCALAR".into(), layout::le_bytes(&self.mesh.scalar)),
-            ("NEIGHBOR".into(), layout::le_bytes(self.adjacency.neighbors.as_flattened())),
-            ("BOUNDARY".into(), layout::le_bytes(&self.adjacency.boundary_faces)),
-        ];
-        for (i, f) in self.mesh.point_fields.iter().enumerate() {
-            sections.push((format!("FLD{i:05}"), layout::le_bytes(&f.values)));
-        }
+        let mut sections: Vec<(String, Cow<'_, [u8]>)> = vec![("META".into(), Cow::Owned(meta_bytes))];
+        let mut mesh = mesh_sections(&self.mesh);
+        let fields = mesh.split_off(3);
+        sections.extend(mesh);
+        sections.push(neighbor_section(&self.adjacency.neighbors));
+        sections.push(("BOUNDARY".into(), layout::le_bytes(&self.adjacency.boundary_faces)));
+        sections.extend(fields);
         if let Some(a) = &self.analysis {
             let record = AnalysisRecord {
                 gradient_method: a.gradients.as_ref().map(|g| g.method),
@@ -404,7 +494,7 @@ impl Bundle {
     pub fn write(&self, path: &Path) -> Result<(), BundleError> {
         let sections = self.sections_out();
         tet_container::write_atomic(path, ".tetb-", |w| layout::write_sections(w, &sections))
-            .map_err(|e| BundleError::Io { action: e.action, source: e.source, path: path.to_path_buf() })
+            .map_err(|e| io_error(e, path))
     }
 
     /// Reads and verifies a bundle file, section by section straight into

@@ -331,3 +331,38 @@ fn step_gradients_round_trip_and_interpolate() {
     let e = Bundle::from_bytes(&renamed, path).unwrap_err();
     assert!(e.to_string().contains("GRAD00001 is missing"), "{e}");
 }
+
+/// A bundle streamed (mesh and neighbours first, the rest at `finish`)
+/// reads back as the bundle, with analysis and time steps too; neighbours
+/// written early that the bundle does not hold make `finish` write the
+/// bundle afresh (same result); a stream dropped unfinished leaves nothing.
+#[test]
+fn a_streamed_bundle_reads_back_as_the_bundle() {
+    let dir = tempfile::tempdir().unwrap();
+    for (k, b) in [sample_bundle(), analyzed_bundle(), series_bundle()].iter().enumerate() {
+        let path = dir.path().join(format!("s{k}.tetb"));
+        let mut s = tet_bundle::BundleStream::create(&path).unwrap();
+        s.write_mesh(&b.mesh).unwrap();
+        s.write_neighbors(&b.adjacency.neighbors).unwrap();
+        assert!(!path.exists());
+        assert!(s.finish(b).unwrap(), "the early sections are the bundle's");
+        assert_eq!(&Bundle::read(&path).unwrap(), b);
+        assert_eq!(&Bundle::from_bytes(&std::fs::read(&path).unwrap(), &path).unwrap(), b);
+    }
+    let b = sample_bundle();
+    let path = dir.path().join("rebuilt.tetb");
+    let mut s = tet_bundle::BundleStream::create(&path).unwrap();
+    s.write_mesh(&b.mesh).unwrap();
+    let mut other = b.adjacency.neighbors.clone();
+    other.swap(0, 1);
+    s.write_neighbors(&other).unwrap();
+    assert!(!s.finish(&b).unwrap(), "written afresh");
+    assert_eq!(Bundle::read(&path).unwrap(), b);
+    let gone = dir.path().join("gone.tetb");
+    let mut s = tet_bundle::BundleStream::create(&gone).unwrap();
+    s.write_mesh(&b.mesh).unwrap();
+    drop(s);
+    assert!(!gone.exists());
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names.len(), 4, "no temporary files left: {names:?}");
+}

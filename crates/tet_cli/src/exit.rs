@@ -236,7 +236,8 @@ pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
             | C::Cloud { .. }
             | C::Mesh { .. }
             | C::Invalid { .. }
-            | C::Step { .. } => None,
+            | C::Step { .. }
+            | C::Write(_) => None,
         };
     }
     if let Some(e) = cause.downcast_ref::<tet_convert::partition::PartitionError>() {

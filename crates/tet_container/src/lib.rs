@@ -5,6 +5,7 @@
 //! Main items: [`ContainerFormat`] (a format's magic, version and section
 //! limit), [`write_sections`] and [`parse`] (the byte layout),
 //! [`SectionFile`] (a file read section by section, checksummed on the way),
+//! [`SectionWriter`] (a file written a section at a time, table last),
 //! [`write_atomic`] (temporary file beside the target, fsync, rename, so an
 //! interrupted run never leaves a partial file under the final name),
 //! [`SectionEntry`] and [`ContainerError`]. Errors carry the byte offsets
@@ -104,25 +105,11 @@ pub fn write_sections<W: Write + ?Sized>(
     let mut table = Vec::with_capacity(table_len);
     let mut offsets = Vec::with_capacity(sections.len());
     for (name, data) in sections {
-        let mut n = [0u8; NAME_LEN];
-        n[..name.len()].copy_from_slice(name.as_bytes());
-        table.extend_from_slice(&n);
-        table.extend_from_slice(&(offset as u64).to_le_bytes());
-        table.extend_from_slice(&(data.len() as u64).to_le_bytes());
-        table.extend_from_slice(&crc32fast::hash(data).to_le_bytes());
-        table.extend_from_slice(&0u32.to_le_bytes());
+        push_entry(&mut table, name, offset as u64, data.len() as u64, crc32fast::hash(data));
         offsets.push(offset);
         offset = align(offset + data.len());
     }
-    let mut header = Vec::with_capacity(HEADER_LEN);
-    header.extend_from_slice(&fmt.magic);
-    header.extend_from_slice(&fmt.version.to_le_bytes());
-    header.extend_from_slice(&(sections.len() as u32).to_le_bytes());
-    header.extend_from_slice(&(table_len as u64).to_le_bytes());
-    header.extend_from_slice(&crc32fast::hash(&table).to_le_bytes());
-    header.extend_from_slice(&0u32.to_le_bytes());
-    debug_assert_eq!(header.len(), HEADER_LEN);
-    out.write_all(&header)?;
+    out.write_all(&header_bytes(fmt, sections.len(), &table))?;
     out.write_all(&table)?;
     let mut pos = HEADER_LEN + table_len;
     for ((_, data), off) in sections.iter().zip(offsets) {
@@ -133,6 +120,30 @@ pub fn write_sections<W: Write + ?Sized>(
     // No padding after the last section: any truncation cuts into a section
     // and so fails its bounds check or checksum.
     Ok(())
+}
+
+/// Appends a section's table entry (a valid name).
+fn push_entry(table: &mut Vec<u8>, name: &str, offset: u64, length: u64, crc32: u32) {
+    let mut n = [0u8; NAME_LEN];
+    n[..name.len()].copy_from_slice(name.as_bytes());
+    table.extend_from_slice(&n);
+    table.extend_from_slice(&offset.to_le_bytes());
+    table.extend_from_slice(&length.to_le_bytes());
+    table.extend_from_slice(&crc32.to_le_bytes());
+    table.extend_from_slice(&0u32.to_le_bytes());
+}
+
+/// The header of a file of `count` sections listed in `table`.
+fn header_bytes(fmt: &ContainerFormat, count: usize, table: &[u8]) -> Vec<u8> {
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    header.extend_from_slice(&fmt.magic);
+    header.extend_from_slice(&fmt.version.to_le_bytes());
+    header.extend_from_slice(&(count as u32).to_le_bytes());
+    header.extend_from_slice(&(table.len() as u64).to_le_bytes());
+    header.extend_from_slice(&crc32fast::hash(table).to_le_bytes());
+    header.extend_from_slice(&0u32.to_le_bytes());
+    debug_assert_eq!(header.len(), HEADER_LEN);
+    header
 }
 
 fn align(n: usize) -> usize {
@@ -392,6 +403,20 @@ pub fn write_atomic(
     write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), AtomicWriteError> {
     let step = |action: &'static str| move |source| AtomicWriteError { action, source };
+    let mut tmp = temp_beside(path, tmp_prefix)?;
+    {
+        let mut w = io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
+        write(&mut w).map_err(step("write"))?;
+        w.flush().map_err(step("write"))?;
+    }
+    tmp.as_file().sync_all().map_err(step("sync"))?;
+    tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
+    Ok(())
+}
+
+/// A temporary file (`{tmp_prefix}XXXX.tmp`) in `path`'s directory, with
+/// the mode an ordinary output file gets.
+fn temp_beside(path: &Path, tmp_prefix: &str) -> Result<tempfile::NamedTempFile, AtomicWriteError> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -406,15 +431,128 @@ pub fn write_atomic(
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    let mut tmp = builder.tempfile_in(dir).map_err(step("create a temporary file beside"))?;
-    {
-        let mut w = io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
-        write(&mut w).map_err(step("write"))?;
-        w.flush().map_err(step("write"))?;
+    builder.tempfile_in(dir).map_err(|source| AtomicWriteError { action: "create a temporary file beside", source })
+}
+
+/// A container written a section at a time, for files whose first
+/// sections are final before the rest is computed (a conversion writes its
+/// mesh while the adjacency is still being checked): into a temporary file
+/// beside the destination, each section checksummed as it goes, the header
+/// and table written last, synced and renamed into place by
+/// [`SectionWriter::finish`], as [`write_atomic`] does. Dropped unfinished,
+/// the temporary file is removed and nothing appears at the destination.
+///
+/// Room for `capacity` table entries is kept before the first section; a
+/// shorter table leaves zeros between it and the first section, which a
+/// last entry, [`PADDING_SECTION`], covers with its checksum (so a flipped
+/// bit there is found like any other; readers skip it by name).
+#[derive(Debug)]
+pub struct SectionWriter {
+    fmt: ContainerFormat,
+    file: io::BufWriter<std::fs::File>,
+    tmp: tempfile::TempPath,
+    capacity: usize,
+    /// Where the first section starts (after room for `capacity` entries and
+    /// the padding's).
+    start: u64,
+    pos: u64,
+    entries: Vec<SectionEntry>,
+}
+
+/// The section a [`SectionWriter`] adds over the unused room of its table:
+/// zeros, checksummed.
+pub const PADDING_SECTION: &str = "PADDING";
+
+impl SectionWriter {
+    /// Starts a file that will replace `path`, with room for `capacity`
+    /// sections (at most `fmt.max_sections`).
+    pub fn create(
+        path: &Path,
+        tmp_prefix: &str,
+        fmt: &ContainerFormat,
+        capacity: usize,
+    ) -> Result<SectionWriter, AtomicWriteError> {
+        // One entry of the room is the padding's.
+        let capacity = capacity.min(fmt.max_sections.saturating_sub(1) as usize);
+        let (file, tmp) = temp_beside(path, tmp_prefix)?.into_parts();
+        let start = align(HEADER_LEN + (capacity + 1) * ENTRY_LEN) as u64;
+        let mut file = io::BufWriter::with_capacity(1 << 20, file);
+        // The header and table's room, filled in by `finish`.
+        file.write_all(&vec![0u8; start as usize]).map_err(|source| AtomicWriteError { action: "write", source })?;
+        Ok(SectionWriter { fmt: *fmt, file, tmp, capacity, start, pos: start, entries: Vec::new() })
     }
-    tmp.as_file().sync_all().map_err(step("sync"))?;
-    tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
-    Ok(())
+
+    /// Appends a section (16-byte aligned). A name [`valid_section_name`]
+    /// refuses, or a section past the capacity, is an `InvalidInput` error.
+    pub fn section(&mut self, name: &str, data: &[u8]) -> Result<(), AtomicWriteError> {
+        let invalid = |what: String| AtomicWriteError {
+            action: "write",
+            source: io::Error::new(io::ErrorKind::InvalidInput, what),
+        };
+        if !valid_section_name(name) {
+            return Err(invalid(format!("section name '{name}' is not 1–16 ASCII bytes")));
+        }
+        if self.entries.len() == self.capacity {
+            return Err(invalid(format!("section '{name}' is past the {} the table has room for", self.capacity)));
+        }
+        let offset = align(self.pos as usize) as u64;
+        let write = |w: &mut io::BufWriter<std::fs::File>| -> io::Result<()> {
+            w.write_all(&[0u8; ALIGN][..(offset - self.pos) as usize])?;
+            w.write_all(data)
+        };
+        write(&mut self.file).map_err(|source| AtomicWriteError { action: "write", source })?;
+        self.entries.push(SectionEntry {
+            name: name.to_string(),
+            offset,
+            length: data.len() as u64,
+            crc32: crc32fast::hash(data),
+        });
+        self.pos = offset + data.len() as u64;
+        Ok(())
+    }
+
+    /// The sections written so far, in order.
+    pub fn sections(&self) -> &[SectionEntry] {
+        &self.entries
+    }
+
+    /// Room left in the table.
+    pub fn room(&self) -> usize {
+        self.capacity - self.entries.len()
+    }
+
+    /// Writes the header and table (sections listed in the order written),
+    /// syncs the file and renames it over `path`.
+    pub fn finish(mut self, path: &Path) -> Result<(), AtomicWriteError> {
+        use std::io::Seek;
+        let step = |action: &'static str| move |source| AtomicWriteError { action, source };
+        // The table's unused room, past the padding's own entry, as one
+        // more section of zeros.
+        let pad_at = align(HEADER_LEN + (self.entries.len() + 1) * ENTRY_LEN) as u64;
+        if pad_at < self.start {
+            let zeros = vec![0u8; (self.start - pad_at) as usize];
+            self.entries.push(SectionEntry {
+                name: PADDING_SECTION.into(),
+                offset: pad_at,
+                length: zeros.len() as u64,
+                crc32: crc32fast::hash(&zeros),
+            });
+        }
+        let mut table = Vec::with_capacity(self.entries.len() * ENTRY_LEN);
+        for e in &self.entries {
+            push_entry(&mut table, &e.name, e.offset, e.length, e.crc32);
+        }
+        let header = header_bytes(&self.fmt, self.entries.len(), &table);
+        let mut file =
+            self.file.into_inner().map_err(|e| AtomicWriteError { action: "write", source: e.into_error() })?;
+        file.seek(io::SeekFrom::Start(0)).map_err(step("write"))?;
+        file.write_all(&header).map_err(step("write"))?;
+        file.write_all(&table).map_err(step("write"))?;
+        file.sync_all().map_err(step("sync"))?;
+        drop(file);
+        self.tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -428,6 +566,54 @@ mod tests {
         write_sections(&mut out, &FMT, &[("ONE", &[7; 5]), ("TWO", &[]), ("THREE", &[1, 2, 3, 4, 5, 6, 7, 8, 9])])
             .unwrap();
         out
+    }
+
+    /// A file written a section at a time parses (bytes and file reader)
+    /// to the same sections as one written at once, with a table shorter
+    /// than its room; nothing is at the destination until `finish`, and a
+    /// writer dropped unfinished leaves nothing behind.
+    #[test]
+    fn a_file_written_a_section_at_a_time_reads_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.bin");
+        let mut w = SectionWriter::create(&path, ".t-", &FMT, 5).unwrap();
+        let parts: [(&str, &[u8]); 3] = [("ONE", &[7; 5]), ("TWO", &[]), ("THREE", &[1, 2, 3, 4, 5, 6, 7, 8, 9])];
+        for (name, data) in parts {
+            w.section(name, data).unwrap();
+        }
+        assert_eq!(w.room(), 2);
+        assert!(w.section("", b"x").is_err(), "an empty name");
+        assert!(!path.exists(), "nothing at the destination before finish");
+        w.finish(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let (version, s) = parse(&bytes, &FMT).unwrap();
+        assert_eq!(version, 3);
+        assert_eq!(s.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(), ["ONE", "TWO", "THREE", PADDING_SECTION]);
+        // Every byte past the header is in the table or a section, up to
+        // alignment: a flip in the unused room is found.
+        let covered: u64 = s.iter().map(|e| e.length).sum::<u64>() + 4 * ENTRY_LEN as u64 + HEADER_LEN as u64;
+        assert!(bytes.len() as u64 - covered < 4 * ALIGN as u64, "{} of {}", covered, bytes.len());
+        let mut flipped = bytes.clone();
+        flipped[s[3].offset as usize + 5] ^= 1;
+        assert!(parse(&flipped, &FMT).is_err());
+        for ((_, data), e) in parts.iter().zip(&s) {
+            assert_eq!(e.data(&bytes), *data);
+            assert!((e.offset as usize).is_multiple_of(ALIGN));
+        }
+        let mut f = SectionFile::open(&path, &FMT).unwrap();
+        let three = f.find("THREE").unwrap();
+        assert_eq!(f.read_vec(three).unwrap(), parts[2].1);
+        f.verify_unread().unwrap();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
+
+        // Full: the sixth section is refused; dropped unfinished, no file.
+        let other = dir.path().join("other.bin");
+        let mut w = SectionWriter::create(&other, ".t-", &FMT, 1).unwrap();
+        w.section("A", b"a").unwrap();
+        assert_eq!(w.section("B", b"b").unwrap_err().source.kind(), io::ErrorKind::InvalidInput);
+        drop(w);
+        assert!(!other.exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "the unfinished file is removed");
     }
 
     #[test]

@@ -32,7 +32,7 @@ pub mod partition;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use tet_bundle::{Bundle, BundleMeta, TimeSteps};
+use tet_bundle::{Bundle, BundleMeta, BundleStream, TimeSteps};
 use tet_delaunay::{tetrahedralize_cloud, CloudMode, DelaunayOptions};
 use tet_io::series::SeriesStep;
 use tet_io::ReadOptions;
@@ -54,6 +54,11 @@ pub struct ConvertRequest {
     /// Every time step of an Exodus file or OpenFOAM case (a `.pvd` or
     /// `.series` input is always read as a time series).
     pub all_steps: bool,
+    /// Where the bundle is going: its mesh is written there on a thread of
+    /// its own while the adjacency and statistics are computed
+    /// ([`Converted::stream`], which the caller finishes with the bundle).
+    /// `None` leaves the writing to the caller.
+    pub stream_to: Option<PathBuf>,
 }
 
 /// The stage starting now, for progress displays.
@@ -80,6 +85,9 @@ pub struct Converted {
     /// `select_scalar`, `merge`, `split`, `validate`, `adjacency_stats`,
     /// `time_steps`).
     pub timings: Vec<(&'static str, f64)>,
+    /// With [`ConvertRequest::stream_to`]: the bundle's file, its mesh
+    /// written; `BundleStream::finish(&bundle)` completes it.
+    pub stream: Option<BundleStream>,
 }
 
 /// Why a conversion failed; the path names the input, the source is the
@@ -126,6 +134,8 @@ pub enum ConvertError {
         #[source]
         source: tet_mesh::MeshError,
     },
+    #[error("writing the bundle failed")]
+    Write(#[source] tet_bundle::BundleError),
     #[error("time step {index} ({label}) failed")]
     Step {
         index: usize,
@@ -237,17 +247,43 @@ fn build(
         n.len() == mesh.tets.len() && report.tet_source_cell.iter().enumerate().all(|(i, &c)| c as usize == i)
     });
     let mut adjacency_source = "built from the faces";
-    // Statistics run beside the adjacency, whose face bucketing is serial.
-    let (adjacency, stats) = rayon::join(
-        || match handed.and_then(|n| tet_mesh::adjacency_from_neighbors(&mesh.points, &mesh.tets, n)) {
-            Some(a) => {
-                adjacency_source = "handed over by the Delaunay tetrahedralization";
-                Ok(a)
-            }
-            None => build_adjacency(&mesh.points, &mesh.tets),
-        },
-        || tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar),
-    );
+    // The mesh is final: with `stream_to` its arrays (and the neighbours
+    // handed over) go to the file on a thread of their own while the
+    // adjacency is checked or built and the statistics are computed beside
+    // it (its face bucketing is serial).
+    let (adjacency, stats, stream) = std::thread::scope(|scope| {
+        let writer = req.stream_to.as_deref().map(|path| {
+            let (mesh, handed) = (&mesh, handed.as_deref());
+            scope.spawn(move || {
+                let mut s = BundleStream::create(path)?;
+                s.write_mesh(mesh)?;
+                if let Some(n) = handed {
+                    s.write_neighbors(n)?;
+                }
+                Ok::<_, tet_bundle::BundleError>(s)
+            })
+        });
+        let (adjacency, stats) = rayon::join(
+            || match handed.as_deref().and_then(|n| tet_mesh::check_neighbors(&mesh.points, &mesh.tets, n)) {
+                Some(parts) => Ok(Ok(parts)),
+                None => build_adjacency(&mesh.points, &mesh.tets).map(Err),
+            },
+            || tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar),
+        );
+        let stream = writer.map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
+        (adjacency, stats, stream)
+    });
+    let stream = stream.transpose().map_err(ConvertError::Write)?;
+    let adjacency = match (adjacency, handed) {
+        (Ok(Ok((boundary_faces, convex))), Some(neighbors)) => {
+            adjacency_source = "handed over by the Delaunay tetrahedralization";
+            Ok(tet_mesh::Adjacency { neighbors, boundary_faces, convex })
+        }
+        (Ok(Err(built)), _) => Ok(built),
+        // (Checked parts come from handed-over neighbours: not reached.)
+        (Ok(Ok(_)), None) => build_adjacency(&mesh.points, &mesh.tets),
+        (Err(e), _) => Err(e),
+    };
     let adjacency = adjacency.map_err(|e| {
         let cells = match &e {
             tet_mesh::MeshError::NonManifoldFace { tets, .. } => {
@@ -360,5 +396,5 @@ fn build(
     if let Some(st) = steps {
         bundle = bundle.with_steps(st).map_err(|what| ConvertError::BadSteps { path: input.into(), what })?;
     }
-    Ok(Converted { bundle, timings })
+    Ok(Converted { bundle, timings, stream })
 }

@@ -112,6 +112,103 @@ fn next_data<'a>(t: &mut TextCursor<'a>) -> Option<(usize, &'a str)> {
     }
 }
 
+/// Rows past this many bytes are parsed in parallel chunks.
+const PARALLEL_BYTES: usize = 1 << 20;
+
+/// What a row's columns are: separator, count, names, and where each goes
+/// (`sink`: 0–2 a coordinate, 3 + f field f, `None` skipped).
+struct Table<'n> {
+    sep: Separator,
+    width: usize,
+    names: &'n [String],
+    sink: &'n [Option<usize>],
+    fields: usize,
+}
+
+/// Parsed rows: points and each field's values.
+struct Rows {
+    points: Vec<[f64; 3]>,
+    values: Vec<Vec<f64>>,
+}
+
+impl Rows {
+    fn new(fields: usize) -> Rows {
+        Rows { points: Vec::new(), values: vec![Vec::new(); fields] }
+    }
+}
+
+impl Table<'_> {
+    /// Parses data line `line` (number `line_no`) into `rows`.
+    fn row<'a>(
+        &self,
+        line_no: usize,
+        line: &'a str,
+        rows: &mut Rows,
+        cells: &mut Vec<&'a str>,
+    ) -> Result<(), FormatError> {
+        let at = Location::Line(line_no);
+        self.sep.split(line, cells);
+        if cells.len() != self.width {
+            return Err(FormatError::new(at, format!("expected {} values, found {}", self.width, cells.len())));
+        }
+        let mut p = [0.0; 3];
+        for (c, s) in cells.iter().enumerate() {
+            let Some(dest) = self.sink[c] else { continue };
+            let v = parse_f64(s).ok_or_else(|| {
+                FormatError::new(
+                    at,
+                    format!("column '{}': expected a number, found '{}'", clip(&self.names[c]), clip(s)),
+                )
+            })?;
+            if dest < 3 {
+                p[dest] = v;
+            } else {
+                rows.values[dest - 3].push(v);
+            }
+        }
+        rows.points.push(p);
+        Ok(())
+    }
+
+    /// The rows of `text` (its first line numbered `first_line`) in about
+    /// `chunks` pieces split at line ends, parsed in parallel, in order.
+    fn rows_in_chunks(&self, text: &[u8], first_line: usize, chunks: usize) -> Vec<Result<Rows, FormatError>> {
+        use rayon::prelude::*;
+        let mut starts = vec![0];
+        for k in 1..chunks.max(1) {
+            let at = (text.len() * k / chunks).max(*starts.last().expect("one start"));
+            match text[at..].iter().position(|&b| b == b'\n') {
+                Some(nl) if at + nl + 1 < text.len() => starts.push(at + nl + 1),
+                _ => break,
+            }
+        }
+        starts.dedup();
+        starts.push(text.len());
+        let pieces: Vec<&[u8]> = starts.windows(2).map(|w| &text[w[0]..w[1]]).collect();
+        let newlines: Vec<usize> = pieces.par_iter().map(|p| p.iter().filter(|&&b| b == b'\n').count()).collect();
+        let firsts: Vec<usize> = newlines
+            .iter()
+            .scan(first_line, |line, n| {
+                let first = *line;
+                *line += n;
+                Some(first)
+            })
+            .collect();
+        pieces
+            .par_iter()
+            .zip(firsts)
+            .map(|(piece, line)| {
+                let mut t = TextCursor::starting_at_line(piece, line);
+                let (mut rows, mut cells) = (Rows::new(self.fields), Vec::new());
+                while let Some((line_no, line)) = next_data(&mut t) {
+                    self.row(line_no, line, &mut rows, &mut cells)?;
+                }
+                Ok(rows)
+            })
+            .collect()
+    }
+}
+
 /// Reads a point table; `columns` names the columns in order (see the
 /// module documentation).
 pub fn read(bytes: &[u8], columns: Option<&[String]>) -> Result<SourceMesh, FormatError> {
@@ -198,30 +295,24 @@ pub fn read(bytes: &[u8], columns: Option<&[String]>) -> Result<SourceMesh, Form
         ));
     }
 
-    let mut points = Vec::new();
-    let mut values: Vec<Vec<f64>> = field_names.iter().map(|_| Vec::new()).collect();
-    let mut pending = if header { None } else { Some((first_line, first)) };
-    let cells = &mut tok;
-    while let Some((line_no, line)) = pending.take().or_else(|| next_data(&mut t)) {
-        let at = Location::Line(line_no);
-        sep.split(line, cells);
-        if cells.len() != width {
-            return Err(FormatError::new(at, format!("expected {width} values, found {}", cells.len())));
-        }
-        let mut p = [0.0; 3];
-        for (c, s) in cells.iter().enumerate() {
-            let Some(dest) = sink[c] else { continue };
-            let v = parse_f64(s).ok_or_else(|| {
-                FormatError::new(at, format!("column '{}': expected a number, found '{}'", clip(&names[c]), clip(s)))
-            })?;
-            if dest < 3 {
-                p[dest] = v;
-            } else {
-                values[dest - 3].push(v);
-            }
-        }
-        points.push(p);
+    let table = Table { sep, width, names: &names, sink: &sink, fields: field_names.len() };
+    let mut rows = Rows::new(field_names.len());
+    if !header {
+        table.row(first_line, first, &mut rows, &mut tok)?;
     }
+    // The rest in chunks of whole lines, parsed in parallel; each chunk
+    // stops at its first error and the earliest chunk's is reported, so the
+    // error (and every value) is the serial parse's.
+    let rest = t.rest();
+    let chunks = if rest.len() < PARALLEL_BYTES { 1 } else { rayon::current_num_threads() * 4 };
+    for part in table.rows_in_chunks(rest, t.line(), chunks) {
+        let part = part?;
+        rows.points.extend(part.points);
+        for (v, p) in rows.values.iter_mut().zip(part.values) {
+            v.extend(p);
+        }
+    }
+    let Rows { points, values } = rows;
     if points.is_empty() {
         return Err(FormatError::new(Location::Line(first_line), "the point table has a header but no rows"));
     }
@@ -282,5 +373,47 @@ mod tests {
         assert!(looks_like_point_table(b"# c\n0.5 1 2\n"));
         assert!(!looks_like_point_table(b"40 32 32\n0.5 0.25\n"));
         assert!(!looks_like_point_table(b"1\n40 32 32\n"));
+    }
+
+    /// A table past the parallel threshold (with comments, blank and CRLF
+    /// lines) parses to the same points and fields as its rows one chunk
+    /// at a time, and a bad row deep inside is reported at its own line
+    /// whatever the chunking (the first of two).
+    #[test]
+    fn chunked_rows_equal_the_serial_parse() {
+        let mut text = String::from("x,v,y,z\n");
+        for i in 0..60_000 {
+            let row = format!("{},{},{},{}", i as f64 * 0.5, i % 7, -(i as f64), i as f64 * 1e-3);
+            text.push_str(&match i % 1000 {
+                3 => format!("{row}\r\n"),
+                5 => format!("\n# a comment\n{row}\n"),
+                _ => format!("{row}\n"),
+            });
+        }
+        assert!(text.len() > PARALLEL_BYTES);
+        let m = read(text.as_bytes(), None).unwrap();
+        assert_eq!(m.points.len(), 60_000);
+        assert_eq!(m.points[59_999], [29_999.5, -59_999.0, 59.999]);
+        assert_eq!(m.point_fields[0].values[13], 6.0);
+        let (names, sink) = (["x", "v", "y", "z"].map(String::from), [Some(0), Some(3), Some(1), Some(2)]);
+        let table = Table { sep: Separator::Comma, width: 4, names: &names, sink: &sink, fields: 1 };
+        let body = &text.as_bytes()["x,v,y,z\n".len()..];
+        for chunks in [1, 3, 7, 64] {
+            let parts: Vec<Rows> = table.rows_in_chunks(body, 2, chunks).into_iter().map(Result::unwrap).collect();
+            let points: Vec<[f64; 3]> = parts.iter().flat_map(|p| p.points.iter().copied()).collect();
+            let values: Vec<f64> = parts.iter().flat_map(|p| p.values[0].iter().copied()).collect();
+            assert_eq!((points, values), (m.points.clone(), m.point_fields[0].values.clone()), "{chunks} chunks");
+        }
+        let bad = text.replacen("\n10000,1,", "\n10000,six,", 1).replacen("\n20000,2,", "\n20000,,2,", 1);
+        let line = bad.lines().position(|l| l.contains("six")).unwrap() + 1;
+        assert_eq!(read(bad.as_bytes(), None).unwrap_err().at, Location::Line(line));
+        for chunks in [1, 5, 64] {
+            let first_error = table
+                .rows_in_chunks(&bad.as_bytes()["x,v,y,z\n".len()..], 2, chunks)
+                .into_iter()
+                .find_map(Result::err)
+                .unwrap();
+            assert_eq!(first_error.at, Location::Line(line), "{chunks} chunks");
+        }
     }
 }

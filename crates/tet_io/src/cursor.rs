@@ -180,6 +180,11 @@ impl<'a> TextCursor<'a> {
         TextCursor { bytes, pos: 0, line: 1 }
     }
 
+    /// A cursor over text that is line `line` onwards of a larger file.
+    pub fn starting_at_line(bytes: &'a [u8], line: usize) -> Self {
+        TextCursor { bytes, pos: 0, line }
+    }
+
     pub fn line(&self) -> usize {
         self.line
     }

@@ -138,6 +138,14 @@ pub fn build_adjacency(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Adjacen
 /// marked as boundary are trusted to be unshared: the source must know it
 /// (tet_delaunay's checker tests exactly that).
 pub fn adjacency_from_neighbors(points: &[[f64; 3]], tets: &[[u32; 4]], neighbors: Vec<[u32; 4]>) -> Option<Adjacency> {
+    let (boundary_faces, convex) = check_neighbors(points, tets, &neighbors)?;
+    Some(Adjacency { neighbors, boundary_faces, convex })
+}
+
+/// [`adjacency_from_neighbors`]'s check of a borrowed relation (so that it
+/// can be written out while it is checked): the boundary faces and whether
+/// the boundary is convex, or `None` when a check fails.
+pub fn check_neighbors(points: &[[f64; 3]], tets: &[[u32; 4]], neighbors: &[[u32; 4]]) -> Option<(Vec<u32>, bool)> {
     if neighbors.len() != tets.len() || tets.len() > (u32::MAX / 4) as usize {
         return None;
     }
@@ -202,7 +210,7 @@ pub fn adjacency_from_neighbors(points: &[[f64; 3]], tets: &[[u32; 4]], neighbor
         .flat_map(|(t, n)| (0..4).filter(move |&f| n[f] == NO_NEIGHBOR).map(move |f| (t * 4 + f) as u32))
         .collect();
     let convex = boundary_is_convex(points, tets, &boundary_faces);
-    Some(Adjacency { neighbors, boundary_faces, convex })
+    Some((boundary_faces, convex))
 }
 
 /// A face in its smallest vertex's bucket: the other two vertices (sorted)

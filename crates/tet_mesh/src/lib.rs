@@ -46,7 +46,9 @@ pub mod source;
 pub mod split;
 pub mod stats;
 
-pub use adjacency::{adjacency_from_neighbors, build_adjacency, check_adjacency, Adjacency, FACE_OUTWARD, NO_NEIGHBOR};
+pub use adjacency::{
+    adjacency_from_neighbors, build_adjacency, check_adjacency, check_neighbors, Adjacency, FACE_OUTWARD, NO_NEIGHBOR,
+};
 pub use convert::{
     check_tet_mesh, tetrahedralize, tetrahedralize_merged, tetrahedralize_tets, ConversionReport, ConvertOptions,
     Finding, NanPolicy, Step, TetMesh,

@@ -119,6 +119,8 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         },
         max_circumradius: args.max_circumradius,
         all_steps: args.all_steps,
+        // The mesh is written while its adjacency and statistics are computed.
+        stream_to: Some(args.output.clone()),
     };
     let converted = tet_convert::convert(&args.input, &request, &mut |stage| match stage {
         Stage::Reading => progress.step("reading"),
@@ -143,7 +145,13 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
         timings.push(("analysis", t.elapsed().as_secs_f64()));
     }
     let t = Instant::now();
-    bundle.write(&args.output).context("writing the bundle failed").kind(ExitKind::Output)?;
+    // The rest of the bundle after the mesh the conversion has written.
+    match converted.stream {
+        Some(stream) => stream.finish(&bundle).map(|_| ()),
+        None => bundle.write(&args.output),
+    }
+    .context("writing the bundle failed")
+    .kind(ExitKind::Output)?;
     timings.push(("write", t.elapsed().as_secs_f64()));
     let total = t_all.elapsed().as_secs_f64();
     progress.finish();

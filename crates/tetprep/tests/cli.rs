@@ -133,6 +133,11 @@ fn non_manifold_input_names_tets_and_source_cells() {
     assert_eq!(o.status.code(), Some(4));
     let e = stderr(&o);
     assert!(e.contains("shared by 3 tets") && e.contains("input cells 0, 1, 2"), "{e}");
+    // The mesh was being written while its adjacency was built: the
+    // unfinished file is gone, nothing is left beside the input.
+    assert!(!out.exists());
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names, ["fan.vtk"], "{names:?}");
 }
 
 #[test]

@@ -161,14 +161,43 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
 
 /// A program's exit: success, or `e` described on stderr after `program`'s
 /// name and its [`exit_code`] — what every tetkit program's `main` returns.
+/// An error [`report_now`] printed already is not printed again.
 pub fn exit_status(program: &str, result: anyhow::Result<()>) -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{program}: {}", describe(&e));
+            if e.downcast_ref::<Reported>().is_none() {
+                eprintln!("{program}: {}", describe(&e));
+            }
             std::process::ExitCode::from(exit_code(&e))
         }
     }
+}
+
+/// An error already printed by [`report_now`]: it carries the exit code.
+#[derive(Debug)]
+pub struct Reported {
+    kind: ExitKind,
+    text: String,
+}
+
+impl fmt::Display for Reported {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.text)
+    }
+}
+
+impl StdError for Reported {}
+
+/// Prints `e` now as [`exit_status`] would and returns an error with the
+/// same exit code that `exit_status` does not print again: for a process
+/// that must say why before it waits for others (an MPI rank: mpirun ends
+/// the job at the first rank that exits with an error, cutting off ranks
+/// that have not printed theirs).
+pub fn report_now(program: &str, e: anyhow::Error) -> anyhow::Error {
+    let text = describe(&e);
+    eprintln!("{program}: {text}");
+    anyhow::Error::new(Reported { kind: ExitKind::of(&e), text })
 }
 
 /// The chain of `e` joined by ": ", leaving out a cause whose text an outer
@@ -199,6 +228,9 @@ pub fn describe(e: &anyhow::Error) -> String {
 /// and `LutError::Io`'s `action`, `ReadError` always reads).
 pub fn classify(cause: &(dyn StdError + 'static)) -> Option<ExitKind> {
     use ExitKind::*;
+    if let Some(r) = cause.downcast_ref::<Reported>() {
+        return Some(r.kind);
+    }
     if let Some(t) = cause.downcast_ref::<Tagged>() {
         return Some(t.kind);
     }
@@ -385,6 +417,17 @@ mod tests {
 
     fn io(kind: std::io::ErrorKind) -> std::io::Error {
         std::io::Error::new(kind, "boom")
+    }
+
+    /// An error printed early keeps its exit code and text and is not
+    /// printed twice.
+    #[test]
+    fn a_reported_error_keeps_its_code() {
+        let e = report_now("test", usage("2 ranks for 3 pieces"));
+        assert_eq!(exit_code(&e), ExitKind::Usage.code());
+        assert_eq!(describe(&e), "2 ranks for 3 pieces");
+        assert!(e.downcast_ref::<Reported>().is_some());
+        assert_eq!(exit_status("test", Err(e)), std::process::ExitCode::from(ExitKind::Usage.code()));
     }
 
     #[test]

@@ -48,4 +48,7 @@ pub mod hist_plot;
 pub use args::{
     parse_counts3, parse_direction, parse_range, parse_rgb, parse_size, parse_window_size, parse_xyz, WINDOW_SIDE,
 };
-pub use exit::{classify, describe, exit_code, exit_status, fail, usage, ExitKind, KindExt, Tagged, EXIT_CODES_HELP};
+pub use exit::{
+    classify, describe, exit_code, exit_status, fail, report_now, usage, ExitKind, KindExt, Reported, Tagged,
+    EXIT_CODES_HELP,
+};

@@ -87,8 +87,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             Ok(Some(c)) => write_outputs(args, c),
             Ok(None) => Ok(()),
             Err(e) => {
-                // Every rank has the error before any exits: mpirun ends
-                // the job at the first failing exit.
+                // Every rank prints its error, then waits for the others
+                // before it exits: mpirun ends the job at the first failing
+                // exit, which cut off ranks that had not printed yet.
+                let e = tet_cli::report_now("tetview", e);
                 let _ = comm.barrier();
                 Err(e)
             }

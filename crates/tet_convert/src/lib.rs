@@ -273,7 +273,6 @@ fn build(
         let stream = writer.map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
         (adjacency, stats, stream)
     });
-    let stream = stream.transpose().map_err(ConvertError::Write)?;
     let adjacency = match (adjacency, handed) {
         (Ok(Ok((boundary_faces, convex))), Some(neighbors)) => {
             adjacency_source = "handed over by the Delaunay tetrahedralization";
@@ -294,6 +293,8 @@ fn build(
         };
         ConvertError::Invalid { cells, source: e }
     })?;
+    // (A mesh error first: the file being written is dropped with it.)
+    let stream = stream.transpose().map_err(ConvertError::Write)?;
     timings.push(("adjacency_stats", t.elapsed().as_secs_f64()));
 
     // The other steps' scalars, mapped onto this mesh.

@@ -19,4 +19,14 @@ fuzz_target!(|data: &[u8]| {
         (Err(_), Err(_)) => {}
         (x, y) => panic!("the file reader gave {:?}, the bytes' parser {:?}", x.is_ok(), y.is_ok()),
     }
+    // An accepted bundle streamed (mesh and neighbours first, the rest at
+    // finish, tet_bundle::BundleStream) reads back as itself.
+    if let Ok(b) = &from_bytes {
+        let streamed = std::env::temp_dir().join(format!("tetkit-fuzz-stream-{}.tetb", std::process::id()));
+        let mut s = tet_bundle::BundleStream::create(&streamed).unwrap();
+        s.write_mesh(&b.mesh).unwrap();
+        s.write_neighbors(&b.adjacency.neighbors).unwrap();
+        s.finish(b).unwrap();
+        assert_eq!(&tet_bundle::Bundle::read(&streamed).unwrap(), b);
+    }
 });

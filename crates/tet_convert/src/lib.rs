@@ -54,10 +54,11 @@ pub struct ConvertRequest {
     /// Every time step of an Exodus file or OpenFOAM case (a `.pvd` or
     /// `.series` input is always read as a time series).
     pub all_steps: bool,
-    /// Where the bundle is going: its mesh is written there on a thread of
-    /// its own while the adjacency and statistics are computed
-    /// ([`Converted::stream`], which the caller finishes with the bundle).
-    /// `None` leaves the writing to the caller.
+    /// Where the bundle is going: its file is started before anything is
+    /// read (a path that cannot be written fails at once) and the mesh is
+    /// written there on a thread of its own while the adjacency and
+    /// statistics are computed ([`Converted::stream`], which the caller
+    /// finishes with the bundle). `None` leaves the writing to the caller.
     pub stream_to: Option<PathBuf>,
 }
 
@@ -149,6 +150,9 @@ pub enum ConvertError {
 
 /// Converts `input` as `req` says; `progress` hears each stage as it starts.
 pub fn convert(input: &Path, req: &ConvertRequest, progress: &mut dyn FnMut(Stage)) -> Result<Converted, ConvertError> {
+    // The output's file first: a path that cannot be written fails now,
+    // not after the conversion.
+    let stream = start_stream(req)?;
     progress(Stage::Reading);
     let t = Instant::now();
     // A time series: the first step is converted as any input, the others
@@ -164,7 +168,12 @@ pub fn convert(input: &Path, req: &ConvertRequest, progress: &mut dyn FnMut(Stag
         None => tet_io::read_file(input, &req.read).map_err(ConvertError::Read)?,
     };
     let timings = vec![("read", t.elapsed().as_secs_f64())];
-    build(source, series.as_deref(), input, req, timings, progress)
+    build(source, series.as_deref(), input, req, stream, timings, progress)
+}
+
+/// The bundle's file at [`ConvertRequest::stream_to`], started.
+fn start_stream(req: &ConvertRequest) -> Result<Option<BundleStream>, ConvertError> {
+    req.stream_to.as_deref().map(BundleStream::create).transpose().map_err(ConvertError::Write)
 }
 
 /// Converts a mesh already in memory (arrays handed over by the Python
@@ -177,7 +186,8 @@ pub fn convert_source(
     req: &ConvertRequest,
     progress: &mut dyn FnMut(Stage),
 ) -> Result<Converted, ConvertError> {
-    build(source, None, Path::new(label), req, Vec::new(), progress)
+    let stream = start_stream(req)?;
+    build(source, None, Path::new(label), req, stream, Vec::new(), progress)
 }
 
 /// Everything after reading: the source (a series' first step, with the
@@ -187,6 +197,7 @@ fn build(
     series: Option<&[SeriesStep]>,
     input: &Path,
     req: &ConvertRequest,
+    stream: Option<BundleStream>,
     mut timings: Vec<(&'static str, f64)>,
     progress: &mut dyn FnMut(Stage),
 ) -> Result<Converted, ConvertError> {
@@ -252,10 +263,9 @@ fn build(
     // adjacency is checked or built and the statistics are computed beside
     // it (its face bucketing is serial).
     let (adjacency, stats, stream) = std::thread::scope(|scope| {
-        let writer = req.stream_to.as_deref().map(|path| {
+        let writer = stream.map(|mut s| {
             let (mesh, handed) = (&mesh, handed.as_deref());
             scope.spawn(move || {
-                let mut s = BundleStream::create(path)?;
                 s.write_mesh(mesh)?;
                 if let Some(n) = handed {
                     s.write_neighbors(n)?;

@@ -116,6 +116,21 @@ fn a_failed_conversion_keeps_the_previous_output() {
     assert_eq!(std::fs::read(&out).unwrap(), b"previous");
 }
 
+/// An output path that cannot be written is an output error (5) naming
+/// it, found before the input is converted (the bundle's file is started
+/// first), and nothing is left behind.
+#[test]
+fn an_unwritable_output_fails_before_the_conversion() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("missing").join("x.tetb");
+    let o = tetprep(&["convert", path_arg(&data("vtk/post.vtk")), "-o", path_arg(&out)]);
+    assert_eq!(o.status.code(), Some(5), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("x.tetb") && e.contains("writing the bundle failed"), "{e}");
+    assert!(!e.contains("reading"), "failed before reading: {e}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
 #[test]
 fn non_manifold_input_names_tets_and_source_cells() {
     let dir = tempfile::tempdir().unwrap();

@@ -55,6 +55,13 @@ pub struct DeepShadowMap {
     origin: Option<DVec3>,
 }
 
+/// The box of `points`.
+fn bounds_of(points: &[[f64; 3]]) -> (DVec3, DVec3) {
+    points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| {
+        (lo.min(DVec3::from(*p)), hi.max(DVec3::from(*p)))
+    })
+}
+
 /// Index bins along each ray.
 const BINS: usize = 32;
 
@@ -172,11 +179,7 @@ impl DeepShadowMap {
         stats: &mut ReferenceStats,
     ) -> Option<DeepShadowMap> {
         let pts = reference.points();
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for p in pts {
-            lo = lo.min(DVec3::from(*p));
-            hi = hi.max(DVec3::from(*p));
-        }
+        let (lo, hi) = bounds_of(pts);
         let d = ((lo + hi) * 0.5 - light).try_normalize()?;
         let e1 = d.any_orthonormal_vector();
         let e2 = d.cross(e1);
@@ -228,22 +231,43 @@ impl DeepShadowMap {
         }
         // A light strictly inside a tet: every ray starts there and walks
         // only what lies ahead (no boundary search, nothing behind the
-        // light). Otherwise (outside the mesh, or on a face, edge or vertex)
-        // each ray's whole line is walked from its boundary entries.
-        let from_inside = reference.tet_strictly_containing(light);
+        // light). A light inside the mesh's box on a face, edge or vertex
+        // (a grid node; a cell's centre, on the diagonal a 6-split shares)
+        // starts its rays a hair away, strictly inside a tet: at most 1e-9
+        // of the box's diagonal, far below a ray spacing. Otherwise (outside
+        // the mesh) each ray's whole line is walked from its boundary
+        // entries.
+        let from_inside = reference.tet_strictly_containing(light).map(|(t, s)| (light, t, s)).or_else(|| {
+            let (lo, hi) = bounds_of(reference.points());
+            let in_box = (light.cmpge(lo) & light.cmple(hi)).all();
+            let diag = (hi - lo).length();
+            // Fixed, irrational-looking directions: no mesh is aligned with them.
+            let dirs = [DVec3::new(0.5773, 0.4471, 0.6833), DVec3::new(-0.6168, 0.3125, 0.7219)];
+            let nudges = [1e-12, 1e-11, 1e-10, 1e-9].into_iter().flat_map(|k| dirs.map(|d| d.normalize() * k * diag));
+            in_box
+                .then(|| {
+                    nudges.into_iter().find_map(|off| {
+                        reference.tet_strictly_containing(light + off).map(|(t, s)| (light + off, t, s))
+                    })
+                })
+                .flatten()
+        });
         Some(Self::build_cube_from(reference, light, tf, stats, from_inside))
     }
 
     /// [`DeepShadowMap::build_cube`] for a finite light, its rays walked
-    /// from `from_inside` (the light's tet and scalar) or, without it, along
+    /// from `from_inside` (a point strictly inside a tet: the light or one
+    /// a hair from it, the tet and the scalar there) or, without it, along
     /// their whole lines.
     fn build_cube_from(
         reference: &ReferenceRenderer,
         light: DVec3,
         tf: &TransferFunction,
         stats: &mut ReferenceStats,
-        from_inside: Option<(usize, f64)>,
+        from_inside: Option<(DVec3, usize, f64)>,
     ) -> Box<[DeepShadowMap; 6]> {
+        let start = from_inside.map_or(light, |(p, _, _)| p);
+        let from_inside = from_inside.map(|(_, t, s)| (t, s));
         let far = reference.points().iter().map(|p| (DVec3::from(*p) - light).length()).fold(0.0f64, f64::max);
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
         let n = CUBE_RAYS;
@@ -252,7 +276,7 @@ impl DeepShadowMap {
             // From the light on (t ≥ 0): the mesh behind it is another face's.
             let rays = walk_grid(reference, [n, n], tf, from_inside, |i, j| {
                 let (u, v) = (-1.0 + i as f64 * step, -1.0 + j as f64 * step);
-                (light, (d + e1 * u + e2 * v).normalize(), 0.0)
+                (start, (d + e1 * u + e2 * v).normalize(), 0.0)
             });
             let (knots, index) = index_rays(rays, n * n, bin_len, stats);
             DeepShadowMap {
@@ -594,7 +618,7 @@ mod tests {
         assert_eq!(reference.tet_strictly_containing(DVec3::new(0.55, 0.5, 0.5)), None, "in the slot");
         assert_eq!(reference.tet_strictly_containing(DVec3::splat(2.0)), None, "outside");
         let (mut a, mut b) = (ReferenceStats::default(), ReferenceStats::default());
-        let inside = DeepShadowMap::build_cube_from(&reference, light, &tf, &mut a, Some((tet, s)));
+        let inside = DeepShadowMap::build_cube_from(&reference, light, &tf, &mut a, Some((light, tet, s)));
         let whole = DeepShadowMap::build_cube_from(&reference, light, &tf, &mut b, None);
         assert_eq!((a.walk_failures, b.walk_failures), (0, 0));
         let mut rng = tet_mesh::XorShift64(29);
@@ -607,5 +631,22 @@ mod tests {
             deep += usize::from(y > 1.0 && p.x > 0.67);
         }
         assert!(deep > 100, "rays across the slot carry depth: {deep}");
+
+        // A light on a grid vertex (in no tet strictly): its rays start a
+        // hair away inside a tet, and read as the whole lines do.
+        let vertex = DVec3::splat(2.0 / 6.0);
+        assert_eq!(reference.tet_strictly_containing(vertex), None);
+        let (mut c, mut d) = (ReferenceStats::default(), ReferenceStats::default());
+        let nudged = DeepShadowMap::build_cube(&reference, vertex, &tf, &mut c).unwrap();
+        let whole = DeepShadowMap::build_cube_from(&reference, vertex, &tf, &mut d, None);
+        // (Entries: only the re-entries across the slot, not every ray's.)
+        assert!(c.entries < d.entries / 3, "walked from inside: {} entries against {}", c.entries, d.entries);
+        assert_eq!((c.walk_failures, d.walk_failures), (0, 0));
+        for _ in 0..3000 {
+            let p = DVec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+            let f = cube_face(p - vertex);
+            let (x, y) = (nudged[f].depth_at(p), whole[f].depth_at(p));
+            assert!((x - y).abs() <= 1e-5 * y.max(1.0), "at {p}: {x} vs {y}");
+        }
     }
 }

@@ -65,8 +65,12 @@ fn bounds_of(points: &[[f64; 3]]) -> (DVec3, DVec3) {
 /// Index bins along each ray.
 const BINS: usize = 32;
 
-/// Rays along each side of a cube map's face (90° of view: ~0.7° apart).
-pub const CUBE_RAYS: usize = 128;
+/// Rays along each side of a cube map's face (90° of view: ~0.53° apart).
+/// 170 keeps the held-out TFs' shadow maxima within 2/255 with the light
+/// inside Blunt Fin (128: 2.8/255 on a dozen narrow peaks) and the cube
+/// within one 512² frame on 0.2–1.2M-tet meshes
+/// (crates/tet_engine/results/lighting.md).
+pub const CUBE_RAYS: usize = 170;
 
 /// The faces of a point light's cube of maps: (axis d, e1, e2), face f
 /// seeing the points whose largest coordinate relative to the light is

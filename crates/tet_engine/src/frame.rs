@@ -243,11 +243,8 @@ impl FrameRenderer for CpuFrameRenderer {
         }
         self.shadow_seconds = 0.0;
         if req.shading.wants_shadows() {
-            let stale = r.scene().shadows().is_none_or(|f| {
-                f.key().lights != req.shading.sources
-                    || f.key().tf != look.tf
-                    || f.key().scalar_range != r.scene().scalar_range()
-            });
+            let stale =
+                r.scene().shadows().is_none_or(|f| !f.is_for(&req.shading.sources, &look.tf, r.scene().scalar_range()));
             if stale {
                 let t = Instant::now();
                 let field = r.scene().compute_shadows(&look.tf, &req.shading.sources, &|_, _| {})?;

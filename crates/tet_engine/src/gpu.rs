@@ -284,11 +284,10 @@ impl FrameRenderer for GpuFrameRenderer {
         let mut shadow_seconds = 0.0;
         if shading.wants_shadows() {
             let scene = self.scene.as_ref().expect("a scene");
-            let stale = self.shadows.as_ref().is_none_or(|(f, _)| {
-                f.key().lights != req.shading.sources
-                    || f.key().tf != look.tf
-                    || f.key().scalar_range != scene.scalar_range()
-            });
+            let stale = self
+                .shadows
+                .as_ref()
+                .is_none_or(|(f, _)| !f.is_for(&req.shading.sources, &look.tf, scene.scalar_range()));
             if stale {
                 self.shadows = None;
                 let t = Instant::now();

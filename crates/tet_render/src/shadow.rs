@@ -154,6 +154,12 @@ impl ShadowField {
         &self.key
     }
 
+    /// Whether this field holds for `lights` and `tf` over a scene of
+    /// scalar range `scalar_range` (else it must be computed again).
+    pub fn is_for(&self, lights: &LightSet, tf: &TransferFunction, scalar_range: [f64; 2]) -> bool {
+        self.key.lights == *lights && self.key.tf == *tf && self.key.scalar_range == scalar_range
+    }
+
     /// The walks' counts (every map ray).
     pub fn stats(&self) -> &ReferenceStats {
         &self.stats

@@ -57,9 +57,8 @@ pub struct DeepShadowMap {
 
 /// The box of `points`.
 fn bounds_of(points: &[[f64; 3]]) -> (DVec3, DVec3) {
-    points.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| {
-        (lo.min(DVec3::from(*p)), hi.max(DVec3::from(*p)))
-    })
+    let (lo, hi) = tet_mesh::stats::bounds(points);
+    (DVec3::from(lo), DVec3::from(hi))
 }
 
 /// Index bins along each ray.
@@ -595,9 +594,8 @@ mod tests {
         let src = SourceMesh::structured([n + 1; 3], points, "s", values);
         let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
         let (mut mesh, _) = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
-        let centre = |t: &[u32; 4]| t.iter().map(|&v| mesh.points[v as usize][0]).sum::<f64>() / 4.0;
-        let keep: Vec<bool> = mesh.tets.iter().map(|t| !(0.5..0.67).contains(&centre(t))).collect();
-        mesh.tets = mesh.tets.iter().zip(&keep).filter(|(_, &k)| k).map(|(t, _)| *t).collect();
+        let points = &mesh.points;
+        mesh.tets.retain(|t| !(0.5..0.67).contains(&(t.iter().map(|&v| points[v as usize][0]).sum::<f64>() / 4.0)));
         mesh
     }
 

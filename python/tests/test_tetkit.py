@@ -347,6 +347,8 @@ def test_progress_callbacks_and_interact():
     tetkit.render(b, tf=PEAKS, size=(64, 64), progress=lambda done, total: seen.append((done, total)))
     assert seen and seen[-1][0] == seen[-1][1] and all(d <= t for d, t in seen), seen
     assert len(seen) <= 102
+    # Regression: two workers once delivered (16, 16) then (12, 16).
+    assert all(a[0] < b[0] for a, b in zip(seen, seen[1:])), seen
     ref_seen = []
     tetkit.reference(b, tf=PEAKS, size=(16, 16), progress=lambda d, t: ref_seen.append(d))
     assert ref_seen

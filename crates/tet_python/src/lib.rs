@@ -815,18 +815,23 @@ fn render<'py>(
 
 /// The engine's progress callback for a Python callable `f(done, total)`:
 /// called with the GIL from the worker threads at most about a hundred
-/// times a frame and once at the end; an exception in it is reported as
-/// unraisable (`sys.unraisablehook`) and does not stop the render.
+/// times a frame and once at the end, in increasing `done` (a count a
+/// worker arrives with after a later one was delivered is dropped, so the
+/// last call is always `(total, total)`); an exception in it is reported
+/// as unraisable (`sys.unraisablehook`) and does not stop the render.
 fn progress_of(f: Option<Py<PyAny>>) -> impl Fn(usize, usize) + Sync {
-    let last = std::sync::atomic::AtomicUsize::new(0);
+    // The lock orders the calls: two workers taking the GIL one after the
+    // other could otherwise deliver 16 then 12. It is always taken before
+    // the GIL, and the calling thread has released the GIL for the render.
+    let delivered = std::sync::Mutex::new(0usize);
     move |done, total| {
         let Some(f) = &f else { return };
         let step = (total / 100).max(1);
-        let prev = last.load(std::sync::atomic::Ordering::Relaxed);
-        if done != total && done < prev + step {
+        let mut last = delivered.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if done <= *last || (done != total && done < *last + step) {
             return;
         }
-        last.store(done, std::sync::atomic::Ordering::Relaxed);
+        *last = done;
         Python::with_gil(|py| {
             if let Err(e) = f.call1(py, (done, total)) {
                 e.write_unraisable(py, None);

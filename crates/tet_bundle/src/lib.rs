@@ -132,6 +132,12 @@ impl BundleStream {
         self.writer.section(&name, &data).map_err(|e| io_error(e, &self.path))
     }
 
+    /// Puts the sections written so far on disk (see
+    /// [`tet_container::SectionWriter::sync_written`]).
+    pub fn sync_written(&mut self) -> Result<(), BundleError> {
+        self.writer.sync_written().map_err(|e| io_error(e, &self.path))
+    }
+
     /// Adds `bundle`'s other sections, writes the table, syncs and renames
     /// the file into place. True when the early sections were kept; false
     /// when one differed from `bundle`'s and the bundle was written afresh.

@@ -511,6 +511,15 @@ impl SectionWriter {
         Ok(())
     }
 
+    /// Flushes what was written so far and asks the system to put it on
+    /// disk now, so that [`SectionWriter::finish`]'s sync finds little left
+    /// to wait for (a conversion calls this on its writer thread while the
+    /// rest of the bundle is still being computed).
+    pub fn sync_written(&mut self) -> Result<(), AtomicWriteError> {
+        self.file.flush().map_err(|source| AtomicWriteError { action: "write", source })?;
+        self.file.get_ref().sync_data().map_err(|source| AtomicWriteError { action: "sync", source })
+    }
+
     /// The sections written so far, in order.
     pub fn sections(&self) -> &[SectionEntry] {
         &self.entries

@@ -37,7 +37,7 @@ use tet_delaunay::{tetrahedralize_cloud, CloudMode, DelaunayOptions};
 use tet_io::series::SeriesStep;
 use tet_io::ReadOptions;
 use tet_mesh::SourceMesh;
-use tet_mesh::{build_adjacency, tetrahedralize_merged, ConvertOptions, NanPolicy, SplitMode, Step};
+use tet_mesh::{build_adjacency, tetrahedralize_merged, ConvertOptions, GivenOrientation, NanPolicy, SplitMode, Step};
 
 /// What to convert and how (the options of `tetprep convert`).
 #[derive(Debug, Clone, Default)]
@@ -242,7 +242,16 @@ fn build(
         progress(Stage::Mesh(s))
     };
     let converted = match cloud_tets {
-        Some(tets) => tet_mesh::tetrahedralize_tets(&source, &req.convert, merged_into, tets, &mut on_step),
+        // Exact predicates made them (`tetrahedralize_cloud`): confirmed in
+        // the statistics pass below, not in a validation pass of their own.
+        Some(tets) => tet_mesh::tetrahedralize_tets(
+            &source,
+            &req.convert,
+            merged_into,
+            tets,
+            GivenOrientation::ExactlyPositive,
+            &mut on_step,
+        ),
         None => tetrahedralize_merged(&source, &req.convert, merged_into, &mut on_step),
     };
     let (mesh, report) = converted.map_err(|source| ConvertError::Mesh { path: input.into(), source })?;
@@ -270,6 +279,9 @@ fn build(
                 if let Some(n) = handed {
                     s.write_neighbors(n)?;
                 }
+                // The disk's share of the work done here too, beside the
+                // computation, rather than in the final sync.
+                s.sync_written()?;
                 Ok::<_, tet_bundle::BundleError>(s)
             })
         });
@@ -278,7 +290,13 @@ fn build(
                 Some(parts) => Ok(Ok(parts)),
                 None => build_adjacency(&mesh.points, &mesh.tets).map(Err),
             },
-            || tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar),
+            || {
+                if cloud.is_some() {
+                    tet_mesh::mesh_stats_confirming_orientation(&mesh.points, &mesh.tets, &mesh.scalar)
+                } else {
+                    Ok(tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar))
+                }
+            },
         );
         let stream = writer.map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
         (adjacency, stats, stream)
@@ -303,6 +321,7 @@ fn build(
         };
         ConvertError::Invalid { cells, source: e }
     })?;
+    let stats = stats.map_err(|source| ConvertError::Invalid { cells: String::new(), source })?;
     // (A mesh error first: the file being written is dropped with it.)
     let stream = stream.transpose().map_err(ConvertError::Write)?;
     timings.push(("adjacency_stats", t.elapsed().as_secs_f64()));

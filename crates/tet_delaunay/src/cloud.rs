@@ -83,7 +83,9 @@ fn tet_cells(tets: &[[u32; 4]]) -> Cells {
 
 /// [`triangulate_cloud`] without the cell list: the tets over
 /// `source.points` (source ids) and the report, for a conversion that takes
-/// them as they are (`tet_mesh::tetrahedralize_tets`). `source` is not
+/// them as they are (`tet_mesh::tetrahedralize_tets`). In either mode every
+/// tet is positively oriented by exact predicates on `source.points`
+/// (`tet_mesh::GivenOrientation::ExactlyPositive`). `source` is not
 /// changed.
 pub fn tetrahedralize_cloud(
     source: &SourceMesh,

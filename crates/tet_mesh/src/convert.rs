@@ -194,31 +194,51 @@ pub fn tetrahedralize_merged(
     tetrahedralize_with(source, opts, merged_into, None, progress)
 }
 
+/// What the caller of [`tetrahedralize_tets`] vouches for about its tets'
+/// orientation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GivenOrientation {
+    /// Unknown: each tet's orientation is decided exactly, flipped tets
+    /// are reoriented and flat ones dropped, as for any split.
+    Unchecked,
+    /// Every tet is positively oriented by exact predicates on these very
+    /// points (a Delaunay tetrahedralization's). The validation step then
+    /// does no pass of its own: the caller confirms it in the statistics
+    /// pass, [`crate::mesh_stats_confirming_orientation`], which it must run
+    /// on the result. (With [`NanPolicy::Drop`] the tets are validated as
+    /// `Unchecked` ones.)
+    ExactlyPositive,
+}
+
 /// [`tetrahedralize_merged`] for tets an earlier step made over
 /// `source.points` (a point cloud's triangulation): `tets` are taken as the
 /// split of a source with one tet cell each, in their order (cell `i` is
 /// tet `i`), without building that cell list and splitting it again;
-/// `source`'s own cells are ignored. Then validated, given their scalar and
-/// compacted as any split. A vertex id out of range is an error.
+/// `source`'s own cells are ignored. Then validated (see
+/// [`GivenOrientation`]), given their scalar and compacted as any split. A
+/// vertex id out of range is an error.
 pub fn tetrahedralize_tets(
     source: &SourceMesh,
     opts: &ConvertOptions,
     merged_into: Option<Vec<u32>>,
     tets: Vec<[u32; 4]>,
+    orientation: GivenOrientation,
     progress: &mut dyn FnMut(Step),
 ) -> Result<(TetMesh, ConversionReport), MeshError> {
-    tetrahedralize_with(source, opts, merged_into, Some(tets), progress)
+    tetrahedralize_with(source, opts, merged_into, Some((tets, orientation)), progress)
 }
 
 fn tetrahedralize_with(
     source: &SourceMesh,
     opts: &ConvertOptions,
     merged_into: Option<Vec<u32>>,
-    given: Option<Vec<[u32; 4]>>,
+    given: Option<(Vec<[u32; 4]>, GivenOrientation)>,
     progress: &mut dyn FnMut(Step),
 ) -> Result<(TetMesh, ConversionReport), MeshError> {
     source.check().map_err(MeshError::BadSource)?;
-    let source_cells = given.as_ref().map_or(source.num_cells(), Vec::len);
+    let source_cells = given.as_ref().map_or(source.num_cells(), |g| g.0.len());
+    let vouched =
+        given.as_ref().is_some_and(|g| g.1 == GivenOrientation::ExactlyPositive) && opts.nan == NanPolicy::Error;
     if source_cells == 0 {
         return Err(MeshError::NoCells { points: source.points.len() });
     }
@@ -267,7 +287,7 @@ fn tetrahedralize_with(
     progress(Step::Split);
     let (split, blanked) = match given {
         None => split_blocks(&source.blocks, opts.split, &rep, source.point_blanked.as_deref()),
-        Some(tets) => {
+        Some((tets, _)) => {
             let n_points = source.points.len();
             if let Some(t) = tets.par_iter().position_any(|t| t.iter().any(|&v| v as usize >= n_points)) {
                 return Err(MeshError::BadSource(format!(
@@ -342,29 +362,34 @@ fn tetrahedralize_with(
         Flat,
         NonFinite,
     }
-    let verdicts: Vec<Verdict> = split
-        .tets
-        .par_iter()
-        .zip(split.source_cell.par_iter())
-        .map(|(t, &c)| {
-            if opts.nan == NanPolicy::Drop && (t.iter().any(|&v| bad_point(v as usize)) || cell_bad(c)) {
-                return Verdict::NonFinite;
-            }
-            let p = |k: usize| &source.points[t[k] as usize];
-            match tet_orientation(p(0), p(1), p(2), p(3)) {
-                TetOrientation::Positive => Verdict::Keep,
-                TetOrientation::Negative => Verdict::Flipped,
-                TetOrientation::Flat => Verdict::Flat,
-            }
-        })
-        .collect();
+    // Tets vouched for are confirmed by the caller's statistics pass.
+    let verdicts: Vec<Verdict> = if vouched {
+        Vec::new()
+    } else {
+        split
+            .tets
+            .par_iter()
+            .zip(split.source_cell.par_iter())
+            .map(|(t, &c)| {
+                if opts.nan == NanPolicy::Drop && (t.iter().any(|&v| bad_point(v as usize)) || cell_bad(c)) {
+                    return Verdict::NonFinite;
+                }
+                let p = |k: usize| &source.points[t[k] as usize];
+                match tet_orientation(p(0), p(1), p(2), p(3)) {
+                    TetOrientation::Positive => Verdict::Keep,
+                    TetOrientation::Negative => Verdict::Flipped,
+                    TetOrientation::Flat => Verdict::Flat,
+                }
+            })
+            .collect()
+    };
     let (mut flipped, mut flat, mut nonfinite) = (0usize, 0usize, 0usize);
     let (mut flipped_cells, mut last_flipped_cell) = (0usize, u32::MAX);
     let mut first_flat_cell = None;
     let split_tets = split.tets.len();
     // Every tet kept as it is (the usual case): the split's lists are the
     // result, not copied.
-    let all_kept = verdicts.par_iter().all(|v| *v == Verdict::Keep);
+    let all_kept = vouched || verdicts.par_iter().all(|v| *v == Verdict::Keep);
     let (mut tets, mut tet_cell, kept_lists) = if all_kept {
         (split.tets, split.source_cell, None)
     } else {
@@ -578,5 +603,36 @@ mod tests {
         let mut chained = rep;
         chained[0] = 8; // point 8 is itself merged into 1: not a representative
         assert!(matches!(tetrahedralize_merged(&src, &opts, Some(chained), &mut |_| {}), Err(MeshError::BadSource(_))));
+    }
+
+    /// Tets vouched for as exactly positive skip the validation pass (a
+    /// flipped one passes through, for the caller's statistics pass to
+    /// find); unchecked ones, or vouched ones with `--nan drop`, are
+    /// reoriented as any split's.
+    #[test]
+    fn vouched_tets_are_left_to_the_statistics_pass() {
+        let points = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]];
+        let s: Vec<f64> = points.iter().map(|p| p[0] + p[1]).collect();
+        let src = SourceMesh { points, point_fields: vec![Field::new("s", 1, s)], ..Default::default() };
+        // Tet 1 is negatively oriented.
+        let tets = vec![[0, 1, 2, 3], [2, 1, 3, 4]];
+        let run = |orientation, nan| {
+            let opts = ConvertOptions { nan, ..Default::default() };
+            tetrahedralize_tets(&src, &opts, None, tets.clone(), orientation, &mut |_| {}).unwrap()
+        };
+        let (vouched, report) = run(GivenOrientation::ExactlyPositive, NanPolicy::Error);
+        assert_eq!(vouched.tets, tets);
+        assert!(report.findings.iter().all(|f| !matches!(f, Finding::ReorientedTets { .. })));
+        assert_eq!(
+            crate::mesh_stats_confirming_orientation(&vouched.points, &vouched.tets, &vouched.scalar),
+            Err(MeshError::NotPositive { tet: 1, orientation: "negatively oriented" })
+        );
+        for (orientation, nan) in
+            [(GivenOrientation::Unchecked, NanPolicy::Error), (GivenOrientation::ExactlyPositive, NanPolicy::Drop)]
+        {
+            let (checked, report) = run(orientation, nan);
+            assert_eq!(checked.tets, vec![[0, 1, 2, 3], [1, 2, 3, 4]]);
+            assert!(report.findings.iter().any(|f| matches!(f, Finding::ReorientedTets { count: 1, .. })));
+        }
     }
 }

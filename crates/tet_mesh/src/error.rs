@@ -26,6 +26,11 @@ pub enum MeshError {
     NonFinitePoint { point: usize, coords: [f64; 3] },
     #[error("face ({}, {}, {}) is shared by {} tets ({}), but a face can bound at most two; the mesh overlaps itself there", face[0], face[1], face[2], tets.len(), join(tets))]
     NonManifoldFace { face: [u32; 3], tets: Vec<u32> },
+    /// A tet handed over as positively oriented by exact predicates (a
+    /// Delaunay tetrahedralization's) that is not: a fault of the code that
+    /// made it, found by the statistics pass's check.
+    #[error("tet {tet} was handed over as positively oriented but is {orientation}; the tetrahedralization that made it is at fault (please report it)")]
+    NotPositive { tet: usize, orientation: &'static str },
     #[error("every cell was dropped ({reason}); nothing is left to convert")]
     Empty { reason: String },
     #[error("the mesh has {count} {what}, more than the {limit} the bundle format can index")]

@@ -51,7 +51,7 @@ pub use adjacency::{
 };
 pub use convert::{
     check_tet_mesh, tetrahedralize, tetrahedralize_merged, tetrahedralize_tets, ConversionReport, ConvertOptions,
-    Finding, NanPolicy, Step, TetMesh,
+    Finding, GivenOrientation, NanPolicy, Step, TetMesh,
 };
 pub use error::MeshError;
 pub use polyhedron::PolyhedronSplitter;
@@ -59,4 +59,4 @@ pub use rng::{SplitMix64, XorShift64};
 pub use series::StepMapper;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
 pub use split::SplitMode;
-pub use stats::{mesh_stats, MeshStats, Spread};
+pub use stats::{mesh_stats, mesh_stats_confirming_orientation, MeshStats, Spread};

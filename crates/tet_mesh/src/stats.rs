@@ -1,6 +1,7 @@
 //! Size statistics of a tetrahedral mesh (what `tetprep info` prints).
 
-use crate::predicates::{dist2, signed_tet_volume};
+use crate::predicates::{dist2, signed_tet_volume, tet_orientation, TetOrientation};
+use crate::MeshError;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
@@ -387,6 +388,69 @@ pub fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 
 /// Computes [`MeshStats`]; volumes and lengths in the mesh's units.
 pub fn mesh_stats(points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> MeshStats {
+    stats_with(points, tets, scalar, |_, _| {})
+}
+
+/// [`mesh_stats`] that also confirms, in the same pass over the tets, that
+/// every tet is positively oriented: a tet whose floating-point volume is
+/// not clearly positive is decided by the exact predicate
+/// ([`tet_orientation`]). For tets a caller vouches for (a Delaunay
+/// tetrahedralization's, `tetrahedralize_tets` with
+/// `GivenOrientation::ExactlyPositive`), so that the check costs no pass of
+/// its own. Err names the first tet (lowest index) that is flat or negative.
+///
+/// Why the volume decides: it is computed as det[p1−p0, p2−p0, p3−p0]/6 in
+/// the form of Shewchuk's orient3d first stage, whose error is at most
+/// 7ε(1 + 8ε) times its permanent; with every coordinate difference at most
+/// `m` (the points' largest box extent) the permanent is at most 6m³, so a
+/// volume above 16εm³ (more than twice that bound, over 6) has a positive
+/// exact determinant. Near overflow or underflow, where that analysis
+/// fails, every tet goes to the exact predicate.
+pub fn mesh_stats_confirming_orientation(
+    points: &[[f64; 3]],
+    tets: &[[u32; 4]],
+    scalar: &[f64],
+) -> Result<MeshStats, MeshError> {
+    let (lo, hi) = bounds(points);
+    let m = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
+    let bound = 16.0 * (f64::EPSILON / 2.0) * m * m * m;
+    let certain_above = if bound.is_finite() && bound > 1e-250 { bound } else { f64::INFINITY };
+    // Tets left to the exact predicate; few (slivers), so a lock is cheap.
+    let uncertain = std::sync::Mutex::new(Vec::new());
+    let stats = stats_with(points, tets, scalar, |t, volume| {
+        if !(volume > certain_above) {
+            uncertain.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(t as u32);
+        }
+    });
+    let mut uncertain = uncertain.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner);
+    // (The statistics may evaluate a tet more than once.)
+    uncertain.par_sort_unstable();
+    uncertain.dedup();
+    let wrong = uncertain.par_iter().find_first(|&&t| {
+        let p = tets[t as usize].map(|v| &points[v as usize]);
+        tet_orientation(p[0], p[1], p[2], p[3]) != TetOrientation::Positive
+    });
+    match wrong {
+        None => Ok(stats),
+        Some(&t) => {
+            let p = tets[t as usize].map(|v| &points[v as usize]);
+            let orientation = match tet_orientation(p[0], p[1], p[2], p[3]) {
+                TetOrientation::Flat => "flat",
+                _ => "negatively oriented",
+            };
+            Err(MeshError::NotPositive { tet: t as usize, orientation })
+        }
+    }
+}
+
+/// The statistics, calling `each_volume(tet, volume)` for every tet
+/// evaluated (some more than once).
+fn stats_with(
+    points: &[[f64; 3]],
+    tets: &[[u32; 4]],
+    scalar: &[f64],
+    each_volume: impl Fn(usize, f64) + Sync,
+) -> MeshStats {
     let (lo, hi) = bounds(points);
     // Volume and the six squared edge lengths of each tet from one gather
     // of its vertices. The square root is monotone and correctly rounded,
@@ -394,7 +458,9 @@ pub fn mesh_stats(points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> Mes
     // squares, bit for bit: six roots a tet saved for three.
     let (tet_volume, edge_length2, total_volume) = Spread::of_two_groups(tets.len(), |t| {
         let p = tets[t].map(|v| &points[v as usize]);
-        ([signed_tet_volume(p[0], p[1], p[2], p[3])], EDGES.map(|(a, b)| dist2(p[a], p[b])))
+        let volume = signed_tet_volume(p[0], p[1], p[2], p[3]);
+        each_volume(t, volume);
+        ([volume], EDGES.map(|(a, b)| dist2(p[a], p[b])))
     });
     let edge_length =
         Spread { min: edge_length2.min.sqrt(), median: edge_length2.median.sqrt(), max: edge_length2.max.sqrt() };
@@ -529,5 +595,54 @@ mod tests {
         };
         let hist = Spread::by_histograms(mesh.len(), &group);
         assert_eq!(Spread::bracketed(mesh.len(), &group, SAMPLE_GROUPS), Some(hist));
+    }
+
+    /// The confirming form gives the same statistics on a positive mesh,
+    /// decides slivers below its float bound exactly, and names the first
+    /// tet that is flat or negative, however small its volume.
+    #[test]
+    fn orientation_is_confirmed_in_the_statistics_pass() {
+        let n = [26usize; 3];
+        let mut rng = crate::SplitMix64(12);
+        let mut points = crate::split::structured_points(n, |p| p.map(|x| x as f64 + 0.3 * rng.next_f64()));
+        let mut mesh = crate::split::structured_grid_tets(n.map(|k| k - 1), crate::SplitMode::Five);
+        let scalar: Vec<f64> = points.iter().map(|p| p[2]).collect();
+        assert_eq!(mesh_stats_confirming_orientation(&points, &mesh, &scalar), Ok(mesh_stats(&points, &mesh, &scalar)));
+        // Slivers far below the float bound (16ε·m³ with m = 25): a tet
+        // over a point raised by ±1e-30 from a face's plane.
+        let base = points.len() as u32;
+        points.extend([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.25, 0.25, 1e-30], [0.25, 0.25, -1e-30]]);
+        points.push([0.25, 0.25, 0.0]);
+        let scalar: Vec<f64> = points.iter().map(|p| p[2]).collect();
+        let sliver = [base, base + 1, base + 2, base + 3];
+        mesh.push(sliver);
+        let stats = mesh_stats_confirming_orientation(&points, &mesh, &scalar).expect("a positive sliver");
+        assert_eq!(
+            stats.tet_volume.min,
+            signed_tet_volume(
+                &points[base as usize],
+                &points[base as usize + 1],
+                &points[base as usize + 2],
+                &points[base as usize + 3]
+            )
+        );
+        let at = mesh.len();
+        for (last, orientation) in [(base + 4, "negatively oriented"), (base + 5, "flat")] {
+            mesh.push([base, base + 1, base + 2, last]);
+            assert_eq!(
+                mesh_stats_confirming_orientation(&points, &mesh, &scalar),
+                Err(MeshError::NotPositive { tet: at, orientation })
+            );
+            mesh.pop();
+        }
+        // A plainly flipped tet among many: the first one is named.
+        mesh.swap(3, 7);
+        let t = mesh[100];
+        mesh[100] = [t[1], t[0], t[2], t[3]];
+        mesh[2000] = [mesh[2000][1], mesh[2000][0], mesh[2000][2], mesh[2000][3]];
+        assert_eq!(
+            mesh_stats_confirming_orientation(&points, &mesh, &scalar),
+            Err(MeshError::NotPositive { tet: 100, orientation: "negatively oriented" })
+        );
     }
 }

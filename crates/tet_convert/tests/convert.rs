@@ -73,3 +73,76 @@ fn openfoam_times_read_once_equal_times_read_whole() {
         assert_steps_equal_whole_reads(&data("openfoam/cavity"), scalar, 6, "time");
     }
 }
+
+/// A real tet mesh (VTK's `tetraMesh.vtk`) made quadratic: each cell given
+/// its six edge midpoints (shared between cells) and a quadratic field at
+/// all ten nodes, written as VTK_QUADRATIC_TETRA cells. The conversion cuts
+/// each cell at its nodes into 8 conforming tets (same volume, four times
+/// the boundary triangles, no face unmatched) that carry the mid-edge
+/// values, and so follow the field more closely than the cells' corners.
+#[test]
+fn quadratic_tets_are_split_at_their_nodes() {
+    use std::collections::HashMap;
+    use std::fmt::Write;
+    let linear = tet_io::read_file(&data("vtk/tetraMesh.vtk"), &Default::default()).unwrap();
+    let tet_mesh::Block::Unstructured(cells) = &linear.blocks[0] else { panic!("unstructured") };
+    let f = |p: &[f64; 3]| p[0] * p[0] - 0.5 * p[1] * p[2] + 3.0 * p[2];
+    let mut points = linear.points.clone();
+    let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut text = String::new();
+    let mut conn = String::new();
+    for c in 0..cells.len() {
+        let n = cells.nodes(c);
+        let mut ten: Vec<u32> = n.to_vec();
+        for (a, b) in [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)] {
+            let key = (n[a].min(n[b]), n[a].max(n[b]));
+            let id = *mid.entry(key).or_insert_with(|| {
+                let (p, q) = (points[n[a] as usize], points[n[b] as usize]);
+                points.push([0, 1, 2].map(|k| 0.5 * (p[k] + q[k])));
+                (points.len() - 1) as u32
+            });
+            ten.push(id);
+        }
+        writeln!(conn, "10 {}", ten.iter().map(u32::to_string).collect::<Vec<_>>().join(" ")).unwrap();
+    }
+    writeln!(text, "# vtk DataFile Version 2.0\nquadratic tets\nASCII\nDATASET UNSTRUCTURED_GRID").unwrap();
+    writeln!(text, "POINTS {} double", points.len()).unwrap();
+    for p in &points {
+        writeln!(text, "{:.17e} {:.17e} {:.17e}", p[0], p[1], p[2]).unwrap();
+    }
+    writeln!(text, "CELLS {} {}\n{conn}CELL_TYPES {}", cells.len(), 11 * cells.len(), cells.len()).unwrap();
+    text.push_str(&"24\n".repeat(cells.len()));
+    writeln!(text, "POINT_DATA {}\nSCALARS f double 1\nLOOKUP_TABLE default", points.len()).unwrap();
+    for p in &points {
+        writeln!(text, "{:.17e}", f(p)).unwrap();
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let quad_path = dir.path().join("quadratic.vtk");
+    std::fs::write(&quad_path, text).unwrap();
+
+    let quad = convert(&quad_path, &ConvertRequest::default(), &mut |_| {}).unwrap().bundle;
+    let corners = convert(&data("vtk/tetraMesh.vtk"), &ConvertRequest::default(), &mut |_| {}).unwrap().bundle;
+    assert_eq!(quad.mesh.tets.len(), 8 * cells.len());
+    assert_eq!(quad.mesh.points.len(), points.len());
+    assert_eq!(quad.adjacency.boundary_faces.len(), 4 * corners.adjacency.boundary_faces.len());
+    let (vq, vc) = (quad.meta.stats.total_volume, corners.meta.stats.total_volume);
+    assert!((vq - vc).abs() <= 1e-9 * vc, "{vq} {vc}");
+    for (p, s) in quad.mesh.points.iter().zip(&quad.mesh.scalar) {
+        assert!((s - f(p)).abs() <= 1e-9 * (1.0 + f(p).abs()), "{p:?}: {s} against {}", f(p));
+    }
+    // The field at each tet's centroid against the linear interpolant of
+    // its vertices, on the quadratic cells' tets and on the corner tets
+    // (the corner mesh's scalar set to f at its vertices).
+    let worst = |points: &[[f64; 3]], tets: &[[u32; 4]], value: &dyn Fn(usize) -> f64| {
+        tets.iter()
+            .map(|t| {
+                let c = [0, 1, 2].map(|k| t.iter().map(|&v| points[v as usize][k]).sum::<f64>() / 4.0);
+                (t.iter().map(|&v| value(v as usize)).sum::<f64>() / 4.0 - f(&c)).abs()
+            })
+            .fold(0.0, f64::max)
+    };
+    let split_error = worst(&quad.mesh.points, &quad.mesh.tets, &|v| quad.mesh.scalar[v]);
+    let corner_error = worst(&corners.mesh.points, &corners.mesh.tets, &|v| f(&corners.mesh.points[v]));
+    eprintln!("centroid error: split {split_error:.3e}, corners {corner_error:.3e}");
+    assert!(split_error < 0.5 * corner_error, "split {split_error:.3e} against corners {corner_error:.3e}");
+}

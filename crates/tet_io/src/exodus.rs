@@ -13,9 +13,10 @@
 //! older files); element results named by `name_elem_var` in
 //! `vals_elem_var{j}eb{i}` where the truth table `elem_var_tab` says so.
 //!
-//! Tetrahedra, hexahedra, wedges and pyramids are read, higher-order
-//! variants (TETRA10, HEX20, HEX27, WEDGE15, PYRAMID13, …) reduced to their
-//! corner nodes, which Exodus lists first; blocks of other types (shells,
+//! Tetrahedra, hexahedra, wedges and pyramids are read; TETRA10 keeps its
+//! ten nodes (subdivided at them into 8 tets), other higher-order variants
+//! (HEX20, HEX27, WEDGE15, PYRAMID13, …, whose mid-edge orders differ from
+//! VTK's) are reduced to their corner nodes, which Exodus lists first; blocks of other types (shells,
 //! beams, spheres, polyhedra) are skipped with a note. Nodal variables
 //! become point fields and element variables cell fields (NaN in blocks the
 //! truth table leaves out), all at one time step ([`ExodusOptions`]);
@@ -37,11 +38,16 @@ pub struct ExodusOptions {
     pub time_step: Option<usize>,
 }
 
-/// The linear cell an Exodus element type stands for, given its nodes per
+/// The cell an Exodus element type is read as, given its nodes per
 /// element; `None` for types that are not volume cells tetkit reads.
+/// TETRA10 (whose edge nodes follow VTK's order) keeps its nodes and is
+/// subdivided at them; other higher-order elements are reduced to their
+/// corners.
 fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
     let t = elem_type.trim().to_ascii_uppercase();
-    let (c, ok) = if t.starts_with("TET") {
+    let (c, ok) = if t.starts_with("TET") && nodes == 10 {
+        (CellType::QuadraticTetra, true)
+    } else if t.starts_with("TET") {
         (CellType::Tetra, matches!(nodes, 4 | 8 | 10 | 11 | 14 | 15))
     } else if t.starts_with("HEX") {
         (CellType::Hexahedron, matches!(nodes, 8 | 9 | 16 | 20 | 27))
@@ -284,7 +290,7 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     let mut cells = Cells::new();
     for blk in &layout.blocks {
         let ids = f.read(need(&f, &format!("connect{}", blk.index + 1))?, None)?;
-        let mut node = [0u32; 8];
+        let mut node = [0u32; 27];
         for e in 0..blk.count {
             for (k, slot) in node.iter_mut().take(blk.cell_type.num_nodes()).enumerate() {
                 let id = ids[e * blk.nodes_per_elem + k];

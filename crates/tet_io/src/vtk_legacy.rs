@@ -22,9 +22,11 @@ use tet_mesh::{Block, CellType, Cells, Field, SourceMesh};
 
 /// Reads a legacy VTK file held in memory.
 ///
-/// Volume cells are kept in VTK node order; quadratic cells are reduced to
-/// their corner nodes and surface, line and vertex cells are skipped (with
-/// their CELL_DATA tuples), each counted in a note. Files without volume
+/// Volume cells are kept in VTK node order; the 10-node tetrahedron and the
+/// 20- and 27-node hexahedra keep their nodes (split at them), other
+/// quadratic cells are reduced to their corner nodes, and surface, line and
+/// vertex cells are skipped (with their CELL_DATA tuples), each counted in
+/// a note. Files without volume
 /// cells (POLYDATA, 2D grids, surface-only unstructured grids) are errors.
 pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
     let mut parser = Parser::start(bytes)?;

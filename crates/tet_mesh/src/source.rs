@@ -12,6 +12,14 @@ use serde::{Deserialize, Serialize};
 /// (0,1,3,2,4,5,7,6 in hexahedron terms); a wedge is triangles 0-1-2 and
 /// 3-4-5 with 0-3, 1-4, 2-5 edges; a pyramid is the base quad 0-1-2-3 and
 /// apex 4. Orientation is not required: validation re-orients inverted tets.
+///
+/// Three quadratic cells keep all their nodes and are subdivided into
+/// linear tets at them ([`crate::split`]): the 10-node tetrahedron (corners,
+/// then the midpoints of edges 0-1, 1-2, 2-0, 0-3, 1-3, 2-3), the 20-node
+/// hexahedron (corners, then the midpoints of edges 0-1, 1-2, 2-3, 3-0,
+/// 4-5, 5-6, 6-7, 7-4, 0-4, 1-5, 2-6, 3-7) and the 27-node one (the 20,
+/// then the centres of the faces at x = 0, x = 1, y = 0, y = 1, z = 0,
+/// z = 1 of the cell's parameter cube, then its centre), in VTK's orders.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum CellType {
     Tetra,
@@ -19,23 +27,31 @@ pub enum CellType {
     Voxel,
     Wedge,
     Pyramid,
+    QuadraticTetra,
+    QuadraticHexahedron,
+    TriquadraticHexahedron,
 }
 
 impl CellType {
-    /// Number of nodes of the linear cell.
+    /// Number of nodes the cell keeps: the linear cell's, or a quadratic
+    /// cell's all.
     pub fn num_nodes(self) -> usize {
         match self {
             CellType::Tetra => 4,
             CellType::Hexahedron | CellType::Voxel => 8,
             CellType::Wedge => 6,
             CellType::Pyramid => 5,
+            CellType::QuadraticTetra => 10,
+            CellType::QuadraticHexahedron => 20,
+            CellType::TriquadraticHexahedron => 27,
         }
     }
 
-    /// Maps a VTK cell type id to the linear volume cell it stands for and
-    /// the number of nodes the file stores for it. Quadratic and
-    /// higher-order cells list their corner nodes first, so keeping the first
-    /// `num_nodes()` nodes reduces them to the linear cell.
+    /// Maps a VTK cell type id to the volume cell it is read as and the
+    /// number of nodes the file stores for it. The 10-node tetrahedron and
+    /// the 20- and 27-node hexahedra keep their nodes (subdivided at them);
+    /// other quadratic cells list their corner nodes first, so keeping the
+    /// first `num_nodes()` nodes reduces them to the linear cell.
     ///
     /// Returns `None` for non-volume cells (vertices, lines, polygons) and
     /// for volume cell types that are no linear cell (polyhedra, which
@@ -49,11 +65,11 @@ impl CellType {
             12 => (CellType::Hexahedron, 8),
             13 => (CellType::Wedge, 6),
             14 => (CellType::Pyramid, 5),
-            24 => (CellType::Tetra, 10),      // VTK_QUADRATIC_TETRA
-            25 => (CellType::Hexahedron, 20), // VTK_QUADRATIC_HEXAHEDRON
-            26 => (CellType::Wedge, 15),      // VTK_QUADRATIC_WEDGE
-            27 => (CellType::Pyramid, 13),    // VTK_QUADRATIC_PYRAMID
-            29 => (CellType::Hexahedron, 27), // VTK_TRIQUADRATIC_HEXAHEDRON
+            24 => (CellType::QuadraticTetra, 10),
+            25 => (CellType::QuadraticHexahedron, 20),
+            26 => (CellType::Wedge, 15),   // VTK_QUADRATIC_WEDGE
+            27 => (CellType::Pyramid, 13), // VTK_QUADRATIC_PYRAMID
+            29 => (CellType::TriquadraticHexahedron, 27),
             31 => (CellType::Wedge, 12),      // VTK_QUADRATIC_LINEAR_WEDGE
             32 => (CellType::Wedge, 18),      // VTK_BIQUADRATIC_QUADRATIC_WEDGE
             33 => (CellType::Hexahedron, 24), // VTK_BIQUADRATIC_QUADRATIC_HEXAHEDRON
@@ -83,7 +99,8 @@ impl CellType {
 
 /// Unstructured cells in compressed-row form: cell `c` has type `types[c]`
 /// and nodes `connectivity[offsets[c]..offsets[c + 1]]`, exactly
-/// `types[c].num_nodes()` of them (readers drop higher-order nodes).
+/// `types[c].num_nodes()` of them (readers drop the higher-order nodes of
+/// cells they reduce to their corners).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Cells {
     pub types: Vec<CellType>,
@@ -288,9 +305,14 @@ mod tests {
     }
 
     #[test]
-    fn quadratic_cells_reduce_to_corners() {
-        assert_eq!(CellType::from_vtk_id(24), Some((CellType::Tetra, 10)));
-        assert_eq!(CellType::from_vtk_id(25), Some((CellType::Hexahedron, 20)));
+    fn quadratic_cells_keep_their_nodes_or_reduce_to_corners() {
+        assert_eq!(CellType::from_vtk_id(24), Some((CellType::QuadraticTetra, 10)));
+        assert_eq!(CellType::from_vtk_id(25), Some((CellType::QuadraticHexahedron, 20)));
+        assert_eq!(CellType::from_vtk_id(29), Some((CellType::TriquadraticHexahedron, 27)));
+        for (id, stored) in [(24, 10), (25, 20), (29, 27)] {
+            assert_eq!(CellType::from_vtk_id(id).map(|(t, _)| t.num_nodes()), Some(stored));
+        }
+        assert_eq!(CellType::from_vtk_id(26), Some((CellType::Wedge, 15)));
         assert_eq!(CellType::from_vtk_id(5), None);
         assert!(CellType::vtk_id_is_surface_or_lower(5));
     }

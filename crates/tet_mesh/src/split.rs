@@ -7,7 +7,9 @@
 //! not contain it. Two cells sharing a quad see the same four ids and so pick
 //! the same diagonal, whatever their types or orientations; faces containing
 //! the cone apex are cut through it, which is that face's smallest id too.
-//! A hexahedron gives 6 tets, a wedge 3, a pyramid 2.
+//! A hexahedron gives 6 tets, a wedge 3, a pyramid 2. Quadratic cells are
+//! cut at all their nodes: a 10-node tetrahedron into 8 tets, a 20-node
+//! hexahedron into 22, a 27-node one into its 8 sub-hexahedra (48).
 //!
 //! Structured blocks may instead use the classic alternating 5-tet split:
 //! cells of even and odd parity (i+j+k) use the two mirror-image 5-tet
@@ -107,6 +109,89 @@ pub fn split_pyramid(p: &[u32; 5], out: &mut impl FnMut([u32; 4])) {
     }
 }
 
+/// Splits one 10-node tetrahedron (VTK order: corners, then the midpoints
+/// of edges 0-1, 1-2, 2-0, 0-3, 1-3, 2-3) at its nodes into 8 tets: one at
+/// each corner and four around a diagonal of the octahedron the corners
+/// leave. Each face becomes its four triangles, which the neighbour across
+/// it cuts alike; the diagonal (inside the cell) is the one through the
+/// smallest mid-edge id.
+pub fn split_quadratic_tetra(n: &[u32; 10], out: &mut impl FnMut([u32; 4])) {
+    const CORNERS: [[usize; 4]; 4] = [[0, 4, 6, 7], [4, 1, 5, 8], [6, 5, 2, 9], [7, 8, 9, 3]];
+    // Each diagonal (opposite mid-edges) and the cycle of the other four
+    // around it, turning so that the tets are positive.
+    const DIAGONALS: [([usize; 2], [usize; 4]); 3] =
+        [([4, 9], [5, 6, 7, 8]), ([6, 8], [4, 5, 9, 7]), ([7, 5], [4, 6, 9, 8])];
+    for c in CORNERS {
+        out(c.map(|k| n[k]));
+    }
+    let (diagonal, cycle) = DIAGONALS.iter().min_by_key(|(d, _)| n[d[0]].min(n[d[1]])).expect("three diagonals");
+    for i in 0..4 {
+        out([n[diagonal[0]], n[diagonal[1]], n[cycle[i]], n[cycle[(i + 1) % 4]]]);
+    }
+}
+
+/// Splits one 20-node hexahedron (VTK order: corners, then the midpoints
+/// of edges 0-1, 1-2, 2-3, 3-0, 4-5, 5-6, 6-7, 7-4, 0-4, 1-5, 2-6, 3-7) at
+/// its nodes, without adding any: a tet at each corner (the corner and its
+/// three edges' midpoints), and the cuboctahedron of the twelve midpoints
+/// left between them coned from its smallest id over its faces: 22 tets.
+/// Each hexahedron face becomes four corner triangles and the square of its
+/// edges' midpoints cut by the min-id rule, as the neighbour across it cuts
+/// it (the apex, smallest of all twelve, is the smallest of any square it
+/// lies on, so those squares are cut through it and left out of the cone).
+pub fn split_quadratic_hexahedron(n: &[u32; 20], out: &mut impl FnMut([u32; 4])) {
+    const CORNERS: [[usize; 4]; 8] = [
+        [0, 8, 11, 16],
+        [1, 9, 8, 17],
+        [2, 10, 9, 18],
+        [3, 11, 10, 19],
+        [4, 15, 12, 16],
+        [5, 12, 13, 17],
+        [6, 13, 14, 18],
+        [7, 14, 15, 19],
+    ];
+    // The cuboctahedron's faces, turning outward: the squares on the
+    // hexahedron's faces (in [`HEX_FACES`] order), the triangles cut off
+    // at its corners.
+    const SQUARES: [[usize; 4]; 6] =
+        [[11, 10, 9, 8], [12, 13, 14, 15], [8, 17, 12, 16], [9, 18, 13, 17], [10, 19, 14, 18], [11, 16, 15, 19]];
+    const TRIANGLES: [[usize; 3]; 8] =
+        [[11, 8, 16], [8, 9, 17], [9, 10, 18], [10, 11, 19], [12, 15, 16], [13, 12, 17], [14, 13, 18], [15, 14, 19]];
+    for c in CORNERS {
+        out(c.map(|k| n[k]));
+    }
+    let apex = 8 + argmin(&n[8..20]);
+    for q in SQUARES.iter().filter(|q| !q.contains(&apex)) {
+        for t in split_quad(q.map(|k| n[k])) {
+            out([n[apex], t[0], t[1], t[2]]);
+        }
+    }
+    for t in TRIANGLES.iter().filter(|t| !t.contains(&apex)) {
+        out([n[apex], n[t[0]], n[t[1]], n[t[2]]]);
+    }
+}
+
+/// Node of a 27-node hexahedron (VTK order) at lattice point `[k][j][i]`
+/// of its 3 × 3 × 3 nodes (i along edge 0-1, j along 0-3, k along 0-4).
+const TRIQUADRATIC_LATTICE: [[[usize; 3]; 3]; 3] = [
+    [[0, 8, 1], [11, 24, 9], [3, 10, 2]],
+    [[16, 22, 17], [20, 26, 21], [19, 23, 18]],
+    [[4, 12, 5], [15, 25, 13], [7, 14, 6]],
+];
+
+/// Splits one 27-node hexahedron (VTK order: the 20-node one's nodes, then
+/// the centres of the faces at x = 0, x = 1, y = 0, y = 1, z = 0, z = 1 of
+/// its parameter cube, then its centre) into its 8 sub-hexahedra, each by
+/// the min-id rule (48 tets), conforming with the neighbour across every
+/// face as any hexahedra do.
+pub fn split_triquadratic_hexahedron(n: &[u32; 27], out: &mut impl FnMut([u32; 4])) {
+    for c in 0..8 {
+        let (a, b, z) = (c & 1, (c >> 1) & 1, c >> 2);
+        let h = UNIT_HEX.map(|u| n[TRIQUADRATIC_LATTICE[z + u[2] as usize][b + u[1] as usize][a + u[0] as usize]]);
+        split_hexahedron(&h, out);
+    }
+}
+
 /// Splits one structured hexahedron (VTK order) with the alternating 5-tet
 /// pattern; `odd` is the parity of i+j+k.
 pub fn split_hexahedron_five(h: &[u32; 8], odd: bool, out: &mut impl FnMut([u32; 4])) {
@@ -137,6 +222,11 @@ pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32;
         }
         CellType::Wedge => split_wedge(&nodes[..6].try_into().expect("6 nodes"), out),
         CellType::Pyramid => split_pyramid(&nodes[..5].try_into().expect("5 nodes"), out),
+        CellType::QuadraticTetra => split_quadratic_tetra(&nodes[..10].try_into().expect("10 nodes"), out),
+        CellType::QuadraticHexahedron => split_quadratic_hexahedron(&nodes[..20].try_into().expect("20 nodes"), out),
+        CellType::TriquadraticHexahedron => {
+            split_triquadratic_hexahedron(&nodes[..27].try_into().expect("27 nodes"), out)
+        }
     }
 }
 
@@ -210,7 +300,7 @@ pub fn split_blocks(
                     let mut tets = Vec::with_capacity(range.len());
                     let mut src = Vec::with_capacity(range.len());
                     let mut skipped = 0usize;
-                    let mut buf = [0u32; 8];
+                    let mut buf = [0u32; 27];
                     for c in range {
                         let nodes = cells.nodes(c);
                         if let Some(s) = skip_point {
@@ -413,5 +503,134 @@ mod tests {
         split_cell(CellType::Voxel, &[0, 1, 2, 3, 4, 5, 6, 7], &mut |t| tets.push(t));
         assert_eq!(tets.len(), 6);
         assert!((total_abs_volume(&p, &tets) - 1.0).abs() < 1e-12);
+    }
+
+    /// Quadratic cells on the half-integer lattice: node positions in
+    /// doubled integer coordinates, ids from a shuffled map shared by all
+    /// cells (so cells sharing a face share its nodes' ids).
+    struct Lattice {
+        ids: std::collections::HashMap<[i32; 3], u32>,
+        order: Vec<u32>,
+    }
+
+    impl Lattice {
+        fn new(seed: u64) -> Lattice {
+            let mut rng = crate::SplitMix64(seed);
+            let mut order: Vec<u32> = (0..1000).collect();
+            for i in (1..order.len()).rev() {
+                order.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+            }
+            Lattice { ids: Default::default(), order }
+        }
+
+        fn id(&mut self, at: [i32; 3]) -> u32 {
+            let next = self.order[self.ids.len()];
+            *self.ids.entry(at).or_insert(next)
+        }
+
+        /// Positions of every id handed out, skewed by a fixed affine map
+        /// of positive determinant.
+        fn points(&self) -> Vec<[f64; 3]> {
+            let mut p = vec![[f64::NAN; 3]; 1000];
+            for (&[x, y, z], &id) in &self.ids {
+                let (x, y, z) = (x as f64 / 2.0, y as f64 / 2.0, z as f64 / 2.0);
+                p[id as usize] =
+                    [2.0 * x + 0.3 * y - 0.2 * z, 0.1 * x + 1.5 * y + 0.4 * z, 0.2 * x - 0.1 * y + 1.2 * z];
+            }
+            p
+        }
+
+        /// A hexahedron's nodes from its lower corner (doubled coordinates,
+        /// side 2): the 20 of VTK's quadratic order, or all 27.
+        fn hex(&mut self, o: [i32; 3], nodes: usize) -> Vec<u32> {
+            let c = UNIT_HEX.map(|u| [o[0] + 2 * u[0] as i32, o[1] + 2 * u[1] as i32, o[2] + 2 * u[2] as i32]);
+            let mid = |a: usize, b: usize| [0, 1, 2].map(|k| (c[a][k] + c[b][k]) / 2);
+            let mut at: Vec<[i32; 3]> = c.to_vec();
+            for (a, b) in
+                [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+            {
+                at.push(mid(a, b));
+            }
+            if nodes == 27 {
+                for d in [[0, 1, 1], [2, 1, 1], [1, 0, 1], [1, 2, 1], [1, 1, 0], [1, 1, 2], [1, 1, 1]] {
+                    at.push([o[0] + d[0], o[1] + d[1], o[2] + d[2]]);
+                }
+            }
+            at.into_iter().map(|a| self.id(a)).collect()
+        }
+
+        /// A tetrahedron's 10 nodes (VTK order) from its corners (doubled).
+        fn tet10(&mut self, c: [[i32; 3]; 4]) -> Vec<u32> {
+            let mut at = c.to_vec();
+            for (a, b) in [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)] {
+                at.push([0, 1, 2].map(|k| (c[a][k] + c[b][k]) / 2));
+            }
+            at.into_iter().map(|a| self.id(a)).collect()
+        }
+    }
+
+    fn split_all(cells: &[(CellType, Vec<u32>)]) -> Vec<[u32; 4]> {
+        let mut tets = vec![];
+        for (ty, nodes) in cells {
+            split_cell(*ty, nodes, &mut |t| {
+                assert!(t.iter().all(|v| nodes.contains(v)), "{ty:?}: {t:?} is not on the cell's nodes");
+                tets.push(t)
+            });
+        }
+        tets
+    }
+
+    /// Each quadratic cell, under many labellings, splits at its nodes into
+    /// positive tets filling it, every node used.
+    #[test]
+    fn quadratic_cells_split_at_their_nodes_into_positive_tets_filling_them() {
+        let det = 2.0 * (1.5 * 1.2 + 0.04) - 0.3 * (0.12 - 0.08) - 0.2 * (-0.01 - 0.3);
+        for seed in 0..40 {
+            let mut l = Lattice::new(seed);
+            let cases = [
+                (CellType::QuadraticTetra, l.tet10([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]]), 8, det / 6.0),
+                (CellType::QuadraticHexahedron, l.hex([4, 0, 0], 20), 22, det),
+                (CellType::TriquadraticHexahedron, l.hex([8, 0, 0], 27), 48, det),
+            ];
+            let p = l.points();
+            for (ty, nodes, count, volume) in cases {
+                assert_eq!(nodes.len(), ty.num_nodes());
+                let tets = split_all(&[(ty, nodes.clone())]);
+                assert_eq!(tets.len(), count, "{ty:?}");
+                assert!((total_abs_volume(&p, &tets) - volume).abs() < 1e-12, "{ty:?} seed {seed}");
+                assert!(nodes.iter().all(|n| tets.iter().any(|t| t.contains(n))), "{ty:?}: a node unused");
+            }
+        }
+    }
+
+    /// Neighbouring quadratic cells cut their shared faces alike: the
+    /// adjacency finds every interior face matched, and only the outer
+    /// surface's triangles on the boundary.
+    #[test]
+    fn quadratic_cells_conform_across_shared_faces() {
+        for seed in 0..20 {
+            let mut l = Lattice::new(100 + seed);
+            // Two 20-node hexahedra along x, two along y; two 27-node ones
+            // along z; two 10-node tets on one face.
+            let hex20: Vec<_> = [[0, 0, 0], [2, 0, 0], [0, 2, 0]]
+                .into_iter()
+                .map(|o| (CellType::QuadraticHexahedron, l.hex(o, 20)))
+                .collect();
+            let hex27: Vec<_> = [[10, 0, 0], [10, 0, 2]]
+                .into_iter()
+                .map(|o| (CellType::TriquadraticHexahedron, l.hex(o, 27)))
+                .collect();
+            let tet10 = vec![
+                (CellType::QuadraticTetra, l.tet10([[20, 0, 0], [22, 0, 0], [20, 2, 0], [20, 0, 2]])),
+                (CellType::QuadraticTetra, l.tet10([[22, 0, 0], [20, 2, 0], [20, 0, 2], [22, 2, 2]])),
+            ];
+            let p = l.points();
+            // (cells, outer faces × triangles a face)
+            for (cells, boundary) in [(hex20, 14 * 6), (hex27, 10 * 8), (tet10, 6 * 4)] {
+                let tets = split_all(&cells);
+                let adjacency = crate::build_adjacency(&p, &tets).expect("conforming");
+                assert_eq!(adjacency.boundary_faces.len(), boundary, "{:?} seed {seed}", cells[0].0);
+            }
+        }
     }
 }

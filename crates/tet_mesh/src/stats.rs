@@ -418,7 +418,8 @@ pub fn mesh_stats_confirming_orientation(
     // Tets left to the exact predicate; few (slivers), so a lock is cheap.
     let uncertain = std::sync::Mutex::new(Vec::new());
     let stats = stats_with(points, tets, scalar, |t, volume| {
-        if !(volume > certain_above) {
+        // (A NaN volume is not clearly positive either.)
+        if volume <= certain_above || volume.is_nan() {
             uncertain.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(t as u32);
         }
     });

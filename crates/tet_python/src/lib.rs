@@ -509,7 +509,8 @@ fn from_cells(
                         if (b - a) as usize != stored {
                             return Err(arg_err("connectivity", format!("cell {c} (VTK type {id}) lists {} points, needs {stored}", b - a)));
                         }
-                        let mut nodes = [0u32; 8];
+                        // (27: the most nodes a cell type read keeps.)
+                        let mut nodes = [0u32; 27];
                         for (slot, &v) in nodes.iter_mut().zip(conn.slice(numpy::ndarray::s![a as usize..b as usize]).iter()) {
                             *slot = u32::try_from(v).ok().filter(|&q| (q as usize) < n).ok_or_else(|| {
                                 arg_err("connectivity", format!("cell {c} refers to point {v}; there are {n} points"))

@@ -58,8 +58,9 @@ pub(crate) const BASE64: GeneralPurpose = GeneralPurpose::new(
 /// (vertices, lines, polygons) and volume cells tetkit cannot reduce
 /// (polyhedra without a face stream, Lagrange/Bézier cells, pentagonal and
 /// hexagonal prisms) are skipped with a note counting them, and their
-/// cell-data tuples dropped so cell fields stay aligned. Quadratic cells are reduced to their corners
-/// (with a note). An unknown cell type id is an error. Point and cell arrays
+/// cell-data tuples dropped so cell fields stay aligned. The 10-node
+/// tetrahedron and the 20- and 27-node hexahedra keep their nodes (split at
+/// them); other quadratic cells are reduced to their corners (with a note). An unknown cell type id is an error. Point and cell arrays
 /// become fields of their `NumberOfComponents`; `FieldData` and non-numeric
 /// arrays are ignored.
 pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
@@ -732,18 +733,26 @@ mod tests {
     }
 
     #[test]
-    fn mixed_cells_skip_surfaces_and_reduce_quadratics() {
-        // tet, triangle (skipped), quadratic tet (reduced).
+    fn mixed_cells_skip_surfaces_keep_quadratic_tets_and_reduce_other_quadratics() {
+        // tet, triangle (skipped), quadratic tet (kept whole, to be split at
+        // its ten nodes).
         let text = tiny_vtu("10 5 24", "4 7 17", "0 1 2 3  0 1 2  0 1 2 3 4 5 6 7 8 9", "7 8 9");
         let m = read(text.as_bytes()).unwrap();
         assert_eq!(m.num_cells(), 2);
         let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
-        assert_eq!(cells.nodes(1), &[0, 1, 2, 3]);
+        assert_eq!(cells.types[1], CellType::QuadraticTetra);
+        assert_eq!(cells.nodes(1), &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9]);
         assert_eq!(m.cell_fields[0].values, vec![7.0, 9.0]);
         assert_eq!(m.point_fields.len(), 1, "String array skipped");
-        assert!(m.notes.iter().any(|n| n.contains("1 higher-order")), "{:?}", m.notes);
+        assert!(!m.notes.iter().any(|n| n.contains("higher-order")), "{:?}", m.notes);
         assert!(m.notes.iter().any(|n| n.contains("skipped 1 cells without volume")), "{:?}", m.notes);
         assert!(m.format.contains("ascii"), "{}", m.format);
+        // A 13-node pyramid is reduced to its corners, with a note.
+        let text = tiny_vtu("10 5 27", "4 7 20", "0 1 2 3  0 1 2  0 1 2 3 4 5 6 7 8 9 0 1 2", "7 8 9");
+        let m = read(text.as_bytes()).unwrap();
+        let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
+        assert_eq!((cells.types[1], cells.nodes(1)), (CellType::Pyramid, &[0, 1, 2, 3, 4][..]));
+        assert!(m.notes.iter().any(|n| n.contains("1 higher-order")), "{:?}", m.notes);
     }
 
     #[test]

@@ -308,6 +308,8 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     }
     let reduced: usize =
         layout.blocks.iter().filter(|b| b.nodes_per_elem > b.cell_type.num_nodes()).map(|b| b.count).sum();
+    // Cut TETRA10 beside reduced elements would not conform with them.
+    let also = if reduced > 0 { cells.reduce_to_corners() } else { 0 };
     let mut mesh = SourceMesh { format: "Exodus II".to_string(), points, ..Default::default() };
     let steps = f.num_records;
     let step = opts.time_step.unwrap_or(0);
@@ -330,6 +332,10 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     }
     if reduced > 0 {
         mesh.notes.push(format!("reduced {reduced} higher-order elements to their corner nodes"));
+    }
+    if also > 0 {
+        mesh.notes
+            .push(format!("reduced {also} TETRA10 elements to their corners as well, so that they conform with those"));
     }
     if !layout.skipped.is_empty() {
         mesh.notes.push(format!("skipped element blocks that are not volume cells: {}", layout.skipped.join(", ")));

@@ -1134,6 +1134,12 @@ fn assemble_cells(
     }
     if reduced > 0 {
         notes.push(format!("reduced {reduced} quadratic or higher-order cells to their corner nodes"));
+        let also = cells.reduce_to_corners();
+        if also > 0 {
+            notes.push(format!(
+                "reduced {also} more quadratic cells to their corners as well, so that they conform with those"
+            ));
+        }
     }
     if lower > 0 {
         lower_ids.sort_unstable();

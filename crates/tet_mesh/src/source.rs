@@ -13,13 +13,16 @@ use serde::{Deserialize, Serialize};
 /// 3-4-5 with 0-3, 1-4, 2-5 edges; a pyramid is the base quad 0-1-2-3 and
 /// apex 4. Orientation is not required: validation re-orients inverted tets.
 ///
-/// Three quadratic cells keep all their nodes and are subdivided into
+/// Five quadratic cells keep all their nodes and are subdivided into
 /// linear tets at them ([`crate::split`]): the 10-node tetrahedron (corners,
 /// then the midpoints of edges 0-1, 1-2, 2-0, 0-3, 1-3, 2-3), the 20-node
 /// hexahedron (corners, then the midpoints of edges 0-1, 1-2, 2-3, 3-0,
-/// 4-5, 5-6, 6-7, 7-4, 0-4, 1-5, 2-6, 3-7) and the 27-node one (the 20,
+/// 4-5, 5-6, 6-7, 7-4, 0-4, 1-5, 2-6, 3-7), the 27-node one (the 20,
 /// then the centres of the faces at x = 0, x = 1, y = 0, y = 1, z = 0,
-/// z = 1 of the cell's parameter cube, then its centre), in VTK's orders.
+/// z = 1 of the cell's parameter cube, then its centre), the 15-node wedge
+/// (corners, then edges 0-1, 1-2, 2-0, 3-4, 4-5, 5-3, 0-3, 1-4, 2-5) and
+/// the 13-node pyramid (corners, then edges 0-1, 1-2, 2-3, 3-0, 0-4, 1-4,
+/// 2-4, 3-4), in VTK's orders.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum CellType {
     Tetra,
@@ -30,6 +33,8 @@ pub enum CellType {
     QuadraticTetra,
     QuadraticHexahedron,
     TriquadraticHexahedron,
+    QuadraticWedge,
+    QuadraticPyramid,
 }
 
 impl CellType {
@@ -44,14 +49,17 @@ impl CellType {
             CellType::QuadraticTetra => 10,
             CellType::QuadraticHexahedron => 20,
             CellType::TriquadraticHexahedron => 27,
+            CellType::QuadraticWedge => 15,
+            CellType::QuadraticPyramid => 13,
         }
     }
 
     /// Maps a VTK cell type id to the volume cell it is read as and the
-    /// number of nodes the file stores for it. The 10-node tetrahedron and
-    /// the 20- and 27-node hexahedra keep their nodes (subdivided at them);
-    /// other quadratic cells list their corner nodes first, so keeping the
-    /// first `num_nodes()` nodes reduces them to the linear cell.
+    /// number of nodes the file stores for it. The 10-node tetrahedron, the
+    /// 20- and 27-node hexahedra, the 15-node wedge and the 13-node pyramid
+    /// keep their nodes (subdivided at them); other quadratic cells list
+    /// their corner nodes first, so keeping the first `num_nodes()` nodes
+    /// reduces them to the linear cell.
     ///
     /// Returns `None` for non-volume cells (vertices, lines, polygons) and
     /// for volume cell types that are no linear cell (polyhedra, which
@@ -125,6 +133,34 @@ impl Cells {
 
     pub fn len(&self) -> usize {
         self.types.len()
+    }
+
+    /// Reduces every quadratic cell to its linear corners (its first
+    /// nodes); returns how many were. Readers call it when the same mesh
+    /// also holds higher-order cells they could only reduce: a cell cut at
+    /// its mid-edge nodes beside one that ignores them would not conform
+    /// across their shared face.
+    pub fn reduce_to_corners(&mut self) -> usize {
+        let linear = |t: CellType| match t {
+            CellType::QuadraticTetra => Some(CellType::Tetra),
+            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron => Some(CellType::Hexahedron),
+            CellType::QuadraticWedge => Some(CellType::Wedge),
+            CellType::QuadraticPyramid => Some(CellType::Pyramid),
+            _ => None,
+        };
+        if !self.types.iter().any(|&t| linear(t).is_some()) {
+            return 0;
+        }
+        let mut out = Cells::new();
+        let mut reduced = 0;
+        for c in 0..self.len() {
+            let t = self.types[c];
+            let kept = linear(t).unwrap_or(t);
+            reduced += (kept != t) as usize;
+            out.push(kept, self.nodes(c));
+        }
+        *self = out;
+        reduced
     }
 
     pub fn is_empty(&self) -> bool {
@@ -309,10 +345,11 @@ mod tests {
         assert_eq!(CellType::from_vtk_id(24), Some((CellType::QuadraticTetra, 10)));
         assert_eq!(CellType::from_vtk_id(25), Some((CellType::QuadraticHexahedron, 20)));
         assert_eq!(CellType::from_vtk_id(29), Some((CellType::TriquadraticHexahedron, 27)));
-        for (id, stored) in [(24, 10), (25, 20), (29, 27)] {
+        for (id, stored) in [(24, 10), (25, 20), (29, 27), (26, 15), (27, 13)] {
             assert_eq!(CellType::from_vtk_id(id).map(|(t, _)| t.num_nodes()), Some(stored));
         }
-        assert_eq!(CellType::from_vtk_id(26), Some((CellType::Wedge, 15)));
+        assert_eq!(CellType::from_vtk_id(26), Some((CellType::QuadraticWedge, 15)));
+        assert_eq!(CellType::from_vtk_id(31), Some((CellType::Wedge, 12)));
         assert_eq!(CellType::from_vtk_id(5), None);
         assert!(CellType::vtk_id_is_surface_or_lower(5));
     }

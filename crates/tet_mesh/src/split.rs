@@ -9,7 +9,8 @@
 //! the cone apex are cut through it, which is that face's smallest id too.
 //! A hexahedron gives 6 tets, a wedge 3, a pyramid 2. Quadratic cells are
 //! cut at all their nodes: a 10-node tetrahedron into 8 tets, a 20-node
-//! hexahedron into 22, a 27-node one into its 8 sub-hexahedra (48).
+//! hexahedron into 22, a 27-node one into its 8 sub-hexahedra (48), a
+//! 15-node wedge into 14 or 15, a 13-node pyramid into 12 or 13.
 //!
 //! Structured blocks may instead use the classic alternating 5-tet split:
 //! cells of even and odd parity (i+j+k) use the two mirror-image 5-tet
@@ -160,15 +161,101 @@ pub fn split_quadratic_hexahedron(n: &[u32; 20], out: &mut impl FnMut([u32; 4]))
     for c in CORNERS {
         out(c.map(|k| n[k]));
     }
-    let apex = 8 + argmin(&n[8..20]);
-    for q in SQUARES.iter().filter(|q| !q.contains(&apex)) {
-        for t in split_quad(q.map(|k| n[k])) {
-            out([n[apex], t[0], t[1], t[2]]);
+    let faces: [&[usize]; 14] = [
+        &SQUARES[0],
+        &SQUARES[1],
+        &SQUARES[2],
+        &SQUARES[3],
+        &SQUARES[4],
+        &SQUARES[5],
+        &TRIANGLES[0],
+        &TRIANGLES[1],
+        &TRIANGLES[2],
+        &TRIANGLES[3],
+        &TRIANGLES[4],
+        &TRIANGLES[5],
+        &TRIANGLES[6],
+        &TRIANGLES[7],
+    ];
+    cone_from_smallest(n, 8..20, &faces, out);
+}
+
+/// Cones a convex polyhedron of a cell's nodes from its smallest id among
+/// `vertices`: `faces` are node slots (triangles, or squares cut by the
+/// min-id rule) turning so that a cone from inside is positive. The apex
+/// is the smallest id of every square it lies on, so those are cut through
+/// it, and every face through it is left out.
+fn cone_from_smallest(n: &[u32], vertices: std::ops::Range<usize>, faces: &[&[usize]], out: &mut impl FnMut([u32; 4])) {
+    let apex = vertices.start + argmin(&n[vertices]);
+    for f in faces.iter().filter(|f| !f.contains(&apex)) {
+        match **f {
+            [a, b, c] => out([n[apex], n[a], n[b], n[c]]),
+            [a, b, c, d] => {
+                for t in split_quad([n[a], n[b], n[c], n[d]]) {
+                    out([n[apex], t[0], t[1], t[2]]);
+                }
+            }
+            _ => unreachable!("faces are triangles or squares"),
         }
     }
-    for t in TRIANGLES.iter().filter(|t| !t.contains(&apex)) {
-        out([n[apex], n[t[0]], n[t[1]], n[t[2]]]);
+}
+
+/// Splits one 15-node wedge (VTK order: corners, then the midpoints of
+/// edges 0-1, 1-2, 2-0, 3-4, 4-5, 5-3, 0-3, 1-4, 2-5) at its nodes: a tet
+/// at each corner and the convex polyhedron of the nine midpoints coned
+/// from its smallest id (14 or 15 tets). Its faces are cut as the
+/// 10-node tetrahedron's and the 20-node hexahedron's are, so it conforms
+/// with either across a shared face.
+pub fn split_quadratic_wedge(n: &[u32; 15], out: &mut impl FnMut([u32; 4])) {
+    const CORNERS: [[usize; 4]; 6] =
+        [[0, 6, 8, 12], [1, 7, 6, 13], [2, 8, 7, 14], [3, 11, 9, 12], [4, 9, 10, 13], [5, 10, 11, 14]];
+    const FACES: [&[usize]; 11] = [
+        &[8, 6, 12],
+        &[6, 7, 13],
+        &[7, 8, 14],
+        &[9, 11, 12],
+        &[10, 9, 13],
+        &[11, 10, 14],
+        &[7, 6, 8],
+        &[9, 10, 11],
+        &[6, 13, 9, 12],
+        &[7, 14, 10, 13],
+        &[8, 12, 11, 14],
+    ];
+    for c in CORNERS {
+        out(c.map(|k| n[k]));
     }
+    cone_from_smallest(n, 6..15, &FACES, out);
+}
+
+/// Splits one 13-node pyramid (VTK order: base 0-3, apex 4, then the
+/// midpoints of edges 0-1, 1-2, 2-3, 3-0, 0-4, 1-4, 2-4, 3-4) at its
+/// nodes: a tet at each base corner, the small pyramid on the apex over
+/// the square of the slanted edges' midpoints (two tets), and the convex
+/// polyhedron of the eight midpoints between coned from its smallest id.
+pub fn split_quadratic_pyramid(n: &[u32; 13], out: &mut impl FnMut([u32; 4])) {
+    const CORNERS: [[usize; 4]; 4] = [[0, 5, 8, 9], [1, 6, 5, 10], [2, 7, 6, 11], [3, 8, 7, 12]];
+    const FACES: [&[usize]; 10] = [
+        &[8, 5, 9],
+        &[5, 6, 10],
+        &[6, 7, 11],
+        &[7, 8, 12],
+        &[5, 10, 9],
+        &[6, 11, 10],
+        &[7, 12, 11],
+        &[8, 9, 12],
+        &[8, 7, 6, 5],
+        &[9, 10, 11, 12],
+    ];
+    for c in CORNERS {
+        out(c.map(|k| n[k]));
+    }
+    // The apex's pyramid, over the square the polyhedron shares with it
+    // (both cut it by the min-id rule).
+    for t in split_quad([n[12], n[11], n[10], n[9]]) {
+        out([n[4], t[0], t[1], t[2]]);
+    }
+    cone_from_smallest(n, 5..13, &FACES, out);
 }
 
 /// Node of a 27-node hexahedron (VTK order) at lattice point `[k][j][i]`
@@ -227,6 +314,8 @@ pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32;
         CellType::TriquadraticHexahedron => {
             split_triquadratic_hexahedron(&nodes[..27].try_into().expect("27 nodes"), out)
         }
+        CellType::QuadraticWedge => split_quadratic_wedge(&nodes[..15].try_into().expect("15 nodes"), out),
+        CellType::QuadraticPyramid => split_quadratic_pyramid(&nodes[..13].try_into().expect("13 nodes"), out),
     }
 }
 
@@ -559,13 +648,25 @@ mod tests {
             at.into_iter().map(|a| self.id(a)).collect()
         }
 
-        /// A tetrahedron's 10 nodes (VTK order) from its corners (doubled).
-        fn tet10(&mut self, c: [[i32; 3]; 4]) -> Vec<u32> {
+        /// A cell's corners (doubled coordinates) then its edges' midpoints.
+        fn cell(&mut self, c: &[[i32; 3]], edges: &[(usize, usize)]) -> Vec<u32> {
             let mut at = c.to_vec();
-            for (a, b) in [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)] {
+            for &(a, b) in edges {
                 at.push([0, 1, 2].map(|k| (c[a][k] + c[b][k]) / 2));
             }
             at.into_iter().map(|a| self.id(a)).collect()
+        }
+
+        fn tet10(&mut self, c: [[i32; 3]; 4]) -> Vec<u32> {
+            self.cell(&c, &[(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)])
+        }
+
+        fn wedge15(&mut self, c: [[i32; 3]; 6]) -> Vec<u32> {
+            self.cell(&c, &[(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)])
+        }
+
+        fn pyramid13(&mut self, c: [[i32; 3]; 5]) -> Vec<u32> {
+            self.cell(&c, &[(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)])
         }
     }
 
@@ -588,15 +689,27 @@ mod tests {
         for seed in 0..40 {
             let mut l = Lattice::new(seed);
             let cases = [
-                (CellType::QuadraticTetra, l.tet10([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]]), 8, det / 6.0),
-                (CellType::QuadraticHexahedron, l.hex([4, 0, 0], 20), 22, det),
-                (CellType::TriquadraticHexahedron, l.hex([8, 0, 0], 27), 48, det),
+                (CellType::QuadraticTetra, l.tet10([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]]), 8..=8, det / 6.0),
+                (CellType::QuadraticHexahedron, l.hex([4, 0, 0], 20), 22..=22, det),
+                (CellType::TriquadraticHexahedron, l.hex([8, 0, 0], 27), 48..=48, det),
+                (
+                    CellType::QuadraticWedge,
+                    l.wedge15([[12, 0, 0], [14, 0, 0], [12, 2, 0], [12, 0, 2], [14, 0, 2], [12, 2, 2]]),
+                    14..=15,
+                    det / 2.0,
+                ),
+                (
+                    CellType::QuadraticPyramid,
+                    l.pyramid13([[16, 0, 0], [18, 0, 0], [18, 2, 0], [16, 2, 0], [16, 0, 2]]),
+                    12..=13,
+                    det / 3.0,
+                ),
             ];
             let p = l.points();
             for (ty, nodes, count, volume) in cases {
                 assert_eq!(nodes.len(), ty.num_nodes());
                 let tets = split_all(&[(ty, nodes.clone())]);
-                assert_eq!(tets.len(), count, "{ty:?}");
+                assert!(count.contains(&tets.len()), "{ty:?}: {} tets", tets.len());
                 assert!((total_abs_volume(&p, &tets) - volume).abs() < 1e-12, "{ty:?} seed {seed}");
                 assert!(nodes.iter().all(|n| tets.iter().any(|t| t.contains(n))), "{ty:?}: a node unused");
             }
@@ -624,9 +737,22 @@ mod tests {
                 (CellType::QuadraticTetra, l.tet10([[20, 0, 0], [22, 0, 0], [20, 2, 0], [20, 0, 2]])),
                 (CellType::QuadraticTetra, l.tet10([[22, 0, 0], [20, 2, 0], [20, 0, 2], [22, 2, 2]])),
             ];
+            // A 15-node wedge on a 20-node hexahedron's x = 1 face (through
+            // the wedge's quad 2-0-3-5), a 13-node pyramid on its top.
+            let mixed = vec![
+                (CellType::QuadraticHexahedron, l.hex([30, 0, 0], 20)),
+                (
+                    CellType::QuadraticWedge,
+                    l.wedge15([[32, 0, 0], [34, 0, 0], [32, 2, 0], [32, 0, 2], [34, 0, 2], [32, 2, 2]]),
+                ),
+                (CellType::QuadraticPyramid, l.pyramid13([[30, 0, 2], [32, 0, 2], [32, 2, 2], [30, 2, 2], [30, 0, 4]])),
+            ];
             let p = l.points();
-            // (cells, outer faces × triangles a face)
-            for (cells, boundary) in [(hex20, 14 * 6), (hex27, 10 * 8), (tet10, 6 * 4)] {
+            // (cells, outer faces × triangles a face: 6 a quadratic quad,
+            // 8 a biquadratic one, 4 a quadratic triangle)
+            for (cells, boundary) in
+                [(hex20, 14 * 6), (hex27, 10 * 8), (tet10, 6 * 4), (mixed, 4 * 6 + (2 * 4 + 2 * 6) + 4 * 4)]
+            {
                 let tets = split_all(&cells);
                 let adjacency = crate::build_adjacency(&p, &tets).expect("conforming");
                 assert_eq!(adjacency.boundary_faces.len(), boundary, "{:?} seed {seed}", cells[0].0);

@@ -96,6 +96,18 @@ impl State {
     }
 
     pub(crate) fn push_cell(&mut self, cell_type: CellType, nodes: &[u64], tag: u64, physical: f64, entity: f64) {
+        // A 10-node tetrahedron keeps its nodes, in VTK's order: Gmsh lists
+        // the midpoints of edges 0-1, 1-2, 2-0, 3-0, 2-3, 3-1, VTK 0-1,
+        // 1-2, 2-0, 0-3, 1-3, 2-3 (the last two swapped).
+        if cell_type == CellType::Tetra && nodes.len() == 10 {
+            self.cell_types.push(CellType::QuadraticTetra);
+            let n = nodes;
+            self.cell_node_tags.extend_from_slice(&[n[0], n[1], n[2], n[3], n[4], n[5], n[6], n[7], n[9], n[8]]);
+            self.cell_tags.push(tag);
+            self.cell_physical.push(physical);
+            self.cell_entity.push(entity);
+            return;
+        }
         let corners = cell_type.num_nodes();
         if nodes.len() > corners {
             self.higher_order += 1;
@@ -149,7 +161,7 @@ impl State {
         cells.types.reserve(cell_types.len());
         cells.offsets.reserve(cell_types.len());
         cells.connectivity.reserve(cell_node_tags.len());
-        let mut resolved = [0u32; 8];
+        let mut resolved = [0u32; 27];
         let mut at = 0usize;
         for (c, &ty) in cell_types.iter().enumerate() {
             let n = ty.num_nodes();
@@ -170,6 +182,9 @@ impl State {
             cells.push(ty, &resolved[..n]);
             at += n;
         }
+        // Cut 10-node tets beside reduced elements would not conform: then
+        // they are reduced too (and counted with them).
+        let higher_order = higher_order + if higher_order > 0 { cells.reduce_to_corners() } else { 0 };
 
         let mut mesh = SourceMesh {
             format: format!(

@@ -105,6 +105,21 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
         return Err(ctx.err_at(dataset, format!("<{dataset_type}> has no <Piece>")));
     }
     let mut notes = stats.notes();
+    if stats.reduced_higher_order > 0 {
+        let also: usize = mesh
+            .blocks
+            .iter_mut()
+            .map(|b| match b {
+                Block::Unstructured(cells) => cells.reduce_to_corners(),
+                _ => 0,
+            })
+            .sum();
+        if also > 0 {
+            notes.push(format!(
+                "reduced {also} more quadratic cells to their corners as well, so that they conform with those"
+            ));
+        }
+    }
     notes.append(&mut mesh.notes);
     mesh.notes = notes;
     mesh.format = format!("VTK XML {dataset_type}{}", ctx.layout_summary());

@@ -96,13 +96,28 @@ impl State {
     }
 
     pub(crate) fn push_cell(&mut self, cell_type: CellType, nodes: &[u64], tag: u64, physical: f64, entity: f64) {
-        // A 10-node tetrahedron keeps its nodes, in VTK's order: Gmsh lists
-        // the midpoints of edges 0-1, 1-2, 2-0, 3-0, 2-3, 3-1, VTK 0-1,
-        // 1-2, 2-0, 0-3, 1-3, 2-3 (the last two swapped).
-        if cell_type == CellType::Tetra && nodes.len() == 10 {
-            self.cell_types.push(CellType::QuadraticTetra);
-            let n = nodes;
-            self.cell_node_tags.extend_from_slice(&[n[0], n[1], n[2], n[3], n[4], n[5], n[6], n[7], n[9], n[8]]);
+        // Second-order cells with nodes at their corners and edges only
+        // keep them, in VTK's order (see `CellType`): for each VTK node,
+        // the Gmsh node at its place (Gmsh's orders from its manual, "Node
+        // ordering": a 10-node tet's edges 0-1, 1-2, 2-0, 3-0, 2-3, 3-1; a
+        // 20-node hexahedron's 0-1, 0-3, 0-4, 1-2, 1-5, 2-3, 2-6, 3-7,
+        // 4-5, 4-7, 5-6, 6-7; a 15-node prism's 0-1, 0-2, 0-3, 1-2, 1-4,
+        // 2-5, 3-4, 3-5, 4-5; a 13-node pyramid's 0-1, 0-3, 0-4, 1-2, 1-4,
+        // 2-3, 2-4, 3-4).
+        const TET10: [usize; 10] = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8];
+        const HEX20: [usize; 20] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 11, 13, 9, 16, 18, 19, 17, 10, 12, 14, 15];
+        const PRISM15: [usize; 15] = [0, 1, 2, 3, 4, 5, 6, 9, 7, 12, 14, 13, 8, 10, 11];
+        const PYRAMID13: [usize; 13] = [0, 1, 2, 3, 4, 5, 8, 10, 6, 7, 9, 11, 12];
+        let kept: Option<(CellType, &[usize])> = match (cell_type, nodes.len()) {
+            (CellType::Tetra, 10) => Some((CellType::QuadraticTetra, &TET10)),
+            (CellType::Hexahedron, 20) => Some((CellType::QuadraticHexahedron, &HEX20)),
+            (CellType::Wedge, 15) => Some((CellType::QuadraticWedge, &PRISM15)),
+            (CellType::Pyramid, 13) => Some((CellType::QuadraticPyramid, &PYRAMID13)),
+            _ => None,
+        };
+        if let Some((ty, order)) = kept {
+            self.cell_types.push(ty);
+            self.cell_node_tags.extend(order.iter().map(|&k| nodes[k]));
             self.cell_tags.push(tag);
             self.cell_physical.push(physical);
             self.cell_entity.push(entity);
@@ -182,8 +197,8 @@ impl State {
             cells.push(ty, &resolved[..n]);
             at += n;
         }
-        // Cut 10-node tets beside reduced elements would not conform: then
-        // they are reduced too (and counted with them).
+        // Cut cells beside reduced ones would not conform: then they are
+        // reduced too (and counted with them).
         let higher_order = higher_order + if higher_order > 0 { cells.reduce_to_corners() } else { 0 };
 
         let mut mesh = SourceMesh {

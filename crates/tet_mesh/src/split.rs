@@ -154,30 +154,26 @@ pub fn split_quadratic_hexahedron(n: &[u32; 20], out: &mut impl FnMut([u32; 4]))
     // The cuboctahedron's faces, turning outward: the squares on the
     // hexahedron's faces (in [`HEX_FACES`] order), the triangles cut off
     // at its corners.
-    const SQUARES: [[usize; 4]; 6] =
-        [[11, 10, 9, 8], [12, 13, 14, 15], [8, 17, 12, 16], [9, 18, 13, 17], [10, 19, 14, 18], [11, 16, 15, 19]];
-    const TRIANGLES: [[usize; 3]; 8] =
-        [[11, 8, 16], [8, 9, 17], [9, 10, 18], [10, 11, 19], [12, 15, 16], [13, 12, 17], [14, 13, 18], [15, 14, 19]];
+    const FACES: [&[usize]; 14] = [
+        &[11, 10, 9, 8],
+        &[12, 13, 14, 15],
+        &[8, 17, 12, 16],
+        &[9, 18, 13, 17],
+        &[10, 19, 14, 18],
+        &[11, 16, 15, 19],
+        &[11, 8, 16],
+        &[8, 9, 17],
+        &[9, 10, 18],
+        &[10, 11, 19],
+        &[12, 15, 16],
+        &[13, 12, 17],
+        &[14, 13, 18],
+        &[15, 14, 19],
+    ];
     for c in CORNERS {
         out(c.map(|k| n[k]));
     }
-    let faces: [&[usize]; 14] = [
-        &SQUARES[0],
-        &SQUARES[1],
-        &SQUARES[2],
-        &SQUARES[3],
-        &SQUARES[4],
-        &SQUARES[5],
-        &TRIANGLES[0],
-        &TRIANGLES[1],
-        &TRIANGLES[2],
-        &TRIANGLES[3],
-        &TRIANGLES[4],
-        &TRIANGLES[5],
-        &TRIANGLES[6],
-        &TRIANGLES[7],
-    ];
-    cone_from_smallest(n, 8..20, &faces, out);
+    cone_from_smallest(n, 8..20, &FACES, out);
 }
 
 /// Cones a convex polyhedron of a cell's nodes from its smallest id among

@@ -105,9 +105,11 @@ struct Layout {
 impl Layout {
     fn of(f: &NetCdf<'_>) -> Result<Layout, FormatError> {
         let num_blocks = f.dim_len("num_el_blk").unwrap_or(0);
+        // Without `eb_prop1` a block's id is its number ([`Layout::block_id`]):
+        // nothing is allocated from the header's count.
         let block_ids = match f.var("eb_prop1") {
             Some(v) => f.read(v, None)?,
-            None => (1..=num_blocks).map(|i| i as f64).collect(),
+            None => Vec::new(),
         };
         // The blocks that have connectivity, from the variables' names (a
         // null block has none): the header's block count alone never
@@ -471,6 +473,22 @@ mod tests {
 
     /// A step's fields alone are what the whole read gives for that step;
     /// a step beyond the file and truncated bytes are errors.
+    /// Regression (fuzz finding): a 2.7 kB file declaring 2^30 element
+    /// blocks without `eb_prop1` made the reader list an id for each (8 GB,
+    /// 8 s) before finding it had no values; the ids are now numbered as
+    /// asked, and the file is refused at once.
+    #[test]
+    fn a_huge_block_count_allocates_nothing() {
+        let bytes = include_bytes!("../../../tests/data/exodus/fuzz_block_count_2e9.exo");
+        let f = NetCdf::parse(bytes).unwrap();
+        assert!(f.dim_len("num_el_blk").unwrap() > 1 << 29);
+        let layout = Layout::of(&f).unwrap();
+        assert!(layout.block_ids.is_empty());
+        assert_eq!(layout.block_id(7), 8.0);
+        let e = read(bytes, &ExodusOptions { time_step: Some(1) }).unwrap_err();
+        assert!(e.message.contains("has no values"), "{e}");
+    }
+
     #[test]
     fn step_fields_equal_the_whole_read() {
         for offset64 in [false, true] {

@@ -49,7 +49,13 @@ fn counts(m: &SourceMesh) -> (usize, usize, usize, usize) {
     let mut by_type = BTreeMap::new();
     for t in &cells(m).types {
         // Quadratic cells counted with their linear family.
-        let name = format!("{t:?}").replace("Quadratic", "");
+        let name = match t {
+            CellType::QuadraticTetra => "Tetra".to_string(),
+            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron => "Hexahedron".to_string(),
+            CellType::QuadraticWedge | CellType::BiquadraticWedge => "Wedge".to_string(),
+            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre => "Pyramid".to_string(),
+            other => format!("{other:?}"),
+        };
         *by_type.entry(name).or_insert(0usize) += 1;
     }
     let get = |k: &str| by_type.get(k).copied().unwrap_or(0);
@@ -152,10 +158,8 @@ fn mixed_prisms_pyramids_and_orders() {
         assert_eq!(m.points.len(), points, "{name}");
         assert_eq!(counts(&m), (286, 48, 126, 16), "{name}");
         assert!(has_note(&m, "skipped 444 lower-dimensional"), "{name}: {:?}", m.notes);
-        // Complete second order (27-node hexahedra, 18-node prisms, 14-node
-        // pyramids) is reduced, 10-node tets with it; the incomplete one is
-        // kept whole.
-        assert_eq!(has_note(&m, "reduced 476 higher-order"), name == "mixed_o2_41_ascii.msh", "{name}: {:?}", m.notes);
+        // Second order, complete or not, is kept whole (cut at all nodes).
+        assert!(!has_note(&m, "reduced"), "{name}: {:?}", m.notes);
         let c = cells(&m);
         for i in 0..c.len() {
             let p: Vec<[f64; 3]> = c.nodes(i).iter().map(|&n| m.points[n as usize]).collect();
@@ -185,7 +189,7 @@ fn mixed_prisms_pyramids_and_orders() {
     let qc = cells(&quadratic);
     for i in 0..lc.len() {
         let a: Vec<[f64; 3]> = lc.nodes(i).iter().map(|&n| linear.points[n as usize]).collect();
-        let b: Vec<[f64; 3]> = qc.nodes(i).iter().map(|&n| quadratic.points[n as usize]).collect();
+        let b: Vec<[f64; 3]> = qc.nodes(i)[..a.len()].iter().map(|&n| quadratic.points[n as usize]).collect();
         assert_eq!(a, b, "cell {i}");
     }
 }
@@ -270,36 +274,43 @@ fn second_order_tets_are_cut_at_their_nodes() {
     assert!((cut - exact).abs() < 0.5 * (by_corners - exact).abs(), "cut {cut}, corners {by_corners}, exact {exact}");
 }
 
-/// Gmsh's incomplete second order (10-node tets, 20-node hexahedra, 15-node
-/// prisms, 13-node pyramids on straight edges) read in VTK's node orders:
-/// each edge node sits at the middle of the edge VTK's order puts it on;
-/// cut at all nodes the mesh is conforming, with no flat tet and the
-/// volume of the first-order mesh of the same geometry.
+/// Gmsh's second order, incomplete (10-node tets, 20-node hexahedra,
+/// 15-node prisms, 13-node pyramids) and complete (27-node hexahedra,
+/// 18-node prisms, 14-node pyramids), on straight edges, read in VTK's node
+/// orders: each edge node sits at the middle of the edge VTK's order puts
+/// it on, each face or body node at the centroid of its corners; cut at all
+/// nodes the mesh is conforming, with no flat tet and the volume of the
+/// first-order mesh of the same geometry.
 #[test]
-fn second_order_incomplete_cells_are_cut_at_their_nodes() {
-    let m = read("mixed_o2i_22_bin.msh");
-    let edges = |t: CellType| -> &'static [(usize, usize)] {
+fn second_order_cells_are_cut_at_their_nodes() {
+    const HEX_EDGES: [(usize, usize); 12] =
+        [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)];
+    const WEDGE_EDGES: [(usize, usize); 9] = [(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)];
+    const PYRAMID_EDGES: [(usize, usize); 8] = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)];
+    // Edges, then the corner sets whose centroids the next nodes are.
+    let layout = |t: CellType| -> (&'static [(usize, usize)], &'static [&'static [usize]]) {
         match t {
-            CellType::QuadraticTetra => &[(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)],
-            CellType::QuadraticHexahedron => {
-                &[(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
-            }
-            CellType::QuadraticWedge => &[(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)],
-            CellType::QuadraticPyramid => &[(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)],
+            CellType::QuadraticTetra => (&[(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)], &[]),
+            CellType::QuadraticHexahedron => (&HEX_EDGES, &[]),
+            CellType::TriquadraticHexahedron => (
+                &HEX_EDGES,
+                &[
+                    &[0, 3, 7, 4],
+                    &[1, 2, 6, 5],
+                    &[0, 1, 5, 4],
+                    &[3, 2, 6, 7],
+                    &[0, 1, 2, 3],
+                    &[4, 5, 6, 7],
+                    &[0, 1, 2, 3, 4, 5, 6, 7],
+                ],
+            ),
+            CellType::QuadraticWedge => (&WEDGE_EDGES, &[]),
+            CellType::BiquadraticWedge => (&WEDGE_EDGES, &[&[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]]),
+            CellType::QuadraticPyramid => (&PYRAMID_EDGES, &[]),
+            CellType::QuadraticPyramidWithBaseCentre => (&PYRAMID_EDGES, &[&[0, 1, 2, 3]]),
             other => panic!("{other:?} is not a second-order cell"),
         }
     };
-    let c = cells(&m);
-    for i in 0..c.len() {
-        let n = c.nodes(i);
-        let corners = n.len() - edges(c.types[i]).len();
-        for (k, &(a, b)) in edges(c.types[i]).iter().enumerate() {
-            let (pa, pb, pm) = (m.points[n[a] as usize], m.points[n[b] as usize], m.points[n[corners + k] as usize]);
-            for x in 0..3 {
-                assert!((pm[x] - 0.5 * (pa[x] + pb[x])).abs() < 1e-9, "cell {i} ({:?}) edge node {k}", c.types[i]);
-            }
-        }
-    }
     let convert = |m: &SourceMesh| {
         let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
         assert!(
@@ -310,10 +321,32 @@ fn second_order_incomplete_cells_are_cut_at_their_nodes() {
         tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
         (mesh.tets.len(), tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume)
     };
-    let (cut_tets, cut) = convert(&m);
     let (linear_tets, linear) = convert(&read("mixed_41_ascii.msh"));
-    // (286 tets, 48 hexahedra, 126 prisms, 16 pyramids: 8, 22, 14–15 and 13
-    // tets each, against 1, 6, 3 and 2.)
-    assert!((5300..=5500).contains(&cut_tets) && linear_tets == 984, "{cut_tets} against {linear_tets}");
-    assert!((cut - linear).abs() < 1e-12 * linear, "{cut} against {linear}");
+    assert_eq!(linear_tets, 984);
+    // (286 tets, 48 hexahedra, 126 prisms, 16 pyramids: 8, 22 or 48, 14–15
+    // or 24, and 13 or 16 tets each, against 1, 6, 3 and 2.)
+    for (name, tets) in [
+        ("mixed_o2i_22_bin.msh", 5300..=5500),
+        ("mixed_o2_41_ascii.msh", 2288 + 2304 + 3024 + 256..=2288 + 2304 + 3024 + 256),
+    ] {
+        let m = read(name);
+        let c = cells(&m);
+        for i in 0..c.len() {
+            let n = c.nodes(i);
+            let p = |k: usize| m.points[n[k] as usize];
+            let (edges, centres) = layout(c.types[i]);
+            let corners = n.len() - edges.len() - centres.len();
+            let wanted = edges.iter().map(|&(a, b)| [0, 1, 2].map(|x| 0.5 * (p(a)[x] + p(b)[x]))).chain(
+                centres.iter().map(|f| [0, 1, 2].map(|x| f.iter().map(|&k| p(k)[x]).sum::<f64>() / f.len() as f64)),
+            );
+            for (k, w) in wanted.enumerate() {
+                let at = p(corners + k);
+                let off = (0..3).map(|x| (at[x] - w[x]).abs()).fold(0.0, f64::max);
+                assert!(off < 1e-9, "{name} cell {i} ({:?}) node {}", c.types[i], corners + k);
+            }
+        }
+        let (cut_tets, cut) = convert(&m);
+        assert!(tets.contains(&cut_tets), "{name}: {cut_tets} tets");
+        assert!((cut - linear).abs() < 1e-12 * linear, "{name}: {cut} against {linear}");
+    }
 }

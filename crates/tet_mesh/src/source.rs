@@ -20,9 +20,11 @@ use serde::{Deserialize, Serialize};
 /// 4-5, 5-6, 6-7, 7-4, 0-4, 1-5, 2-6, 3-7), the 27-node one (the 20,
 /// then the centres of the faces at x = 0, x = 1, y = 0, y = 1, z = 0,
 /// z = 1 of the cell's parameter cube, then its centre), the 15-node wedge
-/// (corners, then edges 0-1, 1-2, 2-0, 3-4, 4-5, 5-3, 0-3, 1-4, 2-5) and
-/// the 13-node pyramid (corners, then edges 0-1, 1-2, 2-3, 3-0, 0-4, 1-4,
-/// 2-4, 3-4), in VTK's orders.
+/// (corners, then edges 0-1, 1-2, 2-0, 3-4, 4-5, 5-3, 0-3, 1-4, 2-5), the
+/// 18-node one (the 15, then the centres of quads 0-1-4-3, 1-2-5-4,
+/// 2-0-3-5), the 13-node pyramid (corners, then edges 0-1, 1-2, 2-3, 3-0,
+/// 0-4, 1-4, 2-4, 3-4) and Gmsh's 14-node one (the 13, then the centre of
+/// the base), in VTK's orders.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum CellType {
     Tetra,
@@ -35,6 +37,8 @@ pub enum CellType {
     TriquadraticHexahedron,
     QuadraticWedge,
     QuadraticPyramid,
+    BiquadraticWedge,
+    QuadraticPyramidWithBaseCentre,
 }
 
 impl CellType {
@@ -51,13 +55,15 @@ impl CellType {
             CellType::TriquadraticHexahedron => 27,
             CellType::QuadraticWedge => 15,
             CellType::QuadraticPyramid => 13,
+            CellType::BiquadraticWedge => 18,
+            CellType::QuadraticPyramidWithBaseCentre => 14,
         }
     }
 
     /// Maps a VTK cell type id to the volume cell it is read as and the
     /// number of nodes the file stores for it. The 10-node tetrahedron, the
-    /// 20- and 27-node hexahedra, the 15-node wedge and the 13-node pyramid
-    /// keep their nodes (subdivided at them); other quadratic cells list
+    /// 20- and 27-node hexahedra, the 15- and 18-node wedges and the 13-node
+    /// pyramid keep their nodes (subdivided at them); other quadratic cells list
     /// their corner nodes first, so keeping the first `num_nodes()` nodes
     /// reduces them to the linear cell.
     ///
@@ -75,11 +81,11 @@ impl CellType {
             14 => (CellType::Pyramid, 5),
             24 => (CellType::QuadraticTetra, 10),
             25 => (CellType::QuadraticHexahedron, 20),
-            26 => (CellType::Wedge, 15),   // VTK_QUADRATIC_WEDGE
-            27 => (CellType::Pyramid, 13), // VTK_QUADRATIC_PYRAMID
+            26 => (CellType::QuadraticWedge, 15),
+            27 => (CellType::QuadraticPyramid, 13),
+            32 => (CellType::BiquadraticWedge, 18),
             29 => (CellType::TriquadraticHexahedron, 27),
             31 => (CellType::Wedge, 12),      // VTK_QUADRATIC_LINEAR_WEDGE
-            32 => (CellType::Wedge, 18),      // VTK_BIQUADRATIC_QUADRATIC_WEDGE
             33 => (CellType::Hexahedron, 24), // VTK_BIQUADRATIC_QUADRATIC_HEXAHEDRON
             37 => (CellType::Pyramid, 19),    // VTK_TRIQUADRATIC_PYRAMID
             _ => return None,
@@ -144,8 +150,8 @@ impl Cells {
         let linear = |t: CellType| match t {
             CellType::QuadraticTetra => Some(CellType::Tetra),
             CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron => Some(CellType::Hexahedron),
-            CellType::QuadraticWedge => Some(CellType::Wedge),
-            CellType::QuadraticPyramid => Some(CellType::Pyramid),
+            CellType::QuadraticWedge | CellType::BiquadraticWedge => Some(CellType::Wedge),
+            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre => Some(CellType::Pyramid),
             _ => None,
         };
         if !self.types.iter().any(|&t| linear(t).is_some()) {
@@ -345,7 +351,7 @@ mod tests {
         assert_eq!(CellType::from_vtk_id(24), Some((CellType::QuadraticTetra, 10)));
         assert_eq!(CellType::from_vtk_id(25), Some((CellType::QuadraticHexahedron, 20)));
         assert_eq!(CellType::from_vtk_id(29), Some((CellType::TriquadraticHexahedron, 27)));
-        for (id, stored) in [(24, 10), (25, 20), (29, 27), (26, 15), (27, 13)] {
+        for (id, stored) in [(24, 10), (25, 20), (29, 27), (26, 15), (27, 13), (32, 18)] {
             assert_eq!(CellType::from_vtk_id(id).map(|(t, _)| t.num_nodes()), Some(stored));
         }
         assert_eq!(CellType::from_vtk_id(26), Some((CellType::QuadraticWedge, 15)));

@@ -10,7 +10,8 @@
 //! A hexahedron gives 6 tets, a wedge 3, a pyramid 2. Quadratic cells are
 //! cut at all their nodes: a 10-node tetrahedron into 8 tets, a 20-node
 //! hexahedron into 22, a 27-node one into its 8 sub-hexahedra (48), a
-//! 15-node wedge into 14 or 15, a 13-node pyramid into 12 or 13.
+//! 15-node wedge into 14 or 15, an 18-node one into its 8 sub-wedges (24),
+//! a 13-node pyramid into 13, Gmsh's 14-node one into 16.
 //!
 //! Structured blocks may instead use the classic alternating 5-tet split:
 //! cells of even and odd parity (i+j+k) use the two mirror-image 5-tet
@@ -254,6 +255,48 @@ pub fn split_quadratic_pyramid(n: &[u32; 13], out: &mut impl FnMut([u32; 4])) {
     cone_from_smallest(n, 5..13, &FACES, out);
 }
 
+/// Splits one 18-node wedge (VTK order: the 15-node one's nodes, then the
+/// centres of quads 0-1-4-3, 1-2-5-4, 2-0-3-5) into its 8 sub-wedges (each
+/// triangle cut into four, at the bottom, middle and top levels), each by
+/// the min-id rule: its faces are cut as the 10-node tetrahedron's and the
+/// 27-node hexahedron's are.
+pub fn split_biquadratic_wedge(n: &[u32; 18], out: &mut impl FnMut([u32; 4])) {
+    // Per level: the triangle's corners, then its edges' midpoints (0-1,
+    // 1-2, 2-0); the four sub-triangles in those six slots.
+    const LEVELS: [[usize; 6]; 3] = [[0, 1, 2, 6, 7, 8], [12, 13, 14, 15, 16, 17], [3, 4, 5, 9, 10, 11]];
+    const SUB: [[usize; 3]; 4] = [[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]];
+    for level in 0..2 {
+        let (lo, hi) = (LEVELS[level], LEVELS[level + 1]);
+        for t in SUB {
+            let w = [n[lo[t[0]]], n[lo[t[1]]], n[lo[t[2]]], n[hi[t[0]]], n[hi[t[1]]], n[hi[t[2]]]];
+            split_wedge(&w, out);
+        }
+    }
+}
+
+/// Splits one 14-node pyramid (Gmsh's: the 13-node one's nodes in VTK's
+/// order, then the centre of the base) at its nodes: at each base corner
+/// the pyramid on its quarter of the base under its slanted edge's
+/// midpoint, the apex's pyramid over the slanted edges' midpoints, and
+/// what is left between coned from the base centre (16 tets). The base is
+/// cut into the four quads a 27-node hexahedron's face is.
+pub fn split_quadratic_pyramid_with_base_centre(n: &[u32; 14], out: &mut impl FnMut([u32; 4])) {
+    // Pyramids as [`split_pyramid`] takes them: base quad, then apex.
+    const PYRAMIDS: [[usize; 5]; 5] =
+        [[0, 5, 13, 8, 9], [5, 1, 6, 13, 10], [13, 6, 2, 7, 11], [8, 13, 7, 3, 12], [9, 10, 11, 12, 4]];
+    // The slanted faces' middle triangles, turning outward.
+    const TRIANGLES: [[usize; 3]; 4] = [[5, 10, 9], [6, 11, 10], [7, 12, 11], [8, 9, 12]];
+    for p in PYRAMIDS {
+        split_pyramid(&p.map(|k| n[k]), out);
+    }
+    for t in split_quad([n[9], n[10], n[11], n[12]]) {
+        out([n[13], t[0], t[1], t[2]]);
+    }
+    for t in TRIANGLES {
+        out([n[13], n[t[0]], n[t[1]], n[t[2]]]);
+    }
+}
+
 /// Node of a 27-node hexahedron (VTK order) at lattice point `[k][j][i]`
 /// of its 3 × 3 × 3 nodes (i along edge 0-1, j along 0-3, k along 0-4).
 const TRIQUADRATIC_LATTICE: [[[usize; 3]; 3]; 3] = [
@@ -312,6 +355,10 @@ pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32;
         }
         CellType::QuadraticWedge => split_quadratic_wedge(&nodes[..15].try_into().expect("15 nodes"), out),
         CellType::QuadraticPyramid => split_quadratic_pyramid(&nodes[..13].try_into().expect("13 nodes"), out),
+        CellType::BiquadraticWedge => split_biquadratic_wedge(&nodes[..18].try_into().expect("18 nodes"), out),
+        CellType::QuadraticPyramidWithBaseCentre => {
+            split_quadratic_pyramid_with_base_centre(&nodes[..14].try_into().expect("14 nodes"), out)
+        }
     }
 }
 
@@ -644,25 +691,33 @@ mod tests {
             at.into_iter().map(|a| self.id(a)).collect()
         }
 
-        /// A cell's corners (doubled coordinates) then its edges' midpoints.
-        fn cell(&mut self, c: &[[i32; 3]], edges: &[(usize, usize)]) -> Vec<u32> {
+        /// A cell's corners (doubled coordinates), its edges' midpoints,
+        /// then the centres of the given quads.
+        fn cell(&mut self, c: &[[i32; 3]], edges: &[(usize, usize)], quads: &[[usize; 4]]) -> Vec<u32> {
             let mut at = c.to_vec();
             for &(a, b) in edges {
                 at.push([0, 1, 2].map(|k| (c[a][k] + c[b][k]) / 2));
+            }
+            for q in quads {
+                at.push([0, 1, 2].map(|k| q.iter().map(|&v| c[v][k]).sum::<i32>() / 4));
             }
             at.into_iter().map(|a| self.id(a)).collect()
         }
 
         fn tet10(&mut self, c: [[i32; 3]; 4]) -> Vec<u32> {
-            self.cell(&c, &[(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)])
+            self.cell(&c, &[(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)], &[])
         }
 
-        fn wedge15(&mut self, c: [[i32; 3]; 6]) -> Vec<u32> {
-            self.cell(&c, &[(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)])
+        /// A wedge's 15 nodes, or with `centres` its 18.
+        fn wedge(&mut self, c: [[i32; 3]; 6], centres: bool) -> Vec<u32> {
+            let quads: &[[usize; 4]] = if centres { &[[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]] } else { &[] };
+            self.cell(&c, &[(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)], quads)
         }
 
-        fn pyramid13(&mut self, c: [[i32; 3]; 5]) -> Vec<u32> {
-            self.cell(&c, &[(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)])
+        /// A pyramid's 13 nodes, or with `centre` its 14.
+        fn pyramid(&mut self, c: [[i32; 3]; 5], centre: bool) -> Vec<u32> {
+            let quads: &[[usize; 4]] = if centre { &[[0, 1, 2, 3]] } else { &[] };
+            self.cell(&c, &[(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)], quads)
         }
     }
 
@@ -690,14 +745,26 @@ mod tests {
                 (CellType::TriquadraticHexahedron, l.hex([8, 0, 0], 27), 48..=48, det),
                 (
                     CellType::QuadraticWedge,
-                    l.wedge15([[12, 0, 0], [14, 0, 0], [12, 2, 0], [12, 0, 2], [14, 0, 2], [12, 2, 2]]),
+                    l.wedge([[12, 0, 0], [14, 0, 0], [12, 2, 0], [12, 0, 2], [14, 0, 2], [12, 2, 2]], false),
                     14..=15,
                     det / 2.0,
                 ),
                 (
                     CellType::QuadraticPyramid,
-                    l.pyramid13([[16, 0, 0], [18, 0, 0], [18, 2, 0], [16, 2, 0], [16, 0, 2]]),
-                    12..=13,
+                    l.pyramid([[16, 0, 0], [18, 0, 0], [18, 2, 0], [16, 2, 0], [16, 0, 2]], false),
+                    13..=13,
+                    det / 3.0,
+                ),
+                (
+                    CellType::BiquadraticWedge,
+                    l.wedge([[20, 0, 0], [22, 0, 0], [20, 2, 0], [20, 0, 2], [22, 0, 2], [20, 2, 2]], true),
+                    24..=24,
+                    det / 2.0,
+                ),
+                (
+                    CellType::QuadraticPyramidWithBaseCentre,
+                    l.pyramid([[24, 0, 0], [26, 0, 0], [26, 2, 0], [24, 2, 0], [24, 0, 2]], true),
+                    16..=16,
                     det / 3.0,
                 ),
             ];
@@ -739,16 +806,36 @@ mod tests {
                 (CellType::QuadraticHexahedron, l.hex([30, 0, 0], 20)),
                 (
                     CellType::QuadraticWedge,
-                    l.wedge15([[32, 0, 0], [34, 0, 0], [32, 2, 0], [32, 0, 2], [34, 0, 2], [32, 2, 2]]),
+                    l.wedge([[32, 0, 0], [34, 0, 0], [32, 2, 0], [32, 0, 2], [34, 0, 2], [32, 2, 2]], false),
                 ),
-                (CellType::QuadraticPyramid, l.pyramid13([[30, 0, 2], [32, 0, 2], [32, 2, 2], [30, 2, 2], [30, 0, 4]])),
+                (
+                    CellType::QuadraticPyramid,
+                    l.pyramid([[30, 0, 2], [32, 0, 2], [32, 2, 2], [30, 2, 2], [30, 0, 4]], false),
+                ),
+            ];
+            // The same with an 18-node wedge and a 14-node pyramid on a
+            // 27-node hexahedron.
+            let mixed27 = vec![
+                (CellType::TriquadraticHexahedron, l.hex([40, 0, 0], 27)),
+                (
+                    CellType::BiquadraticWedge,
+                    l.wedge([[42, 0, 0], [44, 0, 0], [42, 2, 0], [42, 0, 2], [44, 0, 2], [42, 2, 2]], true),
+                ),
+                (
+                    CellType::QuadraticPyramidWithBaseCentre,
+                    l.pyramid([[40, 0, 2], [42, 0, 2], [42, 2, 2], [40, 2, 2], [40, 0, 4]], true),
+                ),
             ];
             let p = l.points();
             // (cells, outer faces × triangles a face: 6 a quadratic quad,
             // 8 a biquadratic one, 4 a quadratic triangle)
-            for (cells, boundary) in
-                [(hex20, 14 * 6), (hex27, 10 * 8), (tet10, 6 * 4), (mixed, 4 * 6 + (2 * 4 + 2 * 6) + 4 * 4)]
-            {
+            for (cells, boundary) in [
+                (hex20, 14 * 6),
+                (hex27, 10 * 8),
+                (tet10, 6 * 4),
+                (mixed, 4 * 6 + (2 * 4 + 2 * 6) + 4 * 4),
+                (mixed27, 4 * 8 + (2 * 4 + 2 * 8) + 4 * 4),
+            ] {
                 let tets = split_all(&cells);
                 let adjacency = crate::build_adjacency(&p, &tets).expect("conforming");
                 assert_eq!(adjacency.boundary_faces.len(), boundary, "{:?} seed {seed}", cells[0].0);

@@ -96,10 +96,9 @@ impl State {
     }
 
     pub(crate) fn push_cell(&mut self, cell_type: CellType, nodes: &[u64], tag: u64, physical: f64, entity: f64) {
-        // Second-order cells with nodes at their corners and edges only
-        // keep them, in VTK's order (see `CellType`): for each VTK node,
-        // the Gmsh node at its place (Gmsh's orders from its manual, "Node
-        // ordering": a 10-node tet's edges 0-1, 1-2, 2-0, 3-0, 2-3, 3-1; a
+        // Second-order cells keep their nodes, in VTK's order (see
+        // `CellType`): for each VTK node, the Gmsh node at its place
+        // (Gmsh's orders from its manual, "Node ordering": a 10-node tet's edges 0-1, 1-2, 2-0, 3-0, 2-3, 3-1; a
         // 20-node hexahedron's 0-1, 0-3, 0-4, 1-2, 1-5, 2-3, 2-6, 3-7,
         // 4-5, 4-7, 5-6, 6-7; a 15-node prism's 0-1, 0-2, 0-3, 1-2, 1-4,
         // 2-5, 3-4, 3-5, 4-5; a 13-node pyramid's 0-1, 0-3, 0-4, 1-2, 1-4,
@@ -108,11 +107,23 @@ impl State {
         const HEX20: [usize; 20] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 11, 13, 9, 16, 18, 19, 17, 10, 12, 14, 15];
         const PRISM15: [usize; 15] = [0, 1, 2, 3, 4, 5, 6, 9, 7, 12, 14, 13, 8, 10, 11];
         const PYRAMID13: [usize; 13] = [0, 1, 2, 3, 4, 5, 8, 10, 6, 7, 9, 11, 12];
+        // Complete second order adds face and body centres: a 27-node
+        // hexahedron's faces z = 0, y = 0, x = 0, x = 1, y = 1, z = 1 of its
+        // parameter cube, then its centre; an 18-node prism's quads
+        // 0-1-4-3, 2-0-3-5, 1-2-5-4; a 14-node pyramid's base. (Checked on
+        // a Gmsh mesh: each sits at the centroid of its face's corners.)
+        const HEX27: [usize; 27] =
+            [0, 1, 2, 3, 4, 5, 6, 7, 8, 11, 13, 9, 16, 18, 19, 17, 10, 12, 14, 15, 22, 23, 21, 24, 20, 25, 26];
+        const PRISM18: [usize; 18] = [0, 1, 2, 3, 4, 5, 6, 9, 7, 12, 14, 13, 8, 10, 11, 15, 17, 16];
+        const PYRAMID14: [usize; 14] = [0, 1, 2, 3, 4, 5, 8, 10, 6, 7, 9, 11, 12, 13];
         let kept: Option<(CellType, &[usize])> = match (cell_type, nodes.len()) {
             (CellType::Tetra, 10) => Some((CellType::QuadraticTetra, &TET10)),
             (CellType::Hexahedron, 20) => Some((CellType::QuadraticHexahedron, &HEX20)),
+            (CellType::Hexahedron, 27) => Some((CellType::TriquadraticHexahedron, &HEX27)),
             (CellType::Wedge, 15) => Some((CellType::QuadraticWedge, &PRISM15)),
+            (CellType::Wedge, 18) => Some((CellType::BiquadraticWedge, &PRISM18)),
             (CellType::Pyramid, 13) => Some((CellType::QuadraticPyramid, &PYRAMID13)),
+            (CellType::Pyramid, 14) => Some((CellType::QuadraticPyramidWithBaseCentre, &PYRAMID14)),
             _ => None,
         };
         if let Some((ty, order)) = kept {

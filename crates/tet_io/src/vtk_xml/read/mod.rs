@@ -762,12 +762,16 @@ mod tests {
         assert!(!m.notes.iter().any(|n| n.contains("higher-order")), "{:?}", m.notes);
         assert!(m.notes.iter().any(|n| n.contains("skipped 1 cells without volume")), "{:?}", m.notes);
         assert!(m.format.contains("ascii"), "{}", m.format);
-        // A 13-node pyramid is reduced to its corners, with a note.
-        let text = tiny_vtu("10 5 27", "4 7 20", "0 1 2 3  0 1 2  0 1 2 3 4 5 6 7 8 9 0 1 2", "7 8 9");
+        // A 12-node wedge (VTK_QUADRATIC_LINEAR_WEDGE) is reduced to its
+        // corners, with a note, and then the quadratic tet beside it as well
+        // (cut at its nodes it would not conform with the wedge).
+        let text = tiny_vtu("24 5 31", "10 13 25", "0 1 2 3 4 5 6 7 8 9  0 1 2  0 1 2 3 4 5 6 7 8 9 0 1", "7 8 9");
         let m = read(text.as_bytes()).unwrap();
         let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
-        assert_eq!((cells.types[1], cells.nodes(1)), (CellType::Pyramid, &[0, 1, 2, 3, 4][..]));
+        assert_eq!((cells.types[1], cells.nodes(1)), (CellType::Wedge, &[0, 1, 2, 3, 4, 5][..]));
+        assert_eq!((cells.types[0], cells.nodes(0)), (CellType::Tetra, &[0, 1, 2, 3][..]));
         assert!(m.notes.iter().any(|n| n.contains("1 higher-order")), "{:?}", m.notes);
+        assert!(m.notes.iter().any(|n| n.contains("reduced 1 more quadratic")), "{:?}", m.notes);
     }
 
     #[test]

@@ -473,6 +473,19 @@ mod tests {
 
     /// A step's fields alone are what the whole read gives for that step;
     /// a step beyond the file and truncated bytes are errors.
+    /// Regression (fuzz finding): a 2.3 kB file declaring 150,994,958
+    /// records but no record variable was read as that many time steps,
+    /// each read once (14 s, 1.2 GB); it has none.
+    #[test]
+    fn declared_records_without_record_variables_are_no_steps() {
+        let file = include_bytes!("../../../tests/data/exodus/fuzz_records_without_record_vars.exo");
+        let bytes = &file[1..];
+        assert_eq!(NetCdf::parse(bytes).unwrap().num_records, 0);
+        let m = read(bytes, &ExodusOptions::default()).unwrap();
+        assert!(!m.notes.iter().any(|n| n.contains("time steps")), "{:?}", m.notes);
+        assert!(read(bytes, &ExodusOptions { time_step: Some(1) }).is_err());
+    }
+
     /// Regression (fuzz finding): a 2.7 kB file declaring 2^30 element
     /// blocks without `eb_prop1` made the reader list an id for each (8 GB,
     /// 8 s) before finding it had no values; the ids are now numbered as

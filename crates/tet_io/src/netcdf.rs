@@ -280,9 +280,14 @@ impl<'a> NetCdf<'a> {
             0 => 0,
             r => ((bytes.len() as u64).saturating_sub(data_start) + 3) / r,
         };
-        if streaming {
+        if rec_vars.is_empty() {
+            // No variable is stored by record: whatever count the header
+            // declares, there are no records to read (a count of 2^27
+            // here once had a reader loop over that many "time steps").
+            f.num_records = 0;
+        } else if streaming {
             f.num_records = fits as usize;
-        } else if numrecs > fits && !rec_vars.is_empty() {
+        } else if numrecs > fits {
             return Err(FormatError::new(
                 numrecs_at,
                 format!("the header declares {numrecs} records but the file holds {fits}"),

@@ -5,7 +5,9 @@
 //! `index n1 .. n4 [.. n10] [attributes]`. `#` starts a comment anywhere;
 //! blank lines are ignored. As in TetGen, the first point's index (0 or 1)
 //! fixes the numbering the `.ele` node references use; indices must then
-//! run consecutively.
+//! run consecutively. Ten-node tets (`-o2`) keep their nodes, put in VTK's
+//! order and cut at them later, when their edge nodes sit where TetGen's
+//! order says (else they are reduced to their corners, with a note).
 //!
 //! Point attributes become point fields `attribute_0`, `attribute_1`, …, the
 //! boundary markers the point field `boundary_marker`; the first tetrahedron
@@ -35,6 +37,30 @@ pub fn companion_paths(path: &Path) -> (PathBuf, PathBuf) {
     (node.into(), ele.into())
 }
 
+/// A ten-node tet's nodes in VTK's order (corners, then the midpoints of
+/// edges 0-1, 1-2, 2-0, 0-3, 1-3, 2-3): for each, its place in TetGen's
+/// `-o2` order, whose edge nodes lie on edges 2-3, 0-3, 0-1, 1-2, 1-3, 0-2
+/// (read off TetGen 1.5's output, `tests/data/tetgen/twobox_o2.1.*`).
+const TET10_AS_VTK: [usize; 10] = [0, 1, 2, 3, 6, 7, 9, 5, 8, 4];
+
+/// Whether every ten-node tet's edge nodes (VTK order) sit at the middles
+/// of their edges, to 1e-3 of the edge's length (TetGen prints coordinates
+/// rounded): TetGen's `-o2` puts them there, so this tells its order was
+/// read right (another edge's middle is a good part of an edge away).
+fn edge_nodes_at_midpoints(mesh: &SourceMesh) -> bool {
+    const EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)];
+    let Some(Block::Unstructured(cells)) = mesh.blocks.first() else { return true };
+    (0..cells.len()).filter(|&c| cells.types[c] == CellType::QuadraticTetra).all(|c| {
+        let n = cells.nodes(c);
+        let p = |k: usize| mesh.points[n[k] as usize];
+        EDGES.iter().enumerate().all(|(e, &(a, b))| {
+            let (pa, pb, m) = (p(a), p(b), p(4 + e));
+            let len = (0..3).map(|x| (pa[x] - pb[x]).powi(2)).sum::<f64>().sqrt();
+            (0..3).all(|x| (m[x] - 0.5 * (pa[x] + pb[x])).abs() <= 1e-3 * len)
+        })
+    })
+}
+
 /// Reads a TetGen mesh from the contents of its `.node` and `.ele` files.
 pub fn read(node: &[u8], ele: &[u8]) -> Result<SourceMesh, FormatError> {
     let nodes = read_node(node)?;
@@ -48,8 +74,15 @@ pub fn read(node: &[u8], ele: &[u8]) -> Result<SourceMesh, FormatError> {
         cell_fields,
         ..Default::default()
     };
-    if quadratic > 0 {
-        mesh.notes.push(format!("reduced {quadratic} ten-node tetrahedra to their corner nodes"));
+    if quadratic > 0 && !edge_nodes_at_midpoints(&mesh) {
+        // Another TetGen's order, or moved nodes: cut at them the tets
+        // would overlap, so only the corners are trusted.
+        if let Some(Block::Unstructured(cells)) = mesh.blocks.first_mut() {
+            cells.reduce_to_corners();
+        }
+        mesh.notes.push(format!(
+            "reduced {quadratic} ten-node tetrahedra to their corner nodes: their edge nodes are not at the middles of the edges TetGen's order puts them on"
+        ));
     }
     if nodes.first_index == 0 {
         mesh.notes.push("TetGen numbering starts at 0".to_string());
@@ -224,7 +257,7 @@ fn read_ele(bytes: &[u8], first_index: i64, num_points: usize) -> Result<(Cells,
     let mut cells = Cells::new();
     let mut attributes = Vec::new();
     let mut first_tet = 0;
-    let mut corners = [0u32; 4];
+    let mut nodes = [0u32; 10];
     for i in 0..count {
         let (line, data) = lines.expect(|| format!("tetrahedron {} of {count}", i + 1))?;
         let mut tok = data.split_ascii_whitespace();
@@ -246,11 +279,15 @@ fn read_ele(bytes: &[u8], first_index: i64, num_points: usize) -> Result<(Cells,
                     ),
                 ));
             };
-            if let Some(slot) = corners.get_mut(k) {
+            if let Some(slot) = nodes.get_mut(k) {
                 *slot = local as u32;
             }
         }
-        cells.push(CellType::Tetra, &corners);
+        if per_tet == 10 {
+            cells.push(CellType::QuadraticTetra, &TET10_AS_VTK.map(|k| nodes[k]));
+        } else {
+            cells.push(CellType::Tetra, &nodes[..4]);
+        }
         for _ in 0..num_attributes {
             attributes.push(parse_real(tok.next(), "a tetrahedron attribute", line)?);
         }
@@ -291,6 +328,8 @@ mod tests {
         }
     }
 
+    /// A ten-node tet whose edge nodes are not at its edges' middles is
+    /// reduced to its corners, with a note.
     #[test]
     fn zero_based_and_ten_node() {
         let node = "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n";

@@ -7,7 +7,7 @@ use common::Lcg;
 use std::path::Path;
 
 use tet_io::tetgen;
-use tet_mesh::{Block, Cells, SourceMesh};
+use tet_mesh::{Block, CellType, Cells, SourceMesh};
 
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/tetgen/");
 
@@ -77,9 +77,12 @@ fn zero_based_second_order_with_point_attributes() {
     let m = read("cloud.1");
     assert_eq!(m.points.len(), 1742);
     assert_eq!(cells(&m).len(), 1266);
-    // "0  43 49 78 48  216 217 218 219 220 221", 0-based.
-    assert_eq!(cells(&m).nodes(0), &[43, 49, 78, 48]);
-    assert!(m.notes.iter().any(|n| n.contains("reduced 1266 ten-node")), "{:?}", m.notes);
+    // "0  43 49 78 48  216 217 218 219 220 221", 0-based, kept whole in
+    // VTK's order (TetGen's edge nodes lie on edges 2-3, 0-3, 0-1, 1-2,
+    // 1-3, 0-2).
+    assert_eq!(cells(&m).types[0], CellType::QuadraticTetra);
+    assert_eq!(cells(&m).nodes(0), &[43, 49, 78, 48, 218, 219, 221, 217, 220, 216]);
+    assert!(!m.notes.iter().any(|n| n.contains("reduced")), "{:?}", m.notes);
     assert!(m.cell_fields.is_empty());
     let sum = field(&m.point_fields, "attribute_0");
     let (lo, hi) = sum.values.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
@@ -127,4 +130,34 @@ fn ele_truncated_mid_file_is_a_companion_error() {
     let e = tetgen::read(&node, &ele[..ele.len() / 2]).unwrap_err();
     assert!(e.in_companion, "{e}");
     assert!(matches!(e.at, tet_io::Location::Line(l) if l > 1000), "{e}");
+}
+
+/// TetGen's second-order output (`-o2`) over two unit cubes and over a
+/// jittered point lattice: the ten-node tets are cut at their nodes into
+/// 8 positive conforming tets each, of the first-order volume.
+#[test]
+fn second_order_tets_are_cut_at_their_nodes() {
+    for (base, cells_in, volume) in [("twobox_o2.1", 136, Some(2.0)), ("cloud.1", 1266, None)] {
+        let m = read(base);
+        assert_eq!(cells(&m).len(), cells_in);
+        let (mesh, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+        assert_eq!(mesh.tets.len(), 8 * cells_in, "{base}");
+        assert!(
+            !report.findings.iter().any(|f| matches!(f, tet_mesh::Finding::DroppedZeroVolumeTets { .. })),
+            "{base}: {:?}",
+            report.findings
+        );
+        tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
+        let cut = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+        let mut corners = m.clone();
+        if let tet_mesh::Block::Unstructured(c) = &mut corners.blocks[0] {
+            assert_eq!(c.reduce_to_corners(), cells_in);
+        }
+        let (linear, _) = tet_mesh::tetrahedralize(&corners, &Default::default(), &mut |_| {}).unwrap();
+        let by_corners = tet_mesh::mesh_stats(&linear.points, &linear.tets, &linear.scalar).total_volume;
+        assert!((cut - by_corners).abs() < 1e-9 * by_corners, "{base}: {cut} against {by_corners}");
+        if let Some(v) = volume {
+            assert!((cut - v).abs() < 1e-9, "{base}: {cut}");
+        }
+    }
 }

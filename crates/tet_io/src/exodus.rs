@@ -16,8 +16,9 @@
 //! Tetrahedra, hexahedra, wedges and pyramids are read; TETRA10 keeps its
 //! ten nodes (subdivided at them into 8 tets), other higher-order variants
 //! (HEX20, HEX27, WEDGE15, PYRAMID13, …, whose mid-edge orders differ from
-//! VTK's) are reduced to their corner nodes, which Exodus lists first; blocks of other types (shells,
-//! beams, spheres, polyhedra) are skipped with a note. Nodal variables
+//! VTK's) are reduced to their corner nodes, which Exodus lists first (and
+//! then TETRA10 too, so that neighbours conform); blocks of other types
+//! (shells, beams, spheres, polyhedra) are skipped with a note. Nodal variables
 //! become point fields and element variables cell fields (NaN in blocks the
 //! truth table leaves out), all at one time step ([`ExodusOptions`]);
 //! `block_id` is a cell field.

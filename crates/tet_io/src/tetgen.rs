@@ -77,9 +77,7 @@ pub fn read(node: &[u8], ele: &[u8]) -> Result<SourceMesh, FormatError> {
     if quadratic > 0 && !edge_nodes_at_midpoints(&mesh) {
         // Another TetGen's order, or moved nodes: cut at them the tets
         // would overlap, so only the corners are trusted.
-        if let Some(Block::Unstructured(cells)) = mesh.blocks.first_mut() {
-            cells.reduce_to_corners();
-        }
+        mesh.reduce_to_corners();
         mesh.notes.push(format!(
             "reduced {quadratic} ten-node tetrahedra to their corner nodes: their edge nodes are not at the middles of the edges TetGen's order puts them on"
         ));

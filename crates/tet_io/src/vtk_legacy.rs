@@ -22,10 +22,10 @@ use tet_mesh::{Block, CellType, Cells, Field, SourceMesh};
 
 /// Reads a legacy VTK file held in memory.
 ///
-/// Volume cells are kept in VTK node order; the 10-node tetrahedron and the
-/// 20- and 27-node hexahedra keep their nodes (split at them), other
-/// quadratic cells are reduced to their corner nodes, and surface, line and
-/// vertex cells are skipped (with their CELL_DATA tuples), each counted in
+/// Volume cells are kept in VTK node order; quadratic cells that
+/// `CellType` lists keep their nodes (cut at them), other quadratic cells
+/// are reduced to their corner nodes (and then all of them, so that
+/// neighbours conform), and surface, line and vertex cells are skipped (with their CELL_DATA tuples), each counted in
 /// a note. Files without volume
 /// cells (POLYDATA, 2D grids, surface-only unstructured grids) are errors.
 pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {

@@ -49,14 +49,7 @@ fn counts(m: &SourceMesh) -> (usize, usize, usize, usize) {
     let mut by_type = BTreeMap::new();
     for t in &cells(m).types {
         // Quadratic cells counted with their linear family.
-        let name = match t {
-            CellType::QuadraticTetra => "Tetra".to_string(),
-            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron => "Hexahedron".to_string(),
-            CellType::QuadraticWedge | CellType::BiquadraticWedge => "Wedge".to_string(),
-            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre => "Pyramid".to_string(),
-            other => format!("{other:?}"),
-        };
-        *by_type.entry(name).or_insert(0usize) += 1;
+        *by_type.entry(format!("{:?}", t.linear())).or_insert(0usize) += 1;
     }
     let get = |k: &str| by_type.get(k).copied().unwrap_or(0);
     (get("Tetra"), get("Hexahedron"), get("Wedge"), get("Pyramid"))

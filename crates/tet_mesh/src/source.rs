@@ -42,6 +42,18 @@ pub enum CellType {
 }
 
 impl CellType {
+    /// The linear cell of a quadratic one (its first nodes are the
+    /// corners); a linear cell itself.
+    pub fn linear(self) -> CellType {
+        match self {
+            CellType::QuadraticTetra => CellType::Tetra,
+            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron => CellType::Hexahedron,
+            CellType::QuadraticWedge | CellType::BiquadraticWedge => CellType::Wedge,
+            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre => CellType::Pyramid,
+            linear => linear,
+        }
+    }
+
     /// Number of nodes the cell keeps: the linear cell's, or a quadratic
     /// cell's all.
     pub fn num_nodes(self) -> usize {
@@ -63,7 +75,8 @@ impl CellType {
     /// Maps a VTK cell type id to the volume cell it is read as and the
     /// number of nodes the file stores for it. The 10-node tetrahedron, the
     /// 20- and 27-node hexahedra, the 15- and 18-node wedges and the 13-node
-    /// pyramid keep their nodes (subdivided at them); other quadratic cells list
+    /// pyramid keep their nodes (subdivided at them); other quadratic cells
+    /// list
     /// their corner nodes first, so keeping the first `num_nodes()` nodes
     /// reduces them to the linear cell.
     ///
@@ -147,23 +160,15 @@ impl Cells {
     /// its mid-edge nodes beside one that ignores them would not conform
     /// across their shared face.
     pub fn reduce_to_corners(&mut self) -> usize {
-        let linear = |t: CellType| match t {
-            CellType::QuadraticTetra => Some(CellType::Tetra),
-            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron => Some(CellType::Hexahedron),
-            CellType::QuadraticWedge | CellType::BiquadraticWedge => Some(CellType::Wedge),
-            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre => Some(CellType::Pyramid),
-            _ => None,
-        };
-        if !self.types.iter().any(|&t| linear(t).is_some()) {
+        if self.types.iter().all(|&t| t.linear() == t) {
             return 0;
         }
         let mut out = Cells::new();
         let mut reduced = 0;
         for c in 0..self.len() {
             let t = self.types[c];
-            let kept = linear(t).unwrap_or(t);
-            reduced += (kept != t) as usize;
-            out.push(kept, self.nodes(c));
+            reduced += (t.linear() != t) as usize;
+            out.push(t.linear(), self.nodes(c));
         }
         *self = out;
         reduced
@@ -250,6 +255,18 @@ pub struct SourceMesh {
 }
 
 impl SourceMesh {
+    /// [`Cells::reduce_to_corners`] over every unstructured block; returns
+    /// how many cells were reduced.
+    pub fn reduce_to_corners(&mut self) -> usize {
+        self.blocks
+            .iter_mut()
+            .map(|b| match b {
+                Block::Unstructured(cells) => cells.reduce_to_corners(),
+                _ => 0,
+            })
+            .sum()
+    }
+
     /// One structured block of `dims` points (`points` in VTK order, i
     /// fastest) with one point field, the scalar `name`: what a structured
     /// grid with one value per point becomes.

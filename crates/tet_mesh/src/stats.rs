@@ -388,7 +388,7 @@ pub fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 
 /// Computes [`MeshStats`]; volumes and lengths in the mesh's units.
 pub fn mesh_stats(points: &[[f64; 3]], tets: &[[u32; 4]], scalar: &[f64]) -> MeshStats {
-    stats_with(points, tets, scalar, |_, _| {})
+    stats_with(points, bounds(points), tets, scalar, |_, _| {})
 }
 
 /// [`mesh_stats`] that also confirms, in the same pass over the tets, that
@@ -417,7 +417,7 @@ pub fn mesh_stats_confirming_orientation(
     let certain_above = if bound.is_finite() && bound > 1e-250 { bound } else { f64::INFINITY };
     // Tets left to the exact predicate; few (slivers), so a lock is cheap.
     let uncertain = std::sync::Mutex::new(Vec::new());
-    let stats = stats_with(points, tets, scalar, |t, volume| {
+    let stats = stats_with(points, (lo, hi), tets, scalar, |t, volume| {
         // (A NaN volume is not clearly positive either.)
         if volume <= certain_above || volume.is_nan() {
             uncertain.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(t as u32);
@@ -444,15 +444,15 @@ pub fn mesh_stats_confirming_orientation(
     }
 }
 
-/// The statistics, calling `each_volume(tet, volume)` for every tet
-/// evaluated (some more than once).
+/// The statistics (with the points' bounds already found), calling
+/// `each_volume(tet, volume)` for every tet evaluated (some more than once).
 fn stats_with(
     points: &[[f64; 3]],
+    (lo, hi): ([f64; 3], [f64; 3]),
     tets: &[[u32; 4]],
     scalar: &[f64],
     each_volume: impl Fn(usize, f64) + Sync,
 ) -> MeshStats {
-    let (lo, hi) = bounds(points);
     // Volume and the six squared edge lengths of each tet from one gather
     // of its vertices. The square root is monotone and correctly rounded,
     // so the order statistics of the lengths are the roots of those of the

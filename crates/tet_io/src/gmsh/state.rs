@@ -98,8 +98,8 @@ impl State {
     pub(crate) fn push_cell(&mut self, cell_type: CellType, nodes: &[u64], tag: u64, physical: f64, entity: f64) {
         // Second-order cells keep their nodes, in VTK's order (see
         // `CellType`): for each VTK node, the Gmsh node at its place
-        // (Gmsh's orders from its manual, "Node ordering": a 10-node tet's edges 0-1, 1-2, 2-0, 3-0, 2-3, 3-1; a
-        // 20-node hexahedron's 0-1, 0-3, 0-4, 1-2, 1-5, 2-3, 2-6, 3-7,
+        // (Gmsh's orders from its manual, "Node ordering": a 10-node tet's
+        // edges 0-1, 1-2, 2-0, 3-0, 2-3, 3-1; a 20-node hexahedron's 0-1, 0-3, 0-4, 1-2, 1-5, 2-3, 2-6, 3-7,
         // 4-5, 4-7, 5-6, 6-7; a 15-node prism's 0-1, 0-2, 0-3, 1-2, 1-4,
         // 2-5, 3-4, 3-5, 4-5; a 13-node pyramid's 0-1, 0-3, 0-4, 1-2, 1-4,
         // 2-3, 2-4, 3-4).

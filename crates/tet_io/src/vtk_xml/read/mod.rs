@@ -58,9 +58,11 @@ pub(crate) const BASE64: GeneralPurpose = GeneralPurpose::new(
 /// (vertices, lines, polygons) and volume cells tetkit cannot reduce
 /// (polyhedra without a face stream, Lagrange/Bézier cells, pentagonal and
 /// hexagonal prisms) are skipped with a note counting them, and their
-/// cell-data tuples dropped so cell fields stay aligned. The 10-node
-/// tetrahedron and the 20- and 27-node hexahedra keep their nodes (split at
-/// them); other quadratic cells are reduced to their corners (with a note). An unknown cell type id is an error. Point and cell arrays
+/// cell-data tuples dropped so cell fields stay aligned. Quadratic cells
+/// that [`CellType`] lists keep their nodes (cut at them); other quadratic
+/// cells are reduced to their corners, with a note, and then all of them,
+/// so that neighbours conform. An unknown cell type id is an error. Point
+/// and cell arrays
 /// become fields of their `NumberOfComponents`; `FieldData` and non-numeric
 /// arrays are ignored.
 pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
@@ -106,14 +108,7 @@ pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
     }
     let mut notes = stats.notes();
     if stats.reduced_higher_order > 0 {
-        let also: usize = mesh
-            .blocks
-            .iter_mut()
-            .map(|b| match b {
-                Block::Unstructured(cells) => cells.reduce_to_corners(),
-                _ => 0,
-            })
-            .sum();
+        let also = mesh.reduce_to_corners();
         if also > 0 {
             notes.push(format!(
                 "reduced {also} more quadratic cells to their corners as well, so that they conform with those"

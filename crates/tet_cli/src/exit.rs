@@ -196,7 +196,10 @@ impl StdError for Reported {}
 /// that have not printed theirs).
 pub fn report_now(program: &str, e: anyhow::Error) -> anyhow::Error {
     let text = describe(&e);
-    eprintln!("{program}: {text}");
+    // In one write: under mpirun every rank prints to one stderr, and
+    // `eprintln!` writes a line in pieces another rank's could come between.
+    let line = format!("{program}: {text}\n");
+    let _ = std::io::Write::write_all(&mut std::io::stderr().lock(), line.as_bytes());
     anyhow::Error::new(Reported { kind: ExitKind::of(&e), text })
 }
 

@@ -32,7 +32,7 @@ fn main() {
         Ok(format!("size={w}x{h}\nview=seeded"))
     };
     if let Err(e) = agree(&comm, state) {
-        eprintln!("rank {rank}: error: {e}");
+        say_error(rank, &e);
         // Every rank has printed before any exits (mpirun ends the job at
         // the first error exit).
         let _ = comm.barrier();
@@ -46,7 +46,7 @@ fn main() {
     let mut result = None;
     for round in 0..rounds {
         let (image, stats) = composite(&comm, mine.clone(), &order).unwrap_or_else(|e| {
-            eprintln!("rank {rank}: error: {e}");
+            say_error(rank, &e);
             std::process::exit(3)
         });
         if rounds > 1 {
@@ -73,4 +73,13 @@ fn main() {
             std::process::exit(1);
         }
     }
+}
+
+/// One rank's error line in one write: ranks share mpirun's stderr, and
+/// `eprintln!` writes a formatted line in pieces that another rank's line
+/// could come between (seen in CI: "rank 2rank 2: error: …").
+fn say_error(rank: usize, e: &dyn std::fmt::Display) {
+    use std::io::Write;
+    let line = format!("rank {rank}: error: {e}\n");
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
 }

@@ -294,6 +294,24 @@ def test_from_pyvista_shaped_objects():
         tetkit.from_pyvista(object())
 
 
+def test_lagrange_and_bezier_cells_from_arrays():
+    # A 27-node Lagrange hexahedron (VTK 72) in VTK's node order: cut at all
+    # its nodes (8 sub-hexahedra, 48 tets); as a Bezier one (79) its corners.
+    lattice = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 2), (2, 0, 2), (2, 2, 2), (0, 2, 2),
+               (1, 0, 0), (2, 1, 0), (1, 2, 0), (0, 1, 0), (1, 0, 2), (2, 1, 2), (1, 2, 2), (0, 1, 2),
+               (0, 0, 1), (2, 0, 1), (2, 2, 1), (0, 2, 1), (0, 1, 1), (2, 1, 1), (1, 0, 1), (1, 2, 1),
+               (1, 1, 0), (1, 1, 2), (1, 1, 1)]
+    pts = np.array(lattice, dtype=float) / 2.0
+    lagrange = tetkit.from_pyvista(FakeUnstructured(pts, [(72, list(range(27)))], {"t": pts[:, 0]}, {}))
+    assert lagrange.num_tets == 48
+    bezier = tetkit.from_pyvista(FakeUnstructured(pts, [(79, list(range(27)))], {"t": pts[:, 0]}, {}))
+    assert bezier.num_tets == 6 and "reduced 1 higher-order" in " ".join(bezier.findings)
+    wrong = FakeUnstructured(pts, [(72, list(range(26)))], {"t": pts[:, 0]}, {})
+    with pytest.raises(tetkit.TetkitError) as e:
+        tetkit.from_pyvista(wrong)
+    assert "VTK type 72" in str(e.value) and "26 nodes" in str(e.value)
+
+
 def test_from_real_pyvista():
     pv = pytest.importorskip("pyvista")
     img = pv.ImageData(dimensions=(5, 4, 3))

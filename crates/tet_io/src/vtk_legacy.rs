@@ -23,8 +23,9 @@ use tet_mesh::{Block, CellType, Cells, Field, SourceMesh};
 /// Reads a legacy VTK file held in memory.
 ///
 /// Volume cells are kept in VTK node order; quadratic cells that
-/// `CellType` lists keep their nodes (cut at them), other quadratic cells
-/// are reduced to their corner nodes (and then all of them, so that
+/// `CellType` lists and Lagrange tetrahedra, hexahedra and wedges (their
+/// orders from their node counts) keep their nodes (cut at them), other
+/// quadratic cells and Bézier cells are reduced to their corner nodes (and then all of them, so that
 /// neighbours conform), and surface, line and vertex cells are skipped (with their CELL_DATA tuples), each counted in
 /// a note. Files without volume
 /// cells (POLYDATA, 2D grids, surface-only unstructured grids) are errors.
@@ -1100,7 +1101,12 @@ fn assemble_cells(
             .zip(raw.offsets.get(c + 1))
             .and_then(|(&lo, &hi)| raw.connectivity.get(lo..hi))
             .ok_or_else(|| whole(format!("cell {c} has a bad node range")))?;
-        if let Some((cell_type, stored)) = CellType::from_vtk_id(id) {
+        // (Legacy files carry no HigherOrderDegrees: a Lagrange cell's
+        // orders follow from its node count, as in VTK.)
+        let found = CellType::from_vtk(id, nodes.len(), None)
+            .transpose()
+            .map_err(|m| whole(format!("cell {c} (VTK type {id}): {m}")))?;
+        if let Some((cell_type, stored)) = found {
             let need = cell_type.num_nodes();
             if nodes.len() < need {
                 return Err(whole(format!(

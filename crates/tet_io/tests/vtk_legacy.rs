@@ -363,3 +363,19 @@ fn hostile_headers_are_errors() {
     assert!(read(b"# vtk DataFile Version 3.0").is_err());
     assert!(read(b"solid cube\nfacet normal 0 0 1\n").is_err());
 }
+
+/// A legacy file of VTK's Lagrange tetrahedra (VTK's own legacy writer, no
+/// HigherOrderDegrees: the order follows from the node count) is read as
+/// the XML one: 48 order-3 tets, each cut into 27.
+#[test]
+fn lagrange_tets_from_a_legacy_file() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vtu/lagrange_tet_o3.vtk");
+    let m = tet_io::vtk_legacy::read(&std::fs::read(path).unwrap()).unwrap();
+    let cells = unstructured(&m);
+    assert_eq!(cells.len(), 48);
+    assert!(cells.types.iter().all(|&t| t == tet_mesh::CellType::LagrangeTetra(3)));
+    let (mesh, _) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+    assert_eq!(mesh.tets.len(), 48 * 27);
+    let volume = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+    assert_close(volume, 2.329371385288, "volume");
+}

@@ -451,3 +451,72 @@ fn hostile_headers_are_errors() {
     let e = read(&huge_appended).unwrap_err();
     assert!(matches!(e.at, Location::Byte(_)), "{e}");
 }
+
+/// Tets, volume and whether any tet had to be re-oriented or dropped, of a
+/// mesh as tetprep converts it; the tets must conform.
+fn converted(m: &SourceMesh) -> (usize, f64) {
+    let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
+    assert!(
+        !report.findings.iter().any(|f| matches!(
+            f,
+            tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
+        )),
+        "{:?}",
+        report.findings
+    );
+    tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
+    (mesh.tets.len(), tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume)
+}
+
+/// VTK's Lagrange cells (written by VTK's own `vtkCellTypeSource`, bent onto
+/// a quarter of a cylindrical shell of volume 3π/4: `make_lagrange.py`) are
+/// cut into linear tets at all their nodes: the volume equals that of VTK's
+/// own linear tessellation of the same cells (every sub-face is planar
+/// here, so the two cuts enclose the same volume), three to ten times
+/// closer to the exact one than the corners' — and the point field and
+/// HigherOrderDegrees are read as VTK wrote them.
+#[test]
+fn lagrange_cells_are_cut_at_all_their_nodes() {
+    let exact = 3.0 * std::f64::consts::PI / 4.0;
+    // (file, cells, tets, volume of VTK's tessellation)
+    for (name, cells, tets, vtk_volume) in [
+        ("lagrange_hex_o3.vtu", 4, 4 * 27 * 6, 2.329371385288),
+        ("lagrange_tet_o3.vtu", 48, 48 * 27, 2.329371385288),
+        ("lagrange_wedge_o4.vtu", 8, 8 * 16 * 4 * 3, 2.341083778250),
+        ("lagrange_hex_231.vtu", 1, 2 * 3 * 6, 2.250000014693),
+        ("lagrange_hex_o1.vtu", 4, 4 * 6, 2.121320307255),
+    ] {
+        let m = load(name);
+        assert_eq!(m.num_cells(), cells, "{name}");
+        assert!(m.notes.iter().all(|n| !n.contains("reduced") && !n.contains("skipped")), "{name}: {:?}", m.notes);
+        assert_eq!(m.point_fields.len(), 1, "{name}");
+        let r2 = field(&m.point_fields, "r2");
+        assert!(r2.values.iter().all(|&v| (1.0..=4.0 + 1e-12).contains(&v)), "{name}");
+        assert!(m.cell_fields.is_empty(), "{name}: HigherOrderDegrees is no field");
+        let (n, volume) = converted(&m);
+        assert_eq!(n, tets, "{name}");
+        assert!(close(volume, vtk_volume, 1e-9), "{name}: volume {volume}, VTK's tessellation {vtk_volume}");
+        eprintln!("{name}: {n} tets, volume {volume:.9} (exact {exact:.9})");
+    }
+    let corners = 2.121320307255;
+    assert!((2.329371385288 - exact).abs() * 8.0 < (corners - exact).abs());
+    assert_eq!(unstructured(&load("lagrange_hex_231.vtu")).types, vec![CellType::LagrangeHexahedron([2, 3, 1])]);
+    assert_eq!(unstructured(&load("lagrange_hex_o1.vtu")).types[0], CellType::Hexahedron);
+}
+
+/// Lagrange cells whose node count fits no order are errors naming the
+/// cell and the count.
+#[test]
+fn lagrange_cells_with_wrong_node_counts_are_errors() {
+    for (id, conn) in [(72, "0 1 2 3 0 1 2"), (71, "0 1 2 3 0 1 2 3 0 1 2"), (73, "0 1 2 3 0 1 2")] {
+        let n = conn.split_whitespace().count();
+        let file = tiny(
+            r#"NumberOfPoints="4" NumberOfCells="1""#,
+            &format!(
+                r#"<DataArray type="Int64" Name="connectivity" format="ascii">{conn}</DataArray><DataArray type="Int64" Name="offsets" format="ascii">{n}</DataArray><DataArray type="UInt8" Name="types" format="ascii">{id}</DataArray>"#
+            ),
+        );
+        let err = read(file.as_bytes()).unwrap_err().to_string();
+        assert!(err.contains(&format!("cell 0 (VTK type {id})")) && err.contains(&format!("{n} nodes")), "{err}");
+    }
+}

@@ -36,6 +36,7 @@
 pub mod adjacency;
 pub mod convert;
 mod error;
+pub mod lagrange;
 pub mod merge;
 pub mod polyhedron;
 pub mod predicates;

@@ -39,6 +39,23 @@ pub enum CellType {
     QuadraticPyramid,
     BiquadraticWedge,
     QuadraticPyramidWithBaseCentre,
+    /// VTK's Lagrange tetrahedron of order n ≥ 2 (id 71): (n + 1)(n + 2)(n +
+    /// 3)/6 nodes in [`crate::lagrange`]'s order.
+    LagrangeTetra(u8),
+    /// VTK's Lagrange hexahedron of orders (p, q, r) along its parameter
+    /// axes (id 72): (p + 1)(q + 1)(r + 1) nodes.
+    LagrangeHexahedron([u8; 3]),
+    /// VTK's Lagrange wedge of order n across and m along its axis (id 73):
+    /// (n + 1)(n + 2)(m + 1)/2 nodes.
+    LagrangeWedge(u8, u8),
+    /// The 15-node tetrahedron (VTK's Lagrange tetrahedron of 15 nodes): the
+    /// 10-node one's nodes, the centres of faces (0, 1, 2), (0, 1, 3),
+    /// (1, 2, 3), (0, 2, 3), then the body centre.
+    QuadraticTetraWithCentres,
+    /// The 21-node wedge (VTK's Lagrange wedge of 21 nodes): the 15-node
+    /// one's, the centres of triangles 0-1-2 and 3-4-5, of quads 0-1-4-3,
+    /// 1-2-5-4, 2-0-3-5, then the body centre.
+    QuadraticWedgeWithCentres,
 }
 
 impl CellType {
@@ -46,9 +63,16 @@ impl CellType {
     /// corners); a linear cell itself.
     pub fn linear(self) -> CellType {
         match self {
-            CellType::QuadraticTetra => CellType::Tetra,
-            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron => CellType::Hexahedron,
-            CellType::QuadraticWedge | CellType::BiquadraticWedge => CellType::Wedge,
+            CellType::QuadraticTetra | CellType::QuadraticTetraWithCentres | CellType::LagrangeTetra(_) => {
+                CellType::Tetra
+            }
+            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron | CellType::LagrangeHexahedron(_) => {
+                CellType::Hexahedron
+            }
+            CellType::QuadraticWedge
+            | CellType::BiquadraticWedge
+            | CellType::QuadraticWedgeWithCentres
+            | CellType::LagrangeWedge(..) => CellType::Wedge,
             CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre => CellType::Pyramid,
             linear => linear,
         }
@@ -69,6 +93,17 @@ impl CellType {
             CellType::QuadraticPyramid => 13,
             CellType::BiquadraticWedge => 18,
             CellType::QuadraticPyramidWithBaseCentre => 14,
+            CellType::LagrangeTetra(n) => {
+                let n = n as usize;
+                (n + 1) * (n + 2) * (n + 3) / 6
+            }
+            CellType::LagrangeHexahedron(o) => o.iter().map(|&a| a as usize + 1).product(),
+            CellType::LagrangeWedge(n, m) => {
+                let (n, m) = (n as usize, m as usize);
+                (n + 1) * (n + 2) / 2 * (m + 1)
+            }
+            CellType::QuadraticTetraWithCentres => 15,
+            CellType::QuadraticWedgeWithCentres => 21,
         }
     }
 
@@ -83,8 +118,9 @@ impl CellType {
     /// Returns `None` for non-volume cells (vertices, lines, polygons) and
     /// for volume cell types that are no linear cell (polyhedra, which
     /// readers with a face stream split with
-    /// [`crate::polyhedron::PolyhedronSplitter`]; Lagrange cells with
-    /// variable node counts); readers skip the rest and say so in a note.
+    /// [`crate::polyhedron::PolyhedronSplitter`]; Lagrange and Bézier cells,
+    /// whose node count varies: [`CellType::from_vtk`]); readers skip the
+    /// rest and say so in a note.
     pub fn from_vtk_id(id: u32) -> Option<(CellType, usize)> {
         Some(match id {
             10 => (CellType::Tetra, 4),
@@ -105,6 +141,20 @@ impl CellType {
         })
     }
 
+    /// [`CellType::from_vtk_id`] extended to VTK's Lagrange volumes (ids 71,
+    /// 72, 73, kept and cut at their nodes) and Bézier ones (78, 79, 80,
+    /// reduced to their corners), whose order follows from their node count
+    /// `count` or their `HigherOrderDegrees` row ([`crate::lagrange`]).
+    /// Returns the cell type and the node count the file stores for it
+    /// (more than the type keeps when reduced); `Some(Err)` when `count` or
+    /// the degrees fit no cell of the type; `None` for other ids.
+    pub fn from_vtk(id: u32, count: usize, degrees: Option<[i64; 3]>) -> Option<Result<(CellType, usize), String>> {
+        match CellType::from_vtk_id(id) {
+            Some(fixed) => Some(Ok(fixed)),
+            None => crate::lagrange::cell_type_of_vtk_higher_order(id, count, degrees).map(|r| r.map(|t| (t, count))),
+        }
+    }
+
     /// True for VTK ids of cells that have no volume (vertex, line, polygon
     /// families); readers skip them silently except for a count in a note.
     pub fn vtk_id_is_surface_or_lower(id: u32) -> bool {
@@ -117,10 +167,11 @@ impl CellType {
 impl CellType {
     /// True for VTK volume cells tetkit cannot reduce to a linear cell:
     /// pentagonal and hexagonal prisms, convex point sets, polyhedra,
-    /// parametric regions and the variable-order higher-order, Lagrange and
-    /// Bézier volumes. Readers skip them with a counted note.
+    /// parametric regions, the variable-order higher-order volumes and the
+    /// Lagrange and Bézier pyramids (which VTK itself does not construct).
+    /// Readers skip them with a counted note.
     pub fn vtk_id_is_unreducible_volume(id: u32) -> bool {
-        matches!(id, 15 | 16 | 41 | 42 | 55 | 56 | 64..=67 | 71..=74 | 78..=81)
+        matches!(id, 15 | 16 | 41 | 42 | 55 | 56 | 64..=67 | 74 | 81)
     }
 }
 

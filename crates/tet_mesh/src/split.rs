@@ -359,6 +359,11 @@ pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32;
         CellType::QuadraticPyramidWithBaseCentre => {
             split_quadratic_pyramid_with_base_centre(&nodes[..14].try_into().expect("14 nodes"), out)
         }
+        CellType::LagrangeTetra(_)
+        | CellType::LagrangeHexahedron(_)
+        | CellType::LagrangeWedge(..)
+        | CellType::QuadraticTetraWithCentres
+        | CellType::QuadraticWedgeWithCentres => crate::lagrange::split_lagrange(cell_type, nodes, out),
     }
 }
 
@@ -432,7 +437,7 @@ pub fn split_blocks(
                     let mut tets = Vec::with_capacity(range.len());
                     let mut src = Vec::with_capacity(range.len());
                     let mut skipped = 0usize;
-                    let mut buf = [0u32; 27];
+                    let mut buf: Vec<u32> = Vec::with_capacity(32);
                     for c in range {
                         let nodes = cells.nodes(c);
                         if let Some(s) = skip_point {
@@ -441,11 +446,10 @@ pub fn split_blocks(
                                 continue;
                             }
                         }
-                        for (b, &n) in buf.iter_mut().zip(nodes) {
-                            *b = point_id[n as usize];
-                        }
+                        buf.clear();
+                        buf.extend(nodes.iter().map(|&n| point_id[n as usize]));
                         let cell = (cell_base + c) as u32;
-                        split_cell(cells.types[c], &buf[..nodes.len()], &mut |t| {
+                        split_cell(cells.types[c], &buf, &mut |t| {
                             tets.push(t);
                             src.push(cell);
                         });

@@ -495,6 +495,8 @@ fn from_cells(
             }
             let mut cells = tet_mesh::Cells::new();
             let (mut kept, mut flat) = (Vec::new(), 0usize);
+            let mut nodes: Vec<u32> = Vec::with_capacity(32);
+            let mut reduced = 0usize;
             for c in 0..k {
                 let (a, b) = (offs[c], offs[c + 1]);
                 if a < 0 || b < a || b as usize > conn.len() {
@@ -504,32 +506,44 @@ fn from_cells(
                     ));
                 }
                 let id = u32::try_from(types[c]).unwrap_or(u32::MAX);
-                match tet_mesh::CellType::from_vtk_id(id) {
+                let found = tet_mesh::CellType::from_vtk(id, (b - a) as usize, None)
+                    .transpose()
+                    .map_err(|m| arg_err("cell_types", format!("cell {c} (VTK type {id}): {m}")))?;
+                match found {
                     Some((ty, stored)) => {
                         if (b - a) as usize != stored {
                             return Err(arg_err("connectivity", format!("cell {c} (VTK type {id}) lists {} points, needs {stored}", b - a)));
                         }
-                        // (27: the most nodes a cell type read keeps.)
-                        let mut nodes = [0u32; 27];
-                        for (slot, &v) in nodes.iter_mut().zip(conn.slice(numpy::ndarray::s![a as usize..b as usize]).iter()) {
-                            *slot = u32::try_from(v).ok().filter(|&q| (q as usize) < n).ok_or_else(|| {
+                        nodes.clear();
+                        for &v in conn.slice(numpy::ndarray::s![a as usize..b as usize]).iter().take(ty.num_nodes()) {
+                            nodes.push(u32::try_from(v).ok().filter(|&q| (q as usize) < n).ok_or_else(|| {
                                 arg_err("connectivity", format!("cell {c} refers to point {v}; there are {n} points"))
-                            })?;
+                            })?);
                         }
-                        cells.push(ty, &nodes[..ty.num_nodes()]);
+                        reduced += usize::from(stored > ty.num_nodes());
+                        cells.push(ty, &nodes);
                         kept.push(c as u32);
                     }
                     None if tet_mesh::CellType::vtk_id_is_surface_or_lower(id) => flat += 1,
                     None => {
                         return Err(arg_err(
                             "cell_types",
-                            format!("cell {c} has VTK type {id}, which tetkit does not split (tetrahedra, hexahedra, voxels, wedges, pyramids and their quadratic forms are read)"),
+                            format!("cell {c} has VTK type {id}, which tetkit does not split (tetrahedra, hexahedra, voxels, wedges, pyramids, their quadratic forms and Lagrange and Bézier tetrahedra, hexahedra and wedges are read)"),
                         ))
                     }
                 }
             }
             if flat > 0 {
                 notes.push(format!("skipped {flat} cells without volume (vertices, lines, polygons)"));
+            }
+            if reduced > 0 {
+                // As the file readers do: cells cut at their nodes would not
+                // conform with a neighbour reduced to its corners.
+                notes.push(format!("reduced {reduced} higher-order cells to their corner nodes"));
+                let also = cells.reduce_to_corners();
+                if also > 0 {
+                    notes.push(format!("reduced {also} more higher-order cells to their corners as well, so that they conform with those"));
+                }
             }
             if kept.is_empty() {
                 // Not a point cloud to tetrahedralize: the cells had no volume.

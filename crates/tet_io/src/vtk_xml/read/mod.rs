@@ -56,12 +56,15 @@ pub(crate) const BASE64: GeneralPurpose = GeneralPurpose::new(
 /// [`PolyhedronSplitter`] (each tet repeats the cell's data; the added
 /// points average the point data), with a note. Cells without volume
 /// (vertices, lines, polygons) and volume cells tetkit cannot reduce
-/// (polyhedra without a face stream, Lagrange/Bézier cells, pentagonal and
-/// hexagonal prisms) are skipped with a note counting them, and their
+/// (polyhedra without a face stream, Lagrange/Bézier pyramids, pentagonal
+/// and hexagonal prisms) are skipped with a note counting them, and their
 /// cell-data tuples dropped so cell fields stay aligned. Quadratic cells
-/// that [`CellType`] lists keep their nodes (cut at them); other quadratic
-/// cells are reduced to their corners, with a note, and then all of them,
-/// so that neighbours conform. An unknown cell type id is an error. Point
+/// that [`CellType`] lists, and Lagrange tetrahedra, hexahedra and wedges
+/// (their orders from the `HigherOrderDegrees` cell array the `<CellData>`
+/// names, else from their node counts: [`CellType::from_vtk`]), keep their
+/// nodes (cut at them); other quadratic cells and Bézier cells are reduced
+/// to their corners, with a note, and then all of them, so that neighbours
+/// conform. An unknown cell type id is an error. Point
 /// and cell arrays
 /// become fields of their `NumberOfComponents`; `FieldData` and non-numeric
 /// arrays are ignored.

@@ -45,11 +45,16 @@ impl<'a> Ctx<'a> {
         };
         let mut fields = Vec::new();
         let arrays: Vec<usize> = self.children(data_el, "DataArray").collect();
+        // The cells' orders are how to read the cells, not data.
+        let degrees = self.attr(data_el, "HigherOrderDegrees");
         for (i, array) in arrays.into_iter().enumerate() {
             let name = match self.attr(array, "Name") {
                 Some(n) if !n.is_empty() => n.to_string(),
                 _ => format!("array{i}"),
             };
+            if degrees == Some(name.as_str()) {
+                continue;
+            }
             if self.array_type(array)?.is_none() {
                 if !stats.skipped_non_numeric.contains(&name) {
                     stats.skipped_non_numeric.push(name);
@@ -116,8 +121,14 @@ impl<'a> Ctx<'a> {
                 }),
                 _ => None,
             };
-            let input =
-                CellArrays { types: &types, offsets: &offsets, connectivity: &connectivity, poly: poly.as_ref() };
+            let degrees = self.higher_order_degrees(piece, num_cells)?;
+            let input = CellArrays {
+                types: &types,
+                offsets: &offsets,
+                connectivity: &connectivity,
+                poly: poly.as_ref(),
+                degrees: degrees.as_deref(),
+            };
             let mut source = Vec::with_capacity(num_cells);
             cells = self.build_cells(&input, num_points, piece, &mut source, &mut splitter, stats)?;
             if source.len() != num_cells || source.iter().enumerate().any(|(i, &c)| c as usize != i) {
@@ -140,6 +151,25 @@ impl<'a> Ctx<'a> {
         Ok(mesh)
     }
 
+    /// The piece's `HigherOrderDegrees` cell array (VTK names it in its
+    /// `<CellData>` element's attribute of that name), three orders a cell.
+    fn higher_order_degrees(&self, piece: usize, num_cells: usize) -> Result<Option<Vec<i64>>, FormatError> {
+        let Some(cell_data) = self.child(piece, "CellData") else {
+            return Ok(None);
+        };
+        let Some(name) = self.attr(cell_data, "HigherOrderDegrees").filter(|n| !n.is_empty()) else {
+            return Ok(None);
+        };
+        let array = self.named_array(cell_data, name).ok_or_else(|| {
+            self.err_at(cell_data, format!("<CellData> names HigherOrderDegrees '{name}' but has no such DataArray"))
+        })?;
+        if self.num_components(array)? != 3 {
+            return Err(self.err_at(array, format!("HigherOrderDegrees '{name}' must have 3 components")));
+        }
+        let n = num_cells.checked_mul(3).ok_or_else(|| self.err_at(array, "HigherOrderDegrees: size overflows"))?;
+        Ok(Some(self.array_i64(array, Some(n))?))
+    }
+
     /// The piece's cells; `source` receives, per cell kept, the index of
     /// the file's cell it came from (a polyhedron gives several tets).
     pub(crate) fn build_cells(
@@ -151,7 +181,7 @@ impl<'a> Ctx<'a> {
         splitter: &mut PolyhedronSplitter,
         stats: &mut Stats,
     ) -> Result<Cells, FormatError> {
-        let CellArrays { types, offsets, connectivity, poly } = *input;
+        let CellArrays { types, offsets, connectivity, poly, degrees } = *input;
         let num_cells = types.len();
         // End of the previous polyhedron's face stream.
         let mut poly_start = 0usize;
@@ -162,7 +192,7 @@ impl<'a> Ctx<'a> {
         };
         cells.offsets.push(0);
         let mut start = 0usize;
-        let mut nodes = [0u32; 32];
+        let mut nodes: Vec<u32> = Vec::with_capacity(32);
         for (c, (&id, &end)) in types.iter().zip(offsets).enumerate() {
             let end =
                 usize::try_from(end).ok().filter(|&e| e >= start && e <= connectivity.len()).ok_or_else(|| {
@@ -178,7 +208,11 @@ impl<'a> Ctx<'a> {
             start = end;
             let id = u32::try_from(id)
                 .map_err(|_| self.err_at(piece, format!("cell {c} has invalid VTK cell type id {id}")))?;
-            let keep = match CellType::from_vtk_id(id) {
+            let degrees = degrees.map(|d| [d[3 * c], d[3 * c + 1], d[3 * c + 2]]);
+            let found = CellType::from_vtk(id, cell_nodes.len(), degrees)
+                .transpose()
+                .map_err(|m| self.err_at(piece, format!("cell {c} (VTK type {id}): {m}")))?;
+            let keep = match found {
                 Some((cell_type, stored)) => {
                     if cell_nodes.len() != stored {
                         return Err(self.err_at(
@@ -187,18 +221,19 @@ impl<'a> Ctx<'a> {
                         ));
                     }
                     let n = cell_type.num_nodes();
-                    for (slot, &p) in nodes.iter_mut().zip(&cell_nodes[..n]) {
-                        *slot = u32::try_from(p).ok().filter(|&q| (q as usize) < num_points).ok_or_else(|| {
+                    nodes.clear();
+                    for &p in &cell_nodes[..n] {
+                        nodes.push(u32::try_from(p).ok().filter(|&q| (q as usize) < num_points).ok_or_else(|| {
                             self.err_at(
                                 piece,
                                 format!("cell {c} refers to point {p}, but the piece has {num_points} points"),
                             )
-                        })?;
+                        })?);
                     }
                     if stored > n {
                         stats.reduced_higher_order += 1;
                     }
-                    cells.push(cell_type, &nodes[..n]);
+                    cells.push(cell_type, &nodes);
                     true
                 }
                 None if id == 42 && poly.is_some() => {
@@ -367,6 +402,8 @@ pub(crate) struct CellArrays<'a> {
     pub(crate) offsets: &'a [i64],
     pub(crate) connectivity: &'a [i64],
     pub(crate) poly: Option<&'a PolyFaces>,
+    /// The `HigherOrderDegrees` cell array (three orders a cell) if any.
+    pub(crate) degrees: Option<&'a [i64]>,
 }
 
 /// The polyhedron face stream: `faces` holds, per polyhedron, its face

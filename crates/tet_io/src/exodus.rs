@@ -13,11 +13,15 @@
 //! older files); element results named by `name_elem_var` in
 //! `vals_elem_var{j}eb{i}` where the truth table `elem_var_tab` says so.
 //!
-//! Tetrahedra, hexahedra, wedges and pyramids are read; TETRA10 keeps its
-//! ten nodes (subdivided at them into 8 tets), other higher-order variants
-//! (HEX20, HEX27, WEDGE15, PYRAMID13, …, whose mid-edge orders differ from
-//! VTK's) are reduced to their corner nodes, which Exodus lists first (and
-//! then TETRA10 too, so that neighbours conform); blocks of other types
+//! Tetrahedra, hexahedra, wedges and pyramids are read; TETRA10, TETRA15,
+//! HEX20, HEX27, WEDGE15, WEDGE18, PYRAMID13 and PYRAMID14 keep their nodes,
+//! permuted into VTK's order and subdivided at them (the order is checked
+//! on every element's geometry: a block whose nodes fit VTK's order
+//! instead is read so, with a note; one that fits neither is reduced to
+//! its corners); other higher-order variants (TETRA11/14, HEX9, WEDGE21,
+//! …) are reduced to their corner nodes, which Exodus lists first (and then
+//! every other quadratic element too, so that neighbours conform); blocks
+//! of other types
 //! (shells, beams, spheres, polyhedra) are skipped with a note. Nodal variables
 //! become point fields and element variables cell fields (NaN in blocks the
 //! truth table leaves out), all at one time step ([`ExodusOptions`]);
@@ -41,25 +45,64 @@ pub struct ExodusOptions {
 
 /// The cell an Exodus element type is read as, given its nodes per
 /// element; `None` for types that are not volume cells tetkit reads.
-/// TETRA10 (whose edge nodes follow VTK's order) keeps its nodes and is
-/// subdivided at them; other higher-order elements are reduced to their
-/// corners.
+/// TETRA10 and TETRA15, HEX20 and HEX27, WEDGE15 and WEDGE18, PYRAMID13 and
+/// PYRAMID14 keep their nodes (permuted into VTK's order by
+/// [`node_orders`] and subdivided at them); other higher-order elements are
+/// reduced to their corners.
 fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
     let t = elem_type.trim().to_ascii_uppercase();
-    let (c, ok) = if t.starts_with("TET") && nodes == 10 {
-        (CellType::QuadraticTetra, true)
-    } else if t.starts_with("TET") {
-        (CellType::Tetra, matches!(nodes, 4 | 8 | 10 | 11 | 14 | 15))
-    } else if t.starts_with("HEX") {
-        (CellType::Hexahedron, matches!(nodes, 8 | 9 | 16 | 20 | 27))
-    } else if t.starts_with("WEDGE") {
-        (CellType::Wedge, matches!(nodes, 6 | 12 | 15 | 16 | 18 | 20 | 21 | 24 | 52))
-    } else if t.starts_with("PYRAMID") {
-        (CellType::Pyramid, matches!(nodes, 5 | 13 | 14 | 18 | 19))
-    } else {
-        return None;
+    let family = ["TET", "HEX", "WEDGE", "PYRAMID"].into_iter().find(|f| t.starts_with(f))?;
+    let (linear, reducible): (CellType, &[usize]) = match family {
+        "TET" => (CellType::Tetra, &[4, 8, 10, 11, 14, 15]),
+        "HEX" => (CellType::Hexahedron, &[8, 9, 16, 20, 27]),
+        "WEDGE" => (CellType::Wedge, &[6, 12, 15, 16, 18, 20, 21, 24, 52]),
+        _ => (CellType::Pyramid, &[5, 13, 14, 18, 19]),
     };
-    ok.then_some(c)
+    let kept = [
+        CellType::QuadraticTetra,
+        CellType::QuadraticTetraWithCentres,
+        CellType::QuadraticHexahedron,
+        CellType::TriquadraticHexahedron,
+        CellType::QuadraticWedge,
+        CellType::BiquadraticWedge,
+        CellType::QuadraticPyramid,
+        CellType::QuadraticPyramidWithBaseCentre,
+    ];
+    match kept.into_iter().find(|q| q.linear() == linear && q.num_nodes() == nodes) {
+        Some(q) => Some(q),
+        None => reducible.contains(&nodes).then_some(linear),
+    }
+}
+
+/// Node orders to try for a quadratic Exodus element, first match wins:
+/// entry i is the Exodus node (0-based) at VTK's node i. First Exodus's own
+/// (the PATRAN convention of the Exodus II manual, Schoof & Yarberry,
+/// "EXODUS II: A Finite Element Data Model", 1994, and its SEACAS
+/// successor's element figures: a hexahedron's and wedge's mid-edge nodes
+/// bottom, vertical, top — VTK's go bottom, top, vertical; HEX27's centre
+/// first, then faces −z, +z, −x, +x, −y, +y; TETRA15's faces in side order
+/// (0 1 3), (1 2 3), (0 3 2), (0 2 1)), then VTK's own (some writers, e.g.
+/// meshio, store VTK's order under Exodus names). The reader keeps the first
+/// that puts every element's nodes in their straight-sided places
+/// ([`CellType::higher_order_nodes_in_place`]) and else reduces the block
+/// to its corners.
+fn node_orders(cell_type: CellType) -> Vec<Vec<usize>> {
+    const HEX20: [usize; 20] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 16, 17, 18, 19, 12, 13, 14, 15];
+    const WEDGE15: [usize; 15] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 13, 14, 9, 10, 11];
+    let identity: Vec<usize> = (0..cell_type.num_nodes()).collect();
+    let exodus: Vec<usize> = match cell_type {
+        CellType::QuadraticHexahedron => HEX20.to_vec(),
+        CellType::TriquadraticHexahedron => HEX20.iter().copied().chain([23, 24, 25, 26, 21, 22, 20]).collect(),
+        CellType::QuadraticWedge => WEDGE15.to_vec(),
+        CellType::BiquadraticWedge => WEDGE15.iter().copied().chain([15, 16, 17]).collect(),
+        CellType::QuadraticTetraWithCentres => vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 13, 10, 11, 12, 14],
+        _ => identity.clone(),
+    };
+    if exodus == identity {
+        vec![identity]
+    } else {
+        vec![exodus, identity]
+    }
 }
 
 fn whole(m: impl Into<String>) -> FormatError {
@@ -291,27 +334,62 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     }
     let layout = Layout::of(&f)?;
     let mut cells = Cells::new();
+    let (mut reduced, mut order_notes) = (0usize, Vec::new());
     for blk in &layout.blocks {
         let ids = f.read(need(&f, &format!("connect{}", blk.index + 1))?, None)?;
-        let mut node = [0u32; 27];
-        for e in 0..blk.count {
-            for (k, slot) in node.iter_mut().take(blk.cell_type.num_nodes()).enumerate() {
-                let id = ids[e * blk.nodes_per_elem + k];
-                if !(id >= 1.0 && id <= num_nodes as f64 && id.fract() == 0.0) {
-                    return Err(whole(format!(
-                        "element {} of block {} names node {id}; nodes are 1..={num_nodes}",
-                        e + 1,
-                        layout.block_id(blk.index)
-                    )));
+        let id = layout.block_id(blk.index);
+        // Every node number checked once, before any order is tried.
+        if let Some(e) = (0..blk.count * blk.nodes_per_elem)
+            .find(|&k| !(ids[k] >= 1.0 && ids[k] <= num_nodes as f64 && ids[k].fract() == 0.0))
+        {
+            return Err(whole(format!(
+                "element {} of block {id} names node {}; nodes are 1..={num_nodes}",
+                e / blk.nodes_per_elem + 1,
+                ids[e]
+            )));
+        }
+        let element = |e: usize, order: &[usize]| -> Vec<u32> {
+            order.iter().map(|&k| ids[e * blk.nodes_per_elem + k] as u32 - 1).collect()
+        };
+        let linear: Vec<usize> = (0..blk.cell_type.num_nodes()).collect();
+        let orders = node_orders(blk.cell_type);
+        let quadratic = !blk.cell_type.straight_sided_parents().is_empty();
+        let chosen = if quadratic {
+            orders.iter().position(|order| {
+                (0..blk.count).all(|e| blk.cell_type.higher_order_nodes_in_place(&element(e, order), &points))
+            })
+        } else {
+            Some(0)
+        };
+        match chosen {
+            Some(k) => {
+                if k > 0 {
+                    order_notes.push(format!(
+                        "block {id}'s {} nodes are in VTK's order, not Exodus's (as some writers store them): read so",
+                        blk.cell_type.num_nodes()
+                    ));
                 }
-                *slot = id as u32 - 1;
+                for e in 0..blk.count {
+                    cells.push(blk.cell_type, &element(e, if quadratic { &orders[k] } else { &linear }));
+                }
             }
-            cells.push(blk.cell_type, &node[..blk.cell_type.num_nodes()]);
+            None => {
+                order_notes.push(format!(
+                    "block {id}'s {}-node elements have nodes away from where Exodus's (or VTK's) order puts them: reduced to their corners",
+                    blk.cell_type.num_nodes()
+                ));
+                let corners: Vec<usize> = (0..blk.cell_type.linear().num_nodes()).collect();
+                for e in 0..blk.count {
+                    cells.push(blk.cell_type.linear(), &element(e, &corners));
+                }
+                reduced += blk.count;
+            }
+        }
+        if blk.nodes_per_elem > blk.cell_type.num_nodes() {
+            reduced += blk.count;
         }
     }
-    let reduced: usize =
-        layout.blocks.iter().filter(|b| b.nodes_per_elem > b.cell_type.num_nodes()).map(|b| b.count).sum();
-    // Cut TETRA10 beside reduced elements would not conform with them.
+    // Elements cut at their nodes beside reduced ones would not conform with them.
     let also = if reduced > 0 { cells.reduce_to_corners() } else { 0 };
     let mut mesh = SourceMesh { format: "Exodus II".to_string(), points, ..Default::default() };
     let steps = f.num_records;
@@ -333,12 +411,14 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
             _ => format!("1 time step (t = {t})"),
         });
     }
+    mesh.notes.extend(order_notes);
     if reduced > 0 {
         mesh.notes.push(format!("reduced {reduced} higher-order elements to their corner nodes"));
     }
     if also > 0 {
-        mesh.notes
-            .push(format!("reduced {also} TETRA10 elements to their corners as well, so that they conform with those"));
+        mesh.notes.push(format!(
+            "reduced {also} quadratic elements to their corners as well, so that they conform with those"
+        ));
     }
     if !layout.skipped.is_empty() {
         mesh.notes.push(format!("skipped element blocks that are not volume cells: {}", layout.skipped.join(", ")));
@@ -521,6 +601,167 @@ mod tests {
             assert!(e.message.contains("time step 2 asked for; the file has 2"), "{e}");
             for cut in (0..bytes.len()).step_by(5) {
                 let _ = read_step_fields(&bytes[..cut], 1);
+            }
+        }
+    }
+
+    /// A file of one element block per entry, each element given by its
+    /// node positions in the file's order; nodes at equal positions are one
+    /// node (so neighbours share their face's nodes).
+    fn blocks_file(blocks: &[(&str, Vec<Vec<[f64; 3]>>)]) -> Writer {
+        let mut nodes: Vec<[f64; 3]> = Vec::new();
+        let mut node_of = std::collections::HashMap::new();
+        let mut dims = vec![("time_step".to_string(), 0), ("num_dim".into(), 3)];
+        let mut vars = Vec::new();
+        let mut connects = Vec::new();
+        for (elem_type, elems) in blocks {
+            let ids: Vec<f64> = elems
+                .iter()
+                .flatten()
+                .map(|p| {
+                    let key = p.map(f64::to_bits);
+                    *node_of.entry(key).or_insert_with(|| {
+                        nodes.push(*p);
+                        nodes.len() as f64
+                    })
+                })
+                .collect();
+            connects.push((elem_type.to_string(), elems.len(), elems[0].len(), ids));
+        }
+        dims.push(("num_nodes".into(), nodes.len()));
+        dims.push(("num_el_blk".into(), blocks.len()));
+        for (b, (_, count, per, _)) in connects.iter().enumerate() {
+            dims.push((format!("num_el_in_blk{}", b + 1), *count));
+            dims.push((format!("num_nod_per_el{}", b + 1), *per));
+        }
+        let coord: Vec<f64> = (0..3).flat_map(|k| nodes.iter().map(move |p| p[k])).collect();
+        vars.push(("coord".into(), vec![1, 2], 6, vec![], coord));
+        for (b, (elem_type, _, _, ids)) in connects.into_iter().enumerate() {
+            let (d_el, d_per) = (4 + 2 * b, 5 + 2 * b);
+            vars.push((format!("connect{}", b + 1), vec![d_el, d_per], 4, vec![("elem_type".into(), elem_type)], ids));
+        }
+        Writer { dims, vars, num_records: 0 }
+    }
+
+    /// Exodus's quadratic elements, written in Exodus's node order (the
+    /// manual's figures: written out here independently of the reader's
+    /// tables; HEX27 as its lattice: centre 21, faces 22 −z, 23 +z, 24 −x,
+    /// 25 +x, 26 −y, 27 +y, 1-based), on a skewed lattice: each block of two
+    /// elements sharing a face reads as VTK's quadratic cell and converts
+    /// into positive conforming tets of the exact volume. The same written
+    /// in VTK's order (as meshio does) is read so, with a note; nodes in
+    /// neither order are reduced to corners, with a note.
+    #[test]
+    fn quadratic_elements_in_exodus_order_are_cut_at_their_nodes() {
+        let skew = |p: [f64; 3]| {
+            [p[0] + 0.3 * p[1] - 0.1 * p[2], 0.2 * p[0] + p[1] + 0.25 * p[2], -0.1 * p[0] + 0.15 * p[1] + 1.1 * p[2]]
+        };
+        let det = 1.0 * (1.1 - 0.0375) - 0.3 * (0.22 + 0.025) - 0.1 * (0.03 + 0.1);
+        let mid = |ps: &[[f64; 3]]| [0, 1, 2].map(|k| ps.iter().map(|p| p[k]).sum::<f64>() / ps.len() as f64);
+        let hex_corners = |o: [f64; 3]| {
+            [
+                [0., 0., 0.],
+                [1., 0., 0.],
+                [1., 1., 0.],
+                [0., 1., 0.],
+                [0., 0., 1.],
+                [1., 0., 1.],
+                [1., 1., 1.],
+                [0., 1., 1.],
+            ]
+            .map(|c| [o[0] + c[0], o[1] + c[1], o[2] + c[2]])
+        };
+        let with_edges = |c: &[[f64; 3]], edges: &[(usize, usize)], extra: &[&[usize]]| -> Vec<[f64; 3]> {
+            let mut v = c.to_vec();
+            v.extend(edges.iter().map(|&(a, b)| mid(&[c[a], c[b]])));
+            v.extend(extra.iter().map(|f| mid(&f.iter().map(|&i| c[i]).collect::<Vec<_>>())));
+            v
+        };
+        // Exodus: bottom edges, vertical edges, top edges.
+        let hex_edges =
+            [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 5), (2, 6), (3, 7), (4, 5), (5, 6), (6, 7), (7, 4)];
+        let hex20 = |o| with_edges(&hex_corners(o), &hex_edges, &[]);
+        let hex27 = |o| {
+            let all: &[usize] = &[0, 1, 2, 3, 4, 5, 6, 7];
+            let faces: [&[usize]; 6] =
+                [&[0, 1, 2, 3], &[4, 5, 6, 7], &[0, 3, 7, 4], &[1, 2, 6, 5], &[0, 1, 5, 4], &[3, 2, 6, 7]];
+            let mut extra = vec![all];
+            extra.extend(faces);
+            with_edges(&hex_corners(o), &hex_edges, &extra)
+        };
+        let wedge_corners =
+            |z: f64| [[0., 0., z], [1., 0., z], [0., 1., z], [0., 0., z + 1.], [1., 0., z + 1.], [0., 1., z + 1.]];
+        let wedge_edges = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 4), (2, 5), (3, 4), (4, 5), (5, 3)];
+        let wedge15 = |z| with_edges(&wedge_corners(z), &wedge_edges, &[]);
+        let wedge18 = |z| with_edges(&wedge_corners(z), &wedge_edges, &[&[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]]);
+        let pyramid = |x: f64, centre: bool| {
+            let c = [[x, 0., 0.], [x + 1., 0., 0.], [x + 1., 1., 0.], [x, 1., 0.], [x, 0., 1.]];
+            let e = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)];
+            with_edges(&c, &e, if centre { &[&[0, 1, 2, 3]] } else { &[] })
+        };
+        let shift =
+            |v: Vec<[f64; 3]>, dx: f64| v.into_iter().map(|p| skew([p[0] + dx, p[1], p[2]])).collect::<Vec<_>>();
+        // (block, VTK's cell type, volume of its two elements)
+        let cases = vec![
+            (
+                ("HEX20", vec![shift(hex20([0., 0., 0.]), 0.), shift(hex20([0., 0., 1.]), 0.)]),
+                CellType::QuadraticHexahedron,
+                2.0,
+            ),
+            (
+                ("HEX27", vec![shift(hex27([0., 0., 0.]), 3.), shift(hex27([0., 0., 1.]), 3.)]),
+                CellType::TriquadraticHexahedron,
+                2.0,
+            ),
+            (("WEDGE15", vec![shift(wedge15(0.), 6.), shift(wedge15(1.), 6.)]), CellType::QuadraticWedge, 1.0),
+            (("WEDGE", vec![shift(wedge18(0.), 9.), shift(wedge18(1.), 9.)]), CellType::BiquadraticWedge, 1.0),
+            (
+                ("PYRAMID13", vec![shift(pyramid(0., false), 12.), shift(pyramid(2., false), 12.)]),
+                CellType::QuadraticPyramid,
+                2.0 / 3.0,
+            ),
+            (
+                ("PYRAMID", vec![shift(pyramid(0., true), 15.), shift(pyramid(2., true), 15.)]),
+                CellType::QuadraticPyramidWithBaseCentre,
+                2.0 / 3.0,
+            ),
+        ];
+        for ((name, elems), ty, volume) in cases {
+            let order = node_orders(ty);
+            let in_vtk_order: Vec<Vec<[f64; 3]>> =
+                elems.iter().map(|e| order[0].iter().map(|&k| e[k]).collect()).collect();
+            let mut scrambled = elems.clone();
+            for e in &mut scrambled {
+                let n = e.len();
+                e.swap(n - 1, n - 3);
+            }
+            for (variant, elems, note) in [
+                ("exodus", elems, None),
+                ("vtk", in_vtk_order, (order.len() > 1).then_some("VTK's order")),
+                ("scrambled", scrambled, Some("reduced to their corners")),
+            ] {
+                let m = read(&blocks_file(&[(name, elems)]).write(false), &ExodusOptions::default()).unwrap();
+                let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
+                let reduced = variant == "scrambled";
+                assert_eq!(c.types, vec![if reduced { ty.linear() } else { ty }; 2], "{name} {variant}");
+                match note {
+                    Some(n) => assert!(m.notes.iter().any(|x| x.contains(n)), "{name} {variant}: {:?}", m.notes),
+                    None => assert!(m.notes.is_empty(), "{name} {variant}: {:?}", m.notes),
+                }
+                let (mesh, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+                assert!(
+                    !report.findings.iter().any(|f| matches!(
+                        f,
+                        tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
+                    )),
+                    "{name} {variant}: {:?}",
+                    report.findings
+                );
+                tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
+                let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+                assert!((v - volume * det).abs() < 1e-12, "{name} {variant}: volume {v}");
+                // Cut at their nodes: 13 to 48 tets an element; by corners 2 to 6.
+                assert_eq!(mesh.tets.len() >= 26, !reduced, "{name} {variant}: {} tets", mesh.tets.len());
             }
         }
     }

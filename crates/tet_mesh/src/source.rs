@@ -78,6 +78,134 @@ impl CellType {
         }
     }
 
+    /// For each node after the corners (in the cell's order), the corners
+    /// whose mean is where it sits on a straight-sided cell: an edge's two,
+    /// a face's three or four, or all (a body centre). Empty for linear and
+    /// Lagrange cells (whose nodes follow from their parameter lattice).
+    pub fn straight_sided_parents(self) -> &'static [&'static [usize]] {
+        const HEX_EDGES: [&[usize]; 12] = [
+            &[0, 1],
+            &[1, 2],
+            &[2, 3],
+            &[3, 0],
+            &[4, 5],
+            &[5, 6],
+            &[6, 7],
+            &[7, 4],
+            &[0, 4],
+            &[1, 5],
+            &[2, 6],
+            &[3, 7],
+        ];
+        const TRIQUADRATIC: [&[usize]; 19] = [
+            &[0, 1],
+            &[1, 2],
+            &[2, 3],
+            &[3, 0],
+            &[4, 5],
+            &[5, 6],
+            &[6, 7],
+            &[7, 4],
+            &[0, 4],
+            &[1, 5],
+            &[2, 6],
+            &[3, 7],
+            &[0, 3, 7, 4],
+            &[1, 2, 6, 5],
+            &[0, 1, 5, 4],
+            &[3, 2, 6, 7],
+            &[0, 1, 2, 3],
+            &[4, 5, 6, 7],
+            &[0, 1, 2, 3, 4, 5, 6, 7],
+        ];
+        const TETRA_EDGES: [&[usize]; 6] = [&[0, 1], &[1, 2], &[2, 0], &[0, 3], &[1, 3], &[2, 3]];
+        const TETRA15: [&[usize]; 11] = [
+            &[0, 1],
+            &[1, 2],
+            &[2, 0],
+            &[0, 3],
+            &[1, 3],
+            &[2, 3],
+            &[0, 1, 2],
+            &[0, 1, 3],
+            &[1, 2, 3],
+            &[0, 2, 3],
+            &[0, 1, 2, 3],
+        ];
+        const WEDGE: [&[usize]; 12] = [
+            &[0, 1],
+            &[1, 2],
+            &[2, 0],
+            &[3, 4],
+            &[4, 5],
+            &[5, 3],
+            &[0, 3],
+            &[1, 4],
+            &[2, 5],
+            &[0, 1, 4, 3],
+            &[1, 2, 5, 4],
+            &[2, 0, 3, 5],
+        ];
+        const WEDGE21: [&[usize]; 15] = [
+            &[0, 1],
+            &[1, 2],
+            &[2, 0],
+            &[3, 4],
+            &[4, 5],
+            &[5, 3],
+            &[0, 3],
+            &[1, 4],
+            &[2, 5],
+            &[0, 1, 2],
+            &[3, 4, 5],
+            &[0, 1, 4, 3],
+            &[1, 2, 5, 4],
+            &[2, 0, 3, 5],
+            &[0, 1, 2, 3, 4, 5],
+        ];
+        const PYRAMID: [&[usize]; 9] =
+            [&[0, 1], &[1, 2], &[2, 3], &[3, 0], &[0, 4], &[1, 4], &[2, 4], &[3, 4], &[0, 1, 2, 3]];
+        match self {
+            CellType::QuadraticTetra => &TETRA_EDGES,
+            CellType::QuadraticTetraWithCentres => &TETRA15,
+            CellType::QuadraticHexahedron => &HEX_EDGES,
+            CellType::TriquadraticHexahedron => &TRIQUADRATIC,
+            CellType::QuadraticWedge => &WEDGE[..9],
+            CellType::BiquadraticWedge => &WEDGE,
+            CellType::QuadraticWedgeWithCentres => &WEDGE21,
+            CellType::QuadraticPyramid => &PYRAMID[..8],
+            CellType::QuadraticPyramidWithBaseCentre => &PYRAMID,
+            _ => &[],
+        }
+    }
+
+    /// Whether each of a quadratic cell's nodes after its corners lies
+    /// nearer its own straight-sided place ([`CellType::straight_sided_parents`])
+    /// than half the distance from that place to any other node's: a curved
+    /// cell's bulge passes, a node order other than the one assumed (some
+    /// node sitting at another's place) fails. How a reader checks that a
+    /// file's node order is the one it assumed.
+    pub fn higher_order_nodes_in_place(self, nodes: &[u32], points: &[[f64; 3]]) -> bool {
+        let at = |n: usize| points[nodes[n] as usize];
+        let corners = self.linear().num_nodes();
+        let parents = self.straight_sided_parents();
+        let place = |i: usize| -> [f64; 3] {
+            if i < corners {
+                return at(i);
+            }
+            let p = parents[i - corners];
+            [0, 1, 2].map(|k| p.iter().map(|&c| at(c)[k]).sum::<f64>() / p.len() as f64)
+        };
+        let places: Vec<[f64; 3]> = (0..corners + parents.len()).map(place).collect();
+        let d2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
+        (corners..places.len()).all(|i| {
+            let nearest_other =
+                (0..places.len()).filter(|&j| j != i).map(|j| d2(places[i], places[j])).fold(f64::INFINITY, f64::min);
+            // |x − P| < ½ min |P − Q|, squared.
+            d2(at(i), places[i]) < nearest_other / 4.0
+        })
+    }
+
     /// Number of nodes the cell keeps: the linear cell's, or a quadratic
     /// cell's all.
     pub fn num_nodes(self) -> usize {

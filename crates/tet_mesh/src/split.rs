@@ -783,6 +783,47 @@ mod tests {
         }
     }
 
+    /// The straight-sided places of every quadratic cell's nodes are where
+    /// VTK's orders put them; two nodes swapped are out of place.
+    #[test]
+    fn quadratic_nodes_are_in_their_straight_sided_places() {
+        let mut l = Lattice::new(7);
+        let cells = [
+            (CellType::QuadraticTetra, l.tet10([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]])),
+            (CellType::QuadraticHexahedron, l.hex([4, 0, 0], 20)),
+            (CellType::TriquadraticHexahedron, l.hex([8, 0, 0], 27)),
+            (
+                CellType::QuadraticWedge,
+                l.wedge([[12, 0, 0], [14, 0, 0], [12, 2, 0], [12, 0, 2], [14, 0, 2], [12, 2, 2]], false),
+            ),
+            (
+                CellType::BiquadraticWedge,
+                l.wedge([[20, 0, 0], [22, 0, 0], [20, 2, 0], [20, 0, 2], [22, 0, 2], [20, 2, 2]], true),
+            ),
+            (
+                CellType::QuadraticPyramid,
+                l.pyramid([[16, 0, 0], [18, 0, 0], [18, 2, 0], [16, 2, 0], [16, 0, 2]], false),
+            ),
+            (
+                CellType::QuadraticPyramidWithBaseCentre,
+                l.pyramid([[24, 0, 0], [26, 0, 0], [26, 2, 0], [24, 2, 0], [24, 0, 2]], true),
+            ),
+        ];
+        let p = l.points();
+        for (ty, nodes) in cells {
+            assert_eq!(ty.straight_sided_parents().len() + ty.linear().num_nodes(), ty.num_nodes(), "{ty:?}");
+            assert!(ty.higher_order_nodes_in_place(&nodes, &p), "{ty:?}");
+            let corners = ty.linear().num_nodes();
+            for a in corners..nodes.len() {
+                for b in a + 1..nodes.len() {
+                    let mut swapped = nodes.clone();
+                    swapped.swap(a, b);
+                    assert!(!ty.higher_order_nodes_in_place(&swapped, &p), "{ty:?}: nodes {a} and {b} swapped");
+                }
+            }
+        }
+    }
+
     /// Neighbouring quadratic cells cut their shared faces alike: the
     /// adjacency finds every interior face matched, and only the outer
     /// surface's triangles on the boundary.

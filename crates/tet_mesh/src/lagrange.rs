@@ -213,8 +213,29 @@ fn triangle_nodes(p: i32, v: [Lattice; 3], out: &mut Vec<Lattice>) {
     }
 }
 
-/// Nodes of an order-`n` tetrahedron with corners `v` in VTK's order.
-fn tetra_nodes(n: i32, v: [Lattice; 4], out: &mut Vec<Lattice>) {
+/// A tetrahedron's edges and faces in the order a format numbers their
+/// inner nodes (each edge from its first corner, each face's inner
+/// triangle with its corners next to the face's in that order).
+struct TetraOrder {
+    edges: [(usize, usize); 6],
+    faces: [[usize; 3]; 4],
+}
+
+const VTK_TETRA: TetraOrder = TetraOrder {
+    edges: [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)],
+    faces: [[0, 1, 3], [2, 3, 1], [0, 3, 2], [0, 2, 1]],
+};
+
+/// Gmsh's (its reference manual, "Node ordering"; checked against Gmsh
+/// 4.15's `getElementProperties` for orders 1–10 in tests).
+const GMSH_TETRA: TetraOrder = TetraOrder {
+    edges: [(0, 1), (1, 2), (2, 0), (3, 0), (3, 2), (3, 1)],
+    faces: [[0, 2, 1], [0, 1, 3], [0, 3, 2], [3, 1, 2]],
+};
+
+/// Nodes of an order-`n` tetrahedron with corners `v`: corners, edges,
+/// faces, then the inner tetrahedron of order n − 4, recursively.
+fn tetra_nodes(order: &TetraOrder, n: i32, v: [Lattice; 4], out: &mut Vec<Lattice>) {
     if n < 0 {
         return;
     }
@@ -223,11 +244,11 @@ fn tetra_nodes(n: i32, v: [Lattice; 4], out: &mut Vec<Lattice>) {
         return;
     }
     out.extend(v);
-    for (a, b) in [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)] {
+    for (a, b) in order.edges {
         out.extend((1..n).map(|t| along(v[a], v[b], t, n)));
     }
     if n >= 3 {
-        for f in [[0, 1, 3], [2, 3, 1], [0, 3, 2], [0, 2, 1]] {
+        for f in order.faces {
             let inner = [0, 1, 2].map(|a| step_in(v[f[a]], &[v[f[(a + 1) % 3]], v[f[(a + 2) % 3]]], n));
             triangle_nodes(n - 3, inner, out);
         }
@@ -237,16 +258,115 @@ fn tetra_nodes(n: i32, v: [Lattice; 4], out: &mut Vec<Lattice>) {
             let others: Vec<Lattice> = (0..4).filter(|&b| b != a).map(|b| v[b]).collect();
             step_in(v[a], &others, n)
         });
-        tetra_nodes(n - 4, inner, out);
+        tetra_nodes(order, n - 4, inner, out);
     }
+}
+
+/// Nodes of an order-`p` quadrilateral with corners `v` (cyclic):
+/// corners, edges 0-1, 1-2, 2-3, 3-0, then the inner quadrilateral of order
+/// p − 2, recursively (Gmsh's order).
+fn quad_nodes(p: i32, v: [Lattice; 4], out: &mut Vec<Lattice>) {
+    if p < 0 {
+        return;
+    }
+    if p == 0 {
+        out.push(v[0]);
+        return;
+    }
+    out.extend(v);
+    for a in 0..4 {
+        out.extend((1..p).map(|t| along(v[a], v[(a + 1) % 4], t, p)));
+    }
+    if p >= 2 {
+        let inner = [0, 1, 2, 3].map(|a| step_in(v[a], &[v[(a + 1) % 4], v[(a + 3) % 4]], p));
+        quad_nodes(p - 2, inner, out);
+    }
+}
+
+/// Nodes of an order-`n` hexahedron with corners `v` (VTK's corner order)
+/// in Gmsh's order: corners; edges 0-1, 0-3, 0-4, 1-2, 1-5, 2-3, 2-6,
+/// 3-7, 4-5, 4-7, 5-6, 6-7; faces 0-3-2-1, 0-1-5-4, 0-4-7-3, 1-2-6-5,
+/// 2-3-7-6, 4-5-6-7 (inner quadrilaterals, recursively); then the inner
+/// hexahedron of order n − 2, recursively.
+fn gmsh_hexahedron_nodes(n: i32, v: [Lattice; 8], out: &mut Vec<Lattice>) {
+    const EDGES: [(usize, usize); 12] =
+        [(0, 1), (0, 3), (0, 4), (1, 2), (1, 5), (2, 3), (2, 6), (3, 7), (4, 5), (4, 7), (5, 6), (6, 7)];
+    const FACES: [[usize; 4]; 6] = [[0, 3, 2, 1], [0, 1, 5, 4], [0, 4, 7, 3], [1, 2, 6, 5], [2, 3, 7, 6], [4, 5, 6, 7]];
+    const NEIGHBOURS: [[usize; 3]; 8] =
+        [[1, 3, 4], [0, 2, 5], [1, 3, 6], [0, 2, 7], [0, 5, 7], [1, 4, 6], [2, 5, 7], [3, 4, 6]];
+    if n < 0 {
+        return;
+    }
+    if n == 0 {
+        out.push(v[0]);
+        return;
+    }
+    out.extend(v);
+    for (a, b) in EDGES {
+        out.extend((1..n).map(|t| along(v[a], v[b], t, n)));
+    }
+    if n >= 2 {
+        for f in FACES {
+            let inner = [0, 1, 2, 3].map(|a| step_in(v[f[a]], &[v[f[(a + 1) % 4]], v[f[(a + 3) % 4]]], n));
+            quad_nodes(n - 2, inner, out);
+        }
+        let inner = [0, 1, 2, 3, 4, 5, 6, 7].map(|a| step_in(v[a], &NEIGHBOURS[a].map(|b| v[b]), n));
+        gmsh_hexahedron_nodes(n - 2, inner, out);
+    }
+}
+
+fn tetra_corners(n: i32) -> [Lattice; 4] {
+    [[0, 0, 0], [n, 0, 0], [0, n, 0], [0, 0, n]]
 }
 
 /// Lattice points of a Lagrange tetrahedron of order n, in node order.
 pub fn lagrange_tetra_lattice(n: u8) -> Vec<[i32; 3]> {
-    let n = n as i32;
     let mut out = Vec::new();
-    tetra_nodes(n, [[0, 0, 0], [n, 0, 0], [0, n, 0], [0, 0, n]], &mut out);
+    tetra_nodes(&VTK_TETRA, n as i32, tetra_corners(n as i32), &mut out);
     out
+}
+
+/// Lattice points of Gmsh's complete tetrahedron of order n (types 4, 11,
+/// 29, 30, 31, 71–75), in its node order.
+pub fn gmsh_tetra_lattice(n: u8) -> Vec<[i32; 3]> {
+    let mut out = Vec::new();
+    tetra_nodes(&GMSH_TETRA, n as i32, tetra_corners(n as i32), &mut out);
+    out
+}
+
+/// Lattice points of Gmsh's complete hexahedron of order n (types 5, 12,
+/// 92–98), in its node order.
+pub fn gmsh_hexahedron_lattice(n: u8) -> Vec<[i32; 3]> {
+    let n = n as i32;
+    let corners = UNIT_HEX.map(|c| c.map(|x| x as i32 * n));
+    let mut out = Vec::new();
+    gmsh_hexahedron_nodes(n, corners, &mut out);
+    out
+}
+
+/// Lattice points of a Lagrange hexahedron of orders `o`, in node order.
+pub fn lagrange_hexahedron_lattice(o: [u8; 3]) -> Vec<[i32; 3]> {
+    let ou = o.map(usize::from);
+    let mut at = vec![[0; 3]; ou.iter().map(|a| a + 1).product()];
+    for k in 0..=ou[2] {
+        for j in 0..=ou[1] {
+            for i in 0..=ou[0] {
+                at[lagrange_hexahedron_node([i, j, k], ou)] = [i as i32, j as i32, k as i32];
+            }
+        }
+    }
+    at
+}
+
+/// For each node of `to` (lattice points in some order), the index of the
+/// same point in `from`: how to read a cell stored in `from`'s order in
+/// `to`'s. `None` if the two are not the same points.
+pub fn lattice_permutation(from: &[[i32; 3]], to: &[[i32; 3]]) -> Option<Vec<usize>> {
+    let at: HashMap<[i32; 3], usize> = from.iter().enumerate().map(|(i, &p)| (p, i)).collect();
+    if at.len() != from.len() || from.len() != to.len() {
+        return None;
+    }
+    to.iter().map(|p| at.get(p).copied()).collect()
 }
 
 /// Lattice points of a Lagrange wedge of orders (n, n, m), in node order.

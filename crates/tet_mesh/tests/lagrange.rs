@@ -2,7 +2,10 @@
 //! 9.7.2, `tests/data/vtk_lagrange_nodes.py`), and the split at their nodes
 //! into positive tets that fill each cell and conform across shared faces.
 use std::collections::HashMap;
-use tet_mesh::lagrange::{lagrange_hexahedron_node, lagrange_tetra_lattice, lagrange_wedge_lattice};
+use tet_mesh::lagrange::{
+    gmsh_hexahedron_lattice, gmsh_tetra_lattice, lagrange_hexahedron_lattice, lagrange_hexahedron_node,
+    lagrange_tetra_lattice, lagrange_wedge_lattice, lattice_permutation,
+};
 use tet_mesh::predicates::signed_tet_volume;
 use tet_mesh::split::split_cell;
 use tet_mesh::{build_adjacency, CellType, SplitMix64};
@@ -42,6 +45,35 @@ fn node_orders_match_vtk() {
         checked += 1;
     }
     assert_eq!(checked, 27);
+}
+
+/// Gmsh's complete tetrahedra and hexahedra: node orders against Gmsh's
+/// own (a dump from Gmsh 4.15.2, `tests/data/gmsh_nodes.py`), and each a
+/// permutation of VTK's Lagrange cell of its order.
+#[test]
+fn gmsh_node_orders_match_gmsh() {
+    let text = include_str!("data/gmsh_nodes.txt");
+    let mut checked = 0;
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        let (family, _type_id, order) = (words.next().unwrap(), words.next().unwrap(), words.next().unwrap());
+        let order: u8 = order.parse().unwrap();
+        let gmsh: Vec<[i32; 3]> = words
+            .map(|p| {
+                let v: Vec<i32> = p.split(',').map(|c| c.parse().unwrap()).collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect();
+        let (ours, vtk) = match family {
+            "tet" => (gmsh_tetra_lattice(order), lagrange_tetra_lattice(order)),
+            "hex" => (gmsh_hexahedron_lattice(order), lagrange_hexahedron_lattice([order; 3])),
+            f => panic!("{f}"),
+        };
+        assert_eq!(ours, gmsh, "{family} of order {order}");
+        assert!(lattice_permutation(&ours, &vtk).is_some(), "{family} of order {order}");
+        checked += 1;
+    }
+    assert_eq!(checked, 19);
 }
 
 /// Lattice cells on integer points (denominator 840 = lcm(1..=8)), ids
@@ -104,15 +136,7 @@ impl Placer {
 
     /// An axis-aligned hexahedron of unit side (in D) at `origin`.
     fn hexahedron(&mut self, o: [u8; 3], origin: [i64; 3]) -> (CellType, Vec<u32>) {
-        let ou = o.map(usize::from);
-        let mut lattice = vec![[0; 3]; ou.iter().map(|a| a + 1).product()];
-        for k in 0..=ou[2] {
-            for j in 0..=ou[1] {
-                for i in 0..=ou[0] {
-                    lattice[lagrange_hexahedron_node([i, j, k], ou)] = [i as i32, j as i32, k as i32];
-                }
-            }
-        }
+        let lattice = lagrange_hexahedron_lattice(o);
         let c = [
             origin,
             [origin[0] + 1, origin[1], origin[2]],

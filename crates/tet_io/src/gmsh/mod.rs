@@ -1,8 +1,13 @@
 //! Gmsh `.msh` reader: format versions 2.x (2.2 layout) and 4.1, ASCII and
 //! binary, either byte order.
 //!
-//! What is kept: all nodes (in file order), the volume elements reduced to
-//! their corner nodes, `$NodeData` as point fields and `$ElementData` as cell
+//! What is kept: all nodes (in file order), the volume elements — second
+//! order (complete and incomplete) and complete tetrahedra and hexahedra of
+//! any higher order with all their nodes (permuted into VTK's orders, VTK's
+//! Lagrange cells from the third order on, and cut at them), other
+//! higher-order elements (serendipity above second order, prisms and
+//! pyramids above second order) reduced to their corner nodes, and then all
+//! of them, so that neighbours conform — `$NodeData` as point fields and `$ElementData` as cell
 //! fields (of each name, the time step that comes last in the file; sections
 //! of one step, as partitioned files write them, are merged), and the physical / elementary
 //! entity tag of each volume element as the cell fields `gmsh:physical` and
@@ -15,7 +20,10 @@
 //! have the same reference coordinates as VTK's tetra, hexahedron, wedge and
 //! pyramid (a prism's triangle 0-1-2 lies under 3-4-5 in both), and every
 //! higher-order element lists its corners first in that same order, so
-//! reducing is keeping the leading nodes, with no permutation.
+//! reducing is keeping the leading nodes, with no permutation. Its other
+//! nodes follow by edges, faces and body, recursively
+//! (`tet_mesh::lagrange::gmsh_tetra_lattice`, `gmsh_hexahedron_lattice`,
+//! checked against Gmsh's own reference nodes).
 //!
 //! Node and element tags may be sparse; they are mapped to indices through a
 //! dense table only when the largest tag is within a small multiple of the

@@ -2,6 +2,7 @@
 //! tag maps, and the $NodeData/$ElementData fields.
 
 use super::*;
+use tet_mesh::lagrange;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum DataKind {
@@ -53,6 +54,9 @@ pub(crate) struct State {
     pub(crate) data: Vec<DataField>,
     pub(crate) skipped_sections: Vec<String>,
     pub(crate) notes: Vec<String>,
+    /// For complete elements of order 3 and above read as VTK's Lagrange
+    /// cells: per cell type, the Gmsh node at each VTK node.
+    lagrange_orders: HashMap<CellType, Vec<usize>>,
 }
 
 impl State {
@@ -75,6 +79,7 @@ impl State {
             data: Vec::new(),
             skipped_sections: Vec::new(),
             notes: Vec::new(),
+            lagrange_orders: HashMap::new(),
         }
     }
 
@@ -116,6 +121,36 @@ impl State {
             [0, 1, 2, 3, 4, 5, 6, 7, 8, 11, 13, 9, 16, 18, 19, 17, 10, 12, 14, 15, 22, 23, 21, 24, 20, 25, 26];
         const PRISM18: [usize; 18] = [0, 1, 2, 3, 4, 5, 6, 9, 7, 12, 14, 13, 8, 10, 11, 15, 17, 16];
         const PYRAMID14: [usize; 14] = [0, 1, 2, 3, 4, 5, 8, 10, 6, 7, 9, 11, 12, 13];
+        // Complete tetrahedra and hexahedra of order 3 and above (Gmsh's
+        // corners, edges, faces, body, recursively: tet_mesh::lagrange's
+        // `gmsh_*_lattice`) are VTK's Lagrange cells of their order.
+        let lagrange = match (cell_type, nodes.len()) {
+            (CellType::Tetra, n) if n > 10 => lagrange::lagrange_tetra_order(n).map(CellType::LagrangeTetra),
+            (CellType::Hexahedron, n) if n > 27 => {
+                lagrange::lagrange_hexahedron_order(n).map(|o| CellType::LagrangeHexahedron([o; 3]))
+            }
+            _ => None,
+        };
+        if let Some(ty) = lagrange {
+            let order = self.lagrange_orders.entry(ty).or_insert_with(|| {
+                let (gmsh, vtk) = match ty {
+                    CellType::LagrangeTetra(n) => {
+                        (lagrange::gmsh_tetra_lattice(n), lagrange::lagrange_tetra_lattice(n))
+                    }
+                    CellType::LagrangeHexahedron(o) => {
+                        (lagrange::gmsh_hexahedron_lattice(o[0]), lagrange::lagrange_hexahedron_lattice(o))
+                    }
+                    _ => unreachable!("a Lagrange tetrahedron or hexahedron"),
+                };
+                lagrange::lattice_permutation(&gmsh, &vtk).expect("the same lattice points")
+            });
+            self.cell_types.push(ty);
+            self.cell_node_tags.extend(order.iter().map(|&k| nodes[k]));
+            self.cell_tags.push(tag);
+            self.cell_physical.push(physical);
+            self.cell_entity.push(entity);
+            return;
+        }
         let kept: Option<(CellType, &[usize])> = match (cell_type, nodes.len()) {
             (CellType::Tetra, 10) => Some((CellType::QuadraticTetra, &TET10)),
             (CellType::Hexahedron, 20) => Some((CellType::QuadraticHexahedron, &HEX20)),
@@ -187,15 +222,16 @@ impl State {
         cells.types.reserve(cell_types.len());
         cells.offsets.reserve(cell_types.len());
         cells.connectivity.reserve(cell_node_tags.len());
-        let mut resolved = [0u32; 27];
+        let mut resolved: Vec<u32> = Vec::with_capacity(32);
         let mut at = 0usize;
         for (c, &ty) in cell_types.iter().enumerate() {
             let n = ty.num_nodes();
             let tags = cell_node_tags.get(at..at + n).ok_or_else(|| {
                 FormatError::new(Location::Whole, "internal: element node list shorter than its type")
             })?;
-            for (slot, &tag) in resolved.iter_mut().zip(tags) {
-                *slot = node_map.get(tag).ok_or_else(|| {
+            resolved.clear();
+            for &tag in tags {
+                resolved.push(node_map.get(tag).ok_or_else(|| {
                     FormatError::new(
                         Location::Whole,
                         format!(
@@ -203,9 +239,9 @@ impl State {
                             cell_tags.get(c).copied().unwrap_or(0)
                         ),
                     )
-                })?;
+                })?);
             }
-            cells.push(ty, &resolved[..n]);
+            cells.push(ty, &resolved);
             at += n;
         }
         // Cut cells beside reduced ones would not conform: then they are

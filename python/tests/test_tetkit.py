@@ -306,6 +306,9 @@ def test_lagrange_and_bezier_cells_from_arrays():
     assert lagrange.num_tets == 48
     bezier = tetkit.from_pyvista(FakeUnstructured(pts, [(79, list(range(27)))], {"t": pts[:, 0]}, {}))
     assert bezier.num_tets == 6 and "reduced 1 higher-order" in " ".join(bezier.findings)
+    meshio = pytest.importorskip("meshio")
+    m = meshio.Mesh(pts, [("VTK_LAGRANGE_HEXAHEDRON", np.arange(27).reshape(1, 27))], point_data={"t": pts[:, 0]})
+    assert tetkit.from_meshio(m).num_tets == 48
     wrong = FakeUnstructured(pts, [(72, list(range(26)))], {"t": pts[:, 0]}, {})
     with pytest.raises(tetkit.TetkitError) as e:
         tetkit.from_pyvista(wrong)

@@ -134,6 +134,9 @@ def from_arrays(points: Any, tets: Any, scalars: Any) -> Bundle:
 _MESHIO_VTK = {
     "tetra": 10, "hexahedron": 12, "wedge": 13, "pyramid": 14, "tetra10": 24, "hexahedron20": 25,
     "wedge15": 26, "pyramid13": 27, "hexahedron27": 29, "wedge12": 31, "wedge18": 32, "hexahedron24": 33,
+    # as meshio names the Lagrange and Bezier cells it reads from VTK files (VTK's node orders)
+    "VTK_LAGRANGE_TETRAHEDRON": 71, "VTK_LAGRANGE_HEXAHEDRON": 72, "VTK_LAGRANGE_WEDGE": 73,
+    "VTK_BEZIER_TETRAHEDRON": 78, "VTK_BEZIER_HEXAHEDRON": 79, "VTK_BEZIER_WEDGE": 80,
 }
 
 
@@ -156,8 +159,9 @@ def _points3(name: str, points: Any) -> _np.ndarray:
 
 def from_meshio(mesh: Any, scalar: Optional[str] = None) -> Bundle:
     """A bundle from a meshio ``Mesh`` (no temporary file): its volume cell
-    blocks (tetrahedra, hexahedra, wedges, pyramids and their quadratic
-    forms) split into tets as ``tetprep convert`` splits them, other blocks
+    blocks (tetrahedra, hexahedra, wedges, pyramids, their quadratic forms and
+    VTK's Lagrange and Bezier tetrahedra, hexahedra and wedges) split into
+    tets as ``tetprep convert`` splits them, other blocks
     skipped; ``scalar`` picks a point or cell field as ``--scalar`` does
     (``NAME``, ``NAME:mag``, ``NAME:x``…; default: the first point field,
     else the first cell field)."""

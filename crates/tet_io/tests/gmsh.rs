@@ -211,19 +211,7 @@ fn higher_orders() {
 /// to the exact volume than second order did (1.808307, error 4.7e-3).
 #[test]
 fn third_order_cells_are_cut_at_their_nodes() {
-    let converted = |m: &SourceMesh| {
-        let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
-        assert!(
-            !report.findings.iter().any(|f| matches!(
-                f,
-                tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
-            )),
-            "{:?}",
-            report.findings
-        );
-        tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
-        (mesh.tets.len(), tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume)
-    };
+    use common::converted;
     let hexes = read("hexbox_o3_41_ascii.msh");
     assert!(cells(&hexes).types.iter().all(|&t| t == CellType::LagrangeHexahedron([3, 3, 3])));
     assert!(!has_note(&hexes, "reduced"), "{:?}", hexes.notes);
@@ -289,18 +277,9 @@ fn second_order_tets_are_cut_at_their_nodes() {
         }
     }
     let volume = |m: &SourceMesh, tets: usize| {
-        let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
-        assert_eq!(mesh.tets.len(), tets);
-        assert!(
-            !report.findings.iter().any(|f| matches!(
-                f,
-                tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
-            )),
-            "{:?}",
-            report.findings
-        );
-        tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
-        tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume
+        let (n, volume) = common::converted(m);
+        assert_eq!(n, tets);
+        volume
     };
     let exact = 2.0 - std::f64::consts::PI / 16.0;
     let (cut, by_corners) = (volume(&quadratic, 8 * 1133), volume(&corners, 1133));

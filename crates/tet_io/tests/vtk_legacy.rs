@@ -374,8 +374,7 @@ fn lagrange_tets_from_a_legacy_file() {
     let cells = unstructured(&m);
     assert_eq!(cells.len(), 48);
     assert!(cells.types.iter().all(|&t| t == tet_mesh::CellType::LagrangeTetra(3)));
-    let (mesh, _) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
-    assert_eq!(mesh.tets.len(), 48 * 27);
-    let volume = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+    let (tets, volume) = common::converted(&m);
+    assert_eq!(tets, 48 * 27);
     assert_close(volume, 2.329371385288, "volume");
 }

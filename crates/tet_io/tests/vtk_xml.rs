@@ -452,22 +452,6 @@ fn hostile_headers_are_errors() {
     assert!(matches!(e.at, Location::Byte(_)), "{e}");
 }
 
-/// Tets, volume and whether any tet had to be re-oriented or dropped, of a
-/// mesh as tetprep converts it; the tets must conform.
-fn converted(m: &SourceMesh) -> (usize, f64) {
-    let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
-    assert!(
-        !report.findings.iter().any(|f| matches!(
-            f,
-            tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
-        )),
-        "{:?}",
-        report.findings
-    );
-    tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
-    (mesh.tets.len(), tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume)
-}
-
 /// VTK's Lagrange cells (written by VTK's own `vtkCellTypeSource`, bent onto
 /// a quarter of a cylindrical shell of volume 3π/4: `make_lagrange.py`) are
 /// cut into linear tets at all their nodes: the volume equals that of VTK's
@@ -493,7 +477,7 @@ fn lagrange_cells_are_cut_at_all_their_nodes() {
         let r2 = field(&m.point_fields, "r2");
         assert!(r2.values.iter().all(|&v| (1.0..=4.0 + 1e-12).contains(&v)), "{name}");
         assert!(m.cell_fields.is_empty(), "{name}: HigherOrderDegrees is no field");
-        let (n, volume) = converted(&m);
+        let (n, volume) = common::converted(&m);
         assert_eq!(n, tets, "{name}");
         assert!(close(volume, vtk_volume, 1e-9), "{name}: volume {volume}, VTK's tessellation {vtk_volume}");
         eprintln!("{name}: {n} tets, volume {volume:.9} (exact {exact:.9})");

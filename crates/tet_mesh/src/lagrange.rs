@@ -404,10 +404,10 @@ pub fn lagrange_wedge_lattice(n: u8, m: u8) -> Vec<[i32; 3]> {
     out
 }
 
-/// Parameter points (scaled to integers) of the 15-node tetrahedron:
+/// Parameter points (times 12) of the 15-node tetrahedron:
 /// corners, edge midpoints as the 10-node one, the centres of faces (0, 1,
 /// 2), (0, 1, 3), (1, 2, 3), (0, 2, 3), the body centre.
-const TETRA15_AT: [Lattice; 15] = [
+pub const TETRA15_AT: [[i32; 3]; 15] = [
     [0, 0, 0],
     [12, 0, 0],
     [0, 12, 0],
@@ -425,10 +425,10 @@ const TETRA15_AT: [Lattice; 15] = [
     [3, 3, 3],
 ];
 
-/// Parameter points (scaled) of the 21-node wedge: the 15-node one's, the
+/// Parameter points (times 6) of the 21-node wedge: the 15-node one's, the
 /// bottom and top triangles' centres, the centres of quads 0-1-4-3,
 /// 1-2-5-4, 2-0-3-5, the body centre.
-const WEDGE21_AT: [Lattice; 21] = [
+pub const WEDGE21_AT: [[i32; 3]; 21] = [
     [0, 0, 0],
     [6, 0, 0],
     [0, 6, 0],

@@ -83,20 +83,6 @@ impl CellType {
     /// a face's three or four, or all (a body centre). Empty for linear and
     /// Lagrange cells (whose nodes follow from their parameter lattice).
     pub fn straight_sided_parents(self) -> &'static [&'static [usize]] {
-        const HEX_EDGES: [&[usize]; 12] = [
-            &[0, 1],
-            &[1, 2],
-            &[2, 3],
-            &[3, 0],
-            &[4, 5],
-            &[5, 6],
-            &[6, 7],
-            &[7, 4],
-            &[0, 4],
-            &[1, 5],
-            &[2, 6],
-            &[3, 7],
-        ];
         const TRIQUADRATIC: [&[usize]; 19] = [
             &[0, 1],
             &[1, 2],
@@ -118,7 +104,6 @@ impl CellType {
             &[4, 5, 6, 7],
             &[0, 1, 2, 3, 4, 5, 6, 7],
         ];
-        const TETRA_EDGES: [&[usize]; 6] = [&[0, 1], &[1, 2], &[2, 0], &[0, 3], &[1, 3], &[2, 3]];
         const TETRA15: [&[usize]; 11] = [
             &[0, 1],
             &[1, 2],
@@ -166,9 +151,9 @@ impl CellType {
         const PYRAMID: [&[usize]; 9] =
             [&[0, 1], &[1, 2], &[2, 3], &[3, 0], &[0, 4], &[1, 4], &[2, 4], &[3, 4], &[0, 1, 2, 3]];
         match self {
-            CellType::QuadraticTetra => &TETRA_EDGES,
+            CellType::QuadraticTetra => &TETRA15[..6],
             CellType::QuadraticTetraWithCentres => &TETRA15,
-            CellType::QuadraticHexahedron => &HEX_EDGES,
+            CellType::QuadraticHexahedron => &TRIQUADRATIC[..12],
             CellType::TriquadraticHexahedron => &TRIQUADRATIC,
             CellType::QuadraticWedge => &WEDGE[..9],
             CellType::BiquadraticWedge => &WEDGE,

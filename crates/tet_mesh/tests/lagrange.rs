@@ -153,46 +153,7 @@ impl Placer {
     }
 }
 
-const TETRA15: [[i32; 3]; 15] = [
-    [0, 0, 0],
-    [12, 0, 0],
-    [0, 12, 0],
-    [0, 0, 12],
-    [6, 0, 0],
-    [6, 6, 0],
-    [0, 6, 0],
-    [0, 0, 6],
-    [6, 0, 6],
-    [0, 6, 6],
-    [4, 4, 0],
-    [4, 0, 4],
-    [4, 4, 4],
-    [0, 4, 4],
-    [3, 3, 3],
-];
-const WEDGE21: [[i32; 3]; 21] = [
-    [0, 0, 0],
-    [12, 0, 0],
-    [0, 12, 0],
-    [0, 0, 12],
-    [12, 0, 12],
-    [0, 12, 12],
-    [6, 0, 0],
-    [6, 6, 0],
-    [0, 6, 0],
-    [6, 0, 12],
-    [6, 6, 12],
-    [0, 6, 12],
-    [0, 0, 6],
-    [12, 0, 6],
-    [0, 12, 6],
-    [4, 4, 0],
-    [4, 4, 12],
-    [6, 0, 6],
-    [6, 6, 6],
-    [0, 6, 6],
-    [4, 4, 6],
-];
+use tet_mesh::lagrange::{TETRA15_AT as TETRA15, WEDGE21_AT as WEDGE21};
 
 const UNIT: [[i64; 3]; 4] = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]];
 
@@ -243,7 +204,7 @@ fn lagrange_cells_split_at_every_node_into_positive_tets_filling_them() {
             24,
             1.0 / 6.0,
         ));
-        cases.push((l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 12, shifted(UNIT, [12, 0, 0])), 36, 0.5));
+        cases.push((l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 6, shifted(UNIT, [12, 0, 0])), 36, 0.5));
         let p = l.points();
         for ((ty, nodes), count, volume) in cases {
             let tets = split_all(&[(ty, nodes.clone())]);
@@ -312,8 +273,8 @@ fn lagrange_cells_conform_across_shared_faces() {
             ),
         ];
         let w21 = vec![
-            l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 12, shifted(UNIT, [40, 0, 0])),
-            l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 12, shifted(UNIT, [40, 0, 1])),
+            l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 6, shifted(UNIT, [40, 0, 0])),
+            l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 6, shifted(UNIT, [40, 0, 1])),
         ];
         let p = l.points();
         for (cells, boundary) in

@@ -144,11 +144,10 @@ impl State {
                 };
                 lagrange::lattice_permutation(&gmsh, &vtk).expect("the same lattice points")
             });
-            self.cell_types.push(ty);
-            self.cell_node_tags.extend(order.iter().map(|&k| nodes[k]));
-            self.cell_tags.push(tag);
-            self.cell_physical.push(physical);
-            self.cell_entity.push(entity);
+            // (Taken out while the cell is pushed, put back after.)
+            let order = std::mem::take(order);
+            self.push_kept(ty, order.iter().map(|&k| nodes[k]), tag, physical, entity);
+            self.lagrange_orders.insert(ty, order);
             return;
         }
         let kept: Option<(CellType, &[usize])> = match (cell_type, nodes.len()) {
@@ -162,19 +161,20 @@ impl State {
             _ => None,
         };
         if let Some((ty, order)) = kept {
-            self.cell_types.push(ty);
-            self.cell_node_tags.extend(order.iter().map(|&k| nodes[k]));
-            self.cell_tags.push(tag);
-            self.cell_physical.push(physical);
-            self.cell_entity.push(entity);
+            self.push_kept(ty, order.iter().map(|&k| nodes[k]), tag, physical, entity);
             return;
         }
         let corners = cell_type.num_nodes();
         if nodes.len() > corners {
             self.higher_order += 1;
         }
-        self.cell_types.push(cell_type);
-        self.cell_node_tags.extend_from_slice(&nodes[..corners.min(nodes.len())]);
+        self.push_kept(cell_type, nodes[..corners.min(nodes.len())].iter().copied(), tag, physical, entity);
+    }
+
+    /// One kept cell: its type, node tags (in VTK's order) and tags.
+    fn push_kept(&mut self, ty: CellType, node_tags: impl Iterator<Item = u64>, tag: u64, physical: f64, entity: f64) {
+        self.cell_types.push(ty);
+        self.cell_node_tags.extend(node_tags);
         self.cell_tags.push(tag);
         self.cell_physical.push(physical);
         self.cell_entity.push(entity);

@@ -43,3 +43,20 @@ pub fn assert_structured(m: &SourceMesh, dims: [usize; 3], points: usize, cells:
     assert_eq!(m.blocks, vec![Block::Structured { dims, first_point: 0 }]);
     assert_counts(m, points, cells);
 }
+
+/// The tets and total volume of `m` as tetprep converts it, checked: no
+/// tet re-oriented or dropped as flat (a cell cut at its nodes in the
+/// wrong order shows so), and the tets conform (face adjacency builds).
+pub fn converted(m: &SourceMesh) -> (usize, f64) {
+    let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
+    assert!(
+        !report.findings.iter().any(|f| matches!(
+            f,
+            tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
+        )),
+        "{:?}",
+        report.findings
+    );
+    tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
+    (mesh.tets.len(), tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume)
+}

@@ -567,6 +567,19 @@ mod tests {
         assert!(read(bytes, &ExodusOptions { time_step: Some(1) }).is_err());
     }
 
+    /// Regression (fuzz finding, 2026-12-06): a 2.3 kB 64-bit-offset file
+    /// whose record variable starts near 2^64 made the offset of its second
+    /// record overflow (a panic with overflow checks, a wrapped offset
+    /// without); it is an error naming the record now.
+    #[test]
+    fn a_record_offset_past_2_64_is_an_error() {
+        let file = include_bytes!("../../../tests/data/exodus/fuzz_record_offset_overflow.exo");
+        let (step, bytes) = file.split_first().unwrap();
+        for time_step in [usize::from(step & 3), 0, 1, 2, 3] {
+            let _ = read(bytes, &ExodusOptions { time_step: Some(time_step) });
+        }
+    }
+
     /// Regression (fuzz finding): a 2.7 kB file declaring 2^30 element
     /// blocks without `eb_prop1` made the reader list an id for each (8 GB,
     /// 8 s) before finding it had no values; the ids are now numbered as

@@ -271,7 +271,10 @@ impl<'a> NetCdf<'a> {
             let one = f.record_bytes(v).ok_or_else(|| {
                 FormatError::new(Location::Byte(f.vars[v].at), format!("variable '{}' is too large", f.vars[v].name))
             })?;
-            record_size += if padded { one.div_ceil(4) * 4 } else { one };
+            let one = if padded { one.div_ceil(4).checked_mul(4) } else { Some(one) };
+            record_size = one.and_then(|o| record_size.checked_add(o)).ok_or_else(|| {
+                FormatError::new(Location::Byte(f.vars[v].at), "the record variables' sizes overflow 64 bits")
+            })?;
         }
         f.record_size = record_size;
         let data_start = rec_vars.iter().map(|&v| f.vars[v].begin).min().unwrap_or(bytes.len() as u64);
@@ -338,7 +341,11 @@ impl<'a> NetCdf<'a> {
         let err = |m: String| FormatError::new(Location::Byte(var.at), m);
         let bytes = self.record_bytes(v).ok_or_else(|| err(format!("variable '{}' is too large", var.name)))?;
         let start = match (self.is_record(v), record) {
-            (true, Some(r)) if r < self.num_records => var.begin + r as u64 * self.record_size,
+            // (Checked: begin and the record size are the header's word.)
+            (true, Some(r)) if r < self.num_records => (r as u64)
+                .checked_mul(self.record_size)
+                .and_then(|o| var.begin.checked_add(o))
+                .ok_or_else(|| err(format!("record {r} of '{}' lies past 2^64 bytes", var.name)))?,
             (true, Some(r)) => {
                 return Err(err(format!("record {r} of '{}': the file has {}", var.name, self.num_records)))
             }

@@ -11,7 +11,7 @@ use tet_mesh::{Block, CellType, Cells, SourceMesh};
 
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/gmsh/");
 
-const ALL: [&str; 15] = [
+const ALL: [&str; 16] = [
     "boxcyl_22_ascii.msh",
     "boxcyl_22_bin.msh",
     "boxcyl_41_ascii.msh",
@@ -27,6 +27,7 @@ const ALL: [&str; 15] = [
     "mixed_o2i_22_bin.msh",
     "mixed_o3_41_bin.msh",
     "boxcyl_o3_41_bin.msh",
+    "prismquarter_o3_41_ascii.msh",
 ];
 
 fn load(name: &str) -> Vec<u8> {
@@ -205,7 +206,7 @@ fn higher_orders() {
     assert!(has_note(&m, "reduced 307 higher-order") && has_note(&m, "skipped 278 lower"), "{:?}", m.notes);
 }
 
-/// Gmsh's complete third order (tet20, hex64) is read as VTK's Lagrange
+/// Gmsh's complete third order (tet20, hex64, prism40) is read as VTK's Lagrange
 /// cells and cut at all its nodes: the straight-sided hexahedra keep their
 /// corners' volume, the curved tetrahedra around the cylinder come closer
 /// to the exact volume than second order did (1.808307, error 4.7e-3).
@@ -231,6 +232,18 @@ fn third_order_cells_are_cut_at_their_nodes() {
     eprintln!("volume: cut {cut:.6}, corners {by_corners:.6}, exact {exact:.6}");
     assert!((cut - exact).abs() < 0.25 * (by_corners - exact).abs(), "cut {cut}, corners {by_corners}");
     assert!((cut - exact).abs() < (1.808307 - exact), "cut {cut}: not closer than second order");
+
+    // Curved third-order prisms (a quarter disk extruded; exact volume π/4).
+    let prisms = read("prismquarter_o3_41_ascii.msh");
+    let n_prisms = cells(&prisms).len();
+    assert!(n_prisms > 20 && cells(&prisms).types.iter().all(|&t| t == CellType::LagrangeWedge(3, 3)));
+    let mut corners = prisms.clone();
+    corners.reduce_to_corners();
+    let ((n, cut), (_, by_corners)) = (converted(&prisms), converted(&corners));
+    assert_eq!(n, n_prisms * 27 * 3);
+    let exact = std::f64::consts::FRAC_PI_4;
+    eprintln!("prisms: volume cut {cut:.6}, corners {by_corners:.6}, exact {exact:.6}");
+    assert!((cut - exact).abs() < 0.25 * (by_corners - exact).abs(), "cut {cut}, corners {by_corners}");
 }
 
 #[test]

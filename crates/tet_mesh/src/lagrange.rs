@@ -315,6 +315,50 @@ fn gmsh_hexahedron_nodes(n: i32, v: [Lattice; 8], out: &mut Vec<Lattice>) {
     }
 }
 
+/// Nodes of an order-`n` wedge in Gmsh's order (corners as VTK's): corners;
+/// edges 0-1, 0-2, 0-3, 1-2, 1-4, 2-5, 3-4, 3-5, 4-5; the triangles 0-2-1 and
+/// 3-4-5 (inner triangles, recursively), the quadrilaterals 0-1-4-3,
+/// 0-3-5-2, 1-2-5-4 (inner quadrilaterals, recursively); then the body: each
+/// node of the inner triangle (recursively) with its vertical line's nodes
+/// as Gmsh orders a line's (its ends, then the rest upwards).
+fn gmsh_wedge_nodes(n: i32, out: &mut Vec<Lattice>) {
+    const EDGES: [(usize, usize); 9] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 4), (2, 5), (3, 4), (3, 5), (4, 5)];
+    const QUADS: [[usize; 4]; 3] = [[0, 1, 4, 3], [0, 3, 5, 2], [1, 2, 5, 4]];
+    let v: [Lattice; 6] = [[0, 0, 0], [n, 0, 0], [0, n, 0], [0, 0, n], [n, 0, n], [0, n, n]];
+    out.extend(v);
+    for (a, b) in EDGES {
+        out.extend((1..n).map(|t| along(v[a], v[b], t, n)));
+    }
+    if n >= 3 {
+        for f in [[0, 2, 1], [3, 4, 5]] {
+            let inner = [0, 1, 2].map(|a| step_in(v[f[a]], &[v[f[(a + 1) % 3]], v[f[(a + 2) % 3]]], n));
+            triangle_nodes(n - 3, inner, out);
+        }
+    }
+    if n >= 2 {
+        for f in QUADS {
+            let inner = [0, 1, 2, 3].map(|a| step_in(v[f[a]], &[v[f[(a + 1) % 4]], v[f[(a + 3) % 4]]], n));
+            quad_nodes(n - 2, inner, out);
+        }
+    }
+    if n >= 3 {
+        let mut inner = Vec::new();
+        triangle_nodes(n - 3, [[1, 1, 0], [n - 2, 1, 0], [1, n - 2, 0]], &mut inner);
+        let levels: Vec<i32> = [1, n - 1].into_iter().chain(2..n - 1).collect();
+        for p in inner {
+            out.extend(levels.iter().map(|&z| [p[0], p[1], z]));
+        }
+    }
+}
+
+/// Lattice points of Gmsh's complete wedge (prism) of order n (types 6,
+/// 13, 90, 91, 106–110), in its node order.
+pub fn gmsh_wedge_lattice(n: u8) -> Vec<[i32; 3]> {
+    let mut out = Vec::new();
+    gmsh_wedge_nodes(n as i32, &mut out);
+    out
+}
+
 fn tetra_corners(n: i32) -> [Lattice; 4] {
     [[0, 0, 0], [n, 0, 0], [0, n, 0], [0, 0, n]]
 }

@@ -3,8 +3,8 @@
 //! into positive tets that fill each cell and conform across shared faces.
 use std::collections::HashMap;
 use tet_mesh::lagrange::{
-    gmsh_hexahedron_lattice, gmsh_tetra_lattice, lagrange_hexahedron_lattice, lagrange_hexahedron_node,
-    lagrange_tetra_lattice, lagrange_wedge_lattice, lattice_permutation,
+    gmsh_hexahedron_lattice, gmsh_tetra_lattice, gmsh_wedge_lattice, lagrange_hexahedron_lattice,
+    lagrange_hexahedron_node, lagrange_tetra_lattice, lagrange_wedge_lattice, lattice_permutation,
 };
 use tet_mesh::predicates::signed_tet_volume;
 use tet_mesh::split::split_cell;
@@ -47,8 +47,8 @@ fn node_orders_match_vtk() {
     assert_eq!(checked, 27);
 }
 
-/// Gmsh's complete tetrahedra and hexahedra: node orders against Gmsh's
-/// own (a dump from Gmsh 4.15.2, `tests/data/gmsh_nodes.py`), and each a
+/// Gmsh's complete tetrahedra, hexahedra and prisms: node orders against
+/// Gmsh's own (a dump from Gmsh 4.15.2, `tests/data/gmsh_nodes.py`), and each a
 /// permutation of VTK's Lagrange cell of its order.
 #[test]
 fn gmsh_node_orders_match_gmsh() {
@@ -67,13 +67,14 @@ fn gmsh_node_orders_match_gmsh() {
         let (ours, vtk) = match family {
             "tet" => (gmsh_tetra_lattice(order), lagrange_tetra_lattice(order)),
             "hex" => (gmsh_hexahedron_lattice(order), lagrange_hexahedron_lattice([order; 3])),
+            "prism" => (gmsh_wedge_lattice(order), lagrange_wedge_lattice(order, order)),
             f => panic!("{f}"),
         };
         assert_eq!(ours, gmsh, "{family} of order {order}");
         assert!(lattice_permutation(&ours, &vtk).is_some(), "{family} of order {order}");
         checked += 1;
     }
-    assert_eq!(checked, 19);
+    assert_eq!(checked, 25);
 }
 
 /// Lattice cells on integer points (denominator 840 = lcm(1..=8)), ids

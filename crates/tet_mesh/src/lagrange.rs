@@ -28,6 +28,12 @@
 //!   triangle edge fastest, then up; the body a triangle's inner nodes row
 //!   by row at each level, level slowest.
 //!
+//! Gmsh's complete tetrahedra, hexahedra, prisms and pyramids of any order
+//! number their nodes by corners, edges, faces and body, recursively
+//! (`gmsh_*_lattice`, checked against Gmsh 4.15's reference nodes); a
+//! pyramid of order n ([`CellType::LagrangePyramid`], which VTK lacks)
+//! keeps Gmsh's order.
+//!
 //! The split: a hexahedron into its p·q·r sub-hexahedra and a wedge into
 //! n²·m sub-wedges (each cut by [`crate::split`]'s min-id rule, so their
 //! quads conform with any neighbour's), a tetrahedron into n³'s worth of
@@ -35,10 +41,14 @@
 //! diagonal through the smallest id; all their faces are lattice triangles,
 //! so the choice stays inside the cell). Every sub-tet is oriented by its
 //! integer parameter-lattice determinant, so a cell in VTK's orientation
-//! gives positive tets.
+//! gives positive tets. A pyramid of order n splits layer by layer into
+//! upright pyramids on the cells of each layer, inverted ones under the
+//! cells of the layers above the base, and a tet on every edge two cells
+//! of a layer share (its base is cut as a hexahedron face is, its slanted
+//! faces into the triangle lattice).
 
 use crate::source::CellType;
-use crate::split::{split_hexahedron, split_wedge, UNIT_HEX};
+use crate::split::{split_hexahedron, split_pyramid, split_wedge, UNIT_HEX};
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::rc::Rc;
@@ -359,6 +369,68 @@ pub fn gmsh_wedge_lattice(n: u8) -> Vec<[i32; 3]> {
     out
 }
 
+/// Nodes of an order-`n` pyramid in Gmsh's order, on the pyramid's sheared
+/// lattice (point (i, j, k): layer k of (n − k + 1)² points; (i, j, k + 1)
+/// lies over the centre of cell (i, j) of layer k): corners (base 0-1-2-3,
+/// apex 4); edges 0-1, 0-3, 0-4, 1-2, 1-4, 2-3, 2-4, 3-4; the triangles
+/// 0-1-4, 3-0-4, 1-2-4, 2-3-4 (inner triangles, recursively) and the base
+/// 0-3-2-1 (inner quadrilateral, recursively); then the inner pyramid of
+/// order n − 3 one layer up, recursively.
+fn gmsh_pyramid_nodes(n: i32, v: [Lattice; 5], out: &mut Vec<Lattice>) {
+    const EDGES: [(usize, usize); 8] = [(0, 1), (0, 3), (0, 4), (1, 2), (1, 4), (2, 3), (2, 4), (3, 4)];
+    if n < 0 {
+        return;
+    }
+    if n == 0 {
+        out.push(v[0]);
+        return;
+    }
+    out.extend(v);
+    for (a, b) in EDGES {
+        out.extend((1..n).map(|t| along(v[a], v[b], t, n)));
+    }
+    if n >= 3 {
+        for f in [[0, 1, 4], [3, 0, 4], [1, 2, 4], [2, 3, 4]] {
+            let inner = [0, 1, 2].map(|a| step_in(v[f[a]], &[v[f[(a + 1) % 3]], v[f[(a + 2) % 3]]], n));
+            triangle_nodes(n - 3, inner, out);
+        }
+    }
+    if n >= 2 {
+        let f = [0, 3, 2, 1];
+        let inner = [0, 1, 2, 3].map(|a| step_in(v[f[a]], &[v[f[(a + 1) % 4]], v[f[(a + 3) % 4]]], n));
+        quad_nodes(n - 2, inner, out);
+    }
+    if n >= 3 {
+        let inner = [
+            add(v[0], [1, 1, 1]),
+            add(v[1], [-2, 1, 1]),
+            add(v[2], [-2, -2, 1]),
+            add(v[3], [1, -2, 1]),
+            add(v[4], [1, 1, -2]),
+        ];
+        gmsh_pyramid_nodes(n - 3, inner, out);
+    }
+}
+
+/// Lattice points (on the sheared lattice of `gmsh_pyramid_nodes`: real
+/// parameter point ((2i + k)/n − 1, (2j + k)/n − 1, k/n) of Gmsh's
+/// pyramid) of Gmsh's complete pyramid of order n (types 7, 14, 118–124),
+/// in its node order — [`CellType::LagrangePyramid`]'s.
+pub fn gmsh_pyramid_lattice(n: u8) -> Vec<[i32; 3]> {
+    let n = n as i32;
+    let mut out = Vec::new();
+    gmsh_pyramid_nodes(n, [[0, 0, 0], [n, 0, 0], [n, n, 0], [0, n, 0], [0, 0, n]], &mut out);
+    out
+}
+
+/// Order n of a pyramid with `count` nodes, (n + 1)(n + 2)(2n + 3)/6 = count.
+pub fn lagrange_pyramid_order(count: usize) -> Option<u8> {
+    (1..=MAX_LAGRANGE_ORDER).find(|&n| {
+        let n = n as usize;
+        (n + 1) * (n + 2) * (2 * n + 3) / 6 == count
+    })
+}
+
 fn tetra_corners(n: i32) -> [Lattice; 4] {
     [[0, 0, 0], [n, 0, 0], [0, n, 0], [0, 0, n]]
 }
@@ -523,6 +595,9 @@ struct LatticeSplit {
     hexahedra: Vec<[u16; 8]>,
     /// Sub-wedges in VTK order, cut by the min-id rule.
     wedges: Vec<[u16; 6]>,
+    /// Sub-pyramids in VTK order (base turning counter-clockwise seen from
+    /// the apex), cut by the min-id rule.
+    pyramids: Vec<[u16; 5]>,
     /// Rings of (corner, mid-edge, …) slots around a face centre, coned
     /// from the body centre: `(ring, face centre)`; the 15- and 21-node cells.
     fans: Vec<(Vec<u16>, u16)>,
@@ -619,6 +694,40 @@ fn build_split(cell_type: CellType) -> LatticeSplit {
                 }
             }
         }
+        CellType::LagrangePyramid(n) => {
+            // Layer by layer: upright pyramids on every cell of layer k (apex
+            // above its centre), inverted ones under every cell of layer
+            // k ≥ 1 (apex below), and a tet on every edge of a layer that
+            // two cells share, between their apexes. Its slanted faces come
+            // out as the triangle lattice, its base as the square one.
+            let n = n as i32;
+            let lattice = gmsh_pyramid_lattice(n as u8);
+            let slot = slots_of(&lattice, [n; 3]);
+            let at = |s: u16| lattice[s as usize];
+            for k in 0..n {
+                let m = n - k;
+                for j in 0..m {
+                    for i in 0..m {
+                        let base = [[i, j, k], [i + 1, j, k], [i + 1, j + 1, k], [i, j + 1, k]];
+                        let [a, b, c, d] = base.map(&slot);
+                        s.pyramids.push([a, b, c, d, slot([i, j, k + 1])]);
+                        if k > 0 {
+                            s.pyramids.push([a, d, c, b, slot([i + 1, j + 1, k - 1])]);
+                        }
+                    }
+                }
+                // Edges shared by two cells of layer k: along i between rows
+                // j − 1 and j, along j between columns i − 1 and i.
+                for j in 1..m {
+                    for i in 0..m {
+                        let t = [[i, j, k], [i + 1, j, k], [i, j - 1, k + 1], [i, j, k + 1]];
+                        s.tets.push(oriented(t.map(&slot), at));
+                        let t = [[j, i, k], [j, i + 1, k], [j - 1, i, k + 1], [j, i, k + 1]];
+                        s.tets.push(oriented(t.map(&slot), at));
+                    }
+                }
+            }
+        }
         CellType::QuadraticTetraWithCentres => {
             s.at = TETRA15_AT.to_vec();
             s.centre = 14;
@@ -692,6 +801,9 @@ pub fn split_lagrange(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([
     }
     for w in &split.wedges {
         split_wedge(&w.map(id), out);
+    }
+    for p in &split.pyramids {
+        split_pyramid(&p.map(id), out);
     }
     let at = |s: u16| split.at[s as usize];
     for (ring, face_centre) in &split.fans {

@@ -56,6 +56,10 @@ pub enum CellType {
     /// one's, the centres of triangles 0-1-2 and 3-4-5, of quads 0-1-4-3,
     /// 1-2-5-4, 2-0-3-5, then the body centre.
     QuadraticWedgeWithCentres,
+    /// A pyramid of order n ≥ 2 in Gmsh's node order (VTK has no such
+    /// cell): (n + 1)(n + 2)(2n + 3)/6 nodes — corners, edges, faces, body,
+    /// recursively ([`crate::lagrange::gmsh_pyramid_lattice`]).
+    LagrangePyramid(u8),
 }
 
 impl CellType {
@@ -73,7 +77,9 @@ impl CellType {
             | CellType::BiquadraticWedge
             | CellType::QuadraticWedgeWithCentres
             | CellType::LagrangeWedge(..) => CellType::Wedge,
-            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre => CellType::Pyramid,
+            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre | CellType::LagrangePyramid(_) => {
+                CellType::Pyramid
+            }
             linear => linear,
         }
     }
@@ -217,6 +223,10 @@ impl CellType {
             }
             CellType::QuadraticTetraWithCentres => 15,
             CellType::QuadraticWedgeWithCentres => 21,
+            CellType::LagrangePyramid(n) => {
+                let n = n as usize;
+                (n + 1) * (n + 2) * (2 * n + 3) / 6
+            }
         }
     }
 

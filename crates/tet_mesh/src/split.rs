@@ -362,6 +362,7 @@ pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32;
         CellType::LagrangeTetra(_)
         | CellType::LagrangeHexahedron(_)
         | CellType::LagrangeWedge(..)
+        | CellType::LagrangePyramid(_)
         | CellType::QuadraticTetraWithCentres
         | CellType::QuadraticWedgeWithCentres => crate::lagrange::split_lagrange(cell_type, nodes, out),
     }

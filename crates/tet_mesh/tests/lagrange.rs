@@ -3,7 +3,7 @@
 //! into positive tets that fill each cell and conform across shared faces.
 use std::collections::HashMap;
 use tet_mesh::lagrange::{
-    gmsh_hexahedron_lattice, gmsh_tetra_lattice, gmsh_wedge_lattice, lagrange_hexahedron_lattice,
+    gmsh_hexahedron_lattice, gmsh_pyramid_lattice, gmsh_tetra_lattice, gmsh_wedge_lattice, lagrange_hexahedron_lattice,
     lagrange_hexahedron_node, lagrange_tetra_lattice, lagrange_wedge_lattice, lattice_permutation,
 };
 use tet_mesh::predicates::signed_tet_volume;
@@ -68,13 +68,15 @@ fn gmsh_node_orders_match_gmsh() {
             "tet" => (gmsh_tetra_lattice(order), lagrange_tetra_lattice(order)),
             "hex" => (gmsh_hexahedron_lattice(order), lagrange_hexahedron_lattice([order; 3])),
             "prism" => (gmsh_wedge_lattice(order), lagrange_wedge_lattice(order, order)),
+            // (tetkit's pyramid keeps Gmsh's order.)
+            "pyramid" => (gmsh_pyramid_lattice(order), gmsh_pyramid_lattice(order)),
             f => panic!("{f}"),
         };
         assert_eq!(ours, gmsh, "{family} of order {order}");
         assert!(lattice_permutation(&ours, &vtk).is_some(), "{family} of order {order}");
         checked += 1;
     }
-    assert_eq!(checked, 25);
+    assert_eq!(checked, 34);
 }
 
 /// Lattice cells on integer points (denominator 840 = lcm(1..=8)), ids
@@ -124,6 +126,14 @@ impl Placer {
                 self.id(at)
             })
             .collect()
+    }
+
+    /// A pyramid of order n on base corner `o`, base side 2, apex 1 above
+    /// the base's centre (its sheared lattice point (i, j, k) at o + (2i +
+    /// k, 2j + k, k)/n).
+    fn pyramid(&mut self, n: u8, o: [i64; 3]) -> (CellType, Vec<u32>) {
+        let c = [o, [o[0] + 2, o[1], o[2]], [o[0], o[1] + 2, o[2]], [o[0] + 1, o[1] + 1, o[2] + 1]];
+        (CellType::LagrangePyramid(n), self.place(&gmsh_pyramid_lattice(n), [n as i64; 3], c))
     }
 
     fn tetra(&mut self, n: u8, c: [[i64; 3]; 4]) -> (CellType, Vec<u32>) {
@@ -199,6 +209,11 @@ fn lagrange_cells_split_at_every_node_into_positive_tets_filling_them() {
         for (n, m) in [(2, 2), (3, 1), (2, 4), (5, 3)] {
             let cells = n as usize * n as usize * m as usize;
             cases.push((l.wedge(n, m, shifted(UNIT, [6, 0, 0])), 3 * cells, 0.5));
+        }
+        for n in 2..=5u8 {
+            let n = n as usize;
+            let pyramids = n * (n + 1) * (2 * n + 1) / 6 + (n - 1) * n * (2 * n - 1) / 6;
+            cases.push((l.pyramid(n as u8, [15, 0, 0]), 2 * pyramids + 2 * (n - 1) * n * (n + 1) / 3, 4.0 / 3.0));
         }
         cases.push((
             l.centred(CellType::QuadraticTetraWithCentres, &TETRA15, 12, shifted(UNIT, [9, 0, 0])),
@@ -277,10 +292,26 @@ fn lagrange_cells_conform_across_shared_faces() {
             l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 6, shifted(UNIT, [40, 0, 0])),
             l.centred(CellType::QuadraticWedgeWithCentres, &WEDGE21, 6, shifted(UNIT, [40, 0, 1])),
         ];
+        // An order-3 pyramid on an order-(3, 3, 2) hexahedron of side 2 (base
+        // on its top), an order-3 tet on the pyramid's face 0-1-4: the
+        // hexahedron's five other faces (18 + 4 · 12), the pyramid's three
+        // and the tet's three (9 each).
+        let hex = {
+            let o = [50, 0, 0];
+            let c = [o, [52, 0, 0], [50, 2, 0], [50, 0, 2]];
+            (CellType::LagrangeHexahedron([3, 3, 2]), l.place(&lagrange_hexahedron_lattice([3, 3, 2]), [3, 3, 2], c))
+        };
+        let pyramid_stack =
+            vec![hex, l.pyramid(3, [50, 0, 2]), l.tetra(3, [[50, 0, 2], [52, 0, 2], [51, -1, 2], [51, 1, 3]])];
         let p = l.points();
-        for (cells, boundary) in
-            [(hexes, hex_boundary), (tets, 6 * 9), (mixed, mixed_boundary), (t15, 6 * 6), (w21, 2 * 6 + 6 * 8)]
-        {
+        for (cells, boundary) in [
+            (hexes, hex_boundary),
+            (tets, 6 * 9),
+            (mixed, mixed_boundary),
+            (t15, 6 * 6),
+            (w21, 2 * 6 + 6 * 8),
+            (pyramid_stack, 18 + 4 * 12 + 3 * 9 + 3 * 9),
+        ] {
             let tets = split_all(&cells);
             for t in &tets {
                 let v = vol(&p, t);

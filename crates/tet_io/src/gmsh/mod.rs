@@ -2,12 +2,12 @@
 //! binary, either byte order.
 //!
 //! What is kept: all nodes (in file order), the volume elements — second
-//! order (complete and incomplete) and complete tetrahedra, hexahedra and
-//! prisms of any higher order with all their nodes (permuted into VTK's orders, VTK's
-//! Lagrange cells from the third order on, and cut at them), other
-//! higher-order elements (serendipity above second order, pyramids above
-//! second order) reduced to their corner nodes, and then all
-//! of them, so that neighbours conform — `$NodeData` as point fields and `$ElementData` as cell
+//! order (complete and incomplete) and complete tetrahedra, hexahedra,
+//! prisms and pyramids of any higher order with all their nodes (permuted
+//! into VTK's orders — VTK's Lagrange cells from the third order on; a
+//! pyramid keeps Gmsh's order, VTK having none — and cut at them), other
+//! higher-order elements (serendipity above second order) reduced to their
+//! corner nodes, and then all of them, so that neighbours conform — `$NodeData` as point fields and `$ElementData` as cell
 //! fields (of each name, the time step that comes last in the file; sections
 //! of one step, as partitioned files write them, are merged), and the physical / elementary
 //! entity tag of each volume element as the cell fields `gmsh:physical` and
@@ -23,8 +23,8 @@
 //! reducing is keeping the leading nodes, with no permutation. Its other
 //! nodes follow by edges, faces and body, recursively
 //! (`tet_mesh::lagrange::gmsh_tetra_lattice`, `gmsh_hexahedron_lattice`,
-//! `gmsh_wedge_lattice`, checked against Gmsh's own reference nodes: orders
-//! 1–10, 1–9 and 1–6).
+//! `gmsh_wedge_lattice`, `gmsh_pyramid_lattice`, checked against Gmsh's own
+//! reference nodes: orders 1–10, 1–9, 1–6 and 1–9).
 //!
 //! Node and element tags may be sparse; they are mapped to indices through a
 //! dense table only when the largest tag is within a small multiple of the

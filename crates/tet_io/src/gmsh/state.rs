@@ -121,7 +121,7 @@ impl State {
             [0, 1, 2, 3, 4, 5, 6, 7, 8, 11, 13, 9, 16, 18, 19, 17, 10, 12, 14, 15, 22, 23, 21, 24, 20, 25, 26];
         const PRISM18: [usize; 18] = [0, 1, 2, 3, 4, 5, 6, 9, 7, 12, 14, 13, 8, 10, 11, 15, 17, 16];
         const PYRAMID14: [usize; 14] = [0, 1, 2, 3, 4, 5, 8, 10, 6, 7, 9, 11, 12, 13];
-        // Complete tetrahedra, hexahedra and prisms of order 3 and above (Gmsh's
+        // Complete tetrahedra, hexahedra, prisms and pyramids of order 3 and above (Gmsh's
         // corners, edges, faces, body, recursively: tet_mesh::lagrange's
         // `gmsh_*_lattice`) are VTK's Lagrange cells of their order.
         let lagrange = match (cell_type, nodes.len()) {
@@ -130,6 +130,7 @@ impl State {
                 lagrange::lagrange_hexahedron_order(n).map(|o| CellType::LagrangeHexahedron([o; 3]))
             }
             (CellType::Wedge, n) if n > 18 => lagrange::lagrange_wedge_order(n).map(|o| CellType::LagrangeWedge(o, o)),
+            (CellType::Pyramid, n) if n > 14 => lagrange::lagrange_pyramid_order(n).map(CellType::LagrangePyramid),
             _ => None,
         };
         if let Some(ty) = lagrange {
@@ -144,7 +145,11 @@ impl State {
                     CellType::LagrangeWedge(n, m) => {
                         (lagrange::gmsh_wedge_lattice(n), lagrange::lagrange_wedge_lattice(n, m))
                     }
-                    _ => unreachable!("a Lagrange tetrahedron, hexahedron or wedge"),
+                    // (Gmsh's own order.)
+                    CellType::LagrangePyramid(n) => {
+                        (lagrange::gmsh_pyramid_lattice(n), lagrange::gmsh_pyramid_lattice(n))
+                    }
+                    _ => unreachable!("a Lagrange tetrahedron, hexahedron, wedge or pyramid"),
                 };
                 lagrange::lattice_permutation(&gmsh, &vtk).expect("the same lattice points")
             });

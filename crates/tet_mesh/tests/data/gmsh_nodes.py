@@ -29,6 +29,18 @@ for fam, types in (("tet", [4, 11, 29, 30, 31, 71, 72, 73, 74, 75]), ("hex", [5,
             pts.append(q)
         print(fam, t, order, " ".join("%d,%d,%d" % p for p in pts))
 
+for t in (7, 14, 118, 119, 120, 121, 122, 123, 124):
+    # Pyramids on their sheared lattice: point (i, j, k) of layer k at
+    # ((2i + k)/n - 1, (2j + k)/n - 1, k/n) of Gmsh's reference pyramid.
+    name, dim, order, nn, coords, npri = gmsh.model.mesh.getElementProperties(t)
+    pts = []
+    for k in range(nn):
+        x, y, z = coords[3 * k:3 * k + 3]
+        p = ((x + 1 - z) / 2 * order, (y + 1 - z) / 2 * order, z * order)
+        q = tuple(int(round(c)) for c in p)
+        assert max(abs(a - b) for a, b in zip(p, q)) < 1e-6
+        pts.append(q)
+    print("pyramid", t, order, " ".join("%d,%d,%d" % p for p in pts))
 gmsh.model.add("prism")
 corners = [gmsh.model.geo.addPoint(*p, 1) for p in ((0, 0, 0), (1, 0, 0), (0, 1, 0))]
 lines = [gmsh.model.geo.addLine(corners[a], corners[b]) for a, b in ((0, 1), (1, 2), (2, 0))]

@@ -24,8 +24,8 @@ use tet_mesh::{Block, CellType, Cells, Field, SourceMesh};
 ///
 /// Volume cells are kept in VTK node order; quadratic cells that
 /// `CellType` lists and Lagrange tetrahedra, hexahedra and wedges (their
-/// orders from their node counts) keep their nodes (cut at them), other
-/// quadratic cells and Bézier cells are reduced to their corner nodes (and then all of them, so that
+/// orders from their node counts) keep their nodes (cut at them), Bézier
+/// cells are reduced to their corner nodes (and then all others, so that
 /// neighbours conform), and surface, line and vertex cells are skipped (with their CELL_DATA tuples), each counted in
 /// a note. Files without volume
 /// cells (POLYDATA, 2D grids, surface-only unstructured grids) are errors.

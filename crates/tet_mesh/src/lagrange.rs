@@ -568,6 +568,32 @@ pub const WEDGE21_AT: [[i32; 3]; 21] = [
     [2, 2, 3],
 ];
 
+/// Parameter points (times 24; the base at height 0, the apex at 24) of
+/// VTK's 19-node pyramid: corners, the 13-node one's edge midpoints, the
+/// base's centre, the triangles' centres, the body centre (from VTK's own
+/// parametric coordinates).
+pub const TRIQUADRATIC_PYRAMID_AT: [[i32; 3]; 19] = [
+    [0, 0, 0],
+    [24, 0, 0],
+    [24, 24, 0],
+    [0, 24, 0],
+    [12, 12, 24],
+    [12, 0, 0],
+    [24, 12, 0],
+    [12, 24, 0],
+    [0, 12, 0],
+    [6, 6, 12],
+    [18, 6, 12],
+    [18, 18, 12],
+    [6, 18, 12],
+    [12, 12, 0],
+    [12, 4, 8],
+    [20, 12, 8],
+    [12, 20, 8],
+    [4, 12, 8],
+    [12, 12, 6],
+];
+
 fn det(t: [Lattice; 4]) -> i64 {
     let [a, b, c] = [sub(t[1], t[0]), sub(t[2], t[0]), sub(t[3], t[0])].map(|v| v.map(i64::from));
     a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])
@@ -748,6 +774,44 @@ fn build_split(cell_type: CellType) -> LatticeSplit {
                 [[1, 7, 2], [13, 18, 14], [4, 10, 5]],
                 [[2, 8, 0], [14, 19, 12], [5, 11, 3]],
             ];
+        }
+        CellType::QuadraticLinearWedge => {
+            // Each triangle cut into four at its edges' midpoints, the
+            // bottom's over the top's.
+            s.wedges = vec![[0, 6, 8, 3, 9, 11], [6, 1, 7, 9, 4, 10], [8, 7, 2, 11, 10, 5], [6, 7, 8, 9, 10, 11]];
+        }
+        CellType::BiquadraticQuadraticHexahedron => {
+            // Two layers, below and above the ring of the vertical edges'
+            // midpoints (16-19) and side faces' centres (20-23): in each, a
+            // wedge at every corner under the corner triangle of the
+            // serendipity square, and a hexahedron under its square of
+            // edge midpoints (the bottom and top faces cut as the 20-node
+            // hexahedron's, the sides as the 27-node one's).
+            s.wedges = vec![
+                [0, 8, 11, 16, 22, 20],
+                [1, 9, 8, 17, 21, 22],
+                [2, 10, 9, 18, 23, 21],
+                [3, 11, 10, 19, 20, 23],
+                [16, 22, 20, 4, 12, 15],
+                [17, 21, 22, 5, 13, 12],
+                [18, 23, 21, 6, 14, 13],
+                [19, 20, 23, 7, 15, 14],
+            ];
+            s.hexahedra = vec![[8, 9, 10, 11, 22, 21, 23, 20], [22, 21, 23, 20, 12, 13, 14, 15]];
+        }
+        CellType::TriquadraticPyramid => {
+            // Each triangle as a fan around its centre (as the 15-node
+            // tetrahedron's faces), the base as four quadrilaterals (as the
+            // 27-node hexahedron's faces), all coned from the body centre.
+            s.at = TRIQUADRATIC_PYRAMID_AT.to_vec();
+            s.centre = 18;
+            s.fans = vec![
+                (vec![0, 5, 1, 10, 4, 9], 14),
+                (vec![1, 6, 2, 11, 4, 10], 15),
+                (vec![2, 7, 3, 12, 4, 11], 16),
+                (vec![3, 8, 0, 9, 4, 12], 17),
+            ];
+            s.grids = vec![[[0, 5, 1], [8, 13, 6], [3, 7, 2]]];
         }
         t => unreachable!("{t:?} is no lattice cell"),
     }

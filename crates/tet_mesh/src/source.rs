@@ -60,6 +60,17 @@ pub enum CellType {
     /// cell): (n + 1)(n + 2)(2n + 3)/6 nodes — corners, edges, faces, body,
     /// recursively ([`crate::lagrange::gmsh_pyramid_lattice`]).
     LagrangePyramid(u8),
+    /// VTK's 12-node wedge quadratic across and linear along its axis (id
+    /// 31): corners, then the midpoints of edges 0-1, 1-2, 2-0, 3-4, 4-5, 5-3.
+    QuadraticLinearWedge,
+    /// VTK's 24-node hexahedron biquadratic on its side faces and quadratic
+    /// along its axis (id 33): the 20-node one's nodes, then the centres of
+    /// the faces at x = 0, x = 1, y = 0, y = 1 of its parameter cube.
+    BiquadraticQuadraticHexahedron,
+    /// VTK's 19-node pyramid (id 37): the 13-node one's nodes, the base's
+    /// centre, the centres of triangles 0-1-4, 1-2-4, 2-3-4, 3-0-4, then the
+    /// body centre.
+    TriquadraticPyramid,
 }
 
 impl CellType {
@@ -70,16 +81,19 @@ impl CellType {
             CellType::QuadraticTetra | CellType::QuadraticTetraWithCentres | CellType::LagrangeTetra(_) => {
                 CellType::Tetra
             }
-            CellType::QuadraticHexahedron | CellType::TriquadraticHexahedron | CellType::LagrangeHexahedron(_) => {
-                CellType::Hexahedron
-            }
+            CellType::QuadraticHexahedron
+            | CellType::TriquadraticHexahedron
+            | CellType::LagrangeHexahedron(_)
+            | CellType::BiquadraticQuadraticHexahedron => CellType::Hexahedron,
             CellType::QuadraticWedge
             | CellType::BiquadraticWedge
             | CellType::QuadraticWedgeWithCentres
-            | CellType::LagrangeWedge(..) => CellType::Wedge,
-            CellType::QuadraticPyramid | CellType::QuadraticPyramidWithBaseCentre | CellType::LagrangePyramid(_) => {
-                CellType::Pyramid
-            }
+            | CellType::LagrangeWedge(..)
+            | CellType::QuadraticLinearWedge => CellType::Wedge,
+            CellType::QuadraticPyramid
+            | CellType::QuadraticPyramidWithBaseCentre
+            | CellType::LagrangePyramid(_)
+            | CellType::TriquadraticPyramid => CellType::Pyramid,
             linear => linear,
         }
     }
@@ -227,16 +241,17 @@ impl CellType {
                 let n = n as usize;
                 (n + 1) * (n + 2) * (2 * n + 3) / 6
             }
+            CellType::QuadraticLinearWedge => 12,
+            CellType::BiquadraticQuadraticHexahedron => 24,
+            CellType::TriquadraticPyramid => 19,
         }
     }
 
     /// Maps a VTK cell type id to the volume cell it is read as and the
-    /// number of nodes the file stores for it. The 10-node tetrahedron, the
-    /// 20- and 27-node hexahedra, the 15- and 18-node wedges and the 13-node
-    /// pyramid keep their nodes (subdivided at them); other quadratic cells
-    /// list
-    /// their corner nodes first, so keeping the first `num_nodes()` nodes
-    /// reduces them to the linear cell.
+    /// number of nodes the file stores for it. Every quadratic volume cell
+    /// VTK has keeps its nodes (subdivided at them): the 10-node
+    /// tetrahedron, the 20-, 24- and 27-node hexahedra, the 12-, 15- and
+    /// 18-node wedges, the 13- and 19-node pyramids.
     ///
     /// Returns `None` for non-volume cells (vertices, lines, polygons) and
     /// for volume cell types that are no linear cell (polyhedra, which
@@ -257,9 +272,9 @@ impl CellType {
             27 => (CellType::QuadraticPyramid, 13),
             32 => (CellType::BiquadraticWedge, 18),
             29 => (CellType::TriquadraticHexahedron, 27),
-            31 => (CellType::Wedge, 12),      // VTK_QUADRATIC_LINEAR_WEDGE
-            33 => (CellType::Hexahedron, 24), // VTK_BIQUADRATIC_QUADRATIC_HEXAHEDRON
-            37 => (CellType::Pyramid, 19),    // VTK_TRIQUADRATIC_PYRAMID
+            31 => (CellType::QuadraticLinearWedge, 12),
+            33 => (CellType::BiquadraticQuadraticHexahedron, 24),
+            37 => (CellType::TriquadraticPyramid, 19),
             _ => return None,
         })
     }
@@ -538,15 +553,17 @@ mod tests {
     }
 
     #[test]
-    fn quadratic_cells_keep_their_nodes_or_reduce_to_corners() {
+    fn quadratic_cells_keep_their_nodes() {
         assert_eq!(CellType::from_vtk_id(24), Some((CellType::QuadraticTetra, 10)));
         assert_eq!(CellType::from_vtk_id(25), Some((CellType::QuadraticHexahedron, 20)));
         assert_eq!(CellType::from_vtk_id(29), Some((CellType::TriquadraticHexahedron, 27)));
-        for (id, stored) in [(24, 10), (25, 20), (29, 27), (26, 15), (27, 13), (32, 18)] {
+        for (id, stored) in [(24, 10), (25, 20), (29, 27), (26, 15), (27, 13), (32, 18), (31, 12), (33, 24), (37, 19)] {
             assert_eq!(CellType::from_vtk_id(id).map(|(t, _)| t.num_nodes()), Some(stored));
         }
         assert_eq!(CellType::from_vtk_id(26), Some((CellType::QuadraticWedge, 15)));
-        assert_eq!(CellType::from_vtk_id(31), Some((CellType::Wedge, 12)));
+        assert_eq!(CellType::from_vtk_id(31), Some((CellType::QuadraticLinearWedge, 12)));
+        // Bézier cells are reduced to their corners.
+        assert_eq!(CellType::from_vtk(79, 27, None), Some(Ok((CellType::Hexahedron, 27))));
         assert_eq!(CellType::from_vtk_id(5), None);
         assert!(CellType::vtk_id_is_surface_or_lower(5));
     }

@@ -363,6 +363,9 @@ pub fn split_cell(cell_type: CellType, nodes: &[u32], out: &mut impl FnMut([u32;
         | CellType::LagrangeHexahedron(_)
         | CellType::LagrangeWedge(..)
         | CellType::LagrangePyramid(_)
+        | CellType::QuadraticLinearWedge
+        | CellType::BiquadraticQuadraticHexahedron
+        | CellType::TriquadraticPyramid
         | CellType::QuadraticTetraWithCentres
         | CellType::QuadraticWedgeWithCentres => crate::lagrange::split_lagrange(cell_type, nodes, out),
     }
@@ -780,6 +783,108 @@ mod tests {
                 assert!(count.contains(&tets.len()), "{ty:?}: {} tets", tets.len());
                 assert!((total_abs_volume(&p, &tets) - volume).abs() < 1e-12, "{ty:?} seed {seed}");
                 assert!(nodes.iter().all(|n| tets.iter().any(|t| t.contains(n))), "{ty:?}: a node unused");
+            }
+        }
+    }
+
+    /// VTK's 12-node wedge, 24-node hexahedron and 19-node pyramid split at
+    /// their nodes into positive tets filling them, under many labellings;
+    /// stacked and side by side with 27-node hexahedra they conform.
+    #[test]
+    fn partly_quadratic_cells_split_filling_and_conforming() {
+        const HEX_EDGES: [(usize, usize); 12] =
+            [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)];
+        const SIDES: [[usize; 4]; 4] = [[0, 3, 7, 4], [1, 2, 6, 5], [0, 1, 5, 4], [3, 2, 6, 7]];
+        let det = 2.0 * (1.5 * 1.2 + 0.04) - 0.3 * (0.12 - 0.08) - 0.2 * (-0.01 - 0.3);
+        let corners =
+            |o: [i32; 3]| UNIT_HEX.map(|u| [o[0] + 2 * u[0] as i32, o[1] + 2 * u[1] as i32, o[2] + 2 * u[2] as i32]);
+        for seed in 0..30 {
+            let mut l = Lattice::new(500 + seed);
+            let wedge = [[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2], [2, 0, 2], [0, 2, 2]];
+            let w12 = l.cell(&wedge, &[(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3)], &[]);
+            let h24 = l.cell(&corners([4, 0, 0]), &HEX_EDGES, &SIDES);
+            let p = l.points();
+            for (ty, nodes, count, volume) in [
+                (CellType::QuadraticLinearWedge, w12, 12, det / 2.0),
+                (CellType::BiquadraticQuadraticHexahedron, h24, 36, det),
+            ] {
+                assert_eq!(nodes.len(), ty.num_nodes());
+                let tets = split_all(&[(ty, nodes.clone())]);
+                assert_eq!(tets.len(), count, "{ty:?}");
+                assert!((total_abs_volume(&p, &tets) - volume).abs() < 1e-12, "{ty:?} seed {seed}");
+                for t in &tets {
+                    let v = crate::predicates::signed_tet_volume(
+                        &p[t[0] as usize],
+                        &p[t[1] as usize],
+                        &p[t[2] as usize],
+                        &p[t[3] as usize],
+                    );
+                    assert!(v > 0.0, "{ty:?} seed {seed}: {t:?}");
+                }
+            }
+            // Two 24-node hexahedra stacked (an 8-node face between them),
+            // a 27-node one beside the lower (a 9-node face): outer faces
+            // 2 · 6 (bottom and top) + 7 · 8 (24-node sides) + 5 · 8 (the 27-node
+            // one's).
+            let cells = vec![
+                (CellType::BiquadraticQuadraticHexahedron, l.cell(&corners([10, 0, 0]), &HEX_EDGES, &SIDES)),
+                (CellType::BiquadraticQuadraticHexahedron, l.cell(&corners([10, 0, 2]), &HEX_EDGES, &SIDES)),
+                (CellType::TriquadraticHexahedron, l.hex([12, 0, 0], 27)),
+            ];
+            // Two 12-node wedges side by side (a 6-node quad between them).
+            let wedges = vec![
+                (
+                    CellType::QuadraticLinearWedge,
+                    l.cell(
+                        &[[20, 0, 0], [22, 0, 0], [20, 2, 0], [20, 0, 2], [22, 0, 2], [20, 2, 2]],
+                        &[(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3)],
+                        &[],
+                    ),
+                ),
+                (
+                    CellType::QuadraticLinearWedge,
+                    l.cell(
+                        &[[22, 0, 0], [22, 2, 0], [20, 2, 0], [22, 0, 2], [22, 2, 2], [20, 2, 2]],
+                        &[(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3)],
+                        &[],
+                    ),
+                ),
+            ];
+            let p = l.points();
+            for (cells, boundary) in [(cells, 2 * 6 + 7 * 8 + 5 * 8), (wedges, 4 * 4 + 4 * 4)] {
+                let tets = split_all(&cells);
+                let adjacency = crate::build_adjacency(&p, &tets).expect("conforming");
+                assert_eq!(adjacency.boundary_faces.len(), boundary, "{:?} seed {seed}", cells[0].0);
+            }
+        }
+        // The 19-node pyramid at VTK's parameter points (base 1 × 1, height
+        // 1), skewed, relabelled: 32 positive tets of volume 1/3.
+        let at = crate::lagrange::TRIQUADRATIC_PYRAMID_AT;
+        let skew = |q: [i32; 3]| {
+            let [x, y, z] = q.map(|c| c as f64 / 24.0);
+            [2.0 * x + 0.3 * y - 0.2 * z, 0.1 * x + 1.5 * y + 0.4 * z, 0.2 * x - 0.1 * y + 1.2 * z]
+        };
+        for seed in 0..30u64 {
+            let mut ids: Vec<u32> = (0..19).collect();
+            let mut rng = crate::SplitMix64(seed);
+            for i in (1..19).rev() {
+                ids.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+            }
+            let mut p = vec![[0.0; 3]; 19];
+            for (k, &id) in ids.iter().enumerate() {
+                p[id as usize] = skew(at[k]);
+            }
+            let tets = split_all(&[(CellType::TriquadraticPyramid, ids.clone())]);
+            assert_eq!(tets.len(), 32);
+            assert!((total_abs_volume(&p, &tets) - det / 3.0).abs() < 1e-12, "seed {seed}");
+            for t in &tets {
+                let v = crate::predicates::signed_tet_volume(
+                    &p[t[0] as usize],
+                    &p[t[1] as usize],
+                    &p[t[2] as usize],
+                    &p[t[3] as usize],
+                );
+                assert!(v > 0.0, "seed {seed}: {t:?}");
             }
         }
     }

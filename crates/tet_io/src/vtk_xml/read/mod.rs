@@ -62,9 +62,9 @@ pub(crate) const BASE64: GeneralPurpose = GeneralPurpose::new(
 /// that [`CellType`] lists, and Lagrange tetrahedra, hexahedra and wedges
 /// (their orders from the `HigherOrderDegrees` cell array the `<CellData>`
 /// names, else from their node counts: [`CellType::from_vtk`]), keep their
-/// nodes (cut at them); other quadratic cells and Bézier cells are reduced
-/// to their corners, with a note, and then all of them, so that neighbours
-/// conform. An unknown cell type id is an error. Point
+/// nodes (cut at them) — every VTK quadratic volume cell is listed;
+/// Bézier cells are reduced to their corners, with a note, and then all
+/// other cells, so that neighbours conform. An unknown cell type id is an error. Point
 /// and cell arrays
 /// become fields of their `NumberOfComponents`; `FieldData` and non-numeric
 /// arrays are ignored.
@@ -760,13 +760,19 @@ mod tests {
         assert!(!m.notes.iter().any(|n| n.contains("higher-order")), "{:?}", m.notes);
         assert!(m.notes.iter().any(|n| n.contains("skipped 1 cells without volume")), "{:?}", m.notes);
         assert!(m.format.contains("ascii"), "{}", m.format);
-        // A 12-node wedge (VTK_QUADRATIC_LINEAR_WEDGE) is reduced to its
-        // corners, with a note, and then the quadratic tet beside it as well
-        // (cut at its nodes it would not conform with the wedge).
+        // A 12-node wedge (VTK_QUADRATIC_LINEAR_WEDGE) is kept whole too.
         let text = tiny_vtu("24 5 31", "10 13 25", "0 1 2 3 4 5 6 7 8 9  0 1 2  0 1 2 3 4 5 6 7 8 9 0 1", "7 8 9");
         let m = read(text.as_bytes()).unwrap();
         let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
-        assert_eq!((cells.types[1], cells.nodes(1)), (CellType::Wedge, &[0, 1, 2, 3, 4, 5][..]));
+        assert_eq!(cells.types, vec![CellType::QuadraticTetra, CellType::QuadraticLinearWedge]);
+        assert!(!m.notes.iter().any(|n| n.contains("higher-order")), "{:?}", m.notes);
+        // A Bézier tetrahedron (id 78; its control points off the cell) is
+        // reduced to its corners, with a note, and then the quadratic tet
+        // beside it as well (cut at its nodes it would not conform with it).
+        let text = tiny_vtu("24 5 78", "10 13 23", "0 1 2 3 4 5 6 7 8 9  0 1 2  0 1 2 3 4 5 6 7 8 9", "7 8 9");
+        let m = read(text.as_bytes()).unwrap();
+        let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
+        assert_eq!((cells.types[1], cells.nodes(1)), (CellType::Tetra, &[0, 1, 2, 3][..]));
         assert_eq!((cells.types[0], cells.nodes(0)), (CellType::Tetra, &[0, 1, 2, 3][..]));
         assert!(m.notes.iter().any(|n| n.contains("1 higher-order")), "{:?}", m.notes);
         assert!(m.notes.iter().any(|n| n.contains("reduced 1 more quadratic")), "{:?}", m.notes);

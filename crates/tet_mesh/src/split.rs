@@ -787,6 +787,13 @@ mod tests {
         }
     }
 
+    fn assert_all_positive(p: &[[f64; 3]], tets: &[[u32; 4]], what: &str) {
+        for t in tets {
+            let [a, b, c, d] = t.map(|v| &p[v as usize]);
+            assert!(crate::predicates::signed_tet_volume(a, b, c, d) > 0.0, "{what}: {t:?}");
+        }
+    }
+
     /// VTK's 12-node wedge, 24-node hexahedron and 19-node pyramid split at
     /// their nodes into positive tets filling them, under many labellings;
     /// stacked and side by side with 27-node hexahedra they conform.
@@ -812,15 +819,7 @@ mod tests {
                 let tets = split_all(&[(ty, nodes.clone())]);
                 assert_eq!(tets.len(), count, "{ty:?}");
                 assert!((total_abs_volume(&p, &tets) - volume).abs() < 1e-12, "{ty:?} seed {seed}");
-                for t in &tets {
-                    let v = crate::predicates::signed_tet_volume(
-                        &p[t[0] as usize],
-                        &p[t[1] as usize],
-                        &p[t[2] as usize],
-                        &p[t[3] as usize],
-                    );
-                    assert!(v > 0.0, "{ty:?} seed {seed}: {t:?}");
-                }
+                assert_all_positive(&p, &tets, &format!("{ty:?} seed {seed}"));
             }
             // Two 24-node hexahedra stacked (an 8-node face between them),
             // a 27-node one beside the lower (a 9-node face): outer faces
@@ -877,15 +876,7 @@ mod tests {
             let tets = split_all(&[(CellType::TriquadraticPyramid, ids.clone())]);
             assert_eq!(tets.len(), 32);
             assert!((total_abs_volume(&p, &tets) - det / 3.0).abs() < 1e-12, "seed {seed}");
-            for t in &tets {
-                let v = crate::predicates::signed_tet_volume(
-                    &p[t[0] as usize],
-                    &p[t[1] as usize],
-                    &p[t[2] as usize],
-                    &p[t[3] as usize],
-                );
-                assert!(v > 0.0, "seed {seed}: {t:?}");
-            }
+            assert_all_positive(&p, &tets, &format!("seed {seed}"));
         }
     }
 

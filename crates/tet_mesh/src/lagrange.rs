@@ -125,8 +125,16 @@ pub fn cell_type_of_vtk_higher_order(
     };
     Some(match found {
         Some(t) if t.num_nodes() == count => Ok(if id >= 78 { linear } else { t.simplest() }),
-        Some(t) => Err(format!("{count} nodes for a VTK type {id} cell of {t:?}, which has {}", t.num_nodes())),
-        None => Err(format!("{count} nodes fit no order of a VTK type {id} cell")),
+        Some(t) => Err(format!("{count} nodes, but its HigherOrderDegrees make it a {t:?} of {}", t.num_nodes())),
+        None => {
+            let kind = if id >= 78 { "Bézier" } else { "Lagrange" };
+            let shape = match linear {
+                CellType::Tetra => "tetrahedron: (n+1)(n+2)(n+3)/6",
+                CellType::Hexahedron => "hexahedron: (n+1)³",
+                _ => "wedge: (n+1)²(n+2)/2",
+            };
+            Err(format!("{count} nodes fit no order n of a {kind} {shape} nodes, n = 1..={MAX_LAGRANGE_ORDER}"))
+        }
     })
 }
 

@@ -11,7 +11,10 @@
 //! cut at all their nodes: a 10-node tetrahedron into 8 tets, a 20-node
 //! hexahedron into 22, a 27-node one into its 8 sub-hexahedra (48), a
 //! 15-node wedge into 14 or 15, an 18-node one into its 8 sub-wedges (24),
-//! a 13-node pyramid into 13, Gmsh's 14-node one into 16.
+//! a 13-node pyramid into 13, Gmsh's 14-node one into 16. Lagrange cells of
+//! any order, the centred quadratic cells and VTK's partly quadratic ones
+//! (12-node wedge, 24-node hexahedron, 19-node pyramid) are split by
+//! [`crate::lagrange`] into these linear cells at their nodes.
 //!
 //! Structured blocks may instead use the classic alternating 5-tet split:
 //! cells of even and odd parity (i+j+k) use the two mirror-image 5-tet

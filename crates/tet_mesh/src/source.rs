@@ -101,7 +101,10 @@ impl CellType {
     /// For each node after the corners (in the cell's order), the corners
     /// whose mean is where it sits on a straight-sided cell: an edge's two,
     /// a face's three or four, or all (a body centre). Empty for linear and
-    /// Lagrange cells (whose nodes follow from their parameter lattice).
+    /// Lagrange cells (whose nodes follow from their parameter lattice) and
+    /// for VTK's 12-node wedge, 24-node hexahedron and 19-node pyramid (no
+    /// reader needs their check; the pyramid's body node is no corners'
+    /// mean).
     pub fn straight_sided_parents(self) -> &'static [&'static [usize]] {
         const TRIQUADRATIC: [&[usize]; 19] = [
             &[0, 1],

@@ -11,6 +11,8 @@
 //! - [`predicates`] — exact orientation tests every geometric decision uses.
 //! - [`polyhedron`] — polyhedral cells as conforming tets around added centre points
 //!   ([`PolyhedronSplitter`]), for the readers that meet them.
+//! - [`lagrange`] — higher-order cells of any order (VTK's Lagrange cells,
+//!   Gmsh's complete ones): where their nodes lie and their split at them.
 //!
 //! ```
 //! use tet_mesh::{tetrahedralize, build_adjacency, Block, ConvertOptions, Field, SourceMesh, SplitMode};

@@ -56,7 +56,9 @@ fn main() {
     let lut = LutFile::read(lut_path).expect("lut reads");
     let tf = lut.transfer_function().expect("lut's transfer function");
     let mut shader: Arc<dyn tet_preint::SegmentShader> = load_shader(&lut, lut_path).expect("shader").into();
-    if std::env::var("TET_FREE_SHADER").is_ok() {
+    // (Switches are on when set to anything but "0", as TET_WALK_PREFETCH is off at "0".)
+    let on = |name: &str| std::env::var(name).is_ok_and(|v| v != "0");
+    if on("TET_FREE_SHADER") {
         shader = Arc::new(FreeShader(shader.method()));
     }
     let frames: usize = args.get(3).map_or(3, |s| s.parse().expect("frames"));
@@ -77,9 +79,9 @@ fn main() {
     r.set_view(&base).expect("view");
     r.set_shader(shader);
     r.set_culler(Some(Arc::new(TfCuller::new(&tf))));
-    let fast_path = std::env::var("TET_GENERAL_PATH").is_err();
+    let fast_path = !on("TET_GENERAL_PATH");
     let tile = std::env::var("TET_TILE").ok().and_then(|t| t.parse().ok()).unwrap_or(RasterOptions::default().tile);
-    let keep = std::env::var("TET_NO_KEEP").is_err();
+    let keep = !on("TET_NO_KEEP");
     let orbit: f64 = std::env::var("TET_ORBIT").ok().and_then(|d| d.parse().ok()).unwrap_or(0.0);
     let walk_interleave =
         std::env::var("TET_WALK_INTERLEAVE").ok().map(|k| k.parse().expect("TET_WALK_INTERLEAVE: rays"));

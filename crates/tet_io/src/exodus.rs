@@ -348,15 +348,21 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
                 ids[e]
             )));
         }
-        let element = |e: usize, order: &[usize]| -> Vec<u32> {
-            order.iter().map(|&k| ids[e * blk.nodes_per_elem + k] as u32 - 1).collect()
+        // Element e's nodes (0-based) in `order`, into a buffer reused for all.
+        let mut buf = Vec::with_capacity(blk.nodes_per_elem);
+        let element = |buf: &mut Vec<u32>, e: usize, order: &[usize]| {
+            buf.clear();
+            buf.extend(order.iter().map(|&k| ids[e * blk.nodes_per_elem + k] as u32 - 1));
         };
-        let linear: Vec<usize> = (0..blk.cell_type.num_nodes()).collect();
+        // (A linear cell's only order is the identity.)
         let orders = node_orders(blk.cell_type);
         let quadratic = !blk.cell_type.straight_sided_parents().is_empty();
         let chosen = if quadratic {
             orders.iter().position(|order| {
-                (0..blk.count).all(|e| blk.cell_type.higher_order_nodes_in_place(&element(e, order), &points))
+                (0..blk.count).all(|e| {
+                    element(&mut buf, e, order);
+                    blk.cell_type.higher_order_nodes_in_place(&buf, &points)
+                })
             })
         } else {
             Some(0)
@@ -370,7 +376,8 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
                     ));
                 }
                 for e in 0..blk.count {
-                    cells.push(blk.cell_type, &element(e, if quadratic { &orders[k] } else { &linear }));
+                    element(&mut buf, e, &orders[k]);
+                    cells.push(blk.cell_type, &buf);
                 }
             }
             None => {
@@ -380,7 +387,8 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
                 ));
                 let corners: Vec<usize> = (0..blk.cell_type.linear().num_nodes()).collect();
                 for e in 0..blk.count {
-                    cells.push(blk.cell_type.linear(), &element(e, &corners));
+                    element(&mut buf, e, &corners);
+                    cells.push(blk.cell_type.linear(), &buf);
                 }
                 reduced += blk.count;
             }

@@ -48,13 +48,13 @@ const TET10_AS_VTK: [usize; 10] = [0, 1, 2, 3, 6, 7, 9, 5, 8, 4];
 /// rounded): TetGen's `-o2` puts them there, so this tells its order was
 /// read right (another edge's middle is a good part of an edge away).
 fn edge_nodes_at_midpoints(mesh: &SourceMesh) -> bool {
-    const EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)];
+    let edges = CellType::QuadraticTetra.straight_sided_parents();
     let Some(Block::Unstructured(cells)) = mesh.blocks.first() else { return true };
     (0..cells.len()).filter(|&c| cells.types[c] == CellType::QuadraticTetra).all(|c| {
         let n = cells.nodes(c);
         let p = |k: usize| mesh.points[n[k] as usize];
-        EDGES.iter().enumerate().all(|(e, &(a, b))| {
-            let (pa, pb, m) = (p(a), p(b), p(4 + e));
+        edges.iter().enumerate().all(|(e, ab)| {
+            let (pa, pb, m) = (p(ab[0]), p(ab[1]), p(4 + e));
             let len = (0..3).map(|x| (pa[x] - pb[x]).powi(2)).sum::<f64>().sqrt();
             (0..3).all(|x| (m[x] - 0.5 * (pa[x] + pb[x])).abs() <= 1e-3 * len)
         })

@@ -328,34 +328,6 @@ fn second_order_tets_are_cut_at_their_nodes() {
 /// first-order mesh of the same geometry.
 #[test]
 fn second_order_cells_are_cut_at_their_nodes() {
-    const HEX_EDGES: [(usize, usize); 12] =
-        [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)];
-    const WEDGE_EDGES: [(usize, usize); 9] = [(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)];
-    const PYRAMID_EDGES: [(usize, usize); 8] = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)];
-    // Edges, then the corner sets whose centroids the next nodes are.
-    let layout = |t: CellType| -> (&'static [(usize, usize)], &'static [&'static [usize]]) {
-        match t {
-            CellType::QuadraticTetra => (&[(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)], &[]),
-            CellType::QuadraticHexahedron => (&HEX_EDGES, &[]),
-            CellType::TriquadraticHexahedron => (
-                &HEX_EDGES,
-                &[
-                    &[0, 3, 7, 4],
-                    &[1, 2, 6, 5],
-                    &[0, 1, 5, 4],
-                    &[3, 2, 6, 7],
-                    &[0, 1, 2, 3],
-                    &[4, 5, 6, 7],
-                    &[0, 1, 2, 3, 4, 5, 6, 7],
-                ],
-            ),
-            CellType::QuadraticWedge => (&WEDGE_EDGES, &[]),
-            CellType::BiquadraticWedge => (&WEDGE_EDGES, &[&[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]]),
-            CellType::QuadraticPyramid => (&PYRAMID_EDGES, &[]),
-            CellType::QuadraticPyramidWithBaseCentre => (&PYRAMID_EDGES, &[&[0, 1, 2, 3]]),
-            other => panic!("{other:?} is not a second-order cell"),
-        }
-    };
     let convert = |m: &SourceMesh| {
         let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
         assert!(
@@ -379,11 +351,13 @@ fn second_order_cells_are_cut_at_their_nodes() {
         for i in 0..c.len() {
             let n = c.nodes(i);
             let p = |k: usize| m.points[n[k] as usize];
-            let (edges, centres) = layout(c.types[i]);
-            let corners = n.len() - edges.len() - centres.len();
-            let wanted = edges.iter().map(|&(a, b)| [0, 1, 2].map(|x| 0.5 * (p(a)[x] + p(b)[x]))).chain(
-                centres.iter().map(|f| [0, 1, 2].map(|x| f.iter().map(|&k| p(k)[x]).sum::<f64>() / f.len() as f64)),
-            );
+            // Each edge node at its edge's middle, each face or body node at
+            // its corners' centroid, in VTK's order.
+            let parents = c.types[i].straight_sided_parents();
+            assert!(!parents.is_empty(), "{:?} is not a second-order cell", c.types[i]);
+            let corners = n.len() - parents.len();
+            let wanted =
+                parents.iter().map(|f| [0, 1, 2].map(|x| f.iter().map(|&k| p(k)[x]).sum::<f64>() / f.len() as f64));
             for (k, w) in wanted.enumerate() {
                 let at = p(corners + k);
                 let off = (0..3).map(|x| (at[x] - w[x]).abs()).fold(0.0, f64::max);

@@ -7,7 +7,7 @@
 //!
 //! The first frame is cold (view, cull, sort); the others reuse the order.
 //! `TET_TILE=16` sets the tile side; `TET_WALK_INTERLEAVE=K` walks K rays at
-//! once (`RasterOptions::walk_interleave`; default 1); `TET_WALK_PREFETCH=0` turns the walker's
+//! once (`RasterOptions::walk_interleave`; default `walk::WALK_LANES`); `TET_WALK_PREFETCH=0` turns the walker's
 //! prefetch of the next step's records off (`RasterOptions::walk_prefetch`); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
 //! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
 //! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
@@ -15,6 +15,7 @@
 //! first (each frame a camera move: re-sorted and set up again);
 //! `TET_NO_KEEP=1` keeps no per-tet setup across frames. `TET_RENDERER=pt`
 //! draws by projected tetrahedra instead of the ray walker (the default).
+//! `TET_RECORD_SEGS=path` appends every shaded batch to a file (see `Recorder`).
 //! `TET_FREE_SHADER=1` replaces the table with a shader that returns a
 //! constant colour: the renderer's own cost, without lookups. `TET_VIEW=view.json`
 //! starts from that camera and its size (VTK fields, e.g. the one `shared/peer/vtk_render.py`
@@ -27,6 +28,33 @@ use tet_bundle::Bundle;
 use tet_preint::{load_shader, LutFile};
 use tet_render::pipeline::process_cpu_seconds;
 use tet_render::{RasterOptions, Renderer, Scene, TfCuller, ViewSpec};
+
+/// Passes every batch to the table and appends it to a file (`TET_RECORD_SEGS`):
+/// per batch its length (u32) then (Sf, Sb, l) per segment (f32, little
+/// endian), the stream `tet_preint`'s `lookup_replay` example times. Run
+/// with `RAYON_NUM_THREADS=1` for one ray's batches in order.
+struct Recorder(Arc<dyn tet_preint::SegmentShader>, std::sync::Mutex<std::io::BufWriter<std::fs::File>>);
+
+impl tet_preint::SegmentShader for Recorder {
+    fn method(&self) -> tet_preint::Method {
+        self.0.method()
+    }
+    fn shade(&self, s: &tet_preint::Segment) -> tet_preint::Rgba32 {
+        self.0.shade(s)
+    }
+    fn shade_batch(&self, segs: &tet_preint::SegmentBatch, out: &mut [tet_preint::Rgba32; tet_preint::BATCH]) {
+        use std::io::Write;
+        let mut bytes = Vec::with_capacity(4 + 12 * segs.len);
+        bytes.extend_from_slice(&(segs.len as u32).to_le_bytes());
+        for i in 0..segs.len {
+            for v in [segs.s_front[i], segs.s_back[i], segs.len_world[i]] {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        self.1.lock().expect("recorder").write_all(&bytes).expect("segments written");
+        self.0.shade_batch(segs, out)
+    }
+}
 
 /// A shader whose every segment is the same faint grey: no lookup cost.
 struct FreeShader(tet_preint::Method);
@@ -60,6 +88,10 @@ fn main() {
     let on = |name: &str| std::env::var(name).is_ok_and(|v| v != "0");
     if on("TET_FREE_SHADER") {
         shader = Arc::new(FreeShader(shader.method()));
+    }
+    if let Ok(p) = std::env::var("TET_RECORD_SEGS") {
+        let f = std::fs::File::create(&p).expect("segment file created");
+        shader = Arc::new(Recorder(shader, std::sync::Mutex::new(std::io::BufWriter::new(f))));
     }
     let frames: usize = args.get(3).map_or(3, |s| s.parse().expect("frames"));
     let size: [u32; 2] = args.get(4).map_or([512, 512], |s| {

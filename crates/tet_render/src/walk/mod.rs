@@ -78,6 +78,8 @@ pub(crate) const LINK_BOUNDARY: u32 = u32::MAX;
 /// `links[t][f]` for a link whose neighbour does not list `t` (a
 /// non-manifold spot or a corrupted adjacency).
 pub(crate) const LINK_BROKEN: u32 = u32::MAX - 1;
+/// Rays a tile walks at once by default ([`RasterOptions::walk_interleave`]).
+pub const WALK_LANES: usize = 8;
 /// Most tets the packed links can address (2 bits hold the face).
 pub const MAX_WALK_TETS: usize = (u32::MAX / 4 - 1) as usize;
 
@@ -454,7 +456,7 @@ pub fn walk_frame(
         lit: opts.shading.is_active() && mesh.grads.is_some(),
         lit_shadows,
         lit_position: opts.shading.needs_position() || lit_shadows.is_some_and(|f| f.has_maps()),
-        lanes: opts.walk_interleave.unwrap_or(1).clamp(1, 64),
+        lanes: opts.walk_interleave.unwrap_or(WALK_LANES).clamp(1, 64),
         prefetch: opts.walk_prefetch,
         adaptive: opts.walk_adaptive.filter(|t| t.is_finite() && *t >= 0.0),
     };

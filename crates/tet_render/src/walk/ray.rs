@@ -337,7 +337,7 @@ impl WalkCtx<'_> {
             adaptive_fill(&rays, stride, acc.len() / stride, tol, &mut acc, &mut st, &mut walk);
             next = rays.len();
         } else if lanes == 1 {
-            // One ray at a time (the default): its state stays a local.
+            // One ray at a time: its state stays a local.
             let batch = &mut batches[0];
             for &(pix, first, end) in &rays {
                 let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);

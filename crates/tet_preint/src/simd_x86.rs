@@ -16,7 +16,9 @@
 //!
 //! Per block of eight segments: the cells are located in 8 lanes (AVX2
 //! gathers for the non-uniform axis's buckets, a second bucket step for
-//! buckets that hold several knots, and the band's row offsets), then each
+//! buckets that hold several knots, and the band's row offsets; a front
+//! scalar equal to the previous segment's back one, as along a ray, reuses
+//! its grid index), then each
 //! segment loads its 4 (Sf, Sb) corners' two l-neighbours (one 32-byte row
 //! each: 8 f32, or 8 f16 / unorm16 / unorm8 values decoded by F16C or
 //! integer widening and the storage's factors) and interpolates.
@@ -372,6 +374,16 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
     let mut base = [[0i32; 8]; 2];
     let mut w = [[0.0f32; 8]; 4];
     let mut frac = [[0.0f32; 8]; 3];
+    // The previous block's last clamped back scalar and its grid index
+    // (non-uniform axis): a ray's segments follow each other, so segment
+    // i's front scalar is usually segment i − 1's back one, bit for bit,
+    // and its grid index is already known (`x_of_lanes` is a function of
+    // each lane's scalar alone): a block whose every front scalar is its
+    // predecessor's back one maps only the back scalars. NaN at first:
+    // its bits are no clamped scalar's.
+    let (mut prev_sb, mut prev_xb) = (_mm256_set1_ps(f32::NAN), _mm256_setzero_ps());
+    // Lane i takes lane i − 1; lane 0 the previous block's lane 7.
+    let shift = _mm256_setr_epi32(7, 0, 1, 2, 3, 4, 5, 6);
     for blk in (0..n).step_by(8) {
         let m = (n - blk).min(8);
         let valid = (1i32 << m) - 1;
@@ -397,7 +409,23 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
             let sf = clamp(no_nan(sf, lo), lo, hi);
             let b = clamp(no_nan(sb, lo), lo, hi);
             let sb = clamp(b, _mm256_sub_ps(sf, ds), _mm256_add_ps(sf, ds));
-            (x_of_lanes(sf, valid), x_of_lanes(sb, valid))
+            let xb = x_of_lanes(sb, valid);
+            // Each lane's predecessor's clamped back scalar and grid index
+            // (lane 0's from the previous block).
+            let pred = |v: __m256, carry: __m256| {
+                _mm256_blend_ps::<1>(_mm256_permutevar8x32_ps(v, shift), _mm256_permutevar8x32_ps(carry, shift))
+            };
+            let (sb_pred, xb_pred) = (pred(sb, prev_sb), pred(xb, prev_xb));
+            (prev_sb, prev_xb) = (sb, xb);
+            // Bit for bit (an integer compare: −0 is not +0), on the
+            // clamped values `x_of_lanes` would read.
+            let same = _mm256_cmpeq_epi32(_mm256_castps_si256(sf), _mm256_castps_si256(sb_pred));
+            let xa = if _mm256_movemask_ps(_mm256_castsi256_ps(same)) & valid == valid {
+                xb_pred
+            } else {
+                x_of_lanes(sf, valid)
+            };
+            (xa, xb)
         };
         let xk = clamp(_mm256_mul_ps(no_nan(len, zero), inv_dl), zero, xk_max);
         // Cell corner min(⌊x⌋, n − 2) and fraction, as `Table3d::cell_of`;
@@ -596,6 +624,35 @@ mod tests {
             raw in prop::collection::vec((-0.3f32..1.3, -0.3f32..1.3, -0.5f32..2.6, any::<u8>()), 0..=BATCH),
         ) {
             let b = batch(&raw);
+            for t in TABLES.with(|t| t.clone()) {
+                check(&t, &b)?;
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, rng_seed: proptest::test_runner::RngSeed::Fixed(0xc4a1), ..ProptestConfig::default() })]
+
+        /// A ray's segments: each front scalar the previous back one (the
+        /// kernel then reuses its grid index), with breaks (a new run) and
+        /// odd values anywhere in the chain.
+        #[test]
+        fn chained_segments_equal_the_portable_path(
+            raw in prop::collection::vec((-0.3f32..1.3, -0.5f32..2.6, any::<u8>(), 0u8..8), 1..=BATCH),
+        ) {
+            let mut b = SegmentBatch::default();
+            let mut prev = 0.4f32;
+            for &(s, len_world, tag, brk) in &raw {
+                let s_front = if brk == 0 { s * 0.5 } else { prev };
+                let mut seg = Segment { s_front, s_back: s, len_world, ..Default::default() };
+                match tag % 6 {
+                    0 => seg.s_back = odd(tag / 6).unwrap_or(s),
+                    1 => seg.s_front = odd(tag / 6).unwrap_or(s_front),
+                    _ => {}
+                }
+                prev = seg.s_back;
+                b.push(seg);
+            }
             for t in TABLES.with(|t| t.clone()) {
                 check(&t, &b)?;
             }

@@ -6,9 +6,10 @@
 //! `Table3d::lookup`) computes, operation for operation, so the results are
 //! **bit-identical**, not merely close: the index arithmetic (clamps, the
 //! non-uniform axis's bucket map `x0 + (s − s0)·inv`, the cell split) and
-//! the trilinear sum `((p₀ + p₁) + p₂) + p₃` with pᵢ = (e₀ + (e₁ − e₀)·fk)·wᵢ
+//! the trilinear sum — per slice k ∈ {k0, k0 + 1}, `((p₀ + p₁) + p₂) + p₃`
+//! with p_c = e_c,k·(w_c·g_k), g = (1 − fk, fk), then the two slices added —
 //! are the same IEEE single-precision operations in the same order, done
-//! eight lanes or two corners at a time. No FMA is used: fusing the
+//! eight lanes or one row of two entries at a time. No FMA is used: fusing the
 //! multiply-adds would round differently (by ~1e-7) and break the contract
 //! that every lookup path of a table — `shade`, `shade_span`, `shade_batch`,
 //! the rasterizer's fast and per-tile paths — gives the same image bit for
@@ -262,6 +263,41 @@ fn clamp_i(v: __m256i, lo: i32, hi: i32) -> __m256i {
     _mm256_min_epi32(_mm256_max_epi32(v, _mm256_set1_epi32(lo)), _mm256_set1_epi32(hi))
 }
 
+/// The 8 × 8 transpose: lane l of vector j becomes lane j of vector l.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn transpose8(v: [__m256; 8]) -> [__m256; 8] {
+    let t: [__m256; 8] = std::array::from_fn(|k| {
+        let (a, b) = (v[2 * (k / 2)], v[2 * (k / 2) + 1]);
+        if k % 2 == 0 {
+            _mm256_unpacklo_ps(a, b)
+        } else {
+            _mm256_unpackhi_ps(a, b)
+        }
+    });
+    // (t0 = v0v1 lo, t1 = v0v1 hi, t2 = v2v3 lo, t3 = v2v3 hi, …)
+    let u: [__m256; 8] = [
+        _mm256_shuffle_ps::<0x44>(t[0], t[2]),
+        _mm256_shuffle_ps::<0xee>(t[0], t[2]),
+        _mm256_shuffle_ps::<0x44>(t[1], t[3]),
+        _mm256_shuffle_ps::<0xee>(t[1], t[3]),
+        _mm256_shuffle_ps::<0x44>(t[4], t[6]),
+        _mm256_shuffle_ps::<0xee>(t[4], t[6]),
+        _mm256_shuffle_ps::<0x44>(t[5], t[7]),
+        _mm256_shuffle_ps::<0xee>(t[5], t[7]),
+    ];
+    [
+        _mm256_permute2f128_ps::<0x20>(u[0], u[4]),
+        _mm256_permute2f128_ps::<0x20>(u[1], u[5]),
+        _mm256_permute2f128_ps::<0x20>(u[2], u[6]),
+        _mm256_permute2f128_ps::<0x20>(u[3], u[7]),
+        _mm256_permute2f128_ps::<0x31>(u[0], u[4]),
+        _mm256_permute2f128_ps::<0x31>(u[1], u[5]),
+        _mm256_permute2f128_ps::<0x31>(u[2], u[6]),
+        _mm256_permute2f128_ps::<0x31>(u[3], u[7]),
+    ]
+}
+
 /// The batched lookup (see [`shade_batch`]): with `CELLS`, the cells into
 /// `cells` only; otherwise the trilinear lookups into `out`.
 ///
@@ -372,8 +408,11 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
     let po = t.pair_off.as_ptr();
     let one = _mm256_set1_ps(1.0);
     let mut base = [[0i32; 8]; 2];
-    let mut w = [[0.0f32; 8]; 4];
-    let mut frac = [[0.0f32; 8]; 3];
+    // Corner c's two weights, each spread over 4 lanes.
+    let pair_idx: [__m256i; 4] = std::array::from_fn(|c| {
+        let (a, b) = (2 * c as i32, 2 * c as i32 + 1);
+        _mm256_setr_epi32(a, a, a, a, b, b, b, b)
+    });
     // The previous block's last clamped back scalar and its grid index
     // (non-uniform axis): a ray's segments follow each other, so segment
     // i's front scalar is usually segment i − 1's back one, bit for bit,
@@ -462,20 +501,29 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
             let e = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(p, b0), nl), k0);
             clamp_i(_mm256_slli_epi32::<2>(e), 0, g.max_base)
         };
+        // The 8 weights of each lane's entries, as `Table3d::gather`: corner
+        // c's w_c times 1 − fk (slice k0) and fk (slice k0 + 1), then
+        // transposed so that lane l's eight are one vector,
+        // (w₀·gk, w₀·fk, w₁·gk, w₁·fk, …).
         let (wa0, wb0) = (_mm256_sub_ps(one, fa), _mm256_sub_ps(one, fb));
+        let gk = _mm256_sub_ps(one, fk);
+        let wc = [_mm256_mul_ps(wa0, wb0), _mm256_mul_ps(wa0, fb), _mm256_mul_ps(fa, wb0), _mm256_mul_ps(fa, fb)];
+        let wts = transpose8([
+            _mm256_mul_ps(wc[0], gk),
+            _mm256_mul_ps(wc[0], fk),
+            _mm256_mul_ps(wc[1], gk),
+            _mm256_mul_ps(wc[1], fk),
+            _mm256_mul_ps(wc[2], gk),
+            _mm256_mul_ps(wc[2], fk),
+            _mm256_mul_ps(wc[3], gk),
+            _mm256_mul_ps(wc[3], fk),
+        ]);
         // SAFETY: 8-lane stores into local arrays of 8 values.
         unsafe {
             _mm256_storeu_si256(base[0].as_mut_ptr().cast(), off(p0));
             _mm256_storeu_si256(base[1].as_mut_ptr().cast(), off(p1));
-            _mm256_storeu_ps(w[0].as_mut_ptr(), _mm256_mul_ps(wa0, wb0));
-            _mm256_storeu_ps(w[1].as_mut_ptr(), _mm256_mul_ps(wa0, fb));
-            _mm256_storeu_ps(w[2].as_mut_ptr(), _mm256_mul_ps(fa, wb0));
-            _mm256_storeu_ps(w[3].as_mut_ptr(), _mm256_mul_ps(fa, fb));
-            _mm256_storeu_ps(frac[0].as_mut_ptr(), fa);
-            _mm256_storeu_ps(frac[1].as_mut_ptr(), fb);
-            _mm256_storeu_ps(frac[2].as_mut_ptr(), fk);
         }
-        for l in 0..m {
+        for (l, &wl) in wts.iter().enumerate().take(m) {
             // base ∈ [0, max_base] (clamped), so base + n_l·4 + 8 ≤ len.
             let (o0, o1) = (base[0][l] as usize, base[1][l] as usize);
             let bases = [o0, o0 + g.nl4, o1, o1 + g.nl4];
@@ -483,25 +531,14 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
             // within the data by the bound above; AVX2/F16C as required.
             let v =
                 unsafe { [row::<S>(g, bases[0]), row::<S>(g, bases[1]), row::<S>(g, bases[2]), row::<S>(g, bases[3])] };
-            let i = blk + l;
-            // Corners 0 and 1 side by side, then 2 and 3: [k0 | k0] and
-            // [k0+1 | k0+1], interpolated in l (e0 + (e1 − e0)·fk), weighted,
-            // and summed in the portable order ((p0 + p1) + p2) + p3.
-            let fk = _mm256_set1_ps(frac[2][l]);
-            let lerp = |x: __m256, y: __m256| {
-                let e0 = _mm256_permute2f128_ps::<0x20>(x, y);
-                let e1 = _mm256_permute2f128_ps::<0x31>(x, y);
-                _mm256_add_ps(e0, _mm256_mul_ps(_mm256_sub_ps(e1, e0), fk))
-            };
-            let w01 = _mm256_set_m128(_mm_set1_ps(w[1][l]), _mm_set1_ps(w[0][l]));
-            let w23 = _mm256_set_m128(_mm_set1_ps(w[3][l]), _mm_set1_ps(w[2][l]));
-            let p01 = _mm256_mul_ps(lerp(v[0], v[1]), w01);
-            let p23 = _mm256_mul_ps(lerp(v[2], v[3]), w23);
-            let s = _mm_add_ps(_mm256_castps256_ps128(p01), _mm256_extractf128_ps::<1>(p01));
-            let s = _mm_add_ps(s, _mm256_castps256_ps128(p23));
-            let s = _mm_add_ps(s, _mm256_extractf128_ps::<1>(p23));
-            // SAFETY: 4-float store into out[i], an [f32; 4] (i < n ≤ BATCH, bounds-checked).
-            unsafe { _mm_storeu_ps(out[i].as_mut_ptr(), s) };
+            // Corner c's row [k0 | k0 + 1] times [w_c·gk ×4 | w_c·fk ×4],
+            // summed over the corners in the portable order, then the two
+            // slices.
+            let p = |c: usize| _mm256_mul_ps(v[c], _mm256_permutevar8x32_ps(wl, pair_idx[c]));
+            let s = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(p(0), p(1)), p(2)), p(3));
+            let s = _mm_add_ps(_mm256_castps256_ps128(s), _mm256_extractf128_ps::<1>(s));
+            // SAFETY: 4-float store into out[blk + l], an [f32; 4] (blk + l < n ≤ BATCH, bounds-checked).
+            unsafe { _mm_storeu_ps(out[blk + l].as_mut_ptr(), s) };
         }
     }
 }

@@ -80,17 +80,18 @@ impl Table3d {
         // (Explicit, not `array::map`: that was not inlined on this hot path.)
         let e = [load8(bases[0]), load8(bases[1]), load8(bases[2]), load8(bases[3])];
         if self.recon == Reconstruction::Trilinear {
-            // Per corner: entries k0 and k0 + 1, interpolated in l (e0 + fk·(e1 − e0)).
-            let lerp = |c: &[f32; 8]| {
-                let (e0, e1) = (Vec4::new(c[0], c[1], c[2], c[3]), Vec4::new(c[4], c[5], c[6], c[7]));
-                e0 + (e1 - e0) * fk
-            };
+            // The 8 entries weighted: corner c's (Sf, Sb) weight w_c times
+            // 1 − fk for its slice k0 and fk for k0 + 1, summed over the
+            // corners in order for each slice, then the two slices (the
+            // kernel's order: `simd_x86`).
             let (wa0, wa1, wb0, wb1) = (1.0 - fa, fa, 1.0 - fb, fb);
-            let out = lerp(&e[0]) * (wa0 * wb0)
-                + lerp(&e[1]) * (wa0 * wb1)
-                + lerp(&e[2]) * (wa1 * wb0)
-                + lerp(&e[3]) * (wa1 * wb1);
-            return out.to_array();
+            let w = [wa0 * wb0, wa0 * wb1, wa1 * wb0, wa1 * wb1];
+            let gk = 1.0 - fk;
+            let slice = |h: usize, f: f32| {
+                let v = |c: usize| Vec4::new(e[c][h], e[c][h + 1], e[c][h + 2], e[c][h + 3]) * (w[c] * f);
+                ((v(0) + v(1)) + v(2)) + v(3)
+            };
+            return (slice(0, gk) + slice(4, fk)).to_array();
         }
         let depth = if self.depth.is_empty() {
             // Non-f32 storage: the depths of the decoded entries.

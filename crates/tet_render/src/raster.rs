@@ -52,7 +52,8 @@ pub struct RasterOptions {
     /// walk is a chain of dependent loads, and independent chains let the
     /// core overlap their cache misses). `None`: [`crate::walk::WALK_LANES`]
     /// (8 rays cut the camera-moving frame by 8–18% on every bundle
-    /// measured against one ray at a time; `crates/tetview/results/walker.md`).
+    /// measured against one ray at a time, on a host where that had once
+    /// been slower; `crates/tetview/results/walker.md`).
     /// The image is the same for any count (1 to 64).
     pub walk_interleave: Option<usize>,
     /// The walker: request the records of the tets a ray may step into

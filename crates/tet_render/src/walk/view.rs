@@ -82,9 +82,26 @@ impl WalkView {
         // no finite pixel marks it.
         let parallel = frame.parallel;
         let near = frame.near_depth;
-        if !parallel
-            && mesh.pos_rel.par_iter().any(|&p| frame.to_cam(p)[2].partial_cmp(&near).is_none_or(|o| o.is_lt()))
-        {
+        // The common case in one pass (the arrays of a 20M-tet mesh's 4M
+        // vertices are read once, not once per check): every vertex
+        // projected, with whether any lies nearer than the near plane, any
+        // projects to no finite pixel, and the largest pixel coordinate.
+        old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
+        let (any_near, any_bad, k_max) = old_verts
+            .par_iter_mut()
+            .zip(mesh.pos_rel.par_iter())
+            .zip(mesh.scalar.par_iter())
+            .map(|((out, &p), &scalar)| {
+                let c = frame.to_cam(p);
+                let q = frame.cam_to_px(c);
+                let w = if parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 };
+                *out = WalkVertex { x_px: q[0] as f32, y_px: q[1] as f32, w, scalar };
+                let is_near = !parallel && c[2].partial_cmp(&near).is_none_or(|o| o.is_lt());
+                let is_bad = !(out.x_px.abs() < 1e30 && out.y_px.abs() < 1e30);
+                (is_near, is_bad, out.x_px.abs().max(out.y_px.abs()))
+            })
+            .reduce(|| (false, false, p_max), |a, b| (a.0 | b.0, a.1 | b.1, a.2.max(b.2)));
+        if any_near {
             old_hom.resize(mesh.pos_rel.len(), HomVertex::default());
             old_hom.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
                 |((out, &p), &scalar)| {
@@ -125,23 +142,15 @@ impl WalkView {
             view.bin_front_faces(mesh, entry_faces);
             return view;
         }
-        old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
-        old_verts.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
-            |((out, &p), &scalar)| {
-                let c = frame.to_cam(p);
-                let q = frame.cam_to_px(c);
-                let w = if parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 };
-                *out = WalkVertex { x_px: q[0] as f32, y_px: q[1] as f32, w, scalar };
-            },
-        );
         view.verts = old_verts;
-        let unrepresentable = |v: &WalkVertex| !(v.x_px.abs() < 1e30 && v.y_px.abs() < 1e30);
-        if let Some(i) = view.verts.par_iter().position_first(unrepresentable) {
+        if any_bad {
+            let unrepresentable = |v: &WalkVertex| !(v.x_px.abs() < 1e30 && v.y_px.abs() < 1e30);
+            let i = view.verts.par_iter().position_first(unrepresentable).unwrap_or(0);
             view.unsupported =
                 Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));
             return view;
         }
-        view.k_view = view.verts.par_iter().map(|v| v.x_px.abs().max(v.y_px.abs())).reduce(|| p_max, f32::max);
+        view.k_view = k_max;
         view.bin_front_faces(mesh, entry_faces);
         view
     }

@@ -304,49 +304,63 @@ impl CertifiedTable3d {
         !self.exact_in.is_empty() && self.exact_in[r.start..=r.end].iter().any(|&e| e)
     }
 
-    /// The segment cut at the crossed control points, pieces composited
-    /// front to back (premultiplied "over"); each piece's length is its
-    /// share of the scalar change (the scalar is linear along the segment).
-    fn shade_split(&self, seg: &Segment, nodes: std::ops::Range<usize>) -> Rgba32 {
+    /// The pieces of the segment cut at the crossed control points, front
+    /// to back, as (Sf, Sb, l): each piece's length is its share of the
+    /// scalar change (the scalar is linear along the segment).
+    #[inline]
+    fn pieces(&self, seg: &Segment, nodes: std::ops::Range<usize>, mut piece: impl FnMut(f32, f32, f32)) {
         let (sf, sb, len) = (seg.s_front, seg.s_back, seg.len_world);
         let per_scalar = len / (sb - sf).abs();
-        let mut acc = [0.0f32; 4];
         let mut prev = sf;
-        let piece = |a: f32, b: f32, acc: &mut [f32; 4]| {
-            let p = self.table.lookup(a, b, (b - a).abs() * per_scalar);
-            let t = 1.0 - acc[3];
-            for c in 0..4 {
-                acc[c] += t * p[c];
-            }
+        let mut cut = |x: f32| {
+            piece(prev, x, (x - prev).abs() * per_scalar);
+            prev = x;
         };
         let xs = &self.nodes.xs[nodes];
         if sf < sb {
-            for &x in xs {
-                piece(prev, x, &mut acc);
-                prev = x;
-            }
+            xs.iter().for_each(|&x| cut(x));
         } else {
-            for &x in xs.iter().rev() {
-                piece(prev, x, &mut acc);
-                prev = x;
-            }
+            xs.iter().rev().for_each(|&x| cut(x));
         }
-        piece(prev, sb, &mut acc);
+        cut(sb);
+    }
+
+    /// The segment cut at the crossed control points, each piece looked up,
+    /// the pieces composited front to back (premultiplied "over").
+    fn shade_split(&self, seg: &Segment, nodes: std::ops::Range<usize>) -> Rgba32 {
+        let mut acc = [0.0f32; 4];
+        self.pieces(seg, nodes, |a, b, l| composite_under(&mut acc, self.table.lookup(a, b, l)));
         acc[3] = acc[3].min(1.0);
         acc
+    }
+
+    /// How one segment is shaded.
+    #[inline]
+    fn route(&self, seg: &Segment) -> Route {
+        if self.nodes.is_empty() || !seg.len_world.is_finite() {
+            return Route::Plain;
+        }
+        let r = self.crossed(seg.s_front, seg.s_back);
+        if self.needs_exact(&r) {
+            // (Without the exact shader, the plain lookup, as before any
+            // interval was marked.)
+            return if self.exact.is_some() { Route::Exact } else { Route::Plain };
+        }
+        if self.split && !r.is_empty() {
+            Route::Split(r)
+        } else {
+            Route::Plain
+        }
     }
 
     /// One segment that is not a plain lookup: `None` when it is.
     #[inline]
     fn shade_special(&self, seg: &Segment) -> Option<Rgba32> {
-        if self.nodes.is_empty() || !seg.len_world.is_finite() {
-            return None;
+        match self.route(seg) {
+            Route::Plain => None,
+            Route::Exact => self.exact.as_ref().map(|e| e.shade(seg)),
+            Route::Split(r) => Some(self.shade_split(seg, r)),
         }
-        let r = self.crossed(seg.s_front, seg.s_back);
-        if self.needs_exact(&r) {
-            return self.exact.as_ref().map(|e| e.shade(seg));
-        }
-        (self.split && !r.is_empty()).then(|| self.shade_split(seg, r))
     }
 
     /// Whether every segment is a plain table lookup.
@@ -371,8 +385,12 @@ impl SegmentShader for CertifiedTable3d {
         }
     }
     /// Plain: the table's own batch lookup. Otherwise the segments that
-    /// are plain lookups still go through the batch lookup together; the
-    /// others are split or integrated one by one.
+    /// are plain lookups go through the batch lookup together, and so do
+    /// the pieces of the segments cut at control points (gathered into
+    /// batches of their own, each segment's pieces composited in order
+    /// afterwards: the values of [`CertifiedTable3d::shade`], as every
+    /// lookup path of the table gives the same entries bit for bit); the
+    /// segments of exact intervals are integrated one by one.
     fn shade_batch(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH]) {
         if self.is_plain() {
             return self.table.shade_batch(segs, out);
@@ -380,16 +398,32 @@ impl SegmentShader for CertifiedTable3d {
         let n = segs.len.min(method::BATCH);
         let mut plain = SegmentBatch::default();
         let mut slot = [0usize; method::BATCH];
-        for (i, o) in out.iter_mut().enumerate().take(n) {
+        let mut cut = CutBatch::default();
+        for i in 0..n {
             let seg = segs.get(i);
-            match self.shade_special(&seg) {
-                Some(v) => *o = v,
-                None => {
+            match self.route(&seg) {
+                Route::Plain => {
                     slot[plain.len] = i;
                     plain.push(seg);
                 }
+                Route::Exact => out[i] = self.exact.as_ref().map_or([0.0; 4], |e| e.shade(&seg)),
+                Route::Split(r) if r.len() < method::BATCH => {
+                    if cut.pieces.len + r.len() + 1 > method::BATCH {
+                        cut.shade(&self.table, out);
+                    }
+                    cut.owners[cut.segs] = (i, cut.pieces.len);
+                    cut.segs += 1;
+                    // (Room for r.len() + 1 pieces was made just above.)
+                    let pieces = &mut cut.pieces;
+                    self.pieces(&seg, r, |a, b, l| {
+                        let _room = pieces.push(Segment { s_front: a, s_back: b, len_world: l, ..Default::default() });
+                    });
+                }
+                // More pieces than a batch holds: one by one.
+                Route::Split(r) => out[i] = self.shade_split(&seg, r),
             }
         }
+        cut.shade(&self.table, out);
         if plain.len > 0 {
             let mut tmp = [[0.0f32; 4]; method::BATCH];
             self.table.shade_batch(&plain, &mut tmp);
@@ -397,6 +431,62 @@ impl SegmentShader for CertifiedTable3d {
                 out[slot[k]] = tmp[k];
             }
         }
+    }
+}
+
+/// How [`CertifiedTable3d`] shades a segment.
+enum Route {
+    /// One table lookup.
+    Plain,
+    /// Integrated exactly (it touches an exact interval).
+    Exact,
+    /// Cut at the control points it crosses (these), a lookup a piece.
+    Split(std::ops::Range<usize>),
+}
+
+/// `acc` over … : the premultiplied colour `c` composited under `acc`.
+#[inline]
+fn composite_under(acc: &mut [f32; 4], c: Rgba32) {
+    let t = 1.0 - acc[3];
+    for k in 0..4 {
+        acc[k] += t * c[k];
+    }
+}
+
+/// The pieces of cut segments waiting for one batched lookup, and for
+/// each of those segments its index in the caller's batch and its first
+/// piece (its pieces run to the next segment's first).
+struct CutBatch {
+    pieces: SegmentBatch,
+    owners: [(usize, usize); method::BATCH],
+    segs: usize,
+}
+
+impl Default for CutBatch {
+    fn default() -> Self {
+        CutBatch { pieces: SegmentBatch::default(), owners: [(0, 0); method::BATCH], segs: 0 }
+    }
+}
+
+impl CutBatch {
+    /// Looks the pieces up and composites each segment's in order into
+    /// `out` (as `CertifiedTable3d::shade_split`), then empties.
+    fn shade(&mut self, table: &Table3d, out: &mut [Rgba32; method::BATCH]) {
+        if self.segs == 0 {
+            return;
+        }
+        let mut rgba = [[0.0f32; 4]; method::BATCH];
+        table.shade_batch(&self.pieces, &mut rgba);
+        for k in 0..self.segs {
+            let (i, first) = self.owners[k];
+            let end = if k + 1 < self.segs { self.owners[k + 1].1 } else { self.pieces.len };
+            let mut acc = [0.0f32; 4];
+            rgba[first..end].iter().for_each(|&c| composite_under(&mut acc, c));
+            acc[3] = acc[3].min(1.0);
+            out[i] = acc;
+        }
+        self.pieces.len = 0;
+        self.segs = 0;
     }
 }
 

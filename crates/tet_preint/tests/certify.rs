@@ -174,3 +174,60 @@ fn batch_and_span_agree_with_shade() {
         }
     }
 }
+
+/// Cut segments shaded in a batch (their pieces looked up together, in
+/// batches of their own) give what `shade` gives, bit for bit: a TF of 100
+/// control points, so that a segment across the range has more pieces than
+/// a batch holds (shaded one by one) and short ones fill several piece
+/// batches; an exact interval among them.
+#[test]
+fn cut_segments_in_a_batch_agree_with_shade() {
+    let d = bluntfin();
+    let opacity: Vec<String> =
+        (0..=100).map(|k| format!("[{}, {}]", k as f64 / 100.0, if k % 2 == 0 { 0.05 } else { 0.6 })).collect();
+    let json = format!(
+        r#"{{"color": [[0, 0.2, 0.4, 1], [1, 1, 0.5, 0]], "opacity": [{}], "unit_distance": 1}}"#,
+        opacity.join(", ")
+    );
+    let tf = tf_for_domain(&TransferFunction::from_json(&json).unwrap(), &d).unwrap();
+    let table = tet_preint::Table3d::build(&tf, &d, &start()).unwrap();
+    let nodes = certify::split_nodes(&tf, &d).len();
+    assert!(nodes > tet_preint::BATCH, "{nodes} control points inside the domain");
+    let certificate = certify::Certificate {
+        target: 1e-3,
+        certified: false,
+        max_error: 1.0,
+        margin: 0.9,
+        split_at_tf_nodes: true,
+        exact_intervals: vec![7, 40],
+        intervals: nodes + 1,
+        exact_share: 0.0,
+        memory_budget: 0,
+        memory_bytes: 0,
+        sets: Vec::new(),
+        attempts: Vec::new(),
+        limit: None,
+    };
+    let t = CertifiedTable3d::from_parts(table, Some(&tf), Some(certificate)).unwrap();
+    assert!(t.splits_at_tf_nodes());
+    let (lo, span) = (d.s_lo as f32, d.scalar_span() as f32);
+    // Short segments crossing 0–3 nodes, a few across the whole range, and
+    // ones inside an exact interval, in an order that mixes them.
+    let mut segs = Vec::new();
+    for k in 0..400 {
+        let a = lo + span * ((k * 37 % 400) as f32 / 400.0);
+        let w = span * [0.004, 0.013, 0.031, 0.9][k % 4] * if k % 3 == 0 { -1.0 } else { 1.0 };
+        let b = (a + w).clamp(lo, lo + span);
+        segs.push(Segment { s_front: a, s_back: b, len_world: 0.05 + (k % 7) as f32 * 0.3, ..Default::default() });
+    }
+    let mut cut = 0;
+    for chunk in segs.chunks(tet_preint::BATCH) {
+        let mut out = [[0.0f32; 4]; tet_preint::BATCH];
+        t.shade_batch(&tet_preint::SegmentBatch::from_segments(chunk), &mut out);
+        for (i, s) in chunk.iter().enumerate() {
+            assert_eq!(out[i], t.shade(s), "{s:?}");
+            cut += usize::from(s.s_front != s.s_back);
+        }
+    }
+    assert!(cut > 300);
+}

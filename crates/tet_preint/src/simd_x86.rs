@@ -89,6 +89,9 @@ pub(crate) struct Lean<'a> {
     /// The band's `pair_off` as i32 (wrapping values stay wrapped).
     pub pair_off: &'a [i32],
     pub data: RawData<'a>,
+    /// Optical-depth tables on f32 storage: each entry's optical depth
+    /// (empty otherwise).
+    pub depth: &'a [f32],
 }
 
 /// Cells of a batch (`Table3d::cell_of`'s values, lane by lane): lower
@@ -122,6 +125,23 @@ pub(crate) fn shade_batch(t: &Lean<'_>, segs: &SegmentBatch, out: &mut [Rgba32; 
     run(t, segs, Out::Rgba(out))
 }
 
+/// Shades `segs` into `out` as `Table3d::shade_batch` does with the
+/// optical-depth reconstruction on f32 storage (`Table3d::gather`'s
+/// `reconstruct`, `alpha` its 1 − e^−τ) and returns `true`; `false`
+/// without writing where the kernel cannot run (as [`shade_batch`], or
+/// depths that are not one per entry).
+pub(crate) fn shade_batch_depth(
+    t: &Lean<'_>,
+    segs: &SegmentBatch,
+    out: &mut [Rgba32; BATCH],
+    alpha: fn(f32) -> f32,
+) -> bool {
+    match t.data {
+        RawData::F32(d) if t.depth.len() * 4 == d.len() => run(t, segs, Out::Depth(out, alpha)),
+        _ => false,
+    }
+}
+
 /// Locates the cells of `segs` into `cells` (lanes below `segs.len`) as
 /// `Table3d::cell_of` does; `false` (nothing written) as [`shade_batch`].
 pub(crate) fn cells(t: &Lean<'_>, segs: &SegmentBatch, cells: &mut Cells) -> bool {
@@ -131,6 +151,8 @@ pub(crate) fn cells(t: &Lean<'_>, segs: &SegmentBatch, cells: &mut Cells) -> boo
 /// What the kernel writes.
 enum Out<'a> {
     Rgba(&'a mut [Rgba32; BATCH]),
+    /// The optical-depth reconstruction (f32 storage), with 1 − e^−τ.
+    Depth(&'a mut [Rgba32; BATCH], fn(f32) -> f32),
     Cells(&'a mut Cells),
 }
 
@@ -182,13 +204,16 @@ fn run(t: &Lean<'_>, segs: &SegmentBatch, out: Out<'_>) -> bool {
     // SAFETY: `available()` checked that the CPU has AVX2 and F16C, the
     // kernel's target features; `g` describes `t.data` (pointer, length
     // bound `max_base` checked just above), which outlives the call.
+    // (`Out::Depth` only comes with f32 storage and one depth an entry,
+    // checked by `shade_batch_depth`: the rows' bound bounds the depths.)
     unsafe {
         match (kind, out) {
-            (_, Out::Cells(c)) => kernel::<F32, true>(t, &g, segs, None, Some(c)),
-            (F32, Out::Rgba(o)) => kernel::<F32, false>(t, &g, segs, Some(o), None),
-            (F16, Out::Rgba(o)) => kernel::<F16, false>(t, &g, segs, Some(o), None),
-            (U16, Out::Rgba(o)) => kernel::<U16, false>(t, &g, segs, Some(o), None),
-            (_, Out::Rgba(o)) => kernel::<U8, false>(t, &g, segs, Some(o), None),
+            (_, Out::Cells(c)) => kernel::<F32, true, false>(t, &g, segs, None, Some(c), None),
+            (_, Out::Depth(o, alpha)) => kernel::<F32, false, true>(t, &g, segs, Some(o), None, Some(alpha)),
+            (F32, Out::Rgba(o)) => kernel::<F32, false, false>(t, &g, segs, Some(o), None, None),
+            (F16, Out::Rgba(o)) => kernel::<F16, false, false>(t, &g, segs, Some(o), None, None),
+            (U16, Out::Rgba(o)) => kernel::<U16, false, false>(t, &g, segs, Some(o), None, None),
+            (_, Out::Rgba(o)) => kernel::<U8, false, false>(t, &g, segs, Some(o), None, None),
         }
     }
     true
@@ -263,6 +288,92 @@ fn clamp_i(v: __m256i, lo: i32, hi: i32) -> __m256i {
     _mm256_min_epi32(_mm256_max_epi32(v, _mm256_set1_epi32(lo)), _mm256_set1_epi32(hi))
 }
 
+/// One block of the optical-depth reconstruction (`Table3d::gather`'s
+/// `reconstruct`, operation for operation): per lane the trilinear colour
+/// `lin` (each corner's l-lerp e₀ + (e₁ − e₀)·fk weighted, summed
+/// ((p₀ + p₁) + p₂) + p₃, two corners a vector), the optical depth τ the
+/// same way from the entries' depths, α = `alpha`(max(τ, 0)) and the
+/// colour scaled by α / lin.α.
+///
+/// # Safety
+/// AVX2 and F16C must be available; `g` must describe `t.data` (f32) as
+/// for [`kernel`], `t.depth` must hold one value per entry, and the cells
+/// (lanes below `m`) must be the kernel's (in range).
+#[target_feature(enable = "avx2,f16c")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn depth_block<const S: u8>(
+    t: &Lean<'_>,
+    g: &Geometry,
+    blk: usize,
+    m: usize,
+    corner: [__m256i; 3],
+    frac: [__m256; 3],
+    out: &mut [Rgba32; BATCH],
+    alpha: fn(f32) -> f32,
+) {
+    let [a0, b0, k0] = corner;
+    let po = t.pair_off.as_ptr();
+    // SAFETY: a0 ∈ [0, n_s − 2], so a0 and a0 + 1 index `t.pair_off`.
+    let (p0, p1) = unsafe { (_mm256_i32gather_epi32::<4>(po, a0), _mm256_i32gather_epi32::<4>(po.add(1), a0)) };
+    let nl = _mm256_set1_epi32(t.n_l as i32);
+    let off = |p: __m256i| {
+        let e = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(p, b0), nl), k0);
+        clamp_i(_mm256_slli_epi32::<2>(e), 0, g.max_base)
+    };
+    let (mut base, mut w, mut fk) = ([[0i32; 8]; 2], [[0.0f32; 8]; 4], [0.0f32; 8]);
+    let one = _mm256_set1_ps(1.0);
+    let [fa, fb, fkv] = frac;
+    let (wa0, wb0) = (_mm256_sub_ps(one, fa), _mm256_sub_ps(one, fb));
+    // SAFETY: 8-lane stores into local arrays of 8 values.
+    unsafe {
+        _mm256_storeu_si256(base[0].as_mut_ptr().cast(), off(p0));
+        _mm256_storeu_si256(base[1].as_mut_ptr().cast(), off(p1));
+        _mm256_storeu_ps(w[0].as_mut_ptr(), _mm256_mul_ps(wa0, wb0));
+        _mm256_storeu_ps(w[1].as_mut_ptr(), _mm256_mul_ps(wa0, fb));
+        _mm256_storeu_ps(w[2].as_mut_ptr(), _mm256_mul_ps(fa, wb0));
+        _mm256_storeu_ps(w[3].as_mut_ptr(), _mm256_mul_ps(fa, fb));
+        _mm256_storeu_ps(fk.as_mut_ptr(), fkv);
+    }
+    for l in 0..m {
+        let (o0, o1) = (base[0][l] as usize, base[1][l] as usize);
+        let bases = [o0, o0 + g.nl4, o1, o1 + g.nl4];
+        // SAFETY: each row reads values bases[c]..bases[c] + 8, within the
+        // data (the clamp to max_base); AVX2/F16C as required.
+        let v = unsafe { [row::<S>(g, bases[0]), row::<S>(g, bases[1]), row::<S>(g, bases[2]), row::<S>(g, bases[3])] };
+        let fkl = fk[l];
+        let fk8 = _mm256_set1_ps(fkl);
+        let lerp = |x: __m256, y: __m256| {
+            let e0 = _mm256_permute2f128_ps::<0x20>(x, y);
+            let e1 = _mm256_permute2f128_ps::<0x31>(x, y);
+            _mm256_add_ps(e0, _mm256_mul_ps(_mm256_sub_ps(e1, e0), fk8))
+        };
+        let wl = [w[0][l], w[1][l], w[2][l], w[3][l]];
+        let w01 = _mm256_set_m128(_mm_set1_ps(wl[1]), _mm_set1_ps(wl[0]));
+        let w23 = _mm256_set_m128(_mm_set1_ps(wl[3]), _mm_set1_ps(wl[2]));
+        let p01 = _mm256_mul_ps(lerp(v[0], v[1]), w01);
+        let p23 = _mm256_mul_ps(lerp(v[2], v[3]), w23);
+        let lin = _mm_add_ps(_mm256_castps256_ps128(p01), _mm256_extractf128_ps::<1>(p01));
+        let lin = _mm_add_ps(lin, _mm256_castps256_ps128(p23));
+        let lin = _mm_add_ps(lin, _mm256_extractf128_ps::<1>(p23));
+        let mut lin4 = [0.0f32; 4];
+        // SAFETY: a 4-float store into a local [f32; 4].
+        unsafe { _mm_storeu_ps(lin4.as_mut_ptr(), lin) };
+        // The depths of the same 8 entries: entry b/4 and b/4 + 1 of each row.
+        let d = |b: usize| {
+            // SAFETY: b/4 + 1 < data.len()/4 = depth.len() (the row bound).
+            unsafe { (*t.depth.get_unchecked(b / 4), *t.depth.get_unchecked(b / 4 + 1)) }
+        };
+        let lerp_d = |(d0, d1): (f32, f32)| d0 + (d1 - d0) * fkl;
+        let tau = lerp_d(d(bases[0])) * wl[0]
+            + lerp_d(d(bases[1])) * wl[1]
+            + lerp_d(d(bases[2])) * wl[2]
+            + lerp_d(d(bases[3])) * wl[3];
+        let a = alpha(tau.max(0.0));
+        let scale = if lin4[3] > 0.0 { a / lin4[3] } else { 1.0 };
+        out[blk + l] = [lin4[0] * scale, lin4[1] * scale, lin4[2] * scale, a];
+    }
+}
+
 /// The 8 × 8 transpose: lane l of vector j becomes lane j of vector l.
 #[target_feature(enable = "avx2")]
 #[inline]
@@ -307,12 +418,13 @@ fn transpose8(v: [__m256; 8]) -> [__m256; 8] {
 /// `t.n_s ≥ 2` values, and a non-uniform axis at least one bucket, a
 /// `bucket_j` per bucket and nseg ≥ 1 values in each `seg_*` array.
 #[target_feature(enable = "avx2,f16c")]
-unsafe fn kernel<const S: u8, const CELLS: bool>(
+unsafe fn kernel<const S: u8, const CELLS: bool, const DEPTH: bool>(
     t: &Lean<'_>,
     g: &Geometry,
     segs: &SegmentBatch,
     mut out: Option<&mut [Rgba32; BATCH]>,
     mut cells: Option<&mut Cells>,
+    alpha: Option<fn(f32) -> f32>,
 ) {
     let n = segs.len.min(BATCH);
     // `Axis::x_of_lanes` (and `Axis::x_of` for every lane): fractional grid
@@ -490,6 +602,14 @@ unsafe fn kernel<const S: u8, const CELLS: bool>(
             continue;
         }
         let Some(out) = out.as_deref_mut() else { return };
+        if DEPTH {
+            let Some(alpha) = alpha else { return };
+            // SAFETY: as the trilinear path below (the same rows, and the
+            // depths of their entries: one an entry, checked by `run`'s
+            // caller).
+            unsafe { depth_block::<S>(t, g, blk, m, [a0, b0, k0], [fa, fb, fk], out, alpha) };
+            continue;
+        }
         // SAFETY: a0 ∈ [0, n_s − 2], so a0 and a0 + 1 index `t.pair_off`
         // (at least n_s values).
         let (p0, p1) = unsafe { (_mm256_i32gather_epi32::<4>(po, a0), _mm256_i32gather_epi32::<4>(po.add(1), a0)) };

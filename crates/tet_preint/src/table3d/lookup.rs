@@ -153,9 +153,15 @@ impl Table3d {
                 inv_dl: self.inv_dl,
                 pair_off: &self.band.pair_off32,
                 data: self.data.raw(),
+                depth: &self.depth,
             };
             if self.recon == Reconstruction::Trilinear {
                 return crate::simd_x86::shade_batch(&lean, segs, out);
+            }
+            // Optical depth on f32 storage (its depths kept): the kernel
+            // reconstructs as `reconstruct` does, operation for operation.
+            if !self.depth.is_empty() && crate::simd_x86::shade_batch_depth(&lean, segs, out, alpha_of_depth) {
+                return true;
             }
             // Optical depth: the kernel's cells, the portable gather.
             let mut c = crate::simd_x86::Cells::default();
@@ -209,7 +215,7 @@ pub(super) fn optical_depths(alpha: f32x8) -> f32x8 {
 /// 1 − e^{−τ} for τ ≥ 0, by its series below [`SERIES_BELOW`] (relative
 /// error < 2e-9), so a faint lookup keeps its α to f32 precision.
 #[inline(always)]
-fn alpha_of_depth(tau: f32) -> f32 {
+pub(crate) fn alpha_of_depth(tau: f32) -> f32 {
     if tau < SERIES_BELOW {
         tau * (1.0 - tau * (0.5 - tau * (1.0 / 6.0 - tau * (1.0 / 24.0))))
     } else {

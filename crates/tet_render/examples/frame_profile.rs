@@ -8,7 +8,8 @@
 //! The first frame is cold (view, cull, sort); the others reuse the order.
 //! `TET_TILE=16` sets the tile side; `TET_WALK_INTERLEAVE=K` walks K rays at
 //! once (`RasterOptions::walk_interleave`; default `walk::WALK_LANES`); `TET_WALK_PREFETCH=0` turns the walker's
-//! prefetch of the next step's records off (`RasterOptions::walk_prefetch`); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
+//! prefetch of the next step's records off (`RasterOptions::walk_prefetch`); `TET_WALK_PACKETS=0` walks
+//! one ray a lane-step in scalar code instead of eight in AVX2 lanes (`RasterOptions::walk_packets`); `TET_GENERAL_PATH=1` turns the rasterizer's fast path off
 //! (`RasterOptions::fast_path`); `TET_FRAME_NPY=out.npy` writes the last
 //! frame (linear premultiplied RGBA) for `tetview diff`; `TET_ORBIT=D`
 //! turns the camera D degrees of azimuth before every frame after the
@@ -118,9 +119,17 @@ fn main() {
     let walk_interleave =
         std::env::var("TET_WALK_INTERLEAVE").ok().map(|k| k.parse().expect("TET_WALK_INTERLEAVE: rays"));
     let walk_prefetch = std::env::var("TET_WALK_PREFETCH").map_or(true, |v| v != "0");
+    let walk_packets = std::env::var("TET_WALK_PACKETS").map_or(true, |v| v != "0");
     let walk_adaptive = std::env::var("TET_ADAPTIVE").ok().map(|k| k.parse().expect("TET_ADAPTIVE: tolerance"));
-    let mut opts =
-        RasterOptions { fast_path, tile, walk_interleave, walk_prefetch, walk_adaptive, ..Default::default() };
+    let mut opts = RasterOptions {
+        fast_path,
+        tile,
+        walk_interleave,
+        walk_prefetch,
+        walk_packets,
+        walk_adaptive,
+        ..Default::default()
+    };
     if !keep {
         opts.setup_cache_bytes = 0;
     }
@@ -141,7 +150,7 @@ fn main() {
         }
         let cpu = process_cpu_seconds() - c0;
         println!(
-            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} rays walked, {} interpolated, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {}",
+            "frame {f} ({}): {:.3} s (view {:.3}, cull {:.3}, sort {} {:.3}, bin {:.3}, raster {:.3}), {} tets drawn, {} fragments, {} crossings, {} rays walked ({} in packets), {} interpolated, {} runs, {} front faces, {} terminated, {} exact tests, {} setups, {}",
             st.renderer,
             st.total_seconds,
             st.view_seconds,
@@ -154,6 +163,7 @@ fn main() {
             st.fragments,
             st.crossings,
             st.walk_rays,
+            st.walk_packet_rays,
             st.walk_rays_interpolated,
             st.walk_runs,
             st.walk_front_faces,

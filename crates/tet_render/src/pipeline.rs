@@ -131,6 +131,8 @@ pub struct RenderStats {
     /// Walker: front boundary faces of the view, and rays stopped at `opaque_alpha`.
     pub walk_front_faces: usize,
     pub walk_terminated: u64,
+    /// Walker: rays walked eight at a time in SIMD lanes (`RasterOptions::walk_packets`).
+    pub walk_packet_rays: u64,
     /// Walker: the near plane cut the mesh (homogeneous walk, segments
     /// clipped at the near depth), and whether the eye was in a visible tet.
     pub walk_near_clipped: bool,
@@ -469,6 +471,7 @@ impl Renderer {
         stats.walk_step_limit = ws.step_limit;
         stats.walk_front_faces = ws.front_faces;
         stats.walk_terminated = ws.terminated;
+        stats.walk_packet_rays = ws.packet_rays;
         stats.walk_near_clipped = ws.near_clipped;
         stats.walk_eye_inside = ws.eye_inside;
         stats.sort_method = "none".to_string();

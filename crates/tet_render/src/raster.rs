@@ -60,6 +60,14 @@ pub struct RasterOptions {
     /// next while the current step is computed (`walk::prefetch`). Meshes
     /// far larger than the caches gain most; the image is the same either way.
     pub walk_prefetch: bool,
+    /// The walker: eight rays a step in the lanes of AVX2 vectors (x86-64
+    /// CPUs that have it, detected at run time), `walk_interleave` then
+    /// unused. Frames with lighting, a bivariate method, the near plane
+    /// cutting the mesh or adaptive sampling take the scalar walk. The
+    /// image is the same bit for bit either way; crossings and runs may
+    /// differ slightly (a ray's opacity is noticed at its packet's next
+    /// shading).
+    pub walk_packets: bool,
     /// The walker: image-space adaptive sampling, an approximation for
     /// interaction (`None`, the default: every covered pixel walks its
     /// ray). `Some(tol)`: each tile walks the rays of a 4-pixel lattice
@@ -84,6 +92,7 @@ impl Default for RasterOptions {
             setup_cache_bytes: 512 << 20,
             walk_interleave: None,
             walk_prefetch: true,
+            walk_packets: true,
             walk_adaptive: None,
         }
     }

@@ -548,6 +548,9 @@ fn interleaved_rays_and_prefetch_give_the_same_image() {
                         shading,
                         walk_interleave: Some(lanes),
                         walk_prefetch,
+                        // The scalar walk's interleaving (the packet walk's
+                        // own test is below).
+                        walk_packets: false,
                         ..Default::default()
                     });
                     if cull {
@@ -569,6 +572,115 @@ fn interleaved_rays_and_prefetch_give_the_same_image() {
             }
         }
     }
+}
+
+/// Renders `view` twice, by the packet walk and by the scalar walk, and
+/// checks they agree: the same bits, the same fragments; with no early
+/// termination (`opaque_alpha` > 1) every walk count too. Returns the
+/// packet walk's stats.
+fn packets_agree(
+    scene: &Scene,
+    view: &ViewSpec,
+    shader: &Arc<dyn SegmentShader>,
+    culler: Option<&TransferFunction>,
+    opts: RasterOptions,
+    what: &str,
+) -> RenderStats {
+    let run = |walk_packets: bool| {
+        let mut r = Renderer::new(scene.clone());
+        r.set_view(view).unwrap();
+        r.set_shader(shader.clone());
+        r.set_raster_options(RasterOptions { walk_packets, ..opts });
+        if let Some(tf) = culler {
+            r.set_culler(Some(Arc::new(TfCuller::new(tf))));
+        }
+        r.render(&|_, _| {}).unwrap()
+    };
+    let ((packet, sp), (scalar, ss)) = (run(true), run(false));
+    assert_eq!(sp.renderer, "walk", "{what}");
+    assert_eq!(ss.walk_packet_rays, 0, "{what}");
+    assert!(packet.pixels() == scalar.pixels(), "{what}: the packet walk's image differs");
+    assert_eq!(sp.fragments, ss.fragments, "{what}");
+    assert_eq!(sp.walk_rays, ss.walk_rays, "{what}");
+    if opts.opaque_alpha > 1.0 {
+        let counts = |s: &RenderStats| {
+            (s.crossings, s.walk_runs, s.walk_exact_tests, s.walk_non_manifold, s.walk_step_limit, s.walk_terminated)
+        };
+        assert_eq!(counts(&sp), counts(&ss), "{what}");
+    }
+    sp
+}
+
+/// The packet walk (eight rays a step in AVX2 lanes, where the CPU has
+/// them) gives the scalar walk's image bit for bit: Blunt Fin (non-convex,
+/// real data) in perspective and parallel, with and without culling and
+/// early termination, exact and table methods; a folded mesh (missing
+/// exits), one with broken links, and views it leaves to the scalar walk
+/// (lighting, a bivariate method, the near plane cutting the mesh).
+#[test]
+fn packet_walk_gives_the_scalar_walks_image() {
+    let simd = cfg!(target_arch = "x86_64") && std::is_x86_feature_detected!("avx2");
+    let (bundle, tf, table, scene) = bluntfin_table3d();
+    let exact: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf.clone()));
+    let (lo, hi) = scene.bounds();
+    let mut n_packet = 0;
+    for parallel in [false, true] {
+        let mut view = ViewSpec::framing(lo, hi, [72, 60]).orbit(30.0, 20.0, 1.0);
+        view.parallel = parallel;
+        for (name, shader) in [("table3d", &table), ("exact", &exact)] {
+            for cull in [false, true] {
+                for opaque_alpha in [0.9999, 2.0, 0.3] {
+                    let what = format!("Blunt Fin, {name}, parallel {parallel}, cull {cull}, opaque {opaque_alpha}");
+                    let opts = RasterOptions { opaque_alpha, ..Default::default() };
+                    let st = packets_agree(&scene, &view, shader, cull.then_some(&tf), opts, &what);
+                    assert_eq!(st.walk_packet_rays, if simd { st.walk_rays } else { 0 }, "{what}");
+                    n_packet += st.walk_packet_rays;
+                }
+            }
+        }
+    }
+    assert!(!simd || n_packet > 0);
+    // A folded mesh: runs without an exit, counted alike.
+    let (r, sparse) = wave_renderer(0.3);
+    let fold = r.scene().clone();
+    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [96, 80]).orbit(25.0, 30.0, 1.3);
+    let sh: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(sparse.clone()));
+    let all = RasterOptions { opaque_alpha: 2.0, ..Default::default() };
+    let st = packets_agree(&fold, &view, &sh, None, all, "folded mesh");
+    assert!(st.walk_step_limit > 0, "{st:?}");
+    packets_agree(&fold, &view, &sh, Some(&sparse), all, "folded mesh, culled");
+    // Broken links: runs ended and counted alike.
+    let (points, tets, scalar) = grid_mesh(4, 0.0, [0.0; 3], 1, |p| p[1]);
+    let (mesh, mut adj) = mesh_of(points, tets, scalar);
+    for t in (0..adj.neighbors.len()).step_by(3) {
+        if let Some(f) = (0..4).find(|&f| adj.neighbors[t][f] != tet_mesh::NO_NEIGHBOR) {
+            let nb = adj.neighbors[t][f] as usize;
+            let back = adj.neighbors[nb].iter().position(|&m| m as usize == t).unwrap();
+            adj.neighbors[nb][back] = tet_mesh::NO_NEIGHBOR;
+        }
+    }
+    let broken = Scene::from_bundle(&Bundle::new(mesh, adj, BundleMeta::default())).unwrap();
+    let view = ViewSpec::framing([0.0; 3], [1.0; 3], [32, 32]).orbit(25.0, 35.0, 1.0);
+    let st = packets_agree(&broken, &view, &sh, None, all, "broken links");
+    assert!(st.walk_non_manifold > 0, "{st:?}");
+    // What the packet walk leaves to the scalar walk.
+    let lit = Shading { light: Some(Light::default()), silhouette: None, ..Default::default() };
+    let scene_g = scene.clone().ensure_gradients().unwrap();
+    let view = ViewSpec::framing(lo, hi, [48, 40]).orbit(30.0, 20.0, 1.0);
+    let st = packets_agree(&scene_g, &view, &table, None, RasterOptions { shading: lit, ..Default::default() }, "lit");
+    assert_eq!(st.walk_packet_rays, 0);
+    let domain = TableDomain::from_bundle(&bundle).unwrap();
+    let biv: Arc<dyn SegmentShader> =
+        make_shader(Method::BivApprox, &tf, &domain, &BakeOptions::default()).unwrap().into();
+    let st = packets_agree(&scene_g, &view, &biv, None, RasterOptions::default(), "bivariate");
+    assert_eq!(st.walk_packet_rays, 0);
+    let inside = inside_view(lerp3(lo, hi, [0.5, 0.5, 0.5]), hi, [48, 40]);
+    let st = packets_agree(&scene, &inside, &exact, None, RasterOptions::default(), "inside");
+    assert!(st.walk_near_clipped && st.walk_packet_rays == 0, "{st:?}");
+}
+
+fn lerp3(a: [f64; 3], b: [f64; 3], t: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|k| a[k] + t[k] * (b[k] - a[k]))
 }
 
 /// The eye exactly on a face's plane inside the mesh (a grid plane through

@@ -41,8 +41,8 @@ const U32: f32 = f32::EPSILON * 0.5;
 /// The f32 edge function's error bound is `BOUND_REL·k·(s_a + s_b) +
 /// BOUND_ABS·k²`, with s = |x − px| + |y − py| of each endpoint as computed
 /// and k a bound on every |coordinate| of the view ([`side`]).
-const BOUND_REL: f32 = 10.0 * U32;
-const BOUND_ABS: f32 = 64.0 * U32 * U32;
+pub(crate) const BOUND_REL: f32 = 10.0 * U32;
+pub(crate) const BOUND_ABS: f32 = 64.0 * U32 * U32;
 
 /// Edge function of the directed edge a → b at pixel centre (px, py) in
 /// f32: twice the signed area of (a, b, p), positive when p is left of

@@ -24,6 +24,26 @@ pub(crate) struct WalkCtx<'a> {
     pub(crate) prefetch: bool,
     /// Image-space adaptive sampling's tolerance ([`RasterOptions::walk_adaptive`]).
     pub(crate) adaptive: Option<f32>,
+    /// Walk eight rays a step in SIMD lanes where the frame and the CPU
+    /// allow ([`RasterOptions::walk_packets`]).
+    pub(crate) packets: bool,
+}
+
+/// The rays of a tile given its entries ([`WalkCtx::entries`], sorted by
+/// pixel): (pixel, first entry, end) in pixel order.
+pub(crate) fn rays_of(entries: &[(u32, f32, u32)]) -> Vec<(u32, usize, usize)> {
+    let mut rays = Vec::new();
+    let mut k = 0;
+    while k < entries.len() {
+        let pix = entries[k].0;
+        let mut end = k + 1;
+        while end < entries.len() && entries[end].0 == pix {
+            end += 1;
+        }
+        rays.push((pix, k, end));
+        k = end;
+    }
+    rays
 }
 
 /// A point on a face along one ray: depth, scalar and the barycentric
@@ -271,8 +291,20 @@ impl WalkCtx<'_> {
                 parallel: view.frame.parallel,
                 size,
             };
+            #[cfg(target_arch = "x86_64")]
+            if self.packet_walk() {
+                return super::packet::tile(self, &g, ti);
+            }
             self.tile_full(&g, ti)
         }
+    }
+
+    /// Whether a projected view's tiles take the packet walk: asked for,
+    /// AVX2 present, and nothing the packet walk leaves to the scalar one
+    /// (lighting, bivariate methods, adaptive sampling).
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn packet_walk(&self) -> bool {
+        self.packets && !self.lit && !self.want_grad_mag && self.adaptive.is_none() && super::packet::available()
     }
 
     /// [`Self::tile_with`], compiled without the per-vertex gradient reads
@@ -297,18 +329,7 @@ impl WalkCtx<'_> {
         let mut st = WalkStats::default();
         let mut counters = EdgeCounters::default();
         let entries = self.entries(g, ti, rect, stride, &mut counters, &mut st);
-        // The rays of the tile: (pixel, first entry, end).
-        let mut rays: Vec<(u32, usize, usize)> = Vec::new();
-        let mut k = 0;
-        while k < entries.len() {
-            let pix = entries[k].0;
-            let mut end = k + 1;
-            while end < entries.len() && entries[end].0 == pix {
-                end += 1;
-            }
-            rays.push((pix, k, end));
-            k = end;
-        }
+        let rays = rays_of(&entries);
         // Several rays in flight, one step each in turn: each walk is a
         // chain of dependent loads, and independent chains let the core
         // overlap their cache misses (meshes far larger than the caches).

@@ -38,11 +38,9 @@ test: gpu-driver viewer-deps video-deps
 mpi-test: mpi-deps
 	@if command -v mpirun >/dev/null 2>&1 && command -v mpicc >/dev/null 2>&1; then \
 		echo "$(CARGO) clippy -p tet_distributed -p tetview --features mpi --all-targets -- -D warnings && $(CARGO) test -p tet_distributed --features mpi && $(CARGO) test -p tetview --features mpi --test distributed"; \
-		{ $(CARGO) clippy -q -p tet_distributed -p tetview --features mpi --all-targets -- -D warnings || \
-		  { echo "clippy failed; once more (a fresh machine's first cargo run after the Open MPI install once failed in cargo's rustc probe, fed a gcc message; lint failures fail again)"; \
-		    $(CARGO) clippy -q -p tet_distributed -p tetview --features mpi --all-targets -- -D warnings; }; } && \
-		$(CARGO) test -p tet_distributed --features mpi && \
-		$(CARGO) test -p tetview --features mpi --test distributed; \
+		.ci/cargo-probe-retry $(CARGO) clippy -q -p tet_distributed -p tetview --features mpi --all-targets -- -D warnings && \
+		.ci/cargo-probe-retry $(CARGO) test -p tet_distributed --features mpi && \
+		.ci/cargo-probe-retry $(CARGO) test -p tetview --features mpi --test distributed; \
 	else echo "note: no Open MPI here; the MPI tests are skipped"; fi
 
 ## Open MPI and libclang (rsmpi's bindings) from Debian's packages.

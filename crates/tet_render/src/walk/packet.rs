@@ -130,12 +130,7 @@ struct PacketTile<'c, 'a> {
 /// Where [`available`] is false (callers check).
 pub(crate) fn tile(c: &WalkCtx, g: &Projected, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
     assert!(available(), "the packet walk needs AVX2");
-    let view = c.view;
-    let (w, h) = (view.frame.width, view.frame.height);
-    let tile = view.tile;
-    let (i, j) = ((ti % view.tiles_x) as u32, (ti / view.tiles_x) as u32);
-    let rect = [i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1];
-    let stride = (rect[2] - rect[0] + 1) as usize;
+    let (rect, stride) = c.view.tile_rect(ti);
     let mut st = WalkStats::default();
     let mut counters = EdgeCounters::default();
     let entries = c.entries(g, ti, rect, stride, &mut counters, &mut st);

@@ -319,12 +319,7 @@ impl WalkCtx<'_> {
     }
 
     pub(crate) fn tile_with<G: RayGeometry, const GRADS: bool>(&self, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
-        let view = self.view;
-        let (w, h) = (view.frame.width, view.frame.height);
-        let tile = view.tile;
-        let (i, j) = ((ti % view.tiles_x) as u32, (ti / view.tiles_x) as u32);
-        let rect = [i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1];
-        let stride = (rect[2] - rect[0] + 1) as usize;
+        let (rect, stride) = self.view.tile_rect(ti);
         let mut acc = vec![[0.0f32; 4]; stride * (rect[3] - rect[1] + 1) as usize];
         let mut st = WalkStats::default();
         let mut counters = EdgeCounters::default();

@@ -29,6 +29,14 @@ pub struct WalkView {
 }
 
 impl WalkView {
+    /// Tile `ti`'s pixels, [x0, y0, x1, y1] inclusive, and its width.
+    pub(crate) fn tile_rect(&self, ti: usize) -> ([u32; 4], usize) {
+        let (w, h, tile) = (self.frame.width, self.frame.height, self.tile);
+        let (i, j) = ((ti % self.tiles_x) as u32, (ti / self.tiles_x) as u32);
+        let rect = [i * tile, j * tile, ((i + 1) * tile).min(w) - 1, ((j + 1) * tile).min(h) - 1];
+        (rect, (rect[2] - rect[0] + 1) as usize)
+    }
+
     /// Projects the scene's vertices for `camera` and bins its front
     /// boundary faces into tiles of `tile` pixels.
     pub fn new(scene: &Scene, mesh: &WalkMesh, camera: &Camera, tile: u32) -> WalkView {

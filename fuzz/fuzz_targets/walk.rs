@@ -10,7 +10,9 @@
 //! perturbation and PT by f64 rounding, so they may differ by one whole ray
 //! there (fuzz finding, pinned in crates/tet_render/tests/walk.rs).
 //! Adaptive sampling must give every pixel the full walk covers a colour,
-//! walked or interpolated, and finite pixels too.
+//! walked or interpolated, and finite pixels too. The scalar walk must give
+//! the packet walk's image bit for bit and the same counts (where the CPU
+//! has AVX2 the default is the packet walk).
 #![no_main]
 mod common;
 
@@ -46,7 +48,13 @@ fuzz_target!(|data: &[u8]| {
     // The walker's adaptive sampling at a tolerance from the input, too.
     let tol = (sbyte % 16) as f32 / 256.0;
     let mut walked = None;
-    for (kind, adaptive) in [(CpuRenderer::Walk, None), (CpuRenderer::Pt, None), (CpuRenderer::Walk, Some(tol))] {
+    let passes = [
+        (CpuRenderer::Walk, None, true),
+        (CpuRenderer::Pt, None, true),
+        (CpuRenderer::Walk, Some(tol), true),
+        (CpuRenderer::Walk, None, false),
+    ];
+    for (kind, adaptive, walk_packets) in passes {
         let mut r = Renderer::new(scene.clone());
         r.set_renderer(kind);
         if r.set_view(&view).is_err() {
@@ -54,12 +62,25 @@ fuzz_target!(|data: &[u8]| {
         }
         r.set_shader(shader.clone());
         // No early termination: both composite every segment.
-        r.set_raster_options(RasterOptions { opaque_alpha: 2.0, walk_adaptive: adaptive, ..Default::default() });
+        r.set_raster_options(RasterOptions {
+            opaque_alpha: 2.0,
+            walk_adaptive: adaptive,
+            walk_packets,
+            ..Default::default()
+        });
         let Ok((img, st)) = r.render(&|_, _| {}) else { return };
         assert_eq!(st.walk_non_manifold + st.walk_step_limit, 0, "walk failures on a valid mesh: {st:?}");
         common::check_pixels(&img, &kind.to_string());
         match (adaptive, &walked) {
             (None, None) if kind == CpuRenderer::Walk => walked = Some((img, st)),
+            // The scalar walk against the packet walk.
+            (None, Some((packet, ps))) if kind == CpuRenderer::Walk && !walk_packets => {
+                assert!(img.pixels() == packet.pixels(), "the scalar and the packet walk differ");
+                let counts = |s: &tet_render::RenderStats| {
+                    (s.crossings, s.fragments, s.walk_runs, s.walk_rays, s.walk_exact_tests, s.walk_step_limit)
+                };
+                assert_eq!(counts(&st), counts(ps), "{st:?} vs {ps:?}");
+            }
             // Adaptive sampling covers the pixels the full walk covers,
             // each walked or interpolated.
             (Some(_), Some((_, fs))) if st.renderer == "walk" && fs.renderer == "walk" => {

@@ -567,12 +567,25 @@ unsafe fn kernel<const S: u8, const CELLS: bool, const DEPTH: bool>(
                 _mm256_blend_ps::<1>(_mm256_permutevar8x32_ps(v, shift), _mm256_permutevar8x32_ps(carry, shift))
             };
             let (sb_pred, xb_pred) = (pred(sb, prev_sb), pred(xb, prev_xb));
+            // The previous block's lane at the same place: a batch of
+            // eight rays stepped together (the packet walk) holds each
+            // ray's previous segment there.
+            let (sb_above, xb_above) = (prev_sb, prev_xb);
             (prev_sb, prev_xb) = (sb, xb);
             // Bit for bit (an integer compare: −0 is not +0), on the
             // clamped values `x_of_lanes` would read.
-            let same = _mm256_cmpeq_epi32(_mm256_castps_si256(sf), _mm256_castps_si256(sb_pred));
-            let xa = if _mm256_movemask_ps(_mm256_castsi256_ps(same)) & valid == valid {
+            let bits = |a: __m256, b: __m256| {
+                let m = _mm256_cmpeq_epi32(_mm256_castps_si256(a), _mm256_castps_si256(b));
+                (m, _mm256_movemask_ps(_mm256_castsi256_ps(m)) & valid)
+            };
+            let (_, same) = bits(sf, sb_pred);
+            let (above_mask, above) = bits(sf, sb_above);
+            let xa = if same == valid {
                 xb_pred
+            } else if above == valid {
+                xb_above
+            } else if same | above == valid {
+                _mm256_blendv_ps(xb_pred, xb_above, _mm256_castsi256_ps(above_mask))
             } else {
                 x_of_lanes(sf, valid)
             };
@@ -808,6 +821,36 @@ mod tests {
                     _ => {}
                 }
                 prev = seg.s_back;
+                b.push(seg);
+            }
+            for t in TABLES.with(|t| t.clone()) {
+                check(&t, &b)?;
+            }
+        }
+
+        /// Eight rays' segments interleaved (the packet walk's batches):
+        /// each front scalar the back one eight segments earlier, with
+        /// breaks and odd values anywhere, and some lanes chained to their
+        /// predecessor in the batch instead.
+        #[test]
+        fn interleaved_chains_equal_the_portable_path(
+            raw in prop::collection::vec((-0.3f32..1.3, -0.5f32..2.6, any::<u8>(), 0u8..8), 1..=BATCH),
+        ) {
+            let mut b = SegmentBatch::default();
+            let mut back = [0.4f32; 8];
+            for (i, &(s, len_world, tag, brk)) in raw.iter().enumerate() {
+                let s_front = match brk {
+                    0 => s * 0.5,
+                    1 if i > 0 => b.s_back[i - 1],
+                    _ => back[i % 8],
+                };
+                let mut seg = Segment { s_front, s_back: s, len_world, ..Default::default() };
+                match tag % 6 {
+                    0 => seg.s_back = odd(tag / 6).unwrap_or(s),
+                    1 => seg.s_front = odd(tag / 6).unwrap_or(s_front),
+                    _ => {}
+                }
+                back[i % 8] = seg.s_back;
                 b.push(seg);
             }
             for t in TABLES.with(|t| t.clone()) {

@@ -127,17 +127,12 @@ pub(crate) fn shade_batch(t: &Lean<'_>, segs: &SegmentBatch, out: &mut [Rgba32; 
 
 /// Shades `segs` into `out` as `Table3d::shade_batch` does with the
 /// optical-depth reconstruction on f32 storage (`Table3d::gather`'s
-/// `reconstruct`, `alpha` its 1 − e^−τ) and returns `true`; `false`
-/// without writing where the kernel cannot run (as [`shade_batch`], or
-/// depths that are not one per entry).
-pub(crate) fn shade_batch_depth(
-    t: &Lean<'_>,
-    segs: &SegmentBatch,
-    out: &mut [Rgba32; BATCH],
-    alpha: fn(f32) -> f32,
-) -> bool {
+/// `reconstruct`) and returns `true`; `false` without writing where the
+/// kernel cannot run (as [`shade_batch`], or depths that are not one per
+/// entry).
+pub(crate) fn shade_batch_depth(t: &Lean<'_>, segs: &SegmentBatch, out: &mut [Rgba32; BATCH]) -> bool {
     match t.data {
-        RawData::F32(d) if t.depth.len() * 4 == d.len() => run(t, segs, Out::Depth(out, alpha)),
+        RawData::F32(d) if t.depth.len() * 4 == d.len() => run(t, segs, Out::Depth(out)),
         _ => false,
     }
 }
@@ -151,8 +146,8 @@ pub(crate) fn cells(t: &Lean<'_>, segs: &SegmentBatch, cells: &mut Cells) -> boo
 /// What the kernel writes.
 enum Out<'a> {
     Rgba(&'a mut [Rgba32; BATCH]),
-    /// The optical-depth reconstruction (f32 storage), with 1 − e^−τ.
-    Depth(&'a mut [Rgba32; BATCH], fn(f32) -> f32),
+    /// The optical-depth reconstruction (f32 storage).
+    Depth(&'a mut [Rgba32; BATCH]),
     Cells(&'a mut Cells),
 }
 
@@ -208,12 +203,12 @@ fn run(t: &Lean<'_>, segs: &SegmentBatch, out: Out<'_>) -> bool {
     // checked by `shade_batch_depth`: the rows' bound bounds the depths.)
     unsafe {
         match (kind, out) {
-            (_, Out::Cells(c)) => kernel::<F32, true, false>(t, &g, segs, None, Some(c), None),
-            (_, Out::Depth(o, alpha)) => kernel::<F32, false, true>(t, &g, segs, Some(o), None, Some(alpha)),
-            (F32, Out::Rgba(o)) => kernel::<F32, false, false>(t, &g, segs, Some(o), None, None),
-            (F16, Out::Rgba(o)) => kernel::<F16, false, false>(t, &g, segs, Some(o), None, None),
-            (U16, Out::Rgba(o)) => kernel::<U16, false, false>(t, &g, segs, Some(o), None, None),
-            (_, Out::Rgba(o)) => kernel::<U8, false, false>(t, &g, segs, Some(o), None, None),
+            (_, Out::Cells(c)) => kernel::<F32, true, false>(t, &g, segs, None, Some(c)),
+            (_, Out::Depth(o)) => kernel::<F32, false, true>(t, &g, segs, Some(o), None),
+            (F32, Out::Rgba(o)) => kernel::<F32, false, false>(t, &g, segs, Some(o), None),
+            (F16, Out::Rgba(o)) => kernel::<F16, false, false>(t, &g, segs, Some(o), None),
+            (U16, Out::Rgba(o)) => kernel::<U16, false, false>(t, &g, segs, Some(o), None),
+            (_, Out::Rgba(o)) => kernel::<U8, false, false>(t, &g, segs, Some(o), None),
         }
     }
     true
@@ -292,42 +287,29 @@ fn clamp_i(v: __m256i, lo: i32, hi: i32) -> __m256i {
 /// `reconstruct`, operation for operation): per lane the trilinear colour
 /// `lin` (each corner's l-lerp e₀ + (e₁ − e₀)·fk weighted, summed
 /// ((p₀ + p₁) + p₂) + p₃, two corners a vector), the optical depth τ the
-/// same way from the entries' depths, α = `alpha`(max(τ, 0)) and the
-/// colour scaled by α / lin.α.
+/// same way from the entries' depths, α = 1 − e^−max(τ, 0) and the colour
+/// scaled by α / lin.α. `base`: the kernel's row offsets of the block's
+/// corner pairs.
 ///
 /// # Safety
 /// AVX2 and F16C must be available; `g` must describe `t.data` (f32) as
-/// for [`kernel`], `t.depth` must hold one value per entry, and the cells
-/// (lanes below `m`) must be the kernel's (in range).
+/// for [`kernel`], `t.depth` must hold one value per entry, and `base`
+/// (lanes below `m`) must be the kernel's (clamped to `g.max_base`).
 #[target_feature(enable = "avx2,f16c")]
-#[allow(clippy::too_many_arguments)]
 unsafe fn depth_block<const S: u8>(
     t: &Lean<'_>,
     g: &Geometry,
-    blk: usize,
-    m: usize,
-    corner: [__m256i; 3],
+    (blk, m): (usize, usize),
+    base: &[[i32; 8]; 2],
     frac: [__m256; 3],
     out: &mut [Rgba32; BATCH],
-    alpha: fn(f32) -> f32,
 ) {
-    let [a0, b0, k0] = corner;
-    let po = t.pair_off.as_ptr();
-    // SAFETY: a0 ∈ [0, n_s − 2], so a0 and a0 + 1 index `t.pair_off`.
-    let (p0, p1) = unsafe { (_mm256_i32gather_epi32::<4>(po, a0), _mm256_i32gather_epi32::<4>(po.add(1), a0)) };
-    let nl = _mm256_set1_epi32(t.n_l as i32);
-    let off = |p: __m256i| {
-        let e = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(p, b0), nl), k0);
-        clamp_i(_mm256_slli_epi32::<2>(e), 0, g.max_base)
-    };
-    let (mut base, mut w, mut fk) = ([[0i32; 8]; 2], [[0.0f32; 8]; 4], [0.0f32; 8]);
+    let (mut w, mut fk) = ([[0.0f32; 8]; 4], [0.0f32; 8]);
     let one = _mm256_set1_ps(1.0);
     let [fa, fb, fkv] = frac;
     let (wa0, wb0) = (_mm256_sub_ps(one, fa), _mm256_sub_ps(one, fb));
     // SAFETY: 8-lane stores into local arrays of 8 values.
     unsafe {
-        _mm256_storeu_si256(base[0].as_mut_ptr().cast(), off(p0));
-        _mm256_storeu_si256(base[1].as_mut_ptr().cast(), off(p1));
         _mm256_storeu_ps(w[0].as_mut_ptr(), _mm256_mul_ps(wa0, wb0));
         _mm256_storeu_ps(w[1].as_mut_ptr(), _mm256_mul_ps(wa0, fb));
         _mm256_storeu_ps(w[2].as_mut_ptr(), _mm256_mul_ps(fa, wb0));
@@ -368,7 +350,7 @@ unsafe fn depth_block<const S: u8>(
             + lerp_d(d(bases[1])) * wl[1]
             + lerp_d(d(bases[2])) * wl[2]
             + lerp_d(d(bases[3])) * wl[3];
-        let a = alpha(tau.max(0.0));
+        let a = crate::table3d::alpha_of_depth(tau.max(0.0));
         let scale = if lin4[3] > 0.0 { a / lin4[3] } else { 1.0 };
         out[blk + l] = [lin4[0] * scale, lin4[1] * scale, lin4[2] * scale, a];
     }
@@ -424,7 +406,6 @@ unsafe fn kernel<const S: u8, const CELLS: bool, const DEPTH: bool>(
     segs: &SegmentBatch,
     mut out: Option<&mut [Rgba32; BATCH]>,
     mut cells: Option<&mut Cells>,
-    alpha: Option<fn(f32) -> f32>,
 ) {
     let n = segs.len.min(BATCH);
     // `Axis::x_of_lanes` (and `Axis::x_of` for every lane): fractional grid
@@ -615,14 +596,6 @@ unsafe fn kernel<const S: u8, const CELLS: bool, const DEPTH: bool>(
             continue;
         }
         let Some(out) = out.as_deref_mut() else { return };
-        if DEPTH {
-            let Some(alpha) = alpha else { return };
-            // SAFETY: as the trilinear path below (the same rows, and the
-            // depths of their entries: one an entry, checked by `run`'s
-            // caller).
-            unsafe { depth_block::<S>(t, g, blk, m, [a0, b0, k0], [fa, fb, fk], out, alpha) };
-            continue;
-        }
         // SAFETY: a0 ∈ [0, n_s − 2], so a0 and a0 + 1 index `t.pair_off`
         // (at least n_s values).
         let (p0, p1) = unsafe { (_mm256_i32gather_epi32::<4>(po, a0), _mm256_i32gather_epi32::<4>(po.add(1), a0)) };
@@ -634,6 +607,18 @@ unsafe fn kernel<const S: u8, const CELLS: bool, const DEPTH: bool>(
             let e = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(p, b0), nl), k0);
             clamp_i(_mm256_slli_epi32::<2>(e), 0, g.max_base)
         };
+        // SAFETY: 8-lane stores into local arrays of 8 values.
+        unsafe {
+            _mm256_storeu_si256(base[0].as_mut_ptr().cast(), off(p0));
+            _mm256_storeu_si256(base[1].as_mut_ptr().cast(), off(p1));
+        }
+        if DEPTH {
+            // SAFETY: as the trilinear path below (the same rows, and the
+            // depths of their entries: one an entry, checked by `run`'s
+            // caller).
+            unsafe { depth_block::<S>(t, g, (blk, m), &base, [fa, fb, fk], out) };
+            continue;
+        }
         // The 8 weights of each lane's entries, as `Table3d::gather`: corner
         // c's w_c times 1 − fk (slice k0) and fk (slice k0 + 1), then
         // transposed so that lane l's eight are one vector,
@@ -651,11 +636,6 @@ unsafe fn kernel<const S: u8, const CELLS: bool, const DEPTH: bool>(
             _mm256_mul_ps(wc[3], gk),
             _mm256_mul_ps(wc[3], fk),
         ]);
-        // SAFETY: 8-lane stores into local arrays of 8 values.
-        unsafe {
-            _mm256_storeu_si256(base[0].as_mut_ptr().cast(), off(p0));
-            _mm256_storeu_si256(base[1].as_mut_ptr().cast(), off(p1));
-        }
         for (l, &wl) in wts.iter().enumerate().take(m) {
             // base ∈ [0, max_base] (clamped), so base + n_l·4 + 8 ≤ len.
             let (o0, o1) = (base[0][l] as usize, base[1][l] as usize);

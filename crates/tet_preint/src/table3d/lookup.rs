@@ -160,7 +160,7 @@ impl Table3d {
             }
             // Optical depth on f32 storage (its depths kept): the kernel
             // reconstructs as `reconstruct` does, operation for operation.
-            if !self.depth.is_empty() && crate::simd_x86::shade_batch_depth(&lean, segs, out, alpha_of_depth) {
+            if !self.depth.is_empty() && crate::simd_x86::shade_batch_depth(&lean, segs, out) {
                 return true;
             }
             // Optical depth: the kernel's cells, the portable gather.

@@ -55,6 +55,8 @@ mod axis;
 mod band;
 mod build;
 mod lookup;
+// The AVX2 kernel's optical-depth lookups take the same 1 − e^−τ.
+pub(crate) use lookup::alpha_of_depth;
 mod rebake;
 
 use crate::domain::{check_res, TableDomain, TableError, MAX_TABLE_ENTRIES};

@@ -498,28 +498,15 @@ impl PacketTile<'_, '_> {
         l.steps_left[k] -= 1;
         let (fx, fy) = (l.fx[k], l.fy[k]);
         let (t, f_in) = (l.t[k] as usize, l.f_in[k] as usize);
-        let rec = &c.mesh.tets[t];
-        let tet = rec.verts;
-        let (val, bits) = g.sides_from(tet, f_in, fx, fy, &mut self.counters);
-        let exit = EXIT_BY_SIDES[f_in & 3][(bits & 0xf) as usize];
-        if exit == NO_EXIT {
+        let Some((p_out, link)) = c.exit(g, &c.mesh.tets[t], f_in, fx, fy, &mut self.counters) else {
             self.st.step_limit += 1;
             ray.in_run = false;
             return None;
-        }
-        let (f_out, x, y) = ((exit & 3) as usize, (exit >> 2 & 3) as usize, (exit >> 4 & 3) as usize);
+        };
         l.crossings[k] += 1;
-        let link = rec.links[f_out & 3];
-        let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
-        let lv = [g.value(tx, ty, fx, fy), -val[y], val[x]];
-        let back_orient = if FRONT_IS_LEFT { -1.0 } else { 1.0 };
-        let p_out = g.face_point([v, tx, ty], lv, back_orient);
         let len = (p_out.depth - l.depth_in[k]) * l.len_per_depth[k];
         let seg = (len > 0.0).then_some([l.scalar_in[k], p_out.scalar, len]);
-        if link >= LINK_BROKEN || c.visible.is_some_and(|vis| !vis[(link / 4) as usize]) {
-            if link == LINK_BROKEN {
-                self.st.non_manifold += 1;
-            }
+        if c.ends_run(link, &mut self.st) {
             ray.in_run = false;
             return seg;
         }
@@ -535,7 +522,6 @@ impl PacketTile<'_, '_> {
     #[inline(never)]
     fn service(&mut self, p: &mut Packet, k: usize, x0: u32, y0: u32, stride: usize) {
         let (c, g) = (self.c, self.g);
-        let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
         loop {
             let ray = &mut p.rays[k];
             let l = &mut p.lanes;
@@ -568,15 +554,8 @@ impl PacketTile<'_, '_> {
                 let packed = self.entries[ray.next_entry].2;
                 ray.next_entry += 1;
                 self.st.runs += 1;
-                let (t, f_in) = (packed / 4, packed % 4);
-                let fv = FACE_OUTWARD[f_in as usize];
-                let tv = c.mesh.tets[t as usize].verts;
-                let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
-                let (fx, fy) = (l.fx[k], l.fy[k]);
-                let lv =
-                    [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
-                let p_in = g.face_point(ids, lv, front_orient);
-                (l.depth_in[k], l.scalar_in[k], l.t[k], l.f_in[k]) = (p_in.depth, p_in.scalar, t, f_in);
+                let p_in = c.entry_point(g, packed, l.fx[k], l.fy[k]);
+                (l.depth_in[k], l.scalar_in[k], l.t[k], l.f_in[k]) = (p_in.depth, p_in.scalar, packed / 4, packed % 4);
                 l.steps_left[k] = c.view.max_steps;
                 ray.in_run = true;
             }
@@ -603,12 +582,7 @@ impl PacketTile<'_, '_> {
             if acc[3] >= opaque {
                 continue;
             }
-            let c = sh.rgba[j];
-            let t = 1.0 - acc[3];
-            acc[0] += t * c[0];
-            acc[1] += t * c[1];
-            acc[2] += t * c[2];
-            acc[3] += t * c[3];
+            composite_under(acc, sh.rgba[j]);
             self.st.fragments += 1;
             if acc[3] >= opaque {
                 newly |= 1 << k;

@@ -46,6 +46,16 @@ pub(crate) fn rays_of(entries: &[(u32, f32, u32)]) -> Vec<(u32, usize, usize)> {
     rays
 }
 
+/// Premultiplied colour `c` composited under `acc` (front to back).
+#[inline(always)]
+pub(crate) fn composite_under(acc: &mut [f32; 4], c: Rgba32) {
+    let t = 1.0 - acc[3];
+    acc[0] += t * c[0];
+    acc[1] += t * c[1];
+    acc[2] += t * c[2];
+    acc[3] += t * c[3];
+}
+
 /// A point on a face along one ray: depth, scalar and the barycentric
 /// weights of the face's three vertices (world space).
 #[derive(Clone, Copy, Default)]
@@ -514,8 +524,6 @@ impl WalkCtx<'_> {
     ) -> bool {
         let tets = &self.mesh.tets[..];
         let (fx, fy) = (ray.fx, ray.fy);
-        let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
-        let back_orient = -front_orient;
         if !ray.in_run {
             if ray.next_entry == ray.end {
                 return self.finish(ray, batch, st);
@@ -524,11 +532,7 @@ impl WalkCtx<'_> {
             ray.next_entry += 1;
             st.runs += 1;
             (ray.t, ray.f_in) = ((packed / 4) as usize, (packed % 4) as usize);
-            let fv = FACE_OUTWARD[ray.f_in];
-            let tv = tets[ray.t].verts;
-            let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
-            let l = [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
-            ray.p_in = g.face_point(ids, l, front_orient);
+            ray.p_in = self.entry_point(g, packed, fx, fy);
             ray.steps_left = self.view.max_steps;
             ray.in_run = true;
         }
@@ -549,26 +553,14 @@ impl WalkCtx<'_> {
                 prefetch::prefetch(tets, (n / 4) as usize);
             }
         }
-        let tet = rec.verts;
-        let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
-        // One table read: with the candidates' records already requested
-        // (above), a branch per candidate no longer lets loads start sooner.
-        let exit = EXIT_BY_SIDES[f_in & 3][(bits & 0xf) as usize];
-        if exit == NO_EXIT {
+        let Some((p_out, link)) = self.exit(g, rec, f_in, fx, fy, counters) else {
             // Cannot happen with exact signs (module docs); counted with the
             // step bound rather than trusted.
             st.step_limit += 1;
             ray.in_run = false;
             return false;
-        }
-        let (f_out, x, y) = ((exit & 3) as usize, (exit >> 2 & 3) as usize, (exit >> 4 & 3) as usize);
+        };
         ray.crossings += 1;
-        let link = rec.links[f_out & 3];
-        // The exit face as (v, x, y), a rotation of its outward order: the
-        // edge values opposite v, x and y.
-        let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
-        let l = [g.value(tx, ty, fx, fy), -val[y], val[x]];
-        let p_out = g.face_point([v, tx, ty], l, back_orient);
         let p_in = ray.p_in;
         let len = (p_out.depth - p_in.depth) * ray.len_per_depth;
         let near = g.near_depth();
@@ -594,12 +586,7 @@ impl WalkCtx<'_> {
                 return true;
             }
         }
-        // Out of the mesh, or into a culled tet: the run ends (the ray's
-        // next entry, if any, is where it meets visible tets again).
-        if link >= LINK_BROKEN || self.visible.is_some_and(|vis| !vis[(link / 4) as usize]) {
-            if link == LINK_BROKEN {
-                st.non_manifold += 1;
-            }
+        if self.ends_run(link, st) {
             ray.in_run = false;
             return false;
         }
@@ -613,6 +600,60 @@ impl WalkCtx<'_> {
         ray.t = (link / 4) as usize;
         ray.f_in = (link % 4) as usize;
         false
+    }
+
+    /// Where the ray through (fx, fy) enters tet·4 + face `packed` (a run's
+    /// first point).
+    #[inline(always)]
+    pub(crate) fn entry_point<G: RayGeometry>(&self, g: &G, packed: u32, fx: f32, fy: f32) -> FacePoint {
+        let fv = FACE_OUTWARD[(packed % 4) as usize];
+        let tv = self.mesh.tets[(packed / 4) as usize].verts;
+        let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
+        let l = [g.value(ids[1], ids[2], fx, fy), g.value(ids[2], ids[0], fx, fy), g.value(ids[0], ids[1], fx, fy)];
+        let front_orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
+        g.face_point(ids, l, front_orient)
+    }
+
+    /// One step's geometry: where the ray through (fx, fy), having entered
+    /// tet `rec` through face `f_in`, leaves it, and the link of that face;
+    /// `None` where no exit is found (impossible with exact signs).
+    #[inline(always)]
+    pub(crate) fn exit<G: RayGeometry>(
+        &self,
+        g: &G,
+        rec: &WalkTet,
+        f_in: usize,
+        fx: f32,
+        fy: f32,
+        counters: &mut EdgeCounters,
+    ) -> Option<(FacePoint, u32)> {
+        let tet = rec.verts;
+        let (val, bits) = g.sides_from(tet, f_in, fx, fy, counters);
+        // One table read: with the candidates' records already requested
+        // (the step's prefetch), a branch per candidate no longer lets loads
+        // start sooner.
+        let exit = EXIT_BY_SIDES[f_in & 3][(bits & 0xf) as usize];
+        if exit == NO_EXIT {
+            return None;
+        }
+        let (f_out, x, y) = ((exit & 3) as usize, (exit >> 2 & 3) as usize, (exit >> 4 & 3) as usize);
+        // The exit face as (v, x, y), a rotation of its outward order: the
+        // edge values opposite v, x and y.
+        let (v, tx, ty) = (tet[f_in & 3], tet[x], tet[y]);
+        let l = [g.value(tx, ty, fx, fy), -val[y], val[x]];
+        let back_orient = if FRONT_IS_LEFT { -1.0 } else { 1.0 };
+        Some((g.face_point([v, tx, ty], l, back_orient), rec.links[f_out & 3]))
+    }
+
+    /// Whether a run ends at `link`: out of the mesh, or into a culled tet
+    /// (the ray's next entry, if any, is where it meets visible tets
+    /// again). A link whose neighbour does not point back is counted.
+    #[inline(always)]
+    pub(crate) fn ends_run(&self, link: u32, st: &mut WalkStats) -> bool {
+        if link == LINK_BROKEN {
+            st.non_manifold += 1;
+        }
+        link >= LINK_BROKEN || self.visible.is_some_and(|vis| !vis[(link / 4) as usize])
     }
 
     /// Shades what is left of the ray's batch; always true (done).
@@ -739,11 +780,7 @@ impl WalkCtx<'_> {
                 c = lit;
                 prev_back = back.map(|l| (ends.ab[1], l));
             }
-            let t = 1.0 - acc[3];
-            acc[0] += t * c[0];
-            acc[1] += t * c[1];
-            acc[2] += t * c[2];
-            acc[3] += t * c[3];
+            composite_under(acc, c);
             st.fragments += 1;
             if acc[3] >= self.opts.opaque_alpha {
                 return true;

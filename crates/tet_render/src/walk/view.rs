@@ -94,6 +94,7 @@ impl WalkView {
         // vertices are read once, not once per check): every vertex
         // projected, with whether any lies nearer than the near plane, any
         // projects to no finite pixel, and the largest pixel coordinate.
+        let unrepresentable = |v: &WalkVertex| !(v.x_px.abs() < 1e30 && v.y_px.abs() < 1e30);
         old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
         let (any_near, any_bad, k_max) = old_verts
             .par_iter_mut()
@@ -105,8 +106,7 @@ impl WalkView {
                 let w = if parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 };
                 *out = WalkVertex { x_px: q[0] as f32, y_px: q[1] as f32, w, scalar };
                 let is_near = !parallel && c[2].partial_cmp(&near).is_none_or(|o| o.is_lt());
-                let is_bad = !(out.x_px.abs() < 1e30 && out.y_px.abs() < 1e30);
-                (is_near, is_bad, out.x_px.abs().max(out.y_px.abs()))
+                (is_near, unrepresentable(out), out.x_px.abs().max(out.y_px.abs()))
             })
             .reduce(|| (false, false, p_max), |a, b| (a.0 | b.0, a.1 | b.1, a.2.max(b.2)));
         if any_near {
@@ -152,7 +152,6 @@ impl WalkView {
         }
         view.verts = old_verts;
         if any_bad {
-            let unrepresentable = |v: &WalkVertex| !(v.x_px.abs() < 1e30 && v.y_px.abs() < 1e30);
             let i = view.verts.par_iter().position_first(unrepresentable).unwrap_or(0);
             view.unsupported =
                 Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));

@@ -377,6 +377,21 @@ fn near_plane_cutting_the_mesh_with_the_eye_outside_or_culled() {
     }
 }
 
+/// Makes the first interior link of every `every`-th tet one-way (t → nb
+/// kept, nb → t removed); how many were cut.
+fn cut_links_one_way(adj: &mut tet_mesh::Adjacency, every: usize) -> usize {
+    let mut cut = 0;
+    for t in (0..adj.neighbors.len()).step_by(every) {
+        if let Some(f) = (0..4).find(|&f| adj.neighbors[t][f] != tet_mesh::NO_NEIGHBOR) {
+            let nb = adj.neighbors[t][f] as usize;
+            let back = adj.neighbors[nb].iter().position(|&m| m as usize == t).unwrap();
+            adj.neighbors[nb][back] = tet_mesh::NO_NEIGHBOR;
+            cut += 1;
+        }
+    }
+    cut
+}
+
 /// A bundle whose adjacency lists a neighbour that does not point back (a
 /// corrupted or non-manifold link): the run ends there, is counted, and the
 /// image stays finite — no hang, no panic.
@@ -385,19 +400,7 @@ fn broken_links_end_runs_and_are_counted() {
     let (points, tets, scalar) = grid_mesh(4, 0.0, [0.0; 3], 1, |p| p[1]);
     let (mesh, mut adj) = mesh_of(points, tets, scalar);
     // Cut one direction of a quarter of the interior links.
-    let n = adj.neighbors.len();
-    let mut cut = 0;
-    for t in (0..n).step_by(4) {
-        for f in 0..4 {
-            let nb = adj.neighbors[t][f];
-            if nb != tet_mesh::NO_NEIGHBOR {
-                let back = adj.neighbors[nb as usize].iter().position(|&m| m as usize == t).unwrap();
-                adj.neighbors[nb as usize][back] = tet_mesh::NO_NEIGHBOR; // one-way link t → nb
-                cut += 1;
-                break;
-            }
-        }
-    }
+    let cut = cut_links_one_way(&mut adj, 4);
     assert!(cut > 0);
     let bundle = Bundle::new(mesh, adj, BundleMeta::default());
     let scene = Scene::from_bundle(&bundle).unwrap();
@@ -652,13 +655,7 @@ fn packet_walk_gives_the_scalar_walks_image() {
     // Broken links: runs ended and counted alike.
     let (points, tets, scalar) = grid_mesh(4, 0.0, [0.0; 3], 1, |p| p[1]);
     let (mesh, mut adj) = mesh_of(points, tets, scalar);
-    for t in (0..adj.neighbors.len()).step_by(3) {
-        if let Some(f) = (0..4).find(|&f| adj.neighbors[t][f] != tet_mesh::NO_NEIGHBOR) {
-            let nb = adj.neighbors[t][f] as usize;
-            let back = adj.neighbors[nb].iter().position(|&m| m as usize == t).unwrap();
-            adj.neighbors[nb][back] = tet_mesh::NO_NEIGHBOR;
-        }
-    }
+    cut_links_one_way(&mut adj, 3);
     let broken = Scene::from_bundle(&Bundle::new(mesh, adj, BundleMeta::default())).unwrap();
     let view = ViewSpec::framing([0.0; 3], [1.0; 3], [32, 32]).orbit(25.0, 35.0, 1.0);
     let st = packets_agree(&broken, &view, &sh, None, all, "broken links");

@@ -53,7 +53,9 @@ fuzz_target!(|data: &[u8]| {
         (CpuRenderer::Pt, None, true),
         (CpuRenderer::Walk, Some(tol), true),
         (CpuRenderer::Walk, None, false),
+        (CpuRenderer::Walk, Some(tol), false),
     ];
+    let mut adaptive_packets = None;
     for (kind, adaptive, walk_packets) in passes {
         let mut r = Renderer::new(scene.clone());
         r.set_renderer(kind);
@@ -85,6 +87,15 @@ fuzz_target!(|data: &[u8]| {
             // each walked or interpolated.
             (Some(_), Some((_, fs))) if st.renderer == "walk" && fs.renderer == "walk" => {
                 assert_eq!(st.walk_rays + st.walk_rays_interpolated, fs.walk_rays, "{st:?} vs {fs:?}");
+                // Each level's rays by packets or one by one: one image.
+                match adaptive_packets.take() {
+                    None => adaptive_packets = Some((img, st)),
+                    Some((packet, ps)) => {
+                        assert!(img.pixels() == packet.pixels(), "adaptive: the scalar and the packet walk differ");
+                        let counts = |s: &tet_render::RenderStats| (s.fragments, s.walk_rays, s.walk_rays_interpolated);
+                        assert_eq!(counts(&st), counts(&ps), "{st:?} vs {ps:?}");
+                    }
+                }
             }
             _ => {}
         }

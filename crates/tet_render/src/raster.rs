@@ -62,8 +62,9 @@ pub struct RasterOptions {
     pub walk_prefetch: bool,
     /// The walker: eight rays a step in the lanes of AVX2 vectors (x86-64
     /// CPUs that have it, detected at run time), `walk_interleave` then
-    /// unused. Frames with lighting, a bivariate method, the near plane
-    /// cutting the mesh or adaptive sampling take the scalar walk. The
+    /// unused (adaptive sampling too: each level's rays in one list).
+    /// Frames with lighting, a bivariate method or the near plane cutting
+    /// the mesh take the scalar walk. The
     /// image is the same bit for bit either way; crossings and runs may
     /// differ slightly (a ray's opacity is noticed at its packet's next
     /// shading).
@@ -72,9 +73,10 @@ pub struct RasterOptions {
     /// interaction (`None`, the default: every covered pixel walks its
     /// ray). `Some(tol)`: each tile walks the rays of a 4-pixel lattice
     /// first; a block whose pixels all meet the mesh through the same
-    /// number of entries and whose corners differ by at most `tol` in every
-    /// premultiplied channel is filled bilinearly, any other block is
-    /// halved and tested again down to single pixels. Silhouettes and
+    /// number of entries and whose walked corners differ by at most `tol`
+    /// in every premultiplied channel is filled bilinearly, any other block
+    /// is halved and its children's corners walked, level by level, down to
+    /// single pixels. Silhouettes and
     /// re-entries are walked exactly (coverage comes from the rasterized
     /// entries), but a feature narrower than a block that none of its
     /// corners meets is missed: the error is not bounded, only measured

@@ -605,6 +605,7 @@ fn packets_agree(
     assert!(packet.pixels() == scalar.pixels(), "{what}: the packet walk's image differs");
     assert_eq!(sp.fragments, ss.fragments, "{what}");
     assert_eq!(sp.walk_rays, ss.walk_rays, "{what}");
+    assert_eq!(sp.walk_rays_interpolated, ss.walk_rays_interpolated, "{what}");
     if opts.opaque_alpha > 1.0 {
         let counts = |s: &RenderStats| {
             (s.crossings, s.walk_runs, s.walk_exact_tests, s.walk_non_manifold, s.walk_step_limit, s.walk_terminated)
@@ -643,6 +644,19 @@ fn packet_walk_gives_the_scalar_walks_image() {
         }
     }
     assert!(!simd || n_packet > 0);
+    // Adaptive sampling: each level's rays walked by packets, the same
+    // rays walked and interpolated and the same image.
+    let view = ViewSpec::framing(lo, hi, [72, 60]).orbit(30.0, 20.0, 1.0);
+    for tol in [0.004f32, 0.05] {
+        for opaque_alpha in [0.9999, 2.0] {
+            let what = format!("Blunt Fin, adaptive {tol}, opaque {opaque_alpha}");
+            let opts = RasterOptions { walk_adaptive: Some(tol), opaque_alpha, ..Default::default() };
+            let st = packets_agree(&scene, &view, &table, None, opts, &what);
+            // (At this size only the loose tolerance finds smooth blocks.)
+            assert!(tol < 0.01 || st.walk_rays_interpolated > 0, "{what}: {st:?}");
+            assert_eq!(st.walk_packet_rays, if simd { st.walk_rays } else { 0 }, "{what}");
+        }
+    }
     // A folded mesh: runs without an exit, counted alike.
     let (r, sparse) = wave_renderer(0.3);
     let fold = r.scene().clone();

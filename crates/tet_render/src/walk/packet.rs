@@ -24,9 +24,10 @@
 //! walk a few tets more or fewer past the point where it turned opaque, so
 //! crossings and runs (not fragments) may differ (`tests/walk.rs`).
 //!
-//! What the packet walk does not do — lighting, bivariate methods (both
-//! read the exit points' weights), the near-clipped geometry, adaptive
-//! sampling — and CPUs without AVX2 take the scalar walk, its portable twin.
+//! Adaptive sampling hands the packets each level's rays as one list
+//! ([`adaptive_fill`]). What the packet walk does not do — lighting,
+//! bivariate methods (both read the exit points' weights), the near-clipped
+//! geometry — and CPUs without AVX2 take the scalar walk, its portable twin.
 #![allow(unsafe_code)]
 
 use super::*;
@@ -147,14 +148,36 @@ pub(crate) fn tile(c: &WalkCtx, g: &Projected, ti: usize) -> (Vec<[f32; 4]>, Wal
     };
     let mut packets: Vec<Packet> = (0..PACKETS).map(|_| Packet::new()).collect();
     let (x0, y0) = (rect[0], rect[1]);
-    for p in packets.iter_mut() {
-        for k in 0..LANES {
-            t.service(p, k, x0, y0, stride);
+    // Walks `t.rays` from `t.next_ray` on; every lane idle after.
+    let walk_all = |t: &mut PacketTile, packets: &mut [Packet]| {
+        for p in packets.iter_mut() {
+            for k in 0..LANES {
+                t.service(p, k, x0, y0, stride);
+            }
         }
+        // SAFETY: `available()` (asserted above) checked that the CPU has
+        // AVX2, the only target feature `walk` enables.
+        unsafe { t.walk(packets, x0, y0, stride) };
+    };
+    if let Some(tol) = c.adaptive {
+        // Each level's rays in one list through the packets.
+        let rays = std::mem::take(&mut t.rays);
+        let mut acc = std::mem::take(&mut t.acc);
+        let rows = acc.len() / stride;
+        let mut interpolated = WalkStats::default();
+        adaptive_fill(&rays, stride, rows, tol, &mut acc, &mut interpolated, &mut |list, acc, _| {
+            t.rays.clear();
+            t.rays.extend_from_slice(list);
+            t.next_ray = 0;
+            std::mem::swap(&mut t.acc, acc);
+            walk_all(&mut t, &mut packets);
+            std::mem::swap(&mut t.acc, acc);
+        });
+        t.acc = acc;
+        t.st.rays_interpolated += interpolated.rays_interpolated;
+    } else {
+        walk_all(&mut t, &mut packets);
     }
-    // SAFETY: `available()` (asserted above) checked that the CPU has AVX2,
-    // the only target feature `walk` enables.
-    unsafe { t.walk(&mut packets, x0, y0, stride) };
     t.st.exact_tests = t.counters.exact;
     t.st.packet_rays = t.st.rays;
     (t.acc, t.st)

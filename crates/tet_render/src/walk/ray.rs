@@ -311,10 +311,10 @@ impl WalkCtx<'_> {
 
     /// Whether a projected view's tiles take the packet walk: asked for,
     /// AVX2 present, and nothing the packet walk leaves to the scalar one
-    /// (lighting, bivariate methods, adaptive sampling).
+    /// (lighting, bivariate methods).
     #[cfg(target_arch = "x86_64")]
     pub(crate) fn packet_walk(&self) -> bool {
-        self.packets && !self.lit && !self.want_grad_mag && self.adaptive.is_none() && super::packet::available()
+        self.packets && !self.lit && !self.want_grad_mag && super::packet::available()
     }
 
     /// [`Self::tile_with`], compiled without the per-vertex gradient reads
@@ -352,15 +352,18 @@ impl WalkCtx<'_> {
         let mut active = 0;
         if let Some(tol) = self.adaptive {
             let batch = &mut batches[0];
-            let mut walk = |pix: u32, first: usize, end: usize, st: &mut WalkStats| {
-                let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
-                batch.segs.len = 0;
-                st.rays += 1;
-                let mut ray = self.start_ray(px, py, first, end);
-                while !self.step::<G, GRADS>(g, &mut ray, &entries, batch, st, &mut counters) {}
-                ray.acc
+            let mut walk = |list: &[(u32, usize, usize)], acc: &mut Vec<[f32; 4]>, st: &mut WalkStats| {
+                for &(pix, first, end) in list {
+                    let (px, py) = (rect[0] + pix % stride as u32, rect[1] + pix / stride as u32);
+                    batch.segs.len = 0;
+                    st.rays += 1;
+                    let mut ray = self.start_ray(px, py, first, end);
+                    while !self.step::<G, GRADS>(g, &mut ray, &entries, batch, st, &mut counters) {}
+                    acc[pix as usize] = ray.acc;
+                }
             };
-            adaptive_fill(&rays, stride, acc.len() / stride, tol, &mut acc, &mut st, &mut walk);
+            let rows = acc.len() / stride;
+            adaptive_fill(&rays, stride, rows, tol, &mut acc, &mut st, &mut walk);
             next = rays.len();
         } else if lanes == 1 {
             // One ray at a time: its state stays a local.
@@ -793,24 +796,58 @@ impl WalkCtx<'_> {
 /// Lattice spacing of [`adaptive_fill`]'s first pass, in pixels.
 const ADAPTIVE_SPACING: usize = 4;
 
+/// Walks a list of a tile's rays (pixel, first entry, end), each one's
+/// colour written at its pixel of the image given ([`adaptive_fill`]).
+pub(crate) type WalkRays<'a> = dyn FnMut(&[(u32, usize, usize)], &mut Vec<[f32; 4]>, &mut WalkStats) + 'a;
+
 /// Image-space adaptive sampling of one tile ([`RasterOptions::walk_adaptive`]):
-/// `rays` are the tile's (pixel, first entry, end) in pixel order, `walk`
-/// walks one and returns its colour. Pixels without a ray stay clear.
+/// `rays` are the tile's (pixel, first entry, end) in pixel order; `walk`
+/// walks a list of them and writes each one's colour at its pixel in the
+/// image it is given. Pixels without a ray stay clear.
+///
+/// Level by level: the rays on a lattice of `ADAPTIVE_SPACING` pixels are
+/// walked first; a block whose pixels all have the same number of entries
+/// (no silhouette or re-entry inside) and whose four walked corners agree
+/// within `tol` in every channel is interpolated bilinearly from them,
+/// any other is split in two along each side longer than a pixel, and the
+/// children's corners not yet walked are walked together, as one list (so
+/// that a walker taking many rays at once gets many). Corners are always
+/// walked, never interpolated; a pixel on the edge of blocks of several
+/// levels takes the finest one's interpolation. The result does not depend
+/// on the order `walk` takes a list's rays in.
 pub(crate) fn adaptive_fill(
     rays: &[(u32, usize, usize)],
     stride: usize,
     rows: usize,
     tol: f32,
-    acc: &mut [[f32; 4]],
+    acc: &mut Vec<[f32; 4]>,
     st: &mut WalkStats,
-    walk: &mut dyn FnMut(u32, usize, usize, &mut WalkStats) -> [f32; 4],
+    walk: &mut WalkRays<'_>,
 ) {
-    // Per pixel: its ray's index + 1 (0: none) and whether its colour is known.
+    // Per pixel: its ray's index + 1 (0: none), and whether it is walked
+    // (or asked for in the list being gathered).
     let mut ray_of = vec![0u32; acc.len()];
     for (r, &(pix, _, _)) in rays.iter().enumerate() {
         ray_of[pix as usize] = r as u32 + 1;
     }
-    let mut known = vec![false; acc.len()];
+    let mut walked = vec![false; acc.len()];
+    let entries = |p: usize| match ray_of[p] {
+        0 => 0,
+        r => {
+            let (_, first, end) = rays[r as usize - 1];
+            end - first
+        }
+    };
+    let mut list = Vec::new();
+    let ask = |x: usize, y: usize, walked: &mut [bool], list: &mut Vec<(u32, usize, usize)>| {
+        let p = y * stride + x;
+        if !walked[p] {
+            walked[p] = true;
+            if ray_of[p] != 0 {
+                list.push(rays[ray_of[p] as usize - 1]);
+            }
+        }
+    };
     let lattice = |n: usize| -> Vec<usize> {
         let mut v: Vec<usize> = (0..n).step_by(ADAPTIVE_SPACING).collect();
         if *v.last().unwrap_or(&0) != n.saturating_sub(1) {
@@ -819,111 +856,85 @@ pub(crate) fn adaptive_fill(
         v
     };
     let (xs, ys) = (lattice(stride), lattice(rows));
-    struct Fill<'a> {
-        rays: &'a [(u32, usize, usize)],
-        ray_of: &'a [u32],
-        known: &'a mut [bool],
-        acc: &'a mut [[f32; 4]],
-        stride: usize,
-        tol: f32,
+    for &y in &ys {
+        for &x in &xs {
+            ask(x, y, &mut walked, &mut list);
+        }
     }
-    impl Fill<'_> {
-        fn get(
-            &mut self,
-            x: usize,
-            y: usize,
-            st: &mut WalkStats,
-            walk: &mut dyn FnMut(u32, usize, usize, &mut WalkStats) -> [f32; 4],
-        ) -> [f32; 4] {
-            let p = y * self.stride + x;
-            if !self.known[p] {
-                self.known[p] = true;
-                let r = self.ray_of[p];
-                if r != 0 {
-                    let (pix, first, end) = self.rays[r as usize - 1];
-                    self.acc[p] = walk(pix, first, end, st);
-                }
-            }
-            self.acc[p]
+    // Blocks [x0, x1, y0, y1], inclusive corners.
+    let windows = |v: &[usize]| -> Vec<(usize, usize)> {
+        if v.len() == 1 {
+            vec![(v[0], v[0])]
+        } else {
+            v.windows(2).map(|w| (w[0], w[1])).collect()
         }
-        /// Entries of the pixel's ray (0: no ray).
-        fn entries(&self, x: usize, y: usize) -> usize {
-            let r = self.ray_of[y * self.stride + x];
-            if r == 0 {
-                0
-            } else {
-                let (_, first, end) = self.rays[r as usize - 1];
-                end - first
-            }
+    };
+    let mut blocks: Vec<[usize; 4]> = Vec::new();
+    for &(y0, y1) in &windows(&ys) {
+        for &(x0, x1) in &windows(&xs) {
+            blocks.push([x0, x1, y0, y1]);
         }
-        fn block(
-            &mut self,
-            x0: usize,
-            x1: usize,
-            y0: usize,
-            y1: usize,
-            st: &mut WalkStats,
-            walk: &mut dyn FnMut(u32, usize, usize, &mut WalkStats) -> [f32; 4],
-        ) {
-            let c = [
-                self.get(x0, y0, st, walk),
-                self.get(x1, y0, st, walk),
-                self.get(x0, y1, st, walk),
-                self.get(x1, y1, st, walk),
-            ];
+    }
+    let mut smooth: Vec<[usize; 4]> = Vec::new();
+    while !list.is_empty() || !blocks.is_empty() {
+        walk(&list, acc, st);
+        list.clear();
+        let mut children = Vec::new();
+        for &[x0, x1, y0, y1] in &blocks {
             if x1 - x0 <= 1 && y1 - y0 <= 1 {
-                return;
+                continue;
             }
-            let n0 = self.entries(x0, y0);
-            let same_cover = (y0..=y1).all(|y| (x0..=x1).all(|x| self.entries(x, y) == n0));
+            let n0 = entries(y0 * stride + x0);
+            let same_cover = (y0..=y1).all(|y| (x0..=x1).all(|x| entries(y * stride + x) == n0));
+            let c = [acc[y0 * stride + x0], acc[y0 * stride + x1], acc[y1 * stride + x0], acc[y1 * stride + x1]];
             let close = (0..4).all(|k| {
                 let (lo, hi) =
                     c.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| (lo.min(v[k]), hi.max(v[k])));
-                hi - lo <= self.tol
+                hi - lo <= tol
             });
             if same_cover && close {
-                if n0 == 0 {
-                    return;
+                if n0 != 0 {
+                    smooth.push([x0, x1, y0, y1]);
                 }
-                let (dx, dy) = ((x1 - x0) as f32, (y1 - y0) as f32);
-                for y in y0..=y1 {
-                    let v = if dy > 0.0 { (y - y0) as f32 / dy } else { 0.0 };
-                    for x in x0..=x1 {
-                        let p = y * self.stride + x;
-                        if self.known[p] {
-                            continue;
-                        }
-                        let u = if dx > 0.0 { (x - x0) as f32 / dx } else { 0.0 };
-                        let w = [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v];
-                        let mut out = [0.0f32; 4];
-                        for (k, o) in out.iter_mut().enumerate() {
-                            *o = w[0] * c[0][k] + w[1] * c[1][k] + w[2] * c[2][k] + w[3] * c[3][k];
-                        }
-                        self.acc[p] = out;
-                        self.known[p] = true;
-                        st.rays_interpolated += 1;
-                    }
-                }
-                return;
+                continue;
             }
             let (xm, ym) = ((x0 + x1) / 2, (y0 + y1) / 2);
             let xsplit: &[(usize, usize)] = if x1 - x0 >= 2 { &[(x0, xm), (xm, x1)] } else { &[(x0, x1)] };
             let ysplit: &[(usize, usize)] = if y1 - y0 >= 2 { &[(y0, ym), (ym, y1)] } else { &[(y0, y1)] };
             for &(ya, yb) in ysplit {
                 for &(xa, xb) in xsplit {
-                    self.block(xa, xb, ya, yb, st, walk);
+                    for (x, y) in [(xa, ya), (xb, ya), (xa, yb), (xb, yb)] {
+                        ask(x, y, &mut walked, &mut list);
+                    }
+                    children.push([xa, xb, ya, yb]);
                 }
             }
         }
+        blocks = children;
     }
-    let mut f = Fill { rays, ray_of: &ray_of, known: &mut known, acc, stride, tol };
-    for yw in ys.windows(2).chain((ys.len() == 1).then_some(&ys[..1])) {
-        let (y0, y1) = (yw[0], *yw.last().unwrap());
-        for xw in xs.windows(2).chain((xs.len() == 1).then_some(&xs[..1])) {
-            let (x0, x1) = (xw[0], *xw.last().unwrap());
-            f.block(x0, x1, y0, y1, st, walk);
+    // Coarse blocks first, so that a finer one's interpolation of a shared
+    // edge (from walked corners nearer the pixel) is the one kept.
+    for &[x0, x1, y0, y1] in &smooth {
+        let c = [acc[y0 * stride + x0], acc[y0 * stride + x1], acc[y1 * stride + x0], acc[y1 * stride + x1]];
+        let (dx, dy) = ((x1 - x0) as f32, (y1 - y0) as f32);
+        for y in y0..=y1 {
+            let v = if dy > 0.0 { (y - y0) as f32 / dy } else { 0.0 };
+            for x in x0..=x1 {
+                let p = y * stride + x;
+                if walked[p] {
+                    continue;
+                }
+                let u = if dx > 0.0 { (x - x0) as f32 / dx } else { 0.0 };
+                let w = [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v];
+                let mut out = [0.0f32; 4];
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = w[0] * c[0][k] + w[1] * c[1][k] + w[2] * c[2][k] + w[3] * c[3][k];
+                }
+                acc[p] = out;
+            }
         }
     }
+    st.rays_interpolated += (0..acc.len()).filter(|&p| ray_of[p] != 0 && !walked[p]).count() as u64;
 }
 
 #[cfg(test)]
@@ -958,13 +969,66 @@ mod adaptive_tests {
         let mut acc = vec![[0.0f32; 4]; w * h];
         let mut st = WalkStats::default();
         let mut walked = Vec::new();
-        let mut walk = |pix: u32, _: usize, _: usize, st: &mut WalkStats| {
-            st.rays += 1;
-            walked.push(pix);
-            colour(pix as usize % w, pix as usize / w)
+        let mut walk = |list: &[(u32, usize, usize)], acc: &mut Vec<[f32; 4]>, st: &mut WalkStats| {
+            for &(pix, _, _) in list {
+                st.rays += 1;
+                walked.push(pix);
+                acc[pix as usize] = colour(pix as usize % w, pix as usize / w);
+            }
         };
         adaptive_fill(&rays, w, h, tol, &mut acc, &mut st, &mut walk);
         (acc, walked, st)
+    }
+
+    /// One level's list walked in any order gives the same image and the
+    /// same walked rays (the walker may take a list's rays in any order),
+    /// and every ray is walked at most once.
+    #[test]
+    fn the_order_a_list_is_walked_in_changes_nothing() {
+        let (w, h) = (21, 18);
+        let entries = |x: usize, y: usize| if x * x + y * y < 40 { 0 } else { 1 + (x > 15) as usize };
+        let colour = |x: usize, y: usize| {
+            let v = if (x, y) == (8, 8) { 1.0 } else { 0.001 * x as f32 + 0.00005 * (y * y) as f32 };
+            [v, 0.5 * v, 0.1, 0.3]
+        };
+        let mut rays = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let n = entries(x, y);
+                if n > 0 {
+                    rays.push(((y * w + x) as u32, 0, n));
+                }
+            }
+        }
+        let run = |reverse: bool| {
+            let mut acc = vec![[0.0f32; 4]; w * h];
+            let mut st = WalkStats::default();
+            let mut walked = Vec::new();
+            let mut walk = |list: &[(u32, usize, usize)], acc: &mut Vec<[f32; 4]>, st: &mut WalkStats| {
+                let mut order: Vec<_> = list.to_vec();
+                if reverse {
+                    order.reverse();
+                }
+                for (pix, _, _) in order {
+                    st.rays += 1;
+                    walked.push(pix);
+                    acc[pix as usize] = colour(pix as usize % w, pix as usize / w);
+                }
+            };
+            adaptive_fill(&rays, w, h, 0.01, &mut acc, &mut st, &mut walk);
+            walked.sort_unstable();
+            (acc, walked, st)
+        };
+        let ((a, wa, sa), (b, wb, sb)) = (run(false), run(true));
+        assert_eq!(a, b);
+        assert_eq!(wa, wb);
+        assert!(wa.windows(2).all(|p| p[0] < p[1]), "a ray walked twice");
+        assert_eq!((sa.rays, sa.rays_interpolated), (sb.rays, sb.rays_interpolated));
+        assert_eq!(sa.rays + sa.rays_interpolated, rays.len() as u64);
+        assert!(
+            sa.rays_interpolated > 0 && wa.contains(&(8 * w as u32 + 9)) && wa.contains(&(7 * w as u32 + 7)),
+            "{sa:?}"
+        );
     }
 
     /// A colour linear in the pixel is interpolated exactly from the

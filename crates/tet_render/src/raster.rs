@@ -63,8 +63,8 @@ pub struct RasterOptions {
     /// The walker: eight rays a step in the lanes of AVX2 vectors (x86-64
     /// CPUs that have it, detected at run time), `walk_interleave` then
     /// unused (adaptive sampling too: each level's rays in one list).
-    /// Frames with lighting, a bivariate method or the near plane cutting
-    /// the mesh take the scalar walk. The
+    /// Frames with lighting or a bivariate method take the scalar walk.
+    /// The
     /// image is the same bit for bit either way; crossings and runs may
     /// differ slightly (a ray's opacity is noticed at its packet's next
     /// shading).

@@ -674,7 +674,8 @@ fn packet_walk_gives_the_scalar_walks_image() {
     let view = ViewSpec::framing([0.0; 3], [1.0; 3], [32, 32]).orbit(25.0, 35.0, 1.0);
     let st = packets_agree(&broken, &view, &sh, None, all, "broken links");
     assert!(st.walk_non_manifold > 0, "{st:?}");
-    // What the packet walk leaves to the scalar walk.
+    // What the packet walk leaves to the scalar walk: lighting and the
+    // bivariate methods.
     let lit = Shading { light: Some(Light::default()), silhouette: None, ..Default::default() };
     let scene_g = scene.clone().ensure_gradients().unwrap();
     let view = ViewSpec::framing(lo, hi, [48, 40]).orbit(30.0, 20.0, 1.0);
@@ -685,9 +686,25 @@ fn packet_walk_gives_the_scalar_walks_image() {
         make_shader(Method::BivApprox, &tf, &domain, &BakeOptions::default()).unwrap().into();
     let st = packets_agree(&scene_g, &view, &biv, None, RasterOptions::default(), "bivariate");
     assert_eq!(st.walk_packet_rays, 0);
-    let inside = inside_view(lerp3(lo, hi, [0.5, 0.5, 0.5]), hi, [48, 40]);
-    let st = packets_agree(&scene, &inside, &exact, None, RasterOptions::default(), "inside");
-    assert!(st.walk_near_clipped && st.walk_packet_rays == 0, "{st:?}");
+    // The eye inside the mesh (homogeneous coordinates, segments cut at
+    // the near plane): packets too, table and exact, culled or not, with
+    // and without early termination.
+    for (centre, to) in
+        [([0.5, 0.5, 0.5], hi), ([0.3, 0.6, 0.4], lo), ([0.7, 0.2, 0.5], lerp3(lo, hi, [0.0, 1.0, 0.5]))]
+    {
+        let inside = inside_view(lerp3(lo, hi, centre), to, [48, 40]);
+        for (name, shader) in [("table3d", &table), ("exact", &exact)] {
+            for cull in [false, true] {
+                for opaque_alpha in [0.9999, 2.0] {
+                    let what = format!("inside at {centre:?}, {name}, cull {cull}, opaque {opaque_alpha}");
+                    let opts = RasterOptions { opaque_alpha, ..Default::default() };
+                    let st = packets_agree(&scene, &inside, shader, cull.then_some(&tf), opts, &what);
+                    assert!(st.walk_near_clipped, "{what}: {st:?}");
+                    assert_eq!(st.walk_packet_rays, if simd { st.walk_rays } else { 0 }, "{what}");
+                }
+            }
+        }
+    }
 }
 
 fn lerp3(a: [f64; 3], b: [f64; 3], t: [f64; 3]) -> [f64; 3] {

@@ -58,6 +58,10 @@ impl HomVertex {
 /// Unit roundoff of f64.
 const U64: f64 = f64::EPSILON * 0.5;
 
+/// An edge value's error bound over its permanent ([`canonical`]; the
+/// packet walk's lanes use the same).
+pub(crate) const EDGE_BOUND: f64 = 8.0 * U64;
+
 fn coord(p: [f64; 3]) -> Coord3D<f64> {
     Coord3D { x: p[0], y: p[1], z: p[2] }
 }
@@ -85,7 +89,7 @@ fn canonical(a: &HomVertex, b: &HomVertex, px: f32, py: f32, counters: &mut Edge
     // products and two sums round once each: at most 4u of the permanent
     // (doubled for margin).
     let perm = (c1.abs() + c2.abs()) * px.abs() + (c3.abs() + c4.abs()) * py.abs() + c5.abs() + c6.abs();
-    let bound = 8.0 * U64 * perm;
+    let bound = EDGE_BOUND * perm;
     if e > bound {
         return (e as f32, true);
     }

@@ -28,8 +28,8 @@
 //!   front to back; the ray stops once α reaches
 //!   [`RasterOptions::opaque_alpha`], as projected tetrahedra do.
 //!
-//! On x86-64 CPUs with AVX2, frames without lighting, a bivariate method
-//! or the near plane cutting the mesh (adaptive sampling included) are walked by
+//! On x86-64 CPUs with AVX2, frames without lighting or a bivariate method
+//! (near-clipped views and adaptive sampling included) are walked by
 //! packets (`walk::packet`): eight rays a step in vector lanes, each lane
 //! the scalar step's operations in the same order and precision, a
 //! packet's segments shaded in one batch; the image is the scalar walk's,

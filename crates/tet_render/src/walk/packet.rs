@@ -24,10 +24,18 @@
 //! walk a few tets more or fewer past the point where it turned opaque, so
 //! crossings and runs (not fragments) may differ (`tests/walk.rs`).
 //!
+//! Views whose near plane cuts the mesh (the eye inside it) step the same
+//! way in homogeneous coordinates ([`hom`]): each edge value in f64 lanes,
+//! four to a vector, from the vertex with the smaller id, with
+//! `hom::canonical`'s error bound; the exit point is the weights
+//! normalised one by one ([`Homogeneous`]'s face point) and a segment
+//! entered before the near plane is dropped or cut there, as
+//! [`WalkCtx::step`] does.
+//!
 //! Adaptive sampling hands the packets each level's rays as one list
-//! ([`adaptive_fill`]). What the packet walk does not do — lighting,
-//! bivariate methods (both read the exit points' weights), the near-clipped
-//! geometry — and CPUs without AVX2 take the scalar walk, its portable twin.
+//! ([`adaptive_fill`]). What the packet walk does not do — lighting and
+//! bivariate methods (both read the exit points' weights) — and CPUs
+//! without AVX2 take the scalar walk, its portable twin.
 #![allow(unsafe_code)]
 
 use super::*;
@@ -111,10 +119,47 @@ impl Packet {
     }
 }
 
+/// What the packet walk reads of a view's geometry beyond
+/// [`RayGeometry`]: its vertices as rows of four floats (x, y, w, scalar:
+/// [`WalkVertex`] or [`HomVertex`], both 16 bytes in that order).
+pub(crate) trait PacketGeometry: RayGeometry {
+    /// The view's vertices, row `i` at floats `4i..4i + 4`.
+    fn vertex_rows(&self) -> (*const f32, usize);
+    /// [`Projected::k_view`] (unused by the homogeneous geometry).
+    fn k_view(&self) -> f32;
+    /// A parallel projection ([`Projected::parallel`]; homogeneous views
+    /// are perspective).
+    fn parallel(&self) -> bool;
+}
+
+impl PacketGeometry for Projected<'_> {
+    fn vertex_rows(&self) -> (*const f32, usize) {
+        (self.verts.as_ptr().cast::<f32>(), self.verts.len())
+    }
+    fn k_view(&self) -> f32 {
+        self.k_view
+    }
+    fn parallel(&self) -> bool {
+        self.parallel
+    }
+}
+
+impl PacketGeometry for Homogeneous<'_> {
+    fn vertex_rows(&self) -> (*const f32, usize) {
+        (self.verts.as_ptr().cast::<f32>(), self.verts.len())
+    }
+    fn k_view(&self) -> f32 {
+        0.0
+    }
+    fn parallel(&self) -> bool {
+        false
+    }
+}
+
 /// One tile's packet walk.
-struct PacketTile<'c, 'a> {
+struct PacketTile<'c, 'a, G: PacketGeometry> {
     c: &'c WalkCtx<'a>,
-    g: &'c Projected<'a>,
+    g: &'c G,
     entries: Vec<(u32, f32, u32)>,
     /// The tile's rays: (pixel, first entry, end).
     rays: Vec<(u32, usize, usize)>,
@@ -129,7 +174,7 @@ struct PacketTile<'c, 'a> {
 ///
 /// # Panics
 /// Where [`available`] is false (callers check).
-pub(crate) fn tile(c: &WalkCtx, g: &Projected, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
+pub(crate) fn tile<G: PacketGeometry>(c: &WalkCtx, g: &G, ti: usize) -> (Vec<[f32; 4]>, WalkStats) {
     assert!(available(), "the packet walk needs AVX2");
     let (rect, stride) = c.view.tile_rect(ti);
     let mut st = WalkStats::default();
@@ -149,7 +194,7 @@ pub(crate) fn tile(c: &WalkCtx, g: &Projected, ti: usize) -> (Vec<[f32; 4]>, Wal
     let mut packets: Vec<Packet> = (0..PACKETS).map(|_| Packet::new()).collect();
     let (x0, y0) = (rect[0], rect[1]);
     // Walks `t.rays` from `t.next_ray` on; every lane idle after.
-    let walk_all = |t: &mut PacketTile, packets: &mut [Packet]| {
+    let walk_all = |t: &mut PacketTile<G>, packets: &mut [Packet]| {
         for p in packets.iter_mut() {
             for k in 0..LANES {
                 t.service(p, k, x0, y0, stride);
@@ -232,6 +277,139 @@ fn index_masks(idx: __m256i) -> [__m256i; 3] {
     [1, 2, 3].map(|k| _mm256_cmpeq_epi32(idx, _mm256_set1_epi32(k)))
 }
 
+/// Lanes 0–3 and 4–7 of `v` as f64 (exact).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn f64_halves(v: __m256) -> [__m256d; 2] {
+    [_mm256_cvtps_pd(_mm256_castps256_ps128(v)), _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(v))]
+}
+
+/// Two halves of f64 lanes rounded to f32 (to nearest, as `as f32`).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn f32_of_halves(v: [__m256d; 2]) -> __m256 {
+    _mm256_set_m128(_mm256_cvtpd_ps(v[1]), _mm256_cvtpd_ps(v[0]))
+}
+
+/// Eight 32-bit lane masks from two halves' 64-bit masks.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn mask_of_halves(m: [__m256d; 2]) -> __m256i {
+    let low_dwords = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+    let lo = _mm256_permutevar8x32_epi32(_mm256_castpd_si256(m[0]), low_dwords);
+    let hi = _mm256_permutevar8x32_epi32(_mm256_castpd_si256(m[1]), low_dwords);
+    _mm256_inserti128_si256::<1>(lo, _mm256_castsi256_si128(hi))
+}
+
+/// Two halves' 64-bit masks from eight 32-bit lane masks.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn halves_of_mask(m: __m256i) -> [__m256d; 2] {
+    [
+        _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(m))),
+        _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256::<1>(m))),
+    ]
+}
+
+/// `hom::canonical`'s edge value and error bound for the edge a → b, each
+/// (X, Y, W) in f64 lanes, at the pixel centre (px, py): the same
+/// products, differences and sums in the same association.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn hom_edge(a: [__m256d; 3], b: [__m256d; 3], px: __m256d, py: __m256d) -> (__m256d, __m256d) {
+    let ([ax, ay, aw], [bx, by, bw]) = (a, b);
+    let (c1, c2) = (_mm256_mul_pd(ay, bw), _mm256_mul_pd(aw, by));
+    let (c3, c4) = (_mm256_mul_pd(aw, bx), _mm256_mul_pd(ax, bw));
+    let (c5, c6) = (_mm256_mul_pd(ax, by), _mm256_mul_pd(ay, bx));
+    let (cx, cy, cz) = (_mm256_sub_pd(c1, c2), _mm256_sub_pd(c3, c4), _mm256_sub_pd(c5, c6));
+    let e = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(cx, px), _mm256_mul_pd(cy, py)), cz);
+    let sign = _mm256_set1_pd(-0.0);
+    let abs = |v: __m256d| _mm256_andnot_pd(sign, v);
+    let perm = _mm256_add_pd(
+        _mm256_add_pd(
+            _mm256_add_pd(
+                _mm256_mul_pd(_mm256_add_pd(abs(c1), abs(c2)), abs(px)),
+                _mm256_mul_pd(_mm256_add_pd(abs(c3), abs(c4)), abs(py)),
+            ),
+            abs(c5),
+        ),
+        abs(c6),
+    );
+    (e, _mm256_mul_pd(_mm256_set1_pd(hom::EDGE_BOUND), perm))
+}
+
+/// Per lane, the directed edge a → b's value in canonical order
+/// (`hom::side`): computed from the vertex with the smaller id, negated
+/// where the order was swapped; with its error bound, f64 halves.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn hom_directed(
+    a: [__m256; 3],
+    b: [__m256; 3],
+    id_a: __m256i,
+    id_b: __m256i,
+    px: [__m256d; 2],
+    py: [__m256d; 2],
+) -> ([__m256d; 2], [__m256d; 2]) {
+    let bias = _mm256_set1_epi32(i32::MIN);
+    let swap = _mm256_cmpgt_epi32(_mm256_xor_si256(id_a, bias), _mm256_xor_si256(id_b, bias));
+    let swap_ps = _mm256_castsi256_ps(swap);
+    let lo = [0, 1, 2].map(|c| f64_halves(_mm256_blendv_ps(a[c], b[c], swap_ps)));
+    let hi = [0, 1, 2].map(|c| f64_halves(_mm256_blendv_ps(b[c], a[c], swap_ps)));
+    let negate = halves_of_mask(swap).map(|m| _mm256_and_pd(m, _mm256_set1_pd(-0.0)));
+    let mut e = [_mm256_setzero_pd(); 2];
+    let mut bound = [_mm256_setzero_pd(); 2];
+    for h in 0..2 {
+        let (v, b) = hom_edge([lo[0][h], lo[1][h], lo[2][h]], [hi[0][h], hi[1][h], hi[2][h]], px[h], py[h]);
+        (e[h], bound[h]) = (_mm256_xor_pd(v, negate[h]), b);
+    }
+    (e, bound)
+}
+
+/// `hom::sides_from` in vector lanes: the directed values v → u_k (f32,
+/// v = tet[f_in]), the edges each lane passes left of (bit k) and the
+/// active lanes an edge test cannot call (the exact predicate decides
+/// those, in the scalar step).
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn hom_sides(
+    xv: &[__m256; 4],
+    yv: &[__m256; 4],
+    wv: &[__m256; 4],
+    ids: &[__m256i; 4],
+    m_in: [__m256i; 3],
+    skip: [__m256i; 4],
+    act: __m256i,
+    fx: __m256,
+    fy: __m256,
+) -> ([__m256; 4], __m256i, __m256i) {
+    let v = [select_ps(*xv, m_in), select_ps(*yv, m_in), select_ps(*wv, m_in)];
+    let v_id = select_epi32(*ids, m_in);
+    let (px, py) = (f64_halves(fx), f64_halves(fy));
+    let sign = _mm256_set1_pd(-0.0);
+    let mut e = [_mm256_setzero_ps(); 4];
+    let mut left = _mm256_setzero_si256();
+    let mut unsure = _mm256_setzero_si256();
+    for k in 0..4 {
+        let (val, bound) = hom_directed(v, [xv[k], yv[k], wv[k]], v_id, ids[k], px, py);
+        let pos = mask_of_halves([0, 1].map(|h| _mm256_cmp_pd::<_CMP_GT_OQ>(val[h], bound[h])));
+        let neg = mask_of_halves([0, 1].map(|h| _mm256_cmp_pd::<_CMP_LT_OQ>(val[h], _mm256_xor_pd(bound[h], sign))));
+        e[k] = f32_of_halves(val);
+        left = _mm256_or_si256(left, _mm256_and_si256(pos, _mm256_set1_epi32(1 << k)));
+        let decided = _mm256_or_si256(_mm256_or_si256(pos, neg), skip[k]);
+        unsure = _mm256_or_si256(unsure, _mm256_andnot_si256(decided, act));
+    }
+    (e, left, unsure)
+}
+
+/// `hom::directed_value` of the edge x → y in vector lanes (f32).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn hom_value(x: [__m256; 3], y: [__m256; 3], id_x: __m256i, id_y: __m256i, fx: __m256, fy: __m256) -> __m256 {
+    f32_of_halves(hom_directed(x, y, id_x, id_y, f64_halves(fx), f64_halves(fy)).0)
+}
+
 /// The lanes set in a mask vector, as bits.
 #[target_feature(enable = "avx2")]
 #[inline]
@@ -239,7 +417,7 @@ fn bits_of(m: __m256i) -> u32 {
     _mm256_movemask_ps(_mm256_castsi256_ps(m)) as u32
 }
 
-impl PacketTile<'_, '_> {
+impl<G: PacketGeometry> PacketTile<'_, '_, G> {
     /// The packets stepped in turn until every ray of the tile is done.
     ///
     /// # Safety
@@ -247,10 +425,11 @@ impl PacketTile<'_, '_> {
     #[target_feature(enable = "avx2")]
     unsafe fn walk(&mut self, packets: &mut [Packet], x0: u32, y0: u32, stride: usize) {
         let tets = &self.c.mesh.tets[..];
-        let verts = self.g.verts;
+        let (verts_ptr, _) = self.g.vertex_rows();
+        let near = _mm256_set1_ps(self.g.near_depth());
         let orient_back = if FRONT_IS_LEFT { -1.0f32 } else { 1.0 };
-        let k_view = self.g.k_view;
-        let parallel = self.g.parallel;
+        let k_view = self.g.k_view();
+        let parallel = self.g.parallel();
         let c_rel = _mm256_set1_ps(edge::BOUND_REL * k_view);
         let c_abs = _mm256_set1_ps(edge::BOUND_ABS * k_view * k_view);
         let sign = _mm256_set1_ps(-0.0);
@@ -274,7 +453,6 @@ impl PacketTile<'_, '_> {
         let bias = _mm256_set1_epi32(i32::MIN);
         let broken_biased = _mm256_set1_epi32((LINK_BROKEN - 1) as i32 ^ i32::MIN);
         let tets_ptr = tets.as_ptr().cast::<f32>();
-        let verts_ptr = verts.as_ptr().cast::<f32>();
         let visible = self.c.visible;
         let prefetch = self.c.prefetch;
         loop {
@@ -315,39 +493,46 @@ impl PacketTile<'_, '_> {
                 let rec: [*const f32; LANES] = std::array::from_fn(|i| unsafe { tets_ptr.add(l.t[i] as usize * 8) });
                 let ids = unsafe { transpose_rows(rec) }.map(|v| _mm256_castps_si256(v));
                 let links = unsafe { transpose_rows(rec.map(|q| q.add(4))) }.map(|v| _mm256_castps_si256(v));
-                // Their vertices (x, y, w, scalar), x and y relative to the
-                // pixel centre as `edge::value` translates them.
-                let (mut xr, mut yr, mut wv, mut sv) = ([zero; 4], [zero; 4], [zero; 4], [zero; 4]);
+                // Their vertices (x, y, w, scalar).
+                let (mut xv, mut yv, mut wv, mut sv) = ([zero; 4], [zero; 4], [zero; 4], [zero; 4]);
                 for k in 0..4 {
                     let mut id = [0u32; LANES];
                     // SAFETY: 8 ids into a local array of 8.
                     unsafe { _mm256_storeu_si256(id.as_mut_ptr().cast(), ids[k]) };
-                    // SAFETY: the ids are the mesh's vertex ids, each < verts.len()
-                    // (`WalkMesh` checks them), and a vertex is 16 bytes.
-                    let [x, y, w, s] = unsafe { transpose_rows(id.map(|v| verts_ptr.add(v as usize * 4))) };
-                    xr[k] = _mm256_sub_ps(x, fx);
-                    yr[k] = _mm256_sub_ps(y, fy);
-                    wv[k] = w;
-                    sv[k] = s;
+                    // SAFETY: the ids are the mesh's vertex ids, each < the
+                    // view's vertex count (`WalkMesh` checks them), and a
+                    // vertex row is 16 bytes (`PacketGeometry::vertex_rows`).
+                    [xv[k], yv[k], wv[k], sv[k]] = unsafe { transpose_rows(id.map(|v| verts_ptr.add(v as usize * 4))) };
                 }
-                // `edge::sides_from`: the sides against v → u_k, v = tet[f_in].
                 let m_in = index_masks(f_in);
                 let skip = [_mm256_cmpeq_epi32(f_in, _mm256_setzero_si256()), m_in[0], m_in[1], m_in[2]];
-                let (vx, vy) = (select_ps(xr, m_in), select_ps(yr, m_in));
-                let s_v = _mm256_add_ps(_mm256_andnot_ps(sign, vx), _mm256_andnot_ps(sign, vy));
-                let mut e = [zero; 4];
-                let mut left = _mm256_setzero_si256();
-                let mut unsure = _mm256_setzero_si256();
-                for k in 0..4 {
-                    e[k] = _mm256_sub_ps(_mm256_mul_ps(vx, yr[k]), _mm256_mul_ps(vy, xr[k]));
-                    let s = _mm256_add_ps(_mm256_andnot_ps(sign, xr[k]), _mm256_andnot_ps(sign, yr[k]));
-                    let bound = _mm256_add_ps(_mm256_mul_ps(c_rel, _mm256_add_ps(s_v, s)), c_abs);
-                    let pos = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(e[k], bound));
-                    let neg = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(e[k], _mm256_xor_ps(bound, sign)));
-                    left = _mm256_or_si256(left, _mm256_and_si256(pos, _mm256_set1_epi32(1 << k)));
-                    let decided = _mm256_or_si256(_mm256_or_si256(pos, neg), skip[k]);
-                    unsure = _mm256_or_si256(unsure, _mm256_andnot_si256(decided, act));
-                }
+                // The sides against v → u_k, v = tet[f_in]: each lane's
+                // directed edge values `e` (f32), the edges it passes left
+                // of (bit k) and the lanes an edge test cannot call.
+                let (e, left, unsure) = if G::NEAR_CLIP {
+                    hom_sides(&xv, &yv, &wv, &ids, m_in, skip, act, fx, fy)
+                } else {
+                    // `edge::sides_from`, x and y relative to the pixel
+                    // centre as `edge::value` translates them.
+                    let xr = xv.map(|x| _mm256_sub_ps(x, fx));
+                    let yr = yv.map(|y| _mm256_sub_ps(y, fy));
+                    let (vx, vy) = (select_ps(xr, m_in), select_ps(yr, m_in));
+                    let s_v = _mm256_add_ps(_mm256_andnot_ps(sign, vx), _mm256_andnot_ps(sign, vy));
+                    let mut e = [zero; 4];
+                    let mut left = _mm256_setzero_si256();
+                    let mut unsure = _mm256_setzero_si256();
+                    for k in 0..4 {
+                        e[k] = _mm256_sub_ps(_mm256_mul_ps(vx, yr[k]), _mm256_mul_ps(vy, xr[k]));
+                        let s = _mm256_add_ps(_mm256_andnot_ps(sign, xr[k]), _mm256_andnot_ps(sign, yr[k]));
+                        let bound = _mm256_add_ps(_mm256_mul_ps(c_rel, _mm256_add_ps(s_v, s)), c_abs);
+                        let pos = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(e[k], bound));
+                        let neg = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(e[k], _mm256_xor_ps(bound, sign)));
+                        left = _mm256_or_si256(left, _mm256_and_si256(pos, _mm256_set1_epi32(1 << k)));
+                        let decided = _mm256_or_si256(_mm256_or_si256(pos, neg), skip[k]);
+                        unsure = _mm256_or_si256(unsure, _mm256_andnot_si256(decided, act));
+                    }
+                    (e, left, unsure)
+                };
                 let idx = _mm256_or_si256(left, byte_index_high);
                 let exit = select_epi32(exit_rows.map(|row| _mm256_shuffle_epi8(row, idx)), m_in);
                 let steps = unsafe { _mm256_load_si256(l.steps_left.as_ptr().cast()) };
@@ -363,16 +548,36 @@ impl PacketTile<'_, '_> {
                 let link = select_epi32(links, m_out);
                 // The exit face (v, x, y): l = [value(x, y), −val[y], val[x]]
                 // times the back orientation, clamped at 0 (`face_point`).
-                let (xr_x, yr_x, xr_y, yr_y) =
-                    (select_ps(xr, m_x), select_ps(yr, m_x), select_ps(xr, m_y), select_ps(yr, m_y));
                 let clamp = |v: __m256| _mm256_and_ps(v, _mm256_cmp_ps::<_CMP_GT_OQ>(v, zero));
-                let l0 =
-                    clamp(_mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(xr_x, yr_y), _mm256_mul_ps(yr_x, xr_y)), orient));
+                let value_xy = if G::NEAR_CLIP {
+                    let pick = |a: &[__m256; 4]| (select_ps(*a, m_x), select_ps(*a, m_y));
+                    let ((x_x, x_y), (y_x, y_y), (w_x, w_y)) = (pick(&xv), pick(&yv), pick(&wv));
+                    let (id_x, id_y) = (select_epi32(ids, m_x), select_epi32(ids, m_y));
+                    hom_value([x_x, y_x, w_x], [x_y, y_y, w_y], id_x, id_y, fx, fy)
+                } else {
+                    let (xr_x, yr_x) = (_mm256_sub_ps(select_ps(xv, m_x), fx), _mm256_sub_ps(select_ps(yv, m_x), fy));
+                    let (xr_y, yr_y) = (_mm256_sub_ps(select_ps(xv, m_y), fx), _mm256_sub_ps(select_ps(yv, m_y), fy));
+                    _mm256_sub_ps(_mm256_mul_ps(xr_x, yr_y), _mm256_mul_ps(yr_x, xr_y))
+                };
+                let l0 = clamp(_mm256_mul_ps(value_xy, orient));
                 let l1 = clamp(_mm256_mul_ps(_mm256_xor_ps(select_ps(e, m_y), sign), orient));
                 let l2 = clamp(_mm256_mul_ps(select_ps(e, m_x), orient));
                 let (w_v, w_x, w_y) = (select_ps(wv, m_in), select_ps(wv, m_x), select_ps(wv, m_y));
                 let (s_v0, s_x, s_y) = (select_ps(sv, m_in), select_ps(sv, m_x), select_ps(sv, m_y));
-                let (depth, scalar) = if parallel {
+                let (depth, scalar) = if G::NEAR_CLIP {
+                    // `Homogeneous::face_point`: the weights normalised one
+                    // by one, depth and scalar affine in them.
+                    let sum = _mm256_add_ps(_mm256_add_ps(l0, l1), l2);
+                    let good = _mm256_cmp_ps::<_CMP_GT_OQ>(sum, zero);
+                    let lam = [l0, l1, l2].map(|v| _mm256_blendv_ps(third, _mm256_div_ps(v, sum), good));
+                    let dot = |a: __m256, b: __m256, c: __m256| {
+                        _mm256_add_ps(
+                            _mm256_add_ps(_mm256_mul_ps(lam[0], a), _mm256_mul_ps(lam[1], b)),
+                            _mm256_mul_ps(lam[2], c),
+                        )
+                    };
+                    (dot(w_v, w_x, w_y), dot(s_v0, s_x, s_y))
+                } else if parallel {
                     let sum = _mm256_add_ps(_mm256_add_ps(l0, l1), l2);
                     let inv = _mm256_div_ps(one, sum);
                     let dot = |a: __m256, b: __m256, c: __m256| {
@@ -409,13 +614,30 @@ impl PacketTile<'_, '_> {
                     )
                 };
                 let len = _mm256_mul_ps(_mm256_sub_ps(depth, depth_in), len_per_depth);
-                let push = _mm256_and_si256(ok, _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(len, zero)));
+                let positive = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(len, zero));
+                // Near-clipped views: a segment entered before the near plane
+                // is dropped, or cut there (`WalkCtx::step`, `push_clipped`).
+                let (s_front, len, push) = if G::NEAR_CLIP {
+                    let clip = _mm256_cmp_ps::<_CMP_LT_OQ>(depth_in, near);
+                    let keep = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(depth, near));
+                    let t_front = _mm256_div_ps(_mm256_sub_ps(near, depth_in), _mm256_sub_ps(depth, depth_in));
+                    let s_cut = _mm256_add_ps(scalar_in, _mm256_mul_ps(t_front, _mm256_sub_ps(scalar, scalar_in)));
+                    let len_cut = _mm256_mul_ps(_mm256_sub_ps(depth, near), len_per_depth);
+                    let pushed = _mm256_blendv_epi8(positive, keep, _mm256_castps_si256(clip));
+                    (
+                        _mm256_blendv_ps(scalar_in, s_cut, clip),
+                        _mm256_blendv_ps(len, len_cut, clip),
+                        _mm256_and_si256(ok, pushed),
+                    )
+                } else {
+                    (scalar_in, len, _mm256_and_si256(ok, positive))
+                };
                 let mut push_bits = bits_of(push);
                 if push_bits != 0 {
                     let (mut sf, mut sb, mut ln) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
                     // SAFETY: 8 values into local arrays of 8.
                     unsafe {
-                        _mm256_storeu_ps(sf.as_mut_ptr(), scalar_in);
+                        _mm256_storeu_ps(sf.as_mut_ptr(), s_front);
                         _mm256_storeu_ps(sb.as_mut_ptr(), scalar);
                         _mm256_storeu_ps(ln.as_mut_ptr(), len);
                     }
@@ -527,8 +749,18 @@ impl PacketTile<'_, '_> {
             return None;
         };
         l.crossings[k] += 1;
-        let len = (p_out.depth - l.depth_in[k]) * l.len_per_depth[k];
-        let seg = (len > 0.0).then_some([l.scalar_in[k], p_out.scalar, len]);
+        let (d_in, s_in, lpd) = (l.depth_in[k], l.scalar_in[k], l.len_per_depth[k]);
+        let near = g.near_depth();
+        let seg = if G::NEAR_CLIP && d_in < near {
+            // Before the near plane: dropped, or cut there (`WalkCtx::step`).
+            (p_out.depth > near).then(|| {
+                let t_front = (near - d_in) / (p_out.depth - d_in);
+                [s_in + t_front * (p_out.scalar - s_in), p_out.scalar, (p_out.depth - near) * lpd]
+            })
+        } else {
+            let len = (p_out.depth - d_in) * lpd;
+            (len > 0.0).then_some([s_in, p_out.scalar, len])
+        };
         if c.ends_run(link, &mut self.st) {
             ray.in_run = false;
             return seg;

@@ -292,6 +292,10 @@ impl WalkCtx<'_> {
                 .filter(|&t| self.visible.is_none_or(|vis| vis[t as usize]))
                 .map(|t| (t, self.mesh.tets[t as usize].verts));
             let g = Homogeneous { verts: &view.hom, near_depth: view.frame.near_depth as f32, eye, size };
+            #[cfg(target_arch = "x86_64")]
+            if self.packet_walk() {
+                return super::packet::tile(self, &g, ti);
+            }
             self.tile_full(&g, ti)
         } else {
             let g = Projected {

@@ -711,6 +711,41 @@ fn lerp3(a: [f64; 3], b: [f64; 3], t: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|k| a[k] + t[k] * (b[k] - a[k]))
 }
 
+/// The eye's tet walked to from the previous view's is the one the scan
+/// of every tet finds: a camera moving inside Blunt Fin (and once out of
+/// it and back), drawn by one renderer whose views each recycle the last
+/// and by a fresh renderer a view, gives the same images and the same
+/// near-clipped state.
+#[test]
+fn the_eye_walked_to_from_the_last_view_is_the_scans() {
+    let (_, _, shader, scene) = bluntfin_table3d();
+    let (lo, hi) = scene.bounds();
+    let mut moving = Renderer::new(scene.clone());
+    moving.set_shader(shader.clone());
+    let mut inside = 0;
+    for i in 0..9 {
+        let t = i as f64 / 8.0;
+        // View 4 stands outside the mesh's box: the next walks from nothing.
+        let eye =
+            if i == 4 { lerp3(lo, hi, [0.5, 0.5, -0.5]) } else { lerp3(lo, hi, [0.2 + 0.5 * t, 0.5, 0.3 + 0.3 * t]) };
+        let view = inside_view(eye, lerp3(lo, hi, [0.9, 0.8 - 0.6 * t, 0.95]), [40, 32]);
+        moving.set_view(&view).unwrap();
+        let (a, sa) = moving.render(&|_, _| {}).unwrap();
+        let mut fresh = Renderer::new(scene.clone());
+        fresh.set_shader(shader.clone());
+        fresh.set_view(&view).unwrap();
+        let (b, sb) = fresh.render(&|_, _| {}).unwrap();
+        assert!(a.pixels() == b.pixels(), "view {i}: the images differ");
+        assert_eq!((sa.walk_near_clipped, sa.walk_eye_inside), (sb.walk_near_clipped, sb.walk_eye_inside), "view {i}");
+        assert_eq!(
+            (sa.renderer.as_str(), sa.walk_fallback.as_deref()),
+            (sb.renderer.as_str(), sb.walk_fallback.as_deref())
+        );
+        inside += sa.walk_eye_inside as usize;
+    }
+    assert!(inside >= 6, "{inside} views with the eye inside");
+}
+
 /// The eye exactly on a face's plane inside the mesh (a grid plane through
 /// it): no tet holds it strictly, so that view is drawn by PT and the stats
 /// say why; the image has no holes.

@@ -518,6 +518,63 @@ mod tests {
         }
     }
 
+    /// A walk to the eye from any tet of a convex mesh ends at the tet the
+    /// scan of every tet finds, for eyes inside it at many places.
+    #[test]
+    fn the_walk_to_the_eye_finds_the_scans_tet_from_anywhere() {
+        // A 5×5×5-cell grid, each cube in six tets (Kuhn), jittered.
+        let n = 6usize;
+        let id = |i: usize, j: usize, k: usize| (i + n * (j + n * k)) as u32;
+        let mut rng = tet_mesh::SplitMix64(3);
+        let mut pts = Vec::new();
+        for k in 0..n {
+            for j in 0..n {
+                for i in 0..n {
+                    let jit = |c: usize, r: f64| c as f64 + if c > 0 && c < n - 1 { 0.2 * (r - 0.5) } else { 0.0 };
+                    pts.push([jit(i, rng.next_f64()), jit(j, rng.next_f64()), jit(k, rng.next_f64())]);
+                }
+            }
+        }
+        let mut tets = Vec::new();
+        for k in 0..n - 1 {
+            for j in 0..n - 1 {
+                for i in 0..n - 1 {
+                    for p in [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]] {
+                        let mut c = [i, j, k];
+                        let mut t = [id(c[0], c[1], c[2]); 4];
+                        for (s, &axis) in p.iter().enumerate() {
+                            c[axis] += 1;
+                            t[s + 1] = id(c[0], c[1], c[2]);
+                        }
+                        let q = t.map(|v| glam::DVec3::from(pts[v as usize]));
+                        if (q[1] - q[0]).cross(q[2] - q[0]).dot(q[3] - q[0]) < 0.0 {
+                            t.swap(2, 3);
+                        }
+                        tets.push(t);
+                    }
+                }
+            }
+        }
+        let scalar = pts.iter().map(|p| p[0]).collect();
+        let scene = Scene::new(&pts, tets, scalar).unwrap();
+        let mesh = WalkMesh::new(&scene);
+        let mut checked = 0;
+        for e in 0..40 {
+            let f = |a: usize| 0.6 + 3.8 * (((e * 7 + a * 13) % 41) as f64 / 40.0);
+            let mut spec = ViewSpec::framing([0.0; 3], [5.0; 3], [16, 16]);
+            spec.position = [f(0), f(1), f(2)];
+            spec.focal_point = [f(2), f(0), 5.5];
+            let camera = Camera::new(&spec).unwrap();
+            let view = WalkView::new(&scene, &mesh, &camera, 8);
+            let Some(scan) = view.eye_tet else { continue };
+            for start in [0, scan, mesh.tets.len() as u32 / 2, mesh.tets.len() as u32 - 1] {
+                assert_eq!(view::walk_to_eye(&mesh, &view.hom, start), Some(Ok(scan)), "eye {e}, from {start}");
+            }
+            checked += 1;
+        }
+        assert!(checked >= 30, "{checked}");
+    }
+
     /// The projected orientation of a face the eye sees from outside is
     /// the one [`FRONT_IS_LEFT`] states, for perspective and parallel views.
     #[test]

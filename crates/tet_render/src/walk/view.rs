@@ -56,6 +56,7 @@ impl WalkView {
         tile: u32,
         entry_faces: &[u32],
     ) -> WalkView {
+        let prev_eye = old.as_ref().and_then(|v| v.eye_tet);
         let (mut old_verts, mut old_hom) = old.map_or((Vec::new(), Vec::new()), |v| (v.verts, v.hom));
         let frame = Frame::new(camera, scene.centre_in_world());
         let tile = tile.clamp(4, 1024);
@@ -130,23 +131,32 @@ impl WalkView {
                     Some(format!("vertex {} projects outside the representable range", mesh.scene_vertex[i]));
                 return view;
             }
-            // The eye's tet: the first (walk order) whose four faces all
-            // face away from it, decided on the walk's own coordinates.
-            let located: Vec<(usize, Option<bool>)> = mesh
-                .tets
-                .par_iter()
-                .enumerate()
-                .map(|(t, rec)| (t, hom::holds_eye(&view.hom, rec.verts)))
-                .filter(|(_, h)| *h != Some(false))
-                .collect();
-            if let Some((t, _)) = located.iter().find(|(_, h)| h.is_none()) {
-                view.unsupported = Some(format!(
-                    "the eye lies on the plane of a face of tet {} (no tet holds it strictly)",
-                    mesh.scene_tet[*t]
-                ));
-                return view;
+            // The eye's tet: walked to from the previous view's (the eye
+            // moves little between frames); where that walk leaves the mesh
+            // or runs long, the scan below.
+            match prev_eye.and_then(|t| walk_to_eye(mesh, &view.hom, t)) {
+                Some(Ok(t)) => view.eye_tet = Some(t),
+                Some(Err(t)) => {
+                    view.unsupported = Some(on_a_face_plane(mesh.scene_tet[t as usize]));
+                    return view;
+                }
+                None => {
+                    // The eye's tet: the first (walk order) whose four faces all
+                    // face away from it, decided on the walk's own coordinates.
+                    let located: Vec<(usize, Option<bool>)> = mesh
+                        .tets
+                        .par_iter()
+                        .enumerate()
+                        .map(|(t, rec)| (t, hom::holds_eye(&view.hom, rec.verts)))
+                        .filter(|(_, h)| *h != Some(false))
+                        .collect();
+                    if let Some((t, _)) = located.iter().find(|(_, h)| h.is_none()) {
+                        view.unsupported = Some(on_a_face_plane(mesh.scene_tet[*t]));
+                        return view;
+                    }
+                    view.eye_tet = located.first().map(|&(t, _)| t as u32);
+                }
             }
-            view.eye_tet = located.first().map(|&(t, _)| t as u32);
             view.bin_front_faces(mesh, entry_faces);
             return view;
         }
@@ -289,6 +299,52 @@ impl PixelPositions for Projector<'_> {
 
 /// Inclusive pixel rectangle of the centres a triangle's bounding box can
 /// hold, clipped to the image; `None` when empty.
+/// Why a near-clipped view with the eye on a face's plane is not walked.
+fn on_a_face_plane(scene_tet: u32) -> String {
+    format!("the eye lies on the plane of a face of tet {scene_tet} (no tet holds it strictly)")
+}
+
+/// Steps a walk to the eye may take before the scan takes over.
+const EYE_WALK_STEPS: usize = 1 << 16;
+
+/// The tet holding the eye (the origin of `hom`), walked to from tet
+/// `start` (walk order) through faces the eye lies beyond: `Ok` a tet
+/// whose four faces all face away from the eye (it holds the eye
+/// strictly), `Err` a tet whose closure holds it on a face's plane; `None`
+/// where the walk leaves the mesh, meets a broken link or runs past
+/// [`EYE_WALK_STEPS`] (a hole, a non-convex boundary in the way, a cycle).
+/// In a mesh whose tets do not overlap, at most one tet holds the eye
+/// strictly and none other holds it at all, so this is the tet (or the
+/// refusal) [`WalkView::recycle`]'s scan of every tet finds. The faces are
+/// tried from a different one each step, so that a walk cannot cycle
+/// through one choice of faces for ever.
+pub(crate) fn walk_to_eye(mesh: &WalkMesh, hom: &[HomVertex], start: u32) -> Option<Result<u32, u32>> {
+    let mut t = start as usize;
+    for step in 0..EYE_WALK_STEPS {
+        let rec = mesh.tets.get(t)?;
+        let q = rec.verts.map(|v| hom[v as usize]);
+        let (mut beyond, mut on_plane) = (None, false);
+        for i in 0..4 {
+            let f = (i + step) % 4;
+            let fv = FACE_OUTWARD[f];
+            match hom::face_orientation(&q[fv[0]], &q[fv[1]], &q[fv[2]]) {
+                Some(true) => {
+                    beyond = Some(f);
+                    break;
+                }
+                Some(false) => {}
+                None => on_plane = true,
+            }
+        }
+        match beyond {
+            None => return Some(if on_plane { Err(t as u32) } else { Ok(t as u32) }),
+            Some(f) if rec.links[f] < LINK_BROKEN => t = (rec.links[f] / 4) as usize,
+            Some(_) => return None,
+        }
+    }
+    None
+}
+
 pub(crate) fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
     let (x_lo, x_hi) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
     let (y_lo, y_hi) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));

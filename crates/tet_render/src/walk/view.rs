@@ -57,6 +57,7 @@ impl WalkView {
         entry_faces: &[u32],
     ) -> WalkView {
         let prev_eye = old.as_ref().and_then(|v| v.eye_tet);
+        let was_near_clipped = old.as_ref().is_some_and(|v| v.near_clipped);
         let (mut old_verts, mut old_hom) = old.map_or((Vec::new(), Vec::new()), |v| (v.verts, v.hom));
         let frame = Frame::new(camera, scene.centre_in_world());
         let tile = tile.clamp(4, 1024);
@@ -96,24 +97,15 @@ impl WalkView {
         // projected, with whether any lies nearer than the near plane, any
         // projects to no finite pixel, and the largest pixel coordinate.
         let unrepresentable = |v: &WalkVertex| !(v.x_px.abs() < 1e30 && v.y_px.abs() < 1e30);
-        old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
-        let (any_near, any_bad, k_max) = old_verts
-            .par_iter_mut()
-            .zip(mesh.pos_rel.par_iter())
-            .zip(mesh.scalar.par_iter())
-            .map(|((out, &p), &scalar)| {
-                let c = frame.to_cam(p);
-                let q = frame.cam_to_px(c);
-                let w = if parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 };
-                *out = WalkVertex { x_px: q[0] as f32, y_px: q[1] as f32, w, scalar };
-                let is_near = !parallel && c[2].partial_cmp(&near).is_none_or(|o| o.is_lt());
-                (is_near, unrepresentable(out), out.x_px.abs().max(out.y_px.abs()))
-            })
-            .reduce(|| (false, false, p_max), |a, b| (a.0 | b.0, a.1 | b.1, a.2.max(b.2)));
-        if any_near {
-            old_hom.resize(mesh.pos_rel.len(), HomVertex::default());
-            old_hom.par_iter_mut().zip(mesh.pos_rel.par_iter()).zip(mesh.scalar.par_iter()).for_each(
-                |((out, &p), &scalar)| {
+        let is_near = |c: [f64; 3]| !parallel && c[2].partial_cmp(&near).is_none_or(|o| o.is_lt());
+        // Every vertex in homogeneous coordinates, and whether any lies
+        // nearer than the near plane.
+        let project_hom = |hom: &mut Vec<HomVertex>| -> bool {
+            hom.resize(mesh.pos_rel.len(), HomVertex::default());
+            hom.par_iter_mut()
+                .zip(mesh.pos_rel.par_iter())
+                .zip(mesh.scalar.par_iter())
+                .map(|((out, &p), &scalar)| {
                     let c = frame.to_cam(p);
                     // x_px = (x_cam / depth − bx) / ax, times the depth.
                     *out = HomVertex {
@@ -122,8 +114,36 @@ impl WalkView {
                         w_depth: c[2] as f32,
                         scalar,
                     };
-                },
-            );
+                    is_near(c)
+                })
+                .reduce(|| false, |a, b| a | b)
+        };
+        // A view after a near-clipped one (the eye inside the mesh, moving)
+        // most likely is one too: the homogeneous pass first, so that such
+        // frames read the vertices once; the projected pass only where no
+        // vertex turned out near.
+        let hom_first = was_near_clipped && !parallel && project_hom(&mut old_hom);
+        let (any_near, any_bad, k_max) = if hom_first {
+            (true, false, p_max)
+        } else {
+            old_verts.resize(mesh.pos_rel.len(), WalkVertex::default());
+            old_verts
+                .par_iter_mut()
+                .zip(mesh.pos_rel.par_iter())
+                .zip(mesh.scalar.par_iter())
+                .map(|((out, &p), &scalar)| {
+                    let c = frame.to_cam(p);
+                    let q = frame.cam_to_px(c);
+                    let w = if parallel { c[2] as f32 } else { (1.0 / c[2]) as f32 };
+                    *out = WalkVertex { x_px: q[0] as f32, y_px: q[1] as f32, w, scalar };
+                    (is_near(c), unrepresentable(out), out.x_px.abs().max(out.y_px.abs()))
+                })
+                .reduce(|| (false, false, p_max), |a, b| (a.0 | b.0, a.1 | b.1, a.2.max(b.2)))
+        };
+        if any_near {
+            if !hom_first {
+                project_hom(&mut old_hom);
+            }
             view.hom = old_hom;
             view.near_clipped = true;
             if let Some(i) = view.hom.par_iter().position_first(|v| !(v.x_hom.abs() < 1e30 && v.y_hom.abs() < 1e30)) {

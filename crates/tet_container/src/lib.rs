@@ -442,6 +442,14 @@ fn temp_beside(path: &Path, tmp_prefix: &str) -> Result<tempfile::NamedTempFile,
 /// [`SectionWriter::finish`], as [`write_atomic`] does. Dropped unfinished,
 /// the temporary file is removed and nothing appears at the destination.
 ///
+/// On Linux, the whole pages of a section of 1 MiB or more are written with
+/// `O_DIRECT` (where the file system takes it: not tmpfs) from a
+/// page-aligned buffer, its head and tail through the page cache: a
+/// conversion's mesh then reaches the disk without the page cache's copy
+/// and the writeback the sync would force while the statistics are still
+/// being computed on the same cores. The file's bytes are the same either
+/// way (a test).
+///
 /// Room for `capacity` table entries is kept before the first section; a
 /// shorter table leaves zeros between it and the first section, which a
 /// last entry, [`PADDING_SECTION`], covers with its checksum (so a flipped
@@ -450,6 +458,12 @@ fn temp_beside(path: &Path, tmp_prefix: &str) -> Result<tempfile::NamedTempFile,
 pub struct SectionWriter {
     fmt: ContainerFormat,
     file: io::BufWriter<std::fs::File>,
+    /// The same file opened for direct I/O (Linux, where the file system
+    /// takes it): the whole pages of large sections go to the disk from an
+    /// aligned buffer, without the page cache's copy and its writeback at
+    /// the sync (on two cores that writeback competed with the conversion's
+    /// statistics). `None` elsewhere, or after a direct write failed.
+    direct: Option<direct::Direct>,
     tmp: tempfile::TempPath,
     capacity: usize,
     /// Where the first section starts (after room for `capacity` entries and
@@ -475,11 +489,12 @@ impl SectionWriter {
         // One entry of the room is the padding's.
         let capacity = capacity.min(fmt.max_sections.saturating_sub(1) as usize);
         let (file, tmp) = temp_beside(path, tmp_prefix)?.into_parts();
+        let direct = direct::Direct::open(&tmp);
         let start = align(HEADER_LEN + (capacity + 1) * ENTRY_LEN) as u64;
         let mut file = io::BufWriter::with_capacity(1 << 20, file);
         // The header and table's room, filled in by `finish`.
         file.write_all(&vec![0u8; start as usize]).map_err(|source| AtomicWriteError { action: "write", source })?;
-        Ok(SectionWriter { fmt: *fmt, file, tmp, capacity, start, pos: start, entries: Vec::new() })
+        Ok(SectionWriter { fmt: *fmt, file, direct, tmp, capacity, start, pos: start, entries: Vec::new() })
     }
 
     /// Appends a section (16-byte aligned). A name [`valid_section_name`]
@@ -500,7 +515,34 @@ impl SectionWriter {
             w.write_all(&[0u8; ALIGN][..(offset - self.pos) as usize])?;
             w.write_all(data)
         };
-        write(&mut self.file).map_err(|source| AtomicWriteError { action: "write", source })?;
+        let step = |source| AtomicWriteError { action: "write", source };
+        match self.direct.as_ref().and_then(|d| d.pages_of(offset, data.len())) {
+            Some((first, end)) => {
+                // The head up to the first whole page and the tail after
+                // the last through the page cache; the pages between
+                // straight to the disk (disjoint pages: the kernel keeps the
+                // two kinds of write apart).
+                use std::io::Seek;
+                let head = (first - offset) as usize;
+                let tail = head + (end - first) as usize;
+                let mut buffered = |w: &mut io::BufWriter<std::fs::File>| -> io::Result<()> {
+                    w.write_all(&[0u8; ALIGN][..(offset - self.pos) as usize])?;
+                    w.write_all(&data[..head])?;
+                    let direct = self.direct.as_mut().expect("checked above");
+                    if direct.write(first, &data[head..tail]).is_ok() {
+                        w.seek(io::SeekFrom::Start(end))?;
+                    } else {
+                        // The file system took the open but not the write:
+                        // these pages and every later section buffered.
+                        self.direct = None;
+                        w.write_all(&data[head..tail])?;
+                    }
+                    w.write_all(&data[tail..])
+                };
+                buffered(&mut self.file).map_err(step)?;
+            }
+            None => write(&mut self.file).map_err(step)?,
+        }
         self.entries.push(SectionEntry {
             name: name.to_string(),
             offset,
@@ -564,6 +606,75 @@ impl SectionWriter {
     }
 }
 
+/// Direct I/O for [`SectionWriter`]'s large sections (Linux): the file
+/// opened again with `O_DIRECT`, whole 4 KiB pages written at page offsets
+/// from a page-aligned buffer. Elsewhere a stub that never opens.
+mod direct {
+    use std::path::Path;
+
+    /// Sections with less than this in whole pages go through the page cache.
+    const MIN_DIRECT: u64 = 1 << 20;
+    /// Page size and alignment of every direct write (a multiple of any
+    /// device's logical block size).
+    const PAGE: u64 = 4096;
+    /// Bytes copied into the aligned buffer a write.
+    const CHUNK: usize = 4 << 20;
+
+    #[derive(Debug)]
+    pub(super) struct Direct {
+        #[cfg(target_os = "linux")]
+        file: std::fs::File,
+        #[cfg(target_os = "linux")]
+        buffer: Vec<u8>,
+    }
+
+    impl Direct {
+        /// The file at `path` opened for direct writes, where the system and
+        /// its file system take `O_DIRECT` (not tmpfs, say).
+        #[cfg(target_os = "linux")]
+        pub(super) fn open(path: &Path) -> Option<Direct> {
+            use std::os::unix::fs::OpenOptionsExt;
+            let file = std::fs::OpenOptions::new().write(true).custom_flags(libc::O_DIRECT).open(path).ok()?;
+            Some(Direct { file, buffer: Vec::new() })
+        }
+
+        #[cfg(not(target_os = "linux"))]
+        pub(super) fn open(_: &Path) -> Option<Direct> {
+            None
+        }
+
+        /// The whole pages [first, end) of `len` bytes at `offset`, when
+        /// there are enough of them to write directly.
+        pub(super) fn pages_of(&self, offset: u64, len: usize) -> Option<(u64, u64)> {
+            let first = offset.div_ceil(PAGE) * PAGE;
+            let end = (offset + len as u64) / PAGE * PAGE;
+            (end >= first + MIN_DIRECT).then_some((first, end))
+        }
+
+        /// Writes `data` (whole pages) at `pos` (a page offset).
+        #[cfg(target_os = "linux")]
+        pub(super) fn write(&mut self, pos: u64, data: &[u8]) -> std::io::Result<()> {
+            use std::os::unix::fs::FileExt;
+            debug_assert!(pos.is_multiple_of(PAGE) && (data.len() as u64).is_multiple_of(PAGE));
+            if self.buffer.is_empty() {
+                self.buffer = vec![0u8; CHUNK + PAGE as usize];
+            }
+            let at = self.buffer.as_ptr().align_offset(PAGE as usize);
+            let aligned = &mut self.buffer[at..at + CHUNK];
+            for (k, chunk) in data.chunks(CHUNK).enumerate() {
+                aligned[..chunk.len()].copy_from_slice(chunk);
+                self.file.write_all_at(&aligned[..chunk.len()], pos + (k * CHUNK) as u64)?;
+            }
+            Ok(())
+        }
+
+        #[cfg(not(target_os = "linux"))]
+        pub(super) fn write(&mut self, _: u64, _: &[u8]) -> std::io::Result<()> {
+            Err(std::io::ErrorKind::Unsupported.into())
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -575,6 +686,40 @@ mod tests {
         write_sections(&mut out, &FMT, &[("ONE", &[7; 5]), ("TWO", &[]), ("THREE", &[1, 2, 3, 4, 5, 6, 7, 8, 9])])
             .unwrap();
         out
+    }
+
+    /// Large sections written with direct I/O (where the file system takes
+    /// it) give the file the page cache alone gives, byte for byte, at
+    /// unaligned offsets and with ragged heads and tails.
+    #[test]
+    fn large_sections_direct_or_buffered_give_the_same_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let big: Vec<u8> = (0..(3 << 20) + 4093).map(|i: u32| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+        let other: Vec<u8> = big.iter().rev().map(|b| b ^ 0x5a).collect();
+        let write = |name: &str, direct: bool| {
+            let path = dir.path().join(name);
+            let mut w = SectionWriter::create(&path, ".t-", &FMT, 5).unwrap();
+            let used = w.direct.is_some();
+            if !direct {
+                w.direct = None;
+            }
+            w.section("SMALL", &[3; 37]).unwrap();
+            w.section("BIG", &big).unwrap();
+            w.sync_written().unwrap();
+            w.section("ODD", &[9; 5]).unwrap();
+            w.section("OTHER", &other[..(5 << 20) / 3]).unwrap();
+            w.finish(&path).unwrap();
+            (std::fs::read(&path).unwrap(), used)
+        };
+        let (buffered, _) = write("buffered.bin", false);
+        let (direct, opened) = write("direct.bin", true);
+        // (Where the temporary directory's file system refuses O_DIRECT,
+        // both files are written through the page cache.)
+        eprintln!("direct I/O opened: {opened}");
+        assert!(buffered == direct, "the files differ");
+        let (_, s) = parse(&direct, &FMT).unwrap();
+        let big_entry = s.iter().find(|e| e.name == "BIG").unwrap();
+        assert_eq!(&direct[big_entry.offset as usize..][..big.len()], &big[..]);
     }
 
     /// A file written a section at a time parses (bytes and file reader)

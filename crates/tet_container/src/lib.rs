@@ -511,38 +511,31 @@ impl SectionWriter {
             return Err(invalid(format!("section '{name}' is past the {} the table has room for", self.capacity)));
         }
         let offset = align(self.pos as usize) as u64;
-        let write = |w: &mut io::BufWriter<std::fs::File>| -> io::Result<()> {
+        // The whole pages [first, end) of a large section go straight to
+        // the disk, the head before them and the tail after them through
+        // the page cache (disjoint pages: the kernel keeps the two kinds of
+        // write apart); a section without such pages is all head.
+        let pages = self.direct.as_ref().and_then(|d| d.pages_of(offset, data.len()));
+        let (head, tail) =
+            pages.map_or((data.len(), data.len()), |(first, end)| ((first - offset) as usize, (end - offset) as usize));
+        let mut write = |w: &mut io::BufWriter<std::fs::File>| -> io::Result<()> {
             w.write_all(&[0u8; ALIGN][..(offset - self.pos) as usize])?;
-            w.write_all(data)
-        };
-        let step = |source| AtomicWriteError { action: "write", source };
-        match self.direct.as_ref().and_then(|d| d.pages_of(offset, data.len())) {
-            Some((first, end)) => {
-                // The head up to the first whole page and the tail after
-                // the last through the page cache; the pages between
-                // straight to the disk (disjoint pages: the kernel keeps the
-                // two kinds of write apart).
-                use std::io::Seek;
-                let head = (first - offset) as usize;
-                let tail = head + (end - first) as usize;
-                let mut buffered = |w: &mut io::BufWriter<std::fs::File>| -> io::Result<()> {
-                    w.write_all(&[0u8; ALIGN][..(offset - self.pos) as usize])?;
-                    w.write_all(&data[..head])?;
-                    let direct = self.direct.as_mut().expect("checked above");
-                    if direct.write(first, &data[head..tail]).is_ok() {
-                        w.seek(io::SeekFrom::Start(end))?;
-                    } else {
-                        // The file system took the open but not the write:
-                        // these pages and every later section buffered.
-                        self.direct = None;
-                        w.write_all(&data[head..tail])?;
-                    }
-                    w.write_all(&data[tail..])
-                };
-                buffered(&mut self.file).map_err(step)?;
+            w.write_all(&data[..head])?;
+            if let Some((first, end)) = pages {
+                let direct = self.direct.as_mut().expect("pages come from it");
+                if direct.write(first, &data[head..tail]).is_ok() {
+                    use std::io::Seek;
+                    w.seek(io::SeekFrom::Start(end))?;
+                } else {
+                    // The file system took the open but not the write:
+                    // these pages and every later section buffered.
+                    self.direct = None;
+                    w.write_all(&data[head..tail])?;
+                }
             }
-            None => write(&mut self.file).map_err(step)?,
-        }
+            w.write_all(&data[tail..])
+        };
+        write(&mut self.file).map_err(|source| AtomicWriteError { action: "write", source })?;
         self.entries.push(SectionEntry {
             name: name.to_string(),
             offset,

@@ -189,15 +189,43 @@ pub fn holds_eye(verts: &[HomVertex], tet: [u32; 4]) -> Option<bool> {
             return Some(false);
         }
     }
+    match eye_beyond(&q, 0) {
+        EyeSide::Beyond(_) => Some(false),
+        EyeSide::OnPlane => None,
+        EyeSide::Inside => Some(true),
+    }
+}
+
+/// Where the eye lies against a tet's four faces ([`eye_beyond`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EyeSide {
+    /// Beyond face f (it faces the eye): outside the tet, across f.
+    Beyond(usize),
+    /// Behind every face's plane but on one of them: on the tet's boundary.
+    OnPlane,
+    /// Strictly inside the tet.
+    Inside,
+}
+
+/// The faces of tet `q` (outward order) tested from face `first` on, in
+/// turn: the first the eye lies beyond, else whether it is on a face's
+/// plane or strictly inside (exact, on these coordinates).
+pub fn eye_beyond(q: &[HomVertex; 4], first: usize) -> EyeSide {
     let mut on_plane = false;
-    for fv in FACE_OUTWARD {
+    for i in 0..4 {
+        let f = (first + i) % 4;
+        let fv = FACE_OUTWARD[f];
         match face_orientation(&q[fv[0]], &q[fv[1]], &q[fv[2]]) {
-            Some(true) => return Some(false),
+            Some(true) => return EyeSide::Beyond(f),
             Some(false) => {}
             None => on_plane = true,
         }
     }
-    (!on_plane).then_some(true)
+    if on_plane {
+        EyeSide::OnPlane
+    } else {
+        EyeSide::Inside
+    }
 }
 
 /// Inclusive pixel rectangle of the centres where the line through the

@@ -123,8 +123,9 @@ impl Packet {
 /// [`RayGeometry`]: its vertices as rows of four floats (x, y, w, scalar:
 /// [`WalkVertex`] or [`HomVertex`], both 16 bytes in that order).
 pub(crate) trait PacketGeometry: RayGeometry {
-    /// The view's vertices, row `i` at floats `4i..4i + 4`.
-    fn vertex_rows(&self) -> (*const f32, usize);
+    /// The view's vertices, row `i` at floats `4i..4i + 4` (one row a
+    /// vertex of the mesh).
+    fn vertex_rows(&self) -> *const f32;
     /// [`Projected::k_view`] (unused by the homogeneous geometry).
     fn k_view(&self) -> f32;
     /// A parallel projection ([`Projected::parallel`]; homogeneous views
@@ -133,8 +134,8 @@ pub(crate) trait PacketGeometry: RayGeometry {
 }
 
 impl PacketGeometry for Projected<'_> {
-    fn vertex_rows(&self) -> (*const f32, usize) {
-        (self.verts.as_ptr().cast::<f32>(), self.verts.len())
+    fn vertex_rows(&self) -> *const f32 {
+        self.verts.as_ptr().cast::<f32>()
     }
     fn k_view(&self) -> f32 {
         self.k_view
@@ -145,8 +146,8 @@ impl PacketGeometry for Projected<'_> {
 }
 
 impl PacketGeometry for Homogeneous<'_> {
-    fn vertex_rows(&self) -> (*const f32, usize) {
-        (self.verts.as_ptr().cast::<f32>(), self.verts.len())
+    fn vertex_rows(&self) -> *const f32 {
+        self.verts.as_ptr().cast::<f32>()
     }
     fn k_view(&self) -> f32 {
         0.0
@@ -425,7 +426,7 @@ impl<G: PacketGeometry> PacketTile<'_, '_, G> {
     #[target_feature(enable = "avx2")]
     unsafe fn walk(&mut self, packets: &mut [Packet], x0: u32, y0: u32, stride: usize) {
         let tets = &self.c.mesh.tets[..];
-        let (verts_ptr, _) = self.g.vertex_rows();
+        let verts_ptr = self.g.vertex_rows();
         let near = _mm256_set1_ps(self.g.near_depth());
         let orient_back = if FRONT_IS_LEFT { -1.0f32 } else { 1.0 };
         let k_view = self.g.k_view();

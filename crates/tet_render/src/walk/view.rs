@@ -342,24 +342,11 @@ pub(crate) fn walk_to_eye(mesh: &WalkMesh, hom: &[HomVertex], start: u32) -> Opt
     let mut t = start as usize;
     for step in 0..EYE_WALK_STEPS {
         let rec = mesh.tets.get(t)?;
-        let q = rec.verts.map(|v| hom[v as usize]);
-        let (mut beyond, mut on_plane) = (None, false);
-        for i in 0..4 {
-            let f = (i + step) % 4;
-            let fv = FACE_OUTWARD[f];
-            match hom::face_orientation(&q[fv[0]], &q[fv[1]], &q[fv[2]]) {
-                Some(true) => {
-                    beyond = Some(f);
-                    break;
-                }
-                Some(false) => {}
-                None => on_plane = true,
-            }
-        }
-        match beyond {
-            None => return Some(if on_plane { Err(t as u32) } else { Ok(t as u32) }),
-            Some(f) if rec.links[f] < LINK_BROKEN => t = (rec.links[f] / 4) as usize,
-            Some(_) => return None,
+        match hom::eye_beyond(&rec.verts.map(|v| hom[v as usize]), step % 4) {
+            hom::EyeSide::Inside => return Some(Ok(t as u32)),
+            hom::EyeSide::OnPlane => return Some(Err(t as u32)),
+            hom::EyeSide::Beyond(f) if rec.links[f] < LINK_BROKEN => t = (rec.links[f] / 4) as usize,
+            hom::EyeSide::Beyond(_) => return None,
         }
     }
     None

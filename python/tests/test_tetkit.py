@@ -296,7 +296,9 @@ def test_from_pyvista_shaped_objects():
 
 def test_lagrange_and_bezier_cells_from_arrays():
     # A 27-node Lagrange hexahedron (VTK 72) in VTK's node order: cut at all
-    # its nodes (8 sub-hexahedra, 48 tets); as a Bezier one (79) its corners.
+    # its nodes (8 sub-hexahedra, 48 tets); as a Bezier one (79) evaluated
+    # at its lattice (control points on the lattice: the same points) and
+    # cut there too; rational with a point field named RationalWeights.
     lattice = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 2), (2, 0, 2), (2, 2, 2), (0, 2, 2),
                (1, 0, 0), (2, 1, 0), (1, 2, 0), (0, 1, 0), (1, 0, 2), (2, 1, 2), (1, 2, 2), (0, 1, 2),
                (0, 0, 1), (2, 0, 1), (2, 2, 1), (0, 2, 1), (0, 1, 1), (2, 1, 1), (1, 0, 1), (1, 2, 1),
@@ -305,7 +307,11 @@ def test_lagrange_and_bezier_cells_from_arrays():
     lagrange = tetkit.from_pyvista(FakeUnstructured(pts, [(72, list(range(27)))], {"t": pts[:, 0]}, {}))
     assert lagrange.num_tets == 48
     bezier = tetkit.from_pyvista(FakeUnstructured(pts, [(79, list(range(27)))], {"t": pts[:, 0]}, {}))
-    assert bezier.num_tets == 6 and "reduced 1 higher-order" in " ".join(bezier.findings)
+    assert bezier.num_tets == 48 and "evaluated 1 Bezier" in " ".join(bezier.findings).replace("é", "e")
+    assert bezier.scalar_range == (0.0, 1.0)
+    weights = {"t": pts[:, 0], "RationalWeights": np.ones(27)}
+    rational = tetkit.from_pyvista(FakeUnstructured(pts, [(79, list(range(27)))], weights, {}), scalar="t")
+    assert rational.num_tets == 48 and "rational" in " ".join(rational.findings)
     meshio = pytest.importorskip("meshio")
     m = meshio.Mesh(pts, [("VTK_LAGRANGE_HEXAHEDRON", np.arange(27).reshape(1, 27))], point_data={"t": pts[:, 0]})
     assert tetkit.from_meshio(m).num_tets == 48

@@ -25,8 +25,8 @@ use tet_mesh::{Block, CellType, Cells, Field, SourceMesh};
 /// Volume cells are kept in VTK node order; quadratic cells that
 /// `CellType` lists and Lagrange tetrahedra, hexahedra and wedges (their
 /// orders from their node counts) keep their nodes (cut at them), Bézier
-/// cells are reduced to their corner nodes (and then all others, so that
-/// neighbours conform), and surface, line and vertex cells are skipped (with their CELL_DATA tuples), each counted in
+/// ones are evaluated at their lattice points (polynomial: legacy files
+/// carry no rational weights) and cut there ([`tet_mesh::bezier`]), and surface, line and vertex cells are skipped (with their CELL_DATA tuples), each counted in
 /// a note. Files without volume
 /// cells (POLYDATA, 2D grids, surface-only unstructured grids) are errors.
 pub fn read(bytes: &[u8]) -> Result<SourceMesh, FormatError> {
@@ -958,6 +958,7 @@ impl<'a> Parser<'a> {
         let whole = |m: String| FormatError::new(Location::Whole, m);
         let ds = self.dataset.name();
         let mut kept: Option<Vec<bool>> = None;
+        let mut bezier: Vec<usize> = Vec::new();
         let declared_cells = match self.dataset {
             Dataset::Unstructured => {
                 let points = self.points.take().ok_or_else(|| whole("the UNSTRUCTURED_GRID has no POINTS".into()))?;
@@ -969,7 +970,7 @@ impl<'a> Parser<'a> {
                 if types.len() != raw.len() {
                     return Err(whole(format!("CELL_TYPES lists {} cells but CELLS lists {}", types.len(), raw.len())));
                 }
-                let (cells, mask) = assemble_cells(&raw, &types, points.len(), &mut self.notes)?;
+                let (cells, mask) = assemble_cells(&raw, &types, points.len(), &mut bezier, &mut self.notes)?;
                 mesh.points = points;
                 mesh.blocks.push(Block::Unstructured(cells));
                 kept = mask;
@@ -1072,6 +1073,16 @@ impl<'a> Parser<'a> {
         }
         mesh.point_fields = self.point_fields;
         mesh.cell_fields = self.cell_fields;
+        if !bezier.is_empty() {
+            // Legacy files carry no RationalWeights: polynomial cells.
+            let Some(Block::Unstructured(cells)) = mesh.blocks.first_mut() else {
+                unreachable!("an unstructured grid holds one unstructured block")
+            };
+            let r = tet_mesh::BezierEvaluator::new()
+                .to_lagrange(cells, &bezier, &mut mesh.points, &mut mesh.point_fields, None)
+                .map_err(|m| whole(format!("Bézier cells: {m}")))?;
+            self.notes.push(r.note(false));
+        }
         mesh.notes = self.notes;
         mesh.check().map_err(whole)?;
         Ok(mesh)
@@ -1084,6 +1095,7 @@ fn assemble_cells(
     raw: &RawCells,
     types: &[u32],
     npoints: usize,
+    bezier: &mut Vec<usize>,
     notes: &mut Vec<String>,
 ) -> Result<(Cells, Option<Vec<bool>>), FormatError> {
     let whole = |m: String| FormatError::new(Location::Whole, m);
@@ -1119,6 +1131,9 @@ fn assemble_cells(
             }
             if stored > need {
                 reduced += 1;
+            }
+            if CellType::vtk_id_is_bezier(id) && cell_type != cell_type.linear() {
+                bezier.push(cells.len());
             }
             cells.push(cell_type, nodes);
             mask.push(true);

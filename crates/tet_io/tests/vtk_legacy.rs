@@ -378,3 +378,38 @@ fn lagrange_tets_from_a_legacy_file() {
     assert_eq!(tets, 48 * 27);
     assert_close(volume, 2.329371385288, "volume");
 }
+
+/// VTK's Bézier cells in a binary legacy file (VTK's own writer; no
+/// HigherOrderDegrees or RationalWeights there: equal orders, polynomial)
+/// become Lagrange cells whose nodes and point scalar are what VTK's
+/// `EvaluateLocation` gives at their lattice points
+/// (`tests/data/vtu/make_bezier.py`).
+#[test]
+fn bezier_cells_from_a_legacy_file_are_evaluated_as_vtk_does() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/vtu/");
+    let m = read(&std::fs::read(format!("{dir}bezier_cells.vtk")).unwrap()).unwrap();
+    let cells = unstructured(&m);
+    assert_eq!(
+        cells.types,
+        vec![
+            CellType::LagrangeTetra(3),
+            CellType::LagrangeHexahedron([2, 2, 2]),
+            CellType::LagrangeHexahedron([2, 2, 2]),
+            CellType::LagrangeWedge(3, 3)
+        ]
+    );
+    assert!(m.notes.iter().any(|n| n.contains("evaluated 4 Bézier cells")), "{:?}", m.notes);
+    let s = field(&m.point_fields, "s");
+    let dump = std::fs::read_to_string(format!("{dir}bezier_nodes.txt")).unwrap();
+    let mut checked = 0;
+    for line in dump.lines().filter(|l| l.starts_with("bezier_cells.vtk ")) {
+        let v: Vec<f64> = line.split_whitespace().skip(1).map(|x| x.parse().unwrap()).collect();
+        let p = cells.nodes(v[0] as usize)[v[1] as usize] as usize;
+        assert!((0..3).all(|a| (m.points[p][a] - v[2 + a]).abs() < 1e-12), "{line}: {:?}", m.points[p]);
+        assert!((s.values[p] - v[5]).abs() < 1e-12, "{line}: s {}", s.values[p]);
+        checked += 1;
+    }
+    assert_eq!(checked, 20 + 27 + 27 + 40);
+    let (tets, volume) = common::converted(&m);
+    assert!(tets > 0 && volume > 0.0);
+}

@@ -504,3 +504,100 @@ fn lagrange_cells_with_wrong_node_counts_are_errors() {
         assert!(err.contains(&format!("cell 0 (VTK type {id})")) && err.contains(&format!("{n} nodes")), "{err}");
     }
 }
+
+/// VTK's Bézier tetrahedra, hexahedra (equal and unequal orders) and wedges,
+/// polynomial and rational (`make_bezier.py`, written by VTK 9.7.2), become
+/// Lagrange cells whose nodes are where VTK's own `EvaluateLocation` puts
+/// the cells' lattice points, with the point scalar VTK interpolates there
+/// (`bezier_nodes.txt`); the rational hexahedron's nodes lie on its
+/// cylinders; two hexahedra sharing a face share their new points there,
+/// so the tets conform.
+#[test]
+fn bezier_cells_are_evaluated_at_their_lattice_as_vtk_evaluates_them() {
+    let dump = std::fs::read_to_string(path("bezier_nodes.txt")).unwrap();
+    let mut checked = 0;
+    for (name, cells, types) in [
+        (
+            "bezier_cells.vtu",
+            6,
+            vec![
+                CellType::LagrangeTetra(3),
+                CellType::LagrangeHexahedron([2, 2, 2]),
+                CellType::LagrangeHexahedron([2, 2, 2]),
+                CellType::LagrangeHexahedron([1, 2, 3]),
+                CellType::LagrangeWedge(2, 1),
+                CellType::LagrangeWedge(3, 3),
+            ],
+        ),
+        ("bezier_rational.vtu", 2, vec![CellType::LagrangeHexahedron([2, 2, 2]), CellType::LagrangeTetra(2)]),
+    ] {
+        let m = load(name);
+        assert_eq!(m.num_cells(), cells, "{name}");
+        let c = unstructured(&m);
+        assert_eq!(c.types, types, "{name}");
+        let rational = name.contains("rational");
+        let note = format!("evaluated {cells} {}Bézier cells", if rational { "rational " } else { "" });
+        assert!(m.notes.iter().any(|n| n.contains(&note)), "{name}: {:?}", m.notes);
+        let s = field(&m.point_fields, "s");
+        for line in dump.lines().filter(|l| l.starts_with(name)) {
+            let v: Vec<f64> = line.split_whitespace().skip(1).map(|x| x.parse().unwrap()).collect();
+            let (cell, node) = (v[0] as usize, v[1] as usize);
+            let p = c.nodes(cell)[node] as usize;
+            let (x, want) = (m.points[p], [v[2], v[3], v[4]]);
+            assert!(
+                (0..3).all(|a| (x[a] - want[a]).abs() < 1e-12),
+                "{name} cell {cell} node {node}: {x:?} vs VTK {want:?}"
+            );
+            assert!(
+                (s.values[p] - v[5]).abs() < 1e-12,
+                "{name} cell {cell} node {node}: s {} vs VTK {}",
+                s.values[p],
+                v[5]
+            );
+            checked += 1;
+        }
+        let (n, volume) = common::converted(&m);
+        assert!(n > 0 && volume > 0.0, "{name}");
+    }
+    assert_eq!(checked, 187);
+    // The stacked hexahedra (cells 1 and 2) name one point wherever their
+    // nodes meet: 9 on the shared face.
+    let m = load("bezier_cells.vtu");
+    let c = unstructured(&m);
+    let mut shared = 0;
+    for &a in c.nodes(1) {
+        for &b in c.nodes(2) {
+            let (pa, pb) = (m.points[a as usize], m.points[b as usize]);
+            if (0..3).all(|k| (pa[k] - pb[k]).abs() < 1e-9) {
+                assert_eq!(a, b, "{pa:?}");
+                shared += 1;
+            }
+        }
+    }
+    assert_eq!(shared, 9);
+    // The rational hexahedron: radius 1, 1.5 or 2 at every node.
+    let m = load("bezier_rational.vtu");
+    for &p in unstructured(&m).nodes(0) {
+        let [x, y, _] = m.points[p as usize];
+        let r = x.hypot(y);
+        assert!([1.0, 1.5, 2.0].iter().any(|&want| (r - want).abs() < 1e-14), "radius {r}");
+    }
+}
+
+/// A `RationalWeights` attribute naming no array, and weights that are not
+/// positive, are errors naming the piece; nothing is reduced silently.
+#[test]
+fn bezier_cells_with_bad_rational_weights_are_errors() {
+    let text = String::from_utf8(bytes("bezier_rational.vtu")).unwrap();
+    let missing = text.replace(r#"RationalWeights="RationalWeights""#, r#"RationalWeights="nope""#);
+    let e = read(missing.as_bytes()).unwrap_err().to_string();
+    assert!(e.contains("RationalWeights 'nope'"), "{e}");
+    let start = text.find(r#"Name="RationalWeights""#).unwrap();
+    let body = text[start..].find('>').unwrap() + start + 1;
+    let mut zero = text.clone();
+    let first = zero[body..].find(|c: char| c.is_ascii_digit()).unwrap() + body;
+    let end = zero[first..].find(|c: char| c.is_whitespace()).unwrap() + first;
+    zero.replace_range(first..end, "-0.5");
+    let e = read(zero.as_bytes()).unwrap_err().to_string();
+    assert!(e.contains("Bézier cells") && e.contains("weight -0.5"), "{e}");
+}

@@ -82,8 +82,10 @@ pub fn lagrange_wedge_order(count: usize) -> Option<u8> {
 }
 
 /// The cell a reader keeps for a VTK Lagrange volume (ids 71, 72, 73) of
-/// `count` nodes, or a Bézier one (78, 79, 80, reduced to its corners: its
-/// other control points do not lie on the cell). `degrees` is the cell's
+/// `count` nodes, or a Bézier one (78, 79, 80: the Lagrange cell of its
+/// orders, which it becomes once [`crate::bezier::BezierEvaluator`] has
+/// evaluated it at its lattice; its non-corner control points do not lie on
+/// the cell, so a reader must do that before the cell is cut). `degrees` is the cell's
 /// row of the file's `HigherOrderDegrees` array if it has one (VTK's
 /// orders along each parameter axis); without it the order follows from
 /// the node count, as in VTK. Returns `None` for other ids; `Some(Err)`
@@ -111,8 +113,8 @@ pub fn cell_type_of_vtk_higher_order(
         None => None,
     };
     let found = match (linear, orders) {
-        (CellType::Tetra, _) if count == 15 => Some(CellType::QuadraticTetraWithCentres),
-        (CellType::Wedge, _) if count == 21 => Some(CellType::QuadraticWedgeWithCentres),
+        (CellType::Tetra, _) if count == 15 && id < 78 => Some(CellType::QuadraticTetraWithCentres),
+        (CellType::Wedge, _) if count == 21 && id < 78 => Some(CellType::QuadraticWedgeWithCentres),
         (CellType::Tetra, _) => lagrange_tetra_order(count).map(CellType::LagrangeTetra),
         (CellType::Hexahedron, Some(o)) => Some(CellType::LagrangeHexahedron(o)),
         (CellType::Hexahedron, None) => lagrange_hexahedron_order(count).map(|n| CellType::LagrangeHexahedron([n; 3])),
@@ -124,7 +126,7 @@ pub fn cell_type_of_vtk_higher_order(
         _ => unreachable!("linear is one of three types"),
     };
     Some(match found {
-        Some(t) if t.num_nodes() == count => Ok(if id >= 78 { linear } else { t.simplest() }),
+        Some(t) if t.num_nodes() == count => Ok(t.simplest()),
         Some(t) => Err(format!("{count} nodes, but its HigherOrderDegrees make it a {t:?} of {}", t.num_nodes())),
         None => {
             let kind = if id >= 78 { "Bézier" } else { "Lagrange" };
@@ -933,7 +935,13 @@ mod tests {
         assert_eq!(t(71, 4, None), Some(Ok(CellType::Tetra)));
         assert_eq!(t(71, 15, None), Some(Ok(CellType::QuadraticTetraWithCentres)));
         assert_eq!(t(72, 24, Some([2, 3, 1])), Some(Ok(CellType::LagrangeHexahedron([2, 3, 1]))));
-        assert_eq!(t(79, 27, None), Some(Ok(CellType::Hexahedron)));
+        assert_eq!(t(79, 27, None), Some(Ok(CellType::LagrangeHexahedron([2, 2, 2]))));
+        assert!(matches!(t(78, 8, None), Some(Err(_))));
+        // A Bézier cell of 15 or 21 nodes fits no order (the centred
+        // quadratic variants are Lagrange cells only).
+        assert!(matches!(t(78, 15, None), Some(Err(_))));
+        assert!(matches!(t(80, 21, None), Some(Err(_))));
+        assert_eq!(t(78, 4, None), Some(Ok(CellType::Tetra)));
         assert!(matches!(t(72, 25, Some([2, 3, 1])), Some(Err(_))));
         assert!(matches!(t(73, 19, None), Some(Err(_))));
         assert!(matches!(t(72, 8, Some([0, 1, 1])), Some(Err(_))));

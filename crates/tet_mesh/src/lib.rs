@@ -13,6 +13,8 @@
 //!   ([`PolyhedronSplitter`]), for the readers that meet them.
 //! - [`lagrange`] — higher-order cells of any order (VTK's Lagrange cells,
 //!   Gmsh's complete ones): where their nodes lie and their split at them.
+//! - [`bezier`] — VTK's Bézier volume cells (polynomial or rational) evaluated
+//!   at their lattice into Lagrange cells ([`BezierEvaluator`]).
 //!
 //! ```
 //! use tet_mesh::{tetrahedralize, build_adjacency, Block, ConvertOptions, Field, SourceMesh, SplitMode};
@@ -36,6 +38,7 @@
 #![forbid(unsafe_code)]
 
 pub mod adjacency;
+pub mod bezier;
 pub mod convert;
 mod error;
 pub mod lagrange;
@@ -52,6 +55,7 @@ pub mod stats;
 pub use adjacency::{
     adjacency_from_neighbors, build_adjacency, check_adjacency, check_neighbors, Adjacency, FACE_OUTWARD, NO_NEIGHBOR,
 };
+pub use bezier::{BezierEvaluator, BezierReport};
 pub use convert::{
     check_tet_mesh, tetrahedralize, tetrahedralize_merged, tetrahedralize_tets, ConversionReport, ConvertOptions,
     Finding, GivenOrientation, NanPolicy, Step, TetMesh,

@@ -283,8 +283,8 @@ impl CellType {
     }
 
     /// [`CellType::from_vtk_id`] extended to VTK's Lagrange volumes (ids 71,
-    /// 72, 73, kept and cut at their nodes) and Bézier ones (78, 79, 80,
-    /// reduced to their corners), whose order follows from their node count
+    /// 72, 73, kept and cut at their nodes) and Bézier ones (78, 79, 80: the
+    /// Lagrange cell of their orders, [`CellType::vtk_id_is_bezier`]), whose order follows from their node count
     /// `count` or their `HigherOrderDegrees` row ([`crate::lagrange`]).
     /// Returns the cell type and the node count the file stores for it
     /// (more than the type keeps when reduced); `Some(Err)` when `count` or
@@ -294,6 +294,14 @@ impl CellType {
             Some(fixed) => Some(Ok(fixed)),
             None => crate::lagrange::cell_type_of_vtk_higher_order(id, count, degrees).map(|r| r.map(|t| (t, count))),
         }
+    }
+
+    /// True for VTK's Bézier volume ids (tetrahedron 78, hexahedron 79,
+    /// wedge 80): [`CellType::from_vtk`] gives them the Lagrange cell of
+    /// their orders, whose nodes a reader must first evaluate
+    /// ([`crate::bezier::BezierEvaluator`]).
+    pub fn vtk_id_is_bezier(id: u32) -> bool {
+        matches!(id, 78..=80)
     }
 
     /// True for VTK ids of cells that have no volume (vertex, line, polygon
@@ -565,8 +573,10 @@ mod tests {
         }
         assert_eq!(CellType::from_vtk_id(26), Some((CellType::QuadraticWedge, 15)));
         assert_eq!(CellType::from_vtk_id(31), Some((CellType::QuadraticLinearWedge, 12)));
-        // Bézier cells are reduced to their corners.
-        assert_eq!(CellType::from_vtk(79, 27, None), Some(Ok((CellType::Hexahedron, 27))));
+        // Bézier cells become the Lagrange cells of their orders (their
+        // control points evaluated by the reader).
+        assert_eq!(CellType::from_vtk(79, 27, None), Some(Ok((CellType::LagrangeHexahedron([2, 2, 2]), 27))));
+        assert!(CellType::vtk_id_is_bezier(79) && !CellType::vtk_id_is_bezier(72));
         assert_eq!(CellType::from_vtk_id(5), None);
         assert!(CellType::vtk_id_is_surface_or_lower(5));
     }

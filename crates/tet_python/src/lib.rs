@@ -452,7 +452,9 @@ fn fields_of(
 /// fields; converted as `tetprep convert` converts a file (cells split into
 /// tets, `scalar` chosen by the same rules). Cells without volume are
 /// skipped and counted in the findings; a volume cell tetkit cannot reduce
-/// is an error naming it.
+/// is an error naming it. Bézier cells (VTK ids 78–80) are evaluated at
+/// their lattice points (rational with a one-component point field named
+/// `RationalWeights`, VTK's name for it) and cut there.
 #[pyfunction]
 #[pyo3(signature = (points, cell_types, offsets, connectivity, point_fields, cell_fields, scalar=None, dims=None, format="arrays"))]
 #[allow(clippy::too_many_arguments)]
@@ -478,7 +480,9 @@ fn from_cells(
     }
     let (types, offs, conn) = (cell_types.as_array(), offsets.as_array(), connectivity.as_array());
     let mut notes = Vec::new();
-    let (blocks, kept): (Vec<tet_mesh::Block>, Option<Vec<u32>>) = match dims {
+    // Cells holding Bézier control points (indices into the cells kept).
+    let mut bezier: Vec<usize> = Vec::new();
+    let (mut blocks, kept): (Vec<tet_mesh::Block>, Option<Vec<u32>>) = match dims {
         Some((nx, ny, nz)) => {
             if nx.checked_mul(ny).and_then(|v| v.checked_mul(nz)) != Some(n) {
                 return Err(arg_err("dims", format!("{nx}×{ny}×{nz} for {n} points")));
@@ -521,6 +525,9 @@ fn from_cells(
                             })?);
                         }
                         reduced += usize::from(stored > ty.num_nodes());
+                        if tet_mesh::CellType::vtk_id_is_bezier(id) && ty != ty.linear() {
+                            bezier.push(cells.len());
+                        }
                         cells.push(ty, &nodes);
                         kept.push(c as u32);
                     }
@@ -554,13 +561,24 @@ fn from_cells(
         }
     };
     let num_cells: usize = blocks.iter().map(tet_mesh::Block::num_cells).sum();
-    let point_fields = fields_of("point", point_fields, n, None)?;
+    let mut point_fields = fields_of("point", point_fields, n, None)?;
     let cell_fields = match (&kept, dims) {
         (_, Some(_)) => fields_of("cell", cell_fields, num_cells, None)?,
         (Some(k), None) => fields_of("cell", cell_fields, types.len(), Some(k))?,
         (None, None) => fields_of("cell", cell_fields, num_cells, None)?,
     };
-    let points: Vec<[f64; 3]> = p.outer_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let mut points: Vec<[f64; 3]> = p.outer_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    if let Some(tet_mesh::Block::Unstructured(cells)) = blocks.first_mut().filter(|_| !bezier.is_empty()) {
+        // VTK writes the weights of rational cells as a point array it
+        // flags; arrays handed over carry no flag, so the name VTK gives
+        // it by default marks them.
+        let weights = point_fields.iter().find(|f| f.name == "RationalWeights" && f.num_components == 1);
+        let weights = weights.map(|f| f.values.clone());
+        let r = tet_mesh::BezierEvaluator::new()
+            .to_lagrange(cells, &bezier, &mut points, &mut point_fields, weights.as_deref())
+            .map_err(|m| arg_err("connectivity", format!("Bézier cells: {m}")))?;
+        notes.push(r.note(weights.is_some()));
+    }
     let source = tet_mesh::SourceMesh {
         format: format.to_string(),
         points,

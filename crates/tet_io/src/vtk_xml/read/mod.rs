@@ -62,9 +62,12 @@ pub(crate) const BASE64: GeneralPurpose = GeneralPurpose::new(
 /// that [`CellType`] lists, and Lagrange tetrahedra, hexahedra and wedges
 /// (their orders from the `HigherOrderDegrees` cell array the `<CellData>`
 /// names, else from their node counts: [`CellType::from_vtk`]), keep their
-/// nodes (cut at them) — every VTK quadratic volume cell is listed;
-/// Bézier cells are reduced to their corners, with a note, and then all
-/// other cells, so that neighbours conform. An unknown cell type id is an error. Point
+/// nodes (cut at them) — every VTK quadratic volume cell is listed.
+/// Bézier tetrahedra, hexahedra and wedges (ids 78–80; rational where
+/// `<PointData>` names a `RationalWeights` array) are evaluated at their
+/// lattice points, positions and every point array, and cut there as the
+/// Lagrange cells of their orders ([`tet_mesh::bezier`]), with a note. An
+/// unknown cell type id is an error. Point
 /// and cell arrays
 /// become fields of their `NumberOfComponents`; `FieldData` and non-numeric
 /// arrays are ignored.
@@ -276,6 +279,10 @@ pub(crate) struct Stats {
     pub(crate) split_polyhedra: usize,
     pub(crate) polyhedron_tets: usize,
     pub(crate) polyhedron_points: usize,
+    /// Bézier cells evaluated at their lattice (summed over pieces), and
+    /// whether any were rational.
+    pub(crate) bezier: tet_mesh::BezierReport,
+    pub(crate) rational_bezier: bool,
 }
 
 impl Stats {
@@ -298,6 +305,9 @@ impl Stats {
                 id => format!("Lagrange/Bézier volume cells of VTK type id {id}"),
             };
             notes.push(format!("skipped {n} {what}, which tetkit cannot reduce, and their cell data"));
+        }
+        if self.bezier.cells > 0 {
+            notes.push(self.bezier.note(self.rational_bezier));
         }
         if self.split_polyhedra > 0 {
             notes.push(format!(
@@ -766,16 +776,30 @@ mod tests {
         let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
         assert_eq!(cells.types, vec![CellType::QuadraticTetra, CellType::QuadraticLinearWedge]);
         assert!(!m.notes.iter().any(|n| n.contains("higher-order")), "{:?}", m.notes);
-        // A Bézier tetrahedron (id 78; its control points off the cell) is
-        // reduced to its corners, with a note, and then the quadratic tet
-        // beside it as well (cut at its nodes it would not conform with it).
+        // A Bézier tetrahedron (id 78) is evaluated at its lattice: its
+        // control points here sit on the lattice (the edge midpoints), so
+        // the new points are where they are (Bernstein polynomials
+        // reproduce linear maps), while the point scalar, whose control
+        // values are not linear, is the Bézier value there: on edge 0-1,
+        // s₀/4 + s₄/2 + s₁/4 = 2.25. The quadratic tet beside it, which
+        // names the same points as its own nodes, stays whole and keeps
+        // them: the Bézier tet gets six new points.
         let text = tiny_vtu("24 5 78", "10 13 23", "0 1 2 3 4 5 6 7 8 9  0 1 2  0 1 2 3 4 5 6 7 8 9", "7 8 9");
         let m = read(text.as_bytes()).unwrap();
         let Block::Unstructured(cells) = &m.blocks[0] else { panic!() };
-        assert_eq!((cells.types[1], cells.nodes(1)), (CellType::Tetra, &[0, 1, 2, 3][..]));
-        assert_eq!((cells.types[0], cells.nodes(0)), (CellType::Tetra, &[0, 1, 2, 3][..]));
-        assert!(m.notes.iter().any(|n| n.contains("1 higher-order")), "{:?}", m.notes);
-        assert!(m.notes.iter().any(|n| n.contains("reduced 1 more quadratic")), "{:?}", m.notes);
+        assert_eq!(cells.types, vec![CellType::QuadraticTetra, CellType::LagrangeTetra(2)]);
+        assert_eq!(cells.nodes(1), &[0, 1, 2, 3, 10, 11, 12, 13, 14, 15]);
+        assert_eq!(m.points.len(), 16);
+        for i in 4..10 {
+            assert!((0..3).all(|a| (m.points[i + 6][a] - m.points[i][a]).abs() < 1e-15), "node {i}");
+        }
+        assert!((m.point_fields[0].values[10] - 2.25).abs() < 1e-12, "{:?}", m.point_fields[0].values);
+        assert!(!m.notes.iter().any(|n| n.contains("higher-order")), "{:?}", m.notes);
+        assert!(
+            m.notes.iter().any(|n| n.contains("evaluated 1 Bézier cells") && n.contains("6 points added")),
+            "{:?}",
+            m.notes
+        );
     }
 
     #[test]

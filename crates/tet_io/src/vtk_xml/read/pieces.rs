@@ -91,6 +91,8 @@ impl<'a> Ctx<'a> {
         let mut cells = Cells::new();
         let mut gather: Option<Vec<u32>> = None;
         let mut splitter = PolyhedronSplitter::new(num_points);
+        // Cells (indices into `cells`) holding Bézier control points.
+        let mut bezier: Vec<usize> = Vec::new();
         if num_cells > 0 {
             let cells_el = self
                 .child(piece, "Cells")
@@ -130,7 +132,7 @@ impl<'a> Ctx<'a> {
                 degrees: degrees.as_deref(),
             };
             let mut source = Vec::with_capacity(num_cells);
-            cells = self.build_cells(&input, num_points, piece, &mut source, &mut splitter, stats)?;
+            (cells, bezier) = self.build_cells(&input, num_points, piece, &mut source, &mut splitter, stats)?;
             if source.len() != num_cells || source.iter().enumerate().any(|(i, &c)| c as usize != i) {
                 gather = Some(source);
             }
@@ -148,7 +150,49 @@ impl<'a> Ctx<'a> {
         };
         stats.polyhedron_points += splitter.num_added_points();
         splitter.finish(&mut mesh).map_err(|m| self.err_at(piece, m))?;
+        if !bezier.is_empty() {
+            self.evaluate_bezier(piece, &mut mesh, &bezier, stats)?;
+        }
         Ok(mesh)
+    }
+
+    /// Evaluates the piece's Bézier cells at their lattice points
+    /// ([`tet_mesh::BezierEvaluator`]), rational where `<PointData>` names
+    /// a `RationalWeights` array.
+    fn evaluate_bezier(
+        &self,
+        piece: usize,
+        mesh: &mut SourceMesh,
+        bezier: &[usize],
+        stats: &mut Stats,
+    ) -> Result<(), FormatError> {
+        let point_data = self.child(piece, "PointData");
+        let weights = match point_data.and_then(|el| self.attr(el, "RationalWeights")).filter(|n| !n.is_empty()) {
+            Some(name) => Some(
+                mesh.point_fields
+                    .iter()
+                    .find(|f| f.name == name && f.num_components == 1)
+                    .map(|f| f.values.clone())
+                    .ok_or_else(|| {
+                        self.err_at(
+                            point_data.unwrap_or(piece),
+                            format!("<PointData> names RationalWeights '{name}' but has no numeric one-component array of that name"),
+                        )
+                    })?,
+            ),
+            None => None,
+        };
+        let Some(Block::Unstructured(cells)) = mesh.blocks.first_mut() else {
+            unreachable!("an unstructured piece holds one unstructured block")
+        };
+        let report = tet_mesh::BezierEvaluator::new()
+            .to_lagrange(cells, bezier, &mut mesh.points, &mut mesh.point_fields, weights.as_deref())
+            .map_err(|m| self.err_at(piece, format!("Bézier cells: {m}")))?;
+        stats.bezier.cells += report.cells;
+        stats.bezier.points_moved += report.points_moved;
+        stats.bezier.points_added += report.points_added;
+        stats.rational_bezier |= weights.is_some();
+        Ok(())
     }
 
     /// The piece's `HigherOrderDegrees` cell array (VTK names it in its
@@ -171,7 +215,9 @@ impl<'a> Ctx<'a> {
     }
 
     /// The piece's cells; `source` receives, per cell kept, the index of
-    /// the file's cell it came from (a polyhedron gives several tets).
+    /// the file's cell it came from (a polyhedron gives several tets). Also
+    /// returns the cells (indices into the cells kept) that hold Bézier
+    /// control points.
     pub(crate) fn build_cells(
         &self,
         input: &CellArrays<'_>,
@@ -180,7 +226,8 @@ impl<'a> Ctx<'a> {
         source: &mut Vec<u32>,
         splitter: &mut PolyhedronSplitter,
         stats: &mut Stats,
-    ) -> Result<Cells, FormatError> {
+    ) -> Result<(Cells, Vec<usize>), FormatError> {
+        let mut bezier = Vec::new();
         let CellArrays { types, offsets, connectivity, poly, degrees } = *input;
         let num_cells = types.len();
         // End of the previous polyhedron's face stream.
@@ -233,6 +280,9 @@ impl<'a> Ctx<'a> {
                     if stored > n {
                         stats.reduced_higher_order += 1;
                     }
+                    if CellType::vtk_id_is_bezier(id) && cell_type != cell_type.linear() {
+                        bezier.push(cells.len());
+                    }
                     cells.push(cell_type, &nodes);
                     true
                 }
@@ -279,7 +329,7 @@ impl<'a> Ctx<'a> {
                 source.push(c as u32);
             }
         }
-        Ok(cells)
+        Ok((cells, bezier))
     }
 
     pub(crate) fn structured_piece(

@@ -18,17 +18,22 @@
 //! permuted into VTK's order and subdivided at them (the order is checked
 //! on every element's geometry: a block whose nodes fit VTK's order
 //! instead is read so, with a note; one that fits neither is reduced to
-//! its corners); other higher-order variants (TETRA11/14, HEX9, WEDGE21,
-//! …) are reduced to their corner nodes, which Exodus lists first (and then
-//! every other quadratic element too, so that neighbours conform); blocks
+//! its corners); TET5, TETRA11 and HEX9, whose last node is a centre node
+//! inside the element, are read as TETRA4, TETRA10 and HEX8 (the centre's
+//! value is not used; every face keeps its nodes, so neighbours conform),
+//! with a note; other higher-order variants (TETRA8/14, WEDGE16/20/21,
+//! PYRAMID18/19, …) are reduced to their corner nodes, which Exodus lists
+//! first (and then every other quadratic element too, so that neighbours
+//! conform); blocks
 //! of other types
 //! (shells, beams, spheres, polyhedra) are skipped with a note. Nodal variables
 //! become point fields and element variables cell fields (NaN in blocks the
 //! truth table leaves out), all at one time step ([`ExodusOptions`]);
 //! `block_id` is a cell field.
 //!
-//! The netCDF-4 (HDF5) form of Exodus is not read here: `nccopy -k
-//! classic in.exo out.exo` rewrites it in the classic form.
+//! Both containers are read: netCDF classic (CDF-1, 64-bit offset,
+//! CDF-5) and netCDF-4 (HDF5; chunked, deflate-compressed or not), the
+//! latter through `netcdf-reader` ([`crate::netcdf`]).
 
 use tet_mesh::{Block, CellType, Cells, Field};
 
@@ -47,13 +52,14 @@ pub struct ExodusOptions {
 /// element; `None` for types that are not volume cells tetkit reads.
 /// TETRA10 and TETRA15, HEX20 and HEX27, WEDGE15 and WEDGE18, PYRAMID13 and
 /// PYRAMID14 keep their nodes (permuted into VTK's order by
-/// [`node_orders`] and subdivided at them); other higher-order elements are
-/// reduced to their corners.
+/// [`node_orders`] and subdivided at them); TET5, TETRA11 and HEX9 are
+/// read without their centre node ([`drops_centre_only`]); other
+/// higher-order elements are reduced to their corners.
 fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
     let t = elem_type.trim().to_ascii_uppercase();
     let family = ["TET", "HEX", "WEDGE", "PYRAMID"].into_iter().find(|f| t.starts_with(f))?;
     let (linear, reducible): (CellType, &[usize]) = match family {
-        "TET" => (CellType::Tetra, &[4, 8, 10, 11, 14, 15]),
+        "TET" => (CellType::Tetra, &[4, 5, 8, 10, 11, 14, 15]),
         "HEX" => (CellType::Hexahedron, &[8, 9, 16, 20, 27]),
         "WEDGE" => (CellType::Wedge, &[6, 12, 15, 16, 18, 20, 21, 24, 52]),
         _ => (CellType::Pyramid, &[5, 13, 14, 18, 19]),
@@ -70,8 +76,18 @@ fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
     ];
     match kept.into_iter().find(|q| q.linear() == linear && q.num_nodes() == nodes) {
         Some(q) => Some(q),
+        // TETRA11: TETRA10 and a centre node.
+        None if linear == CellType::Tetra && nodes == 11 => Some(CellType::QuadraticTetra),
         None => reducible.contains(&nodes).then_some(linear),
     }
+}
+
+/// Whether an element of `nodes` nodes read as `cell_type` drops only a
+/// centre node inside it (TET5, TETRA11, HEX9: the last node), so its
+/// faces keep every node and it conforms with its neighbours as read.
+fn drops_centre_only(cell_type: CellType, nodes: usize) -> bool {
+    nodes == cell_type.num_nodes() + 1
+        && matches!(cell_type, CellType::Tetra | CellType::QuadraticTetra | CellType::Hexahedron)
 }
 
 /// Node orders to try for a quadratic Exodus element, first match wins:
@@ -334,7 +350,7 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     }
     let layout = Layout::of(&f)?;
     let mut cells = Cells::new();
-    let (mut reduced, mut order_notes) = (0usize, Vec::new());
+    let (mut reduced, mut centres, mut order_notes) = (0usize, 0usize, Vec::new());
     for blk in &layout.blocks {
         let ids = f.read(need(&f, &format!("connect{}", blk.index + 1))?, None)?;
         let id = layout.block_id(blk.index);
@@ -393,7 +409,9 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
                 reduced += blk.count;
             }
         }
-        if blk.nodes_per_elem > blk.cell_type.num_nodes() {
+        if drops_centre_only(blk.cell_type, blk.nodes_per_elem) {
+            centres += blk.count;
+        } else if blk.nodes_per_elem > blk.cell_type.num_nodes() {
             reduced += blk.count;
         }
     }
@@ -420,6 +438,11 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
         });
     }
     mesh.notes.extend(order_notes);
+    if centres > 0 {
+        mesh.notes.push(format!(
+            "read {centres} elements without their centre node (TET5, TETRA11, HEX9: the node inside the element; its faces keep all theirs)"
+        ));
+    }
     if reduced > 0 {
         mesh.notes.push(format!("reduced {reduced} higher-order elements to their corner nodes"));
     }
@@ -662,6 +685,45 @@ mod tests {
             vars.push((format!("connect{}", b + 1), vec![d_el, d_per], 4, vec![("elem_type".into(), elem_type)], ids));
         }
         Writer { dims, vars, num_records: 0 }
+    }
+
+    /// TET5, TETRA11 and HEX9 (a centre node last) are read as TETRA4,
+    /// TETRA10 (cut at its ten nodes) and HEX8, with a note, and nothing
+    /// else is reduced: their faces keep every node.
+    #[test]
+    fn centre_node_variants_drop_only_their_centre() {
+        let tet = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]];
+        let mid = |a: usize, b: usize| std::array::from_fn::<f64, 3, _>(|k| (tet[a][k] + tet[b][k]) / 2.0);
+        let mut tet11: Vec<[f64; 3]> = tet.to_vec();
+        tet11.extend([mid(0, 1), mid(1, 2), mid(0, 2), mid(0, 3), mid(1, 3), mid(2, 3), [0.25; 3]]);
+        let shift = |e: &[[f64; 3]], dx: f64| e.iter().map(|p| [p[0] + dx, p[1], p[2]]).collect::<Vec<_>>();
+        let mut tet5 = tet.to_vec();
+        tet5.push([0.25; 3]);
+        let hex: Vec<[f64; 3]> = vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0., 1., 0.],
+            [0., 0., 1.],
+            [1., 0., 1.],
+            [1., 1., 1.],
+            [0., 1., 1.],
+            [0.5, 0.5, 0.5],
+        ];
+        let file = blocks_file(&[
+            ("TETRA11", vec![shift(&tet11, 0.0)]),
+            ("TET5", vec![shift(&tet5, 3.0)]),
+            ("HEX9", vec![shift(&hex, 6.0)]),
+        ]);
+        let m = read(&file.write(false), &ExodusOptions::default()).unwrap();
+        let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
+        assert_eq!(c.types, vec![CellType::QuadraticTetra, CellType::Tetra, CellType::Hexahedron]);
+        assert!(m.notes.iter().any(|n| n.contains("read 3 elements without their centre node")), "{:?}", m.notes);
+        assert!(!m.notes.iter().any(|n| n.contains("reduced")), "{:?}", m.notes);
+        let (mesh, _) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+        assert_eq!(mesh.tets.len(), 8 + 1 + 6);
+        let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+        assert!((v - (2.0 / 6.0 + 1.0)).abs() < 1e-12, "{v}");
     }
 
     /// Exodus's quadratic elements, written in Exodus's node order (the

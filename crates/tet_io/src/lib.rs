@@ -124,9 +124,6 @@ pub enum ReadError {
 /// file is instead of asking for a `--format` that does not exist.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Unsupported {
-    /// Exodus II in its netCDF-4 (HDF5) form (`.exo`, `.ex2`, `.e`, `.g`);
-    /// the classic netCDF form is [`Format::Exodus`].
-    Exodus,
     /// CGNS (`.cgns`, HDF5 or ADF).
     Cgns,
     /// A NetCDF file of no known mesh convention.
@@ -138,10 +135,6 @@ pub enum Unsupported {
 impl fmt::Display for Unsupported {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Unsupported::Exodus => {
-                "an Exodus II mesh in netCDF-4/HDF5 form (the classic netCDF form is read: \
-                 `nccopy -k classic` rewrites it)"
-            }
             Unsupported::Cgns => "a CGNS file",
             Unsupported::NetCdf => "a NetCDF file",
             Unsupported::Hdf5 => "an HDF5 file",
@@ -154,7 +147,7 @@ fn is_netcdf(head: &[u8]) -> bool {
     head.len() >= 4 && head.starts_with(b"CDF") && matches!(head[3], 1 | 2 | 5)
 }
 
-const HDF5_MAGIC: &[u8] = b"\x89HDF\r\n\x1a\n";
+use netcdf::HDF5_MAGIC;
 
 /// What an input is when it is a format no reader handles: by the magic
 /// bytes first (so a NetCDF `.g` is not taken for a PLOT3D grid), then the
@@ -166,14 +159,13 @@ pub fn detect_unsupported(path: &Path, head: &[u8]) -> Option<Unsupported> {
     let ext = lower_ext(path);
     let exodus_ext = matches!(ext.as_str(), "exo" | "ex2" | "exii" | "e" | "g" | "gen");
     let hdf5 = head.starts_with(HDF5_MAGIC);
-    if is_netcdf(head) && (exodus_ext || looks_like_exodus(head)) {
-        // Read by [`Format::Exodus`].
+    if (is_netcdf(head) || hdf5) && (exodus_ext || looks_like_exodus(head)) {
+        // Read by [`Format::Exodus`] (classic netCDF or netCDF-4).
         return None;
     }
     if is_netcdf(head) || hdf5 {
         return Some(match ext.as_str() {
             "cgns" => Unsupported::Cgns,
-            _ if exodus_ext => Unsupported::Exodus,
             _ if hdf5 => Unsupported::Hdf5,
             _ => Unsupported::NetCdf,
         });
@@ -408,7 +400,7 @@ pub fn detect_format(path: &Path, head: &[u8], opts: &ReadOptions) -> Option<For
     if head.starts_with(b"LASF") {
         return Some(Format::Las);
     }
-    if is_netcdf(head)
+    if (is_netcdf(head) || head.starts_with(HDF5_MAGIC))
         && (looks_like_exodus(head) || matches!(ext.as_str(), "exo" | "ex2" | "exii" | "e" | "g" | "gen"))
     {
         return Some(Format::Exodus);

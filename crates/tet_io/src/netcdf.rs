@@ -1,5 +1,11 @@
-//! NetCDF classic-model files (the container of Exodus II meshes): the
-//! header and whole-variable reads, for files already in memory.
+//! NetCDF files (the container of Exodus II meshes): the header and
+//! whole-variable or one-record reads, for files already in memory.
+//!
+//! Classic-model files are parsed here; netCDF-4 files (HDF5 underneath:
+//! the form SEACAS tools and `nccopy -k nc4` write, chunked and
+//! compressed or not) are decoded by the pure-Rust `netcdf-reader` crate
+//! and presented through the same [`NetCdf`] view (root group only, as
+//! Exodus uses it).
 //!
 //! Format: Unidata, "NetCDF File Format Specification" (classic `CDF\x01`,
 //! 64-bit offset `CDF\x02`, 64-bit data `CDF\x05`; big-endian throughout).
@@ -101,9 +107,10 @@ impl Variable {
 }
 
 /// A parsed header over the file's bytes.
-#[derive(Debug)]
 pub struct NetCdf<'a> {
     bytes: &'a [u8],
+    /// A netCDF-4 file's decoder (`None` for classic files).
+    nc4: Option<netcdf_reader::NcFile>,
     pub dims: Vec<Dimension>,
     pub attrs: Vec<(String, AttrValue)>,
     pub vars: Vec<Variable>,
@@ -184,8 +191,12 @@ fn attr_list(c: &mut ByteCursor<'_>, wide: bool) -> Result<Vec<(String, AttrValu
 }
 
 impl<'a> NetCdf<'a> {
-    /// Parses the header of a classic, 64-bit offset or CDF-5 file.
+    /// Parses the header of a classic, 64-bit offset or CDF-5 file, or of
+    /// a netCDF-4 (HDF5) file.
     pub fn parse(bytes: &'a [u8]) -> Result<NetCdf<'a>, FormatError> {
+        if bytes.starts_with(HDF5_MAGIC) {
+            return NetCdf::parse_nc4(bytes);
+        }
         let mut c = ByteCursor::new(bytes);
         let magic = c.take(4, "magic")?;
         if &magic[..3] != b"CDF" || !matches!(magic[3], 1 | 2 | 5) {
@@ -261,7 +272,7 @@ impl<'a> NetCdf<'a> {
             let begin = if offset64 { c.u64(Endian::Big, "begin")? } else { c.u32(Endian::Big, "begin")? as u64 };
             vars.push(Variable { name: n, dims: vd, attrs: vattrs, ty, vsize, begin, at });
         }
-        let mut f = NetCdf { bytes, dims, attrs, vars, num_records: 0, record_dim, record_size: 0 };
+        let mut f = NetCdf { bytes, nc4: None, dims, attrs, vars, num_records: 0, record_dim, record_size: 0 };
         // vsize may be written as 2³²−1 for huge variables: use the
         // computed size instead, padded to 4 bytes.
         let rec_vars: Vec<usize> = (0..f.vars.len()).filter(|&v| f.is_record(v)).collect();
@@ -297,6 +308,47 @@ impl<'a> NetCdf<'a> {
             ));
         } else {
             f.num_records = numrecs as usize;
+        }
+        Ok(f)
+    }
+
+    /// The netCDF-4 form: the root group's dimensions, attributes and
+    /// variables (variables of types with no numeric or text reading —
+    /// strings, compounds, enums — left out). The unlimited dimension is
+    /// the record dimension; its length, which the HDF5 metadata gives as
+    /// 0, is the records the smallest record variable holds.
+    fn parse_nc4(bytes: &'a [u8]) -> Result<NetCdf<'a>, FormatError> {
+        let file = nc4_call(|| netcdf_reader::NcFile::from_bytes(bytes))?;
+        let dims: Vec<Dimension> = nc4_call(|| file.dimensions().map(<[_]>::to_vec))?
+            .into_iter()
+            .map(|d| Dimension { name: d.name, len: if d.is_unlimited { 0 } else { d.size as usize } })
+            .collect();
+        let record_dim = dims.iter().position(|d| d.len == 0);
+        let attrs = nc4_call(|| file.global_attributes().map(<[_]>::to_vec))?.into_iter().map(nc4_attr).collect();
+        let mut vars = Vec::new();
+        for v in nc4_call(|| file.variables().map(<[_]>::to_vec))? {
+            let Some(ty) = nc4_type(&v.dtype) else { continue };
+            let vd = v
+                .dimensions
+                .iter()
+                .map(|d| dims.iter().position(|x| x.name == d.name))
+                .collect::<Option<Vec<usize>>>()
+                .ok_or_else(|| whole(format!("variable '{}' names a dimension outside the root group", v.name)))?;
+            if vd.iter().skip(1).any(|&d| Some(d) == record_dim) {
+                return Err(whole(format!("variable '{}' has the record dimension other than first", v.name)));
+            }
+            let attrs = v.attributes.into_iter().map(nc4_attr).collect();
+            vars.push(Variable { name: v.name, dims: vd, attrs, ty, vsize: 0, begin: 0, at: 0 });
+        }
+        let mut f = NetCdf { bytes, nc4: Some(file), dims, attrs, vars, num_records: 0, record_dim, record_size: 0 };
+        let smallest = (0..f.vars.len())
+            .filter(|&v| f.is_record(v))
+            .min_by_key(|&v| f.vars[v].dims[1..].iter().map(|&d| f.dims[d].len).product::<usize>());
+        if let Some(v) = smallest {
+            let name = f.vars[v].name.clone();
+            let file = f.nc4.as_ref().expect("set above");
+            let data = nc4_call(|| file.read_variable_as_f64(&name))?;
+            f.num_records = data.shape().first().copied().unwrap_or(0);
         }
         Ok(f)
     }
@@ -338,6 +390,9 @@ impl<'a> NetCdf<'a> {
     /// record variable, as f64 in row-major order.
     pub fn read(&self, var: &Variable, record: Option<usize>) -> Result<Vec<f64>, FormatError> {
         let v = self.vars.iter().position(|x| std::ptr::eq(x, var)).expect("a variable of this file");
+        if let Some(file) = &self.nc4 {
+            return self.read_nc4(file, v, record);
+        }
         let err = |m: String| FormatError::new(Location::Byte(var.at), m);
         let bytes = self.record_bytes(v).ok_or_else(|| err(format!("variable '{}' is too large", var.name)))?;
         let start = match (self.is_record(v), record) {
@@ -364,11 +419,45 @@ impl<'a> NetCdf<'a> {
         Ok(out)
     }
 
+    /// [`NetCdf::read`] of a netCDF-4 file: the variable, or one record
+    /// of it, decoded, its length checked against the shape.
+    fn read_nc4(&self, file: &netcdf_reader::NcFile, v: usize, record: Option<usize>) -> Result<Vec<f64>, FormatError> {
+        use netcdf_reader::{NcSliceInfo, NcSliceInfoElem};
+        let var = &self.vars[v];
+        let mut shape = self.shape(var);
+        let data = match (self.is_record(v), record) {
+            (true, Some(r)) if r < self.num_records => {
+                let mut selections = vec![NcSliceInfoElem::Index(r as u64)];
+                selections.extend(shape[1..].iter().map(|&n| NcSliceInfoElem::Slice {
+                    start: 0,
+                    end: n as u64,
+                    step: 1,
+                }));
+                shape.remove(0);
+                nc4_call(|| file.read_variable_slice_as_f64(&var.name, &NcSliceInfo { selections }))?
+            }
+            (true, Some(r)) => {
+                return Err(whole(format!("record {r} of '{}': the file has {}", var.name, self.num_records)))
+            }
+            (true, None) => return Err(whole(format!("'{}' is a record variable: name a record", var.name))),
+            (false, _) => nc4_call(|| file.read_variable_as_f64(&var.name))?,
+        };
+        let want: usize = shape.iter().product();
+        if data.len() != want {
+            return Err(whole(format!("'{}' holds {} values, its shape {shape:?} {want}", var.name, data.len())));
+        }
+        Ok(data.iter().copied().collect())
+    }
+
     /// A 2-D char variable as its rows, trailing NULs and blanks removed.
     pub fn read_strings(&self, var: &Variable) -> Result<Vec<String>, FormatError> {
         let shape = self.shape(var);
         if var.ty != NcType::Char || shape.len() != 2 {
             return Err(FormatError::new(Location::Byte(var.at), format!("'{}' is not a list of names", var.name)));
+        }
+        if let Some(file) = &self.nc4 {
+            let rows = nc4_call(|| file.read_variable_as_strings(&var.name))?;
+            return Ok(rows.into_iter().map(|r| r.trim_end_matches('\0').trim().to_string()).collect());
         }
         let raw = self.read(var, None)?;
         Ok(raw
@@ -380,6 +469,75 @@ impl<'a> NetCdf<'a> {
             })
             .collect())
     }
+}
+
+impl std::fmt::Debug for NetCdf<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NetCdf")
+            .field("netcdf4", &self.nc4.is_some())
+            .field("dims", &self.dims)
+            .field("vars", &self.vars)
+            .field("num_records", &self.num_records)
+            .finish()
+    }
+}
+
+/// HDF5's signature, at the start of a netCDF-4 file.
+pub(crate) const HDF5_MAGIC: &[u8] = b"\x89HDF\r\n\x1a\n";
+
+fn whole(m: String) -> FormatError {
+    FormatError::new(Location::Whole, m)
+}
+
+/// A call into the netCDF-4 decoder, its error (or a panic, should a
+/// malformed file reach one in the decoder: bad input is an error here,
+/// never a crash) as a [`FormatError`].
+fn nc4_call<T>(f: impl FnOnce() -> netcdf_reader::Result<T>) -> Result<T, FormatError> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(e)) => Err(whole(format!("netCDF-4 (HDF5): {e}"))),
+        Err(_) => Err(whole("netCDF-4 (HDF5): the decoder failed on this file (malformed)".to_string())),
+    }
+}
+
+fn nc4_type(t: &netcdf_reader::NcType) -> Option<NcType> {
+    use netcdf_reader::NcType as T;
+    Some(match t {
+        T::Byte => NcType::Byte,
+        T::Char => NcType::Char,
+        T::Short => NcType::Short,
+        T::Int => NcType::Int,
+        T::Float => NcType::Float,
+        T::Double => NcType::Double,
+        T::UByte => NcType::UByte,
+        T::UShort => NcType::UShort,
+        T::UInt => NcType::UInt,
+        T::Int64 => NcType::Int64,
+        T::UInt64 => NcType::UInt64,
+        _ => return None,
+    })
+}
+
+fn nc4_attr(a: netcdf_reader::NcAttribute) -> (String, AttrValue) {
+    use netcdf_reader::NcAttrValue as V;
+    fn nums<T: Copy + Into<f64>>(v: &[T]) -> AttrValue {
+        AttrValue::Numbers(v.iter().map(|&x| x.into()).collect())
+    }
+    let value = match &a.value {
+        V::Chars(t) => AttrValue::Text(t.trim_end_matches('\0').to_string()),
+        V::Strings(t) => AttrValue::Text(t.join("\n")),
+        V::Bytes(v) => nums(v),
+        V::UBytes(v) => nums(v),
+        V::Shorts(v) => nums(v),
+        V::UShorts(v) => nums(v),
+        V::Ints(v) => nums(v),
+        V::UInts(v) => nums(v),
+        V::Floats(v) => nums(v),
+        V::Doubles(v) => nums(v),
+        V::Int64s(v) => AttrValue::Numbers(v.iter().map(|&x| x as f64).collect()),
+        V::UInt64s(v) => AttrValue::Numbers(v.iter().map(|&x| x as f64).collect()),
+    };
+    (a.name, value)
 }
 
 #[cfg(test)]

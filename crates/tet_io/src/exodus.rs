@@ -14,17 +14,20 @@
 //! `vals_elem_var{j}eb{i}` where the truth table `elem_var_tab` says so.
 //!
 //! Tetrahedra, hexahedra, wedges and pyramids are read; TETRA10, TETRA15,
-//! HEX20, HEX27, WEDGE15, WEDGE18, PYRAMID13 and PYRAMID14 keep their nodes,
-//! permuted into VTK's order and subdivided at them (the order is checked
-//! on every element's geometry: a block whose nodes fit VTK's order
-//! instead is read so, with a note; one that fits neither is reduced to
-//! its corners); TET5, TETRA11 and HEX9, whose last node is a centre node
-//! inside the element, are read as TETRA4, TETRA10 and HEX8 (the centre's
-//! value is not used; every face keeps its nodes, so neighbours conform),
-//! with a note; other higher-order variants (TETRA8/14, WEDGE16/20/21,
-//! PYRAMID18/19, …) are reduced to their corner nodes, which Exodus lists
-//! first (and then every other quadratic element too, so that neighbours
-//! conform); blocks
+//! HEX20, HEX27, WEDGE15, WEDGE18, WEDGE21, PYRAMID13, PYRAMID14 and
+//! PYRAMID19 keep their nodes, permuted into VTK's order and subdivided at
+//! them (WEDGE21's and PYRAMID19's orders from SEACAS's Ioss element
+//! topologies; the order is checked on every element's geometry where the
+//! cell's straight-sided node places are known — all but PYRAMID19: a
+//! block whose nodes fit VTK's order instead is read so, with a note; one
+//! that fits neither is reduced to its corners); TET5, TETRA11 and HEX9,
+//! whose last node is a centre node inside the element, are read as
+//! TETRA4, TETRA10 and HEX8 (the centre's value is not used; every face
+//! keeps its nodes, so neighbours conform), with a note; the variants with
+//! face-centre nodes but no body node (TETRA8/14, WEDGE16/20, PYRAMID18),
+//! for which tetkit has no split, are reduced to their corner nodes, which
+//! Exodus lists first (and then every other quadratic element too, so that
+//! neighbours conform); blocks
 //! of other types
 //! (shells, beams, spheres, polyhedra) are skipped with a note. Nodal variables
 //! become point fields and element variables cell fields (NaN in blocks the
@@ -50,8 +53,8 @@ pub struct ExodusOptions {
 
 /// The cell an Exodus element type is read as, given its nodes per
 /// element; `None` for types that are not volume cells tetkit reads.
-/// TETRA10 and TETRA15, HEX20 and HEX27, WEDGE15 and WEDGE18, PYRAMID13 and
-/// PYRAMID14 keep their nodes (permuted into VTK's order by
+/// TETRA10 and TETRA15, HEX20 and HEX27, WEDGE15, WEDGE18 and WEDGE21,
+/// PYRAMID13, PYRAMID14 and PYRAMID19 keep their nodes (permuted into VTK's order by
 /// [`node_orders`] and subdivided at them); TET5, TETRA11 and HEX9 are
 /// read without their centre node ([`drops_centre_only`]); other
 /// higher-order elements are reduced to their corners.
@@ -73,6 +76,8 @@ fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
         CellType::BiquadraticWedge,
         CellType::QuadraticPyramid,
         CellType::QuadraticPyramidWithBaseCentre,
+        CellType::QuadraticWedgeWithCentres,
+        CellType::TriquadraticPyramid,
     ];
     match kept.into_iter().find(|q| q.linear() == linear && q.num_nodes() == nodes) {
         Some(q) => Some(q),
@@ -112,6 +117,11 @@ fn node_orders(cell_type: CellType) -> Vec<Vec<usize>> {
         CellType::QuadraticWedge => WEDGE15.to_vec(),
         CellType::BiquadraticWedge => WEDGE15.iter().copied().chain([15, 16, 17]).collect(),
         CellType::QuadraticTetraWithCentres => vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 13, 10, 11, 12, 14],
+        // WEDGE21 (SEACAS's Ioss_Wedge21 faces): triangle centres 15 (0 1 2)
+        // and 16 (3 4 5), body 17, quads 1-2-5-4 18, 0-3-5-2 19, 0-1-4-3 20.
+        CellType::QuadraticWedgeWithCentres => WEDGE15.iter().copied().chain([15, 16, 20, 18, 19, 17]).collect(),
+        // PYRAMID19 (Ioss_Pyramid19): VTK's order already — the 13 nodes,
+        // the base's centre, the triangles' 0-1-4 … 3-0-4, the body.
         _ => identity.clone(),
     };
     if exodus == identity {
@@ -726,6 +736,42 @@ mod tests {
         assert!((v - (2.0 / 6.0 + 1.0)).abs() < 1e-12, "{v}");
     }
 
+    /// PYRAMID19 (SEACAS's Ioss_Pyramid19: the 13 nodes, the base's centre,
+    /// triangles 0-1-4 … 3-0-4, the body) is VTK's 19-node pyramid as it
+    /// stands, cut at all its nodes into conforming tets of the volume.
+    #[test]
+    fn pyramid19_is_cut_at_its_nodes() {
+        let pyramid19 = |x: f64| {
+            let c = [[x, 0., 0.], [x + 1., 0., 0.], [x + 1., 1., 0.], [x, 1., 0.], [x + 0.5, 0.5, 1.]];
+            let mid = |ps: &[usize]| [0, 1, 2].map(|k| ps.iter().map(|&i| c[i][k]).sum::<f64>() / ps.len() as f64);
+            let mut v = c.to_vec();
+            for p in [[0, 1], [1, 2], [2, 3], [3, 0], [0, 4], [1, 4], [2, 4], [3, 4]] {
+                v.push(mid(&p));
+            }
+            v.push(mid(&[0, 1, 2, 3]));
+            for t in [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]] {
+                v.push(mid(&t));
+            }
+            v.push([x + 0.5, 0.5, 0.25]);
+            v
+        };
+        let file = blocks_file(&[("PYRAMID19", vec![pyramid19(0.0), pyramid19(1.0)])]);
+        let m = read(&file.write(false), &ExodusOptions::default()).unwrap();
+        let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
+        assert_eq!(c.types, vec![CellType::TriquadraticPyramid; 2]);
+        assert!(m.notes.is_empty(), "{:?}", m.notes);
+        let (mesh, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+        assert!(
+            !report.findings.iter().any(|f| matches!(f, tet_mesh::Finding::ReorientedTets { .. })),
+            "{:?}",
+            report.findings
+        );
+        tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
+        let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+        assert!((v - 2.0 / 3.0).abs() < 1e-12, "{v}");
+        assert!(mesh.tets.len() >= 2 * 13, "{} tets", mesh.tets.len());
+    }
+
     /// Exodus's quadratic elements, written in Exodus's node order (the
     /// manual's figures: written out here independently of the reader's
     /// tables; HEX27 as its lattice: centre 21, faces 22 −z, 23 +z, 24 −x,
@@ -777,6 +823,13 @@ mod tests {
         let wedge_edges = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 4), (2, 5), (3, 4), (4, 5), (5, 3)];
         let wedge15 = |z| with_edges(&wedge_corners(z), &wedge_edges, &[]);
         let wedge18 = |z| with_edges(&wedge_corners(z), &wedge_edges, &[&[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]]);
+        // WEDGE21 as SEACAS's Ioss_Wedge21 lists its faces: triangle
+        // centres, the body, then quads 1-2-5-4, 0-3-5-2, 0-1-4-3.
+        let wedge21 = |z| {
+            let faces: [&[usize]; 6] =
+                [&[0, 1, 2], &[3, 4, 5], &[0, 1, 2, 3, 4, 5], &[1, 2, 5, 4], &[0, 3, 5, 2], &[0, 1, 4, 3]];
+            with_edges(&wedge_corners(z), &wedge_edges, &faces)
+        };
         let pyramid = |x: f64, centre: bool| {
             let c = [[x, 0., 0.], [x + 1., 0., 0.], [x + 1., 1., 0.], [x, 1., 0.], [x, 0., 1.]];
             let e = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)];
@@ -798,6 +851,11 @@ mod tests {
             ),
             (("WEDGE15", vec![shift(wedge15(0.), 6.), shift(wedge15(1.), 6.)]), CellType::QuadraticWedge, 1.0),
             (("WEDGE", vec![shift(wedge18(0.), 9.), shift(wedge18(1.), 9.)]), CellType::BiquadraticWedge, 1.0),
+            (
+                ("WEDGE21", vec![shift(wedge21(0.), 18.), shift(wedge21(1.), 18.)]),
+                CellType::QuadraticWedgeWithCentres,
+                1.0,
+            ),
             (
                 ("PYRAMID13", vec![shift(pyramid(0., false), 12.), shift(pyramid(2., false), 12.)]),
                 CellType::QuadraticPyramid,

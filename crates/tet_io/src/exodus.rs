@@ -709,17 +709,8 @@ mod tests {
         let shift = |e: &[[f64; 3]], dx: f64| e.iter().map(|p| [p[0] + dx, p[1], p[2]]).collect::<Vec<_>>();
         let mut tet5 = tet.to_vec();
         tet5.push([0.25; 3]);
-        let hex: Vec<[f64; 3]> = vec![
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0., 1., 0.],
-            [0., 0., 1.],
-            [1., 0., 1.],
-            [1., 1., 1.],
-            [0., 1., 1.],
-            [0.5, 0.5, 0.5],
-        ];
+        let mut hex = tet_mesh::split::UNIT_HEX.to_vec();
+        hex.push([0.5; 3]);
         let file = blocks_file(&[
             ("TETRA11", vec![shift(&tet11, 0.0)]),
             ("TET5", vec![shift(&tet5, 3.0)]),
@@ -787,19 +778,7 @@ mod tests {
         };
         let det = 1.0 * (1.1 - 0.0375) - 0.3 * (0.22 + 0.025) - 0.1 * (0.03 + 0.1);
         let mid = |ps: &[[f64; 3]]| [0, 1, 2].map(|k| ps.iter().map(|p| p[k]).sum::<f64>() / ps.len() as f64);
-        let hex_corners = |o: [f64; 3]| {
-            [
-                [0., 0., 0.],
-                [1., 0., 0.],
-                [1., 1., 0.],
-                [0., 1., 0.],
-                [0., 0., 1.],
-                [1., 0., 1.],
-                [1., 1., 1.],
-                [0., 1., 1.],
-            ]
-            .map(|c| [o[0] + c[0], o[1] + c[1], o[2] + c[2]])
-        };
+        let hex_corners = |o: [f64; 3]| tet_mesh::split::UNIT_HEX.map(|c| [o[0] + c[0], o[1] + c[1], o[2] + c[2]]);
         let with_edges = |c: &[[f64; 3]], edges: &[(usize, usize)], extra: &[&[usize]]| -> Vec<[f64; 3]> {
             let mut v = c.to_vec();
             v.extend(edges.iter().map(|&(a, b)| mid(&[c[a], c[b]])));

@@ -95,12 +95,6 @@ fn binomial(n: i32, k: i32) -> f64 {
     c as f64
 }
 
-/// xᵉ with 0⁰ = 1 (every zero factor exactly 0 otherwise, so a basis
-/// function vanishes exactly on the faces it vanishes on).
-fn pow(x: f64, e: i32) -> f64 {
-    x.powi(e)
-}
-
 impl Basis {
     fn new(cell_type: CellType) -> Option<Basis> {
         let (lattice, orders) = match cell_type {
@@ -122,33 +116,42 @@ impl Basis {
         Some(basis)
     }
 
-    /// B_j(ℓ_i / orders) for every control point j.
+    /// B_j(ℓ_i / orders) for every control point j. Each barycentric or
+    /// 1 − x factor comes from node i's integer lattice point, so it is 0
+    /// exactly where it should be (and a basis function vanishes exactly on
+    /// the faces it vanishes on; `powi` gives 0⁰ = 1).
     fn row_into(&self, cell_type: CellType, i: usize, out: &mut [f64]) {
         let [r, s, t] = self.at[i];
+        let li = self.lattice[i];
+        // (k_i − …)/n: the complementary coordinate of node i.
+        let rest = |n: i32, used: i32| (n - used) as f64 / n as f64;
         for (j, &[a, b, c]) in self.lattice.iter().enumerate() {
             out[j] = match cell_type {
                 CellType::LagrangeTetra(n) => {
                     let n = n as i32;
                     let a0 = n - a - b - c;
-                    let l0 = 1.0 - r - s - t;
+                    let l0 = rest(n, li[0] + li[1] + li[2]);
                     binomial(n, a0)
                         * binomial(n - a0, a)
                         * binomial(n - a0 - a, b)
-                        * pow(l0.max(0.0), a0)
-                        * pow(r, a)
-                        * pow(s, b)
-                        * pow(t, c)
+                        * l0.powi(a0)
+                        * r.powi(a)
+                        * s.powi(b)
+                        * t.powi(c)
                 }
                 CellType::LagrangeHexahedron([p, q, o]) => {
-                    let line = |n: u8, k: i32, x: f64| binomial(n as i32, k) * pow(x, k) * pow(1.0 - x, n as i32 - k);
-                    line(p, a, r) * line(q, b, s) * line(o, c, t)
+                    let line = |n: u8, k: i32, x: f64, ki: i32| {
+                        let n = n as i32;
+                        binomial(n, k) * x.powi(k) * rest(n, ki).powi(n - k)
+                    };
+                    line(p, a, r, li[0]) * line(q, b, s, li[1]) * line(o, c, t, li[2])
                 }
                 CellType::LagrangeWedge(n, m) => {
-                    let n = n as i32;
+                    let (n, m) = (n as i32, m as i32);
                     let a0 = n - a - b;
-                    let l0 = 1.0 - r - s;
-                    let tri = binomial(n, a0) * binomial(n - a0, a) * pow(l0.max(0.0), a0) * pow(r, a) * pow(s, b);
-                    tri * binomial(m as i32, c) * pow(t, c) * pow(1.0 - t, m as i32 - c)
+                    let l0 = rest(n, li[0] + li[1]);
+                    let tri = binomial(n, a0) * binomial(n - a0, a) * l0.powi(a0) * r.powi(a) * s.powi(b);
+                    tri * binomial(m, c) * t.powi(c) * rest(m, li[2]).powi(m - c)
                 }
                 _ => unreachable!("Basis::new takes the three Lagrange volumes only"),
             };

@@ -427,7 +427,8 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     }
     // Elements cut at their nodes beside reduced ones would not conform with them.
     let also = if reduced > 0 { cells.reduce_to_corners() } else { 0 };
-    let mut mesh = SourceMesh { format: "Exodus II".to_string(), points, ..Default::default() };
+    let format = if f.is_netcdf4() { "Exodus II (netCDF-4/HDF5)" } else { "Exodus II" };
+    let mut mesh = SourceMesh { format: format.to_string(), points, ..Default::default() };
     let steps = f.num_records;
     let step = opts.time_step.unwrap_or(0);
     if opts.time_step.is_some() && step >= steps.max(1) {

@@ -364,6 +364,11 @@ impl<'a> NetCdf<'a> {
         var.dims[skip..].iter().try_fold(var.ty.size() as u64, |acc, &d| acc.checked_mul(self.dims[d].len as u64))
     }
 
+    /// Whether the file is netCDF-4 (HDF5) rather than classic.
+    pub fn is_netcdf4(&self) -> bool {
+        self.nc4.is_some()
+    }
+
     pub fn var(&self, name: &str) -> Option<&Variable> {
         self.vars.iter().find(|v| v.name == name)
     }

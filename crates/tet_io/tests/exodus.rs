@@ -200,6 +200,7 @@ fn netcdf4_files_read_as_their_classic_originals() {
             assert_eq!(got.points, want.points, "{nc4}");
             assert_eq!(got.blocks, want.blocks, "{nc4}");
             assert_eq!(got.notes, want.notes, "{nc4}");
+            assert_eq!((got.format.as_str(), want.format.as_str()), ("Exodus II (netCDF-4/HDF5)", "Exodus II"));
             for (g, w) in
                 got.point_fields.iter().chain(&got.cell_fields).zip(want.point_fields.iter().chain(&want.cell_fields))
             {

@@ -431,8 +431,8 @@ fn layered_csv_points_become_prisms() {
 /// Regression: SU2, Exodus, HDF5 and OpenFOAM inputs were told to "pass
 /// --format" though no --format reads them; now the error says what the file
 /// is (exit 3, an input problem, as for any unreadable input). SU2 and
-/// classic-netCDF Exodus II are read now: a broken one is a malformed file of
-/// that format, still exit 3 and naming the path. OpenFOAM is read now too:
+/// Exodus II (classic netCDF and netCDF-4/HDF5) are read now: a broken one is
+/// a malformed file of that format, still exit 3 and naming the path. OpenFOAM is read now too:
 /// a case without a mesh is a malformed OpenFOAM case naming its directory
 /// (not "does not read yet"), and the cavity tutorial converts.
 #[test]
@@ -445,7 +445,7 @@ fn unsupported_formats_say_what_they_are() {
     for (name, bytes, what, read) in [
         ("wing.su2", &b"NDIME= 3\n"[..], "SU2", true),
         ("blade.exo", b"CDF\x01\0\0\0\0", "Exodus II", true),
-        ("blade4.exo", b"\x89HDF\r\n\x1a\n", "Exodus II", false),
+        ("blade4.exo", b"\x89HDF\r\n\x1a\n", "Exodus II", true),
         ("data.h5", b"\x89HDF\r\n\x1a\n", "HDF5", false),
     ] {
         let p = dir.path().join(name);

@@ -27,8 +27,10 @@
 //! Bézier cell passes through them).
 //!
 //! The lattice-by-control-point basis matrix is built once per cell type
-//! and order (up to [`MAX_CACHED_NODES`] nodes; larger cells build their
-//! rows as they go).
+//! and order (up to [`MAX_CACHED_NODES`] nodes). Larger hexahedra are
+//! evaluated by sum factorisation, axis by axis (O(N·(p + q + r)) for N
+//! nodes); larger tetrahedra and wedges build their rows as they go (O(N²)
+//! a cell: 43 M terms for a tetrahedron of order 32).
 
 use crate::lagrange::{lagrange_hexahedron_lattice, lagrange_tetra_lattice, lagrange_wedge_lattice};
 use crate::source::{CellType, Cells, Field};
@@ -159,6 +161,45 @@ impl Basis {
     }
 }
 
+/// Σ_j B_j(ℓ_i / o) v_j for every node i of a Bézier hexahedron of orders
+/// `o` (`lattice[j]`: node j's lattice point), by sum factorisation: the
+/// values on the (o₀+1)(o₁+1)(o₂+1) lattice, transformed along x, then y,
+/// then z by the 1-D Bernstein matrix of that axis.
+fn hexahedron_sums(o: [u8; 3], lattice: &[[i32; 3]], v: &[f64]) -> Vec<f64> {
+    let o = o.map(|x| x as usize);
+    let dims = o.map(|x| x + 1);
+    let at = |l: [usize; 3]| l[0] + dims[0] * (l[1] + dims[1] * l[2]);
+    let mut grid = vec![0.0; dims.iter().product()];
+    for (j, l) in lattice.iter().enumerate() {
+        grid[at(l.map(|x| x as usize))] = v[j];
+    }
+    for axis in 0..3 {
+        let n = o[axis] as i32;
+        // bern[k · dims + m]: B^n_m(k / n).
+        let bern: Vec<f64> = (0..=n)
+            .flat_map(|k| {
+                (0..=n).map(move |m| {
+                    let x = k as f64 / n as f64;
+                    binomial(n, m) * x.powi(m) * ((n - k) as f64 / n as f64).powi(n - m)
+                })
+            })
+            .collect();
+        grid = (0..grid.len())
+            .map(|idx| {
+                let mut l = [idx % dims[0], idx / dims[0] % dims[1], idx / (dims[0] * dims[1])];
+                let k = l[axis];
+                let mut acc = 0.0;
+                for m in 0..dims[axis] {
+                    l[axis] = m;
+                    acc += bern[k * dims[axis] + m] * grid[at(l)];
+                }
+                acc
+            })
+            .collect();
+    }
+    lattice.iter().map(|l| grid[at(l.map(|x| x as usize))]).collect()
+}
+
 impl BezierEvaluator {
     pub fn new() -> Self {
         Self::default()
@@ -247,8 +288,45 @@ impl BezierEvaluator {
                     w_of(j)
                 ));
             }
+            // A hexahedron too large for a cached matrix: every node's
+            // weighted sums at once, axis by axis (O(N·(p + q + r)), not N²).
+            let tensor = match (cell_type, &basis.matrix) {
+                (CellType::LagrangeHexahedron(o), None) => {
+                    let mut channels = vec![(0..n).map(w_of).collect::<Vec<f64>>()];
+                    channels.extend((0..3).map(|a| (0..n).map(|j| w_of(j) * points[nodes[j] as usize][a]).collect()));
+                    for f in point_fields.iter() {
+                        let k = f.num_components;
+                        for comp in 0..k {
+                            channels.push((0..n).map(|j| w_of(j) * f.values[nodes[j] as usize * k + comp]).collect());
+                        }
+                    }
+                    Some(channels.iter().map(|ch| hexahedron_sums(o, &basis.lattice, ch)).collect::<Vec<_>>())
+                }
+                _ => None,
+            };
             for (i, &p) in nodes.iter().enumerate().skip(cell_type.linear().num_nodes()) {
                 if value_of.contains_key(&p) {
+                    continue;
+                }
+                if let Some(t) = &tensor {
+                    let sum = t[0][i];
+                    if !(sum.is_finite() && sum > 0.0) {
+                        return Err(format!("cell {c}: its basis sums to {sum} at node {i}"));
+                    }
+                    let x = [t[1][i] / sum, t[2][i] / sum, t[3][i] / sum];
+                    if !x.iter().all(|v| v.is_finite()) {
+                        return Err(format!("cell {c}: node {i} evaluates to {x:?}"));
+                    }
+                    let mut ch = 4;
+                    for (f, out) in point_fields.iter().zip(&mut new_values) {
+                        for _ in 0..f.num_components {
+                            out.push(t[ch][i] / sum);
+                            ch += 1;
+                        }
+                    }
+                    value_of.insert(p, new_points.len());
+                    order.push(p);
+                    new_points.push(x);
                     continue;
                 }
                 let b: &[f64] = match &basis.matrix {
@@ -434,6 +512,39 @@ mod tests {
             }
         }
         assert_eq!(cells.nodes(1)[4..7], [6, 5, 4]);
+    }
+
+    /// A hexahedron of more nodes than a cached matrix holds is evaluated
+    /// by sum factorisation: the same values (to rounding) as the matrix
+    /// path gives, rational weights and a two-component field included.
+    #[test]
+    fn large_hexahedra_are_summed_axis_by_axis_to_the_same_values() {
+        let t = CellType::LagrangeHexahedron([11, 12, 9]);
+        let b = Basis::new(t).unwrap();
+        assert!(b.matrix.is_none() && b.at.len() > MAX_CACHED_NODES);
+        let n = b.at.len();
+        let warp = |p: [f64; 3]| [p[0] + 0.1 * (3.0 * p[1]).sin(), p[1] + 0.2 * p[0] * p[2], p[2] - 0.1 * p[0] * p[1]];
+        let points: Vec<[f64; 3]> = b.at.iter().map(|&p| warp(p)).collect();
+        let weights: Vec<f64> = (0..n).map(|j| 1.0 + 0.3 * ((j * 7919) % 13) as f64 / 13.0).collect();
+        let field: Vec<f64> = points.iter().flat_map(|p| [(4.0 * p[0]).cos(), p[1] * p[2]]).collect();
+        let mut cells = Cells::new();
+        cells.push(t, &ids(n));
+        let (mut pts, mut fields) = (points.clone(), vec![Field::new("v", 2, field.clone())]);
+        BezierEvaluator::new().to_lagrange(&mut cells, &[0], &mut pts, &mut fields, Some(&weights)).unwrap();
+        let mut row = vec![0.0; n];
+        for i in (8..n).step_by(37) {
+            b.row_into(t, i, &mut row);
+            let wsum: f64 = (0..n).map(|j| row[j] * weights[j]).sum();
+            let want = |f: &dyn Fn(usize) -> f64| (0..n).map(|j| row[j] * weights[j] * f(j)).sum::<f64>() / wsum;
+            for a in 0..3 {
+                let w = want(&|j| points[j][a]);
+                assert!((pts[i][a] - w).abs() < 1e-12, "node {i} axis {a}: {} vs {w}", pts[i][a]);
+            }
+            for comp in 0..2 {
+                let w = want(&|j| field[2 * j + comp]);
+                assert!((fields[0].values[2 * i + comp] - w).abs() < 1e-12, "node {i} field {comp}");
+            }
+        }
     }
 
     #[test]

@@ -258,7 +258,7 @@ impl BezierEvaluator {
         }
         // Each non-corner control point's value, once (the first cell that
         // names it evaluates it): position, then the fields' tuples.
-        let mut value_of: HashMap<u32, usize> = HashMap::new();
+        let mut evaluated: std::collections::HashSet<u32> = std::collections::HashSet::new();
         let mut order: Vec<u32> = Vec::new();
         let mut new_points: Vec<[f64; 3]> = Vec::new();
         let mut new_values: Vec<Vec<f64>> = vec![Vec::new(); point_fields.len()];
@@ -288,81 +288,59 @@ impl BezierEvaluator {
                     w_of(j)
                 ));
             }
-            // A hexahedron too large for a cached matrix: every node's
-            // weighted sums at once, axis by axis (O(N·(p + q + r)), not N²).
+            // What every node value is a weighted sum of, control point by
+            // control point: the weight, the weighted coordinates, each
+            // weighted field component (rational weights folded in; the sums
+            // are divided by the first channel's).
+            let mut channels = vec![(0..n).map(w_of).collect::<Vec<f64>>()];
+            channels.extend((0..3).map(|a| (0..n).map(|j| w_of(j) * points[nodes[j] as usize][a]).collect()));
+            for f in point_fields.iter() {
+                let k = f.num_components;
+                for comp in 0..k {
+                    channels.push((0..n).map(|j| w_of(j) * f.values[nodes[j] as usize * k + comp]).collect());
+                }
+            }
+            // A hexahedron too large for a cached matrix: every node's sums
+            // at once, axis by axis (O(N·(p + q + r)), not N²).
             let tensor = match (cell_type, &basis.matrix) {
                 (CellType::LagrangeHexahedron(o), None) => {
-                    let mut channels = vec![(0..n).map(w_of).collect::<Vec<f64>>()];
-                    channels.extend((0..3).map(|a| (0..n).map(|j| w_of(j) * points[nodes[j] as usize][a]).collect()));
-                    for f in point_fields.iter() {
-                        let k = f.num_components;
-                        for comp in 0..k {
-                            channels.push((0..n).map(|j| w_of(j) * f.values[nodes[j] as usize * k + comp]).collect());
-                        }
-                    }
                     Some(channels.iter().map(|ch| hexahedron_sums(o, &basis.lattice, ch)).collect::<Vec<_>>())
                 }
                 _ => None,
             };
+            let mut sums = vec![0.0; channels.len()];
             for (i, &p) in nodes.iter().enumerate().skip(cell_type.linear().num_nodes()) {
-                if value_of.contains_key(&p) {
+                if !evaluated.insert(p) {
                     continue;
                 }
-                if let Some(t) = &tensor {
-                    let sum = t[0][i];
-                    if !(sum.is_finite() && sum > 0.0) {
-                        return Err(format!("cell {c}: its basis sums to {sum} at node {i}"));
-                    }
-                    let x = [t[1][i] / sum, t[2][i] / sum, t[3][i] / sum];
-                    if !x.iter().all(|v| v.is_finite()) {
-                        return Err(format!("cell {c}: node {i} evaluates to {x:?}"));
-                    }
-                    let mut ch = 4;
-                    for (f, out) in point_fields.iter().zip(&mut new_values) {
-                        for _ in 0..f.num_components {
-                            out.push(t[ch][i] / sum);
-                            ch += 1;
+                match &tensor {
+                    Some(t) => sums.iter_mut().zip(t).for_each(|(s, ch)| *s = ch[i]),
+                    None => {
+                        let b: &[f64] = match &basis.matrix {
+                            Some(m) => &m[i * n..(i + 1) * n],
+                            None => {
+                                row.resize(n, 0.0);
+                                basis.row_into(cell_type, i, &mut row);
+                                &row
+                            }
+                        };
+                        for (s, ch) in sums.iter_mut().zip(&channels) {
+                            *s = b.iter().zip(ch).map(|(b, v)| b * v).sum();
                         }
                     }
-                    value_of.insert(p, new_points.len());
-                    order.push(p);
-                    new_points.push(x);
-                    continue;
                 }
-                let b: &[f64] = match &basis.matrix {
-                    Some(m) => &m[i * n..(i + 1) * n],
-                    None => {
-                        row.resize(n, 0.0);
-                        basis.row_into(cell_type, i, &mut row);
-                        &row
-                    }
-                };
-                // Rational weights folded into the basis and normalized.
-                let mut wb: Vec<f64> = (0..n).map(|j| b[j] * w_of(j)).collect();
-                let sum: f64 = wb.iter().sum();
+                let sum = sums[0];
                 if !(sum.is_finite() && sum > 0.0) {
                     return Err(format!("cell {c}: its basis sums to {sum} at node {i}"));
                 }
-                for v in &mut wb {
-                    *v /= sum;
-                }
-                let mut x = [0.0; 3];
-                for (j, &w) in wb.iter().enumerate() {
-                    let q = points[nodes[j] as usize];
-                    for a in 0..3 {
-                        x[a] += w * q[a];
-                    }
-                }
+                let x = [sums[1] / sum, sums[2] / sum, sums[3] / sum];
                 if !x.iter().all(|v| v.is_finite()) {
                     return Err(format!("cell {c}: node {i} evaluates to {x:?}"));
                 }
+                let mut ch = sums[4..].iter();
                 for (f, out) in point_fields.iter().zip(&mut new_values) {
-                    let k = f.num_components;
-                    for comp in 0..k {
-                        out.push(wb.iter().enumerate().map(|(j, &w)| w * f.values[nodes[j] as usize * k + comp]).sum());
-                    }
+                    out.extend(ch.by_ref().take(f.num_components).map(|v| v / sum));
                 }
-                value_of.insert(p, new_points.len());
                 order.push(p);
                 new_points.push(x);
             }

@@ -20,14 +20,19 @@
 //! topologies; the order is checked on every element's geometry where the
 //! cell's straight-sided node places are known — all but PYRAMID19: a
 //! block whose nodes fit VTK's order instead is read so, with a note; one
-//! that fits neither is reduced to its corners); TET5, TETRA11 and HEX9,
-//! whose last node is a centre node inside the element, are read as
-//! TETRA4, TETRA10 and HEX8 (the centre's value is not used; every face
-//! keeps its nodes, so neighbours conform), with a note; the variants with
-//! face-centre nodes but no body node (TETRA8/14, WEDGE16/20, PYRAMID18),
-//! for which tetkit has no split, are reduced to their corner nodes, which
-//! Exodus lists first (and then every other quadratic element too, so that
-//! neighbours conform); blocks
+//! that fits neither is reduced to its corners); TET5, TETRA11, HEX9 and
+//! WEDGE16, whose last node is a centre node inside the element, are read as
+//! TETRA4, TETRA10, HEX8 and WEDGE15 (the centre's value is not used; every
+//! face keeps its nodes, so neighbours conform), with a note; TETRA14,
+//! WEDGE20 and PYRAMID18 (a node on every face, none inside) and TETRA8
+//! (corners and face nodes only) are completed into TETRA15, WEDGE21 and
+//! PYRAMID19 by points the reader adds — a body point at the mean of the
+//! element's nodes, TETRA8's mid-edge points at their corners' mean, shared
+//! by the elements on the edge — whose values are the same means of the
+//! nodes' (exact for fields linear in space; every time step's alike), and
+//! cut at all their nodes ([`Completion`]); other higher-order elements are
+//! reduced to their corner nodes, which Exodus lists first (and then every
+//! other quadratic element too, so that neighbours conform); blocks
 //! of other types
 //! (shells, beams, spheres, polyhedra) are skipped with a note. Nodal variables
 //! become point fields and element variables cell fields (NaN in blocks the
@@ -55,9 +60,11 @@ pub struct ExodusOptions {
 /// element; `None` for types that are not volume cells tetkit reads.
 /// TETRA10 and TETRA15, HEX20 and HEX27, WEDGE15, WEDGE18 and WEDGE21,
 /// PYRAMID13, PYRAMID14 and PYRAMID19 keep their nodes (permuted into VTK's order by
-/// [`node_orders`] and subdivided at them); TET5, TETRA11 and HEX9 are
-/// read without their centre node ([`drops_centre_only`]); other
-/// higher-order elements are reduced to their corners.
+/// [`node_orders`] and subdivided at them); TETRA8 and TETRA14, WEDGE20
+/// and PYRAMID18 become TETRA15, WEDGE21 and PYRAMID19 by added points
+/// ([`Completion`]); TET5, TETRA11, HEX9 and WEDGE16 are read without their
+/// centre node ([`drops_centre_only`]); other higher-order elements are
+/// reduced to their corners.
 fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
     let t = elem_type.trim().to_ascii_uppercase();
     let family = ["TET", "HEX", "WEDGE", "PYRAMID"].into_iter().find(|f| t.starts_with(f))?;
@@ -81,54 +88,203 @@ fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
     ];
     match kept.into_iter().find(|q| q.linear() == linear && q.num_nodes() == nodes) {
         Some(q) => Some(q),
-        // TETRA11: TETRA10 and a centre node.
+        // TETRA11: TETRA10 and a centre node; WEDGE16: WEDGE15 and one.
         None if linear == CellType::Tetra && nodes == 11 => Some(CellType::QuadraticTetra),
+        None if linear == CellType::Wedge && nodes == 16 => Some(CellType::QuadraticWedge),
+        // Face-centre nodes without a body node (TETRA14, WEDGE20,
+        // PYRAMID18) or without mid-edge nodes either (TETRA8): completed
+        // into the cell with all of them ([`Completion`]).
+        None if linear == CellType::Tetra && (nodes == 8 || nodes == 14) => Some(CellType::QuadraticTetraWithCentres),
+        None if linear == CellType::Wedge && nodes == 20 => Some(CellType::QuadraticWedgeWithCentres),
+        None if linear == CellType::Pyramid && nodes == 18 => Some(CellType::TriquadraticPyramid),
         None => reducible.contains(&nodes).then_some(linear),
     }
 }
 
+/// The points an element of `nodes` nodes read as `cell_type` lacks, which
+/// the reader adds so that it can be cut at all its nodes like the cell it
+/// completes: TETRA14, WEDGE20 and PYRAMID18 (a node on every face, none
+/// inside) lack the body node of TETRA15, WEDGE21 and PYRAMID19; TETRA8 (a
+/// node on every face, none on the edges) lacks TETRA15's six mid-edge
+/// nodes too. A mid-edge point is the mean of the edge's two corners, one
+/// point for every element sharing the edge (so neighbours conform); a body
+/// point is the mean of the element's nodes. Each added point's values are
+/// the same mean of its nodes' values, which is exact for a field linear in
+/// space and needs no other step data (a time step's fields are completed
+/// the same way, [`Synthetic::extend`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Completion {
+    None,
+    Body,
+    EdgesAndBody,
+}
+
+fn completion(cell_type: CellType, nodes: usize) -> Completion {
+    match (cell_type, nodes) {
+        (CellType::QuadraticTetraWithCentres, 8) => Completion::EdgesAndBody,
+        (CellType::QuadraticTetraWithCentres, 14)
+        | (CellType::QuadraticWedgeWithCentres, 20)
+        | (CellType::TriquadraticPyramid, 18) => Completion::Body,
+        _ => Completion::None,
+    }
+}
+
+/// The tetrahedron's edges in VTK's order (its nodes 4 to 9).
+const TET_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]];
+
+/// The points added to complete elements ([`Completion`]): point
+/// `num_nodes + k` is the mean of the file's nodes `sources[k]`, and each
+/// completed element's added points, in its block's order (TETRA8: its six
+/// edges in VTK's order, then the body; the others: the body).
+#[derive(Debug, Clone, Default)]
+struct Synthetic {
+    num_nodes: usize,
+    sources: Vec<Vec<u32>>,
+    /// Per block (as `Layout::blocks`): the points added to each element
+    /// (0, 1 or 7) and the elements' added point ids, element after element.
+    of_block: Vec<(usize, Vec<u32>)>,
+}
+
+impl Synthetic {
+    /// Reads the connectivity of the blocks that need completing (none in
+    /// most files) and numbers their added points; the same for the mesh
+    /// and for every time step, from the connectivity alone.
+    fn of(f: &NetCdf<'_>, layout: &Layout, num_nodes: usize) -> Result<Synthetic, FormatError> {
+        let mut out = Synthetic { num_nodes, ..Default::default() };
+        let mut edge_point = std::collections::HashMap::new();
+        for blk in &layout.blocks {
+            let kind = completion(blk.cell_type, blk.nodes_per_elem);
+            let per = match kind {
+                Completion::None => 0,
+                Completion::Body => 1,
+                Completion::EdgesAndBody => TET_EDGES.len() + 1,
+            };
+            let mut ids = Vec::new();
+            if kind != Completion::None {
+                let connect = f.read(need(f, &format!("connect{}", blk.index + 1))?, None)?;
+                let nodes = node_ids(&connect, blk, num_nodes, layout)?;
+                for element in nodes.chunks_exact(blk.nodes_per_elem) {
+                    if kind == Completion::EdgesAndBody {
+                        for [a, b] in TET_EDGES {
+                            let key = (element[a].min(element[b]), element[a].max(element[b]));
+                            let next = (num_nodes + out.sources.len()) as u32;
+                            let id = *edge_point.entry(key).or_insert(next);
+                            if id == next {
+                                out.sources.push(vec![key.0, key.1]);
+                            }
+                            ids.push(id);
+                        }
+                    }
+                    ids.push((num_nodes + out.sources.len()) as u32);
+                    out.sources.push(element.to_vec());
+                }
+            }
+            out.of_block.push((per, ids));
+        }
+        Ok(out)
+    }
+
+    /// The added points of element `e` of block `b`.
+    fn of_element(&self, b: usize, e: usize) -> &[u32] {
+        let (per, ids) = &self.of_block[b];
+        &ids[e * per..(e + 1) * per]
+    }
+
+    /// Appends the added points' values (each the mean of its sources') to
+    /// a field over the file's nodes.
+    fn extend(&self, values: &mut Vec<f64>, num_components: usize) {
+        for src in &self.sources {
+            for c in 0..num_components {
+                let sum: f64 = src.iter().map(|&n| values[n as usize * num_components + c]).sum();
+                values.push(sum / src.len() as f64);
+            }
+        }
+    }
+}
+
+/// A block's connectivity as 0-based node ids, each checked to name a node.
+fn node_ids(connect: &[f64], blk: &BlockLayout, num_nodes: usize, layout: &Layout) -> Result<Vec<u32>, FormatError> {
+    if let Some(e) = (0..blk.count * blk.nodes_per_elem)
+        .find(|&k| !(connect.get(k).is_some_and(|&x| x >= 1.0 && x <= num_nodes as f64 && x.fract() == 0.0)))
+    {
+        return Err(whole(format!(
+            "element {} of block {} names node {}; nodes are 1..={num_nodes}",
+            e / blk.nodes_per_elem + 1,
+            layout.block_id(blk.index),
+            connect.get(e).copied().unwrap_or(f64::NAN)
+        )));
+    }
+    Ok(connect[..blk.count * blk.nodes_per_elem].iter().map(|&x| x as u32 - 1).collect())
+}
+
 /// Whether an element of `nodes` nodes read as `cell_type` drops only a
-/// centre node inside it (TET5, TETRA11, HEX9: the last node), so its
+/// centre node inside it (TET5, TETRA11, HEX9, WEDGE16: the last node), so its
 /// faces keep every node and it conforms with its neighbours as read.
 fn drops_centre_only(cell_type: CellType, nodes: usize) -> bool {
     nodes == cell_type.num_nodes() + 1
-        && matches!(cell_type, CellType::Tetra | CellType::QuadraticTetra | CellType::Hexahedron)
+        && matches!(
+            cell_type,
+            CellType::Tetra | CellType::QuadraticTetra | CellType::Hexahedron | CellType::QuadraticWedge
+        )
 }
 
-/// Node orders to try for a quadratic Exodus element, first match wins:
-/// entry i is the Exodus node (0-based) at VTK's node i. First Exodus's own
-/// (the PATRAN convention of the Exodus II manual, Schoof & Yarberry,
-/// "EXODUS II: A Finite Element Data Model", 1994, and its SEACAS
-/// successor's element figures: a hexahedron's and wedge's mid-edge nodes
-/// bottom, vertical, top — VTK's go bottom, top, vertical; HEX27's centre
-/// first, then faces −z, +z, −x, +x, −y, +y; TETRA15's faces in side order
-/// (0 1 3), (1 2 3), (0 3 2), (0 2 1)), then VTK's own (some writers, e.g.
-/// meshio, store VTK's order under Exodus names). The reader keeps the first
-/// that puts every element's nodes in their straight-sided places
-/// ([`CellType::higher_order_nodes_in_place`]) and else reduces the block
-/// to its corners.
-fn node_orders(cell_type: CellType) -> Vec<Vec<usize>> {
+/// Node orders to try for a quadratic Exodus element of `nodes` nodes read
+/// as `cell_type`, first match wins: entry i is the Exodus node (0-based) at
+/// VTK's node i, where numbers from `nodes` on are the points the reader
+/// adds ([`Completion`]: TETRA8's six edges in VTK's order, then the body).
+/// First Exodus's own (the PATRAN convention of the Exodus II manual,
+/// Schoof & Yarberry, "EXODUS II: A Finite Element Data Model", 1994, and
+/// its SEACAS successor's element figures and Ioss element topologies: a
+/// hexahedron's and wedge's mid-edge nodes bottom, vertical, top — VTK's go
+/// bottom, top, vertical; HEX27's centre first, then faces −z, +z, −x, +x,
+/// −y, +y; the tetrahedron's face nodes as Ioss's Tet8, Tet14 and Tet15 list
+/// them (TETRA14/15: 10 on 0-2-1, 11 on 1-2-3, 12 on 0-3-2, 13 on 0-1-3;
+/// TETRA8: 4 on 0-1-3, 5 on 1-2-3, 6 on 0-2-1, 7 on 0-3-2), and for TETRA15
+/// two more seen in the documents — the sides' order (10 on 0-1-3 … 13 on
+/// 0-2-1) and the manual's figure (10 the body, 11 on 0-1-2, 12 on 1-2-3, 13
+/// on 0-2-3, 14 on 0-1-3)), then VTK's own (some writers, e.g. meshio,
+/// store VTK's order under Exodus names). Face and body nodes sit at
+/// distinct places, so at most one order fits a proper element. The reader
+/// keeps the first that puts every element's nodes in their straight-sided
+/// places ([`CellType::higher_order_nodes_in_place`]) and else reduces the
+/// block to its corners.
+fn node_orders(cell_type: CellType, nodes: usize) -> Vec<Vec<usize>> {
     const HEX20: [usize; 20] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 16, 17, 18, 19, 12, 13, 14, 15];
     const WEDGE15: [usize; 15] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 13, 14, 9, 10, 11];
+    const TET10: [usize; 10] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9];
+    let then = |head: &[usize], tail: &[usize]| -> Vec<usize> { head.iter().chain(tail).copied().collect() };
     let identity: Vec<usize> = (0..cell_type.num_nodes()).collect();
-    let exodus: Vec<usize> = match cell_type {
-        CellType::QuadraticHexahedron => HEX20.to_vec(),
-        CellType::TriquadraticHexahedron => HEX20.iter().copied().chain([23, 24, 25, 26, 21, 22, 20]).collect(),
-        CellType::QuadraticWedge => WEDGE15.to_vec(),
-        CellType::BiquadraticWedge => WEDGE15.iter().copied().chain([15, 16, 17]).collect(),
-        CellType::QuadraticTetraWithCentres => vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 13, 10, 11, 12, 14],
-        // WEDGE21 (SEACAS's Ioss_Wedge21 faces): triangle centres 15 (0 1 2)
-        // and 16 (3 4 5), body 17, quads 1-2-5-4 18, 0-3-5-2 19, 0-1-4-3 20.
-        CellType::QuadraticWedgeWithCentres => WEDGE15.iter().copied().chain([15, 16, 20, 18, 19, 17]).collect(),
-        // PYRAMID19 (Ioss_Pyramid19): VTK's order already — the 13 nodes,
-        // the base's centre, the triangles' 0-1-4 … 3-0-4, the body.
-        _ => identity.clone(),
+    // VTK's 15-node tetrahedron: faces 0-1-2, 0-1-3, 1-2-3, 0-2-3, then the body.
+    let exodus: Vec<Vec<usize>> = match (cell_type, nodes) {
+        (CellType::QuadraticHexahedron, _) => vec![HEX20.to_vec()],
+        (CellType::TriquadraticHexahedron, _) => vec![then(&HEX20, &[23, 24, 25, 26, 21, 22, 20])],
+        (CellType::QuadraticWedge, _) => vec![WEDGE15.to_vec()],
+        (CellType::BiquadraticWedge, _) => vec![then(&WEDGE15, &[15, 16, 17])],
+        // TETRA8: corners, faces; its edges (8..14) and body (14) added.
+        (CellType::QuadraticTetraWithCentres, 8) => vec![
+            then(&[0, 1, 2, 3, 8, 9, 10, 11, 12, 13], &[6, 4, 5, 7, 14]),
+            then(&[0, 1, 2, 3, 8, 9, 10, 11, 12, 13], &[7, 4, 5, 6, 14]),
+        ],
+        // TETRA14 (the body, 14, added) and TETRA15.
+        (CellType::QuadraticTetraWithCentres, _) => vec![
+            then(&TET10, &[10, 13, 11, 12, 14]),
+            then(&TET10, &[13, 10, 11, 12, 14]),
+            then(&TET10, &[11, 14, 12, 13, 10]),
+        ],
+        // WEDGE20 (Ioss_Wedge20: triangles 15 on 0-2-1 and 16 on 3-4-5,
+        // quads 17 on 1-2-5-4, 18 on 0-3-5-2, 19 on 0-1-4-3; the body, 20,
+        // added) and WEDGE21 (Ioss_Wedge21: the same but the body 17 and
+        // the quads 18, 19, 20).
+        (CellType::QuadraticWedgeWithCentres, 20) => vec![then(&WEDGE15, &[15, 16, 19, 17, 18, 20])],
+        (CellType::QuadraticWedgeWithCentres, _) => vec![then(&WEDGE15, &[15, 16, 20, 18, 19, 17])],
+        // PYRAMID18 and PYRAMID19 (Ioss_Pyramid18/19): VTK's order already
+        // — the 13 nodes, the base's centre, the triangles' 0-1-4 … 3-0-4,
+        // the body (PYRAMID18's added).
+        _ => vec![],
     };
-    if exodus == identity {
-        vec![identity]
-    } else {
-        vec![exodus, identity]
-    }
+    let mut orders: Vec<Vec<usize>> = exodus.into_iter().filter(|o| *o != identity).collect();
+    orders.push(identity);
+    orders
 }
 
 fn whole(m: impl Into<String>) -> FormatError {
@@ -246,11 +402,15 @@ pub fn read_step_fields(bytes: &[u8], step: usize) -> Result<StepFields, FormatE
         return Err(whole(format!("time step {step} asked for; the file has {steps} (0..{})", steps.max(1) - 1)));
     }
     let num_nodes = f.dim_len("num_nodes").unwrap_or(0);
-    step_fields(&f, &Layout::of(&f)?, num_nodes, step)
+    let layout = Layout::of(&f)?;
+    let synthetic = Synthetic::of(&f, &layout, num_nodes)?;
+    step_fields(&f, &layout, &synthetic, step)
 }
 
-/// The fields of `step`, laid out by `layout` (see [`StepFields`]).
-fn step_fields(f: &NetCdf<'_>, layout: &Layout, num_nodes: usize, step: usize) -> Result<StepFields, FormatError> {
+/// The fields of `step`, laid out by `layout`, nodal ones completed at the
+/// points `synthetic` adds (see [`StepFields`]).
+fn step_fields(f: &NetCdf<'_>, layout: &Layout, synthetic: &Synthetic, step: usize) -> Result<StepFields, FormatError> {
+    let num_nodes = synthetic.num_nodes;
     let num_cells = layout.num_cells;
     let mut out = StepFields::default();
     out.cell_fields.push(Field::new(
@@ -281,6 +441,8 @@ fn step_fields(f: &NetCdf<'_>, layout: &Layout, num_nodes: usize, step: usize) -
         if values.len() != num_nodes {
             return Err(whole(format!("nodal variable '{n}' has {} values for {num_nodes} nodes", values.len())));
         }
+        let mut values = values;
+        synthetic.extend(&mut values, 1);
         out.point_fields.push(Field::new(field_name(n, j), 1, values));
     }
     let enames = match f.var("name_elem_var") {
@@ -359,29 +521,32 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
         }
     }
     let layout = Layout::of(&f)?;
+    let synthetic = Synthetic::of(&f, &layout, num_nodes)?;
+    let added: Vec<[f64; 3]> = synthetic
+        .sources
+        .iter()
+        .map(|src| [0, 1, 2].map(|k| src.iter().map(|&n| points[n as usize][k]).sum::<f64>() / src.len() as f64))
+        .collect();
+    points.extend(added);
     let mut cells = Cells::new();
-    let (mut reduced, mut centres, mut order_notes) = (0usize, 0usize, Vec::new());
-    for blk in &layout.blocks {
-        let ids = f.read(need(&f, &format!("connect{}", blk.index + 1))?, None)?;
-        let id = layout.block_id(blk.index);
+    let (mut reduced, mut centres, mut completed, mut order_notes) = (0usize, 0usize, 0usize, Vec::new());
+    for (b, blk) in layout.blocks.iter().enumerate() {
+        let connect = f.read(need(&f, &format!("connect{}", blk.index + 1))?, None)?;
         // Every node number checked once, before any order is tried.
-        if let Some(e) = (0..blk.count * blk.nodes_per_elem)
-            .find(|&k| !(ids[k] >= 1.0 && ids[k] <= num_nodes as f64 && ids[k].fract() == 0.0))
-        {
-            return Err(whole(format!(
-                "element {} of block {id} names node {}; nodes are 1..={num_nodes}",
-                e / blk.nodes_per_elem + 1,
-                ids[e]
-            )));
-        }
-        // Element e's nodes (0-based) in `order`, into a buffer reused for all.
-        let mut buf = Vec::with_capacity(blk.nodes_per_elem);
+        let ids = node_ids(&connect, blk, num_nodes, &layout)?;
+        let id = layout.block_id(blk.index);
+        let per = blk.nodes_per_elem;
+        // Element e's nodes in `order` (indices past the file's nodes are
+        // the element's added points), into a buffer reused for all.
+        let mut buf = Vec::with_capacity(blk.cell_type.num_nodes());
         let element = |buf: &mut Vec<u32>, e: usize, order: &[usize]| {
             buf.clear();
-            buf.extend(order.iter().map(|&k| ids[e * blk.nodes_per_elem + k] as u32 - 1));
+            buf.extend(
+                order.iter().map(|&k| if k < per { ids[e * per + k] } else { synthetic.of_element(b, e)[k - per] }),
+            );
         };
         // (A linear cell's only order is the identity.)
-        let orders = node_orders(blk.cell_type);
+        let orders = node_orders(blk.cell_type, per);
         let quadratic = !blk.cell_type.straight_sided_parents().is_empty();
         let chosen = if quadratic {
             orders.iter().position(|order| {
@@ -421,6 +586,8 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
         }
         if drops_centre_only(blk.cell_type, blk.nodes_per_elem) {
             centres += blk.count;
+        } else if completion(blk.cell_type, per) != Completion::None && chosen.is_some() {
+            completed += blk.count;
         } else if blk.nodes_per_elem > blk.cell_type.num_nodes() {
             reduced += blk.count;
         }
@@ -434,7 +601,7 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
     if opts.time_step.is_some() && step >= steps.max(1) {
         return Err(whole(format!("time step {step} asked for; the file has {steps} (0..{})", steps.max(1) - 1)));
     }
-    let fields = step_fields(&f, &layout, num_nodes, step)?;
+    let fields = step_fields(&f, &layout, &synthetic, step)?;
     mesh.point_fields = fields.point_fields;
     mesh.cell_fields = fields.cell_fields;
     mesh.notes = fields.notes;
@@ -449,9 +616,17 @@ pub fn read(bytes: &[u8], opts: &ExodusOptions) -> Result<SourceMesh, FormatErro
         });
     }
     mesh.notes.extend(order_notes);
+    if completed > 0 {
+        mesh.notes.push(format!(
+            "completed {completed} elements with face nodes but no body node (TETRA8, TETRA14, WEDGE20, PYRAMID18) \
+             by {} added points (a body point at the mean of each element's nodes; TETRA8's mid-edge points at \
+             their corners' mean; values the same means) and cut them at all their nodes",
+            synthetic.sources.len()
+        ));
+    }
     if centres > 0 {
         mesh.notes.push(format!(
-            "read {centres} elements without their centre node (TET5, TETRA11, HEX9: the node inside the element; its faces keep all theirs)"
+            "read {centres} elements without their centre node (TET5, TETRA11, HEX9, WEDGE16: the node inside the element; its faces keep all theirs)"
         ));
     }
     if reduced > 0 {
@@ -728,6 +903,163 @@ mod tests {
         assert!((v - (2.0 / 6.0 + 1.0)).abs() < 1e-12, "{v}");
     }
 
+    /// TETRA8, TETRA14, WEDGE20 and PYRAMID18 (face nodes, no body node;
+    /// TETRA8 no mid-edge nodes either) in Ioss's node order, and TETRA15 in
+    /// Ioss's, on a skewed lattice, two elements a block sharing a face:
+    /// each is completed into the cell with all its nodes (a body point, and
+    /// TETRA8's mid-edge points shared by both elements), cut at them into
+    /// positive conforming tets of the exact volume, and a field linear in
+    /// space is exact at every added point, in the mesh read and in each
+    /// time step's fields read alone.
+    #[test]
+    fn face_node_elements_are_completed_and_cut_at_all_nodes() {
+        let skew = |p: [f64; 3]| {
+            [p[0] + 0.3 * p[1] - 0.1 * p[2], 0.2 * p[0] + p[1] + 0.25 * p[2], -0.1 * p[0] + 0.15 * p[1] + 1.1 * p[2]]
+        };
+        let det = 1.0 * (1.1 - 0.0375) - 0.3 * (0.22 + 0.025) - 0.1 * (0.03 + 0.1);
+        let mean = |c: &[[f64; 3]], ps: &[usize]| {
+            [0, 1, 2].map(|k| ps.iter().map(|&i| c[i][k]).sum::<f64>() / ps.len() as f64)
+        };
+        let element = |c: &[[f64; 3]], extra: &[&[usize]]| -> Vec<[f64; 3]> {
+            let mut v = c.to_vec();
+            v.extend(extra.iter().map(|ps| mean(c, ps)));
+            v
+        };
+        let tet_edges: [&[usize]; 6] = [&[0, 1], &[1, 2], &[2, 0], &[0, 3], &[1, 3], &[2, 3]];
+        // Two tets sharing face 1-2-3 (the second mirrored through it).
+        let tets = [
+            [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]],
+            [[1., 1., 1.], [1., 0., 0.], [0., 0., 1.], [0., 1., 0.]],
+        ];
+        // Ioss_Tet14/15 faces: 10 on 0-2-1, 11 on 1-2-3, 12 on 0-3-2, 13 on 0-1-3.
+        let tet_faces: [&[usize]; 4] = [&[0, 2, 1], &[1, 2, 3], &[0, 3, 2], &[0, 1, 3]];
+        let tet14 = |c: &[[f64; 3]]| element(c, &[&tet_edges[..], &tet_faces[..]].concat());
+        let tet15 = |c: &[[f64; 3]]| element(c, &[&tet_edges[..], &tet_faces[..], &[&[0, 1, 2, 3]]].concat());
+        // Ioss_Tet8: 4 on 0-1-3, 5 on 1-2-3, 6 on 0-2-1, 7 on 0-3-2.
+        let tet8 = |c: &[[f64; 3]]| element(c, &[&[0, 1, 3], &[1, 2, 3], &[0, 2, 1], &[0, 3, 2]]);
+        let wedge =
+            |z: f64| [[0., 0., z], [1., 0., z], [0., 1., z], [0., 0., z + 1.], [1., 0., z + 1.], [0., 1., z + 1.]];
+        // Ioss_Wedge20: edges bottom, vertical, top; triangles 0-2-1,
+        // 3-4-5; quads 1-2-5-4, 0-3-5-2, 0-1-4-3.
+        let wedge20 = |z: f64| {
+            let e: [&[usize]; 9] = [&[0, 1], &[1, 2], &[2, 0], &[0, 3], &[1, 4], &[2, 5], &[3, 4], &[4, 5], &[5, 3]];
+            let f: [&[usize]; 5] = [&[0, 2, 1], &[3, 4, 5], &[1, 2, 5, 4], &[0, 3, 5, 2], &[0, 1, 4, 3]];
+            element(&wedge(z), &[&e[..], &f[..]].concat())
+        };
+        // Ioss_Pyramid18: edges, the base's centre, triangles 0-1-4 … 3-0-4.
+        let pyramid18 = |x: f64| {
+            let c = [[x, 0., 0.], [x + 1., 0., 0.], [x + 1., 1., 0.], [x, 1., 0.], [x + 0.5, 0.5, 1.]];
+            let e: [&[usize]; 8] = [&[0, 1], &[1, 2], &[2, 3], &[3, 0], &[0, 4], &[1, 4], &[2, 4], &[3, 4]];
+            let f: [&[usize]; 5] = [&[0, 1, 2, 3], &[0, 1, 4], &[1, 2, 4], &[2, 3, 4], &[3, 0, 4]];
+            element(&c, &[&e[..], &f[..]].concat())
+        };
+        let skewed = |v: Vec<[f64; 3]>| v.into_iter().map(skew).collect::<Vec<_>>();
+        let tet_volume = 1.0 / 6.0 + 1.0 / 3.0;
+        // (block, VTK's cell type, volume of its two elements, points added)
+        type Case<'a> = (&'a str, Vec<Vec<[f64; 3]>>, CellType, f64, usize);
+        let cases: Vec<Case> = vec![
+            (
+                "TETRA8",
+                tets.iter().map(|c| skewed(tet8(c))).collect(),
+                CellType::QuadraticTetraWithCentres,
+                tet_volume,
+                9 + 2,
+            ),
+            (
+                "TETRA14",
+                tets.iter().map(|c| skewed(tet14(c))).collect(),
+                CellType::QuadraticTetraWithCentres,
+                tet_volume,
+                2,
+            ),
+            (
+                "TETRA15",
+                tets.iter().map(|c| skewed(tet15(c))).collect(),
+                CellType::QuadraticTetraWithCentres,
+                tet_volume,
+                0,
+            ),
+            ("WEDGE20", vec![skewed(wedge20(0.)), skewed(wedge20(1.))], CellType::QuadraticWedgeWithCentres, 1.0, 2),
+            (
+                "PYRAMID18",
+                vec![skewed(pyramid18(0.)), skewed(pyramid18(1.))],
+                CellType::TriquadraticPyramid,
+                2.0 / 3.0,
+                2,
+            ),
+        ];
+        let linear = |p: [f64; 3]| 2.0 * p[0] - 3.0 * p[1] + 0.5 * p[2] + 7.0;
+        for (name, elems, ty, volume, added) in cases {
+            let mut w = blocks_file(&[(name, elems)]);
+            // Two time steps of a nodal field: the linear one, then twice it.
+            let num_nodes = w.dims.iter().find(|d| d.0 == "num_nodes").unwrap().1;
+            let coord = w.vars[0].4.clone();
+            let at = |i: usize| linear([coord[i], coord[num_nodes + i], coord[2 * num_nodes + i]]);
+            let values: Vec<f64> = (0..num_nodes).map(at).chain((0..num_nodes).map(|i| 2.0 * at(i))).collect();
+            w.dims.push(("num_nod_var".into(), 1));
+            w.dims.push(("len_name".into(), 8));
+            let (d_var, d_name) = (w.dims.len() - 2, w.dims.len() - 1);
+            let label: Vec<f64> = b"T\0\0\0\0\0\0\0".iter().map(|&b| f64::from(b)).collect();
+            w.vars.push(("name_nod_var".into(), vec![d_var, d_name], 2, vec![], label));
+            w.vars.push(("time_whole".into(), vec![0], 6, vec![], vec![0.0, 1.0]));
+            w.vars.push(("vals_nod_var1".into(), vec![0, 2], 6, vec![], values));
+            w.num_records = 2;
+            let bytes = w.write(false);
+            let m = read(&bytes, &ExodusOptions::default()).unwrap();
+            let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
+            assert_eq!(c.types, vec![ty; 2], "{name}");
+            assert_eq!(m.points.len(), num_nodes + added, "{name}");
+            assert_eq!(
+                m.notes.iter().any(|n| n.contains("completed 2 elements") && n.contains(&format!("by {added} added"))),
+                added > 0,
+                "{name}: {:?}",
+                m.notes
+            );
+            assert!(!m.notes.iter().any(|n| n.contains("reduced")), "{name}: {:?}", m.notes);
+            let t = &m.point_fields[0];
+            for (i, p) in m.points.iter().enumerate() {
+                assert!((t.values[i] - linear(*p)).abs() < 1e-12, "{name}: point {i}");
+            }
+            for step in 0..2 {
+                let f = read_step_fields(&bytes, step).unwrap();
+                let ms = read(&bytes, &ExodusOptions { time_step: Some(step) }).unwrap();
+                assert_eq!(f.point_fields[0].values, ms.point_fields[0].values, "{name} step {step}");
+                assert_eq!(f.point_fields[0].values.len(), num_nodes + added, "{name} step {step}");
+            }
+            let (mesh, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+            assert!(
+                !report.findings.iter().any(|f| matches!(
+                    f,
+                    tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
+                )),
+                "{name}: {:?}",
+                report.findings
+            );
+            tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
+            let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+            assert!((v - volume * det).abs() < 1e-12, "{name}: volume {v}");
+            assert!(mesh.tets.len() >= 2 * 12, "{name}: {} tets", mesh.tets.len());
+        }
+    }
+
+    /// WEDGE16 (WEDGE15 and a body node, Ioss_Wedge16) is read as WEDGE15
+    /// without its centre, cut at its 15 nodes.
+    #[test]
+    fn wedge16_drops_only_its_centre() {
+        let c = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [0., 1., 1.]];
+        let e = [[0, 1], [1, 2], [2, 0], [0, 3], [1, 4], [2, 5], [3, 4], [4, 5], [5, 3]];
+        let mut w16: Vec<[f64; 3]> = c.to_vec();
+        w16.extend(e.iter().map(|&[a, b]| [0, 1, 2].map(|k| (c[a][k] + c[b][k]) / 2.0)));
+        w16.push([1.0 / 3.0, 1.0 / 3.0, 0.5]);
+        let m = read(&blocks_file(&[("WEDGE16", vec![w16])]).write(false), &ExodusOptions::default()).unwrap();
+        let Block::Unstructured(cells) = &m.blocks[0] else { panic!("unstructured") };
+        assert_eq!(cells.types, vec![CellType::QuadraticWedge]);
+        assert!(m.notes.iter().any(|n| n.contains("read 1 elements without their centre node")), "{:?}", m.notes);
+        let (mesh, _) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
+        let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+        assert!((v - 0.5).abs() < 1e-12, "{v}");
+    }
+
     /// PYRAMID19 (SEACAS's Ioss_Pyramid19: the 13 nodes, the base's centre,
     /// triangles 0-1-4 … 3-0-4, the body) is VTK's 19-node pyramid as it
     /// stands, cut at all its nodes into conforming tets of the volume.
@@ -848,7 +1180,7 @@ mod tests {
             ),
         ];
         for ((name, elems), ty, volume) in cases {
-            let order = node_orders(ty);
+            let order = node_orders(ty, ty.num_nodes());
             let in_vtk_order: Vec<Vec<[f64; 3]>> =
                 elems.iter().map(|e| order[0].iter().map(|&k| e[k]).collect()).collect();
             let mut scrambled = elems.clone();

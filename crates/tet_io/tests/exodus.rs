@@ -241,3 +241,47 @@ fn damaged_netcdf4_files_are_errors() {
         let _ = exodus::read(&b, &ExodusOptions::default());
     }
 }
+
+/// `face_nodes.exo` (`make_face_nodes.py`, SciPy's writer): blocks of
+/// TETRA14, TETRA8, WEDGE20 and PYRAMID18 in Ioss's node orders, each a unit
+/// cube, with T = 2x − 3y + z/2 + 7 at t = 0 and 2T at t = 1. Each element
+/// is completed by added points (a body point; TETRA8 also its 19 distinct
+/// edges' midpoints) and cut at all its nodes: positive conforming tets of
+/// volume 1 a block, and T exact at the added points at both steps.
+#[test]
+fn face_node_elements_of_a_file_are_completed_and_cut() {
+    let bytes = std::fs::read(Path::new(DIR).join("face_nodes.exo")).unwrap();
+    let m = exodus::read(&bytes, &ExodusOptions::default()).unwrap();
+    let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
+    let count = |t: CellType| c.types.iter().filter(|&&x| x == t).count();
+    assert_eq!(count(CellType::QuadraticTetraWithCentres), 12);
+    assert_eq!(count(CellType::QuadraticWedgeWithCentres), 2);
+    assert_eq!(count(CellType::TriquadraticPyramid), 6);
+    // 149 file nodes; added: 19 edges and 6 bodies (TETRA8), 6 + 2 + 6 bodies.
+    assert_eq!(m.points.len(), 149 + 39);
+    assert!(m.notes.iter().any(|n| n.contains("completed 20 elements")), "{:?}", m.notes);
+    let linear = |p: &[f64; 3]| 2.0 * p[0] - 3.0 * p[1] + 0.5 * p[2] + 7.0;
+    for step in 0..2 {
+        let f = exodus::read_step_fields(&bytes, step).unwrap();
+        let t = &f.point_fields[0].values;
+        assert_eq!(t.len(), m.points.len());
+        for (p, v) in m.points.iter().zip(t) {
+            assert!((v - (step + 1) as f64 * linear(p)).abs() < 1e-12, "step {step}: {p:?}");
+        }
+    }
+    let opts = ConvertOptions { scalar: Some("T".into()), ..ConvertOptions::default() };
+    let (t, report) = tetrahedralize(&m, &opts, &mut |_| {}).unwrap();
+    assert!(
+        !report.findings.iter().any(|f| matches!(
+            f,
+            tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
+        )),
+        "{:?}",
+        report.findings
+    );
+    tet_mesh::build_adjacency(&t.points, &t.tets).expect("conforming");
+    let (tets, volume) = tets_and_volume(&m, "T");
+    assert_eq!(tets, t.tets.len());
+    assert!((volume - 4.0).abs() < 1e-12, "{volume}");
+    assert!(tets >= 20 * 12, "{tets}");
+}

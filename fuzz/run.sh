@@ -65,6 +65,7 @@ gzip -dc "$data"/su2/mesh_brick_prism_ffd.su2.gz | head -c 60000 > corpus/su2/br
 # Exodus II: the hand-made three-block, two-step file, step 1.
 mkdir -p corpus/exodus
 { printf '\1'; cat "$data"/exodus/small.exo; } > corpus/exodus/small
+{ printf '\1'; cat "$data"/exodus/face_nodes.exo; } > corpus/exodus/face_nodes
 # OpenFOAM: the four polyMesh files joined by NULs (the binary two-cell case, the cavity's heads).
 mkdir -p corpus/openfoam
 for c in 64BitFloats; do

@@ -360,6 +360,10 @@ impl Layout {
             let [n_elems, per] = shape[..] else {
                 return Err(whole(format!("'{name}' has shape {shape:?}, expected 2-D")));
             };
+            // The cells' count lays out every step's element fields: the
+            // connectivity must be there (the header's shape alone never
+            // sizes an allocation).
+            f.check_within_file(connect)?;
             let Some(ct) = cell_type(&elem_type, per) else {
                 let plural = if n_elems == 1 { "" } else { "s" };
                 layout.skipped.push(format!("block {} ({elem_type}, {n_elems} element{plural})", layout.block_id(b)));
@@ -795,6 +799,22 @@ mod tests {
         for time_step in [usize::from(step & 3), 0, 1, 2, 3] {
             let _ = read(bytes, &ExodusOptions { time_step: Some(time_step) });
         }
+    }
+
+    /// Regression (fuzz finding, 2026-12-06): an 8.7 kB file whose block
+    /// declares 1,634,874,114 HEX20 elements (a connectivity far past the
+    /// file's end) made a step's fields read alone (`read_step_fields`, as a
+    /// time series reads its later steps) lay out a `block_id` value per
+    /// declared cell, 13 GB, before any data was read; both reads now
+    /// refuse the block's connectivity at once.
+    #[test]
+    fn a_block_declared_past_the_file_end_allocates_nothing() {
+        let file = include_bytes!("../../../tests/data/exodus/fuzz_face_nodes_oom.exo");
+        let bytes = &file[1..];
+        let e = read_step_fields(bytes, 0).unwrap_err();
+        assert!(e.message.contains("'connect3'") && e.message.contains("runs past the end of the file"), "{e}");
+        let e = read(bytes, &ExodusOptions::default()).unwrap_err();
+        assert!(e.message.contains("runs past the end of the file"), "{e}");
     }
 
     /// Regression (fuzz finding): a 2.7 kB file declaring 2^30 element

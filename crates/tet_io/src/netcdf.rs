@@ -398,6 +398,29 @@ impl<'a> NetCdf<'a> {
         if let Some(file) = &self.nc4 {
             return self.read_nc4(file, v, record);
         }
+        let (start, end) = self.extent(v, record)?;
+        let mut out = Vec::new();
+        decode(&self.bytes[start as usize..end as usize], var.ty, &mut out);
+        Ok(out)
+    }
+
+    /// Whether a fixed-size variable's data lies within the file (always
+    /// true of a netCDF-4 file, whose compressed data says nothing of it
+    /// until read): the error [`NetCdf::read`] would give, without reading.
+    /// How a reader checks a variable whose shape it lays data out by
+    /// before reading it.
+    pub fn check_within_file(&self, var: &Variable) -> Result<(), FormatError> {
+        let v = self.vars.iter().position(|x| std::ptr::eq(x, var)).expect("a variable of this file");
+        if self.nc4.is_some() {
+            return Ok(());
+        }
+        self.extent(v, if self.is_record(v) { Some(0) } else { None }).map(|_| ())
+    }
+
+    /// The byte range of variable `v`'s data (of record `record`), checked
+    /// to lie within the file.
+    fn extent(&self, v: usize, record: Option<usize>) -> Result<(u64, u64), FormatError> {
+        let var = &self.vars[v];
         let err = |m: String| FormatError::new(Location::Byte(var.at), m);
         let bytes = self.record_bytes(v).ok_or_else(|| err(format!("variable '{}' is too large", var.name)))?;
         let start = match (self.is_record(v), record) {
@@ -419,9 +442,7 @@ impl<'a> NetCdf<'a> {
                 self.bytes.len()
             ))
         })?;
-        let mut out = Vec::new();
-        decode(&self.bytes[start as usize..end as usize], var.ty, &mut out);
-        Ok(out)
+        Ok((start, end))
     }
 
     /// [`NetCdf::read`] of a netCDF-4 file: the variable, or one record

@@ -51,7 +51,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(adjacency) = tet_mesh::build_adjacency(&pts, &d.tets) else { return };
     let mesh = tet_mesh::TetMesh {
         points: pts.clone(),
-        tets: d.tets.clone(),
+        tets: d.tets.clone().into(),
         scalar,
         scalar_name: "s".into(),
         point_fields: Vec::new(),

@@ -139,6 +139,26 @@ impl<'a> Sections<'a> {
         Ok(Some(v))
     }
 
+    /// [`Sections::records`] for a large array: a file's section mapped
+    /// into memory in place where the host's byte order allows (no copy;
+    /// pages read in as used and droppable again), else read.
+    pub(crate) fn records_shared<T: bytemuck::Pod + Send + Sync, S: LeScalar>(
+        &mut self,
+        name: &str,
+        path: &Path,
+    ) -> Result<Option<tet_mesh::SharedArray<T>>, BundleError> {
+        let Some(i) = self.index(name) else { return Ok(None) };
+        if let Sections::File(f) = self {
+            let size = std::mem::size_of::<T>();
+            if f.sections()[i].length.is_multiple_of(size as u64) {
+                if let Some(m) = f.map_section::<T>(i).map_err(|e| file_error(e, path))? {
+                    return Ok(Some(tet_mesh::SharedArray::Shared(std::sync::Arc::new(m))));
+                }
+            }
+        }
+        Ok(self.records::<T, S>(name, path)?.map(tet_mesh::SharedArray::Owned))
+    }
+
     /// Checks the checksums of the sections not decoded (a file's; bytes
     /// were checked whole by [`parse`]).
     pub(crate) fn verify_unread(&mut self, path: &Path) -> Result<(), BundleError> {

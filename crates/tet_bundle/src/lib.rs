@@ -18,7 +18,7 @@
 //! use tet_mesh::{build_adjacency, TetMesh};
 //! let mesh = TetMesh {
 //!     points: vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]],
-//!     tets: vec![[0, 1, 2, 3]],
+//!     tets: vec![[0, 1, 2, 3]].into(),
 //!     scalar_name: "s".into(),
 //!     scalar: vec![0.0, 1.0, 2.0, 3.0],
 //!     point_fields: vec![],
@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use tet_analysis::{Analysis, CellRanges, FrequencyLimits, GradientMethod, Histograms, SegmentFacts, VertexGradients};
-use tet_mesh::{Adjacency, Field, MeshStats, TetMesh, NO_NEIGHBOR};
+use tet_mesh::{Adjacency, Field, MeshStats, SharedArray, TetMesh, NO_NEIGHBOR};
 
 pub use layout::{SectionEntry, FORMAT_VERSION, MAGIC};
 pub use manifest::{Manifest, ManifestError};
@@ -527,9 +527,12 @@ impl Bundle {
             bincode::serde::decode_from_slice(&meta, bincode::config::standard().with_limit::<{ 1 << 26 }>())
                 .map_err(|e| damaged(format!("META section does not decode ({e})")))?;
         let points: Vec<[f64; 3]> = src.records::<_, u64>("POINTS", path)?.ok_or_else(|| missing("POINTS"))?;
-        let tets: Vec<[u32; 4]> = src.records::<_, u32>("TETS", path)?.ok_or_else(|| missing("TETS"))?;
+        // The two largest arrays (32 bytes a tet of the file's ~40) are
+        // mapped, not read, from a file on a little-endian host.
+        let tets: SharedArray<[u32; 4]> = src.records_shared::<_, u32>("TETS", path)?.ok_or_else(|| missing("TETS"))?;
         let scalar: Vec<f64> = src.records::<_, u64>("SCALAR", path)?.ok_or_else(|| missing("SCALAR"))?;
-        let neighbors: Vec<[u32; 4]> = src.records::<_, u32>("NEIGHBOR", path)?.ok_or_else(|| missing("NEIGHBOR"))?;
+        let neighbors: SharedArray<[u32; 4]> =
+            src.records_shared::<_, u32>("NEIGHBOR", path)?.ok_or_else(|| missing("NEIGHBOR"))?;
         let boundary_faces: Vec<u32> = src.records::<_, u32>("BOUNDARY", path)?.ok_or_else(|| missing("BOUNDARY"))?;
 
         let np = points.len();

@@ -366,3 +366,22 @@ fn a_streamed_bundle_reads_back_as_the_bundle() {
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 4, "no temporary files left: {names:?}");
 }
+
+/// A file's two largest arrays (connectivity and adjacency) are mapped, on
+/// a little-endian host, not read; a bundle's bytes are read; both give the
+/// same bundle, and writing to a mapped array copies it first.
+#[test]
+fn a_files_largest_arrays_are_mapped_not_read() {
+    let good = sample_bundle();
+    let (_dir, path, back) = assert_round_trips(&good, "m.tetb");
+    let little = cfg!(target_endian = "little");
+    assert_eq!(back.mesh.tets.is_shared(), little);
+    assert_eq!(back.adjacency.neighbors.is_shared(), little);
+    let from_bytes = Bundle::from_bytes(&std::fs::read(&path).unwrap(), &path).unwrap();
+    assert!(!from_bytes.mesh.tets.is_shared());
+    assert_eq!(from_bytes, back);
+    let mut edited = back.clone();
+    edited.mesh.tets[0].swap(0, 1);
+    assert!(!edited.mesh.tets.is_shared());
+    assert_eq!(back, good);
+}

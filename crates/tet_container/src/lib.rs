@@ -4,7 +4,8 @@
 //!
 //! Main items: [`ContainerFormat`] (a format's magic, version and section
 //! limit), [`write_sections`] and [`parse`] (the byte layout),
-//! [`SectionFile`] (a file read section by section, checksummed on the way),
+//! [`SectionFile`] (a file read section by section, checksummed on the way,
+//! or a section mapped into memory as a [`MappedSection`]),
 //! [`SectionWriter`] (a file written a section at a time, table last),
 //! [`write_atomic`] (temporary file beside the target, fsync, rename, so an
 //! interrupted run never leaves a partial file under the final name),
@@ -24,7 +25,13 @@
 //! assert!(parse(&bytes, &fmt).is_err());
 //! ```
 
-#![forbid(unsafe_code)]
+// `unsafe_code` is denied workspace-wide; only `mapped` (the mapping of a
+// file, which the OS cannot make safe) allows it.
+
+#[allow(unsafe_code)]
+mod mapped;
+
+pub use mapped::{MappedFile, MappedSection};
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -265,6 +272,8 @@ pub struct SectionFile {
     version: u32,
     sections: Vec<SectionEntry>,
     read: Vec<bool>,
+    /// The file mapped, once a section was asked for mapped.
+    mapped: Option<std::sync::Arc<MappedFile>>,
 }
 
 /// Why a [`SectionFile`] could not be read: the file system's error, or
@@ -295,7 +304,7 @@ impl SectionFile {
         file.read_exact(&mut table)?;
         let sections = parse_table(&table, &header, file_len)?;
         let read = vec![false; sections.len()];
-        Ok(SectionFile { file, version: header.version, sections, read })
+        Ok(SectionFile { file, version: header.version, sections, read, mapped: None })
     }
 
     /// The file's format version.
@@ -328,6 +337,40 @@ impl SectionFile {
         check_crc(&self.sections[index], found)?;
         self.read[index] = true;
         Ok(())
+    }
+
+    /// Section `index` mapped into memory as `T`s (checksummed on the
+    /// mapped bytes, which reads each page once; the operating system may
+    /// drop them again and read them back when used): no copy in this
+    /// process's own memory. `None` where the section cannot be viewed as
+    /// `T`s in place (a big-endian host, or a length not a whole number of
+    /// them): read it instead.
+    pub fn map_section<T: bytemuck::Pod>(
+        &mut self,
+        index: usize,
+    ) -> Result<Option<MappedSection<T>>, SectionFileError> {
+        let e = &self.sections[index];
+        let file = match &self.mapped {
+            Some(m) => std::sync::Arc::clone(m),
+            None => {
+                let m = MappedFile::map(&self.file)?;
+                self.mapped = Some(std::sync::Arc::clone(&m));
+                m
+            }
+        };
+        let Some(section) = MappedSection::<T>::new(std::sync::Arc::clone(&file), e.offset, e.length) else {
+            if file.bytes().len() < (e.offset + e.length) as usize {
+                return Err(SectionFileError::Format(ContainerError::Truncated {
+                    what: format!("section '{}' spans bytes {}..+{}", e.name, e.offset, e.length),
+                    offset: file.bytes().len() as u64,
+                }));
+            }
+            return Ok(None);
+        };
+        let bytes = &file.bytes()[e.offset as usize..(e.offset + e.length) as usize];
+        check_crc(e, crc32fast::hash(bytes))?;
+        self.read[index] = true;
+        Ok(Some(section))
     }
 
     /// Reads section `index` into a new byte vector (small records).

@@ -304,7 +304,7 @@ fn build(
     let adjacency = match (adjacency, handed) {
         (Ok(Ok((boundary_faces, convex))), Some(neighbors)) => {
             adjacency_source = "handed over by the Delaunay tetrahedralization";
-            Ok(tet_mesh::Adjacency { neighbors, boundary_faces, convex })
+            Ok(tet_mesh::Adjacency { neighbors: neighbors.into(), boundary_faces, convex })
         }
         (Ok(Err(built)), _) => Ok(built),
         // (Checked parts come from handed-over neighbours: not reached.)

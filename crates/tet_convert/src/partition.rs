@@ -560,7 +560,7 @@ fn cut(
         cost: req.cost,
         parts: req.parts,
     };
-    b.node(mesh.tets.clone(), root, req.parts)?;
+    b.node(mesh.tets.to_vec(), root, req.parts)?;
     let Builder { v, tree, leaves, .. } = b;
     Ok(Cut { v, tree, leaves })
 }
@@ -905,7 +905,7 @@ mod tests {
             }
         }
         let scalar = (0..points.len()).map(|_| rng.next_f64() * 10.0 - 3.0).collect();
-        let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
+        let mesh = TetMesh { points, tets: tets.into(), scalar_name: "s".into(), scalar, point_fields: vec![] };
         let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
         Bundle::new(mesh, adjacency, Default::default())
     }
@@ -978,7 +978,7 @@ mod tests {
             (0..3000).map(|_| [2.0 * rng.next_f64().powi(3), rng.next_f64(), rng.next_f64()]).collect();
         let d = tet_delaunay::tetrahedralize_points(&points, &Default::default()).unwrap();
         let scalar = points.iter().map(|p| p[0] + 2.0 * p[1] - p[2]).collect();
-        let mesh = TetMesh { points, tets: d.tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
+        let mesh = TetMesh { points, tets: d.tets.into(), scalar_name: "s".into(), scalar, point_fields: vec![] };
         let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
         let source = Bundle::new(mesh, adjacency, Default::default());
         let surface = |b: &Bundle| -> f64 {

@@ -40,7 +40,7 @@
 //! // One tet with a linear scalar.
 //! let mesh = tet_mesh::TetMesh {
 //!     points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-//!     tets: vec![[0, 1, 2, 3]],
+//!     tets: vec![[0, 1, 2, 3]].into(),
 //!     scalar_name: "s".into(),
 //!     scalar: vec![0.0, 1.0, 2.0, 3.0],
 //!     point_fields: vec![],

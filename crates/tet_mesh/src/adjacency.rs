@@ -20,7 +20,8 @@ pub const FACE_OUTWARD: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Adjacency {
     /// `neighbors[t][f]` is the tet across face `f` of tet `t`, or [`NO_NEIGHBOR`].
-    pub neighbors: Vec<[u32; 4]>,
+    /// (Owned, or shared with a mapped bundle file.)
+    pub neighbors: crate::SharedArray<[u32; 4]>,
     /// Boundary faces as `tet * 4 + face`, sorted.
     pub boundary_faces: Vec<u32>,
     /// Whether the boundary is one closed, locally convex surface, which
@@ -127,7 +128,7 @@ pub fn build_adjacency(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Adjacen
     }
     boundary_faces.sort_unstable();
     let convex = boundary_is_convex(points, tets, &boundary_faces);
-    Ok(Adjacency { neighbors, boundary_faces, convex })
+    Ok(Adjacency { neighbors: neighbors.into(), boundary_faces, convex })
 }
 
 /// The adjacency a tetrahedralizer already knows (`neighbors[t][f]`: the
@@ -137,7 +138,12 @@ pub fn build_adjacency(points: &[[f64; 3]], tets: &[[u32; 4]]) -> Result<Adjacen
 /// check fails (the caller then builds it with [`build_adjacency`]). Faces
 /// marked as boundary are trusted to be unshared: the source must know it
 /// (tet_delaunay's checker tests exactly that).
-pub fn adjacency_from_neighbors(points: &[[f64; 3]], tets: &[[u32; 4]], neighbors: Vec<[u32; 4]>) -> Option<Adjacency> {
+pub fn adjacency_from_neighbors(
+    points: &[[f64; 3]],
+    tets: &[[u32; 4]],
+    neighbors: impl Into<crate::SharedArray<[u32; 4]>>,
+) -> Option<Adjacency> {
+    let neighbors = neighbors.into();
     let (boundary_faces, convex) = check_neighbors(points, tets, &neighbors)?;
     Some(Adjacency { neighbors, boundary_faces, convex })
 }

@@ -7,6 +7,7 @@ use crate::error::MeshError;
 use crate::merge::merge_duplicate_points;
 use crate::predicates::{signed_tet_volume, tet_orientation, TetOrientation};
 use crate::scalar::{select_scalar, ScalarLocation};
+use crate::shared::SharedArray;
 use crate::source::{Field, SourceMesh};
 use crate::split::{split_blocks, SplitMode};
 use rayon::prelude::*;
@@ -55,7 +56,8 @@ impl Default for ConvertOptions {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TetMesh {
     pub points: Vec<[f64; 3]>,
-    pub tets: Vec<[u32; 4]>,
+    /// Four point indices a tet (owned, or shared with a mapped bundle file).
+    pub tets: SharedArray<[u32; 4]>,
     /// Name of the scalar (e.g. `density`, `Momentum:mag`, `x`, `zero`).
     pub scalar_name: String,
     /// One finite value per point.
@@ -517,7 +519,7 @@ fn tetrahedralize_with(
     report.tet_source_cell = tet_cell;
     report.point_source = kept.iter().map(|&i| i as u32).collect();
     report.scalar_location = Some(scalar.location);
-    Ok((TetMesh { points, tets, scalar_name: scalar.name, scalar: scalar_values, point_fields }, report))
+    Ok((TetMesh { points, tets: tets.into(), scalar_name: scalar.name, scalar: scalar_values, point_fields }, report))
 }
 
 /// Diagonal of the bounding box of the finite points (0 if there are none):

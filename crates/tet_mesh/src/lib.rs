@@ -15,6 +15,8 @@
 //!   Gmsh's complete ones): where their nodes lie and their split at them.
 //! - [`bezier`] — VTK's Bézier volume cells (polynomial or rational) evaluated
 //!   at their lattice into Lagrange cells ([`BezierEvaluator`]).
+//! - [`SharedArray`] — how a [`TetMesh`] holds its tets and an [`Adjacency`]
+//!   its neighbours: owned, or shared with a bundle file mapped into memory.
 //!
 //! ```
 //! use tet_mesh::{tetrahedralize, build_adjacency, Block, ConvertOptions, Field, SourceMesh, SplitMode};
@@ -48,6 +50,7 @@ pub mod predicates;
 pub mod rng;
 pub mod scalar;
 pub mod series;
+pub mod shared;
 pub mod source;
 pub mod split;
 pub mod stats;
@@ -64,6 +67,7 @@ pub use error::MeshError;
 pub use polyhedron::PolyhedronSplitter;
 pub use rng::{SplitMix64, XorShift64};
 pub use series::StepMapper;
+pub use shared::SharedArray;
 pub use source::{Block, CellType, Cells, Field, SourceMesh};
 pub use split::SplitMode;
 pub use stats::{mesh_stats, mesh_stats_confirming_orientation, MeshStats, Spread};

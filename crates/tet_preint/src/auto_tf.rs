@@ -49,7 +49,7 @@
 //! let tets = vec![[0, 1, 2, 3]];
 //! let scalar: Vec<f64> = points.iter().map(|p| p[0]).collect();
 //! let stats = mesh_stats(&points, &tets, &scalar);
-//! let mesh = TetMesh { points, tets, scalar_name: "x".into(), scalar, point_fields: vec![] };
+//! let mesh = TetMesh { points, tets: tets.into(), scalar_name: "x".into(), scalar, point_fields: vec![] };
 //! let adjacency = build_adjacency(&mesh.points, &mesh.tets)?;
 //! let bundle = Bundle::new(mesh, adjacency, BundleMeta { stats, ..Default::default() });
 //! let auto = auto_tf(&bundle, &AutoTfOptions::default())?;

@@ -725,7 +725,7 @@ impl<'a> ReferenceRenderer<'a> {
 /// use tet_render::{render_reference, Camera, ReferenceOptions, ViewSpec};
 /// let mesh = TetMesh {
 ///     points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-///     tets: vec![[0, 1, 2, 3]],
+///     tets: vec![[0, 1, 2, 3]].into(),
 ///     scalar: vec![0.0; 4],
 ///     scalar_name: "s".into(),
 ///     point_fields: Vec::new(),

@@ -9,6 +9,7 @@ use crate::RenderError;
 use glam::DVec3;
 use std::sync::Arc;
 use tet_bundle::Bundle;
+use tet_mesh::SharedArray;
 use tet_mesh::{build_adjacency, NO_NEIGHBOR};
 
 /// The renderer's copy of a mesh. Its geometry is fixed once built; views,
@@ -18,9 +19,10 @@ use tet_mesh::{build_adjacency, NO_NEIGHBOR};
 pub struct Scene {
     centre_in_world: DVec3,
     pos_rel: Vec<[f64; 3]>,
-    tets: Vec<[u32; 4]>,
+    /// (Owned, or shared with a mapped bundle file: `tet_mesh::SharedArray`.)
+    tets: SharedArray<[u32; 4]>,
     scalar: Vec<f64>,
-    neighbors: Vec<[u32; 4]>,
+    neighbors: SharedArray<[u32; 4]>,
     convex: bool,
     gradients: Option<Vec<[f64; 3]>>,
     grad_mag: Option<Vec<f64>>,
@@ -35,7 +37,12 @@ impl Scene {
     /// Builds a scene from raw arrays, computing the face adjacency. Tets
     /// must be positively oriented (as every bundle's are) for front/back
     /// face decisions to be right.
-    pub fn new(points: &[[f64; 3]], tets: Vec<[u32; 4]>, scalar: Vec<f64>) -> Result<Scene, RenderError> {
+    pub fn new(
+        points: &[[f64; 3]],
+        tets: impl Into<SharedArray<[u32; 4]>>,
+        scalar: Vec<f64>,
+    ) -> Result<Scene, RenderError> {
+        let tets = tets.into();
         check_arrays(points, &tets, &scalar)?;
         let adj = build_adjacency(points, &tets).map_err(|e| RenderError::Scene(e.to_string()))?;
         Scene::assemble(points, tets, scalar, adj.neighbors, adj.convex)
@@ -71,9 +78,9 @@ impl Scene {
 
     fn from_parts(
         points: &[[f64; 3]],
-        tets: Vec<[u32; 4]>,
+        tets: SharedArray<[u32; 4]>,
         scalar: Vec<f64>,
-        neighbors: Vec<[u32; 4]>,
+        neighbors: SharedArray<[u32; 4]>,
         convex: bool,
         gradients: Option<Vec<[f64; 3]>>,
     ) -> Result<Scene, RenderError> {
@@ -94,9 +101,9 @@ impl Scene {
 
     fn assemble(
         points: &[[f64; 3]],
-        tets: Vec<[u32; 4]>,
+        tets: SharedArray<[u32; 4]>,
         scalar: Vec<f64>,
-        neighbors: Vec<[u32; 4]>,
+        neighbors: SharedArray<[u32; 4]>,
         convex: bool,
     ) -> Result<Scene, RenderError> {
         let n = points.len();

@@ -311,7 +311,7 @@ impl crate::Scene {
         let centre = self.centre_in_world();
         let mesh = tet_mesh::TetMesh {
             points: self.positions_rel().to_vec(),
-            tets: self.tets().to_vec(),
+            tets: self.tets().to_vec().into(),
             scalar_name: String::new(),
             scalar: self.scalar().to_vec(),
             point_fields: Vec::new(),
@@ -324,7 +324,7 @@ impl crate::Scene {
                 (0..4).filter(move |&f| nb[f] == tet_mesh::NO_NEIGHBOR).map(move |f| (4 * t + f) as u32)
             })
             .collect();
-        let adjacency = tet_mesh::Adjacency { neighbors, boundary_faces, convex: self.is_convex() };
+        let adjacency = tet_mesh::Adjacency { neighbors: neighbors.into(), boundary_faces, convex: self.is_convex() };
         let reference = ReferenceRenderer::new(&mesh, &adjacency)?;
         let moved: Vec<LightSource> = lights
             .lights()

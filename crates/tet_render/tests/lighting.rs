@@ -28,7 +28,7 @@ fn case(n: usize, s: impl Fn([f64; 3]) -> f64) -> Case {
     let adj = build_adjacency(&points, &tets).unwrap();
     let scene = Scene::new(&points, tets.clone(), scalar.clone()).unwrap().ensure_gradients().unwrap();
     let grads = scene.gradients().unwrap().to_vec();
-    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: Vec::new() };
+    let mesh = TetMesh { points, tets: tets.into(), scalar_name: "s".into(), scalar, point_fields: Vec::new() };
     Case { mesh, adj, grads }
 }
 

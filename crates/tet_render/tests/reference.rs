@@ -89,7 +89,7 @@ fn no_jitter(_: usize) -> [f64; 3] {
 /// Keeps the tets whose centroid satisfies `keep` (the points stay).
 fn carve(mesh: &TetMesh, keep: impl Fn(DVec3) -> bool) -> TetMesh {
     let mut out = mesh.clone();
-    out.tets.retain(|t| {
+    out.tets.to_mut().retain(|t| {
         let c = t.iter().map(|&v| DVec3::from(mesh.points[v as usize])).sum::<DVec3>() / 4.0;
         keep(c)
     });
@@ -193,7 +193,7 @@ fn views(lo: DVec3, hi: DVec3, size: u32) -> Vec<ViewSpec> {
 fn single_tet_constant_tf_matches_closed_form() {
     let mesh = TetMesh {
         points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        tets: vec![[0, 1, 2, 3]],
+        tets: vec![[0, 1, 2, 3]].into(),
         scalar: vec![0.0; 4],
         scalar_name: "s".into(),
         point_fields: Vec::new(),
@@ -489,7 +489,7 @@ fn bad_input_is_an_error() {
     let mesh = grid([2, 2, 2], [0.0; 3], 1.0, SplitMode::Five, |p| p[0], no_jitter);
     let adj = adjacency(&mesh);
     let mut short = adj.clone();
-    short.neighbors.pop();
+    short.neighbors.to_mut().pop();
     assert!(ReferenceRenderer::new(&mesh, &short).unwrap_err().to_string().contains("adjacency"));
     let mut nan = mesh.clone();
     nan.points[3][1] = f64::NAN;

@@ -54,7 +54,7 @@ fn render(
 
 fn mesh_of(points: Vec<[f64; 3]>, tets: Vec<[u32; 4]>, scalar: Vec<f64>) -> (TetMesh, tet_mesh::Adjacency) {
     let adj = build_adjacency(&points, &tets).unwrap();
-    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: Vec::new() };
+    let mesh = TetMesh { points, tets: tets.into(), scalar_name: "s".into(), scalar, point_fields: Vec::new() };
     (mesh, adj)
 }
 
@@ -273,7 +273,7 @@ fn camera_inside_the_mesh_is_walked_from_the_eyes_tet() {
     let scene = Scene::new(&points, tets.clone(), scalar.clone()).unwrap();
     let tf = tf(r#"{"color": [[0, 1, 1, 1], [1, 1, 0.2, 0]], "opacity": [[0, 1], [1.5, 2]], "unit_distance": 1}"#);
     let shader: Arc<dyn SegmentShader> = Arc::new(ExactShader::new(tf.clone()));
-    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: Vec::new() };
+    let mesh = TetMesh { points, tets: tets.into(), scalar_name: "s".into(), scalar, point_fields: Vec::new() };
     let adj = build_adjacency(&mesh.points, &mesh.tets).unwrap();
     let all = RasterOptions { opaque_alpha: 2.0, ..Default::default() };
     // Looking along an axis, obliquely, and back across the whole block.

@@ -289,7 +289,7 @@ fn view_of_a_constant_scalar_without_tf_is_rejected_as_render_is() {
     let tets = vec![[0, 1, 2, 3]];
     let scalar = vec![0.75; 4];
     let stats = mesh_stats(&points, &tets, &scalar);
-    let mesh = TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: vec![] };
+    let mesh = TetMesh { points, tets: tets.into(), scalar_name: "s".into(), scalar, point_fields: vec![] };
     let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
     let path = dir.path().join("flat.tetb");
     tet_bundle::Bundle::new(mesh, adjacency, tet_bundle::BundleMeta { stats, ..Default::default() })

@@ -68,5 +68,5 @@ pub fn capped_sliver(eps: f64, f: impl Fn([f64; 3]) -> f64) -> TetMesh {
         tets.push(orient([sliver[face[0]], sliver[face[1]], sliver[face[2]], apex]));
     }
     let scalar = points.iter().map(|&p| f(p)).collect();
-    TetMesh { points, tets, scalar_name: "s".into(), scalar, point_fields: vec![] }
+    TetMesh { points, tets: tets.into(), scalar_name: "s".into(), scalar, point_fields: vec![] }
 }

@@ -595,7 +595,9 @@ mod tests {
         let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
         let (mut mesh, _) = tetrahedralize(&src, &opts, &mut |_| {}).unwrap();
         let points = &mesh.points;
-        mesh.tets.retain(|t| !(0.5..0.67).contains(&(t.iter().map(|&v| points[v as usize][0]).sum::<f64>() / 4.0)));
+        mesh.tets
+            .to_mut()
+            .retain(|t| !(0.5..0.67).contains(&(t.iter().map(|&v| points[v as usize][0]).sum::<f64>() / 4.0)));
         mesh
     }
 

@@ -42,7 +42,7 @@ pub fn grid_mesh(
     let src = SourceMesh::structured([n + 1; 3], points, "s", values);
     let opts = ConvertOptions { scalar: Some("s".into()), ..Default::default() };
     let (mesh, _) = tetrahedralize(&src, &opts, &mut |_| {}).expect("grid splits");
-    (mesh.points, mesh.tets, mesh.scalar)
+    (mesh.points, mesh.tets.into_vec(), mesh.scalar)
 }
 
 pub fn tf(json: &str) -> TransferFunction {

@@ -893,6 +893,25 @@ mod tests {
         Writer { dims, vars, num_records: 0 }
     }
 
+    /// The tets and total volume of `m` as tetprep converts it, checked: no
+    /// tet re-oriented or dropped as flat (a cell cut at its nodes in the
+    /// wrong order shows so), and the tets conform (face adjacency builds).
+    /// (The crate's integration tests have the same helper, which a unit
+    /// test cannot reach.)
+    fn converted(m: &SourceMesh, label: &str) -> (usize, f64) {
+        let (mesh, report) = tet_mesh::tetrahedralize(m, &Default::default(), &mut |_| {}).unwrap();
+        assert!(
+            !report.findings.iter().any(|f| matches!(
+                f,
+                tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
+            )),
+            "{label}: {:?}",
+            report.findings
+        );
+        tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
+        (mesh.tets.len(), tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume)
+    }
+
     /// TET5, TETRA11 and HEX9 (a centre node last) are read as TETRA4,
     /// TETRA10 (cut at its ten nodes) and HEX8, with a note, and nothing
     /// else is reduced: their faces keep every node.
@@ -1046,19 +1065,9 @@ mod tests {
                 assert_eq!(f.point_fields[0].values, ms.point_fields[0].values, "{name} step {step}");
                 assert_eq!(f.point_fields[0].values.len(), num_nodes + added, "{name} step {step}");
             }
-            let (mesh, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
-            assert!(
-                !report.findings.iter().any(|f| matches!(
-                    f,
-                    tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
-                )),
-                "{name}: {:?}",
-                report.findings
-            );
-            tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
-            let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+            let (tets, v) = converted(&m, name);
             assert!((v - volume * det).abs() < 1e-12, "{name}: volume {v}");
-            assert!(mesh.tets.len() >= 2 * 12, "{name}: {} tets", mesh.tets.len());
+            assert!(tets >= 2 * 12, "{name}: {tets} tets");
         }
     }
 
@@ -1104,16 +1113,9 @@ mod tests {
         let Block::Unstructured(c) = &m.blocks[0] else { panic!("unstructured") };
         assert_eq!(c.types, vec![CellType::TriquadraticPyramid; 2]);
         assert!(m.notes.is_empty(), "{:?}", m.notes);
-        let (mesh, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
-        assert!(
-            !report.findings.iter().any(|f| matches!(f, tet_mesh::Finding::ReorientedTets { .. })),
-            "{:?}",
-            report.findings
-        );
-        tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
-        let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+        let (tets, v) = converted(&m, "PYRAMID19");
         assert!((v - 2.0 / 3.0).abs() < 1e-12, "{v}");
-        assert!(mesh.tets.len() >= 2 * 13, "{} tets", mesh.tets.len());
+        assert!(tets >= 2 * 13, "{tets} tets");
     }
 
     /// Exodus's quadratic elements, written in Exodus's node order (the
@@ -1221,20 +1223,10 @@ mod tests {
                     Some(n) => assert!(m.notes.iter().any(|x| x.contains(n)), "{name} {variant}: {:?}", m.notes),
                     None => assert!(m.notes.is_empty(), "{name} {variant}: {:?}", m.notes),
                 }
-                let (mesh, report) = tet_mesh::tetrahedralize(&m, &Default::default(), &mut |_| {}).unwrap();
-                assert!(
-                    !report.findings.iter().any(|f| matches!(
-                        f,
-                        tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
-                    )),
-                    "{name} {variant}: {:?}",
-                    report.findings
-                );
-                tet_mesh::build_adjacency(&mesh.points, &mesh.tets).expect("conforming");
-                let v = tet_mesh::mesh_stats(&mesh.points, &mesh.tets, &mesh.scalar).total_volume;
+                let (tets, v) = converted(&m, &format!("{name} {variant}"));
                 assert!((v - volume * det).abs() < 1e-12, "{name} {variant}: volume {v}");
                 // Cut at their nodes: 13 to 48 tets an element; by corners 2 to 6.
-                assert_eq!(mesh.tets.len() >= 26, !reduced, "{name} {variant}: {} tets", mesh.tets.len());
+                assert_eq!(tets >= 26, !reduced, "{name} {variant}: {tets} tets");
             }
         }
     }

@@ -269,19 +269,7 @@ fn face_node_elements_of_a_file_are_completed_and_cut() {
             assert!((v - (step + 1) as f64 * linear(p)).abs() < 1e-12, "step {step}: {p:?}");
         }
     }
-    let opts = ConvertOptions { scalar: Some("T".into()), ..ConvertOptions::default() };
-    let (t, report) = tetrahedralize(&m, &opts, &mut |_| {}).unwrap();
-    assert!(
-        !report.findings.iter().any(|f| matches!(
-            f,
-            tet_mesh::Finding::ReorientedTets { .. } | tet_mesh::Finding::DroppedZeroVolumeTets { .. }
-        )),
-        "{:?}",
-        report.findings
-    );
-    tet_mesh::build_adjacency(&t.points, &t.tets).expect("conforming");
-    let (tets, volume) = tets_and_volume(&m, "T");
-    assert_eq!(tets, t.tets.len());
+    let (tets, volume) = common::converted(&m);
     assert!((volume - 4.0).abs() < 1e-12, "{volume}");
     assert!(tets >= 20 * 12, "{tets}");
 }

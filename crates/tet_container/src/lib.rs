@@ -344,7 +344,7 @@ impl SectionFile {
     /// drop them again and read them back when used): no copy in this
     /// process's own memory. `None` where the section cannot be viewed as
     /// `T`s in place (a big-endian host, or a length not a whole number of
-    /// them): read it instead.
+    /// them, or a file the system cannot map): read it instead.
     pub fn map_section<T: bytemuck::Pod>(
         &mut self,
         index: usize,
@@ -352,11 +352,14 @@ impl SectionFile {
         let e = &self.sections[index];
         let file = match &self.mapped {
             Some(m) => std::sync::Arc::clone(m),
-            None => {
-                let m = MappedFile::map(&self.file)?;
-                self.mapped = Some(std::sync::Arc::clone(&m));
-                m
-            }
+            None => match MappedFile::map(&self.file) {
+                Ok(m) => {
+                    self.mapped = Some(std::sync::Arc::clone(&m));
+                    m
+                }
+                // (Some file systems and special files cannot be mapped.)
+                Err(_) => return Ok(None),
+            },
         };
         let Some(section) = MappedSection::<T>::new(std::sync::Arc::clone(&file), e.offset, e.length) else {
             if file.bytes().len() < (e.offset + e.length) as usize {

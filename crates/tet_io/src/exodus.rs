@@ -107,7 +107,7 @@ fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
 /// inside) lack the body node of TETRA15, WEDGE21 and PYRAMID19; TETRA8 (a
 /// node on every face, none on the edges) lacks TETRA15's six mid-edge
 /// nodes too. A mid-edge point is the mean of the edge's two corners, one
-/// point for every element sharing the edge (so neighbours conform); a body
+/// point shared by every element on the edge (so neighbours conform); a body
 /// point is the mean of the element's nodes. Each added point's values are
 /// the same mean of its nodes' values, which is exact for a field linear in
 /// space and needs no other step data (a time step's fields are completed
@@ -191,13 +191,11 @@ impl Synthetic {
     }
 
     /// Appends the added points' values (each the mean of its sources') to
-    /// a field over the file's nodes.
-    fn extend(&self, values: &mut Vec<f64>, num_components: usize) {
+    /// a nodal variable (one value a file node).
+    fn extend(&self, values: &mut Vec<f64>) {
         for src in &self.sources {
-            for c in 0..num_components {
-                let sum: f64 = src.iter().map(|&n| values[n as usize * num_components + c]).sum();
-                values.push(sum / src.len() as f64);
-            }
+            let sum: f64 = src.iter().map(|&n| values[n as usize]).sum();
+            values.push(sum / src.len() as f64);
         }
     }
 }
@@ -446,7 +444,7 @@ fn step_fields(f: &NetCdf<'_>, layout: &Layout, synthetic: &Synthetic, step: usi
             return Err(whole(format!("nodal variable '{n}' has {} values for {num_nodes} nodes", values.len())));
         }
         let mut values = values;
-        synthetic.extend(&mut values, 1);
+        synthetic.extend(&mut values);
         out.point_fields.push(Field::new(field_name(n, j), 1, values));
     }
     let enames = match f.var("name_elem_var") {

@@ -30,7 +30,9 @@ use std::path::{Path, PathBuf};
 use tet_bundle::manifest::{Manifest, MANIFEST_FILE};
 use tet_cli::{usage, ExitKind, KindExt};
 use tet_distributed::{agree, composite, reduce, Comm, CompositeStats, DistributedError, ThreadComm};
-use tet_engine::{CpuFrameRenderer, FrameRenderer, FrameStats, GpuFrameOptions, GpuFrameRenderer};
+use tet_engine::{
+    CpuFrameRenderer, FrameRenderer, FrameStats, GpuFrameOptions, GpuFrameRenderer, ReferenceFrameRenderer,
+};
 use tet_gpu::RasterPath;
 use tet_preint::{AutoTfOptions, Method, TransferFunction};
 use tet_render::{Image, Scene, ViewSpec};
@@ -361,6 +363,23 @@ fn draw_piece(
             "gpu_seconds": g.render.total_seconds,
         });
         (frame.image, stats, g.render.tets_drawn, g.tets_total, g.render.total_seconds)
+    } else if args.reference {
+        // The exact reference on the piece: f64 geometry and integration,
+        // so the composite is the unsplit reference image to f32 rounding.
+        let mut renderer = ReferenceFrameRenderer::new(bundle).with_context(in_piece)?;
+        let frame = renderer.render(&tet_engine::Look::exact(tf.clone()), &request, &|_, _| {})?;
+        let (image, FrameStats::Reference { stats, render_seconds }) = (frame.image, frame.stats) else {
+            unreachable!("the reference renderer reports reference statistics")
+        };
+        let tets = bundle.mesh.tets.len();
+        let stats = serde_json::json!({
+            "renderer": "reference",
+            "rays_hit": stats.rays_hit,
+            "segments": stats.segments,
+            "walk_failures": stats.walk_failures,
+            "render_seconds": render_seconds,
+        });
+        (image, stats, tets, tets, render_seconds)
     } else {
         // The piece's arrays move into the scene: a rank holds them once.
         let scene = Scene::from_bundle_owned(piece).with_context(in_piece)?;
@@ -377,7 +396,13 @@ fn draw_piece(
         serde_json::to_string(&view)?,
         tf.to_json().replace('\n', " "),
         method.id(),
-        if args.gpu { format!("gpu {:?}", args.gpu_raster) } else { format!("{:?}", args.renderer) },
+        if args.gpu {
+            format!("gpu {:?}", args.gpu_raster)
+        } else if args.reference {
+            "reference".to_string()
+        } else {
+            format!("{:?}", args.renderer)
+        },
         request.shading,
         request.early_termination,
         request.cull,

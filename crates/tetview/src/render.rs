@@ -22,6 +22,14 @@ pub struct RenderArgs {
     /// source analysed with --histogram before partitioning).
     #[arg(long)]
     pub distributed: bool,
+    /// With --distributed: each rank draws its piece with the exact
+    /// reference ray caster (as `tetview reference`: the pieces' geometry
+    /// and the TF's integral in f64, whatever --method says), so the image
+    /// is `tetview reference`'s of the unsplit bundle to f32 rounding — its
+    /// 8-bit output the same. Slow; for checking and for images that must
+    /// be exact.
+    #[arg(long, requires = "distributed", conflicts_with = "gpu")]
+    pub reference: bool,
     #[command(flatten)]
     pub look: crate::look_args::LookArgs,
     #[command(flatten)]

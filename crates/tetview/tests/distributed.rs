@@ -114,6 +114,51 @@ fn check_equal(src: &Path, dir: &Path, label: &str, views: &[(&str, Vec<&str>)])
     }
 }
 
+/// `--reference`: every rank traces its piece with the exact f64 reference
+/// ray caster, so the composite is `tetview reference`'s image of the
+/// unsplit bundle to f32 rounding and its 8-bit output the same, at np =
+/// 1…4, outside and inside, on a convex grid and a non-convex mesh (where
+/// the walker's f32 geometry leaves a pixel one 8-bit step off).
+#[test]
+fn the_reference_drawn_distributed_equals_the_unsplit_reference_8_bit_for_8_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, input) in [("iron", data("vtu/iron_sub.vti")), ("boxcyl", data("gmsh/boxcyl_41_bin.msh"))] {
+        let d = dir.path().join(name);
+        std::fs::create_dir(&d).unwrap();
+        let tf = tf(&d);
+        let src = convert(&d, &input, "src.tetb");
+        let inside = inside_view(&d, &src);
+        let views = [
+            ("outside", vec!["--size", "48x40", "--azimuth", "35", "--elevation", "25"]),
+            ("inside", vec!["--view", arg(&inside)]),
+        ];
+        for (vname, view) in views {
+            let (npy, png) = (d.join(format!("ref_{vname}.npy")), d.join(format!("ref_{vname}.png")));
+            let mut a = vec!["reference", arg(&src), "--tf", arg(&tf), "--no-early-termination"];
+            a.extend_from_slice(&["-o", arg(&png), "--float", arg(&npy)]);
+            a.extend(view.iter().copied());
+            let out = tetview(&a);
+            assert!(out.status.success(), "{a:?}: {}", String::from_utf8_lossy(&out.stderr));
+            let (whole, whole_png) = (Image::read_npy(&npy).unwrap(), decode_png(&png));
+            assert!(whole.pixels().iter().any(|p| p[3] > 0.05), "{name} {vname}: the view shows the mesh");
+            for np in 1..=4 {
+                let part = d.join(format!("part{np}"));
+                if !part.exists() {
+                    partition(&src, &part, np);
+                }
+                let mut flags = vec!["--reference", "--no-early-termination"];
+                flags.extend(view.iter().copied());
+                let (img, img_png) = render(&d, &part, &format!("dist{np}_{vname}"), true, &flags);
+                let diff = tet_render::diff(&whole, &img).unwrap();
+                let max8 = whole_png.iter().zip(&img_png).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+                eprintln!("{name} {vname} np {np}: rmse {:.2e}, max {:.2e}, 8-bit max {max8}", diff.rmse, diff.max_abs);
+                assert!(diff.rmse <= 1e-6 && diff.max_abs <= 1e-5, "{name} {vname} np {np}: {diff:?}");
+                assert_eq!(max8, 0, "{name} {vname} np {np}");
+            }
+        }
+    }
+}
+
 #[test]
 fn a_convex_grid_drawn_distributed_equals_the_unsplit_image() {
     let dir = tempfile::tempdir().unwrap();

@@ -335,6 +335,12 @@ fn draw_piece(
     let z_up = tet_render::camera::z_up_data(manifest.source.from_point_cloud(), root.min, root.max);
     let (view, lighting) = args.camera.resolve_lit(&args.lighting, bounds, z_up)?;
     let request = args.frame_request(&view, lighting.as_ref());
+    if request.shading.wants_shadows() {
+        return Err(usage(
+            "--shadows with --distributed: a rank holds only its piece, so its shadows would miss the \
+             other pieces' occluders; draw shadowed frames in one process",
+        ));
+    }
     let order = if view.parallel {
         let d = [0, 1, 2].map(|k| view.focal_point[k] - view.position[k]);
         manifest.front_to_back_parallel(d)

@@ -327,6 +327,11 @@ fn bad_partitions_and_requests_stop_with_one_clear_error() {
     expect(run(&src, &["--tf", arg(&tf)]), 3, &["not a tetkit partition manifest"]);
     // A method the GPU does not have.
     expect(run(&part, &["--tf", arg(&tf), "--gpu", "--method", "exact"]), 2, &["--gpu", "exact"]);
+    // Shadows: a rank holds only its piece, so it would miss the others'
+    // occluders (regression: each piece was drawn with its own shadows).
+    expect(run(&part, &["--tf", arg(&tf), "--light-dir", "1,0,0", "--shadows"]), 2, &["--shadows", "occluders"]);
+    // --reference needs --distributed, and is not --gpu.
+    expect(run(&part, &["--tf", arg(&tf), "--reference", "--gpu"]), 2, &["--reference"]);
     // A corrupt piece: every rank stops with rank 1's message.
     let p1 = part.join("piece_0001.tetb");
     let mut bytes = std::fs::read(&p1).unwrap();

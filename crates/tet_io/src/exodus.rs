@@ -68,11 +68,11 @@ pub struct ExodusOptions {
 fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
     let t = elem_type.trim().to_ascii_uppercase();
     let family = ["TET", "HEX", "WEDGE", "PYRAMID"].into_iter().find(|f| t.starts_with(f))?;
-    let (linear, reducible): (CellType, &[usize]) = match family {
-        "TET" => (CellType::Tetra, &[4, 5, 8, 10, 11, 14, 15]),
-        "HEX" => (CellType::Hexahedron, &[8, 9, 16, 20, 27]),
-        "WEDGE" => (CellType::Wedge, &[6, 12, 15, 16, 18, 20, 21, 24, 52]),
-        _ => (CellType::Pyramid, &[5, 13, 14, 18, 19]),
+    let linear = match family {
+        "TET" => CellType::Tetra,
+        "HEX" => CellType::Hexahedron,
+        "WEDGE" => CellType::Wedge,
+        _ => CellType::Pyramid,
     };
     let kept = [
         CellType::QuadraticTetra,
@@ -97,7 +97,9 @@ fn cell_type(elem_type: &str, nodes: usize) -> Option<CellType> {
         None if linear == CellType::Tetra && (nodes == 8 || nodes == 14) => Some(CellType::QuadraticTetraWithCentres),
         None if linear == CellType::Wedge && nodes == 20 => Some(CellType::QuadraticWedgeWithCentres),
         None if linear == CellType::Pyramid && nodes == 18 => Some(CellType::TriquadraticPyramid),
-        None => reducible.contains(&nodes).then_some(linear),
+        // Any other count (Ioss's cubic TETRA16/40, HEX16/32/64, WEDGE24/52,
+        // …): its corners, which Exodus lists first.
+        None => (nodes >= linear.num_nodes()).then_some(linear),
     }
 }
 
@@ -1067,6 +1069,31 @@ mod tests {
             assert!((v - volume * det).abs() < 1e-12, "{name}: volume {v}");
             assert!(tets >= 2 * 12, "{name}: {tets} tets");
         }
+    }
+
+    /// Element types with node counts tetkit has no split for (Ioss's cubic
+    /// TETRA16: two nodes on each edge) are read by their corners, with a
+    /// note — regression: a TETRA16 or HEX32 block was skipped as "not
+    /// volume cells", its volume lost. Too few nodes for the shape is still
+    /// not a volume cell.
+    #[test]
+    fn unknown_node_counts_are_read_by_their_corners() {
+        let c = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]];
+        let mut tet16: Vec<[f64; 3]> = c.to_vec();
+        for [a, b] in TET_EDGES {
+            for t in [1.0 / 3.0, 2.0 / 3.0] {
+                tet16.push([0, 1, 2].map(|k| c[a][k] + t * (c[b][k] - c[a][k])));
+            }
+        }
+        let m = read(&blocks_file(&[("TETRA16", vec![tet16])]).write(false), &ExodusOptions::default()).unwrap();
+        let Block::Unstructured(cells) = &m.blocks[0] else { panic!("unstructured") };
+        assert_eq!(cells.types, vec![CellType::Tetra]);
+        assert!(m.notes.iter().any(|n| n.contains("reduced 1 higher-order elements")), "{:?}", m.notes);
+        let (tets, v) = converted(&m, "TETRA16");
+        assert_eq!(tets, 1);
+        assert!((v - 1.0 / 6.0).abs() < 1e-12, "{v}");
+        assert_eq!(cell_type("TETRA", 3), None);
+        assert_eq!(cell_type("HEX32", 32), Some(CellType::Hexahedron));
     }
 
     /// WEDGE16 (WEDGE15 and a body node, Ioss_Wedge16) is read as WEDGE15

@@ -148,12 +148,11 @@ impl<'a> Sections<'a> {
         path: &Path,
     ) -> Result<Option<tet_mesh::SharedArray<T>>, BundleError> {
         let Some(i) = self.index(name) else { return Ok(None) };
+        // (A length that is not whole records is not mapped: `records`
+        // then names it.)
         if let Sections::File(f) = self {
-            let size = std::mem::size_of::<T>();
-            if f.sections()[i].length.is_multiple_of(size as u64) {
-                if let Some(m) = f.map_section::<T>(i).map_err(|e| file_error(e, path))? {
-                    return Ok(Some(tet_mesh::SharedArray::Shared(std::sync::Arc::new(m))));
-                }
+            if let Some(m) = f.map_section::<T>(i).map_err(|e| file_error(e, path))? {
+                return Ok(Some(tet_mesh::SharedArray::Shared(std::sync::Arc::new(m))));
             }
         }
         Ok(self.records::<T, S>(name, path)?.map(tet_mesh::SharedArray::Owned))

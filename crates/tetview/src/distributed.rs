@@ -299,7 +299,10 @@ fn draw_piece(
     let (tf, method, look) = match auto {
         Some(tf) => {
             let method: Method = args.look.method.parse()?;
-            let look = if args.gpu_bake {
+            // (The reference integrates the TF exactly: nothing to bake.)
+            let look = if args.reference {
+                tet_engine::Look::exact(tf.clone())
+            } else if args.gpu_bake {
                 tet_engine::Look::baked_by_renderer(bundle, tf.clone(), method)?
             } else {
                 tet_engine::Look::bake(bundle, method, tf.clone())?
@@ -318,7 +321,9 @@ fn draw_piece(
             }
             let chosen = look_args.resolve(bundle)?;
             let (tf, method) = (chosen.tf.clone(), chosen.method);
-            let look = if args.gpu_bake {
+            let look = if args.reference {
+                tet_engine::Look::exact(tf.clone())
+            } else if args.gpu_bake {
                 tet_engine::Look::baked_by_renderer(bundle, tf.clone(), method)?
             } else {
                 chosen.look(bundle)?
@@ -373,7 +378,7 @@ fn draw_piece(
         // The exact reference on the piece: f64 geometry and integration,
         // so the composite is the unsplit reference image to f32 rounding.
         let mut renderer = ReferenceFrameRenderer::new(bundle).with_context(in_piece)?;
-        let frame = renderer.render(&tet_engine::Look::exact(tf.clone()), &request, &|_, _| {})?;
+        let frame = renderer.render(&look, &request, &|_, _| {})?;
         let (image, FrameStats::Reference { stats, render_seconds }) = (frame.image, frame.stats) else {
             unreachable!("the reference renderer reports reference statistics")
         };

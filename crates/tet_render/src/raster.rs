@@ -630,6 +630,8 @@ struct TileCtx {
     setups: u64,
     batch: Batch,
     frags: Box<FragBatch>,
+    /// The pieces of a split lit segment ([`crate::shading::light_segment`]).
+    lit_pieces: Box<crate::shading::LitPieces>,
     /// Every pixel reached `opaque_alpha`: later chunks skip the tile.
     done: bool,
 }
@@ -646,6 +648,7 @@ impl TileCtx {
             setups: 0,
             batch: Batch::new(),
             frags: Box::new(FragBatch { segs: SegmentBatch::default(), pixel: [0; BATCH], rgba: [[0.0; 4]; BATCH] }),
+            lit_pieces: Box::default(),
             done: false,
         }
     }
@@ -750,7 +753,7 @@ fn under(acc: &mut [f32; 4], c: Rgba32, opaque_alpha: f32, opaque: &mut usize) {
 /// Shades and composites the batched fragments (one tet's, so no pixel
 /// appears twice), with lighting/silhouettes at each segment's midpoint.
 fn flush(ctx: &mut TileCtx, s: &TetSetup, view: &ViewGeometry, shader: &dyn SegmentShader, opts: &RasterOptions) {
-    let b = &mut ctx.batch;
+    let (b, pieces) = (&mut ctx.batch, &mut *ctx.lit_pieces);
     let n = b.n;
     if n == 0 {
         return;
@@ -761,7 +764,8 @@ fn flush(ctx: &mut TileCtx, s: &TetSetup, view: &ViewGeometry, shader: &dyn Segm
             let (x, y) = (b.at[k][0] as f64 + 0.5, b.at[k][1] as f64 + 0.5);
             let (z_mid, z_half) = (s.span.z0 + b.zeta_mid[k] as f64, b.zeta_half[k] as f64);
             let lit_at = |w: f32| lit_point(s, view, opts, x, y, z_mid + (2.0 * w as f64 - 1.0) * z_half);
-            b.rgba[k] = crate::shading::light_segment(&b.segs[k], b.rgba[k], None, lit_at, |p| shader.shade(p)).0;
+            let shade_pieces = |p: &SegmentBatch, out: &mut [Rgba32; BATCH]| shader.shade_batch(p, out);
+            b.rgba[k] = crate::shading::light_segment(&b.segs[k], b.rgba[k], None, lit_at, shade_pieces, pieces).0;
         }
     }
     for k in 0..n {
@@ -788,15 +792,16 @@ fn shade(
     shader: &dyn SegmentShader,
     opts: &RasterOptions,
     f: &Fragment,
-    x: f64,
-    y: f64,
+    (x, y): (f64, f64),
+    pieces: &mut crate::shading::LitPieces,
 ) -> [f32; 4] {
     let rgba = shader.shade(&segment(f));
     if !opts.shading.is_active() {
         return rgba;
     }
     let lit_at = |w: f32| lit_point(s, view, opts, x, y, f.z_front + w as f64 * (f.z_back - f.z_front));
-    crate::shading::light_segment(&segment(f), rgba, None, lit_at, |p| shader.shade(p)).0
+    let shade_pieces = |p: &SegmentBatch, out: &mut [Rgba32; BATCH]| shader.shade_batch(p, out);
+    crate::shading::light_segment(&segment(f), rgba, None, lit_at, shade_pieces, pieces).0
 }
 
 /// The lighting terms at depth `z` of pixel (x, y): the normal, position
@@ -833,7 +838,7 @@ fn draw_tet(
     let thick_rgba = if pt_linear && !s.clipped {
         let Some(t) = s.thick else { return };
         match s.fragment(&view.frame, t[0], t[1]) {
-            Some(f) => Some(shade(s, view, shader, opts, &f, t[0], t[1])),
+            Some(f) => Some(shade(s, view, shader, opts, &f, (t[0], t[1]), &mut ctx.lit_pieces)),
             None => return,
         }
     } else {

@@ -238,12 +238,30 @@ pub struct Shading {
     pub gradient_floor: f32,
 }
 
+/// `x.powi(n)` inline, bit for bit: the square-and-multiply sequence of
+/// the runtime's `__powidf2` (what `powi` with an exponent known only at run
+/// time calls), without the call (a lit sample evaluates it per light).
+#[inline(always)]
+fn powi_inline(mut x: f64, mut n: u32) -> f64 {
+    let mut r = 1.0;
+    loop {
+        if n & 1 == 1 {
+            r *= x;
+        }
+        n >>= 1;
+        if n == 0 {
+            return r;
+        }
+        x *= x;
+    }
+}
+
 /// x^p for x in [0, 1]: by multiplications when p is a whole number up to
 /// 128 (the usual shininess; a tenth of `powf`'s cost), else `powf`.
 #[inline]
 fn pow_shininess(x: f64, p: f32) -> f64 {
     if p == p.trunc() && (0.0..=128.0).contains(&p) {
-        x.powi(p as i32)
+        powi_inline(x, p as u32)
     } else {
         x.powf(p as f64)
     }
@@ -380,8 +398,24 @@ impl Shading {
 /// component (a first-order bound on the one-point rule's error).
 pub const LIT_SPLIT_TOLERANCE: f64 = 5e-4;
 
-/// Most pieces a lit segment is split into.
+/// Most pieces a lit segment is split into (at most one shading batch).
 pub const LIT_MAX_PIECES: usize = 32;
+const _: () = assert!(LIT_MAX_PIECES <= tet_preint::BATCH);
+
+/// [`light_segment`]'s scratch: the pieces of a split segment and their
+/// colours, one shading batch, kept by each tile so that a split zeroes no
+/// 2 KiB of arrays.
+#[derive(Debug, Clone)]
+pub struct LitPieces {
+    batch: tet_preint::SegmentBatch,
+    rgba: [tet_preint::Rgba32; tet_preint::BATCH],
+}
+
+impl Default for LitPieces {
+    fn default() -> Self {
+        LitPieces { batch: tet_preint::SegmentBatch::default(), rgba: [[0.0; 4]; tet_preint::BATCH] }
+    }
+}
 
 /// Where along a segment of opacity `alpha` its light comes from, as a
 /// fraction of its length: the centroid of the emission weight e^(−τu)
@@ -406,17 +440,23 @@ pub fn emission_centroid(alpha: f32) -> f32 {
 /// little over it, else split into up to [`LIT_MAX_PIECES`] equal pieces
 /// (their number growing with the square root of variation × colour, as
 /// the midpoint rule's error falls with the square of the piece), each
-/// shaded by `shade` and lit at its own midpoint, composited in order. A
+/// shaded by `shade_batch` (all pieces in one batch, so a table's batched
+/// lookup serves them; [`SegmentShader::shade_batch`] returns what
+/// `shade` would, piece by piece) and lit at its own emission centroid,
+/// composited in order. A
 /// highlight or a shadow edge inside one long segment is thus not decided
 /// by a single point. `front`: the terms at the segment's front when the
 /// caller has them (the previous segment's back, returned as the second
 /// value when it was computed). Both CPU renderers call this.
+///
+/// [`SegmentShader::shade_batch`]: tet_preint::SegmentShader::shade_batch
 pub fn light_segment(
     seg: &tet_preint::Segment,
     c: [f32; 4],
     front: Option<LitPoint>,
     mut lit_at: impl FnMut(f32) -> LitPoint,
-    mut shade: impl FnMut(&tet_preint::Segment) -> [f32; 4],
+    mut shade_batch: impl FnMut(&tet_preint::SegmentBatch, &mut [tet_preint::Rgba32; tet_preint::BATCH]),
+    scratch: &mut LitPieces,
 ) -> ([f32; 4], Option<LitPoint>) {
     let weight = c.iter().fold(0.0f32, |a, &x| a.max(x)) as f64;
     if weight == 0.0 {
@@ -440,16 +480,21 @@ pub fn light_segment(
     let mut out = [0.0f32; 4];
     let step = 1.0 / pieces as f32;
     let lerp = |a: f32, b: f32, w: f32| a + w * (b - a);
+    let bounds = |j: usize| (j as f32 * step, (j + 1) as f32 * step);
+    // LIT_MAX_PIECES ≤ BATCH: every piece in one batch.
+    let LitPieces { batch, rgba: shaded } = scratch;
     for j in 0..pieces {
-        let (w0, w1) = (j as f32 * step, (j + 1) as f32 * step);
-        let piece = tet_preint::Segment {
-            s_front: lerp(seg.s_front, seg.s_back, w0),
-            s_back: lerp(seg.s_front, seg.s_back, w1),
-            grad_front: lerp(seg.grad_front, seg.grad_back, w0),
-            grad_back: lerp(seg.grad_front, seg.grad_back, w1),
-            len_world: seg.len_world * step,
-        };
-        let rgba = shade(&piece);
+        let (w0, w1) = bounds(j);
+        batch.s_front[j] = lerp(seg.s_front, seg.s_back, w0);
+        batch.s_back[j] = lerp(seg.s_front, seg.s_back, w1);
+        batch.grad_front[j] = lerp(seg.grad_front, seg.grad_back, w0);
+        batch.grad_back[j] = lerp(seg.grad_front, seg.grad_back, w1);
+        batch.len_world[j] = seg.len_world * step;
+    }
+    batch.len = pieces;
+    shade_batch(batch, shaded);
+    for (j, &rgba) in shaded.iter().enumerate().take(pieces) {
+        let (w0, w1) = bounds(j);
         let lit = lit_at(w0 + (w1 - w0) * emission_centroid(rgba[3])).apply(rgba);
         let t = 1.0 - out[3];
         for (o, l) in out.iter_mut().zip(lit) {
@@ -597,6 +642,83 @@ mod tests {
 
     fn apply(s: &Shading, px: [f32; 4], g: DVec3, v: DVec3) -> [f32; 4] {
         s.apply(px, g, DVec3::ZERO, v, no_shadow)
+    }
+
+    #[test]
+    fn powi_inline_is_powi_bit_for_bit() {
+        let mut rng = tet_mesh::XorShift64(7);
+        let mut xs = vec![0.0, 1.0, 0.5, 1.0 - f64::EPSILON, f64::MIN_POSITIVE, 1e-300, 0.999_999];
+        xs.extend((0..200).map(|_| rng.range(0.0, 1.0)));
+        for &x in &xs {
+            for n in 0..=128u32 {
+                // black_box: an exponent LLVM cannot see, as in lit_point.
+                let want = x.powi(std::hint::black_box(n as i32));
+                assert_eq!(powi_inline(x, n).to_bits(), want.to_bits(), "{x}^{n}");
+            }
+        }
+    }
+
+    const BATCH_STALE: usize = 40;
+
+    /// A split segment's pieces shaded in one batch give what shading them
+    /// one by one gave: the same pieces, the same order, each lit at its
+    /// own emission centroid.
+    #[test]
+    fn a_split_segment_is_lit_piece_by_piece_from_one_batch() {
+        let seg = tet_preint::Segment { s_front: 0.1, s_back: 0.9, grad_front: 0.3, grad_back: 1.7, len_world: 2.0 };
+        let shade_one = |p: &tet_preint::Segment| -> [f32; 4] {
+            let a = (0.4 * p.len_world * (p.s_front + p.s_back)).min(0.9);
+            [0.5 * a, 0.3 * a * p.grad_back, 0.2 * a, a]
+        };
+        // Terms varying strongly along the segment: many pieces.
+        let lit_at = |w: f32| LitPoint { diffuse: 0.2 + 3.0 * w as f64, specular: (w * w) as f64, silhouette: 1.0 };
+        let c = shade_one(&seg);
+        let mut calls = 0;
+        let mut scratch = LitPieces::default();
+        // Stale pieces from an earlier, longer split must not matter.
+        scratch.batch.len = BATCH_STALE;
+        scratch.batch.s_front.fill(f32::NAN);
+        let (got, back) = light_segment(
+            &seg,
+            c,
+            None,
+            lit_at,
+            |b, out| {
+                calls += 1;
+                for (i, o) in out.iter_mut().enumerate().take(b.len) {
+                    *o = shade_one(&b.get(i));
+                }
+            },
+            &mut scratch,
+        );
+        assert_eq!(calls, 1);
+        let weight = c.iter().fold(0.0f32, |a, &x| a.max(x)) as f64;
+        let (f, m, bk) = (lit_at(0.0), lit_at(emission_centroid(c[3])), lit_at(1.0));
+        let var = |g: fn(&LitPoint) -> f64| (g(&f) - g(&m)).abs() + (g(&m) - g(&bk)).abs();
+        let variation = var(|p| p.diffuse) + var(|p| p.specular) + var(|p| p.silhouette);
+        let pieces = ((variation * weight / LIT_SPLIT_TOLERANCE).sqrt().ceil() as usize).clamp(1, LIT_MAX_PIECES);
+        assert!(pieces > 8, "{pieces}");
+        let mut want = [0.0f32; 4];
+        let step = 1.0 / pieces as f32;
+        let lerp = |a: f32, b: f32, w: f32| a + w * (b - a);
+        for j in 0..pieces {
+            let (w0, w1) = (j as f32 * step, (j + 1) as f32 * step);
+            let piece = tet_preint::Segment {
+                s_front: lerp(seg.s_front, seg.s_back, w0),
+                s_back: lerp(seg.s_front, seg.s_back, w1),
+                grad_front: lerp(seg.grad_front, seg.grad_back, w0),
+                grad_back: lerp(seg.grad_front, seg.grad_back, w1),
+                len_world: seg.len_world * step,
+            };
+            let rgba = shade_one(&piece);
+            let lit = lit_at(w0 + (w1 - w0) * emission_centroid(rgba[3])).apply(rgba);
+            let t = 1.0 - want[3];
+            for (o, l) in want.iter_mut().zip(lit) {
+                *o += t * l;
+            }
+        }
+        assert_eq!(got, want);
+        assert_eq!(back, Some(bk));
     }
 
     #[test]

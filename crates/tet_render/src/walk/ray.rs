@@ -168,6 +168,8 @@ pub(crate) struct RayBatch {
     /// Each segment's ends (lighting only): what is lit is the midpoint.
     pub(crate) lit_ends: [LitEnds; BATCH],
     pub(crate) rgba: [Rgba32; BATCH],
+    /// The pieces of a split lit segment ([`crate::shading::light_segment`]).
+    pub(crate) pieces: crate::shading::LitPieces,
 }
 
 /// The first batch of a ray holds this many segments, each next one twice
@@ -348,6 +350,7 @@ impl WalkCtx<'_> {
                 segs: SegmentBatch::default(),
                 lit_ends: [LitEnds::default(); BATCH],
                 rgba: [[0.0; 4]; BATCH],
+                pieces: Default::default(),
             })
         };
         let mut batches: Vec<Box<RayBatch>> = (0..lanes).map(|_| new_batch()).collect();
@@ -750,8 +753,10 @@ impl WalkCtx<'_> {
         front: Option<LitPoint>,
         ends: &LitEnds,
         view_dir: DVec3,
+        pieces: &mut crate::shading::LitPieces,
     ) -> (Rgba32, Option<LitPoint>) {
-        crate::shading::light_segment(seg, c, front, |w| self.lit_at(ends, w, view_dir), |p| self.shader.shade(p))
+        let lit_at = |w| self.lit_at(ends, w, view_dir);
+        crate::shading::light_segment(seg, c, front, lit_at, |b, out| self.shader.shade_batch(b, out), pieces)
     }
 
     /// Shades the batch and composites it under `acc` in order; true once
@@ -783,7 +788,7 @@ impl WalkCtx<'_> {
                 let front = prev_back
                     .filter(|(p, _)| ends.u_front == 0.0 && p.ids == ends.ab[0].ids && p.lam == ends.ab[0].lam)
                     .map(|(_, l)| l);
-                let (lit, back) = self.light_segment(&seg, c, front, ends, vd);
+                let (lit, back) = self.light_segment(&seg, c, front, ends, vd, &mut batch.pieces);
                 c = lit;
                 prev_back = back.map(|l| (ends.ab[1], l));
             }

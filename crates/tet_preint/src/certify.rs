@@ -395,10 +395,49 @@ impl SegmentShader for CertifiedTable3d {
         if self.is_plain() {
             return self.table.shade_batch(segs, out);
         }
+        BATCH_SCRATCH.with(|cell| match cell.try_borrow_mut() {
+            Ok(mut kept) => self.shade_batch_with(segs, out, kept.get_or_insert_with(Default::default)),
+            // Called again from inside a call on this thread (a shader
+            // built on this one): arrays of its own.
+            Err(_) => self.shade_batch_with(segs, out, &mut Box::default()),
+        });
+    }
+}
+
+/// [`CertifiedTable3d`]'s `shade_batch` working arrays (~5 KiB), kept per
+/// thread: zeroing them on every call cost more than the lookups of a short
+/// batch (a lit segment's pieces, [`SegmentShader::shade_batch`] with a few
+/// segments).
+struct BatchScratch {
+    plain: SegmentBatch,
+    slot: [usize; method::BATCH],
+    cut: CutBatch,
+    tmp: [Rgba32; method::BATCH],
+}
+
+impl Default for BatchScratch {
+    fn default() -> Self {
+        BatchScratch {
+            plain: SegmentBatch::default(),
+            slot: [0; method::BATCH],
+            cut: CutBatch::default(),
+            tmp: [[0.0; 4]; method::BATCH],
+        }
+    }
+}
+
+thread_local! {
+    static BATCH_SCRATCH: std::cell::RefCell<Option<Box<BatchScratch>>> = const { std::cell::RefCell::new(None) };
+}
+
+impl CertifiedTable3d {
+    /// `shade_batch` on working arrays `sc` (whatever they held: every
+    /// entry read is written first).
+    fn shade_batch_with(&self, segs: &SegmentBatch, out: &mut [Rgba32; method::BATCH], sc: &mut BatchScratch) {
         let n = segs.len.min(method::BATCH);
-        let mut plain = SegmentBatch::default();
-        let mut slot = [0usize; method::BATCH];
-        let mut cut = CutBatch::default();
+        let BatchScratch { plain, slot, cut, tmp } = sc;
+        plain.len = 0;
+        (cut.pieces.len, cut.segs) = (0, 0);
         for i in 0..n {
             let seg = segs.get(i);
             match self.route(&seg) {
@@ -409,7 +448,7 @@ impl SegmentShader for CertifiedTable3d {
                 Route::Exact => out[i] = self.exact.as_ref().map_or([0.0; 4], |e| e.shade(&seg)),
                 Route::Split(r) if r.len() < method::BATCH => {
                     if cut.pieces.len + r.len() + 1 > method::BATCH {
-                        cut.shade(&self.table, out);
+                        cut.shade(&self.table, out, tmp);
                     }
                     cut.owners[cut.segs] = (i, cut.pieces.len);
                     cut.segs += 1;
@@ -423,10 +462,9 @@ impl SegmentShader for CertifiedTable3d {
                 Route::Split(r) => out[i] = self.shade_split(&seg, r),
             }
         }
-        cut.shade(&self.table, out);
+        cut.shade(&self.table, out, tmp);
         if plain.len > 0 {
-            let mut tmp = [[0.0f32; 4]; method::BATCH];
-            self.table.shade_batch(&plain, &mut tmp);
+            self.table.shade_batch(plain, tmp);
             for k in 0..plain.len {
                 out[slot[k]] = tmp[k];
             }
@@ -470,13 +508,13 @@ impl Default for CutBatch {
 
 impl CutBatch {
     /// Looks the pieces up and composites each segment's in order into
-    /// `out` (as `CertifiedTable3d::shade_split`), then empties.
-    fn shade(&mut self, table: &Table3d, out: &mut [Rgba32; method::BATCH]) {
+    /// `out` (as `CertifiedTable3d::shade_split`), then empties; `rgba`
+    /// holds the pieces' colours (any contents on entry).
+    fn shade(&mut self, table: &Table3d, out: &mut [Rgba32; method::BATCH], rgba: &mut [Rgba32; method::BATCH]) {
         if self.segs == 0 {
             return;
         }
-        let mut rgba = [[0.0f32; 4]; method::BATCH];
-        table.shade_batch(&self.pieces, &mut rgba);
+        table.shade_batch(&self.pieces, rgba);
         for k in 0..self.segs {
             let (i, first) = self.owners[k];
             let end = if k + 1 < self.segs { self.owners[k + 1].1 } else { self.pieces.len };
@@ -1023,6 +1061,62 @@ pub fn worst_segments(
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    /// A batch shaded while this thread's kept arrays are in use (a shader
+    /// built on this one, calling it from inside its own call) gets arrays
+    /// of its own and the same colours; calls after reuse the kept ones
+    /// whatever an earlier, longer batch left in them.
+    #[test]
+    fn batches_agree_with_shade_whoever_holds_the_scratch() {
+        let d = TableDomain::new(0.0, 1.0, 0.5, 2.0).unwrap();
+        let tf = TransferFunction::from_json(
+            r#"{"color": [[0, 1, 0, 0], [1, 0, 0, 1]], "opacity": [[0, 0.1], [0.3, 4], [0.31, 0.1], [0.7, 2], [1, 0.2]], "unit_distance": 1}"#,
+        )
+        .unwrap();
+        let params = Table3dParams { n_s: 32, n_l: 32, ..Table3dParams::data() };
+        let certificate = Certificate {
+            target: 1e-3,
+            certified: false,
+            max_error: 1.0,
+            margin: 0.9,
+            split_at_tf_nodes: true,
+            exact_intervals: vec![1],
+            intervals: 4,
+            exact_share: 0.0,
+            memory_budget: 0,
+            memory_bytes: 0,
+            sets: Vec::new(),
+            attempts: Vec::new(),
+            limit: None,
+        };
+        let t = CertifiedTable3d::from_parts(Table3d::build(&tf, &d, &params).unwrap(), Some(&tf), Some(certificate))
+            .unwrap();
+        assert!(!t.is_plain());
+        let segs: Vec<Segment> = (0..100)
+            .map(|k| {
+                let a = (k * 37 % 100) as f32 / 100.0;
+                let b = (a + [0.02, -0.2, 0.45][k % 3]).clamp(0.0, 1.0);
+                Segment { s_front: a, s_back: b, len_world: 0.1 + (k % 5) as f32 * 0.3, ..Default::default() }
+            })
+            .collect();
+        let check = |chunk: &[Segment]| {
+            let mut out = [[0.0f32; 4]; method::BATCH];
+            t.shade_batch(&SegmentBatch::from_segments(chunk), &mut out);
+            for (i, s) in chunk.iter().enumerate() {
+                assert_eq!(out[i], t.shade(s), "{s:?}");
+            }
+        };
+        // A full batch, then shorter ones on the arrays it left.
+        for len in [64, 36, 3, 1] {
+            check(&segs[100 - len..]);
+        }
+        BATCH_SCRATCH.with(|cell| {
+            let _held = cell.borrow_mut();
+            check(&segs[..64]);
+            check(&segs[10..20]);
+        });
+    }
     use super::NodeIndex;
     use proptest::prelude::*;
 

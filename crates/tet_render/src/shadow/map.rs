@@ -64,14 +64,15 @@ fn bounds_of(points: &[[f64; 3]]) -> (DVec3, DVec3) {
 /// Index bins along each ray.
 const BINS: usize = 32;
 
-/// Optical depth by which a lookup's four nearest rays must differ for it
-/// to start interpolating bicubically ([`DeepShadowMap::depth_at`]; fully
-/// from twice that); below, the bilinear value is within it of each of
-/// them. On Blunt Fin the bicubic
-/// lookup cut the shadows' error 5–10× (RMSE) with the sample and dense
-/// TFs and halved the held-out TFs' maxima; above 0.05 only, it costs the
-/// shadowed frame a quarter more than bilinear lookups everywhere, against
-/// two thirds for bicubic ones everywhere (crates/tet_engine/results/lighting.md).
+/// How much a lookup's four nearest rays must differ for it to start
+/// interpolating bicubically ([`DeepShadowMap::depth_at`]; fully from twice
+/// that): their optical depths' spread times the transmittance of the
+/// least deep (what an error in depth there costs in light). Below, the
+/// bilinear value is that close to each of them; deep in a shadow, where
+/// no light is left to get wrong, it stays bilinear. On Blunt Fin the
+/// bicubic lookup halved the held-out TFs' largest shadow errors (the
+/// finer knots did most of the 5–10× lower RMSE with the sample and dense
+/// TFs; crates/tet_engine/results/lighting.md).
 pub const CUBIC_ABOVE: f64 = 0.05;
 
 /// Catmull–Rom weights of the four samples at −1, 0, 1, 2 for a point at
@@ -387,9 +388,9 @@ impl DeepShadowMap {
         // Catmull–Rom over the 4 × 4 nearest rays (rays past the map's edge
         // read as the edge's), held within the four nearest rays' range so
         // that a step does not overshoot; blended in from bilinear as their
-        // spread goes from CUBIC_ABOVE to twice that, so the field stays
-        // continuous.
-        let cubic_share = ((hi - lo) / CUBIC_ABOVE - 1.0).clamp(0.0, 1.0);
+        // spread (weighted by the light left, see CUBIC_ABOVE) goes from
+        // CUBIC_ABOVE to twice that, so the field stays continuous.
+        let cubic_share = ((-lo).exp() * (hi - lo) / CUBIC_ABOVE - 1.0).clamp(0.0, 1.0);
         if cubic_share == 0.0 {
             return bilinear;
         }

@@ -139,8 +139,7 @@ fn light_shadow_depth(l: u32, pos_rel: vec3<f32>) -> f32 {
 }
 
 // Optical depth to `pos_rel` through map slot `s` (DeepShadowMap::depth_at):
-// bilinear across the four nearest rays (the CPU's turns bicubic where they
-// disagree: tet_render::shadow::CUBIC_ABOVE), each read where it crosses the
+// bilinear across the four nearest rays, each read where it crosses the
 // point's depth along the light (a point light's fan: the point's plane
 // across its axis).
 fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {

@@ -431,7 +431,9 @@ impl SectionFile {
 #[derive(Debug, thiserror::Error)]
 #[error("cannot {action}: {source}")]
 pub struct AtomicWriteError {
-    /// "create a temporary file beside", "write", "sync" or "rename into place".
+    /// "create a temporary file beside", "write", "sync", "rename into
+    /// place", or, for a device or FIFO ([`persist_temp`]), "read back" or
+    /// "open".
     pub action: &'static str,
     #[source]
     pub source: io::Error,
@@ -456,8 +458,28 @@ pub fn write_atomic(
         w.flush().map_err(step("write"))?;
     }
     tmp.as_file().sync_all().map_err(step("sync"))?;
-    tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
-    Ok(())
+    persist_temp(tmp.into_temp_path(), path)
+}
+
+/// Puts a finished temporary file at `path`: renamed over it, or, where
+/// `path` names something other than a regular file or a directory (after
+/// symlinks: a device such as /dev/null or a terminal, a FIFO, a socket),
+/// its bytes written into that and the temporary file removed. Renaming
+/// over /dev/null replaced the device with an ordinary file (tetkit runs as
+/// root on its CI machines): whatever programs threw away there afterwards
+/// was read back by the next one reading it — cargo's probe of rustc failed
+/// on a gcc message so (2026-12-06).
+pub fn persist_temp(tmp: tempfile::TempPath, path: &Path) -> Result<(), AtomicWriteError> {
+    let special = std::fs::metadata(path).is_ok_and(|m| !m.file_type().is_file() && !m.file_type().is_dir());
+    if !special {
+        tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
+        return Ok(());
+    }
+    let step = |action: &'static str| move |source| AtomicWriteError { action, source };
+    let mut from = std::fs::File::open(&tmp).map_err(step("read back"))?;
+    let mut to = std::fs::OpenOptions::new().write(true).open(path).map_err(step("open"))?;
+    io::copy(&mut from, &mut to).map_err(step("write"))?;
+    to.flush().map_err(step("write"))
 }
 
 /// A temporary file (`{tmp_prefix}XXXX.tmp`) in `path`'s directory, with
@@ -640,8 +662,7 @@ impl SectionWriter {
         file.write_all(&table).map_err(step("write"))?;
         file.sync_all().map_err(step("sync"))?;
         drop(file);
-        self.tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
-        Ok(())
+        persist_temp(self.tmp, path)
     }
 }
 
@@ -898,6 +919,26 @@ mod tests {
         write_atomic(&out, ".t-", |w| w.write_all(b"x")).unwrap();
         let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode(&out), mode(&plain));
+    }
+
+    /// Output to /dev/null (or any device or FIFO) is written into it, not
+    /// renamed over it: the device stays a device (a regression: renaming
+    /// made it an ordinary file, as root).
+    #[cfg(unix)]
+    #[test]
+    fn atomic_writes_to_a_device_write_into_it() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = Path::new("/dev/null");
+        if !std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device()) {
+            eprintln!("note: /dev/null is not a device here; nothing to check");
+            return;
+        }
+        write_atomic(null, ".t-", |w| w.write_all(b"thrown away")).unwrap();
+        let mut sections = SectionWriter::create(null, ".t-", &FMT, 4).unwrap();
+        sections.section("DATA", &[1u8, 2, 3]).unwrap();
+        sections.finish(null).unwrap();
+        assert!(std::fs::metadata(null).unwrap().file_type().is_char_device(), "/dev/null replaced");
+        assert_eq!(std::fs::read(null).unwrap(), b"", "/dev/null keeps nothing");
     }
 
     #[test]

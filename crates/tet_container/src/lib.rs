@@ -439,6 +439,11 @@ pub struct AtomicWriteError {
     pub source: io::Error,
 }
 
+/// The [`AtomicWriteError`] of step `action`, for `map_err`.
+fn step(action: &'static str) -> impl Fn(io::Error) -> AtomicWriteError {
+    move |source| AtomicWriteError { action, source }
+}
+
 /// Writes `path` atomically: `write` fills a temporary file (named
 /// `{tmp_prefix}XXXX.tmp`) in the same directory through a 1 MiB buffer,
 /// which is synced and renamed over `path`. On error the temporary file is
@@ -450,7 +455,6 @@ pub fn write_atomic(
     tmp_prefix: &str,
     write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), AtomicWriteError> {
-    let step = |action: &'static str| move |source| AtomicWriteError { action, source };
     let mut tmp = temp_beside(path, tmp_prefix)?;
     {
         let mut w = io::BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
@@ -475,7 +479,6 @@ pub fn persist_temp(tmp: tempfile::TempPath, path: &Path) -> Result<(), AtomicWr
         tmp.persist(path).map_err(|e| AtomicWriteError { action: "rename into place", source: e.error })?;
         return Ok(());
     }
-    let step = |action: &'static str| move |source| AtomicWriteError { action, source };
     let mut from = std::fs::File::open(&tmp).map_err(step("read back"))?;
     let mut to = std::fs::OpenOptions::new().write(true).open(path).map_err(step("open"))?;
     io::copy(&mut from, &mut to).map_err(step("write"))?;
@@ -637,7 +640,6 @@ impl SectionWriter {
     /// syncs the file and renames it over `path`.
     pub fn finish(mut self, path: &Path) -> Result<(), AtomicWriteError> {
         use std::io::Seek;
-        let step = |action: &'static str| move |source| AtomicWriteError { action, source };
         // The table's unused room, past the padding's own entry, as one
         // more section of zeros.
         let pad_at = align(HEADER_LEN + (self.entries.len() + 1) * ENTRY_LEN) as u64;

@@ -227,7 +227,7 @@ fn write_video(ffmpeg: &Path, output: &Path, size: [u32; 2], fps: f64, frames: &
         .kind(ExitKind::Output);
     }
     tet_container::persist_temp(tmp.into_temp_path(), output)
-        .with_context(|| format!("renaming the encoded video into place as {}", output.display()))
+        .with_context(|| format!("putting the encoded video in place as {}", output.display()))
         .kind(ExitKind::Output)?;
     Ok(())
 }

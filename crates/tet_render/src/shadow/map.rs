@@ -505,18 +505,18 @@ fn walk_ray(
         // over one segment: knots every quarter of depth, at most 16, left
         // up to 3/255 of shadow error there on the held-out TFs).
         tf.extinction_knots(s0, s1, extinction);
+        // Knots are stored as f32: ones closer than a few of its steps at
+        // this parameter would merge, and a merge keeps the deeper depth at
+        // the earlier place (a face the light enters would read as the
+        // opaque inside just past it).
+        let min_knot_gap = 4.0 * f32::EPSILON as f64 * seg.t_front.abs().max(seg.back.t.abs());
         let mut prev = 0.0;
         for w in extinction.windows(2) {
             let ([fa, ra], [fb, rb]) = (w[0], w[1]);
             let width = (fb - fa) * len;
             let end = prev + 0.5 * (ra + rb) * width;
-            // Knots are stored as f32: ones closer than a few of its steps
-            // at this parameter would merge, and a merge keeps the deeper
-            // depth at the earlier place (a face the light enters would
-            // read as the opaque inside just past it).
-            let f32_step = f32::EPSILON as f64 * seg.t_front.abs().max(seg.back.t.abs());
-            let pieces = ((end - prev) / KNOT_DEPTH).ceil().min((width / (4.0 * f32_step)).floor()).clamp(1.0, KNOT_MAX)
-                as usize;
+            let pieces =
+                ((end - prev) / KNOT_DEPTH).ceil().min((width / min_knot_gap).floor()).clamp(1.0, KNOT_MAX) as usize;
             for q in 1..=pieces {
                 let u = q as f64 / pieces as f64;
                 let part = if q == pieces { end } else { prev + width * u * (ra + 0.5 * (rb - ra) * u) };

@@ -64,6 +64,10 @@ struct ShadowMap {
 }
 
 const SHADOW_BINS: u32 = 32u;
+// How much a lookup's four nearest rays must differ (their spread in
+// optical depth times the light left) for it to turn bicubic
+// (tet_render::shadow::CUBIC_ABOVE).
+const SHADOW_CUBIC_ABOVE: f32 = 0.05;
 const SHADOW_SLOTS: u32 = 6u;
 
 @group(0) @binding(22) var<storage, read> shadow_maps: array<ShadowMap, 48>;
@@ -112,36 +116,93 @@ fn shadow_coord(x: f32, x0: f32, dx: f32, n: u32) -> vec2<f32> {
 
 // Optical depth from light `l` to `pos_rel` (ShadowField::depth_at): its
 // map, or the face of its cube that sees the point (the largest coordinate
-// relative to the light, ties to the first axis, as cube_face).
+// relative to the light, ties to the first axis, as cube_face). One call
+// of shadow_depth, not one a branch: on llvmpipe every loop met counts
+// against one shared iteration limit even where no lane takes it (see
+// shadow_depth).
 fn light_shadow_depth(l: u32, pos_rel: vec3<f32>) -> f32 {
     let first = l * SHADOW_SLOTS;
-    if shadow_maps[first].cube == 0u {
-        return shadow_depth(first, pos_rel);
+    var slot = first;
+    if shadow_maps[first].cube != 0u {
+        let q = pos_rel - shadow_maps[first].origin.xyz;
+        let a = abs(q);
+        if !(max(max(a.x, a.y), a.z) > 0.0) {
+            return 0.0;
+        }
+        var face = 4u;
+        var neg = q.z < 0.0;
+        if a.x >= a.y && a.x >= a.z {
+            face = 0u;
+            neg = q.x < 0.0;
+        } else if a.y >= a.z {
+            face = 2u;
+            neg = q.y < 0.0;
+        }
+        if neg {
+            face += 1u;
+        }
+        slot = first + face;
     }
-    let q = pos_rel - shadow_maps[first].origin.xyz;
-    let a = abs(q);
-    if !(max(max(a.x, a.y), a.z) > 0.0) {
-        return 0.0;
+    return shadow_depth(slot, pos_rel);
+}
+
+// Where ray (ii, jj) of map `m` is read for a point at `axial` along the
+// light: that depth for parallel rays, the distance at which a fan's ray
+// crosses the point's plane.
+fn shadow_ray_t(m: ShadowMap, fan: bool, axial: f32, ii: u32, jj: u32) -> f32 {
+    if fan {
+        let su = m.u0 + f32(ii) * m.du;
+        let sv = m.v0 + f32(jj) * m.dv;
+        return axial * sqrt(1.0 + su * su + sv * sv);
     }
-    var face = 4u;
-    var neg = q.z < 0.0;
-    if a.x >= a.y && a.x >= a.z {
-        face = 0u;
-        neg = q.x < 0.0;
-    } else if a.y >= a.z {
-        face = 2u;
-        neg = q.y < 0.0;
+    return axial;
+}
+
+// Catmull-Rom weights of the samples at -1, 0, 1, 2 for a point at t in
+// [0, 1] (tet_render::shadow::catmull_rom).
+fn catmull_rom(t: f32) -> vec4<f32> {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    return vec4<f32>(
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    );
+}
+
+// The 4 x 4 rays around a lookup, r = 4 q + p for ray (i - 1 + p, j - 1 + q),
+// in the order they are read: the nearest four (5, 6, 9, 10) first, then
+// the other twelve as 4-bit entries (SHADOW_RING_LO, then SHADOW_RING_HI).
+const SHADOW_RING_LO: u32 = 0xB8743210u;
+const SHADOW_RING_HI: u32 = 0xFEDCu;
+
+fn shadow_ray_of_read(k: u32) -> u32 {
+    if k < 4u {
+        return 5u + (k & 1u) + 4u * (k >> 1u);
     }
-    if neg {
-        face += 1u;
+    let m = k - 4u;
+    var word = SHADOW_RING_LO;
+    if m >= 8u {
+        word = SHADOW_RING_HI;
     }
-    return shadow_depth(first + face, pos_rel);
+    return (word >> (4u * (m & 7u))) & 15u;
 }
 
 // Optical depth to `pos_rel` through map slot `s` (DeepShadowMap::depth_at):
-// bilinear across the four nearest rays, each read where it crosses the
-// point's depth along the light (a point light's fan: the point's plane
-// across its axis).
+// bilinear across the four nearest rays, turning bicubic where they
+// disagree (Catmull-Rom over the 4 x 4 nearest rays, the map's edge rays
+// past it, held within the four nearest rays' range, blended in as their
+// spread times the light left grows from SHADOW_CUBIC_ABOVE to twice
+// that); each ray read where it crosses the point's depth along the light
+// (a point light's fan: the point's plane across its axis).
+//
+// The rays are read in one loop, the twelve outer ones only where the
+// lookup turns bicubic: on llvmpipe (lavapipe) every loop of an invocation
+// shares 65 535 iterations, and a loop no lane takes still runs once, so
+// a loop per ray would cost the compute rasterizer's composite pass (which
+// inlines this for lit fragments) iterations on every unlit fragment too
+// (compute_raster's long_tile_lists_composite_every_tet).
 fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     let m = shadow_maps[s];
     var u: f32;
@@ -166,21 +227,50 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     let cv = shadow_coord(v, m.v0, m.dv, m.nv);
     let i = u32(cu.x);
     let j = u32(cv.x);
-    var depth: array<f32, 4>;
-    for (var k = 0u; k < 4u; k++) {
-        let ii = i + (k & 1u);
-        let jj = j + (k >> 1u);
-        var t = axial;
-        if fan {
-            let su = m.u0 + f32(ii) * m.du;
-            let sv = m.v0 + f32(jj) * m.dv;
-            t = axial * sqrt(1.0 + su * su + sv * sv);
+    var depth: array<f32, 16>;
+    var lo = 0.0;
+    var hi = 0.0;
+    var bilinear = 0.0;
+    var cubic_share = 0.0;
+    var reads = 4u;
+    var k = 0u;
+    loop {
+        if k >= reads {
+            break;
         }
-        depth[k] = shadow_ray_depth(m, ii, jj, t);
+        let r = shadow_ray_of_read(k);
+        let ii = min(max(i + (r & 3u), 1u) - 1u, m.nu - 1u);
+        let jj = min(max(j + (r >> 2u), 1u) - 1u, m.nv - 1u);
+        depth[r] = shadow_ray_depth(m, ii, jj, shadow_ray_t(m, fan, axial, ii, jj));
+        if k == 3u {
+            let a = depth[5];
+            let b = depth[9];
+            let c = depth[6];
+            let e = depth[10];
+            lo = min(min(a, b), min(c, e));
+            hi = max(max(a, b), max(c, e));
+            let bottom = a + cu.y * (c - a);
+            let top = b + cu.y * (e - b);
+            bilinear = bottom + cv.y * (top - bottom);
+            cubic_share = clamp(exp(-lo) * (hi - lo) / SHADOW_CUBIC_ABOVE - 1.0, 0.0, 1.0);
+            if cubic_share > 0.0 {
+                reads = 16u;
+            }
+        }
+        k++;
     }
-    let bottom = depth[0] + cu.y * (depth[1] - depth[0]);
-    let top = depth[2] + cu.y * (depth[3] - depth[2]);
-    return bottom + cv.y * (top - bottom);
+    if reads == 4u {
+        return bilinear;
+    }
+    let wu = catmull_rom(cu.y);
+    let wv = catmull_rom(cv.y);
+    // Row by row as the CPU sums them (no loop: see above).
+    let row0 = wu.x * depth[0] + wu.y * depth[1] + wu.z * depth[2] + wu.w * depth[3];
+    let row1 = wu.x * depth[4] + wu.y * depth[5] + wu.z * depth[6] + wu.w * depth[7];
+    let row2 = wu.x * depth[8] + wu.y * depth[9] + wu.z * depth[10] + wu.w * depth[11];
+    let row3 = wu.x * depth[12] + wu.y * depth[13] + wu.z * depth[14] + wu.w * depth[15];
+    let sum = wv.x * row0 + wv.y * row1 + wv.z * row2 + wv.w * row3;
+    return bilinear + cubic_share * (clamp(sum, lo, hi) - bilinear);
 }
 
 // The lighting terms at one point (tet_render's LitPoint): emitted colour

@@ -10,8 +10,9 @@
 //! * **Directional lights: a deep shadow map** ([`DeepShadowMap`]): a grid
 //!   of [`MAP_RAYS`] rays across the light's view of the bounding box,
 //!   each walked through the mesh, its depth kept at every tet crossing,
-//!   TF node and 0.05 of depth between, looked up by position (bilinear
-//!   across rays, linear between knots). Its
+//!   TF node and 0.05 of depth between, looked up by position (linear
+//!   between knots; across rays bilinear, bicubic where the four nearest
+//!   rays differ by more than [`CUBIC_ABOVE`]). Its
 //!   resolution is the grid's, not the mesh's: a shadow edge inside a
 //!   large cell stays sharp to a ray spacing.
 //! * **Point lights outside the mesh's bounding box: a deep shadow map**
@@ -45,7 +46,7 @@ use crate::RenderError;
 
 mod map;
 
-pub use map::{cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, MAP_RAYS};
+pub use map::{catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS};
 
 /// Optical depth at which a shadow walk stops: transmittance below
 /// e^−46 ≈ 1e-20 changes no pixel (what is stored is the transmittance so

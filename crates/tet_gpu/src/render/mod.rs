@@ -272,7 +272,11 @@ const LOOP_LIMITED_PAIRS: u32 = 2 * 1024;
 /// an adapter: a lit fragment may shade its segment in up to 32 pieces
 /// (`tet_render::shading::LIT_MAX_PIECES`), each with the method's lookup
 /// and the lights' loop, about 1 000 iterations in all; 64 such fragments
-/// stay under the limit. Lit frames there take the graphics rasterizer
+/// stay under the limit. A shadowed piece adds per light the map's ray
+/// reads (4, or 16 where the lookup turns bicubic) and each read's walk
+/// through its bin's knots: a frame of many lights in steep shadows can
+/// pass the limit even there, and on the graphics rasterizer it is per
+/// fragment. Lit frames there take the graphics rasterizer
 /// unless [`GpuRenderer::set_chunk_limits`] caps the pairs at this.
 pub const LIT_LOOP_LIMITED_PAIRS: u32 = 64;
 

@@ -64,6 +64,9 @@ struct ShadowMap {
 }
 
 const SHADOW_BINS: u32 = 32u;
+// Rays of at most this many knots are scanned from their first knot
+// (tet_render::shadow::SHORT_RAY).
+const SHADOW_SHORT_RAY: u32 = 8u;
 // How much a lookup's four nearest rays must differ (their spread in
 // optical depth times the light left) for it to turn bicubic
 // (tet_render::shadow::CUBIC_ABOVE).
@@ -81,7 +84,11 @@ fn shadow_ray_depth(m: ShadowMap, i: u32, j: u32, t: f32) -> f32 {
     let b = u32(clamp(t / m.bin_len, 0.0, f32(SHADOW_BINS - 1u)));
     let start = shadow_index[rec];
     let end = shadow_index[rec + SHADOW_BINS];
-    var n = shadow_index[rec + b];
+    // A short ray is scanned whole, as the CPU scans it (same knot found).
+    var n = start;
+    if end - start > SHADOW_SHORT_RAY {
+        n = shadow_index[rec + b];
+    }
     loop {
         if n >= end || shadow_knots[m.knot_base + n].x > t {
             break;

@@ -339,6 +339,11 @@ pub const SHADOW_SLOTS: usize = 6;
 /// `tet_render::shadow::MapLayout::bins`).
 pub const SHADOW_BINS: usize = 32;
 
+/// Shadow-map rays of at most this many knots are scanned from their first
+/// knot, not from a bin (`SHADOW_SHORT_RAY` in lighting.wgsl;
+/// `tet_render::shadow::SHORT_RAY`).
+pub const SHADOW_SHORT_RAY: usize = 8;
+
 /// Lights a [`LightParams`] holds (`tet_render::MAX_LIGHTS`).
 pub const MAX_GPU_LIGHTS: usize = 8;
 pub const LIGHT_HEADLIGHT: u32 = 0;

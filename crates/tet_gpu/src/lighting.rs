@@ -14,7 +14,7 @@ use tet_render::{LightSource, Shading, ShadowField};
 
 use crate::gpu_types::{
     GpuLight, GpuShadowMap, LightParams, LIGHT_DIRECTIONAL, LIGHT_HEADLIGHT, LIGHT_POINT, MAX_GPU_LIGHTS, SHADOW_BINS,
-    SHADOW_SLOTS,
+    SHADOW_SHORT_RAY, SHADOW_SLOTS,
 };
 use crate::GpuError;
 
@@ -92,8 +92,12 @@ impl ShadowMaps {
         light: usize,
     ) -> Result<GpuShadowMap, GpuError> {
         let m = map.layout();
-        if m.bins != SHADOW_BINS {
-            return Err(GpuError::Input(format!("a shadow map of {} bins; the GPU reads {SHADOW_BINS}", m.bins)));
+        if m.bins != SHADOW_BINS || m.short_ray != SHADOW_SHORT_RAY {
+            return Err(GpuError::Input(format!(
+                "a shadow map of {} bins scanning rays of up to {} knots whole; the GPU reads {SHADOW_BINS} and \
+                 {SHADOW_SHORT_RAY}",
+                m.bins, m.short_ray
+            )));
         }
         let (knot_base, index_base) = (self.knots.len(), self.index.len());
         if knot_base + m.knots.len() > u32::MAX as usize || index_base + m.index.len() > u32::MAX as usize {
@@ -136,7 +140,7 @@ impl ShadowMaps {
             return Err(GpuError::Input(format!("light {light}'s shadow map is not representable in f32")));
         }
         self.knots.extend_from_slice(m.knots);
-        self.index.extend_from_slice(m.index);
+        self.index.extend_from_slice(&m.index);
         Ok(slot)
     }
 }

@@ -46,7 +46,7 @@ use crate::RenderError;
 
 mod map;
 
-pub use map::{catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS};
+pub use map::{catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS, SHORT_RAY};
 
 /// Optical depth at which a shadow walk stops: transmittance below
 /// e^−46 ≈ 1e-20 changes no pixel (what is stored is the transmittance so

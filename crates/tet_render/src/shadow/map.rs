@@ -42,12 +42,16 @@ pub struct DeepShadowMap {
     /// depth `t0`, optical depth there), at every tet crossing and every
     /// TF node the ray meets, increasing.
     knots: Vec<[f32; 2]>,
-    /// Per ray r (= j·nu + i), `BINS + 1` indices into `knots`: entry 0 is
-    /// its first knot, entry b (0 < b < BINS) its first knot at or past
-    /// parameter b·`bin_len` (a lookup scans on from there), entry BINS the
-    /// end of its knots.
-    /// One record a ray, so a lookup touches one place for it.
-    index: Vec<u32>,
+    /// Per ray r (= j·nu + i): its knots' range in `knots` and, for a ray
+    /// of more than [`SHORT_RAY`] knots, where its bins start in `bins`
+    /// (unused otherwise). 12 bytes a ray, so that the records of a 256²
+    /// map (0.8 MB) stay in a core's cache while a frame looks it up; the
+    /// knots are what a lookup then waits for.
+    rays: Vec<RayRecord>,
+    /// A long ray's `BINS − 1` inner bins: entry b − 1 is its first knot at
+    /// or past parameter b·`bin_len` (0 < b < BINS), where a lookup in bin
+    /// b scans on from. A short ray is scanned from its first knot.
+    bins: Vec<u32>,
     bin_len: f32,
     /// A point light's map: rays fan out from this point (the light), the
     /// grid is over slopes across `d` and a sample's parameter is its
@@ -63,6 +67,20 @@ fn bounds_of(points: &[[f64; 3]]) -> (DVec3, DVec3) {
 
 /// Index bins along each ray.
 const BINS: usize = 32;
+
+/// Rays of at most this many knots have no bins: a lookup scans them from
+/// their first knot (one or two cache lines), which finds the same knot as
+/// a scan from a bin (knots increase along a ray).
+pub const SHORT_RAY: usize = 8;
+
+/// A ray's knots, `knots[start..end]`, and its bins at `bins[bins_at..]`
+/// (a ray of more than [`SHORT_RAY`] knots).
+#[derive(Debug, Clone, Copy)]
+struct RayRecord {
+    start: u32,
+    end: u32,
+    bins_at: u32,
+}
 
 /// How much a lookup's four nearest rays must differ for it to start
 /// interpolating bicubically ([`DeepShadowMap::depth_at`]; fully from twice
@@ -126,7 +144,7 @@ pub fn cube_face(q: DVec3) -> usize {
 /// and per ray `bins + 1` indices into them (its first knot, its first knot
 /// at or past each bin of length `bin_len`, its end). Positions are in the
 /// frame the map was walked in ([`crate::ShadowField::frame_origin_in_world`]).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct MapLayout<'a> {
     pub e1: DVec3,
     pub e2: DVec3,
@@ -141,8 +159,15 @@ pub struct MapLayout<'a> {
     pub nv: usize,
     pub bin_len: f32,
     pub bins: usize,
+    /// [`SHORT_RAY`].
+    pub short_ray: usize,
     pub knots: &'a [[f32; 2]],
-    pub index: &'a [u32],
+    /// Per ray, `bins + 1` indices into `knots`: entry 0 its first knot,
+    /// entry b (0 < b < bins) its first knot at or past parameter
+    /// b·`bin_len`, entry `bins` the end of its knots. A lookup scans a ray
+    /// of at most [`SHORT_RAY`] knots from its first knot, any other from
+    /// its point's bin.
+    pub index: Vec<u32>,
 }
 
 impl DeepShadowMap {
@@ -183,8 +208,8 @@ impl DeepShadowMap {
             (e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0, d, f64::NEG_INFINITY)
         });
         let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
-        let (knots, index) = index_rays(rows, nu * nv, bin_len, stats);
-        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, knots, index, bin_len, origin: None }
+        let (knots, rays, bins) = index_rays(rows, nu * nv, bin_len, stats);
+        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, knots, rays, bins, bin_len, origin: None }
     }
 
     /// A point light's map (after the same paper's perspective maps): rays
@@ -231,8 +256,24 @@ impl DeepShadowMap {
             (light, (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize(), f64::NEG_INFINITY)
         });
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
-        let (knots, index) = index_rays(rays, nu * nv, bin_len, stats);
-        Some(DeepShadowMap { e1, e2, d, u0, v0, t0: 0.0, du, dv, nu, nv, knots, index, bin_len, origin: Some(light) })
+        let (knots, rays, bins) = index_rays(rays, nu * nv, bin_len, stats);
+        Some(DeepShadowMap {
+            e1,
+            e2,
+            d,
+            u0,
+            v0,
+            t0: 0.0,
+            du,
+            dv,
+            nu,
+            nv,
+            knots,
+            rays,
+            bins,
+            bin_len,
+            origin: Some(light),
+        })
     }
 
     /// A point light's cube of maps (after the same paper's perspective
@@ -300,7 +341,7 @@ impl DeepShadowMap {
                 let (u, v) = (-1.0 + i as f64 * step, -1.0 + j as f64 * step);
                 (start, (d + e1 * u + e2 * v).normalize(), 0.0)
             });
-            let (knots, index) = index_rays(rays, n * n, bin_len, stats);
+            let (knots, rays, bins) = index_rays(rays, n * n, bin_len, stats);
             DeepShadowMap {
                 e1,
                 e2,
@@ -313,7 +354,8 @@ impl DeepShadowMap {
                 nu: n,
                 nv: n,
                 knots,
-                index,
+                rays,
+                bins,
                 bin_len,
                 origin: Some(light),
             }
@@ -355,14 +397,18 @@ impl DeepShadowMap {
                     (axial * (1.0 + su * su + sv * sv).sqrt()) as f32
                 }
             };
-            let rec = &self.index[(j * self.nu + i) * (BINS + 1)..][..BINS + 1];
-            let b = ((t / self.bin_len).max(0.0) as usize).min(BINS - 1);
-            let (lo, end) = (rec[b] as usize, rec[BINS] as usize);
+            let RayRecord { start, end, bins_at } = self.rays[j * self.nu + i];
+            let (start, end) = (start as usize, end as usize);
             // The ray's knots from its bin on; before the first nothing has
             // been crossed, after the last the depth stays.
-            let start = rec[0] as usize;
             let k = &self.knots[start..end];
-            let mut n = lo - start;
+            let mut n = 0;
+            if k.len() > SHORT_RAY {
+                let b = ((t / self.bin_len).max(0.0) as usize).min(BINS - 1);
+                if b > 0 {
+                    n = self.bins[bins_at as usize + b - 1] as usize - start;
+                }
+            }
             while n < k.len() && k[n][0] <= t {
                 n += 1;
             }
@@ -399,14 +445,28 @@ impl DeepShadowMap {
         let jj = |k: usize| (j + k).saturating_sub(1).min(self.nv - 1);
         let mut sum = 0.0;
         for (q, wq) in cv.iter().enumerate() {
-            let row: f64 = cu.iter().enumerate().map(|(p, wp)| wp * at(ii(p), jj(q))).sum();
+            let row: f64 = cu
+                .iter()
+                .enumerate()
+                .map(|(p, wp)| {
+                    // The four nearest rays are read already.
+                    let depth = match (p, q) {
+                        (1, 1) => a,
+                        (2, 1) => c,
+                        (1, 2) => b,
+                        (2, 2) => e,
+                        _ => at(ii(p), jj(q)),
+                    };
+                    wp * depth
+                })
+                .sum();
             sum += wq * row;
         }
         bilinear + cubic_share * (sum.clamp(lo, hi) - bilinear)
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.knots.len() * 8 + self.index.len() * 4
+        self.knots.len() * 8 + self.rays.len() * std::mem::size_of::<RayRecord>() + self.bins.len() * 4
     }
 
     /// A point light's map: the light (its rays fan out from it).
@@ -432,8 +492,20 @@ impl DeepShadowMap {
             nv: self.nv,
             bin_len: self.bin_len,
             bins: BINS,
+            short_ray: SHORT_RAY,
             knots: &self.knots,
-            index: &self.index,
+            index: self
+                .rays
+                .iter()
+                .flat_map(|r| {
+                    let (start, end) = (r.start as usize, r.end as usize);
+                    std::iter::once(r.start)
+                        .chain(
+                            (1..BINS).map(move |b| first_at_or_past(&self.knots, start, end, b as f32 * self.bin_len)),
+                        )
+                        .chain(std::iter::once(r.end))
+                })
+                .collect(),
         }
     }
 
@@ -444,8 +516,14 @@ impl DeepShadowMap {
 }
 
 /// The rays' knots in one array, rows of (knot counts, knots, stats) in
-/// ray order, and each ray's index record ([`DeepShadowMap`]'s `index`).
-fn index_rays(rows: RayRows, rays: usize, bin_len: f32, stats: &mut ReferenceStats) -> (Vec<[f32; 2]>, Vec<u32>) {
+/// ray order, each ray's record and the long rays' bins
+/// ([`DeepShadowMap`]'s `rays` and `bins`).
+fn index_rays(
+    rows: RayRows,
+    rays: usize,
+    bin_len: f32,
+    stats: &mut ReferenceStats,
+) -> (Vec<[f32; 2]>, Vec<RayRecord>, Vec<u32>) {
     let mut first = Vec::with_capacity(rays + 1);
     let mut knots = Vec::new();
     first.push(0u32);
@@ -458,22 +536,30 @@ fn index_rays(rows: RayRows, rays: usize, bin_len: f32, stats: &mut ReferenceSta
         knots.extend(row);
         stats.add(&st);
     }
-    let mut index = Vec::with_capacity(rays * (BINS + 1));
+    let mut records = Vec::with_capacity(rays);
+    let mut bins = Vec::new();
     for r in 0..rays {
-        let (start, end) = (first[r] as usize, first[r + 1] as usize);
-        let mut n = start;
-        // Entry 0 is the ray's first knot whatever its parameter.
-        index.push(start as u32);
-        for b in 1..BINS {
-            let t = b as f32 * bin_len;
-            while n < end && knots[n][0] < t {
-                n += 1;
+        let (start, end) = (first[r], first[r + 1]);
+        records.push(RayRecord { start, end, bins_at: bins.len() as u32 });
+        if (end - start) as usize > SHORT_RAY {
+            let mut n = start as usize;
+            for b in 1..BINS {
+                n = first_at_or_past(&knots, n, end as usize, b as f32 * bin_len) as usize;
+                bins.push(n as u32);
             }
-            index.push(n as u32);
         }
-        index.push(end as u32);
     }
-    (knots, index)
+    (knots, records, bins)
+}
+
+/// The first of `knots[from..end]` at or past parameter `t` (`end` if
+/// none).
+fn first_at_or_past(knots: &[[f32; 2]], from: usize, end: usize, t: f32) -> u32 {
+    let mut n = from;
+    while n < end && knots[n][0] < t {
+        n += 1;
+    }
+    n as u32
 }
 
 /// Walks the ray from `start` along `d`, appending its knots: (parameter,
@@ -706,6 +792,52 @@ mod tests {
         let mean = sum / n as f64;
         // Bilinear between the rays (the knots as now): mean 1.8e-3, worst 0.17.
         assert!(mean < 1e-3 && worst < 0.1, "mean {mean:.2e}, worst {worst:.3}");
+    }
+
+    /// The compact ray records and the full index the GPU gets agree: a
+    /// ray's bins start at its first knot at or past each bin's parameter,
+    /// long rays' bins are the ones kept, and a scan from a bin finds the
+    /// knot a scan of the whole ray finds (short and long rays alike).
+    #[test]
+    fn ray_records_and_the_full_index_find_the_same_knots() {
+        let mesh = slotted_grid();
+        let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
+        let reference = ReferenceRenderer::new(&mesh, &adjacency).unwrap();
+        let tf = TransferFunction::from_json(
+            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.8, 0.1], [0.83, 40], [0.86, 0.1], [2, 0.3]], "unit_distance": 1}"#,
+        )
+        .unwrap();
+        let map =
+            DeepShadowMap::build(&reference, DVec3::new(0.6, -0.5, -0.62).normalize(), &tf, &mut Default::default());
+        let layout = map.layout();
+        assert_eq!(layout.index.len(), map.rays.len() * (BINS + 1));
+        let first_past = |from: usize, end: usize, t: f32| (from..end).find(|&n| map.knots[n][0] > t).unwrap_or(end);
+        let (mut short, mut long) = (0, 0);
+        let mut rng = tet_mesh::XorShift64(9);
+        for (r, rec) in map.rays.iter().enumerate() {
+            let (start, end) = (rec.start as usize, rec.end as usize);
+            let index = &layout.index[r * (BINS + 1)..][..BINS + 1];
+            assert_eq!((index[0] as usize, index[BINS] as usize), (start, end), "ray {r}");
+            for (b, &at) in index.iter().enumerate().take(BINS).skip(1) {
+                let (at, t) = (at as usize, b as f32 * map.bin_len);
+                assert!(map.knots[start..at].iter().all(|k| k[0] < t) && (at == end || map.knots[at][0] >= t));
+                if end - start > SHORT_RAY {
+                    assert_eq!(map.bins[rec.bins_at as usize + b - 1] as usize, at, "ray {r} bin {b}");
+                }
+            }
+            if end - start > SHORT_RAY {
+                long += 1;
+            } else if end > start {
+                short += 1;
+            }
+            for _ in 0..8 {
+                let t = rng.range(0.0, (BINS as f64 + 1.0) * map.bin_len as f64) as f32;
+                let b = ((t / map.bin_len).max(0.0) as usize).min(BINS - 1);
+                let from = if end - start > SHORT_RAY { index[b] as usize } else { start };
+                assert_eq!(first_past(from, end, t), first_past(start, end, t), "ray {r} at {t}");
+            }
+        }
+        assert!(short > 0 && long > 0, "{short} short and {long} long rays");
     }
 
     /// A cube walked from the light's tet records the same depths as one

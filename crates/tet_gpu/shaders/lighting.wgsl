@@ -61,6 +61,10 @@ struct ShadowMap {
     index_base: u32,
     has_map: u32,
     cube: u32,
+    fine_base: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 const SHADOW_BINS: u32 = 32u;
@@ -77,10 +81,13 @@ const SHADOW_SLOTS: u32 = 6u;
 @group(0) @binding(23) var<storage, read> shadow_knots: array<vec2<f32>>;
 @group(0) @binding(24) var<storage, read> shadow_index: array<u32>;
 
-// Ray (i, j) of map `m`'s optical depth at parameter t: linear between
-// its knots, 0 before the first, the last's after it.
-fn shadow_ray_depth(m: ShadowMap, i: u32, j: u32, t: f32) -> f32 {
-    let rec = m.index_base + (j * m.nu + i) * (SHADOW_BINS + 1u);
+// A fine-grid position without a ray (tet_render::shadow::NO_RAY).
+const SHADOW_NO_RAY: u32 = 0xFFFFFFFFu;
+
+// Ray r of map `m`'s optical depth at parameter t: linear between its
+// knots, 0 before the first, the last's after it.
+fn shadow_ray_depth(m: ShadowMap, r: u32, t: f32) -> f32 {
+    let rec = m.index_base + r * (SHADOW_BINS + 1u);
     let b = u32(clamp(t / m.bin_len, 0.0, f32(SHADOW_BINS - 1u)));
     let start = shadow_index[rec];
     let end = shadow_index[rec + SHADOW_BINS];
@@ -110,15 +117,41 @@ fn shadow_ray_depth(m: ShadowMap, i: u32, j: u32, t: f32) -> f32 {
     return a.y + w * (c.y - a.y);
 }
 
-// The ray index below `x` on an axis of `n` rays from `x0` spaced `dx`, and
-// the weight of the next (DeepShadowMap::depth_at's `coord`).
-fn shadow_coord(x: f32, x0: f32, dx: f32, n: u32) -> vec2<f32> {
+// Where `x` lies on an axis of `n` rays from `x0` spaced `dx`, in ray
+// spacings from the first, within [0, n - 1] (DeepShadowMap::depth_at's
+// `coord`).
+fn shadow_coord(x: f32, x0: f32, dx: f32, n: u32) -> f32 {
     var f = 0.0;
     if dx > 0.0 {
         f = clamp((x - x0) / dx, 0.0, f32(n - 1u));
     }
+    return f;
+}
+
+// The cell of an axis of `n` rays that coordinate `f` falls in, and the
+// weight of its far ray (the map's `cell`).
+fn shadow_cell(f: f32, n: u32) -> vec2<f32> {
     let i = min(floor(f), f32(n - 2u));
     return vec2<f32>(i, f - i);
+}
+
+// A grid of a map's rays (the map's `Level`): the coarse one, or the fine
+// one of rays halfway between, walked where the depths are rough.
+struct ShadowGrid {
+    du: f32,
+    dv: f32,
+    nu: u32,
+    nv: u32,
+    fine: bool,
+}
+
+// Ray (i, j) of grid `g`: its number in the map, SHADOW_NO_RAY where the
+// fine grid has none.
+fn shadow_ray_of(m: ShadowMap, g: ShadowGrid, i: u32, j: u32) -> u32 {
+    if g.fine {
+        return shadow_index[m.fine_base + j * g.nu + i];
+    }
+    return j * m.nu + i;
 }
 
 // Optical depth from light `l` to `pos_rel` (ShadowField::depth_at): its
@@ -156,10 +189,10 @@ fn light_shadow_depth(l: u32, pos_rel: vec3<f32>) -> f32 {
 // Where ray (ii, jj) of map `m` is read for a point at `axial` along the
 // light: that depth for parallel rays, the distance at which a fan's ray
 // crosses the point's plane.
-fn shadow_ray_t(m: ShadowMap, fan: bool, axial: f32, ii: u32, jj: u32) -> f32 {
+fn shadow_ray_t(m: ShadowMap, g: ShadowGrid, fan: bool, axial: f32, ii: u32, jj: u32) -> f32 {
     if fan {
-        let su = m.u0 + f32(ii) * m.du;
-        let sv = m.v0 + f32(jj) * m.dv;
+        let su = m.u0 + f32(ii) * g.du;
+        let sv = m.v0 + f32(jj) * g.dv;
         return axial * sqrt(1.0 + su * su + sv * sv);
     }
     return axial;
@@ -230,8 +263,25 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
         v = dot(pos_rel, m.e2.xyz);
         axial = dot(pos_rel, m.d.xyz) - m.t0;
     }
-    let cu = shadow_coord(u, m.u0, m.du, m.nu);
-    let cv = shadow_coord(v, m.v0, m.dv, m.nv);
+    let fu = shadow_coord(u, m.u0, m.du, m.nu);
+    let fv = shadow_coord(v, m.v0, m.dv, m.nv);
+    var g = ShadowGrid(m.du, m.dv, m.nu, m.nv, false);
+    var cu = shadow_cell(fu, m.nu);
+    var cv = shadow_cell(fv, m.nv);
+    // Around rough cells the map has rays halfway between (its fine grid):
+    // read there where the four nearest fine rays exist.
+    if m.fine_base != SHADOW_NO_RAY {
+        let fg = ShadowGrid(0.5 * m.du, 0.5 * m.dv, 2u * m.nu - 1u, 2u * m.nv - 1u, true);
+        let fcu = shadow_cell(2.0 * fu, fg.nu);
+        let fcv = shadow_cell(2.0 * fv, fg.nv);
+        let at = m.fine_base + u32(fcv.x) * fg.nu + u32(fcu.x);
+        if shadow_index[at] != SHADOW_NO_RAY && shadow_index[at + 1u] != SHADOW_NO_RAY
+            && shadow_index[at + fg.nu] != SHADOW_NO_RAY && shadow_index[at + fg.nu + 1u] != SHADOW_NO_RAY {
+            g = fg;
+            cu = fcu;
+            cv = fcv;
+        }
+    }
     let i = u32(cu.x);
     let j = u32(cv.x);
     var depth: array<f32, 16>;
@@ -240,15 +290,23 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     var bilinear = 0.0;
     var cubic_share = 0.0;
     var reads = 4u;
+    var missing = false;
     var k = 0u;
     loop {
         if k >= reads {
             break;
         }
         let r = shadow_ray_of_read(k);
-        let ii = min(max(i + (r & 3u), 1u) - 1u, m.nu - 1u);
-        let jj = min(max(j + (r >> 2u), 1u) - 1u, m.nv - 1u);
-        depth[r] = shadow_ray_depth(m, ii, jj, shadow_ray_t(m, fan, axial, ii, jj));
+        let ii = min(max(i + (r & 3u), 1u) - 1u, g.nu - 1u);
+        let jj = min(max(j + (r >> 2u), 1u) - 1u, g.nv - 1u);
+        let ray = shadow_ray_of(m, g, ii, jj);
+        if ray == SHADOW_NO_RAY {
+            // An outer ray the fine grid lacks (at the edge of its walked
+            // part): bilinear, as the CPU.
+            missing = true;
+            break;
+        }
+        depth[r] = shadow_ray_depth(m, ray, shadow_ray_t(m, g, fan, axial, ii, jj));
         if k == 3u {
             let a = depth[5];
             let b = depth[9];
@@ -266,7 +324,7 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
         }
         k++;
     }
-    if reads == 4u {
+    if reads == 4u || missing {
         return bilinear;
     }
     let wu = catmull_rom(cu.y);

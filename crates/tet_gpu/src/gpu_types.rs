@@ -329,6 +329,13 @@ pub struct GpuShadowMap {
     /// six maps, its faces in this slot and the next five
     /// (`tet_render::shadow::cube_face` order).
     pub cube: u32,
+    /// Where this map's fine grid starts in the index buffer
+    /// (`tet_render::shadow::MapLayout::fine`: a ray number a position,
+    /// `NO_RAY` where none), or `NO_RAY`: no fine rays.
+    pub fine_base: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Map slots a light has in the shadow-map buffer: one for a map, six
@@ -437,7 +444,7 @@ mod tests {
         assert_eq!(size_of::<CullParams>(), 32);
         assert_eq!(size_of::<GpuLight>(), 32);
         assert_eq!(size_of::<LightParams>(), 304);
-        assert_eq!(size_of::<GpuShadowMap>(), 112);
+        assert_eq!(size_of::<GpuShadowMap>(), 128);
         assert_eq!(MAX_GPU_LIGHTS, tet_render::MAX_LIGHTS);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),

@@ -10,6 +10,7 @@
 
 use glam::DVec3;
 use tet_render::shading::{LIT_MAX_PIECES, LIT_SPLIT_TOLERANCE};
+use tet_render::shadow::NO_RAY;
 use tet_render::{LightSource, Shading, ShadowField};
 
 use crate::gpu_types::{
@@ -100,7 +101,8 @@ impl ShadowMaps {
             )));
         }
         let (knot_base, index_base) = (self.knots.len(), self.index.len());
-        if knot_base + m.knots.len() > u32::MAX as usize || index_base + m.index.len() > u32::MAX as usize {
+        let fine_base = index_base + m.index.len();
+        if knot_base + m.knots.len() > u32::MAX as usize || fine_base + m.fine.len() >= NO_RAY as usize {
             return Err(GpuError::Input("shadow maps beyond 2³² knots".into()));
         }
         // Parallel rays read p·e1, p·e2, p·d − t0 of the map's frame: the
@@ -134,6 +136,10 @@ impl ShadowMaps {
             index_base: index_base as u32,
             has_map: 1,
             cube: 0,
+            fine_base: if m.fine.is_empty() { NO_RAY } else { fine_base as u32 },
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         };
         let floats = [slot.u0, slot.v0, slot.t0, slot.du, slot.dv, slot.bin_len];
         if !floats.iter().chain(&slot.origin).all(|x| x.is_finite()) || m.nu < 2 || m.nv < 2 {
@@ -141,6 +147,7 @@ impl ShadowMaps {
         }
         self.knots.extend_from_slice(m.knots);
         self.index.extend_from_slice(&m.index);
+        self.index.extend_from_slice(m.fine);
         Ok(slot)
     }
 }

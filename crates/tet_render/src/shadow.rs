@@ -14,10 +14,13 @@
 //!   between knots; across rays bilinear, bicubic where the four nearest
 //!   rays differ by more than [`CUBIC_ABOVE`]). Its
 //!   resolution is the grid's, not the mesh's: a shadow edge inside a
-//!   large cell stays sharp to a ray spacing.
+//!   large cell stays sharp to a ray spacing. Around cells whose depths
+//!   are too rough for the bicubic lookup ([`REFINE_ABOVE`]) the rays
+//!   halfway between are walked too (a fine grid), and lookups there read
+//!   them instead.
 //! * **Point lights outside the mesh's bounding box: a deep shadow map**
 //!   of rays fanning out from the light over the mesh (looked up by
-//!   direction from the light and distance).
+//!   direction from the light and distance; refined alike).
 //! * **Other point lights (inside the mesh or beside its box): a cube of
 //!   six such maps** around the light ([`DeepShadowMap`]s of [`CUBE_RAYS`]²
 //!   rays each over slopes in [−1, 1]² along ±x, ±y, ±z), each ray walked
@@ -46,7 +49,9 @@ use crate::RenderError;
 
 mod map;
 
-pub use map::{catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS, SHORT_RAY};
+pub use map::{
+    catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS, NO_RAY, REFINE_ABOVE, SHORT_RAY,
+};
 
 /// Optical depth at which a shadow walk stops: transmittance below
 /// e^−46 ≈ 1e-20 changes no pixel (what is stored is the transmittance so

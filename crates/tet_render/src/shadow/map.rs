@@ -462,8 +462,13 @@ impl DeepShadowMap {
             let fine = self.level(true);
             let (i, wu) = cell(2.0 * fu, fine.nu);
             let (j, wv) = cell(2.0 * fv, fine.nv);
-            if let Some(d) = self.interpolate(&fine, i, j, wu, wv, axial) {
-                return d;
+            // Every fine cell has the centre of its coarse cell for a
+            // corner, and that centre is walked exactly where the whole
+            // coarse cell is: one look says whether all four are there.
+            if self.fine[(j | 1) * fine.nu + (i | 1)] != NO_RAY {
+                if let Some(d) = self.interpolate(&fine, i, j, wu, wv, axial) {
+                    return d;
+                }
             }
         }
         let (i, wu) = cell(fu, self.nu);

@@ -36,6 +36,9 @@ for shadows in "" --shadows; do
   $T/tetview render /tmp/autzen.tetb --tf $R/autzen_tf.json --light-dir 0.6,-0.5,-0.62 \
     --azimuth 34 --elevation 20 --size 512x512 $shadows -o $R/autzen_$name.png
 done
+# The held-out TF of a dozen narrow peaks with shadows (the map refined nearly everywhere).
+$T/tetview render /tmp/bf.tetb --tf crates/tet_preint/tests/data/heldout/tf_peaks12.json --light-dir 0.6,-0.5,-0.62 \
+  --azimuth 34 --elevation 20 --size 512x512 --shadows -o $R/bf_peaks12_shadows.png
 # A point light outside the mesh (its perspective deep shadow map), without and with shadows.
 for n in point point_shadows; do
   $T/tetview render /tmp/bf.tetb --tf $R/bf_shadow_tf.json --view $R/bf_${n}_view.json -o $R/bf_$n.png

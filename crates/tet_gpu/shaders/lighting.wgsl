@@ -269,14 +269,14 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     var cu = shadow_cell(fu, m.nu);
     var cv = shadow_cell(fv, m.nv);
     // Around rough cells the map has rays halfway between (its fine grid):
-    // read there where the four nearest fine rays exist.
+    // read there where the four nearest fine rays exist. Every fine cell
+    // has its coarse cell's centre for a corner, walked exactly where all
+    // of that cell's fine rays are: one look (as the CPU).
     if m.fine_base != SHADOW_NO_RAY {
         let fg = ShadowGrid(0.5 * m.du, 0.5 * m.dv, 2u * m.nu - 1u, 2u * m.nv - 1u, true);
         let fcu = shadow_cell(2.0 * fu, fg.nu);
         let fcv = shadow_cell(2.0 * fv, fg.nv);
-        let at = m.fine_base + u32(fcv.x) * fg.nu + u32(fcu.x);
-        if shadow_index[at] != SHADOW_NO_RAY && shadow_index[at + 1u] != SHADOW_NO_RAY
-            && shadow_index[at + fg.nu] != SHADOW_NO_RAY && shadow_index[at + fg.nu + 1u] != SHADOW_NO_RAY {
+        if shadow_index[m.fine_base + (u32(fcv.x) | 1u) * fg.nu + (u32(fcu.x) | 1u)] != SHADOW_NO_RAY {
             g = fg;
             cu = fcu;
             cv = fcv;

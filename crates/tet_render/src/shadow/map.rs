@@ -250,25 +250,7 @@ impl DeepShadowMap {
             (e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0, d, f64::NEG_INFINITY)
         });
         let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
-        let (knots, rays, bins) = index_rays(rows, bin_len, stats);
-        let mut map = DeepShadowMap {
-            e1,
-            e2,
-            d,
-            u0,
-            v0,
-            t0,
-            du,
-            dv,
-            nu,
-            nv,
-            knots,
-            rays,
-            bins,
-            fine: Vec::new(),
-            bin_len,
-            origin: None,
-        };
+        let mut map = Self::from_walks([e1, e2, d], None, [u0, v0, t0], [du, dv], [nu, nv], rows, bin_len, stats);
         map.refine(reference, tf, None, stats, |u, v| (e1 * u + e2 * v + d * t0, d, f64::NEG_INFINITY));
         map
     }
@@ -317,25 +299,8 @@ impl DeepShadowMap {
             (light, (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize(), f64::NEG_INFINITY)
         });
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
-        let (knots, rays, bins) = index_rays(rays, bin_len, stats);
-        let mut map = DeepShadowMap {
-            e1,
-            e2,
-            d,
-            u0,
-            v0,
-            t0: 0.0,
-            du,
-            dv,
-            nu,
-            nv,
-            knots,
-            rays,
-            bins,
-            fine: Vec::new(),
-            bin_len,
-            origin: Some(light),
-        };
+        let mut map =
+            Self::from_walks([e1, e2, d], Some(light), [u0, v0, 0.0], [du, dv], [nu, nv], rays, bin_len, stats);
         map.refine(reference, tf, None, stats, |u, v| (light, (d + e1 * u + e2 * v).normalize(), f64::NEG_INFINITY));
         Some(map)
     }
@@ -405,27 +370,27 @@ impl DeepShadowMap {
                 let (u, v) = (-1.0 + i as f64 * step, -1.0 + j as f64 * step);
                 (start, (d + e1 * u + e2 * v).normalize(), 0.0)
             });
-            let (knots, rays, bins) = index_rays(rays, bin_len, stats);
-            DeepShadowMap {
-                e1,
-                e2,
-                d,
-                u0: -1.0,
-                v0: -1.0,
-                t0: 0.0,
-                du: step,
-                dv: step,
-                nu: n,
-                nv: n,
-                knots,
-                rays,
-                bins,
-                fine: Vec::new(),
-                bin_len,
-                origin: Some(light),
-            }
+            Self::from_walks([e1, e2, d], Some(light), [-1.0, -1.0, 0.0], [step, step], [n, n], rays, bin_len, stats)
         });
         Box::new(faces)
+    }
+
+    /// A map of axes `[e1, e2, d]` (a fan's from `origin`) over the grid of
+    /// `[nu, nv]` rays from (u0, v0) spaced (du, dv), depths from t0, its
+    /// rays' walks `rows` in ray order; no fine rays yet.
+    #[allow(clippy::too_many_arguments)]
+    fn from_walks(
+        [e1, e2, d]: [DVec3; 3],
+        origin: Option<DVec3>,
+        [u0, v0, t0]: [f64; 3],
+        [du, dv]: [f64; 2],
+        [nu, nv]: [usize; 2],
+        rows: RayRows,
+        bin_len: f32,
+        stats: &mut ReferenceStats,
+    ) -> DeepShadowMap {
+        let (knots, rays, bins) = index_rays(rows, bin_len, stats);
+        DeepShadowMap { e1, e2, d, u0, v0, t0, du, dv, nu, nv, knots, rays, bins, fine: Vec::new(), bin_len, origin }
     }
 
     /// The optical depth from the light to `p` (in the map's frame).
@@ -1018,6 +983,27 @@ mod tests {
         mesh
     }
 
+    /// The slotted grid's exact walker (the mesh leaked: a test's).
+    fn slotted_reference() -> ReferenceRenderer<'static> {
+        let mesh: &'static TetMesh = Box::leak(Box::new(slotted_grid()));
+        let adjacency = Box::leak(Box::new(build_adjacency(&mesh.points, &mesh.tets).unwrap()));
+        ReferenceRenderer::new(mesh, adjacency).unwrap()
+    }
+
+    /// A faint medium with a narrow opaque band (extinction 40 over 0.03
+    /// of the scalar): a layer whose shadow has sharp edges.
+    fn band_tf() -> TransferFunction {
+        TransferFunction::from_json(
+            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.8, 0.1], [0.83, 40], [0.86, 0.1], [2, 0.3]], "unit_distance": 1}"#,
+        )
+        .unwrap()
+    }
+
+    /// The tests' directional light: oblique to every axis of the grid.
+    fn key_light() -> DVec3 {
+        DVec3::new(0.6, -0.5, -0.62).normalize()
+    }
+
     #[test]
     fn catmull_rom_weights_sum_to_one_and_keep_lines() {
         for k in 0..=20 {
@@ -1037,14 +1023,9 @@ mod tests {
     /// hold (no overshoot at the band's steps).
     #[test]
     fn a_directional_map_follows_exact_shadow_rays_through_a_narrow_band() {
-        let mesh = slotted_grid();
-        let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
-        let reference = ReferenceRenderer::new(&mesh, &adjacency).unwrap();
-        let tf = TransferFunction::from_json(
-            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.8, 0.1], [0.83, 40], [0.86, 0.1], [2, 0.3]], "unit_distance": 1}"#,
-        )
-        .unwrap();
-        let d = DVec3::new(0.6, -0.5, -0.62).normalize();
+        let reference = slotted_reference();
+        let tf = band_tf();
+        let d = key_light();
         let mut stats = ReferenceStats::default();
         let map = DeepShadowMap::build(&reference, d, &tf, &mut stats);
         assert_eq!(stats.walk_failures, 0);
@@ -1083,15 +1064,11 @@ mod tests {
     /// refinement costs nothing where the coarse map is followed.
     #[test]
     fn a_faint_medium_refines_nothing() {
-        let mesh = slotted_grid();
-        let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
-        let reference = ReferenceRenderer::new(&mesh, &adjacency).unwrap();
         let tf = TransferFunction::from_json(
             r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [2, 0.1]], "unit_distance": 1}"#,
         )
         .unwrap();
-        let map =
-            DeepShadowMap::build(&reference, DVec3::new(0.6, -0.5, -0.62).normalize(), &tf, &mut Default::default());
+        let map = DeepShadowMap::build(&slotted_reference(), key_light(), &tf, &mut Default::default());
         assert!(map.fine.is_empty(), "{} fine positions", map.fine.len());
     }
 
@@ -1101,15 +1078,7 @@ mod tests {
     /// knot a scan of the whole ray finds (short and long rays alike).
     #[test]
     fn ray_records_and_the_full_index_find_the_same_knots() {
-        let mesh = slotted_grid();
-        let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
-        let reference = ReferenceRenderer::new(&mesh, &adjacency).unwrap();
-        let tf = TransferFunction::from_json(
-            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.8, 0.1], [0.83, 40], [0.86, 0.1], [2, 0.3]], "unit_distance": 1}"#,
-        )
-        .unwrap();
-        let map =
-            DeepShadowMap::build(&reference, DVec3::new(0.6, -0.5, -0.62).normalize(), &tf, &mut Default::default());
+        let map = DeepShadowMap::build(&slotted_reference(), key_light(), &band_tf(), &mut Default::default());
         let layout = map.layout();
         assert_eq!(layout.index.len(), map.rays.len() * (BINS + 1));
         let first_past = |from: usize, end: usize, t: f32| (from..end).find(|&n| map.knots[n][0] > t).unwrap_or(end);

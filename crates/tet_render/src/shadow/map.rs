@@ -246,12 +246,12 @@ impl DeepShadowMap {
         let inset = ext.x.max(ext.y) * 1e-7;
         let (du, dv) = ((ext.x - 2.0 * inset) / (nu - 1) as f64, (ext.y - 2.0 * inset) / (nv - 1) as f64);
         let (u0, v0, t0) = (lo.x + inset, lo.y + inset, lo.z);
-        let rows = walk_grid(reference, [nu, nv], tf, None, |i, j| {
-            (e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv) + d * t0, d, f64::NEG_INFINITY)
-        });
+        // The ray through map coordinates (u, v).
+        let ray = |u: f64, v: f64| (e1 * u + e2 * v + d * t0, d, f64::NEG_INFINITY);
+        let rows = walk_grid(reference, [nu, nv], tf, None, |i, j| ray(u0 + i as f64 * du, v0 + j as f64 * dv));
         let bin_len = (ext.z / BINS as f64).max(1e-300) as f32;
         let mut map = Self::from_walks([e1, e2, d], None, [u0, v0, t0], [du, dv], [nu, nv], rows, bin_len, stats);
-        map.refine(reference, tf, None, stats, |u, v| (e1 * u + e2 * v + d * t0, d, f64::NEG_INFINITY));
+        map.refine(reference, tf, stats, ray);
         map
     }
 
@@ -295,13 +295,13 @@ impl DeepShadowMap {
         let inset = longest * 1e-7;
         let (du, dv) = ((ext[0] - 2.0 * inset) / (nu - 1) as f64, (ext[1] - 2.0 * inset) / (nv - 1) as f64);
         let (u0, v0) = (slo[0] + inset, slo[1] + inset);
-        let rays = walk_grid(reference, [nu, nv], tf, None, |i, j| {
-            (light, (d + e1 * (u0 + i as f64 * du) + e2 * (v0 + j as f64 * dv)).normalize(), f64::NEG_INFINITY)
-        });
+        // The ray of slopes (u, v).
+        let ray = |u: f64, v: f64| (light, (d + e1 * u + e2 * v).normalize(), f64::NEG_INFINITY);
+        let rays = walk_grid(reference, [nu, nv], tf, None, |i, j| ray(u0 + i as f64 * du, v0 + j as f64 * dv));
         let bin_len = (far / BINS as f64).max(1e-300) as f32;
         let mut map =
             Self::from_walks([e1, e2, d], Some(light), [u0, v0, 0.0], [du, dv], [nu, nv], rays, bin_len, stats);
-        map.refine(reference, tf, None, stats, |u, v| (light, (d + e1 * u + e2 * v).normalize(), f64::NEG_INFINITY));
+        map.refine(reference, tf, stats, ray);
         Some(map)
     }
 
@@ -474,18 +474,7 @@ impl DeepShadowMap {
                 n = self.bins[rec.bins_at as usize + b - 1] as usize - start;
             }
         }
-        while n < k.len() && k[n][0] <= t {
-            n += 1;
-        }
-        match (n, k.len()) {
-            (0, _) => 0.0,
-            (n, len) if n == len => k[len - 1][1] as f64,
-            (n, _) => {
-                let ([ta, da], [tb, db]) = (k[n - 1], k[n]);
-                let w = if tb > ta { (t - ta) / (tb - ta) } else { 1.0 };
-                (da + w * (db - da)) as f64
-            }
-        }
+        depth_past(k, &mut n, t) as f64
     }
 
     /// Where ray (i, j) of `level` is read for a point at `axial` along
@@ -564,19 +553,7 @@ impl DeepShadowMap {
             let scale = self.ray_t(&level, i, j, 1.0) as f64;
             let mut n = 0;
             for s in 0..REFINE_SAMPLES {
-                let t = (s as f64 * step * scale) as f32;
-                while n < k.len() && k[n][0] <= t {
-                    n += 1;
-                }
-                out.push(match (n, k.len()) {
-                    (0, _) => 0.0,
-                    (n, len) if n == len => k[len - 1][1],
-                    (n, _) => {
-                        let ([ta, da], [tb, db]) = (k[n - 1], k[n]);
-                        let w = if tb > ta { (t - ta) / (tb - ta) } else { 1.0 };
-                        da + w * (db - da)
-                    }
-                });
+                out.push(depth_past(k, &mut n, (s as f64 * step * scale) as f32));
             }
         }
     }
@@ -621,7 +598,6 @@ impl DeepShadowMap {
         &mut self,
         reference: &ReferenceRenderer,
         tf: &TransferFunction,
-        from_inside: Option<(usize, f64)>,
         stats: &mut ReferenceStats,
         ray: impl Fn(f64, f64) -> (DVec3, DVec3, f64) + Sync,
     ) {
@@ -661,7 +637,7 @@ impl DeepShadowMap {
         }
         let (hu, hv) = (0.5 * self.du, 0.5 * self.dv);
         let (u0, v0) = (self.u0, self.v0);
-        let rows = walk_list(reference, &new, tf, from_inside, |i, j| ray(u0 + i as f64 * hu, v0 + j as f64 * hv));
+        let rows = walk_list(reference, &new, tf, None, |i, j| ray(u0 + i as f64 * hu, v0 + j as f64 * hv));
         let first_new = self.rays.len() as u32;
         append_rays(&mut self.knots, &mut self.rays, &mut self.bins, rows, self.bin_len, stats);
         let mut fine = vec![NO_RAY; fu * fv];
@@ -767,6 +743,25 @@ fn append_rays(
     }
 }
 
+/// A ray's optical depth at parameter `t` from its knots `k`, scanning on
+/// from knot `*n` (left at the first knot past `t`, so that increasing
+/// parameters scan on): linear between knots, 0 before the first, the
+/// last's after it.
+fn depth_past(k: &[[f32; 2]], n: &mut usize, t: f32) -> f32 {
+    while *n < k.len() && k[*n][0] <= t {
+        *n += 1;
+    }
+    match (*n, k.len()) {
+        (0, _) => 0.0,
+        (n, len) if n == len => k[len - 1][1],
+        (n, _) => {
+            let ([ta, da], [tb, db]) = (k[n - 1], k[n]);
+            let w = if tb > ta { (t - ta) / (tb - ta) } else { 1.0 };
+            da + w * (db - da)
+        }
+    }
+}
+
 /// The first of `knots[from..end]` at or past parameter `t` (`end` if
 /// none).
 fn first_at_or_past(knots: &[[f32; 2]], from: usize, end: usize, t: f32) -> u32 {
@@ -784,9 +779,9 @@ fn first_at_or_past(knots: &[[f32; 2]], from: usize, end: usize, t: f32) -> u32 
 /// its walks' counts.
 type RayRows = Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)>;
 
-/// The walks of a `[nu, nv]` grid of rays, rows in parallel (the result
-/// does not depend on the thread count); `ray(i, j)` gives ray (i, j)'s
-/// start, unit direction and the parameter its walk starts at.
+/// The walks of a `[nu, nv]` grid of rays in ray order (r = j·nu + i);
+/// `ray(i, j)` gives ray (i, j)'s start, unit direction and the parameter
+/// its walk starts at.
 fn walk_grid(
     reference: &ReferenceRenderer,
     [nu, nv]: [usize; 2],
@@ -794,20 +789,8 @@ fn walk_grid(
     from_inside: Option<(usize, f64)>,
     ray: impl Fn(usize, usize) -> (DVec3, DVec3, f64) + Sync,
 ) -> RayRows {
-    (0..nv)
-        .into_par_iter()
-        .map_init(ShadowScratch::default, |scratch, j| {
-            let mut st = ReferenceStats::default();
-            let (mut counts, mut knots) = (Vec::with_capacity(nu), Vec::new());
-            for i in 0..nu {
-                let (start, dir, t_start) = ray(i, j);
-                let before = knots.len();
-                walk_ray(reference, (start, dir, t_start), from_inside, tf, scratch, &mut st, &mut knots);
-                counts.push((knots.len() - before) as u32);
-            }
-            (counts, knots, st)
-        })
-        .collect()
+    let at: Vec<(usize, usize)> = (0..nv).flat_map(|j| (0..nu).map(move |i| (i, j))).collect();
+    walk_list(reference, &at, tf, from_inside, ray)
 }
 
 /// The walks of the rays at grid positions `at`, in that order (chunks in

@@ -30,6 +30,10 @@ struct LightParams {
     split_tolerance: f32,
     max_pieces: u32,
     enabled: u32,
+    resplit_tolerance: f32,
+    max_subpieces: u32,
+    subpiece_budget: u32,
+    _pad: u32,
     lights: array<GpuLight, 8>,
 }
 
@@ -514,7 +518,10 @@ fn lit_ends(fr: Frame, rows: array<vec4<f32>, 6>, seg: Seg, x: f32, y: f32) -> L
 // lit at its emission centroid where the terms vary little over it, else
 // split into up to `max_pieces` equal pieces (their number
 // ⌈√(variation·weight/tolerance)⌉), each shaded by `shade_piece` and lit at
-// its own emission centroid, composited front to back.
+// its own emission centroid, composited front to back; a piece across
+// which the terms at the neighbouring pieces' points change by more than
+// `resplit_tolerance` over its colour is split again
+// (tet_render::shading::resplit_pieces).
 fn light_segment(fr: Frame, seg: Seg, c: vec4<f32>, e: LitEnds) -> vec4<f32> {
     let weight = max(max(max(c.x, c.y), max(c.z, c.w)), 0.0);
     if !(weight > 0.0) {
@@ -538,20 +545,98 @@ fn light_segment(fr: Frame, seg: Seg, c: vec4<f32>, e: LitEnds) -> vec4<f32> {
     if pieces <= 1u {
         return lit_apply(mid, c);
     }
+    // The pieces are evaluated one ahead of the one composited (whether
+    // piece j is split again depends on piece j + 1's terms), and a piece
+    // split again has its subpieces evaluated in the rounds after. Every
+    // round evaluates at most one piece or subpiece (a shade and a lit_at)
+    // from one call site: llvmpipe shares one loop-iteration budget among
+    // every loop of an invocation and runs an untaken loop once, so each
+    // inlined copy of the shadow lookup's loop would cost every fragment.
     var out = vec4<f32>(0.0);
     let step = 1.0 / f32(pieces);
-    for (var j = 0u; j < pieces; j++) {
-        let w0 = f32(j) * step;
-        let w1 = f32(j + 1u) * step;
-        var piece = seg;
-        piece.sf = seg.sf + w0 * (seg.sb - seg.sf);
-        piece.sb = seg.sf + w1 * (seg.sb - seg.sf);
-        piece.gf = seg.gf + w0 * (seg.gb - seg.gf);
-        piece.gb = seg.gf + w1 * (seg.gb - seg.gf);
-        piece.len = seg.len * step;
-        let rgba = shade_piece(fr, piece);
-        let lit = lit_apply(lit_at(e, w0 + (w1 - w0) * emission_centroid(rgba.w)), rgba);
-        out += (1.0 - out.w) * lit;
+    var prev_l = front;
+    var cur_l = front;
+    var cur_c = vec4<f32>(0.0);
+    var next_l = back;
+    var next_c = vec4<f32>(0.0);
+    var evaluated = 0u;
+    var j = 0u;
+    var k = 0u;
+    var q = 0u;
+    var total = 0u;
+    var sub = vec4<f32>(0.0);
+    loop {
+        let ahead = k == 0u;
+        if !ahead || evaluated < min(j + 2u, pieces) {
+            var w0 = f32(evaluated) * step;
+            var w1 = f32(evaluated + 1u) * step;
+            var len = seg.len * step;
+            if !ahead {
+                w0 = (f32(j) + f32(q) / f32(k)) * step;
+                w1 = (f32(j) + f32(q + 1u) / f32(k)) * step;
+                len = seg.len * (w1 - w0);
+            }
+            var piece = seg;
+            piece.sf = seg.sf + w0 * (seg.sb - seg.sf);
+            piece.sb = seg.sf + w1 * (seg.sb - seg.sf);
+            piece.gf = seg.gf + w0 * (seg.gb - seg.gf);
+            piece.gb = seg.gf + w1 * (seg.gb - seg.gf);
+            piece.len = len;
+            let rgba = shade_piece(fr, piece);
+            let l = lit_at(e, w0 + (w1 - w0) * emission_centroid(rgba.w));
+            if !ahead {
+                sub += (1.0 - sub.w) * lit_apply(l, rgba);
+                q += 1u;
+                if q < k {
+                    continue;
+                }
+                out += (1.0 - out.w) * sub;
+                k = 0u;
+            } else {
+                if evaluated == j {
+                    cur_l = l;
+                    cur_c = rgba;
+                } else {
+                    next_l = l;
+                    next_c = rgba;
+                }
+                evaluated += 1u;
+                if evaluated < min(j + 2u, pieces) {
+                    continue;
+                }
+            }
+        }
+        if ahead {
+            if j + 1u == pieces {
+                next_l = back;
+            }
+            // Piece j: split again, or lit at its one point.
+            let colour = max(max(max(cur_c.x, cur_c.y), max(cur_c.z, cur_c.w)), 0.0);
+            let change = 0.5 * (lit_jump(prev_l, cur_l) + lit_jump(cur_l, next_l)) * colour;
+            let want_sub = clamp(ceil(sqrt(change / tol)), 2.0, f32(lighting.max_subpieces));
+            let kk = min(u32(want_sub), lighting.subpiece_budget - total);
+            if change > lighting.resplit_tolerance && kk >= 2u {
+                k = kk;
+                q = 0u;
+                total += kk;
+                sub = vec4<f32>(0.0);
+                continue;
+            }
+            out += (1.0 - out.w) * lit_apply(cur_l, cur_c);
+        }
+        // Piece j done.
+        prev_l = cur_l;
+        cur_l = next_l;
+        cur_c = next_c;
+        j += 1u;
+        if j >= pieces {
+            break;
+        }
     }
     return out;
+}
+
+// tet_render::shading's jump: how much the terms differ between two points.
+fn lit_jump(a: LitPoint, b: LitPoint) -> f32 {
+    return abs(a.diffuse - b.diffuse) + abs(a.specular - b.specular) + abs(a.silhouette - b.silhouette);
 }

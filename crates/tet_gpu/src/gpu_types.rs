@@ -295,6 +295,13 @@ pub struct LightParams {
     /// 1 when any shading is on (lighting or silhouettes): fragments are
     /// lit; 0: they are not, and nothing else here is read.
     pub enabled: u32,
+    /// `tet_render::LIT_RESPLIT_TOLERANCE`, `LIT_MAX_SUBPIECES` and the
+    /// most subpieces of one segment (`tet_preint::BATCH`, the CPU's second
+    /// batch).
+    pub resplit_tolerance: f32,
+    pub max_subpieces: u32,
+    pub subpiece_budget: u32,
+    pub _pad: u32,
     pub lights: [GpuLight; MAX_GPU_LIGHTS],
 }
 
@@ -443,7 +450,7 @@ mod tests {
         assert_eq!(size_of::<ShadeParams>(), 80);
         assert_eq!(size_of::<CullParams>(), 32);
         assert_eq!(size_of::<GpuLight>(), 32);
-        assert_eq!(size_of::<LightParams>(), 304);
+        assert_eq!(size_of::<LightParams>(), 320);
         assert_eq!(size_of::<GpuShadowMap>(), 128);
         assert_eq!(MAX_GPU_LIGHTS, tet_render::MAX_LIGHTS);
         for (s, a) in [

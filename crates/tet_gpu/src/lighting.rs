@@ -9,7 +9,7 @@
 //! of six maps, read in the face `tet_render::shadow::cube_face` picks.
 
 use glam::DVec3;
-use tet_render::shading::{LIT_MAX_PIECES, LIT_SPLIT_TOLERANCE};
+use tet_render::shading::{LIT_MAX_PIECES, LIT_MAX_SUBPIECES, LIT_RESPLIT_TOLERANCE, LIT_SPLIT_TOLERANCE};
 use tet_render::shadow::NO_RAY;
 use tet_render::{LightSource, Shading, ShadowField};
 
@@ -161,6 +161,9 @@ pub fn light_params(shading: &Shading, centre_in_world: DVec3) -> Result<LightPa
     let mut p = LightParams {
         split_tolerance: LIT_SPLIT_TOLERANCE as f32,
         max_pieces: LIT_MAX_PIECES as u32,
+        resplit_tolerance: LIT_RESPLIT_TOLERANCE as f32,
+        max_subpieces: LIT_MAX_SUBPIECES as u32,
+        subpiece_budget: tet_preint::BATCH as u32,
         ..bytemuck::Zeroable::zeroed()
     };
     if !shading.is_active() {
@@ -239,6 +242,7 @@ mod tests {
         assert_eq!((p.lights[1].kind, p.lights[1].v), (LIGHT_DIRECTIONAL, [0.0, 0.0, -1.0, 1.0]));
         assert_eq!((p.lights[2].kind, p.lights[2].v), (LIGHT_POINT, [2.0, 0.0, 0.0, 2.0]));
         assert_eq!(p.max_pieces as usize, LIT_MAX_PIECES);
+        assert_eq!((p.max_subpieces as usize, p.subpiece_budget as usize), (LIT_MAX_SUBPIECES, tet_preint::BATCH));
         // Silhouettes alone: active, unlit.
         let p = light_params(&Shading { silhouette: Some(1.0), ..Default::default() }, DVec3::ZERO).unwrap();
         assert_eq!((p.enabled, p.lit, p.n_lights), (1, 0, 0));

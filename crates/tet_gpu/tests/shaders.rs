@@ -168,6 +168,10 @@ fn pod_layouts_match_the_wgsl_structs() {
                 split_tolerance,
                 max_pieces,
                 enabled,
+                resplit_tolerance,
+                max_subpieces,
+                subpiece_budget,
+                _pad,
                 lights
             ]
         ),

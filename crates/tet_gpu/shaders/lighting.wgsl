@@ -66,7 +66,7 @@ struct ShadowMap {
     has_map: u32,
     cube: u32,
     fine_base: u32,
-    _pad0: u32,
+    finer_base: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -139,23 +139,29 @@ fn shadow_cell(f: f32, n: u32) -> vec2<f32> {
     return vec2<f32>(i, f - i);
 }
 
-// A grid of a map's rays (the map's `Level`): the coarse one, or the fine
-// one of rays halfway between, walked where the depths are rough.
+// A grid of a map's rays (the map's `Level`): the coarse one, or a finer
+// one of rays halfway between, walked where the depths are rough (its
+// table at `base` in the index buffer; SHADOW_NO_RAY for the coarse grid).
 struct ShadowGrid {
     du: f32,
     dv: f32,
     nu: u32,
     nv: u32,
-    fine: bool,
+    base: u32,
 }
 
-// Ray (i, j) of grid `g`: its number in the map, SHADOW_NO_RAY where the
-// fine grid has none.
+// Ray (i, j) of grid `g`: its number in the map, SHADOW_NO_RAY where a
+// finer grid has none.
 fn shadow_ray_of(m: ShadowMap, g: ShadowGrid, i: u32, j: u32) -> u32 {
-    if g.fine {
-        return shadow_index[m.fine_base + j * g.nu + i];
+    if g.base != SHADOW_NO_RAY {
+        return shadow_index[g.base + j * g.nu + i];
     }
     return j * m.nu + i;
+}
+
+// Map `m`'s grid `k` times as dense as its coarse one, its table at `base`.
+fn shadow_grid(m: ShadowMap, k: u32, base: u32) -> ShadowGrid {
+    return ShadowGrid(m.du / f32(k), m.dv / f32(k), k * (m.nu - 1u) + 1u, k * (m.nv - 1u) + 1u, base);
 }
 
 // Optical depth from light `l` to `pos_rel` (ShadowField::depth_at): its
@@ -269,18 +275,30 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     }
     let fu = shadow_coord(u, m.u0, m.du, m.nu);
     let fv = shadow_coord(v, m.v0, m.dv, m.nv);
-    var g = ShadowGrid(m.du, m.dv, m.nu, m.nv, false);
+    var g = ShadowGrid(m.du, m.dv, m.nu, m.nv, SHADOW_NO_RAY);
     var cu = shadow_cell(fu, m.nu);
     var cv = shadow_cell(fv, m.nv);
-    // Around rough cells the map has rays halfway between (its fine grid):
-    // read there where the four nearest fine rays exist. Every fine cell
-    // has its coarse cell's centre for a corner, walked exactly where all
-    // of that cell's fine rays are: one look (as the CPU).
+    // Around rough cells the map has rays halfway between (its fine grid),
+    // and around the fine grid's rough cells rays halfway between those
+    // (the finer grid): read at the finest grid whose four nearest rays
+    // exist. Every cell of a grid has the centre of its cell one grid up
+    // for a corner, walked exactly where all of that cell's rays are: one
+    // look a grid (as the CPU). Straight code, no loop (see below).
     if m.fine_base != SHADOW_NO_RAY {
-        let fg = ShadowGrid(0.5 * m.du, 0.5 * m.dv, 2u * m.nu - 1u, 2u * m.nv - 1u, true);
+        let fg = shadow_grid(m, 2u, m.fine_base);
         let fcu = shadow_cell(2.0 * fu, fg.nu);
         let fcv = shadow_cell(2.0 * fv, fg.nv);
         if shadow_index[m.fine_base + (u32(fcv.x) | 1u) * fg.nu + (u32(fcu.x) | 1u)] != SHADOW_NO_RAY {
+            g = fg;
+            cu = fcu;
+            cv = fcv;
+        }
+    }
+    if m.finer_base != SHADOW_NO_RAY {
+        let fg = shadow_grid(m, 4u, m.finer_base);
+        let fcu = shadow_cell(4.0 * fu, fg.nu);
+        let fcv = shadow_cell(4.0 * fv, fg.nv);
+        if shadow_index[m.finer_base + (u32(fcv.x) | 1u) * fg.nu + (u32(fcu.x) | 1u)] != SHADOW_NO_RAY {
             g = fg;
             cu = fcu;
             cv = fcv;

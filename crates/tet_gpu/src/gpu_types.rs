@@ -340,7 +340,8 @@ pub struct GpuShadowMap {
     /// (`tet_render::shadow::MapLayout::fine`: a ray number a position,
     /// `NO_RAY` where none), or `NO_RAY`: no fine rays.
     pub fine_base: u32,
-    pub _pad0: u32,
+    /// The same for the finer grid (`MapLayout::finer`), or `NO_RAY`.
+    pub finer_base: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

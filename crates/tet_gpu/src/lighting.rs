@@ -102,7 +102,8 @@ impl ShadowMaps {
         }
         let (knot_base, index_base) = (self.knots.len(), self.index.len());
         let fine_base = index_base + m.index.len();
-        if knot_base + m.knots.len() > u32::MAX as usize || fine_base + m.fine.len() >= NO_RAY as usize {
+        let finer_base = fine_base + m.fine.len();
+        if knot_base + m.knots.len() > u32::MAX as usize || finer_base + m.finer.len() >= NO_RAY as usize {
             return Err(GpuError::Input("shadow maps beyond 2³² knots".into()));
         }
         // Parallel rays read p·e1, p·e2, p·d − t0 of the map's frame: the
@@ -137,7 +138,7 @@ impl ShadowMaps {
             has_map: 1,
             cube: 0,
             fine_base: if m.fine.is_empty() { NO_RAY } else { fine_base as u32 },
-            _pad0: 0,
+            finer_base: if m.finer.is_empty() { NO_RAY } else { finer_base as u32 },
             _pad1: 0,
             _pad2: 0,
         };
@@ -148,6 +149,7 @@ impl ShadowMaps {
         self.knots.extend_from_slice(m.knots);
         self.index.extend_from_slice(&m.index);
         self.index.extend_from_slice(m.fine);
+        self.index.extend_from_slice(m.finer);
         Ok(slot)
     }
 }

@@ -16,8 +16,10 @@
 //!   resolution is the grid's, not the mesh's: a shadow edge inside a
 //!   large cell stays sharp to a ray spacing. Around cells whose depths
 //!   are too rough for the bicubic lookup ([`REFINE_ABOVE`]) the rays
-//!   halfway between are walked too (a fine grid), and lookups there read
-//!   them instead.
+//!   halfway between are walked too (a fine grid), around the fine
+//!   grid's rough cells ([`REFINE_FINER_ABOVE`]) the rays halfway between
+//!   those (the finer grid, up to [`MAX_LEVELS`]), and lookups read the
+//!   finest grid whose rays surround the point.
 //! * **Point lights outside the mesh's bounding box: a deep shadow map**
 //!   of rays fanning out from the light over the mesh (looked up by
 //!   direction from the light and distance; refined alike).
@@ -50,7 +52,8 @@ use crate::RenderError;
 mod map;
 
 pub use map::{
-    catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS, NO_RAY, REFINE_ABOVE, SHORT_RAY,
+    catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS, MAX_LEVELS, NO_RAY,
+    REFINE_ABOVE, REFINE_FINER_ABOVE, SHORT_RAY,
 };
 
 /// Optical depth at which a shadow walk stops: transmittance below

@@ -20,6 +20,8 @@ $T/examples/lighting_bench /tmp/autzen.tetb $R/autzen_tf.json 512 96 $R/lighting
 for f in peaks12 sharp8 steps plateaus; do
   $T/examples/lighting_bench /tmp/bf.tetb crates/tet_preint/tests/data/heldout/tf_$f.json 512 64 $R/lighting_rows.md
 done
+# The narrow peaks from a point light outside the mesh (its refined fan).
+TET_LIGHT=point $T/examples/lighting_bench /tmp/bf.tetb crates/tet_preint/tests/data/heldout/tf_peaks12.json 512 64 $R/lighting_rows.md
 for b in ip grid60; do
   [ -f /work/bench/$b.tetb ] && $T/examples/lighting_bench /work/bench/$b.tetb formats/samples/tf_normalized.json 512 8 $R/lighting_rows.md
 done

@@ -445,7 +445,7 @@ pub fn emission_centroid(alpha: f32) -> f32 {
 /// `shade` would, piece by piece) and lit at its own emission centroid,
 /// composited in order; a piece across which the terms at the pieces'
 /// points still change by more than [`LIT_RESPLIT_TOLERANCE`] is split
-/// again ([`resplit_pieces`], a second batch). A
+/// again (`resplit_pieces`, a second batch). A
 /// highlight or a shadow edge inside one long segment is thus not decided
 /// by a single point. `front`: the terms at the segment's front when the
 /// caller has them (the previous segment's back, returned as the second
@@ -529,15 +529,14 @@ pub fn light_segment(
 
 /// How much the lighting terms may change across one piece of a split
 /// segment, times its colour, before the piece is split again
-/// ([`resplit_pieces`]). Chosen by measurement: at the split tolerance
-/// itself a third of Blunt Fin's pieces with the held-out narrow-peaks TF
-/// were split again and a lit frame cost 40% more; at 4× it, 4% were, for
-/// 13% more, and that TF's lighting error fell from 1.9/255 to 0.5/255
-/// (crates/tet_engine/results/lighting.md).
+/// (`resplit_pieces`). Chosen by measurement against the held-out TFs
+/// (crates/tet_engine/results/lighting.md): at the split tolerance itself
+/// a third of the pieces were split again for little more accuracy than
+/// at 4× it, where few are.
 pub const LIT_RESPLIT_TOLERANCE: f64 = 4.0 * LIT_SPLIT_TOLERANCE;
 
 /// Most pieces one piece of a split segment is split into again
-/// ([`resplit_pieces`]).
+/// (`resplit_pieces`).
 pub const LIT_MAX_SUBPIECES: usize = 8;
 
 /// The terms' difference between two points (the variation measure of

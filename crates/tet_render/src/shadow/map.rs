@@ -89,11 +89,10 @@ pub const NO_RAY: u32 = u32::MAX;
 pub const REFINE_ABOVE: f64 = 0.25;
 
 /// The same for a cell of the fine grid to get the finer grid's rays
-/// ([`MAX_LEVELS`]). Chosen by measurement (lighting.md): at 0.25 the held-out
-/// narrow-peaks TF's shadows on Blunt Fin came within 1.1/255 for a field
-/// of 1.9 s and 78 MB; at 0.5 within 1.3/255 for 1.5 s and 56 MB, and on
-/// ironProt with the sample TF no fine cell qualifies (its field stays
-/// under a lit frame).
+/// ([`MAX_LEVELS`]). Chosen by measurement (crates/tet_engine/results/
+/// lighting.md): at `REFINE_ABOVE` itself the finer grid gained little
+/// more on the held-out TFs than at twice it and put ironProt's field
+/// over a lit frame; at twice it ironProt gets no finer rays.
 pub const REFINE_FINER_ABOVE: f64 = 0.5;
 
 /// Even depths along the rays at which [`DeepShadowMap::rough_cells`]

@@ -164,6 +164,28 @@ fn shadow_grid(m: ShadowMap, k: u32, base: u32) -> ShadowGrid {
     return ShadowGrid(m.du / f32(k), m.dv / f32(k), k * (m.nu - 1u) + 1u, k * (m.nv - 1u) + 1u, base);
 }
 
+// The cell of a finer grid (`k` times as dense, its table at `base`,
+// SHADOW_NO_RAY: none) around the point at coarse coordinates (fu, fv),
+// and whether its four rays were walked: its corner at the centre of its
+// cell one grid up is walked exactly where all of that cell's rays are.
+struct ShadowCell {
+    g: ShadowGrid,
+    cu: vec2<f32>,
+    cv: vec2<f32>,
+    walked: bool,
+}
+
+fn shadow_finer_cell(m: ShadowMap, k: u32, base: u32, fu: f32, fv: f32) -> ShadowCell {
+    let g = shadow_grid(m, k, base);
+    let cu = shadow_cell(f32(k) * fu, g.nu);
+    let cv = shadow_cell(f32(k) * fv, g.nv);
+    var walked = false;
+    if base != SHADOW_NO_RAY {
+        walked = shadow_index[base + (u32(cv.x) | 1u) * g.nu + (u32(cu.x) | 1u)] != SHADOW_NO_RAY;
+    }
+    return ShadowCell(g, cu, cv, walked);
+}
+
 // Optical depth from light `l` to `pos_rel` (ShadowField::depth_at): its
 // map, or the face of its cube that sees the point (the largest coordinate
 // relative to the light, ties to the first axis, as cube_face). One call
@@ -284,25 +306,17 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     // exist. Every cell of a grid has the centre of its cell one grid up
     // for a corner, walked exactly where all of that cell's rays are: one
     // look a grid (as the CPU). Straight code, no loop (see below).
-    if m.fine_base != SHADOW_NO_RAY {
-        let fg = shadow_grid(m, 2u, m.fine_base);
-        let fcu = shadow_cell(2.0 * fu, fg.nu);
-        let fcv = shadow_cell(2.0 * fv, fg.nv);
-        if shadow_index[m.fine_base + (u32(fcv.x) | 1u) * fg.nu + (u32(fcu.x) | 1u)] != SHADOW_NO_RAY {
-            g = fg;
-            cu = fcu;
-            cv = fcv;
-        }
+    let fine = shadow_finer_cell(m, 2u, m.fine_base, fu, fv);
+    if fine.walked {
+        g = fine.g;
+        cu = fine.cu;
+        cv = fine.cv;
     }
-    if m.finer_base != SHADOW_NO_RAY {
-        let fg = shadow_grid(m, 4u, m.finer_base);
-        let fcu = shadow_cell(4.0 * fu, fg.nu);
-        let fcv = shadow_cell(4.0 * fv, fg.nv);
-        if shadow_index[m.finer_base + (u32(fcv.x) | 1u) * fg.nu + (u32(fcu.x) | 1u)] != SHADOW_NO_RAY {
-            g = fg;
-            cu = fcu;
-            cv = fcv;
-        }
+    let finer = shadow_finer_cell(m, 4u, m.finer_base, fu, fv);
+    if finer.walked {
+        g = finer.g;
+        cu = finer.cu;
+        cv = finer.cv;
     }
     let i = u32(cu.x);
     let j = u32(cv.x);

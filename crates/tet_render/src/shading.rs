@@ -481,30 +481,23 @@ pub fn light_segment(
     }
     let mut out = [0.0f32; 4];
     let step = 1.0 / pieces as f32;
-    let lerp = |a: f32, b: f32, w: f32| a + w * (b - a);
     let bounds = |j: usize| (j as f32 * step, (j + 1) as f32 * step);
     // LIT_MAX_PIECES ≤ BATCH: every piece in one batch.
     let LitPieces { batch, rgba: shaded } = &mut *scratch;
     for j in 0..pieces {
         let (w0, w1) = bounds(j);
-        batch.s_front[j] = lerp(seg.s_front, seg.s_back, w0);
-        batch.s_back[j] = lerp(seg.s_front, seg.s_back, w1);
-        batch.grad_front[j] = lerp(seg.grad_front, seg.grad_back, w0);
-        batch.grad_back[j] = lerp(seg.grad_front, seg.grad_back, w1);
-        batch.len_world[j] = seg.len_world * step;
+        set_piece(batch, j, seg, (w0, w1), seg.len_world * step);
     }
     batch.len = pieces;
     shade_batch(batch, shaded);
-    // Each piece lit at its own emission centroid: the terms there, and
-    // where they were taken.
-    let mut at = [(0.0f32, LitPoint::NONE); LIT_MAX_PIECES];
+    // Each piece lit at its own emission centroid (the terms there kept
+    // for the second level).
+    let mut at = [LitPoint::NONE; LIT_MAX_PIECES];
     let mut lit = [[0.0f32; 4]; LIT_MAX_PIECES];
     for (j, &rgba) in shaded.iter().enumerate().take(pieces) {
         let (w0, w1) = bounds(j);
-        let w = w0 + (w1 - w0) * emission_centroid(rgba[3]);
-        let p = lit_at(w);
-        at[j] = (w, p);
-        lit[j] = p.apply(rgba);
+        at[j] = lit_at(w0 + (w1 - w0) * emission_centroid(rgba[3]));
+        lit[j] = at[j].apply(rgba);
     }
     let first: [tet_preint::Rgba32; LIT_MAX_PIECES] = std::array::from_fn(|j| shaded[j]);
     resplit_pieces(
@@ -539,6 +532,23 @@ pub const LIT_RESPLIT_TOLERANCE: f64 = 4.0 * LIT_SPLIT_TOLERANCE;
 /// (`resplit_pieces`).
 pub const LIT_MAX_SUBPIECES: usize = 8;
 
+/// Sets entry `n` of `batch` to the part of `seg` from fraction `w0` to
+/// `w1` (its values linear along it), `len_world` long.
+fn set_piece(
+    batch: &mut tet_preint::SegmentBatch,
+    n: usize,
+    seg: &tet_preint::Segment,
+    (w0, w1): (f32, f32),
+    len_world: f32,
+) {
+    let lerp = |a: f32, b: f32, w: f32| a + w * (b - a);
+    batch.s_front[n] = lerp(seg.s_front, seg.s_back, w0);
+    batch.s_back[n] = lerp(seg.s_front, seg.s_back, w1);
+    batch.grad_front[n] = lerp(seg.grad_front, seg.grad_back, w0);
+    batch.grad_back[n] = lerp(seg.grad_front, seg.grad_back, w1);
+    batch.len_world[n] = len_world;
+}
+
 /// The terms' difference between two points (the variation measure of
 /// [`light_segment`]).
 fn jump(a: &LitPoint, b: &LitPoint) -> f64 {
@@ -550,9 +560,9 @@ fn jump(a: &LitPoint, b: &LitPoint) -> f64 {
 /// layer's shadow dips the light over a fraction of one piece), and a
 /// piece lit at one point is only right where its emission lies where
 /// constant extinction puts it (a narrow TF peak inside a piece puts it
-/// elsewhere). Where the terms sampled at the pieces' points (the front
-/// and back at the ends) change across a piece by more than the split
-/// tolerance over its colour, the piece is split again into up to
+/// elsewhere). Where the terms sampled at the pieces' points `at` (the
+/// front and back at the ends) change across a piece by more than
+/// [`LIT_RESPLIT_TOLERANCE`] over its colour, the piece is split again into up to
 /// [`LIT_MAX_SUBPIECES`] equal pieces (as many as the square root of that
 /// change over the tolerance, as at the first level), shaded together in
 /// one batch, each lit at its own emission centroid, composited in order;
@@ -563,7 +573,7 @@ fn resplit_pieces(
     pieces: usize,
     shaded: &[tet_preint::Rgba32],
     (front, back): (LitPoint, LitPoint),
-    at: &[(f32, LitPoint)],
+    at: &[LitPoint],
     lit: &mut [[f32; 4]],
     lit_at: &mut impl FnMut(f32) -> LitPoint,
     shade_batch: &mut impl FnMut(&tet_preint::SegmentBatch, &mut [tet_preint::Rgba32; tet_preint::BATCH]),
@@ -573,9 +583,9 @@ fn resplit_pieces(
     let mut total = 0;
     for j in 0..pieces {
         let colour = shaded[j].iter().fold(0.0f32, |a, &x| a.max(x)) as f64;
-        let prev = if j == 0 { front } else { at[j - 1].1 };
-        let next = if j + 1 == pieces { back } else { at[j + 1].1 };
-        let change = 0.5 * (jump(&prev, &at[j].1) + jump(&at[j].1, &next)) * colour;
+        let prev = if j == 0 { front } else { at[j - 1] };
+        let next = if j + 1 == pieces { back } else { at[j + 1] };
+        let change = 0.5 * (jump(&prev, &at[j]) + jump(&at[j], &next)) * colour;
         if change <= LIT_RESPLIT_TOLERANCE {
             continue;
         }
@@ -591,17 +601,12 @@ fn resplit_pieces(
         return;
     }
     let step = 1.0 / pieces as f32;
-    let lerp = |a: f32, b: f32, w: f32| a + w * (b - a);
     let LitPieces { batch, rgba: sub_shaded } = scratch;
     let mut n = 0;
     for (j, &k) in subpieces.iter().enumerate().take(pieces) {
         for q in 0..k {
             let (w0, w1) = ((j as f32 + q as f32 / k as f32) * step, (j as f32 + (q + 1) as f32 / k as f32) * step);
-            batch.s_front[n] = lerp(seg.s_front, seg.s_back, w0);
-            batch.s_back[n] = lerp(seg.s_front, seg.s_back, w1);
-            batch.grad_front[n] = lerp(seg.grad_front, seg.grad_back, w0);
-            batch.grad_back[n] = lerp(seg.grad_front, seg.grad_back, w1);
-            batch.len_world[n] = seg.len_world * (w1 - w0);
+            set_piece(batch, n, seg, (w0, w1), seg.len_world * (w1 - w0));
             n += 1;
         }
     }
@@ -926,8 +931,8 @@ mod tests {
             },
             &mut scratch,
         );
-        let exact = {
-            let n = 4096;
+        // `n` equal pieces, each lit at `at(w0, w1, its colour)`, composited.
+        let even = |n: usize, at: &dyn Fn(f32, f32, [f32; 4]) -> f32| -> [f32; 4] {
             let mut out = [0.0f32; 4];
             for j in 0..n {
                 let (w0, w1) = (j as f32 / n as f32, (j + 1) as f32 / n as f32);
@@ -939,7 +944,7 @@ mod tests {
                     len_world: w1 - w0,
                 };
                 let r = shade_one(&p);
-                let lit = lit_at(0.5 * (w0 + w1)).apply(r);
+                let lit = lit_at(at(w0, w1, r)).apply(r);
                 let t = 1.0 - out[3];
                 for (o, l) in out.iter_mut().zip(lit) {
                     *o += t * l;
@@ -947,6 +952,7 @@ mod tests {
             }
             out
         };
+        let exact = even(4096, &|w0, w1, _| 0.5 * (w0 + w1));
         let err = |a: [f32; 4]| a.iter().zip(exact).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
         // One level: the first-level pieces, each lit at its centroid.
         let one_level = {
@@ -954,24 +960,7 @@ mod tests {
             let var = (f.diffuse - m.diffuse).abs() + (m.diffuse - bk.diffuse).abs();
             let weight = c.iter().fold(0.0f32, |a, &x| a.max(x)) as f64;
             let pieces = ((var * weight / LIT_SPLIT_TOLERANCE).sqrt().ceil() as usize).clamp(1, LIT_MAX_PIECES);
-            let mut out = [0.0f32; 4];
-            for j in 0..pieces {
-                let (w0, w1) = (j as f32 / pieces as f32, (j + 1) as f32 / pieces as f32);
-                let p = tet_preint::Segment {
-                    s_front: w0,
-                    s_back: w1,
-                    grad_front: 1.0,
-                    grad_back: 1.0,
-                    len_world: w1 - w0,
-                };
-                let r = shade_one(&p);
-                let lit = lit_at(w0 + (w1 - w0) * emission_centroid(r[3])).apply(r);
-                let t = 1.0 - out[3];
-                for (o, l) in out.iter_mut().zip(lit) {
-                    *o += t * l;
-                }
-            }
-            out
+            even(pieces, &|w0, w1, r| w0 + (w1 - w0) * emission_centroid(r[3]))
         };
         // Measured: 7.0e-3 against 0.23.
         assert!(err(got) < 1e-2, "two levels off by {}", err(got));

@@ -75,7 +75,7 @@ fn bounds_of(points: &[[f64; 3]]) -> (DVec3, DVec3) {
 /// Index bins along each ray.
 const BINS: usize = 32;
 
-/// A position of the fine grid without a ray.
+/// A position of a finer grid (the fine or the finer one) without a ray.
 pub const NO_RAY: u32 = u32::MAX;
 
 /// How rough a cell's depths must be (a third difference across four rays
@@ -783,19 +783,28 @@ impl DeepShadowMap {
             fine: self.levels.first().map_or(&[], |l| l.as_slice()),
             finer: self.levels.get(1).map_or(&[], |l| l.as_slice()),
             knots: &self.knots,
-            index: self
-                .rays
-                .iter()
-                .flat_map(|r| {
-                    let (start, end) = (r.start as usize, r.end as usize);
-                    std::iter::once(r.start)
-                        .chain(
-                            (1..BINS).map(move |b| first_at_or_past(&self.knots, start, end, b as f32 * self.bin_len)),
-                        )
-                        .chain(std::iter::once(r.end))
-                })
-                .collect(),
+            index: self.full_index(),
         }
+    }
+
+    /// Every ray's `BINS + 1` entries of [`MapLayout::index`]: a long ray's
+    /// kept bins, a short ray's scanned for here (as [`append_rays`] does).
+    fn full_index(&self) -> Vec<u32> {
+        let mut index = Vec::with_capacity(self.rays.len() * (BINS + 1));
+        for r in &self.rays {
+            index.push(r.start);
+            if (r.end - r.start) as usize > SHORT_RAY {
+                index.extend_from_slice(&self.bins[r.bins_at as usize..][..BINS - 1]);
+            } else {
+                let mut n = r.start as usize;
+                for b in 1..BINS {
+                    n = first_at_or_past(&self.knots, n, r.end as usize, b as f32 * self.bin_len) as usize;
+                    index.push(n as u32);
+                }
+            }
+            index.push(r.end);
+        }
+        index
     }
 
     /// Rays across and along.

@@ -67,7 +67,7 @@ struct ShadowMap {
     cube: u32,
     fine_base: u32,
     finer_base: u32,
-    _pad1: u32,
+    finest_base: u32,
     _pad2: u32,
 }
 
@@ -87,6 +87,9 @@ const SHADOW_SLOTS: u32 = 6u;
 
 // A fine-grid position without a ray (tet_render::shadow::NO_RAY).
 const SHADOW_NO_RAY: u32 = 0xFFFFFFFFu;
+// Positions along a side of a finer grid's table tiles
+// (tet_render::shadow::LEVEL_TILE).
+const SHADOW_LEVEL_TILE: u32 = 8u;
 
 // Ray r of map `m`'s optical depth at parameter t: linear between its
 // knots, 0 before the first, the last's after it.
@@ -154,9 +157,22 @@ struct ShadowGrid {
 // finer grid has none.
 fn shadow_ray_of(m: ShadowMap, g: ShadowGrid, i: u32, j: u32) -> u32 {
     if g.base != SHADOW_NO_RAY {
-        return shadow_index[g.base + j * g.nu + i];
+        return shadow_level_ray(g.base, g.nu, i, j);
     }
     return j * m.nu + i;
+}
+
+// Position (i, j) of a finer grid `nu` positions wide whose table starts
+// at `base` (tet_render::shadow::LevelTable: per tile of SHADOW_LEVEL_TILE²
+// positions, row after row, where its entries start in the table or
+// SHADOW_NO_RAY; then the tiles' entries): its ray, SHADOW_NO_RAY where none.
+fn shadow_level_ray(base: u32, nu: u32, i: u32, j: u32) -> u32 {
+    let tiles_u = (nu + SHADOW_LEVEL_TILE - 1u) / SHADOW_LEVEL_TILE;
+    let tile = shadow_index[base + (j / SHADOW_LEVEL_TILE) * tiles_u + i / SHADOW_LEVEL_TILE];
+    if tile == SHADOW_NO_RAY {
+        return SHADOW_NO_RAY;
+    }
+    return shadow_index[base + tile + (j % SHADOW_LEVEL_TILE) * SHADOW_LEVEL_TILE + i % SHADOW_LEVEL_TILE];
 }
 
 // Map `m`'s grid `k` times as dense as its coarse one, its table at `base`.
@@ -181,7 +197,7 @@ fn shadow_finer_cell(m: ShadowMap, k: u32, base: u32, fu: f32, fv: f32) -> Shado
     let cv = shadow_cell(f32(k) * fv, g.nv);
     var walked = false;
     if base != SHADOW_NO_RAY {
-        walked = shadow_index[base + (u32(cv.x) | 1u) * g.nu + (u32(cu.x) | 1u)] != SHADOW_NO_RAY;
+        walked = shadow_level_ray(base, g.nu, u32(cu.x) | 1u, u32(cv.x) | 1u) != SHADOW_NO_RAY;
     }
     return ShadowCell(g, cu, cv, walked);
 }
@@ -301,9 +317,9 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     var cu = shadow_cell(fu, m.nu);
     var cv = shadow_cell(fv, m.nv);
     // Around rough cells the map has rays halfway between (its fine grid),
-    // and around the fine grid's rough cells rays halfway between those
-    // (the finer grid): read at the finest grid whose four nearest rays
-    // exist. Every cell of a grid has the centre of its cell one grid up
+    // around the fine grid's rough cells rays halfway between those (the
+    // finer grid), and so once more (the finest): read at the finest grid
+    // whose four nearest rays exist. Every cell of a grid has the centre of its cell one grid up
     // for a corner, walked exactly where all of that cell's rays are: one
     // look a grid (as the CPU). Straight code, no loop (see below).
     let fine = shadow_finer_cell(m, 2u, m.fine_base, fu, fv);
@@ -317,6 +333,12 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
         g = finer.g;
         cu = finer.cu;
         cv = finer.cv;
+    }
+    let finest = shadow_finer_cell(m, 8u, m.finest_base, fu, fv);
+    if finest.walked {
+        g = finest.g;
+        cu = finest.cu;
+        cv = finest.cv;
     }
     let i = u32(cu.x);
     let j = u32(cv.x);

@@ -336,13 +336,16 @@ pub struct GpuShadowMap {
     /// six maps, its faces in this slot and the next five
     /// (`tet_render::shadow::cube_face` order).
     pub cube: u32,
-    /// Where this map's fine grid starts in the index buffer
-    /// (`tet_render::shadow::MapLayout::fine`: a ray number a position,
-    /// `NO_RAY` where none), or `NO_RAY`: no fine rays.
+    /// Where this map's fine grid's table starts in the index buffer
+    /// (`tet_render::shadow::MapLayout::levels`' first: a ray number a
+    /// position, by tiles of [`SHADOW_LEVEL_TILE`]², `NO_RAY` where none),
+    /// or `NO_RAY`: no fine rays.
     pub fine_base: u32,
-    /// The same for the finer grid (`MapLayout::finer`), or `NO_RAY`.
+    /// The same for the second finer grid (`MapLayout::levels[1]`), or
+    /// `NO_RAY`.
     pub finer_base: u32,
-    pub _pad1: u32,
+    /// The same for the third (`MapLayout::levels[2]`), or `NO_RAY`.
+    pub finest_base: u32,
     pub _pad2: u32,
 }
 
@@ -353,6 +356,15 @@ pub const SHADOW_SLOTS: usize = 6;
 /// Index bins along each shadow-map ray (`SHADOW_BINS` in lighting.wgsl;
 /// `tet_render::shadow::MapLayout::bins`).
 pub const SHADOW_BINS: usize = 32;
+
+/// Positions along a side of a finer grid's table tiles
+/// (`SHADOW_LEVEL_TILE` in lighting.wgsl;
+/// `tet_render::shadow::LEVEL_TILE`).
+pub const SHADOW_LEVEL_TILE: usize = 8;
+
+/// Finer grids a shadow map may have on the GPU (`GpuShadowMap`'s
+/// `fine_base`, `finer_base`, `finest_base`).
+pub const SHADOW_LEVELS: usize = 3;
 
 /// Shadow-map rays of at most this many knots are scanned from their first
 /// knot, not from a bin (`SHADOW_SHORT_RAY` in lighting.wgsl;
@@ -454,6 +466,8 @@ mod tests {
         assert_eq!(size_of::<LightParams>(), 320);
         assert_eq!(size_of::<GpuShadowMap>(), 128);
         assert_eq!(MAX_GPU_LIGHTS, tet_render::MAX_LIGHTS);
+        assert_eq!(SHADOW_LEVELS, tet_render::shadow::MAX_LEVELS);
+        assert_eq!(SHADOW_LEVEL_TILE, tet_render::shadow::LEVEL_TILE);
         for (s, a) in [
             (size_of::<FrameUniforms>(), align_of::<FrameUniforms>()),
             (size_of::<TetGeom>(), align_of::<TetGeom>()),

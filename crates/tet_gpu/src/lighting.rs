@@ -15,7 +15,7 @@ use tet_render::{LightSource, Shading, ShadowField};
 
 use crate::gpu_types::{
     GpuLight, GpuShadowMap, LightParams, LIGHT_DIRECTIONAL, LIGHT_HEADLIGHT, LIGHT_POINT, MAX_GPU_LIGHTS, SHADOW_BINS,
-    SHADOW_SHORT_RAY, SHADOW_SLOTS,
+    SHADOW_LEVELS, SHADOW_LEVEL_TILE, SHADOW_SHORT_RAY, SHADOW_SLOTS,
 };
 use crate::GpuError;
 
@@ -93,17 +93,30 @@ impl ShadowMaps {
         light: usize,
     ) -> Result<GpuShadowMap, GpuError> {
         let m = map.layout();
-        if m.bins != SHADOW_BINS || m.short_ray != SHADOW_SHORT_RAY {
+        if m.bins != SHADOW_BINS
+            || m.short_ray != SHADOW_SHORT_RAY
+            || m.tile != SHADOW_LEVEL_TILE
+            || m.levels.len() > SHADOW_LEVELS
+        {
             return Err(GpuError::Input(format!(
-                "a shadow map of {} bins scanning rays of up to {} knots whole; the GPU reads {SHADOW_BINS} and \
-                 {SHADOW_SHORT_RAY}",
-                m.bins, m.short_ray
+                "a shadow map of {} bins scanning rays of up to {} knots whole, {} finer grids in tiles of {} \
+                 positions a side; the GPU reads {SHADOW_BINS} and {SHADOW_SHORT_RAY}, up to {SHADOW_LEVELS} grids \
+                 in tiles of {SHADOW_LEVEL_TILE}",
+                m.bins,
+                m.short_ray,
+                m.levels.len(),
+                m.tile
             )));
         }
         let (knot_base, index_base) = (self.knots.len(), self.index.len());
-        let fine_base = index_base + m.index.len();
-        let finer_base = fine_base + m.fine.len();
-        if knot_base + m.knots.len() > u32::MAX as usize || finer_base + m.finer.len() >= NO_RAY as usize {
+        // Each finer grid's table after the index, one after the other.
+        let mut level_base = [NO_RAY; SHADOW_LEVELS];
+        let mut end = index_base + m.index.len();
+        for (base, table) in level_base.iter_mut().zip(&m.levels) {
+            *base = end.min(NO_RAY as usize) as u32;
+            end += table.len();
+        }
+        if knot_base + m.knots.len() > u32::MAX as usize || end >= NO_RAY as usize {
             return Err(GpuError::Input("shadow maps beyond 2³² knots".into()));
         }
         // Parallel rays read p·e1, p·e2, p·d − t0 of the map's frame: the
@@ -137,9 +150,9 @@ impl ShadowMaps {
             index_base: index_base as u32,
             has_map: 1,
             cube: 0,
-            fine_base: if m.fine.is_empty() { NO_RAY } else { fine_base as u32 },
-            finer_base: if m.finer.is_empty() { NO_RAY } else { finer_base as u32 },
-            _pad1: 0,
+            fine_base: level_base[0],
+            finer_base: level_base[1],
+            finest_base: level_base[2],
             _pad2: 0,
         };
         let floats = [slot.u0, slot.v0, slot.t0, slot.du, slot.dv, slot.bin_len];
@@ -148,8 +161,9 @@ impl ShadowMaps {
         }
         self.knots.extend_from_slice(m.knots);
         self.index.extend_from_slice(&m.index);
-        self.index.extend_from_slice(m.fine);
-        self.index.extend_from_slice(m.finer);
+        for table in &m.levels {
+            self.index.extend_from_slice(table);
+        }
         Ok(slot)
     }
 }

@@ -175,6 +175,32 @@ fn pod_layouts_match_the_wgsl_structs() {
                 lights
             ]
         ),
+        layout!(
+            GpuShadowMap,
+            "ShadowMap",
+            [
+                e1,
+                e2,
+                d,
+                origin,
+                u0,
+                v0,
+                t0,
+                du,
+                dv,
+                bin_len,
+                nu,
+                nv,
+                knot_base,
+                index_base,
+                has_map,
+                cube,
+                fine_base,
+                finer_base,
+                finest_base,
+                _pad2
+            ]
+        ),
     ];
     let modules: Vec<naga::Module> =
         tet_gpu::shader_sources().iter().map(|(_, src)| naga::front::wgsl::parse_str(src).unwrap()).collect();

@@ -18,8 +18,10 @@
 //!   are too rough for the bicubic lookup ([`REFINE_ABOVE`]) the rays
 //!   halfway between are walked too (a fine grid), around the fine
 //!   grid's rough cells ([`REFINE_FINER_ABOVE`]) the rays halfway between
-//!   those (the finer grid, up to [`MAX_LEVELS`]), and lookups read the
-//!   finest grid whose rays surround the point.
+//!   those, and so on up to [`MAX_LEVELS`] finer grids (their tables of
+//!   rays kept by tiles of [`LEVEL_TILE`]² positions, only around the
+//!   rays added), and lookups read the finest grid whose rays surround
+//!   the point.
 //! * **Point lights outside the mesh's bounding box: a deep shadow map**
 //!   of rays fanning out from the light over the mesh (looked up by
 //!   direction from the light and distance; refined alike).
@@ -52,7 +54,7 @@ use crate::RenderError;
 mod map;
 
 pub use map::{
-    catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, MAP_RAYS, MAX_LEVELS, NO_RAY,
+    catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, LEVEL_TILE, MAP_RAYS, MAX_LEVELS, NO_RAY,
     REFINE_ABOVE, REFINE_FINER_ABOVE, SHORT_RAY,
 };
 

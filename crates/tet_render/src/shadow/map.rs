@@ -52,13 +52,13 @@ pub struct DeepShadowMap {
     /// or past parameter b·`bin_len` (0 < b < BINS), where a lookup in bin
     /// b scans on from. A short ray is scanned from its first knot.
     bins: Vec<u32>,
-    /// The finer grids, level L = 1, 2 at `levels[L − 1]` (rays 2^L
-    /// times as dense: (2^L·(nu − 1) + 1) × (2^L·(nv − 1) + 1) positions,
-    /// the level above's rays at even ones): each position's record in
-    /// `rays`, [`NO_RAY`] where no ray was walked. A level is walked only
-    /// around the cells of the level above whose depths are rough; absent:
-    /// none were.
-    levels: Vec<Vec<u32>>,
+    /// The finer grids, level L = 1..=[`MAX_LEVELS`] at `levels[L − 1]`
+    /// (rays 2^L times as dense: (2^L·(nu − 1) + 1) × (2^L·(nv − 1) + 1)
+    /// positions, the level above's rays at even ones): each position's
+    /// record in `rays`, [`NO_RAY`] where no ray was walked. A level is
+    /// walked only around the cells of the level above whose depths are
+    /// rough; absent: none were.
+    levels: Vec<LevelTable>,
     bin_len: f32,
     /// A point light's map: rays fan out from this point (the light), the
     /// grid is over slopes across `d` and a sample's parameter is its
@@ -75,8 +75,61 @@ fn bounds_of(points: &[[f64; 3]]) -> (DVec3, DVec3) {
 /// Index bins along each ray.
 const BINS: usize = 32;
 
-/// A position of a finer grid (the fine or the finer one) without a ray.
+/// A position of a finer grid without a ray.
 pub const NO_RAY: u32 = u32::MAX;
+
+/// Positions along a side of a [`LevelTable`]'s tiles.
+pub const LEVEL_TILE: usize = 8;
+
+/// A finer grid's ray numbers by position, kept only in the tiles of
+/// [`LEVEL_TILE`] × [`LEVEL_TILE`] positions where a ray was walked (a
+/// finer grid is walked around shadow edges only: the third's 2041² full
+/// table alone would be 17 MB). One flat vector, read as is by the GPU
+/// ([`MapLayout::levels`]): first one word per tile, row after row of
+/// ⌈nu / LEVEL_TILE⌉ tiles — where the tile's entries start in this
+/// vector, [`NO_RAY`] where it has no ray; then the tiles' entries, row
+/// after row within a tile, each a ray number or `NO_RAY`.
+#[derive(Debug, Clone)]
+struct LevelTable {
+    tiles_u: usize,
+    words: Vec<u32>,
+}
+
+impl LevelTable {
+    /// The table of a grid `nu` positions wide whose rays by position
+    /// (row after row) are `dense`.
+    fn from_dense(nu: usize, dense: &[u32]) -> LevelTable {
+        let (tiles_u, tiles_v) = (nu.div_ceil(LEVEL_TILE), (dense.len() / nu).div_ceil(LEVEL_TILE));
+        let mut words = vec![NO_RAY; tiles_u * tiles_v];
+        for tj in 0..tiles_v {
+            for ti in 0..tiles_u {
+                let at = |i: usize, j: usize| {
+                    let (i, j) = (ti * LEVEL_TILE + i, tj * LEVEL_TILE + j);
+                    if i < nu && j * nu < dense.len() {
+                        dense[j * nu + i]
+                    } else {
+                        NO_RAY
+                    }
+                };
+                let tile: Vec<u32> = (0..LEVEL_TILE * LEVEL_TILE).map(|k| at(k % LEVEL_TILE, k / LEVEL_TILE)).collect();
+                if tile.iter().any(|&r| r != NO_RAY) {
+                    words[tj * tiles_u + ti] = words.len() as u32;
+                    words.extend_from_slice(&tile);
+                }
+            }
+        }
+        LevelTable { tiles_u, words }
+    }
+
+    /// The ray at position (i, j), [`NO_RAY`] where none was walked.
+    fn get(&self, i: usize, j: usize) -> u32 {
+        let tile = self.words[(j / LEVEL_TILE) * self.tiles_u + i / LEVEL_TILE];
+        if tile == NO_RAY {
+            return NO_RAY;
+        }
+        self.words[tile as usize + (j % LEVEL_TILE) * LEVEL_TILE + i % LEVEL_TILE]
+    }
+}
 
 /// How rough a cell's depths must be (a third difference across four rays
 /// through it times the light left, at some even depth: see
@@ -88,20 +141,25 @@ pub const NO_RAY: u32 = u32::MAX;
 /// are as low and ironProt's field stays under a lit frame.
 pub const REFINE_ABOVE: f64 = 0.25;
 
-/// The same for a cell of the fine grid to get the finer grid's rays
+/// The same for a cell of a finer grid to get the next grid's rays
 /// ([`MAX_LEVELS`]). Chosen by measurement (crates/tet_engine/results/
-/// lighting.md): at `REFINE_ABOVE` itself the finer grid gained little
+/// lighting.md): at `REFINE_ABOVE` itself the second grid gained little
 /// more on the held-out TFs than at twice it and put ironProt's field
-/// over a lit frame; at twice it ironProt gets no finer rays.
+/// over a lit frame; at twice it ironProt gets no second grid. The third
+/// grid needs it as low (at 1, 2 or 4 the point light's sliver above
+/// stays 2.1/255).
 pub const REFINE_FINER_ABOVE: f64 = 0.5;
 
 /// Even depths along the rays at which [`DeepShadowMap::rough_cells`]
 /// compares them.
 const REFINE_SAMPLES: usize = 64;
 
-/// Finer grids at most ([`DeepShadowMap`]'s `levels`): rays up to 4× as
-/// dense as the coarse grid's around shadow edges.
-pub const MAX_LEVELS: usize = 2;
+/// Finer grids at most ([`DeepShadowMap`]'s `levels`): rays up to 8× as
+/// dense as the coarse grid's around shadow edges. The third level is
+/// what follows a point light's shadow of a narrow TF peak's sliver on
+/// Blunt Fin (crates/tet_engine/results/lighting.md); the memory it takes
+/// is its rays', its table kept by tiles ([`LevelTable`]).
+pub const MAX_LEVELS: usize = 3;
 
 /// A grid of the map's rays: the coarse one (`depth` 0) or a finer one.
 struct Level {
@@ -219,15 +277,17 @@ pub struct MapLayout<'a> {
     /// of at most [`SHORT_RAY`] knots from its first knot, any other from
     /// its point's bin.
     pub index: Vec<u32>,
-    /// The fine grid ((2·nu − 1) × (2·nv − 1) positions, row after row;
-    /// the coarse rays at even ones): each position's ray (its record at
-    /// `index[r·(bins + 1)..]`), [`NO_RAY`] where none was walked. Empty:
-    /// the map has no fine rays.
-    pub fine: &'a [u32],
-    /// The finer grid still ((4·nu − 3) × (4·nv − 3) positions, the fine
-    /// grid's rays at even ones), walked around the fine grid's rough
-    /// cells; empty where there is none.
-    pub finer: &'a [u32],
+    /// The finer grids, at most [`MAX_LEVELS`]: level L (`levels[L − 1]`)
+    /// of (2^L·(nu − 1) + 1) × (2^L·(nv − 1) + 1) positions, the level
+    /// above's rays at even ones, walked around the level above's rough
+    /// cells: each position's ray (its record at `index[r·(bins + 1)..]`),
+    /// [`NO_RAY`] where none was walked, by tiles of `tile` × `tile`
+    /// positions (see [`LevelTable`]: per tile of ⌈positions a row /
+    /// tile⌉ a row, where its entries start in this table or `NO_RAY`;
+    /// then the tiles). No levels: the map has no finer rays.
+    pub levels: Vec<&'a [u32]>,
+    /// [`LEVEL_TILE`].
+    pub tile: usize,
 }
 
 impl DeepShadowMap {
@@ -449,7 +509,7 @@ impl DeepShadowMap {
             // Every cell of a level has the centre of its cell one level
             // up for a corner, and that centre is walked exactly where
             // that whole cell is: one look says whether all four are there.
-            if self.levels[depth - 1][(j | 1) * level.nu + (i | 1)] != NO_RAY {
+            if self.levels[depth - 1].get(i | 1, j | 1) != NO_RAY {
                 if let Some(d) = self.interpolate(&level, i, j, wu, wv, axial) {
                     return d;
                 }
@@ -476,7 +536,7 @@ impl DeepShadowMap {
     /// Ray (i, j) of `level`'s record, `None` where a finer grid has none.
     fn record(&self, level: &Level, i: usize, j: usize) -> Option<RayRecord> {
         if level.depth > 0 {
-            let r = self.levels[level.depth - 1][j * level.nu + i];
+            let r = self.levels[level.depth - 1].get(i, j);
             (r != NO_RAY).then(|| self.rays[r as usize])
         } else {
             Some(self.rays[j * self.nu + i])
@@ -723,14 +783,28 @@ impl DeepShadowMap {
             for i in 0..parent.nu {
                 table[2 * j * fu + 2 * i] = match depth {
                     1 => (j * parent.nu + i) as u32,
-                    _ => self.levels[depth - 2][j * parent.nu + i],
+                    _ => self.levels[depth - 2].get(i, j),
                 };
             }
         }
+        // A lookup, a roughness test or the next level reads this level
+        // only within two positions of a ray it added (the cells those
+        // rays are corners of, and their sixteen): the level above's rays
+        // are kept there only, so that the table's tiles are kept only
+        // around the shadow edges.
+        let mut near_new = vec![false; fu * fv];
         for (k, &(i, j)) in new.iter().enumerate() {
             table[j * fu + i] = first_new + k as u32;
+            for jj in j.saturating_sub(2)..(j + 3).min(fv) {
+                near_new[jj * fu + i.saturating_sub(2)..jj * fu + (i + 3).min(fu)].fill(true);
+            }
         }
-        self.levels.push(table);
+        for (r, near) in table.iter_mut().zip(near_new) {
+            if !near {
+                *r = NO_RAY;
+            }
+        }
+        self.levels.push(LevelTable::from_dense(fu, &table));
         true
     }
 
@@ -753,7 +827,7 @@ impl DeepShadowMap {
     pub fn memory_bytes(&self) -> usize {
         self.knots.len() * 8
             + self.rays.len() * std::mem::size_of::<RayRecord>()
-            + (self.bins.len() + self.levels.iter().map(Vec::len).sum::<usize>()) * 4
+            + (self.bins.len() + self.levels.iter().map(|l| l.words.len()).sum::<usize>()) * 4
     }
 
     /// A point light's map: the light (its rays fan out from it).
@@ -780,8 +854,8 @@ impl DeepShadowMap {
             bin_len: self.bin_len,
             bins: BINS,
             short_ray: SHORT_RAY,
-            fine: self.levels.first().map_or(&[], |l| l.as_slice()),
-            finer: self.levels.get(1).map_or(&[], |l| l.as_slice()),
+            levels: self.levels.iter().map(|l| l.words.as_slice()).collect(),
+            tile: LEVEL_TILE,
             knots: &self.knots,
             index: self.full_index(),
         }
@@ -1131,16 +1205,59 @@ mod tests {
         assert!(mean < 4e-4 && worst < 0.03, "mean {mean:.2e}, worst {worst:.3}");
     }
 
+    /// A level's table by tiles reads as the full table it was made from,
+    /// at every position of grids whose sides are and are not whole tiles,
+    /// and keeps only the tiles that have a ray.
+    #[test]
+    fn a_level_table_reads_as_its_full_table() {
+        let mut rng = tet_mesh::XorShift64(11);
+        for (nu, nv) in [(17, 9), (16, 16), (3, 41), (1, 1)] {
+            let mut dense = vec![NO_RAY; nu * nv];
+            // A few clusters of rays, as refinement around edges leaves.
+            for _ in 0..3 {
+                let (ci, cj) = ((rng.range(0.0, nu as f64)) as usize, (rng.range(0.0, nv as f64)) as usize);
+                for j in cj.saturating_sub(2)..(cj + 3).min(nv) {
+                    for i in ci.saturating_sub(2)..(ci + 3).min(nu) {
+                        dense[j * nu + i] = (j * nu + i) as u32 * 7;
+                    }
+                }
+            }
+            let table = LevelTable::from_dense(nu, &dense);
+            for j in 0..nv {
+                for i in 0..nu {
+                    assert_eq!(table.get(i, j), dense[j * nu + i], "({i}, {j}) of {nu} × {nv}");
+                }
+            }
+            let directory = nu.div_ceil(LEVEL_TILE) * nv.div_ceil(LEVEL_TILE);
+            let with_rays = (0..directory)
+                .filter(|&t| {
+                    let (ti, tj) = (t % nu.div_ceil(LEVEL_TILE), t / nu.div_ceil(LEVEL_TILE));
+                    (0..nv).any(|j| {
+                        (0..nu).any(|i| i / LEVEL_TILE == ti && j / LEVEL_TILE == tj && dense[j * nu + i] != NO_RAY)
+                    })
+                })
+                .count();
+            assert_eq!(table.words.len(), directory + with_rays * LEVEL_TILE * LEVEL_TILE);
+        }
+        // No ray at all: the directory alone.
+        assert_eq!(LevelTable::from_dense(20, &[NO_RAY; 60]).words, vec![NO_RAY; 3]);
+    }
+
     /// Each level of a map keeps the rays of the level above at its even
     /// positions where it was walked, and adds its own only around edges.
     fn assert_levels_nest(map: &DeepShadowMap) {
         let mut above: Vec<u32> = (0..(map.nu * map.nv) as u32).collect();
         for depth in 1..=map.levels.len() {
             let (up, level) = (map.level(depth - 1), map.level(depth));
-            let table = &map.levels[depth - 1];
-            assert_eq!(table.len(), level.nu * level.nv);
+            let tiles = &map.levels[depth - 1];
+            let table: Vec<u32> = (0..level.nu * level.nv).map(|k| tiles.get(k % level.nu, k / level.nu)).collect();
+            let directory = tiles.tiles_u * level.nv.div_ceil(LEVEL_TILE);
+            let kept = tiles.words[..directory].iter().filter(|&&w| w != NO_RAY).count();
+            assert!(kept < directory, "level {depth} keeps only the tiles walked");
+            assert_eq!(tiles.words.len(), directory + kept * LEVEL_TILE * LEVEL_TILE);
             assert!(table.contains(&NO_RAY), "level {depth} refined around the edges only");
-            let added = table.iter().filter(|&&r| r != NO_RAY && !above.contains(&r)).count();
+            let known: std::collections::HashSet<u32> = above.iter().copied().collect();
+            let added = table.iter().filter(|&&r| r != NO_RAY && !known.contains(&r)).count();
             assert!(added > 0, "level {depth} adds rays");
             for j in 0..up.nv {
                 for i in 0..up.nu {
@@ -1181,10 +1298,10 @@ mod tests {
     }
 
     /// Two narrower, denser bands: shadow edges the fine grid still leaves
-    /// rough get the finer grid, and the map follows exact shadow rays
-    /// closer than with the fine grid alone.
+    /// rough get the finer grids, and the map follows exact shadow rays
+    /// closer with each level.
     #[test]
-    fn the_finer_grid_follows_narrower_bands_closer() {
+    fn the_finer_grids_follow_narrower_bands_closer() {
         let reference = slotted_reference();
         let tf = TransferFunction::from_json(
             r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.8, 0.1], [0.81, 400], [0.82, 0.1], [1.2, 0.1], [1.21, 400], [1.22, 0.1], [2, 0.3]], "unit_distance": 1}"#,
@@ -1195,16 +1312,18 @@ mod tests {
         assert_eq!(map.levels.len(), MAX_LEVELS);
         assert_levels_nest(&map);
         let light = crate::LightSource::Directional { direction: d.into(), intensity: 1.0 };
-        let (mean, worst) = errors_against_exact_rays(&reference, &map, &light, &tf);
-        let mut one_level = map.clone();
-        one_level.levels.truncate(1);
-        let (mean1, worst1) = errors_against_exact_rays(&reference, &one_level, &light, &tf);
-        // Measured: two levels mean 1.8e-4, worst 0.043; the fine grid
-        // alone 6.0e-4, 0.31.
-        assert!(
-            mean < 3e-4 && worst < 0.08 && 2.0 * mean < mean1 && 2.0 * worst < worst1,
-            "two levels: mean {mean:.2e}, worst {worst:.3}; one: mean {mean1:.2e}, worst {worst1:.3}"
-        );
+        let errors = |levels: usize| {
+            let mut map = map.clone();
+            map.levels.truncate(levels);
+            errors_against_exact_rays(&reference, &map, &light, &tf)
+        };
+        let [(mean3, worst3), (mean2, worst2), (mean1, worst1)] = [3, 2, 1].map(errors);
+        // Measured: three levels mean 1.19e-4, worst 0.019; two 1.81e-4,
+        // 0.043; the fine grid alone 6.0e-4, 0.31.
+        let got = format!("three levels: mean {mean3:.2e}, worst {worst3:.3}; two: {mean2:.2e}, {worst2:.3}; one: {mean1:.2e}, {worst1:.3}");
+        assert!(mean3 < 1.5e-4 && worst3 < 0.03, "{got}");
+        assert!(1.3 * mean3 < mean2 && 1.5 * worst3 < worst2, "{got}");
+        assert!(2.0 * mean2 < mean1 && 2.0 * worst2 < worst1, "{got}");
     }
 
     /// A faint TF (no steep shadow anywhere) walks no fine rays: the

@@ -45,6 +45,9 @@ $T/tetview render /tmp/bf.tetb --tf crates/tet_preint/tests/data/heldout/tf_peak
 for n in point point_shadows; do
   $T/tetview render /tmp/bf.tetb --tf $R/bf_shadow_tf.json --view $R/bf_${n}_view.json -o $R/bf_$n.png
 done
+# The same light's shadows of the dozen narrow peaks (its fan refined to the third grid).
+$T/tetview render /tmp/bf.tetb --tf crates/tet_preint/tests/data/heldout/tf_peaks12.json \
+  --view $R/bf_point_shadows_view.json -o $R/bf_peaks12_point_shadows.png
 # A point light inside the mesh (its cube of maps), without and with shadows.
 for n in inside inside_shadows; do
   $T/tetview render /tmp/bf.tetb --tf $R/bf_shadow_tf.json --view $R/bf_${n}_view.json -o $R/bf_$n.png

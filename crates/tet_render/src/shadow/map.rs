@@ -54,10 +54,12 @@ pub struct DeepShadowMap {
     bins: Vec<u32>,
     /// The finer grids, level L = 1..=[`MAX_LEVELS`] at `levels[L − 1]`
     /// (rays 2^L times as dense: (2^L·(nu − 1) + 1) × (2^L·(nv − 1) + 1)
-    /// positions, the level above's rays at even ones): each position's
-    /// record in `rays`, [`NO_RAY`] where no ray was walked. A level is
-    /// walked only around the cells of the level above whose depths are
-    /// rough; absent: none were.
+    /// positions): each position's record in `rays`, [`NO_RAY`] where no
+    /// ray was walked. A level is walked only around the cells of the
+    /// level above whose depths are rough, and holds the level above's
+    /// rays (at its even positions) only within two positions of a ray it
+    /// added, where lookups and the next level read it; absent: no cell
+    /// was rough.
     levels: Vec<LevelTable>,
     bin_len: f32,
     /// A point light's map: rays fan out from this point (the light), the
@@ -111,7 +113,7 @@ impl LevelTable {
                         NO_RAY
                     }
                 };
-                let tile: Vec<u32> = (0..LEVEL_TILE * LEVEL_TILE).map(|k| at(k % LEVEL_TILE, k / LEVEL_TILE)).collect();
+                let tile: [u32; LEVEL_TILE * LEVEL_TILE] = std::array::from_fn(|k| at(k % LEVEL_TILE, k / LEVEL_TILE));
                 if tile.iter().any(|&r| r != NO_RAY) {
                     words[tj * tiles_u + ti] = words.len() as u32;
                     words.extend_from_slice(&tile);
@@ -158,7 +160,7 @@ const REFINE_SAMPLES: usize = 64;
 /// dense as the coarse grid's around shadow edges. The third level is
 /// what follows a point light's shadow of a narrow TF peak's sliver on
 /// Blunt Fin (crates/tet_engine/results/lighting.md); the memory it takes
-/// is its rays', its table kept by tiles ([`LevelTable`]).
+/// is its rays', its table kept by tiles ([`LEVEL_TILE`]).
 pub const MAX_LEVELS: usize = 3;
 
 /// A grid of the map's rays: the coarse one (`depth` 0) or a finer one.
@@ -278,13 +280,14 @@ pub struct MapLayout<'a> {
     /// its point's bin.
     pub index: Vec<u32>,
     /// The finer grids, at most [`MAX_LEVELS`]: level L (`levels[L − 1]`)
-    /// of (2^L·(nu − 1) + 1) × (2^L·(nv − 1) + 1) positions, the level
-    /// above's rays at even ones, walked around the level above's rough
-    /// cells: each position's ray (its record at `index[r·(bins + 1)..]`),
-    /// [`NO_RAY`] where none was walked, by tiles of `tile` × `tile`
-    /// positions (see [`LevelTable`]: per tile of ⌈positions a row /
-    /// tile⌉ a row, where its entries start in this table or `NO_RAY`;
-    /// then the tiles). No levels: the map has no finer rays.
+    /// of (2^L·(nu − 1) + 1) × (2^L·(nv − 1) + 1) positions, walked around
+    /// the level above's rough cells, the level above's rays at even
+    /// positions near those it added: each position's ray (its record at
+    /// `index[r·(bins + 1)..]`), [`NO_RAY`] where none, by tiles of `tile`
+    /// × `tile` positions: first a word per tile, ⌈positions a row / tile⌉
+    /// tiles a row, row after row — where the tile's entries start in this
+    /// table, or `NO_RAY` (no ray in it); then the kept tiles' entries, row
+    /// after row within each. No levels: the map has no finer rays.
     pub levels: Vec<&'a [u32]>,
     /// [`LEVEL_TILE`].
     pub tile: usize,

@@ -85,7 +85,7 @@ const SHADOW_SLOTS: u32 = 6u;
 @group(0) @binding(23) var<storage, read> shadow_knots: array<vec2<f32>>;
 @group(0) @binding(24) var<storage, read> shadow_index: array<u32>;
 
-// A fine-grid position without a ray (tet_render::shadow::NO_RAY).
+// A finer grid's position without a ray (tet_render::shadow::NO_RAY).
 const SHADOW_NO_RAY: u32 = 0xFFFFFFFFu;
 // Positions along a side of a finer grid's table tiles
 // (tet_render::shadow::LEVEL_TILE).
@@ -319,9 +319,10 @@ fn shadow_depth(s: u32, pos_rel: vec3<f32>) -> f32 {
     // Around rough cells the map has rays halfway between (its fine grid),
     // around the fine grid's rough cells rays halfway between those (the
     // finer grid), and so once more (the finest): read at the finest grid
-    // whose four nearest rays exist. Every cell of a grid has the centre of its cell one grid up
-    // for a corner, walked exactly where all of that cell's rays are: one
-    // look a grid (as the CPU). Straight code, no loop (see below).
+    // whose four nearest rays exist. Every cell of a grid has the centre
+    // of its cell one grid up for a corner, walked exactly where all of
+    // that cell's rays are: one look a grid (as the CPU). Straight code,
+    // no loop (see below).
     let fine = shadow_finer_cell(m, 2u, m.fine_base, fu, fv);
     if fine.walked {
         g = fine.g;

@@ -13,7 +13,7 @@ cd "$(dirname "$0")"
 secs="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus openfoam series raw ply las csv bundle convert delaunay lut tf_json view_json render walk manifest)
+[ ${#targets[@]} -gt 0 ] || targets=(vtk_legacy vtk_xml gmsh plot3d nrrd tetgen su2 exodus openfoam series raw ply las csv bundle convert delaunay lut tf_json view_json render walk shadow manifest)
 host=$(rustc -vV | sed -n 's/^host: //p')
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -50,6 +50,10 @@ printf '\x00\x20\xa0\x00\x03\x00\x00\x00\x00\x02\x00\x00\x00\x02\x00\x02\x02\x00
 # Walk: the same head (mode 4: edge-on camera), then the cube with its centre.
 mkdir -p corpus/walk
 printf '\x04\x01\x01\x00\x03\x08\x00\x00\x00\x02\x00\x00\x00\x02\x00\x02\x02\x00\x00\x00\x02\x02\x00\x02\x00\x02\x00\x02\x02\x02\x02\x02\x01\x01\x01' > corpus/walk/cube_edge_on
+# Shadow: mode (lattice, one light), azimuth, elevation, scalar seed, size; the TF (4 narrow peaks
+# of extinction 10^2); two lights' 7 bytes (a directional light, a point light beside the box); the cube.
+mkdir -p corpus/shadow
+printf '\x00\x20\xa0\x03\x04\x03\x80\x10\x80\x00\x30\x40\x20\x80\x00\x00\x04\x90\x70\x60\x80\x00\x00\x00\x00\x00\x00\x02\x00\x00\x00\x02\x00\x02\x02\x00\x00\x00\x02\x02\x00\x02\x00\x02\x00\x02\x02\x02\x02\x02\x01\x01\x01' > corpus/shadow/cube
 head -c 200000 "$data"/points/stars_lum_ci.ply > corpus/ply/stars_head
 head -c 100000 "$data"/points/autzen_trim.las > corpus/las/autzen_head
 printf 'x,y,z,value\n0,0,0,1\n1,0,0,2\n0,1,0,3\n0,0,1,4\n' > corpus/csv/small.csv

@@ -461,7 +461,7 @@ fn lit_point(g: vec3<f32>, has_dir_in: bool, pos_rel: vec3<f32>, view_dir: vec3<
             }
             var w = l.v.w;
             if shadow_maps[i * SHADOW_SLOTS].has_map != 0u {
-                // ShadowField depths stop at OPAQUE_DEPTH: exp stays finite.
+                // ShadowField depths stop at MAP_OPAQUE_DEPTH: exp stays finite.
                 w *= exp(-max(light_shadow_depth(i, pos_rel), 0.0));
             }
             if w == 0.0 {

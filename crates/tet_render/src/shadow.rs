@@ -41,7 +41,8 @@
 //! for). Self-shadowing needs no bias: a map's rays keep the depth at
 //! every crossing and a point reads it at its own distance along the
 //! light, so a thin sheet shadows only what lies behind it (no acne).
-//! Depths stop at [`OPAQUE_DEPTH`] (transmittance 1e-20), never NaN or
+//! Depths stop at [`OPAQUE_DEPTH`] (transmittance 1e-20) along exact
+//! shadow rays and at [`MAP_OPAQUE_DEPTH`] (1.1e-7) in maps, never NaN or
 //! infinite.
 
 use glam::DVec3;
@@ -54,8 +55,8 @@ use crate::RenderError;
 mod map;
 
 pub use map::{
-    catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, LEVEL_TILE, MAP_RAYS, MAX_LEVELS, NO_RAY,
-    REFINE_ABOVE, REFINE_FINER_ABOVE, SHORT_RAY,
+    catmull_rom, cube_face, DeepShadowMap, MapLayout, CUBE_RAYS, CUBIC_ABOVE, LEVELS_BUDGET_BYTES, LEVEL_TILE,
+    MAP_OPAQUE_DEPTH, MAP_RAYS, MAX_LEVELS, NO_RAY, REFINE_ABOVE, REFINE_FINER_ABOVE, SHORT_RAY,
 };
 
 /// Optical depth at which a shadow walk stops: transmittance below

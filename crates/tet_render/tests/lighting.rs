@@ -169,7 +169,7 @@ fn shadow_field_equals_the_closed_form_transmittance() {
     let f = scene.compute_shadows(&dense, &down, &|_, _| {}).unwrap();
     for p in &points {
         let d = f.depth_at(0, glam::DVec3::from(*p));
-        assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::OPAQUE_DEPTH * 0.99 });
+        assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::MAP_OPAQUE_DEPTH * 0.99 });
     }
     // A point light far above, outside the box: a deep map of rays fanning
     // out from it. With ρ = 2 a point p sees 2 × the length of the light's
@@ -193,7 +193,7 @@ fn shadow_field_equals_the_closed_form_transmittance() {
     let f = scene.compute_shadows(&dense, &above, &|_, _| {}).unwrap();
     for p in points.iter().filter(|p| (0..2).all(|a| p[a] > 0.0 && p[a] < 1.0)) {
         let d = f.depth_at(0, glam::DVec3::from(*p));
-        assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::OPAQUE_DEPTH * 0.99 });
+        assert!(d.is_finite() && if p[2] == 1.0 { d == 0.0 } else { d >= tet_render::shadow::MAP_OPAQUE_DEPTH * 0.99 });
     }
     // A point light beside the box (some of the mesh not in front of it
     // along the way to the centre): a cube of maps too. Under huge
@@ -207,9 +207,9 @@ fn shadow_field_equals_the_closed_form_transmittance() {
     assert!(f.has_cube_lights());
     for p in &points {
         let d = f.depth_at(0, glam::DVec3::from(*p));
-        assert!(d.is_finite() && (0.0..=tet_render::shadow::OPAQUE_DEPTH).contains(&d), "at {p:?}: {d}");
+        assert!(d.is_finite() && (0.0..=tet_render::shadow::MAP_OPAQUE_DEPTH).contains(&d), "at {p:?}: {d}");
         if p[2] < 0.9 {
-            assert!(d >= tet_render::shadow::OPAQUE_DEPTH * 0.99, "at {p:?}: {d}");
+            assert!(d >= tet_render::shadow::MAP_OPAQUE_DEPTH * 0.99, "at {p:?}: {d}");
         }
     }
     for p in [[0.5, 0.5, 1.0], [0.52, 0.49, 1.0]] {
@@ -338,4 +338,52 @@ fn a_thin_dense_sheet_shadows_what_lies_below_it_without_acne() {
     let unshadowed = reference_lit(&c, &t, &v, Shading { shadows: false, ..sh }, ShadowMode::Exact);
     assert!(diff(&exact, &unshadowed).unwrap().max_abs > 0.05, "the sheet casts a shadow");
     assert_cpu_renderers_near(&c, &t, &v, sh, &exact, 8.0 / 255.0, 2e-3);
+}
+
+/// Fuzz finding (`fuzz/fuzz_targets/shadow.rs`): four narrow TF peaks of
+/// extinction 10³ over the Delaunay tets of 9 lattice points, lit by a
+/// directional light, made a map of 747 MB (the fuzzer's process 1.3 GB):
+/// opaque layers oblique to the light are shadow edges at every depth, so
+/// every finer grid was walked nearly everywhere, and each ray kept knots
+/// down to transmittance 1e-20. Maps now end rays at `MAP_OPAQUE_DEPTH`
+/// and keep finer grids within `LEVELS_BUDGET_BYTES`; the field stays
+/// finite, lit where the light enters and dark behind the peaks.
+#[test]
+fn opaque_peaks_over_a_tiny_mesh_keep_the_map_within_its_budget() {
+    use tet_delaunay::{tetrahedralize_points, DelaunayOptions};
+    use tet_render::shadow::{LEVELS_BUDGET_BYTES, MAP_OPAQUE_DEPTH};
+    let points: Vec<[f64; 3]> =
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0], [2, 2, 0], [0, 0, 2], [2, 0, 2], [0, 2, 0], [2, 2, 2], [3, 2, 1]]
+            .iter()
+            .map(|p| p.map(|x| x as f64))
+            .collect();
+    let scalar = vec![0.3, 1.0, 0.6, 0.2, 0.9, 0.5, 0.1, 0.8, 0.4];
+    let d = tetrahedralize_points(&points, &DelaunayOptions::default()).unwrap();
+    let scene = Scene::new(&points, d.tets, scalar).unwrap();
+    let (floor, top) = (0.0627, 1000.0);
+    let mut opacity = vec![[0.0, floor]];
+    for at in [0.1252, 0.3752, 0.6252, 0.8752] {
+        opacity.extend([[at - 0.0078, floor], [at, top], [at + 0.0078, floor]]);
+    }
+    opacity.push([1.0, floor]);
+    let opacity: Vec<String> = opacity.iter().map(|[x, y]| format!("[{x}, {y}]")).collect();
+    let t = tf(&format!(
+        r#"{{"color": [[0, 1, 0.3, 0.1], [1, 0.3, 0.4, 1]], "opacity": [{}], "unit_distance": 1}}"#,
+        opacity.join(", ")
+    ));
+    let light = lights(&[LightSource::Directional { direction: [-0.624, -0.498, -0.710], intensity: 1.0 }]);
+    let f = scene.compute_shadows(&t, &light, &|_, _| {}).unwrap();
+    // Measured: 747 MB with rays to e^−46 and no budget, 130 MB with the
+    // budget alone, 72.8 MB with both (the third finer grid given up).
+    assert!(f.memory_bytes() <= LEVELS_BUDGET_BYTES, "{} bytes", f.memory_bytes());
+    let mut rng = common::Rng(3);
+    let (mut lit, mut dark) = (0, 0);
+    for _ in 0..2000 {
+        let p = glam::DVec3::new(rng.range(0.0, 3.0), rng.range(0.0, 2.0), rng.range(0.0, 2.0));
+        let depth = f.depth_at(0, p);
+        assert!((0.0..=MAP_OPAQUE_DEPTH).contains(&depth), "at {p}: {depth}");
+        lit += (depth < 1.0) as usize;
+        dark += (depth >= MAP_OPAQUE_DEPTH * 0.99) as usize;
+    }
+    assert!(lit > 100 && dark > 100, "{lit} lit, {dark} dark of 2000");
 }

@@ -15,11 +15,21 @@ use glam::DVec3;
 use rayon::prelude::*;
 use tet_preint::TransferFunction;
 
-use super::{ShadowScratch, OPAQUE_DEPTH};
+use super::ShadowScratch;
 use crate::reference::{Line, LineSegment, ReferenceRenderer, ReferenceStats};
 
 /// Rays across the longer side of the light's view of the bounding box.
 pub const MAP_RAYS: usize = 256;
+
+/// Optical depth at which a map's ray stops: a point past it reads
+/// transmittance e^−16 ≈ 1.1e-7 instead of less, which moves no pixel by
+/// more than 1.1e-7 of the light's intensity (3e-5/255 of a unit light).
+/// The exact shadow rays stop at [`super::OPAQUE_DEPTH`] (e^−46); a map's
+/// rays stopping there too stored nearly three times the knots on rays
+/// into an opaque layer (knots every [`KNOT_DEPTH`] of depth): the fuzz
+/// finding pinned in tests/lighting.rs (7 tets, TF peaks of extinction
+/// 10³) took 130 MB with rays to e^−46, 72.8 MB to e^−16.
+pub const MAP_OPAQUE_DEPTH: f64 = 16.0;
 
 /// Optical depth from a directional light over a grid of its rays.
 #[derive(Debug, Clone)]
@@ -162,6 +172,18 @@ const REFINE_SAMPLES: usize = 64;
 /// Blunt Fin (crates/tet_engine/results/lighting.md); the memory it takes
 /// is its rays', its table kept by tiles ([`LEVEL_TILE`]).
 pub const MAX_LEVELS: usize = 3;
+
+/// The most memory a map grows to by its finer grids: a finer grid that
+/// would take the map past this is not kept; the coarse grid is always
+/// walked. A safety net: an opaque layer oblique to the light is a shadow
+/// edge at every depth, so each finer grid is walked nearly everywhere
+/// (the fuzzed input behind the test in tests/lighting.rs walked 761k
+/// rays into 419 MB, rays ending at [`MAP_OPAQUE_DEPTH`]). 128 MiB,
+/// wgpu's default storage-buffer limit: the largest measured map of real
+/// data takes 68 MB with its three grids (crates/tet_engine/results/
+/// lighting.md: Blunt Fin, held-out peaks12), the tests' two bands of
+/// extinction 400 take 116 MB.
+pub const LEVELS_BUDGET_BYTES: usize = 128 << 20;
 
 /// A grid of the map's rays: the coarse one (`depth` 0) or a finer one.
 struct Level {
@@ -776,11 +798,26 @@ impl DeepShadowMap {
         if new.is_empty() {
             return false;
         }
+        // A level that would take the map over its budget is not kept: not
+        // walked where its rays at the map's mean cost a ray would, given
+        // up after the walk where they cost more (rays at shadow edges
+        // hold more knots than the mean; the walks stay counted in `stats`).
+        let per_ray = self.memory_bytes() as f64 / self.rays.len().max(1) as f64;
+        if self.memory_bytes() as f64 + per_ray * new.len() as f64 > LEVELS_BUDGET_BYTES as f64 {
+            return false;
+        }
         let (hu, hv) = (child.du, child.dv);
         let (u0, v0) = (self.u0, self.v0);
         let rows = walk_list(reference, &new, tf, None, |i, j| ray(u0 + i as f64 * hu, v0 + j as f64 * hv));
-        let first_new = self.rays.len() as u32;
+        let before = (self.knots.len(), self.rays.len(), self.bins.len());
         append_rays(&mut self.knots, &mut self.rays, &mut self.bins, rows, self.bin_len, stats);
+        if self.memory_bytes() > LEVELS_BUDGET_BYTES {
+            self.knots.truncate(before.0);
+            self.rays.truncate(before.1);
+            self.bins.truncate(before.2);
+            return false;
+        }
+        let first_new = before.1 as u32;
         let mut table = vec![NO_RAY; fu * fv];
         for j in 0..parent.nv {
             for i in 0..parent.nu {
@@ -959,7 +996,7 @@ fn first_at_or_past(knots: &[[f32; 2]], from: usize, end: usize, t: f32) -> u32 
 
 /// Walks the ray from `start` along `d`, appending its knots: (parameter,
 /// optical depth) where it enters the mesh, at every TF node and tet
-/// crossing after, up to the last crossing or [`OPAQUE_DEPTH`].
+/// crossing after, up to the last crossing or [`MAP_OPAQUE_DEPTH`].
 /// Per row of a grid of rays: each ray's knot count, the row's knots, and
 /// its walks' counts.
 type RayRows = Vec<(Vec<u32>, Vec<[f32; 2]>, ReferenceStats)>;
@@ -1017,7 +1054,7 @@ fn walk_ray(
     let ShadowScratch { entries, extinction, .. } = scratch;
     let first = knots.len();
     let push = |t: f64, depth: f64, knots: &mut Vec<[f32; 2]>| {
-        let knot = [t as f32, depth.min(OPAQUE_DEPTH) as f32];
+        let knot = [t as f32, depth.min(MAP_OPAQUE_DEPTH) as f32];
         match knots[first..].last() {
             // Keep t increasing; a repeated t keeps the deeper value.
             Some(last) if last[0] >= knot[0] => {
@@ -1050,18 +1087,33 @@ fn walk_ray(
         for w in extinction.windows(2) {
             let ([fa, ra], [fb, rb]) = (w[0], w[1]);
             let width = (fb - fa) * len;
-            let end = prev + 0.5 * (ra + rb) * width;
+            let mut end = prev + 0.5 * (ra + rb) * width;
+            // Where the ray reaches MAP_OPAQUE_DEPTH inside this piece, its
+            // knots end there (fraction `u_end` of the piece): none are
+            // spent on depths no lookup can tell apart.
+            let mut u_end = 1.0;
+            if acc + end >= MAP_OPAQUE_DEPTH {
+                // Not closer to the piece's start than f32 tells apart
+                // (a merged knot would darken the face the light enters).
+                let u_min = (min_knot_gap / width).min(1.0);
+                u_end = fraction_at_depth(ra, rb, width, MAP_OPAQUE_DEPTH - acc - prev).max(u_min);
+                end = MAP_OPAQUE_DEPTH - acc;
+            }
             let pieces =
-                ((end - prev) / KNOT_DEPTH).ceil().min((width / min_knot_gap).floor()).clamp(1.0, KNOT_MAX) as usize;
+                ((end - prev) / KNOT_DEPTH).ceil().min((width * u_end / min_knot_gap).floor()).clamp(1.0, KNOT_MAX)
+                    as usize;
             for q in 1..=pieces {
-                let u = q as f64 / pieces as f64;
+                let u = u_end * q as f64 / pieces as f64;
                 let part = if q == pieces { end } else { prev + width * u * (ra + 0.5 * (rb - ra) * u) };
                 push(seg.t_front + (fa + (fb - fa) * u) * len, acc + part, knots);
             }
             prev = end;
+            if u_end < 1.0 {
+                break;
+            }
         }
         acc += prev;
-        acc >= OPAQUE_DEPTH
+        acc >= MAP_OPAQUE_DEPTH
     };
     match from_inside {
         // The ray starts in this tet (at t = 0): only the tets ahead.
@@ -1069,6 +1121,24 @@ fn walk_ray(
         None => reference.walk_line(&line, t_start, entries, stats, &mut visit),
     }
     simplify(knots, first, KNOT_TOLERANCE);
+}
+
+/// The fraction u in [0, 1] of a piece of extinction linear from `ra` to
+/// `rb` (per unit length, both ≥ 0) over `width` at which its optical
+/// depth, width·u·(ra + (rb − ra)·u/2), reaches `depth` (≥ 0; 1 where the
+/// whole piece holds less). The root in the form without cancellation.
+fn fraction_at_depth(ra: f64, rb: f64, width: f64, depth: f64) -> f64 {
+    // In units of the larger extinction, so that ra² cannot overflow.
+    let m = ra.max(rb);
+    if !(m > 0.0 && width > 0.0) {
+        return 1.0;
+    }
+    let (a, b, t) = (ra / m, rb / m, depth.max(0.0) / width / m);
+    let denom = a + (a * a + 2.0 * (b - a) * t).max(0.0).sqrt();
+    if denom.is_nan() || denom <= 0.0 {
+        return 1.0;
+    }
+    (2.0 * t / denom).clamp(0.0, 1.0)
 }
 
 /// Optical depth error allowed when dropping knots (transmittance off by
@@ -1298,6 +1368,63 @@ mod tests {
             n += 1;
         }
         (sum / n as f64, worst)
+    }
+
+    /// The fraction where a piece of linear extinction reaches a depth is
+    /// the root of its quadratic depth, for rising, falling, constant and
+    /// huge extinctions (no overflow at 1e300), and 1 where the piece
+    /// holds less.
+    #[test]
+    fn the_fraction_at_a_depth_inverts_a_pieces_depth() {
+        let depth_at = |ra: f64, rb: f64, w: f64, u: f64| w * u * (ra + 0.5 * (rb - ra) * u);
+        for (ra, rb, w) in
+            [(0.0, 1000.0, 0.01), (1000.0, 0.0, 0.01), (3.0, 3.0, 2.0), (1e-3, 7.0, 5.0), (1e300, 1e300, 0.5)]
+        {
+            for frac in [1e-9, 0.01, 0.3, 0.99] {
+                let target = frac * depth_at(ra, rb, w, 1.0);
+                let u = fraction_at_depth(ra, rb, w, target);
+                let got = depth_at(ra, rb, w, u);
+                assert!((got - target).abs() <= 1e-12 * target, "{ra} {rb} {w}: u {u}, {got} vs {target}");
+            }
+            assert_eq!(fraction_at_depth(ra, rb, w, 2.0 * depth_at(ra, rb, w, 1.0)), 1.0);
+        }
+        assert_eq!(fraction_at_depth(0.0, 0.0, 1.0, 5.0), 1.0);
+    }
+
+    /// An opaque layer oblique to the light (extinction 10³ over 1% of the
+    /// scalar, a fuzz finding's TF): its rays end their knots at
+    /// [`MAP_OPAQUE_DEPTH`], the finer grids stop at the memory budget, and
+    /// the map still follows exact shadow rays away from the layer's
+    /// shadow edge.
+    #[test]
+    fn an_opaque_layer_keeps_the_map_within_its_budget() {
+        let reference = slotted_reference();
+        let tf = TransferFunction::from_json(
+            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.99, 0.1], [1.0, 1000], [1.01, 0.1], [2, 0.1]], "unit_distance": 1}"#,
+        )
+        .unwrap();
+        let map = DeepShadowMap::build(&reference, key_light(), &tf, &mut ReferenceStats::default());
+        let cut = MAP_OPAQUE_DEPTH as f32;
+        assert!(map.knots.iter().all(|k| k[1] <= cut));
+        // Each ray that reaches the cut ends there: no two knots of a ray
+        // at the cut, and rays do reach it.
+        let mut reaching = 0;
+        for r in &map.rays {
+            let knots = &map.knots[r.start as usize..r.end as usize];
+            let at_cut = knots.iter().filter(|k| k[1] == cut).count();
+            assert!(at_cut <= 1, "a ray with {at_cut} knots at the cut");
+            reaching += at_cut;
+        }
+        assert!(reaching > map.rays.len() / 10, "{reaching} of {} rays reach the cut", map.rays.len());
+        let bytes = map.memory_bytes();
+        assert!(bytes <= LEVELS_BUDGET_BYTES, "{bytes} bytes");
+        assert!(!map.levels.is_empty(), "the budget leaves room for a finer grid");
+        let light = crate::LightSource::Directional { direction: key_light().into(), intensity: 1.0 };
+        let (mean, worst) = errors_against_exact_rays(&reference, &map, &light, &tf);
+        // Measured: 43.6 MB with two finer grids (the third would have
+        // passed the budget and was given up), mean 1.86e-4, worst 0.24
+        // (at the layer's shadow edge, within a ray spacing).
+        assert!(mean < 4e-4 && worst < 0.5, "mean {mean:.2e}, worst {worst:.3}");
     }
 
     /// Two narrower, denser bands: shadow edges the fine grid still leaves

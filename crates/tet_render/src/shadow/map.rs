@@ -28,7 +28,8 @@ pub const MAP_RAYS: usize = 256;
 /// rays stopping there too stored nearly three times the knots on rays
 /// into an opaque layer (knots every [`KNOT_DEPTH`] of depth): the fuzz
 /// finding pinned in tests/lighting.rs (7 tets, TF peaks of extinction
-/// 10³) took 130 MB with rays to e^−46, 72.8 MB to e^−16.
+/// 10³) took 130 MB with rays to e^−46, 72.8 MB to e^−16 (both within
+/// [`LEVELS_BUDGET_BYTES`]).
 pub const MAP_OPAQUE_DEPTH: f64 = 16.0;
 
 /// Optical depth from a directional light over a grid of its rays.
@@ -802,8 +803,8 @@ impl DeepShadowMap {
         // walked where its rays at the map's mean cost a ray would, given
         // up after the walk where they cost more (rays at shadow edges
         // hold more knots than the mean; the walks stay counted in `stats`).
-        let per_ray = self.memory_bytes() as f64 / self.rays.len().max(1) as f64;
-        if self.memory_bytes() as f64 + per_ray * new.len() as f64 > LEVELS_BUDGET_BYTES as f64 {
+        let bytes = self.memory_bytes() as f64;
+        if bytes + bytes / self.rays.len().max(1) as f64 * new.len() as f64 > LEVELS_BUDGET_BYTES as f64 {
             return false;
         }
         let (hu, hv) = (child.du, child.dv);
@@ -1228,13 +1229,19 @@ mod tests {
         ReferenceRenderer::new(mesh, adjacency).unwrap()
     }
 
+    /// A white TF over the slotted grid's scalars (0 to 2) with these
+    /// opacity nodes (JSON pairs).
+    fn white_tf(opacity: &str) -> TransferFunction {
+        TransferFunction::from_json(&format!(
+            r#"{{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": {opacity}, "unit_distance": 1}}"#
+        ))
+        .unwrap()
+    }
+
     /// A faint medium with a narrow opaque band (extinction 40 over 0.03
     /// of the scalar): a layer whose shadow has sharp edges.
     fn band_tf() -> TransferFunction {
-        TransferFunction::from_json(
-            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.8, 0.1], [0.83, 40], [0.86, 0.1], [2, 0.3]], "unit_distance": 1}"#,
-        )
-        .unwrap()
+        white_tf("[[0, 0.1], [0.8, 0.1], [0.83, 40], [0.86, 0.1], [2, 0.3]]")
     }
 
     /// The tests' directional light: oblique to every axis of the grid.
@@ -1399,10 +1406,7 @@ mod tests {
     #[test]
     fn an_opaque_layer_keeps_the_map_within_its_budget() {
         let reference = slotted_reference();
-        let tf = TransferFunction::from_json(
-            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.99, 0.1], [1.0, 1000], [1.01, 0.1], [2, 0.1]], "unit_distance": 1}"#,
-        )
-        .unwrap();
+        let tf = white_tf("[[0, 0.1], [0.99, 0.1], [1.0, 1000], [1.01, 0.1], [2, 0.1]]");
         let map = DeepShadowMap::build(&reference, key_light(), &tf, &mut ReferenceStats::default());
         let cut = MAP_OPAQUE_DEPTH as f32;
         assert!(map.knots.iter().all(|k| k[1] <= cut));
@@ -1433,10 +1437,9 @@ mod tests {
     #[test]
     fn the_finer_grids_follow_narrower_bands_closer() {
         let reference = slotted_reference();
-        let tf = TransferFunction::from_json(
-            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [0.8, 0.1], [0.81, 400], [0.82, 0.1], [1.2, 0.1], [1.21, 400], [1.22, 0.1], [2, 0.3]], "unit_distance": 1}"#,
-        )
-        .unwrap();
+        let tf = white_tf(
+            "[[0, 0.1], [0.8, 0.1], [0.81, 400], [0.82, 0.1], [1.2, 0.1], [1.21, 400], [1.22, 0.1], [2, 0.3]]",
+        );
         let d = key_light();
         let map = DeepShadowMap::build(&reference, d, &tf, &mut ReferenceStats::default());
         assert_eq!(map.levels.len(), MAX_LEVELS);
@@ -1460,10 +1463,7 @@ mod tests {
     /// refinement costs nothing where the coarse map is followed.
     #[test]
     fn a_faint_medium_refines_nothing() {
-        let tf = TransferFunction::from_json(
-            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.1], [2, 0.1]], "unit_distance": 1}"#,
-        )
-        .unwrap();
+        let tf = white_tf("[[0, 0.1], [2, 0.1]]");
         let map = DeepShadowMap::build(&slotted_reference(), key_light(), &tf, &mut Default::default());
         assert!(map.levels.is_empty(), "{} levels", map.levels.len());
     }
@@ -1516,10 +1516,7 @@ mod tests {
         let adjacency = build_adjacency(&mesh.points, &mesh.tets).unwrap();
         assert!(!adjacency.convex);
         let reference = ReferenceRenderer::new(&mesh, &adjacency).unwrap();
-        let tf = TransferFunction::from_json(
-            r#"{"color": [[0, 1, 1, 1], [2, 1, 1, 1]], "opacity": [[0, 0.2], [0.7, 3], [0.8, 0.1], [2, 1.5]], "unit_distance": 1}"#,
-        )
-        .unwrap();
+        let tf = white_tf("[[0, 0.2], [0.7, 3], [0.8, 0.1], [2, 1.5]]");
         let light = DVec3::new(0.23, 0.31, 0.27);
         let (tet, s) = reference.tet_strictly_containing(light).expect("the light's tet");
         assert!((s - (0.23 + 0.6 * 0.31 * 0.31 + 0.3 * 0.27)).abs() < 0.05, "{s}");

@@ -633,20 +633,26 @@ impl<G: PacketGeometry> PacketTile<'_, '_, G> {
                 } else {
                     (scalar_in, len, _mm256_and_si256(ok, positive))
                 };
-                let mut push_bits = bits_of(push);
+                let push_bits = bits_of(push);
                 if push_bits != 0 {
-                    let (mut sf, mut sb, mut ln) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-                    // SAFETY: 8 values into local arrays of 8.
+                    // The pushed lanes' segments packed to the batch's end in
+                    // lane order (as one `append` a lane would put them): eight
+                    // values written, the count of pushed lanes kept.
+                    let sh = &mut p.shade;
+                    let j = sh.segs.len;
+                    assert!(j + LANES <= BATCH);
+                    let order = PACK_LANES[push_bits as usize];
+                    let perm = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(order as i64));
+                    // SAFETY: j + 8 ≤ BATCH (asserted; the walk shades the
+                    // batch before a step that might not fit), so the 8 values
+                    // (8 bytes) written at j lie in each array.
                     unsafe {
-                        _mm256_storeu_ps(sf.as_mut_ptr(), s_front);
-                        _mm256_storeu_ps(sb.as_mut_ptr(), scalar);
-                        _mm256_storeu_ps(ln.as_mut_ptr(), len);
+                        _mm256_storeu_ps(sh.segs.s_front.as_mut_ptr().add(j), _mm256_permutevar8x32_ps(s_front, perm));
+                        _mm256_storeu_ps(sh.segs.s_back.as_mut_ptr().add(j), _mm256_permutevar8x32_ps(scalar, perm));
+                        _mm256_storeu_ps(sh.segs.len_world.as_mut_ptr().add(j), _mm256_permutevar8x32_ps(len, perm));
+                        sh.lane_of.as_mut_ptr().add(j).cast::<u64>().write_unaligned(order);
                     }
-                    while push_bits != 0 {
-                        let k = push_bits.trailing_zeros() as usize;
-                        push_bits &= push_bits - 1;
-                        append(&mut p.shade, k, [sf[k], sb[k], ln[k]]);
-                    }
+                    sh.segs.len = j + push_bits.count_ones() as usize;
                 }
                 // ok lanes: a crossing, a step spent (ok is −1 in them).
                 unsafe {
@@ -831,23 +837,42 @@ impl<G: PacketGeometry> PacketTile<'_, '_, G> {
         self.c.shader.shade_batch(&sh.segs, &mut sh.rgba);
         sh.segs.len = 0;
         let opaque = self.c.opts.opaque_alpha;
-        let mut newly = 0u32;
-        for j in 0..n {
-            let k = sh.lane_of[j] as usize;
-            let acc = &mut sh.acc[k];
+        let (mut newly, mut fragments) = (0u32, 0u64);
+        for (&k, &rgba) in sh.lane_of[..n].iter().zip(&sh.rgba[..n]) {
+            let acc = &mut sh.acc[k as usize];
             if acc[3] >= opaque {
                 continue;
             }
-            composite_under(acc, sh.rgba[j]);
-            self.st.fragments += 1;
+            composite_under(acc, rgba);
+            fragments += 1;
             if acc[3] >= opaque {
                 newly |= 1 << k;
-                self.st.terminated += 1;
             }
         }
+        self.st.fragments += fragments;
+        self.st.terminated += newly.count_ones() as u64;
         newly
     }
 }
+
+/// For each mask of lanes, the lanes it holds in order, one a byte (the
+/// bytes after them 0): the permutation that packs a step's segments.
+const PACK_LANES: [u64; 256] = {
+    let mut out = [0u64; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut k, mut n) = (0, 0);
+        while k < LANES {
+            if m >> k & 1 == 1 {
+                out[m] |= (k as u64) << (8 * n);
+                n += 1;
+            }
+            k += 1;
+        }
+        m += 1;
+    }
+    out
+};
 
 /// Lane `k`'s segment (Sf, Sb, l) into the packet's batch (which has room:
 /// the walk shades it before a step that might not fit).
@@ -859,4 +884,21 @@ fn append(sh: &mut PacketShade, k: usize, [sf, sb, len]: [f32; 3]) {
     sh.segs.len_world[j] = len;
     sh.lane_of[j] = k as u8;
     sh.segs.len = j + 1;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_pack_table_lists_each_masks_lanes_in_order() {
+        for (mask, &packed) in PACK_LANES.iter().enumerate() {
+            let lanes: Vec<u64> = (0..LANES as u64).filter(|&k| mask >> k & 1 == 1).collect();
+            for (n, &k) in lanes.iter().enumerate() {
+                assert_eq!(packed >> (8 * n) & 0xff, k, "mask {mask:#010b}, slot {n}");
+            }
+            // The bytes after the lanes are 0 (a permutation index in range).
+            assert_eq!(packed.checked_shr(8 * lanes.len() as u32).unwrap_or(0), 0, "mask {mask:#010b}");
+        }
+    }
 }

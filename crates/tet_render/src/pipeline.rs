@@ -204,7 +204,7 @@ pub struct Renderer {
     /// not yet made for the current mask).
     walk_visible: Option<Vec<bool>>,
     /// The faces rays enter the visible tets by, for the current mask.
-    walk_entries: Option<Vec<u32>>,
+    walk_entries: Option<crate::walk::EntryFaces>,
 }
 
 impl Renderer {
@@ -437,7 +437,7 @@ impl Renderer {
             self.walk_entries = Some(mesh.entry_faces(self.walk_visible.as_deref()));
             rebin = true;
         }
-        let entries = self.walk_entries.as_deref().expect("computed above");
+        let entries = self.walk_entries.as_ref().expect("computed above");
         if self.walk_view_stale {
             let t = Instant::now();
             let old = self.walk_view.take();

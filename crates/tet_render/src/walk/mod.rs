@@ -176,6 +176,44 @@ pub struct WalkTet {
     pub links: [u32; 4],
 }
 
+/// Faces rays may enter by (`tet * 4 + face`, walk order) with each
+/// face's three walk vertex ids in its outward order: binning a view and
+/// rasterizing a tile's entries read the ids here, in face order, instead
+/// of each face's tet record (on meshes far larger than the caches a miss
+/// a face).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct EntryFaces {
+    pub(crate) packed: Vec<u32>,
+    pub(crate) verts: Vec<[u32; 3]>,
+}
+
+impl EntryFaces {
+    fn of(tets: &[WalkTet], packed: Vec<u32>) -> EntryFaces {
+        let verts = packed
+            .par_iter()
+            .map(|&p| {
+                let (t, f) = ((p / 4) as usize, (p % 4) as usize);
+                FACE_OUTWARD[f].map(|k| tets[t].verts[k])
+            })
+            .collect();
+        EntryFaces { packed, verts }
+    }
+
+    /// Faces held.
+    pub fn len(&self) -> usize {
+        self.packed.len()
+    }
+
+    /// Whether no face is held.
+    pub fn is_empty(&self) -> bool {
+        self.packed.is_empty()
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.packed.len() * 16
+    }
+}
+
 /// What the walker keeps of a scene across views: the tets renumbered along
 /// a Morton curve of their centroids and the vertices in order of first use
 /// by them (a tile's rays then touch a few hundred pages, not one page a
@@ -194,7 +232,7 @@ pub struct WalkMesh {
     /// order: a view reads them front to back.
     pub(crate) pos_rel: Vec<[f64; 3]>,
     pub(crate) scalar: Vec<f32>,
-    pub(crate) boundary: Vec<u32>,
+    pub(crate) boundary: EntryFaces,
     pub(crate) broken_links: usize,
     pub(crate) grads: Option<Vec<[f32; 3]>>,
     pub(crate) grad_mag: Option<Vec<f32>>,
@@ -284,11 +322,15 @@ impl WalkMesh {
             .collect();
         drop(walk_of_tet);
         let broken_links = tets.iter().map(|r| r.links.iter().filter(|&&x| x == LINK_BROKEN).count()).sum();
-        let boundary = tets
-            .iter()
-            .enumerate()
-            .flat_map(|(t, r)| (0..4).filter(move |&f| r.links[f] == LINK_BOUNDARY).map(move |f| (t * 4 + f) as u32))
-            .collect();
+        let boundary = EntryFaces::of(
+            &tets,
+            tets.iter()
+                .enumerate()
+                .flat_map(|(t, r)| {
+                    (0..4).filter(move |&f| r.links[f] == LINK_BOUNDARY).map(move |f| (t * 4 + f) as u32)
+                })
+                .collect(),
+        );
         let by_vertex = |v: &[f64]| -> Vec<f32> { scene_vertex.iter().map(|&i| v[i as usize] as f32).collect() };
         WalkMesh {
             tets,
@@ -333,9 +375,10 @@ impl WalkMesh {
     /// ends where it leaves them, and the next entry in depth order picks
     /// the ray up where it meets them again, so empty (culled) space costs
     /// no steps at all.
-    pub fn entry_faces(&self, visible: Option<&[bool]>) -> Vec<u32> {
+    pub fn entry_faces(&self, visible: Option<&[bool]>) -> EntryFaces {
         let Some(vis) = visible else { return self.boundary.clone() };
-        self.tets
+        let packed = self
+            .tets
             .par_iter()
             .enumerate()
             .filter(|(t, _)| vis[*t])
@@ -345,7 +388,8 @@ impl WalkMesh {
                     .filter(move |&f| l[f] == LINK_BOUNDARY || (l[f] < LINK_BROKEN && !vis[(l[f] / 4) as usize]))
                     .map(move |f| (t * 4 + f) as u32)
             })
-            .collect()
+            .collect();
+        EntryFaces::of(&self.tets, packed)
     }
 
     /// A per-scene-tet mask (a [`crate::CullMask`]'s) in walk order.
@@ -360,7 +404,7 @@ impl WalkMesh {
 
     /// Boundary faces (`tet * 4 + face`).
     pub fn boundary_faces(&self) -> &[u32] {
-        &self.boundary
+        &self.boundary.packed
     }
 
     /// Bytes held beyond the scene.
@@ -370,7 +414,7 @@ impl WalkMesh {
             + self.scene_vertex.len() * 4
             + self.pos_rel.len() * 24
             + self.scalar.len() * 4
-            + self.boundary.len() * 4
+            + self.boundary.memory_bytes()
             + self.grads.as_ref().map_or(0, |g| g.len() * 12)
             + self.grad_mag.as_ref().map_or(0, |g| g.len() * 4)
     }

@@ -424,15 +424,10 @@ impl WalkCtx<'_> {
         st: &mut WalkStats,
     ) -> Vec<(u32, f32, u32)> {
         let view = self.view;
-        let tets = &self.mesh.tets;
-        let faces = &view.bin_faces[view.bin_start[ti] as usize..view.bin_start[ti + 1] as usize];
+        let bin = view.bin_start[ti] as usize..view.bin_start[ti + 1] as usize;
         let orient = if FRONT_IS_LEFT { 1.0 } else { -1.0 };
         let mut out = Vec::new();
-        for &packed in faces {
-            let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
-            let fv = FACE_OUTWARD[f];
-            let tv = tets[t].verts;
-            let ids = [tv[fv[0]], tv[fv[1]], tv[fv[2]]];
+        for (&packed, &ids) in view.bin_faces[bin.clone()].iter().zip(&view.bin_verts[bin]) {
             let Some(r) = g.face_rect(ids) else {
                 continue;
             };

@@ -23,6 +23,8 @@ pub struct WalkView {
     /// Entry faces facing the eye, per tile (CSR: `bin_start[i]..bin_start[i + 1]`).
     pub(crate) bin_start: Vec<u32>,
     pub(crate) bin_faces: Vec<u32>,
+    /// Each binned face's walk vertex ids (outward order), beside `bin_faces`.
+    pub(crate) bin_verts: Vec<[u32; 3]>,
     pub(crate) front_faces: usize,
     pub(crate) max_steps: u32,
     pub(crate) unsupported: Option<String>,
@@ -54,7 +56,7 @@ impl WalkView {
         mesh: &WalkMesh,
         camera: &Camera,
         tile: u32,
-        entry_faces: &[u32],
+        entry_faces: &EntryFaces,
     ) -> WalkView {
         let prev_eye = old.as_ref().and_then(|v| v.eye_tet);
         let was_near_clipped = old.as_ref().is_some_and(|v| v.near_clipped);
@@ -77,6 +79,7 @@ impl WalkView {
             tiles_y,
             bin_start: vec![0; tiles_x * tiles_y + 1],
             bin_faces: Vec::new(),
+            bin_verts: Vec::new(),
             front_faces: 0,
             max_steps,
             unsupported: None,
@@ -193,7 +196,7 @@ impl WalkView {
     }
 
     /// Bins a new set of entry faces (a new cull mask), keeping the projection.
-    pub fn rebin(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
+    pub fn rebin(&mut self, mesh: &WalkMesh, entry_faces: &EntryFaces) {
         // (`unsupported` views have no binning to redo.)
         if self.unsupported.is_none() {
             self.front_faces = 0;
@@ -238,8 +241,7 @@ impl WalkView {
         (self.verts.len() + self.hom.len()) * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
     }
 
-    pub(crate) fn bin_front_faces(&mut self, mesh: &WalkMesh, entry_faces: &[u32]) {
-        let tets = &mesh.tets;
+    pub(crate) fn bin_front_faces(&mut self, mesh: &WalkMesh, entry_faces: &EntryFaces) {
         let (w, h) = (self.frame.width, self.frame.height);
         let tile = self.tile;
         let pos = Projector { frame: &self.frame, pos_rel: &mesh.pos_rel };
@@ -249,28 +251,44 @@ impl WalkView {
         // in the projected arrangement, so this is the test it agrees with
         // (a face exactly edge-on covers no centre under the perturbation).
         let rects: Vec<Option<[u32; 4]>> = entry_faces
+            .verts
             .par_iter()
-            .map(|&packed| {
-                let (t, f) = ((packed / 4) as usize, (packed % 4) as usize);
-                let fv = FACE_OUTWARD[f];
+            .map(|&ids| {
                 if self.near_clipped {
-                    let q = [0, 1, 2].map(|k| self.hom[tets[t].verts[fv[k]] as usize]);
+                    let q = ids.map(|v| self.hom[v as usize]);
                     if hom::face_orientation(&q[0], &q[1], &q[2]) != Some(true) {
                         return None;
                     }
                     return hom::face_rect(q, w, h)
                         .map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile]);
                 }
-                let p = [0, 1, 2].map(|k| pos.px(tets[t].verts[fv[k]]));
-                let o = orient2d(
-                    Coord { x: p[0][0], y: p[0][1] },
-                    Coord { x: p[1][0], y: p[1][1] },
-                    Coord { x: p[2][0], y: p[2][1] },
-                );
-                if o == 0.0 || (o > 0.0) != FRONT_IS_LEFT {
+                let to_tiles = |[x0, y0, x1, y1]: [u32; 4]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile];
+                // The view's f32 positions decide wherever the exact
+                // answer on the f64 ones they were rounded from is certain
+                // (nearly every face); the rest recompute those.
+                let q = ids.map(|v| {
+                    let v = &self.verts[v as usize];
+                    [v.x_px, v.y_px]
+                });
+                let front = match rounded_orientation(&q) {
+                    Some(o) => (o > 0.0) == FRONT_IS_LEFT,
+                    None => {
+                        let p = ids.map(|v| pos.px(v));
+                        let o = orient2d(
+                            Coord { x: p[0][0], y: p[0][1] },
+                            Coord { x: p[1][0], y: p[1][1] },
+                            Coord { x: p[2][0], y: p[2][1] },
+                        );
+                        o != 0.0 && (o > 0.0) == FRONT_IS_LEFT
+                    }
+                };
+                if !front {
                     return None;
                 }
-                pixel_rect(&p, w, h).map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile])
+                match rounded_tile_rect(&q, w, h, tile) {
+                    Some(rect) => rect,
+                    None => pixel_rect(&ids.map(|v| pos.px(v)), w, h).map(to_tiles),
+                }
             })
             .collect();
         let mut count = vec![0u32; self.tiles_x * self.tiles_y];
@@ -290,12 +308,14 @@ impl WalkView {
         self.bin_start[count.len()] = start;
         let mut fill: Vec<u32> = self.bin_start[..count.len()].to_vec();
         self.bin_faces = vec![0; start as usize];
-        for (r, &packed) in rects.iter().zip(entry_faces) {
+        self.bin_verts = vec![[0; 3]; start as usize];
+        for ((r, &packed), &ids) in rects.iter().zip(&entry_faces.packed).zip(&entry_faces.verts) {
             let Some(r) = r else { continue };
             for j in r[1]..=r[3] {
                 for i in r[0]..=r[2] {
                     let k = j as usize * self.tiles_x + i as usize;
                     self.bin_faces[fill[k] as usize] = packed;
+                    self.bin_verts[fill[k] as usize] = ids;
                     fill[k] += 1;
                 }
             }
@@ -352,6 +372,52 @@ pub(crate) fn walk_to_eye(mesh: &WalkMesh, hom: &[HomVertex], start: u32) -> Opt
     None
 }
 
+/// Unit roundoff of f32, as f64.
+const U32_AS_F64: f64 = f32::EPSILON as f64 * 0.5;
+
+/// How far (in pixels, each axis) the f64 pixel position a view's f32 one
+/// was rounded from (to nearest) can lie from it, for positions of
+/// magnitude at most `m`: half an f32 ulp, doubled for margin.
+fn rounding_reach(m: f64) -> f64 {
+    2.0 * U32_AS_F64 * m
+}
+
+/// The orientation (`orient2d`'s sign convention) of the triangle whose
+/// f64 pixel positions the view's f32 positions `q` were rounded from, when
+/// `q` alone decides it: `Some(o)` with o of that sign, never 0; `None`
+/// where the exact test on the f64 positions must decide (the triangle is
+/// too close to edge-on for the rounding).
+pub(crate) fn rounded_orientation(q: &[[f32; 2]; 3]) -> Option<f64> {
+    let p = q.map(|v| v.map(f64::from));
+    let (a, b) = (p[1][0] - p[0][0], p[2][1] - p[0][1]);
+    let (c, d) = (p[1][1] - p[0][1], p[2][0] - p[0][0]);
+    let (ab, cd) = (a * b, c * d);
+    let o = ab - cd;
+    let m = p.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    // Each difference of the f64 positions lies within 2·reach of the one
+    // computed here; the products and the difference add a few f64
+    // roundings (each at most 2⁻⁵³ of |ab| + |cd|, counted as 2⁻⁵⁰).
+    let dd = 2.0 * rounding_reach(m);
+    let bound = dd * (a.abs() + b.abs() + c.abs() + d.abs()) + 2.0 * dd * dd + (ab.abs() + cd.abs()) * 2f64.powi(-50);
+    (o.is_finite() && o.abs() > 2.0 * bound).then_some(o)
+}
+
+/// [`pixel_rect`] of the triangle's f64 positions, in tiles of `tile`
+/// pixels, when the view's f32 positions `q` decide it (the rect of the
+/// box grown by the rounding's reach is the one of the box shrunk by it);
+/// `None` where the f64 positions must decide.
+pub(crate) fn rounded_tile_rect(q: &[[f32; 2]; 3], w: u32, h: u32, tile: u32) -> Option<Option<[u32; 4]>> {
+    let p = q.map(|v| v.map(f64::from));
+    let m = p.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    let r = rounding_reach(m);
+    let (x_lo, x_hi) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
+    let (y_lo, y_hi) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
+    let to_tiles = |[x0, y0, x1, y1]: [u32; 4]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile];
+    let grown = centre_rect(x_lo - r, x_hi + r, y_lo - r, y_hi + r, w, h).map(to_tiles);
+    let shrunk = centre_rect(x_lo + r, x_hi - r, y_lo + r, y_hi - r, w, h).map(to_tiles);
+    (grown == shrunk && r.is_finite()).then_some(grown)
+}
+
 pub(crate) fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
     let (x_lo, x_hi) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
     let (y_lo, y_hi) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
@@ -367,4 +433,67 @@ pub(crate) fn centre_rect(x_lo: f64, x_hi: f64, y_lo: f64, y_hi: f64, w: u32, h:
     let x1 = (x_hi - 0.5).floor().min(w as f64 - 1.0);
     let y1 = (y_hi - 0.5).floor().min(h as f64 - 1.0);
     (x0 <= x1 && y0 <= y1).then_some([x0 as u32, y0 as u32, x1 as u32, y1 as u32])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tet_mesh::rng::SplitMix64;
+
+    /// Triangles of f64 pixel positions, many nearly edge-on or with a
+    /// corner near a pixel centre's row or column, at several magnitudes.
+    fn triangles(seed: u64, n: usize) -> Vec<[[f64; 2]; 3]> {
+        let mut rng = SplitMix64(seed);
+        let mut u = move || rng.next_f64();
+        (0..n)
+            .map(|i| {
+                let scale = [1.0, 600.0, 1e4, 1e7][i % 4];
+                let p0 = [(u() - 0.5) * scale, (u() - 0.5) * scale];
+                let p1 = [(u() - 0.5) * scale, (u() - 0.5) * scale];
+                // The third corner on the line through the first two, off it
+                // by a tiny distance, or anywhere.
+                let off = [0.0, 1e-12, 1e-9, 1e-7, 1e-5, 1e-3, 1.0][i % 7] * scale;
+                let t = u() * 2.0 - 0.5;
+                let n = [p0[1] - p1[1], p1[0] - p0[0]];
+                let len = (n[0] * n[0] + n[1] * n[1]).sqrt().max(1e-300);
+                let mut p2 =
+                    [p0[0] + t * (p1[0] - p0[0]) + off * n[0] / len, p0[1] + t * (p1[1] - p0[1]) + off * n[1] / len];
+                if i % 11 == 0 {
+                    // A corner just off a pixel centre's column.
+                    p2[0] = (p2[0].floor() + 0.5) + [0.0, 1e-9, -1e-9, 1e-6][i % 4];
+                }
+                [p0, p1, p2]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn rounded_decisions_are_the_exact_ones_where_they_decide() {
+        let (mut decided, mut rects) = (0, 0);
+        for p in triangles(7, 200_000) {
+            let q = p.map(|v| v.map(|x| x as f32));
+            // The view's f32 positions are these f64 ones rounded: the
+            // exact tests read the f64 ones.
+            let exact = orient2d(
+                Coord { x: p[0][0], y: p[0][1] },
+                Coord { x: p[1][0], y: p[1][1] },
+                Coord { x: p[2][0], y: p[2][1] },
+            );
+            if let Some(o) = rounded_orientation(&q) {
+                decided += 1;
+                assert!(exact != 0.0 && (o > 0.0) == (exact > 0.0), "{p:?}: rounded {o}, exact {exact}");
+            }
+            for tile in [1, 16] {
+                if let Some(r) = rounded_tile_rect(&q, 512, 384, tile) {
+                    rects += 1;
+                    let want =
+                        pixel_rect(&p, 512, 384).map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile]);
+                    assert_eq!(r, want, "{p:?}, tile {tile}");
+                }
+            }
+        }
+        // Most are decided without the f64 positions (a third or more of
+        // these triangles are within 1e-7 of edge-on by construction).
+        assert!(decided > 80_000 && rects > 300_000, "{decided} orientations, {rects} rects decided");
+    }
 }

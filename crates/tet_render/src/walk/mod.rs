@@ -199,16 +199,6 @@ impl EntryFaces {
         EntryFaces { packed, verts }
     }
 
-    /// Faces held.
-    pub fn len(&self) -> usize {
-        self.packed.len()
-    }
-
-    /// Whether no face is held.
-    pub fn is_empty(&self) -> bool {
-        self.packed.is_empty()
-    }
-
     fn memory_bytes(&self) -> usize {
         self.packed.len() * 16
     }

@@ -238,7 +238,9 @@ impl WalkView {
 
     /// Bytes held by this view.
     pub fn memory_bytes(&self) -> usize {
-        (self.verts.len() + self.hom.len()) * 16 + (self.bin_start.len() + self.bin_faces.len()) * 4
+        (self.verts.len() + self.hom.len()) * 16
+            + (self.bin_start.len() + self.bin_faces.len()) * 4
+            + self.bin_verts.len() * 12
     }
 
     pub(crate) fn bin_front_faces(&mut self, mesh: &WalkMesh, entry_faces: &EntryFaces) {

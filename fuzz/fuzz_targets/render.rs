@@ -10,20 +10,17 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use std::sync::Arc;
-use tet_delaunay::{tetrahedralize_points, DelaunayOptions};
 use tet_preint::{ExactShader, PtLinearShader, SegmentShader};
-use tet_render::{Camera, RasterOptions, ReferenceOptions, Renderer, Scene, ViewSpec};
+use tet_render::{Camera, RasterOptions, ReferenceOptions, Renderer, ViewSpec};
 
 fuzz_target!(|data: &[u8]| {
     let Some((head, rest)) = data.split_first_chunk::<6>() else { return };
     let [mode, az, el, zoom, sbyte, _] = *head;
-    let pts = common::points(mode, rest, 48, 24);
-    let Ok(d) = tetrahedralize_points(&pts, &DelaunayOptions::default()) else { return };
-    if d.tets.is_empty() {
+    let Some(common::DelaunayScene { points: pts, tets, scalar, scene }) =
+        common::delaunay_scene(mode, rest, 48, 24, sbyte)
+    else {
         return;
-    }
-    let scalar = common::scalars(pts.len(), sbyte);
-    let Ok(scene) = Scene::new(&pts, d.tets.clone(), scalar.clone()) else { return };
+    };
     let (lo, hi) = scene.bounds();
     let mut view = ViewSpec::framing(lo, hi, [12, 10]);
     view.parallel = mode & 2 != 0;
@@ -48,10 +45,10 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     // The reference ray caster on the same mesh and camera.
-    let Ok(adjacency) = tet_mesh::build_adjacency(&pts, &d.tets) else { return };
+    let Ok(adjacency) = tet_mesh::build_adjacency(&pts, &tets) else { return };
     let mesh = tet_mesh::TetMesh {
         points: pts.clone(),
-        tets: d.tets.clone().into(),
+        tets: tets.clone().into(),
         scalar,
         scalar_name: "s".into(),
         point_fields: Vec::new(),

@@ -20,9 +20,8 @@ mod common;
 use glam::DVec3;
 use libfuzzer_sys::fuzz_target;
 use std::sync::Arc;
-use tet_delaunay::{tetrahedralize_points, DelaunayOptions};
 use tet_preint::{ExactShader, SegmentShader, TransferFunction};
-use tet_render::{CpuRenderer, Light, LightSet, LightSource, RasterOptions, Renderer, Scene, Shading, ViewSpec};
+use tet_render::{CpuRenderer, Light, LightSet, LightSource, RasterOptions, Renderer, Shading, ViewSpec};
 
 /// A TF of `peaks` narrow opacity peaks (width 1/64 of the range, heights
 /// from the bytes up to 10⁴) over a floor, or of steps where `steps` is set.
@@ -89,13 +88,11 @@ fuzz_target!(|data: &[u8]| {
     let Some((head, rest)) = data.split_first_chunk::<24>() else { return };
     let (mode, az, el, sbyte, size) = (head[0], head[1], head[2], head[3], head[4]);
     let tf_bytes = [head[5], head[6], head[7], head[8]];
-    let pts = common::points(mode, rest, 48, 16);
-    let Ok(d) = tetrahedralize_points(&pts, &DelaunayOptions::default()) else { return };
-    if d.tets.is_empty() {
+    let Some(common::DelaunayScene { points: pts, tets, scene, .. }) =
+        common::delaunay_scene(mode, rest, 48, 16, sbyte)
+    else {
         return;
-    }
-    let scalar = common::scalars(pts.len(), sbyte);
-    let Ok(scene) = Scene::new(&pts, d.tets.clone(), scalar) else { return };
+    };
     let Ok(scene) = scene.ensure_gradients() else { return };
     let Some(tf) = tf_from(tf_bytes) else { return };
     let (lo, hi) = scene.bounds();
@@ -107,7 +104,7 @@ fuzz_target!(|data: &[u8]| {
         1.0,
     );
     let view_dir = (DVec3::from(view.focal_point) - DVec3::from(view.position)).normalize_or_zero();
-    let vertex = DVec3::from(pts[d.tets[0][0] as usize]);
+    let vertex = DVec3::from(pts[tets[0][0] as usize]);
     let n_lights = 1 + (mode >> 4) as usize % 2;
     let sources: Vec<LightSource> =
         (0..n_lights).map(|k| light_from(&head[9 + 7 * k..16 + 7 * k], lo, hi, view_dir, vertex)).collect();
@@ -123,7 +120,7 @@ fuzz_target!(|data: &[u8]| {
         None
     };
     let mut probes: Vec<DVec3> = pts.iter().map(|&p| DVec3::from(p)).collect();
-    probes.extend(d.tets.iter().map(|t| t.iter().map(|&v| DVec3::from(pts[v as usize])).sum::<DVec3>() / 4.0));
+    probes.extend(tets.iter().map(|t| t.iter().map(|&v| DVec3::from(pts[v as usize])).sum::<DVec3>() / 4.0));
     for k in 0..27 {
         let f = DVec3::new((k % 3) as f64, (k / 3 % 3) as f64, (k / 9) as f64) * 0.75 - 0.25;
         probes.push(lo + (hi - lo) * f);

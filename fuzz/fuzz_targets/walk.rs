@@ -20,20 +20,13 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use std::sync::Arc;
-use tet_delaunay::{tetrahedralize_points, DelaunayOptions};
 use tet_preint::{ExactShader, SegmentShader};
-use tet_render::{CpuRenderer, RasterOptions, Renderer, Scene, ViewSpec};
+use tet_render::{CpuRenderer, RasterOptions, Renderer, ViewSpec};
 
 fuzz_target!(|data: &[u8]| {
     let Some((head, rest)) = data.split_first_chunk::<6>() else { return };
     let [mode, az, el, zoom, sbyte, size] = *head;
-    let pts = common::points(mode, rest, 64, 24);
-    let Ok(d) = tetrahedralize_points(&pts, &DelaunayOptions::default()) else { return };
-    if d.tets.is_empty() {
-        return;
-    }
-    let scalar = common::scalars(pts.len(), sbyte);
-    let Ok(scene) = Scene::new(&pts, d.tets.clone(), scalar) else { return };
+    let Some(common::DelaunayScene { scene, .. }) = common::delaunay_scene(mode, rest, 64, 24, sbyte) else { return };
     let (lo, hi) = scene.bounds();
     let side = 8 + (size % 24) as u32;
     let mut view = ViewSpec::framing(lo, hi, [side, side + 3]);

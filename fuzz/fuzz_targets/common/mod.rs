@@ -22,6 +22,28 @@ pub fn points(mode: u8, bytes: &[u8], lattice: usize, raw: usize) -> Vec<[f64; 3
     }
 }
 
+/// A Delaunay mesh of the input's points and the scene over it: what the
+/// renderer targets draw.
+pub struct DelaunayScene {
+    pub points: Vec<[f64; 3]>,
+    pub tets: Vec<[u32; 4]>,
+    pub scalar: Vec<f64>,
+    pub scene: tet_render::Scene,
+}
+
+/// [`points`] of `bytes` tetrahedralized, with [`scalars`] varied by
+/// `sbyte`; `None` where the points make no tet or the scene refuses them.
+pub fn delaunay_scene(mode: u8, bytes: &[u8], lattice: usize, raw: usize, sbyte: u8) -> Option<DelaunayScene> {
+    let points = points(mode, bytes, lattice, raw);
+    let d = tet_delaunay::tetrahedralize_points(&points, &tet_delaunay::DelaunayOptions::default()).ok()?;
+    if d.tets.is_empty() {
+        return None;
+    }
+    let scalar = scalars(points.len(), sbyte);
+    let scene = tet_render::Scene::new(&points, d.tets.clone(), scalar.clone()).ok()?;
+    Some(DelaunayScene { points, tets: d.tets, scalar, scene })
+}
+
 /// One scalar in [0, 1] per point, varied by `sbyte`.
 pub fn scalars(n: usize, sbyte: u8) -> Vec<f64> {
     (0..n).map(|i| ((i as u32 * 7 + sbyte as u32) % 11) as f64 / 10.0).collect()

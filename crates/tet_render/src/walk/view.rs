@@ -261,10 +261,8 @@ impl WalkView {
                     if hom::face_orientation(&q[0], &q[1], &q[2]) != Some(true) {
                         return None;
                     }
-                    return hom::face_rect(q, w, h)
-                        .map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile]);
+                    return hom::face_rect(q, w, h).map(|r| in_tiles(r, tile));
                 }
-                let to_tiles = |[x0, y0, x1, y1]: [u32; 4]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile];
                 // The view's f32 positions decide wherever the exact
                 // answer on the f64 ones they were rounded from is certain
                 // (nearly every face); the rest recompute those.
@@ -289,7 +287,7 @@ impl WalkView {
                 }
                 match rounded_tile_rect(&q, w, h, tile) {
                     Some(rect) => rect,
-                    None => pixel_rect(&ids.map(|v| pos.px(v)), w, h).map(to_tiles),
+                    None => pixel_rect(&ids.map(|v| pos.px(v)), w, h).map(|r| in_tiles(r, tile)),
                 }
             })
             .collect();
@@ -414,10 +412,15 @@ pub(crate) fn rounded_tile_rect(q: &[[f32; 2]; 3], w: u32, h: u32, tile: u32) ->
     let r = rounding_reach(m);
     let (x_lo, x_hi) = (p[0][0].min(p[1][0]).min(p[2][0]), p[0][0].max(p[1][0]).max(p[2][0]));
     let (y_lo, y_hi) = (p[0][1].min(p[1][1]).min(p[2][1]), p[0][1].max(p[1][1]).max(p[2][1]));
-    let to_tiles = |[x0, y0, x1, y1]: [u32; 4]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile];
-    let grown = centre_rect(x_lo - r, x_hi + r, y_lo - r, y_hi + r, w, h).map(to_tiles);
-    let shrunk = centre_rect(x_lo + r, x_hi - r, y_lo + r, y_hi - r, w, h).map(to_tiles);
+    let grown = centre_rect(x_lo - r, x_hi + r, y_lo - r, y_hi + r, w, h).map(|p| in_tiles(p, tile));
+    let shrunk = centre_rect(x_lo + r, x_hi - r, y_lo + r, y_hi - r, w, h).map(|p| in_tiles(p, tile));
     (grown == shrunk && r.is_finite()).then_some(grown)
+}
+
+/// An inclusive pixel rectangle as the inclusive rectangle of the tiles of
+/// `tile` pixels it touches.
+fn in_tiles([x0, y0, x1, y1]: [u32; 4], tile: u32) -> [u32; 4] {
+    [x0 / tile, y0 / tile, x1 / tile, y1 / tile]
 }
 
 pub(crate) fn pixel_rect(p: &[[f64; 2]; 3], w: u32, h: u32) -> Option<[u32; 4]> {
@@ -488,8 +491,7 @@ mod tests {
             for tile in [1, 16] {
                 if let Some(r) = rounded_tile_rect(&q, 512, 384, tile) {
                     rects += 1;
-                    let want =
-                        pixel_rect(&p, 512, 384).map(|[x0, y0, x1, y1]| [x0 / tile, y0 / tile, x1 / tile, y1 / tile]);
+                    let want = pixel_rect(&p, 512, 384).map(|r| in_tiles(r, tile));
                     assert_eq!(r, want, "{p:?}, tile {tile}");
                 }
             }
